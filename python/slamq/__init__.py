@@ -1,0 +1,40 @@
+"""slamq: score 2D SLAM results.
+
+The three no-reference map metrics of Filatov et al. (arXiv 1708.02354) on occupancy
+grids, pinned down by SPEC.md, computed by a Rust core and checked against a plain
+OpenCV reference (:mod:`slamq.reference`).
+
+>>> import numpy as np, slamq
+>>> slamq.evaluate(np.full((8, 8), 254, np.uint8)).occupied
+0
+"""
+
+from __future__ import annotations
+
+from slamq.errors import (
+    BagError,
+    ConformanceError,
+    MapError,
+    ParamError,
+    SlamqError,
+    TrajectoryError,
+)
+from slamq.maps import OccupancyMap, load_map
+from slamq.params import Params
+from slamq.quality import MapQuality, evaluate
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "BagError",
+    "ConformanceError",
+    "MapError",
+    "MapQuality",
+    "OccupancyMap",
+    "ParamError",
+    "Params",
+    "SlamqError",
+    "TrajectoryError",
+    "evaluate",
+    "load_map",
+]

@@ -1,0 +1,43 @@
+"""Exception types of slamq.
+
+Every error slamq raises on bad input is a :class:`SlamqError`, and names the file (when
+there is one) and the reason. The CLI turns them into one line on stderr and exit code 2.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "SlamqError",
+    "MapError",
+    "ParamError",
+    "ConformanceError",
+    "TrajectoryError",
+    "BagError",
+]
+
+
+class SlamqError(Exception):
+    """Base class of every error slamq raises on purpose."""
+
+
+class MapError(SlamqError, ValueError):
+    """A map could not be loaded or is not a valid occupancy grid.
+
+    The message names the file (or ``<array>``) and the reason.
+    """
+
+
+class ParamError(SlamqError, ValueError):
+    """A metric parameter is out of its documented range."""
+
+
+class ConformanceError(SlamqError, AssertionError):
+    """The Rust core and :mod:`slamq.reference` disagree (``evaluate(..., verify=True)``)."""
+
+
+class TrajectoryError(SlamqError, ValueError):
+    """A trajectory could not be read, associated or aligned."""
+
+
+class BagError(MapError):
+    """A ROS bag could not be read, or lacks the requested topic."""
