@@ -14,7 +14,7 @@ import sys
 from typing import Optional, Sequence
 
 #: Modules that each add one subcommand with ``add_parser(subparsers)``.
-_COMMAND_MODULES: tuple[str, ...] = ()
+_COMMAND_MODULES: tuple[str, ...] = ("slamq.report.cli",)
 
 EXIT_OK = 0
 EXIT_ERROR = 1
