@@ -13,6 +13,7 @@ __all__ = [
     "ConformanceError",
     "TrajectoryError",
     "BagError",
+    "MapWarning",
 ]
 
 
@@ -41,3 +42,7 @@ class TrajectoryError(SlamqError, ValueError):
 
 class BagError(MapError):
     """A ROS bag could not be read, or lacks the requested topic."""
+
+
+class MapWarning(UserWarning):
+    """A map loaded, but something about it deserves attention (named file and reason)."""
