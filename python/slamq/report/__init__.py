@@ -1,0 +1,22 @@
+"""The evaluation report: one static HTML site from a results file.
+
+``slamq report RESULTS --out DIR`` (or :func:`build_report`) writes ``DIR/index.html``:
+a one-sentence verdict per sequence, per-sequence tables (mean +- std over runs, best value
+per column marked, a ranking), plots per metric, a gallery of each algorithm's best and
+worst map with the counted corners and enclosed areas drawn on them, and a detail page per
+map (numbers, overlays, the enclosed-area curve, the trajectory coloured by ATE, and an
+animation of the map being built when snapshots exist). Nothing is fetched from the
+network; the folder can be zipped, mailed or served as it is.
+
+Modules: :mod:`~slamq.report.metrics` (directions, ranking, formatting),
+:mod:`~slamq.report.plots`, :mod:`~slamq.report.overlays`, :mod:`~slamq.report.frames`
+(animations), :mod:`~slamq.report.trajectory`, :mod:`~slamq.report.site` (the pages),
+:mod:`~slamq.report.cli`.
+"""
+
+from __future__ import annotations
+
+from slamq.report.metrics import METRICS, Metric, rank_sequence, summarize
+from slamq.report.site import build_report
+
+__all__ = ["METRICS", "Metric", "build_report", "rank_sequence", "summarize"]

@@ -1,0 +1,157 @@
+"""Reading results for the report, and re-evaluating a map when the report needs more.
+
+Results are batch records (see ``slamq.batch``): one per map, with ``map``, ``algorithm``,
+``sequence``, ``run``, ``trajectory``, ``groundtruth``, ``error`` and the metric columns.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Union
+
+import pandas as pd
+
+from slamq.errors import SlamqError
+from slamq.params import Params
+
+__all__ = ["ResultsLike", "evaluate_map", "load_results", "params_of", "usable"]
+
+ResultsLike = Union[str, Path, pd.DataFrame, list]
+
+_PARAM_NAMES = ("log_threshold", "min_dot_area", "harris_k", "harris_quality",
+                "sweep_step", "min_area")
+
+
+def load_results(results: ResultsLike) -> pd.DataFrame:
+    """Results as a DataFrame, from a batch results file, a DataFrame or a list of dicts.
+
+    Files are read with :func:`slamq.batch.read_results` when that module is present
+    (``.jsonl``/``.parquet``), else here (``.jsonl``, ``.json`` list, ``.parquet``, ``.csv``).
+    Missing ``sequence`` becomes ``"all maps"``; missing ``algorithm`` the map's file stem;
+    missing ``run`` the record's position within its (sequence, algorithm).
+
+    Raises
+    ------
+    SlamqError
+        The file is missing, unreadable, or holds no record with a ``map`` column.
+
+    Examples
+    --------
+    >>> df = load_results([{"map": "a/gmapping.yaml", "corners": 3}])
+    >>> df.loc[0, "algorithm"], df.loc[0, "sequence"], int(df.loc[0, "run"])
+    ('gmapping', 'all maps', 0)
+    """
+    if isinstance(results, pd.DataFrame):
+        frame = results.copy()
+        where = "<DataFrame>"
+    elif isinstance(results, list):
+        frame = pd.DataFrame(results)
+        where = "<records>"
+    else:
+        path = Path(results)
+        where = str(path)
+        if not path.is_file():
+            raise SlamqError(f"{path}: results file not found")
+        frame = _read_file(path)
+    if frame.empty:
+        raise SlamqError(f"{where}: no result records")
+    if "map" not in frame:
+        raise SlamqError(f"{where}: results have no 'map' column (not a slamq batch file?)")
+    frame = frame.reset_index(drop=True)
+    frame["map"] = frame["map"].astype(str)
+    for col in ("trajectory", "groundtruth", "error"):
+        if col not in frame:
+            frame[col] = None
+    frame["error"] = [None if _missing(e) else str(e) for e in frame["error"]]
+    if "algorithm" not in frame:
+        frame["algorithm"] = None
+    frame["algorithm"] = [
+        Path(m).stem if _missing(a) else str(a) for a, m in zip(frame["algorithm"], frame["map"])
+    ]
+    if "sequence" not in frame:
+        frame["sequence"] = None
+    frame["sequence"] = ["all maps" if _missing(s) else str(s) for s in frame["sequence"]]
+    if "run" not in frame:
+        frame["run"] = None
+    if frame["run"].map(_missing).any():
+        order = frame.groupby(["sequence", "algorithm"]).cumcount()
+        frame["run"] = [o if _missing(r) else r for r, o in zip(frame["run"], order)]
+    return frame
+
+
+def _read_file(path: Path) -> pd.DataFrame:
+    try:
+        from slamq.batch import read_results
+    except ImportError:
+        read_results = None
+    suffix = path.suffix.lower()
+    try:
+        if read_results is not None and suffix in (".jsonl", ".parquet"):
+            return read_results(path)
+        if suffix == ".jsonl":
+            lines = path.read_text(encoding="utf-8").splitlines()
+            return pd.DataFrame([json.loads(x) for x in lines if x.strip()])
+        if suffix == ".json":
+            data = json.loads(path.read_text(encoding="utf-8"))
+            return pd.DataFrame(data if isinstance(data, list) else data.get("results", []))
+        if suffix == ".parquet":
+            return pd.read_parquet(path)
+        if suffix == ".csv":
+            return pd.read_csv(path)
+    except SlamqError:
+        raise
+    except (OSError, ValueError) as exc:
+        raise SlamqError(f"{path}: cannot read results: {exc}") from exc
+    raise SlamqError(f"{path}: unknown results format {suffix!r} (use .jsonl, .parquet, .csv)")
+
+
+def _missing(x: Any) -> bool:
+    if x is None:
+        return True
+    if isinstance(x, float) and math.isnan(x):
+        return True
+    return isinstance(x, str) and x.strip() == ""
+
+
+def usable(x: Any) -> bool:
+    """True for a present value (not None, NaN or empty string)."""
+    return not _missing(x)
+
+
+def params_of(record: dict) -> Params:
+    """The metric parameters a record was computed with (``param_*`` keys), else defaults.
+
+    Examples
+    --------
+    >>> params_of({"param_min_area": 3}).min_area
+    3
+    """
+    kw = {}
+    for name in _PARAM_NAMES:
+        v = record.get(f"param_{name}")
+        if usable(v):
+            kw[name] = int(v) if name in ("min_dot_area", "sweep_step", "min_area") else float(v)
+    return Params(**kw)
+
+
+def evaluate_map(source: Any, params: Params, *, curve: bool = True):
+    """``slamq.evaluate`` (Rust core), or :mod:`slamq.reference` when the core is not built.
+
+    Examples
+    --------
+    >>> import numpy as np, slamq
+    >>> evaluate_map(np.full((4, 4), 254, np.uint8), slamq.Params()).corners
+    0
+    """
+    kw = params.to_dict()
+    try:
+        from slamq import _core  # noqa: F401
+    except ImportError:
+        from slamq import reference
+
+        return reference.evaluate(source, curve=curve, **kw)
+    from slamq.quality import evaluate
+
+    return evaluate(source, curve=curve, **kw)

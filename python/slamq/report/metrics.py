@@ -1,0 +1,310 @@
+"""What the report ranks, in which direction, and how numbers are summarised and printed.
+
+Every metric is "lower is better", as the paper argues (Filatov et al., arXiv 1708.02354):
+
+- ATE RMSE, section IV: "a lower value of RMSE means that the corresponding SLAM algorithm
+  provide better results"; plotted on a logarithmic axis (the paper's RMSE figure).
+- occupied fraction, section III.A: "The proportion of occupied cells corresponds to the
+  quality of the map: the higher this proportion - the less suitable the algorithm"
+  (blurred or doubled walls); plotted on a linear axis (the paper's Fig. 5).
+- corners, section III.B: "the map with fewer corners is more likely to be more consistent
+  and have fewer artifacts"; logarithmic axis (the paper's corner figure).
+- enclosed areas, section III.C: "the more of these there are, the lower the quality of the
+  map"; logarithmic axis (the paper's enclosed-area figure).
+
+The paper also warns that the three map metrics only compare maps of similar coverage: an
+incomplete map has few occupied cells, corners and enclosed areas. The report therefore
+flags algorithms whose maps know far fewer cells than the others on the same sequence.
+
+Summaries are the mean and the *sample* standard deviation (``ddof=1``) over the runs of
+one (sequence, algorithm), as in the paper's Table I ("0.239 +- 0.011"); one run has no
+standard deviation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+__all__ = [
+    "METRICS",
+    "Metric",
+    "SequenceRanking",
+    "format_mean_std",
+    "format_value",
+    "rank_sequence",
+    "summarize",
+]
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One ranked column of the report.
+
+    Attributes
+    ----------
+    key : str
+        Column of the results table.
+    label : str
+        Human name.
+    unit : str
+        Unit shown after the label ("" for counts and ratios).
+    log : bool
+        Plot on a logarithmic axis (where the paper does).
+    why : str
+        The paper's argument for the direction, with its section.
+    """
+
+    key: str
+    label: str
+    unit: str
+    log: bool
+    why: str
+
+    @property
+    def heading(self) -> str:
+        """Label with unit, e.g. ``"ATE RMSE (m)"``."""
+        return f"{self.label} ({self.unit})" if self.unit else self.label
+
+
+#: The ranked metrics, in table order. All are "lower is better".
+METRICS: tuple[Metric, ...] = (
+    Metric(
+        "ate_rmse", "ATE RMSE", "m", True,
+        "paper IV: a lower RMSE means the algorithm gives better results",
+    ),
+    Metric(
+        "occupied_fraction", "occupied fraction", "", False,
+        "paper III.A: the higher the proportion of occupied cells, the less suitable the "
+        "algorithm (blurred or doubled walls)",
+    ),
+    Metric(
+        "corners", "corners", "", True,
+        "paper III.B: the map with fewer corners is more likely consistent, with fewer "
+        "artifacts (doubled walls, overlaps)",
+    ),
+    Metric(
+        "enclosed_areas", "enclosed areas", "", True,
+        "paper III.C: the more enclosed areas (superposed rooms, failed loop closure), the "
+        "lower the quality of the map",
+    ),
+)
+
+#: A map whose known-cell count is below this fraction of the sequence median is "partial".
+PARTIAL_COVERAGE = 0.5
+
+
+def summarize(ok: pd.DataFrame) -> pd.DataFrame:
+    """Mean, sample std and run count of every metric per (sequence, algorithm).
+
+    Parameters
+    ----------
+    ok : pandas.DataFrame
+        Successful records with ``sequence``, ``algorithm`` and the metric columns.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Index (sequence, algorithm); columns ``runs``, ``<key>_mean``, ``<key>_std``,
+        ``<key>_n`` for every metric in :data:`METRICS`, and ``known_mean``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> df = pd.DataFrame({"sequence": ["s", "s"], "algorithm": ["a", "a"],
+    ...                    "corners": [10, 14], "occupied_fraction": [0.1, 0.2],
+    ...                    "enclosed_areas": [1, 1], "known": [5, 5]})
+    >>> s = summarize(df)
+    >>> float(s.loc[("s", "a"), "corners_mean"]), round(float(s.loc[("s", "a"), "corners_std"]), 4)
+    (12.0, 2.8284)
+    """
+    rows = []
+    for (seq, alg), group in ok.groupby(["sequence", "algorithm"], sort=True):
+        row: dict[str, object] = {"sequence": seq, "algorithm": alg, "runs": len(group)}
+        for m in METRICS:
+            values = _finite(group, m.key)
+            row[f"{m.key}_n"] = len(values)
+            row[f"{m.key}_mean"] = float(np.mean(values)) if len(values) else math.nan
+            row[f"{m.key}_std"] = float(np.std(values, ddof=1)) if len(values) > 1 else math.nan
+        known = _finite(group, "known")
+        row["known_mean"] = float(np.mean(known)) if len(known) else math.nan
+        rows.append(row)
+    columns = ["sequence", "algorithm", "runs"]
+    if not rows:
+        return pd.DataFrame(columns=columns).set_index(["sequence", "algorithm"])
+    return pd.DataFrame(rows).set_index(["sequence", "algorithm"])
+
+
+def _finite(frame: pd.DataFrame, key: str) -> np.ndarray:
+    if key not in frame:
+        return np.empty(0)
+    values = pd.to_numeric(frame[key], errors="coerce").to_numpy(dtype=float)
+    return values[np.isfinite(values)]
+
+
+@dataclass
+class SequenceRanking:
+    """The ranking of the algorithms on one sequence.
+
+    Attributes
+    ----------
+    sequence : str
+    order : list of str
+        Algorithms, best first.
+    score : dict
+        Mean rank over the metrics each algorithm has (1 = best).
+    ranks : dict
+        ``ranks[metric_key][algorithm]`` = rank on that metric (ties share the mean rank).
+    best : dict
+        ``best[metric_key]`` = the algorithms with the lowest mean on that metric.
+    metrics : list of Metric
+        The metrics that had values on this sequence.
+    disagree : list of Metric
+        Metrics whose best algorithm is not the overall winner.
+    partial : list of str
+        Algorithms whose maps know fewer than half the median known cells (paper III.A).
+    """
+
+    sequence: str
+    order: list[str]
+    score: dict[str, float]
+    ranks: dict[str, dict[str, float]]
+    best: dict[str, list[str]]
+    metrics: list[Metric]
+    disagree: list[Metric]
+    partial: list[str]
+
+    @property
+    def winner(self) -> str | None:
+        """The best-ranked algorithm (None when nothing was ranked)."""
+        return self.order[0] if self.order else None
+
+    def sentence(self) -> str:
+        """One plain-text sentence: who ranks best and where the metrics disagree.
+
+        Examples
+        --------
+        >>> import pandas as pd
+        >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "corners": [1, 9],
+        ...                    "occupied_fraction": [0.2, 0.1], "enclosed_areas": [0, 3]})
+        >>> print(rank_sequence(summarize(df), "s").sentence())  # doctest: +NORMALIZE_WHITESPACE
+        s: a ranks best (mean rank 1.33 of 2, over 3 metrics); the metrics disagree on
+        occupied fraction (best: b).
+        """
+        n_alg = len(self.order)
+        if n_alg == 0:
+            return f"{self.sequence}: no successful run to rank."
+        if n_alg == 1:
+            return f"{self.sequence}: only {self.order[0]} ran here; nothing to compare."
+        lead = (
+            f"{self.sequence}: {self.winner} ranks best (mean rank "
+            f"{self.score[self.winner]:.3g} of {n_alg}, over {len(self.metrics)} metrics)"
+        )
+        if not self.disagree:
+            return lead + f"; all {len(self.metrics)} metrics agree."
+        parts = [f"{m.label} (best: {', '.join(self.best[m.key])})" for m in self.disagree]
+        return lead + "; the metrics disagree on " + _join(parts) + "."
+
+
+def _join(parts: list[str]) -> str:
+    if len(parts) <= 1:
+        return "".join(parts)
+    return ", ".join(parts[:-1]) + " and " + parts[-1]
+
+
+def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
+    """Rank the algorithms of one sequence: mean rank over the metrics, lower is better.
+
+    On each metric with values, algorithms are ranked by their mean over runs (1 = lowest
+    = best; ties share the average rank; an algorithm without a value on a metric is not
+    ranked on it). The overall score is the mean of an algorithm's ranks; ties are broken
+    by the ATE RMSE rank, then by name. A metric "disagrees" when its best algorithm(s) do
+    not include the overall winner.
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        The output of :func:`summarize`.
+    sequence : str
+
+    Returns
+    -------
+    SequenceRanking
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "corners": [5, 9],
+    ...                    "occupied_fraction": [0.1, 0.2], "enclosed_areas": [0, 3]})
+    >>> r = rank_sequence(summarize(df), "s")
+    >>> r.order, r.disagree
+    (['a', 'b'], [])
+    """
+    block = summary.xs(sequence, level="sequence") if len(summary) else summary
+    algorithms = [str(a) for a in block.index]
+    ranks: dict[str, dict[str, float]] = {}
+    best: dict[str, list[str]] = {}
+    used: list[Metric] = []
+    for m in METRICS:
+        col = f"{m.key}_mean"
+        if col not in block:
+            continue
+        means = pd.to_numeric(block[col], errors="coerce")
+        means = means[np.isfinite(means.to_numpy(dtype=float))]
+        if means.empty:
+            continue
+        used.append(m)
+        r = means.rank(method="average", ascending=True)
+        ranks[m.key] = {str(a): float(v) for a, v in r.items()}
+        low = means.min()
+        best[m.key] = sorted(str(a) for a, v in means.items() if v == low)
+    score: dict[str, float] = {}
+    for a in algorithms:
+        mine = [ranks[m.key][a] for m in used if a in ranks[m.key]]
+        score[a] = float(np.mean(mine)) if mine else math.inf
+    ate = ranks.get("ate_rmse", {})
+    order = sorted(algorithms, key=lambda a: (score[a], ate.get(a, math.inf), a))
+    winner = order[0] if order else None
+    disagree = [m for m in used if winner is not None and winner not in best[m.key]]
+    known = pd.to_numeric(block.get("known_mean", pd.Series(dtype=float)), errors="coerce")
+    partial: list[str] = []
+    if len(known.dropna()) > 1:
+        median = float(np.median(known.dropna()))
+        partial = sorted(str(a) for a, v in known.items() if v < PARTIAL_COVERAGE * median)
+    return SequenceRanking(
+        sequence=str(sequence), order=order, score=score, ranks=ranks, best=best,
+        metrics=used, disagree=disagree, partial=partial,
+    )
+
+
+def format_value(x: float) -> str:
+    """A number as the report prints it: integers whole, else 3 significant digits.
+
+    Examples
+    --------
+    >>> format_value(12.0), format_value(0.23912), format_value(1234.5), format_value(float("nan"))
+    ('12', '0.239', '1234.5', '–')
+    """
+    if x is None or not math.isfinite(x):
+        return "–"
+    if float(x).is_integer():
+        return str(int(x))
+    if abs(x) >= 100:
+        return f"{x:.1f}"
+    return f"{x:.3g}"
+
+
+def format_mean_std(mean: float, std: float) -> str:
+    """``"mean ± std"``, or the mean alone when there is no std (one run).
+
+    Examples
+    --------
+    >>> format_mean_std(0.239, 0.011), format_mean_std(7.0, float("nan"))
+    ('0.239 ± 0.011', '7')
+    """
+    if std is None or not math.isfinite(std):
+        return format_value(mean)
+    return f"{format_value(mean)} ± {format_value(std)}"

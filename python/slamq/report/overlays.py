@@ -1,0 +1,175 @@
+"""Maps drawn for people: north up, corners ringed, counted enclosed areas coloured.
+
+The corners and regions come from :mod:`slamq.reference` (``corner_points`` and
+``enclosed_labels``), so the picture shows exactly what the numbers counted: one ring per
+counted corner (SPEC section 3) and one colour per enclosed free region counted at the
+unknown value ``enclosed_unknown_value`` (SPEC section 4).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+from slamq.maps import OccupancyMap
+from slamq.params import Params
+
+__all__ = ["CORNER_RGB", "REGION_PALETTE", "Overlay", "draw_overlay", "render_base"]
+
+#: Ring colour of a marked corner (pure red; nothing else in an overlay uses it).
+CORNER_RGB = (255, 0, 0)
+#: Fill colours of enclosed regions (cycled); none is grey, red or white.
+REGION_PALETTE: tuple[tuple[int, int, int], ...] = (
+    (31, 119, 180), (44, 160, 44), (255, 127, 14), (148, 103, 189), (23, 190, 207),
+    (188, 189, 34), (227, 119, 194), (140, 86, 75), (0, 90, 50), (90, 0, 160),
+    (0, 160, 120), (200, 150, 0),
+)
+#: Unknown cells in the base image (mid grey), as slamq.animation.render_map draws them.
+UNKNOWN_GREY = 128
+
+
+@dataclass
+class Overlay:
+    """An annotated map image and what was drawn on it.
+
+    Attributes
+    ----------
+    image : numpy.ndarray
+        ``(H*scale, W*scale, 3)`` uint8 RGB, north up.
+    scale : int
+        Pixels per map cell.
+    corners : numpy.ndarray
+        ``(K, 2)`` float (row, col) centroids of the marked corners, in map cells.
+    labels : numpy.ndarray
+        ``(H, W)`` int32: 0 = not counted, 1..n = the coloured enclosed regions.
+    unknown_value : int
+        The unknown value ``u`` the regions were taken at.
+    """
+
+    image: np.ndarray
+    scale: int
+    corners: np.ndarray
+    labels: np.ndarray
+    unknown_value: int
+
+    @property
+    def n_corners(self) -> int:
+        """Number of corner rings drawn."""
+        return int(len(self.corners))
+
+    @property
+    def n_regions(self) -> int:
+        """Number of enclosed regions coloured."""
+        return int(self.labels.max()) if self.labels.size else 0
+
+    def save(self, path: str, *, max_size: int | None = None) -> None:
+        """Write the image as PNG, shrunk to at most ``max_size`` pixels a side."""
+        img = Image.fromarray(self.image)
+        if max_size and max(img.size) > max_size:
+            img.thumbnail((max_size, max_size), Image.Resampling.LANCZOS)
+        img.save(path, optimize=False)
+
+
+def render_base(grid: OccupancyMap) -> np.ndarray:
+    """The map as RGB: known cells by value (0 black = occupied), unknown mid grey.
+
+    Uses :func:`slamq.animation.render_map` when that module is present, so that the
+    report and the animations look alike.
+
+    Examples
+    --------
+    >>> import numpy as np, slamq
+    >>> m = slamq.OccupancyMap(np.array([[0, 254]], np.uint8), np.array([[False, True]]))
+    >>> render_base(m).tolist()
+    [[[0, 0, 0], [128, 128, 128]]]
+    """
+    try:
+        from slamq.animation import render_map
+    except ImportError:
+        render_map = None
+    if render_map is not None:
+        rgb = np.asarray(render_map(grid))
+        if rgb.shape[:2] == grid.shape and rgb.ndim == 3 and rgb.shape[2] == 3:
+            return np.ascontiguousarray(rgb, dtype=np.uint8)
+    grey = np.where(grid.unknown, np.uint8(UNKNOWN_GREY), grid.values).astype(np.uint8)
+    return np.repeat(grey[:, :, None], 3, axis=2)
+
+
+def _scale_for(shape: tuple[int, int], target: int) -> int:
+    return max(1, min(16, int(math.ceil(target / max(shape)))))
+
+
+def draw_overlay(
+    grid: OccupancyMap,
+    unknown_value: int,
+    params: Params | None = None,
+    *,
+    target_size: int = 900,
+    alpha: float = 0.65,
+) -> Overlay:
+    """Draw the map with its counted corners ringed and counted enclosed areas coloured.
+
+    Parameters
+    ----------
+    grid : OccupancyMap
+        The map (held north up, as every loaded map is).
+    unknown_value : int
+        The ``u`` whose enclosed regions to colour: the result's ``enclosed_unknown_value``.
+    params : Params, optional
+        Metric parameters (defaults when omitted).
+    target_size : int, default 900
+        Small maps are enlarged by a whole factor (at most 16) towards this many pixels
+        on the longer side, so that rings and regions stay visible.
+    alpha : float, default 0.65
+        Opacity of the region colours over the map.
+
+    Returns
+    -------
+    Overlay
+
+    Examples
+    --------
+    >>> import numpy as np, slamq
+    >>> img = np.full((40, 40), 205, np.uint8)
+    >>> img[5:35, 5:35] = 0
+    >>> img[8:32, 8:32] = 254
+    >>> ov = draw_overlay(slamq.OccupancyMap(img, img == 205), 0)
+    >>> ov.n_regions, ov.image.shape[2]
+    (1, 3)
+    """
+    from slamq import reference
+
+    params = params or Params()
+    base = render_base(grid).astype(np.float32)
+    labels = np.asarray(reference.enclosed_labels(grid, int(unknown_value), params), np.int32)
+    corners = np.asarray(reference.corner_points(grid, params), float).reshape(-1, 2)
+    n = int(labels.max()) if labels.size else 0
+    if n:
+        palette = np.array(REGION_PALETTE, np.float32)
+        lut = np.zeros((n + 1, 3), np.float32)
+        lut[1:] = palette[(np.arange(n) % len(palette))]
+        mask = labels > 0
+        base[mask] = (1 - alpha) * base[mask] + alpha * lut[labels[mask]]
+    rgb = np.clip(np.rint(base), 0, 255).astype(np.uint8)
+    # keep exact pure red for the rings only
+    red = (rgb[:, :, 0] == 255) & (rgb[:, :, 1] == 0) & (rgb[:, :, 2] == 0)
+    rgb[red] = (254, 0, 0)
+    scale = _scale_for(grid.shape, target_size)
+    if scale > 1:
+        rgb = np.repeat(np.repeat(rgb, scale, axis=0), scale, axis=1)
+    img = Image.fromarray(rgb)
+    draw = ImageDraw.Draw(img)
+    size = max(img.size)
+    radius = max(3.0, size / 110.0)
+    width = max(1, int(round(radius / 3)))
+    for row, col in corners:
+        x, y = (col + 0.5) * scale, (row + 0.5) * scale
+        draw.ellipse((x - radius, y - radius, x + radius, y + radius),
+                     outline=CORNER_RGB, width=width)
+    return Overlay(
+        image=np.asarray(img), scale=scale, corners=corners, labels=labels,
+        unknown_value=int(unknown_value),
+    )

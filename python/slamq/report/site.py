@@ -1,0 +1,509 @@
+"""Build the static report site: ``index.html``, one detail page per map, images beside.
+
+Everything the pages use is in the output folder (PNG/GIF files and inline CSS); nothing is
+fetched from the network and no script is needed, so the site opens from ``file://``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import html
+import math
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from slamq.errors import SlamqError
+from slamq.report.data import ResultsLike, evaluate_map, load_results, params_of, usable
+from slamq.report.metrics import (
+    METRICS,
+    SequenceRanking,
+    format_mean_std,
+    format_value,
+    rank_sequence,
+    summarize,
+)
+
+__all__ = ["build_report"]
+
+_CSS = """
+body{font:15px/1.45 system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;margin:0;color:#222;
+ background:#fafafa}
+main{max-width:1180px;margin:0 auto;padding:18px 22px 60px}
+h1{font-size:1.6em;margin:.2em 0}
+h2{font-size:1.3em;margin:1.6em 0 .4em;border-bottom:2px solid #ddd;padding-bottom:.2em}
+h3{font-size:1.05em;margin:1.1em 0 .4em}
+.sub{color:#666;margin:0 0 1em}
+.verdict{background:#eef6ee;border:1px solid #b6d7b6;border-radius:8px;padding:10px 16px}
+.verdict li{margin:.3em 0}
+.warn{background:#fff5e0;border:1px solid #e8c77a;border-radius:6px;padding:6px 10px;
+ margin:.5em 0}
+table{border-collapse:collapse;background:#fff;margin:.4em 0}
+th,td{border:1px solid #ddd;padding:4px 9px;text-align:left}
+th{background:#f0f0f0;font-weight:600}
+td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
+td.best{background:#d8f0d8;font-weight:700}
+td.best::after{content:" \\2605";color:#2a7a2a}
+tr.winner td.alg{font-weight:700}
+.gallery{display:flex;flex-wrap:wrap;gap:14px}
+.card{background:#fff;border:1px solid #ddd;border-radius:8px;padding:8px;width:max-content}
+.card h4{margin:0 0 6px;font-size:.95em}
+.pair{display:flex;gap:8px}
+figure{margin:0}
+figure img{display:block;border:1px solid #ccc;background:#888}
+figcaption{font-size:.82em;color:#444;max-width:230px}
+.plots img{max-width:100%;border:1px solid #ddd;background:#fff;margin:6px 0}
+details{margin:.5em 0}
+summary{cursor:pointer;color:#0a58ca}
+.legend span{display:inline-block;margin-right:14px}
+.ring{display:inline-block;width:11px;height:11px;border:2px solid red;border-radius:50%;
+ vertical-align:middle}
+.swatch{display:inline-block;width:13px;height:13px;background:#1f77b4;opacity:.75;
+ vertical-align:middle}
+.big img{max-width:100%;height:auto;border:1px solid #ccc}
+footer{color:#777;font-size:.85em;margin-top:3em}
+a{color:#0a58ca}
+"""
+
+_WINNER = ' class="winner"'
+_BEST = " best"
+_METRIC_HELP = {m.key: m for m in METRICS}
+_SLUG = re.compile(r"[^A-Za-z0-9_.-]+")
+
+
+def _e(x: Any) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def _slug(x: Any) -> str:
+    return _SLUG.sub("-", str(x)).strip("-")[:60] or "x"
+
+
+def _page(title: str, body: str, *, root: str = "") -> str:
+    return (
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+        "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+        "<link rel=\"icon\" href=\"data:,\">"
+        f"<title>{_e(title)}</title><style>{_CSS}</style></head>"
+        f"<body><main>{body}</main></body></html>\n"
+    )
+
+
+@dataclass
+class _MapPage:
+    """One map's detail page and its pictures (paths relative to the site root)."""
+
+    index: int
+    record: dict
+    slug: str
+    page: str = ""
+    thumb: str = ""
+    full: str = ""
+    gif: str = ""
+    notes: list[str] = field(default_factory=list)
+
+
+def build_report(
+    results: ResultsLike,
+    out_dir: Any,
+    *,
+    title: str = "slamq evaluation report",
+    details: str = "all",
+    gifs: bool = True,
+    trajectories: bool = True,
+) -> Path:
+    """Write the evaluation report for a results file and return the path of index.html.
+
+    Parameters
+    ----------
+    results : path, DataFrame or list of dict
+        Batch results (``slamq batch`` output: ``.jsonl``/``.parquet``), or records with
+        ``map``, ``algorithm``, ``sequence``, ``run`` and the metric columns.
+    out_dir : path
+        Folder to write (created; existing report files are overwritten).
+    title : str
+        Page title.
+    details : {"all", "gallery"}
+        Detail pages for every successful map, or only for the gallery's best/worst runs
+        (for very large batches: each detail page loads and re-draws its map).
+    gifs : bool
+        Animate map building when a run folder holds ``map_0001.pgm``-style snapshots.
+    trajectories : bool
+        Draw each run's trajectory over its map, coloured by ATE, when it has one.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out_dir / "index.html"``.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from PIL import Image
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> img = np.full((30, 30), 254, np.uint8); img[8:22, 8:22] = 0
+    >>> Image.fromarray(img).save(d / "a.pgm")
+    >>> recs = [{"map": str(d / "a.pgm"), "algorithm": "a", "sequence": "s", "run": 0,
+    ...          "occupied_fraction": 0.2, "corners": 4, "enclosed_areas": 0,
+    ...          "enclosed_unknown_value": 0}]
+    >>> build_report(recs, d / "site").name
+    'index.html'
+    """
+    if details not in ("all", "gallery"):
+        raise SlamqError(f"details must be 'all' or 'gallery', got {details!r}")
+    frame = load_results(results)
+    out = Path(out_dir)
+    (out / "img").mkdir(parents=True, exist_ok=True)
+    (out / "maps").mkdir(parents=True, exist_ok=True)
+
+    failed = frame[frame["error"].map(usable)]
+    ok = frame[~frame["error"].map(usable)].copy()
+    summary = summarize(ok)
+    sequences = sorted(ok["sequence"].unique()) if len(ok) else []
+    rankings = {s: rank_sequence(summary, s) for s in sequences}
+
+    pages: dict[int, _MapPage] = {}
+    gallery: dict[tuple[str, str], list[int]] = {}
+    for seq in sequences:
+        sub = ok[ok["sequence"] == seq]
+        for alg, group in sub.groupby("algorithm", sort=True):
+            picks = _best_worst(group)
+            gallery[(seq, str(alg))] = picks
+    wanted = set(ok.index) if details == "all" else {i for v in gallery.values() for i in v}
+    for i in sorted(wanted):
+        rec = ok.loc[i].to_dict()
+        slug = f"{i:04d}-{_slug(rec['sequence'])}-{_slug(rec['algorithm'])}-{_slug(rec['run'])}"
+        pages[i] = _MapPage(i, rec, slug, page=f"maps/{slug}.html")
+    for mp in pages.values():
+        _detail_page(mp, out, gifs=gifs, trajectories=trajectories)
+
+    plots = _plots(ok, out, sequences)
+    body = _index_body(title, frame, ok, failed, summary, sequences, rankings, gallery,
+                       pages, plots)
+    index = out / "index.html"
+    index.write_text(_page(title, body), encoding="utf-8")
+    summary.reset_index().to_csv(out / "summary.csv", index=False)
+    return index
+
+
+def _run_scores(group: pd.DataFrame) -> pd.Series:
+    """Mean rank of each run within its (sequence, algorithm) over the metrics it has."""
+    ranks = []
+    for m in METRICS:
+        if m.key in group:
+            v = pd.to_numeric(group[m.key], errors="coerce")
+            if v.notna().any():
+                ranks.append(v.rank(method="average"))
+    if not ranks:
+        return pd.Series(0.0, index=group.index)
+    return pd.concat(ranks, axis=1).mean(axis=1, skipna=True).fillna(math.inf)
+
+
+def _best_worst(group: pd.DataFrame) -> list[int]:
+    """Indices of the best and the worst run (one index when they are the same run)."""
+    scores = _run_scores(group)
+    order = sorted(scores.index, key=lambda i: (scores[i], str(group.loc[i, "run"])))
+    return [order[0]] if len(order) == 1 else [order[0], order[-1]]
+
+
+# ----------------------------------------------------------------------------- detail pages
+
+
+def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool) -> None:
+    from slamq.maps import load_map
+    from slamq.report.overlays import draw_overlay
+    from slamq.report.plots import curve_figure
+
+    rec = mp.record
+    out / "img"
+    sections: list[str] = []
+    grid = None
+    quality = None
+    try:
+        grid = load_map(rec["map"])
+        params = params_of(rec)
+        quality = evaluate_map(grid, params, curve=True)
+    except (SlamqError, OSError, ValueError) as exc:
+        mp.notes.append(f"map not drawn: {exc}")
+    if grid is not None and quality is not None:
+        u = int(rec["enclosed_unknown_value"]) if usable(rec.get("enclosed_unknown_value")) \
+            else int(quality.enclosed_unknown_value)
+        ov = draw_overlay(grid, u, params)
+        mp.full = f"img/{mp.slug}.png"
+        mp.thumb = f"img/{mp.slug}_thumb.png"
+        ov.save(str(out / mp.full))
+        ov.save(str(out / mp.thumb), max_size=230)
+        for key, drawn in (("corners", ov.n_corners), ("enclosed_areas", ov.n_regions)):
+            if usable(rec.get(key)) and int(rec[key]) != drawn:
+                mp.notes.append(
+                    f"the results file says {key} = {int(rec[key])}, the map as loaded now "
+                    f"gives {drawn} (file changed, or other parameters?)")
+        sections.append(
+            "<h2>The map</h2><p class=\"legend\"><span><i class=\"ring\"></i> "
+            f"{ov.n_corners} corners</span><span><i class=\"swatch\"></i> {ov.n_regions} "
+            f"enclosed areas, counted with unknown cells set to u = {u}</span>"
+            "<span>unknown cells: grey; north up</span></p>"
+            f"<p class=\"big\"><a href=\"../{mp.full}\"><img src=\"../{mp.full}\" "
+            f"alt=\"map with corners and enclosed areas\"></a></p>")
+        curve_png = f"img/{mp.slug}_curve.png"
+        curve_figure(list(quality.curve), list(params.sweep_values),
+                     int(quality.enclosed_unknown_value), out / curve_png)
+        sections.append(
+            "<h2>Enclosed areas over the unknown value</h2><p>The sweep of SPEC section 4 "
+            "(paper III.C): unknown cells take every value u; the metric is the maximum.</p>"
+            f"<p><img src=\"../{curve_png}\" alt=\"enclosed-area curve\"></p>")
+        if trajectories:
+            sections.append(_trajectory_section(rec, grid, out, mp))
+        if gifs:
+            sections.append(_building_section(rec, out, mp, params))
+    rows = "".join(
+        f"<tr><th>{_e(k)}</th><td class=\"num\">{_e(_fmt_cell(rec.get(k)))}</td></tr>"
+        for k in _DETAIL_KEYS if k in rec and usable(rec.get(k)))
+    notes = "".join(f"<p class=\"warn\">{_e(n)}</p>" for n in mp.notes)
+    head = (f"<p><a href=\"../index.html\">&larr; back to the report</a></p>"
+            f"<h1>{_e(rec['algorithm'])} on {_e(rec['sequence'])}, run {_e(rec['run'])}</h1>"
+            f"<p class=\"sub\">{_e(rec['map'])}</p>{notes}"
+            f"<h2>Numbers</h2><table class=\"numbers\">{rows}</table>")
+    (out / mp.page).write_text(
+        _page(f"{rec['algorithm']} / {rec['sequence']} / run {rec['run']}",
+              head + "".join(s for s in sections if s)), encoding="utf-8")
+
+
+_DETAIL_KEYS = (
+    "ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n",
+    "occupied_fraction", "corners", "enclosed_areas", "enclosed_unknown_value",
+    "proportion", "threshold", "occupied", "free", "unknown", "known", "total",
+    "height", "width", "seconds", "trajectory", "groundtruth", "hash",
+)
+
+
+def _fmt_cell(x: Any) -> str:
+    if isinstance(x, (int, np.integer)):
+        return str(int(x))
+    if isinstance(x, (float, np.floating)):
+        return f"{float(x):.6g}"
+    return str(x)
+
+
+def _trajectory_section(rec: dict, grid: Any, out: Path, mp: _MapPage) -> str:
+    if not usable(rec.get("trajectory")):
+        return ""
+    try:
+        from slamq.report.trajectory import draw_trajectory
+    except ImportError as exc:  # the trajectory module is optional
+        return f"<h2>Trajectory</h2><p class=\"warn\">not drawn: {_e(exc)}</p>"
+    png = f"img/{mp.slug}_traj.png"
+    try:
+        caption = draw_trajectory(rec, grid, out / png)
+    except (SlamqError, OSError, ValueError) as exc:
+        return f"<h2>Trajectory</h2><p class=\"warn\">not drawn: {_e(exc)}</p>"
+    return (f"<h2>Trajectory over the map</h2><p>{_e(caption)}</p>"
+            f"<p class=\"big\"><img src=\"../{png}\" alt=\"trajectory coloured by ATE\"></p>")
+
+
+def _building_section(rec: dict, out: Path, mp: _MapPage, params: Any) -> str:
+    from slamq.report.frames import bag_maps, build_timeline, find_snapshots, write_timeline_gif
+
+    path = Path(rec["map"])
+    sources: list[Any] = []
+    what = ""
+    try:
+        if path.suffix.lower() in (".bag", ".mcap", ".db3") or (path / "metadata.yaml").is_file():
+            sources = bag_maps(path) or []
+            what = f"every /map message of {path.name}"
+        else:
+            sources = find_snapshots(path.parent)
+            what = f"{len(sources)} snapshots in {path.parent.name}/"
+        if len(sources) < 2:
+            return ""
+        timeline = build_timeline(sources, params)
+        gif = f"img/{mp.slug}_build.gif"
+        write_timeline_gif(timeline, out / gif)
+    except (SlamqError, OSError, ValueError) as exc:
+        return f"<h2>Map building</h2><p class=\"warn\">no animation: {_e(exc)}</p>"
+    mp.gif = gif
+    return (f"<h2>Map building</h2><p>{_e(what)}; the metrics of each snapshot on the "
+            "right, the red line marks the current one.</p>"
+            f"<p class=\"big\"><img src=\"../{gif}\" alt=\"map being built\"></p>")
+
+
+# ----------------------------------------------------------------------------- index page
+
+
+def _plots(ok: pd.DataFrame, out: Path, sequences: list[str]) -> list[tuple[str, str]]:
+    from slamq.report.plots import algorithm_colours, metric_figure
+
+    if ok.empty:
+        return []
+    colours = algorithm_colours(ok["algorithm"].astype(str))
+    made = []
+    for m in METRICS:
+        if m.key not in ok or not np.isfinite(pd.to_numeric(ok[m.key], errors="coerce")).any():
+            continue
+        png = f"img/plot_{m.key}.png"
+        metric_figure(ok, m, out / png, sequences=sequences, colours=colours)
+        made.append((m.key, png))
+    return made
+
+
+def _index_body(
+    title: str,
+    frame: pd.DataFrame,
+    ok: pd.DataFrame,
+    failed: pd.DataFrame,
+    summary: pd.DataFrame,
+    sequences: list[str],
+    rankings: dict[str, SequenceRanking],
+    gallery: dict[tuple[str, str], list[int]],
+    pages: dict[int, _MapPage],
+    plots: list[tuple[str, str]],
+) -> str:
+    from slamq import __version__
+
+    n_alg = ok["algorithm"].nunique() if len(ok) else 0
+    parts = [
+        f"<h1>{_e(title)}</h1>",
+        f"<p class=\"sub\">{len(frame)} maps: {len(ok)} evaluated, {len(failed)} failed; "
+        f"{len(sequences)} sequences, {n_alg} algorithms. Generated "
+        f"{_dt.datetime.now().strftime('%Y-%m-%d %H:%M')} by slamq {__version__}.</p>",
+        "<section class=\"verdict\" id=\"verdict\"><b>In one sentence per sequence</b><ul>",
+    ]
+    for s in sequences:
+        r = rankings[s]
+        sent = _e(r.sentence())
+        if r.winner and len(r.order) > 1:
+            sent = sent.replace(_e(r.winner), f"<b>{_e(r.winner)}</b>", 1)
+        parts.append(f"<li><a href=\"#seq-{_slug(s)}\">{sent}</a></li>")
+    if not sequences:
+        parts.append("<li>No map was evaluated successfully.</li>")
+    parts.append("</ul></section>")
+    parts.append(_how_to_read())
+    for s in sequences:
+        parts.append(_sequence_section(s, ok, summary, rankings[s], gallery, pages))
+    if plots:
+        parts.append("<h2 id=\"plots\">Plots</h2><p>Every run is a point; boxes show the "
+                     "spread per algorithm; one panel per sequence. Lower is better on "
+                     "every axis.</p><div class=\"plots\">")
+        for key, png in plots:
+            parts.append(f"<img src=\"{png}\" alt=\"{_e(_METRIC_HELP[key].label)} per run\">")
+        parts.append("</div>")
+    if len(failed):
+        rows = "".join(f"<tr><td>{_e(r['map'])}</td><td>{_e(r['error'])}</td></tr>"
+                       for _, r in failed.iterrows())
+        parts.append(f"<h2 id=\"failed\">Failed maps ({len(failed)})</h2>"
+                     f"<table><tr><th>map</th><th>error</th></tr>{rows}</table>")
+    parts.append(
+        "<footer>Metrics: Filatov, Filatov, Krinkin, Chen, Molodan, <i>2D SLAM Quality "
+        "Evaluation Methods</i>, arXiv:1708.02354, as pinned down by slamq's SPEC.md. "
+        "Means and sample standard deviations (n&minus;1) over runs; "
+        "<a href=\"summary.csv\">summary.csv</a> holds them unrounded.</footer>")
+    return "".join(parts)
+
+
+def _how_to_read() -> str:
+    items = "".join(
+        f"<li><b>{_e(m.heading)}</b>: lower is better &mdash; {_e(m.why)}.</li>" for m in METRICS)
+    return (
+        "<details id=\"how\"><summary>How to read this page</summary><ul>" + items +
+        "<li><b>Ranking</b>: on each metric the algorithms are ranked by their mean over runs "
+        "(1 = lowest; ties share the rank); an algorithm's score is its mean rank over the "
+        "metrics it has; ties go to the better ATE RMSE. &#9733; marks the best value per "
+        "column. A metric <i>disagrees</i> when its best algorithm is not the overall "
+        "winner.</li><li>The map metrics compare maps of one sequence with similar coverage "
+        "(paper III.A, III.B): a map that covers much less ground looks good on all three. "
+        "Such maps are flagged.</li>"
+        "<li>Gallery: the best and the worst run of each algorithm (by mean rank among its "
+        "runs). Red rings: the counted corners; coloured: the counted enclosed areas. Click "
+        "a map for its detail page.</li></ul></details>")
+
+
+def _sequence_section(
+    seq: str,
+    ok: pd.DataFrame,
+    summary: pd.DataFrame,
+    ranking: SequenceRanking,
+    gallery: dict[tuple[str, str], list[int]],
+    pages: dict[int, _MapPage],
+) -> str:
+    block = summary.xs(seq, level="sequence")
+    metrics = ranking.metrics
+    head = "".join(f"<th>{_e(m.heading)}</th>" for m in metrics)
+    rows = []
+    for place, alg in enumerate(ranking.order, start=1):
+        row = block.loc[alg]
+        cells = []
+        for m in metrics:
+            mean, std, n = row[f"{m.key}_mean"], row[f"{m.key}_std"], int(row[f"{m.key}_n"])
+            best = alg in ranking.best.get(m.key, []) and len(ranking.order) > 1
+            cells.append(
+                f"<td class=\"num{_BEST if best else ''}\" data-metric=\"{m.key}\" "
+                f"data-mean=\"{float(mean)!r}\" data-std=\"{float(std)!r}\" data-n=\"{n}\">"
+                f"{_e(format_mean_std(mean, std))}</td>")
+        score = ranking.score[alg]
+        rows.append(
+            f"<tr data-algorithm=\"{_e(alg)}\"{_WINNER if place == 1 else ''}>"
+            f"<td class=\"num\">{place}</td><td class=\"alg\">{_e(alg)}</td>"
+            f"<td class=\"num\">{int(row['runs'])}</td>{''.join(cells)}"
+            f"<td class=\"num\">{_e(format_value(score))}</td></tr>")
+    parts = [
+        f"<h2 id=\"seq-{_slug(seq)}\">{_e(seq)}</h2>",
+        f"<p>{_e(ranking.sentence())}</p>",
+    ]
+    for alg in ranking.partial:
+        parts.append(
+            f"<p class=\"warn\">{_e(alg)}'s maps know fewer than half as many cells as the "
+            "median map of this sequence: a partial map scores well on every map metric "
+            "(paper III.A), so compare it with care.</p>")
+    parts.append(
+        f"<table class=\"ranking\" data-sequence=\"{_e(seq)}\"><tr><th>rank</th>"
+        f"<th>algorithm</th><th>runs</th>{head}<th>mean rank</th></tr>"
+        + "".join(rows) + "</table>")
+    parts.append("<h3>Maps: best and worst run per algorithm</h3><div class=\"gallery\">")
+    for alg in ranking.order:
+        picks = gallery.get((seq, alg), [])
+        figs = []
+        for which, i in zip(("best", "worst") if len(picks) > 1 else ("only run",), picks):
+            figs.append(_thumb(pages.get(i), ok.loc[i], which))
+        parts.append(f"<div class=\"card\"><h4>{_e(alg)}</h4><div class=\"pair\">"
+                     + "".join(figs) + "</div></div>")
+    parts.append("</div>")
+    parts.append(_runs_table(ok[ok["sequence"] == seq], pages, metrics))
+    return "".join(parts)
+
+
+def _thumb(mp: _MapPage | None, rec: pd.Series, which: str) -> str:
+    label = f"{which}: run {rec['run']}"
+    nums = ", ".join(f"{m.label} {format_value(_num(rec.get(m.key)))}" for m in METRICS
+                     if usable(rec.get(m.key)) and math.isfinite(_num(rec.get(m.key))))
+    if mp is None or not mp.thumb:
+        why = "; ".join(mp.notes) if mp else "no detail page"
+        return f"<figure><figcaption>{_e(label)}<br>{_e(nums)}<br>{_e(why)}</figcaption></figure>"
+    return (f"<figure><a class=\"detail\" href=\"{mp.page}\"><img src=\"{mp.thumb}\" "
+            f"alt=\"{_e(label)}\"></a><figcaption><a href=\"{mp.page}\">{_e(label)}</a> "
+            f"&middot; <a href=\"{mp.full}\">full size</a><br>{_e(nums)}</figcaption></figure>")
+
+
+def _num(x: Any) -> float:
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _runs_table(sub: pd.DataFrame, pages: dict[int, _MapPage], metrics: Iterable) -> str:
+    metrics = list(metrics)
+    head = "".join(f"<th>{_e(m.heading)}</th>" for m in metrics)
+    rows = []
+    for i, r in sub.sort_values(["algorithm", "run"], key=lambda s: s.astype(str)).iterrows():
+        mp = pages.get(i)
+        link = f"<a href=\"{mp.page}\">{_e(r['run'])}</a>" if mp else _e(r["run"])
+        cells = "".join(f"<td class=\"num\">{_e(format_value(_num(r.get(m.key))))}</td>"
+                        for m in metrics)
+        rows.append(f"<tr><td>{_e(r['algorithm'])}</td><td>{link}</td>{cells}</tr>")
+    return (f"<details><summary>All {len(sub)} runs</summary><table class=\"runs\"><tr>"
+            f"<th>algorithm</th><th>run</th>{head}</tr>{''.join(rows)}</table></details>")

@@ -1,0 +1,112 @@
+"""A run's estimated trajectory drawn over its map, each pose coloured by its ATE.
+
+Needs :mod:`slamq.trajectory` (``load_trajectory``, ``ate``); the estimate is drawn in the
+map's frame as it was logged (the map was built in that frame), the colours are the
+per-pose errors after the alignment ``ate`` uses (SE(2) by default, SPEC section 6).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from slamq.errors import TrajectoryError
+from slamq.maps import OccupancyMap
+
+__all__ = ["draw_trajectory", "world_to_cells"]
+
+
+def world_to_cells(grid: OccupancyMap, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Map-frame positions (metres) to (row, col) image coordinates of cell centres' grid.
+
+    The origin ``(x, y, yaw)`` is the lower-left corner of the lower-left cell (ROS);
+    row 0 is the top (north) of the image; a cell's centre is at integer coordinates.
+
+    Examples
+    --------
+    >>> import numpy as np, slamq
+    >>> m = slamq.OccupancyMap(np.zeros((10, 20), np.uint8), np.zeros((10, 20), bool),
+    ...                        resolution=0.5, origin=(-1.0, -2.0, 0.0))
+    >>> r, c = world_to_cells(m, np.array([[-1.0 + 0.25, -2.0 + 0.25]]))
+    >>> float(r[0]), float(c[0])
+    (9.0, 0.0)
+    """
+    if grid.resolution is None:
+        raise TrajectoryError(f"{grid.source}: the map has no resolution; cannot place poses")
+    ox, oy, yaw = (float(v) for v in grid.origin)
+    dx, dy = xy[:, 0] - ox, xy[:, 1] - oy
+    c, s = math.cos(-yaw), math.sin(-yaw)
+    mx, my = c * dx - s * dy, s * dx + c * dy
+    res = float(grid.resolution)
+    cols = mx / res - 0.5
+    rows = grid.shape[0] - my / res - 0.5
+    return rows, cols
+
+
+def _load_pair(traj: str, gt: str) -> tuple[Any, Any]:
+    try:
+        from slamq.batch.records import _load_pair as batch_pair
+    except ImportError:
+        batch_pair = None
+    if batch_pair is not None:
+        return batch_pair(Path(traj), Path(gt))
+    from slamq.trajectory import load_trajectory
+
+    return load_trajectory(traj), load_trajectory(gt)
+
+
+def _per_pose(est: Any, gt: Any, errors: np.ndarray, max_dt: float) -> np.ndarray:
+    """Indices of the estimate's poses the ATE errors belong to."""
+    n = len(est.timestamps)
+    if len(errors) == n:
+        return np.arange(n)
+    from slamq.trajectory.sync import matching_indices
+
+    if n <= len(gt.timestamps):
+        i_est, _ = matching_indices(est.timestamps, gt.timestamps, max_dt)
+    else:
+        _, i_est = matching_indices(gt.timestamps, est.timestamps, max_dt)
+    if len(i_est) != len(errors):
+        raise TrajectoryError(f"{est.source}: cannot match the ATE errors to poses")
+    return np.asarray(i_est)
+
+
+def draw_trajectory(record: dict, grid: OccupancyMap, path: Path) -> str:
+    """Draw the record's trajectory over ``grid`` into ``path``; return a caption.
+
+    Without ground truth the trajectory is drawn in one colour.
+
+    Raises
+    ------
+    TrajectoryError
+        The trajectory cannot be read or placed on the map.
+    """
+    from slamq.report.overlays import render_base
+    from slamq.report.plots import trajectory_figure
+
+    traj = str(record["trajectory"])
+    gt = record.get("groundtruth")
+    base = render_base(grid)
+    if gt is None or (isinstance(gt, float) and math.isnan(gt)):
+        from slamq.trajectory import load_trajectory
+
+        est = load_trajectory(traj)
+        rows, cols = world_to_cells(grid, est.positions[:, :2])
+        trajectory_figure(base, rows, cols, np.zeros(len(rows)), path,
+                          title=Path(traj).name)
+        return f"{Path(traj).name}: {len(rows)} poses (no ground truth, so no ATE colours)."
+    from slamq.trajectory import ate
+
+    est, ref = _load_pair(traj, str(gt))
+    max_dt = float(record.get("param_ate_max_dt") or 0.01)
+    res = ate(ref, est, max_dt=max_dt)
+    errors = np.asarray(res.errors, float)
+    idx = _per_pose(est, ref, errors, max_dt)
+    rows, cols = world_to_cells(grid, est.positions[idx, :2])
+    trajectory_figure(base, rows, cols, errors, path, title=Path(traj).name)
+    return (f"{Path(traj).name} against {Path(str(gt)).name}: {len(errors)} poses, "
+            f"ATE RMSE {float(res.rmse):.3g} m (max {float(res.max):.3g} m); the colour is "
+            "each pose's error after alignment.")
