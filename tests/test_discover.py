@@ -1,0 +1,100 @@
+"""discover_maps: which files of a folder are maps, each map once."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from slamq.maps import discover_maps, load_map
+
+
+def _pgm(path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(b"P5 2 2 255\n" + bytes([0, 205, 254, 254]))
+    return path
+
+
+def _yaml(path: Path, image: str) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(f"image: {image}\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    return path
+
+
+def test_folder_yields_yaml_maps_and_unnamed_images_once(tmp_path):
+    _pgm(tmp_path / "a.pgm")
+    _yaml(tmp_path / "a.yaml", "a.pgm")
+    _pgm(tmp_path / "stray.pgm")                       # no YAML names it
+    _pgm(tmp_path / "sub" / "b.pgm")
+    _yaml(tmp_path / "sub" / "b.yml", "/somewhere/else/b.pgm")  # absolute -> basename
+    (tmp_path / "sub" / "params.yaml").write_text("max_range: 8\n")  # not a map
+    (tmp_path / "notes.txt").write_text("hello")
+    _pgm(tmp_path / ".hidden" / "h.pgm")
+    bag = tmp_path / "rosbag2_run"                     # a ROS 2 bag folder: skipped
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    _pgm(bag / "inside.pgm")
+    maps, problems = discover_maps(tmp_path)
+    rel = [p.relative_to(tmp_path).as_posix() for p in maps]
+    assert rel == ["a.yaml", "stray.pgm", "sub/b.yml"]
+    assert problems == []
+    for p in maps:
+        m = load_map(p) if p.suffix == ".pgm" else None
+        if m is not None:
+            assert m.unknown.tolist() == [[False, True], [False, False]]
+
+
+def test_missing_paths_unparsable_yaml_and_unsupported_files_are_problems(tmp_path):
+    _pgm(tmp_path / "ok.pgm")
+    (tmp_path / "broken.yaml").write_text("image: [oops\n")
+    (tmp_path / "notes.txt").write_text("hello")
+    maps, problems = discover_maps([tmp_path, tmp_path / "gone.yaml", tmp_path / "notes.txt"])
+    assert [p.name for p in maps] == ["ok.pgm"]
+    reasons = {Path(p).name: r for p, r in problems}
+    assert reasons["gone.yaml"] == "no such file or directory"
+    assert reasons["broken.yaml"].startswith("unparsable YAML")
+    assert reasons["notes.txt"].startswith("not a map file")
+
+
+def test_explicit_files_are_kept_and_duplicates_dropped(tmp_path):
+    img = _pgm(tmp_path / "a.pgm")
+    y = _yaml(tmp_path / "a.yaml", "a.pgm")
+    bag = tmp_path / "run.bag"
+    bag.write_bytes(b"")
+    bagdir = tmp_path / "r2"
+    bagdir.mkdir()
+    (bagdir / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    maps, problems = discover_maps([img, y, str(y), tmp_path, bag, bagdir])
+    assert maps == [img, y, bag, bagdir]
+    assert problems == []
+
+
+def test_discovering_the_shipped_fixtures(test_data):
+    maps, problems = discover_maps([test_data])
+    names = sorted(p.relative_to(test_data).as_posix() for p in maps)
+    assert problems == []
+    assert names == [
+        "ros_whill_arc/cartographer.yaml",
+        "ros_whill_arc/gmapping.yaml",
+        "slam_comparison_tools/ground_truths/office_ground_truth.yaml",
+        "slam_comparison_tools/test_results/office/cartographer_map.yaml",
+        "slam_comparison_tools/test_results/office/gmapping_map.yaml",
+        "slam_comparison_tools/test_results/office/lidar_rtabmap_map.yaml",
+        "slam_comparison_tools/test_results/office/rgbd_rtabmap_map.yaml",
+        "slam_comparison_tools/test_results/office/slam_toolbox_map.yaml",
+        "utexas_gdc_large/intel_lab/intel.yaml",
+    ]
+
+
+def test_discovering_the_shared_corpus(shared_data):
+    maps, problems = discover_maps(shared_data / "maps")
+    assert problems == []
+    rel = {p.relative_to(shared_data / "maps").as_posix() for p in maps}
+    # every YAML is a map; images are found once (through their YAML when one names them)
+    assert len([r for r in rel if r.endswith(".yaml")]) == 72
+    assert "utexas_gdc_large/2/2_original.pgm" in rel     # no YAML names it
+    assert "utexas_gdc_large/2/2.pgm" not in rel          # 2.yaml names it
+    assert "ros_whill_arc/gmapping.pgm" not in rel        # named by an absolute path
+    assert "nanobot/new_maps/karto.pgm" not in rel
+    assert "nanobot/new_maps/gmapping_processed.pgm" in rel
+    assert len(rel) == 117
+    assert np.all([p.exists() for p in maps])
