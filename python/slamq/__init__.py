@@ -22,6 +22,8 @@ from slamq.errors import (
 from slamq.maps import OccupancyMap, load_map
 from slamq.params import Params
 from slamq.quality import MapQuality, evaluate
+from slamq.batch import discover_runs, evaluate_many, read_results, summarize
+from slamq.trajectory import Trajectory, ate, ate_runs, load_trajectory, rpe
 
 __version__ = "0.1.0"
 
@@ -34,7 +36,16 @@ __all__ = [
     "ParamError",
     "Params",
     "SlamqError",
+    "Trajectory",
     "TrajectoryError",
+    "ate",
+    "ate_runs",
+    "discover_runs",
     "evaluate",
+    "evaluate_many",
     "load_map",
+    "load_trajectory",
+    "read_results",
+    "rpe",
+    "summarize",
 ]

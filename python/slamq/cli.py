@@ -14,7 +14,11 @@ import sys
 from typing import Optional, Sequence
 
 #: Modules that each add one subcommand with ``add_parser(subparsers)``.
-_COMMAND_MODULES: tuple[str, ...] = ("slamq.report.cli",)
+_COMMAND_MODULES: tuple[str, ...] = (
+    "slamq.report.cli",
+    "slamq.batch_cli",
+    "slamq.trajectory_cli",
+)
 
 EXIT_OK = 0
 EXIT_ERROR = 1

@@ -1,0 +1,476 @@
+"""Finding the runs of a batch: folder layouts and manifest CSV files.
+
+A *run* is one map built by one SLAM algorithm on one sequence (a recorded data set),
+optionally with the trajectory the algorithm estimated and the sequence's ground truth.
+
+Rules (also in the docstring of :func:`discover_runs`)
+-----------------------------------------------------
+Maps in a folder are YAML map files (a ``.yaml``/``.yml`` with an ``image`` key) and images
+(``slamq.maps.IMAGE_SUFFIXES``: ``.pgm .png .jpg ...``) that no YAML in the folder names.
+Hidden entries (``.name``) and ROS 2 bag folders are skipped. Numbered snapshots
+(``map_0001.pgm``: a name ending in three or more digits) beside a non-numbered map are
+frames of the map being built, not runs; a folder holding only snapshots contributes its
+last one (by name).
+
+* **Run layout** ``<algorithm>/<sequence>/<run>/``: a folder at least three levels below
+  the root that holds exactly one map. algorithm, sequence and run are the names of the
+  grandparent, parent and folder itself.
+* **Flat layout** (everything else), e.g. ``test_results/<world>/<algo>_map.yaml``:
+  sequence = the folder's name, algorithm = the file stem with its ``_map`` token removed
+  (``gmapping_map`` -> ``gmapping``, ``gmapping_map_cropped`` -> ``gmapping_cropped``;
+  ``gmapping_map_3`` -> algorithm ``gmapping``, run ``3``), run = ``"0"`` otherwise.
+* **Trajectories** (``.txt .csv .tum .kitti``): in a run folder, the one trajectory file
+  (names holding ``traj``, ``pose``, ``odom`` or ``est`` first, then by name). In the flat
+  layout, a file whose stem is the algorithm or starts with ``<algorithm>_`` or
+  ``<algorithm>.`` (the longest algorithm name wins), in the map's folder or, when the
+  map lies under a folder called ``maps``, in ``trajectories/<group>/.../<sequence>/``
+  beside it (the ../shared/data convention).
+* **Ground truth**: a trajectory file named ``groundtruth*``, ``ground_truth*``, ``gt``,
+  ``gt_*``/``gt-*`` or ``<sequence>_groundtruth*``/``<sequence>_ground_truth*``/
+  ``<sequence>_gt*``, searched in the run folder, then the sequence folder, then the root.
+  A CSV trajectory whose header has both ``gt_x`` and an estimate column (``slam_x``,
+  ``est_x``) is its own ground truth (a paired pose log).
+* **Manifest** (``.csv``): columns ``algorithm, sequence, run, map, trajectory,
+  groundtruth`` (only ``map`` required; others may be blank), paths relative to the
+  manifest's folder, ``#`` lines are comments, spaces after commas are ignored.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Union
+
+from slamq.errors import MapError
+from slamq.maps import IMAGE_SUFFIXES, YAML_SUFFIXES
+
+__all__ = ["Run", "discover_runs", "read_manifest", "IMAGE_SUFFIXES", "TRAJECTORY_SUFFIXES"]
+
+TRAJECTORY_SUFFIXES = frozenset({".txt", ".csv", ".tum", ".kitti"})
+MANIFEST_COLUMNS = ("algorithm", "sequence", "run", "map", "trajectory", "groundtruth")
+
+_SNAPSHOT = re.compile(r"^(.*?)[_-]?(\d{3,})$")
+_GT_NAME = re.compile(r"^(ground[_-]?truth|gt)([_\-.].*)?$", re.IGNORECASE)
+_TRAJ_HINT = re.compile(r"traj|pose|odom|est", re.IGNORECASE)
+_PAIRED_EST = ("slam_x", "est_x", "estimate_x")
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+@dataclass(frozen=True)
+class Run:
+    """One map of a batch, with where it belongs and its trajectory files.
+
+    Attributes
+    ----------
+    map : pathlib.Path
+        The map file (YAML or image).
+    algorithm, sequence, run : str
+        The SLAM algorithm, the data set it ran on, and which repetition.
+    trajectory, groundtruth : pathlib.Path or None
+        The estimated trajectory and the sequence's ground truth, when known (the same
+        file for a paired pose log).
+
+    Examples
+    --------
+    >>> from slamq.batch import Run
+    >>> Run("gmapping/office/1/map.yaml", "gmapping", "office", "1").key
+    ('gmapping', 'office', '1', 'gmapping/office/1/map.yaml')
+    """
+
+    map: Path
+    algorithm: str
+    sequence: str
+    run: str = "0"
+    trajectory: Path | None = None
+    groundtruth: Path | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "map", Path(self.map))
+        for name in ("trajectory", "groundtruth"):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, Path):
+                object.__setattr__(self, name, Path(value))
+        for name in ("algorithm", "sequence", "run"):
+            object.__setattr__(self, name, str(getattr(self, name)))
+
+    @property
+    def key(self) -> tuple[str, str, str, str]:
+        """``(algorithm, sequence, run, map)``: a run's identity in a results file."""
+        return (self.algorithm, self.sequence, self.run, str(self.map))
+
+
+def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Run]:
+    """Find the runs in folders, manifest CSV files and map files.
+
+    Parameters
+    ----------
+    sources : path, Run, or an iterable of them
+        A folder (searched recursively with the layout rules of :mod:`slamq.batch.discover`),
+        a manifest ``.csv``, a map file (YAML or image: sequence = its folder's name), or a
+        ready :class:`Run`.
+
+    Returns
+    -------
+    list of Run
+        Folder contents sorted by path; the order of ``sources`` and of manifest rows is
+        kept. A run listed twice (same algorithm, sequence, run and map) is kept once.
+
+    Raises
+    ------
+    slamq.MapError
+        A source that does not exist, or a malformed manifest (naming file and line).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> run = root / "gmapping" / "office" / "run 1"
+    >>> run.mkdir(parents=True)
+    >>> _ = (run / "map.pgm").write_bytes(b"P5 1 1 255 \\xfe")
+    >>> _ = (run / "trajectory.txt").write_text("0 0 0 0 0 0 0 1\\n")
+    >>> [(r.algorithm, r.sequence, r.run, r.trajectory.name) for r in discover_runs(root)]
+    [('gmapping', 'office', 'run 1', 'trajectory.txt')]
+    """
+    if isinstance(sources, (str, os.PathLike, Run)):
+        sources = [sources]
+    out: list[Run] = []
+    seen: set[tuple[str, str, str, str]] = set()
+    for src in sources:
+        if isinstance(src, Run):
+            found = [src]
+        else:
+            path = Path(os.path.expanduser(os.fspath(src)))
+            if path.is_dir():
+                found = _discover_folder(path)
+            elif path.is_file() and path.suffix.lower() == ".csv":
+                found = read_manifest(path)
+            elif path.is_file():
+                found = [_single_map(path)]
+            elif not path.exists():
+                raise MapError(f"{path}: no such file or folder")
+            else:
+                raise MapError(f"{path}: not a file or folder")
+        for run in found:
+            if run.key not in seen:
+                seen.add(run.key)
+                out.append(run)
+    return out
+
+
+# --------------------------------------------------------------------------- manifest
+
+
+def read_manifest(path: PathLike) -> list[Run]:
+    """Read a manifest CSV: one run per row, paths relative to the manifest's folder.
+
+    Columns (header row required, any order, case-insensitive): ``map`` (required),
+    ``algorithm``, ``sequence``, ``run``, ``trajectory``, ``groundtruth``. Blank
+    algorithm defaults to the flat-layout name of the map, blank sequence to the map's
+    folder name, blank run to ``"0"``; blank trajectory/groundtruth mean none. Lines
+    starting with ``#`` are comments. A map file that does not exist is kept: the batch
+    reports it as a failed row.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> text = "algorithm, sequence, run, map\\nhector, lab, 2, a b.yaml\\n"
+    >>> _ = (d / "runs.csv").write_text(text)
+    >>> r = read_manifest(d / "runs.csv")[0]
+    >>> r.algorithm, r.run, r.map.name
+    ('hector', '2', 'a b.yaml')
+    """
+    path = Path(path)
+    base = path.parent
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            lines = [(i + 1, line) for i, line in enumerate(fh)]
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MapError(f"{path}: cannot read manifest: {exc}") from exc
+    lines = [(n, line) for n, line in lines if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise MapError(f"{path}: empty manifest (expected a header with a 'map' column)")
+    rows = csv.reader([line for _, line in lines], skipinitialspace=True)
+    header = [h.strip().lower() for h in next(rows)]
+    if "map" not in header:
+        raise MapError(
+            f"{path}: line {lines[0][0]}: manifest header has no 'map' column "
+            f"(columns: {', '.join(MANIFEST_COLUMNS)})"
+        )
+    if len(set(header)) != len(header):
+        raise MapError(f"{path}: line {lines[0][0]}: duplicate column names in the header")
+    runs: list[Run] = []
+    seen: dict[tuple[str, str, str, str], int] = {}
+    for (lineno, _), row in zip(lines[1:], rows):
+        if len(row) > len(header):
+            raise MapError(
+                f"{path}: line {lineno}: {len(row)} fields but the header has {len(header)}"
+            )
+        cells = {h: (row[i].strip() if i < len(row) else "") for i, h in enumerate(header)}
+        if not cells["map"]:
+            raise MapError(f"{path}: line {lineno}: empty 'map' cell")
+        map_path = _resolve(base, cells["map"])
+        algorithm = cells.get("algorithm") or _flat_names(map_path.stem)[0]
+        sequence = cells.get("sequence") or map_path.parent.name
+        run_id = cells.get("run") or "0"
+        traj = _resolve(base, cells["trajectory"]) if cells.get("trajectory") else None
+        gt = _resolve(base, cells["groundtruth"]) if cells.get("groundtruth") else None
+        run = Run(map_path, algorithm, sequence, run_id, traj, gt)
+        if run.key in seen:
+            raise MapError(
+                f"{path}: line {lineno}: run {algorithm}/{sequence}/{run_id} with map "
+                f"{cells['map']!r} is already listed on line {seen[run.key]}"
+            )
+        seen[run.key] = lineno
+        runs.append(run)
+    return runs
+
+
+def _resolve(base: Path, cell: str) -> Path:
+    p = Path(os.path.expanduser(cell))
+    return p if p.is_absolute() else base / p
+
+
+# --------------------------------------------------------------------------- folders
+
+
+def _single_map(path: Path) -> Run:
+    algorithm, run_id = _flat_names(path.stem)
+    seq = path.resolve().parent.name
+    traj, gt = _flat_trajectories(path.parent, algorithm, [algorithm], seq, path.parent)
+    return Run(path, algorithm, seq, run_id, traj, gt)
+
+
+def _flat_names(stem: str) -> tuple[str, str]:
+    """``(algorithm, run)`` from a flat-layout map name."""
+    m = re.match(r"^(.+?)_map_(\d+)$", stem)
+    if m:
+        return m.group(1), m.group(2)
+    if stem.endswith("_map") and len(stem) > 4:
+        return stem[:-4], "0"
+    m = re.match(r"^(.+?)_map_(.+)$", stem)
+    if m:
+        return f"{m.group(1)}_{m.group(2)}", "0"
+    return stem, "0"
+
+
+def _load_yaml(path: Path) -> object:
+    import yaml
+
+    try:
+        if path.stat().st_size > 1 << 20:
+            return None
+        loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+        return yaml.load(path.read_bytes(), Loader=loader)
+    except (OSError, yaml.YAMLError, UnicodeDecodeError):
+        return _UNREADABLE
+
+
+_UNREADABLE = object()
+
+
+def _is_map_yaml(path: Path) -> bool:
+    """A YAML with an ``image`` key, or one that cannot be parsed (the batch reports it)."""
+    doc = _load_yaml(path)
+    return doc is _UNREADABLE or (isinstance(doc, dict) and "image" in doc)
+
+
+def yaml_image(path: Path) -> Path | None:
+    """The image a map YAML names, resolved like the loader does (relative to the YAML's
+    folder; an absolute path that does not exist falls back to the name beside the YAML)."""
+    doc = _load_yaml(path)
+    if not isinstance(doc, dict) or not isinstance(doc.get("image"), str):
+        return None
+    ref = Path(doc["image"])
+    if not ref.is_absolute():
+        return path.parent / ref
+    if ref.is_file():
+        return ref
+    return path.parent / ref.name
+
+
+def folder_maps(folder: Path, files: list[Path] | None = None) -> list[Path]:
+    """The maps directly in ``folder`` (YAML maps and images no YAML there names).
+
+    Numbered snapshots (``map_0001.pgm``) are left out when the folder has another map;
+    a folder of snapshots only gives its last one.
+    """
+    if files is None:
+        files = sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith("."))
+    yamls = [p for p in files if p.suffix.lower() in YAML_SUFFIXES and _is_map_yaml(p)]
+    named: set[Path] = set()
+    for y in yamls:
+        img = yaml_image(y)
+        if img is not None:
+            named.add(img.resolve())
+    images = [
+        p for p in files if p.suffix.lower() in IMAGE_SUFFIXES and p.resolve() not in named
+    ]
+    maps = sorted(yamls + images)
+    snaps = [p for p in maps if _SNAPSHOT.match(p.stem)]
+    if snaps and len(snaps) < len(maps):
+        maps = [p for p in maps if p not in snaps]
+    elif snaps and len(snaps) == len(maps) and len(maps) > 1:
+        maps = [maps[-1]]
+    return maps
+
+
+def _discover_folder(root: Path) -> list[Run]:
+    runs: list[Run] = []
+    root_name = root.resolve().name
+    for folder, dirs, names in os.walk(root):
+        here = Path(folder)
+        dirs[:] = sorted(
+            d for d in dirs
+            if not d.startswith(".") and not (here / d / "metadata.yaml").is_file()
+        )
+        files = sorted(here / n for n in names if not n.startswith("."))
+        maps = folder_maps(here, files)
+        if not maps:
+            continue
+        rel = here.relative_to(root).parts
+        if len(rel) >= 3 and len(maps) == 1:
+            algorithm, sequence, run_id = rel[-3], rel[-2], rel[-1]
+            traj = _pick_trajectory(_trajectory_files(files), sequence)
+            gt = _find_groundtruth([here, here.parent], sequence, root)
+            if gt is None and traj is not None and _is_paired_log(traj):
+                gt = traj
+            runs.append(Run(maps[0], algorithm, sequence, run_id, traj, gt))
+            continue
+        sequence = here.name if rel else root_name
+        names_here = [_flat_names(m.stem) for m in maps]
+        algos = sorted({a for a, _ in names_here}, key=len, reverse=True)
+        for m, (algorithm, run_id) in zip(maps, names_here):
+            traj, gt = _flat_trajectories(here, algorithm, algos, sequence, root)
+            runs.append(Run(m, algorithm, sequence, run_id, traj, gt))
+    return runs
+
+
+def _trajectory_files(files: Iterable[Path]) -> list[Path]:
+    return [p for p in files if p.suffix.lower() in TRAJECTORY_SUFFIXES]
+
+
+def _is_gt_name(path: Path, sequence: str) -> bool:
+    stem = path.stem
+    if _GT_NAME.match(stem):
+        return True
+    low, seq = stem.lower(), sequence.lower()
+    if seq and low.startswith(seq):
+        rest = low[len(seq):].lstrip("_-")
+        return bool(_GT_NAME.match(rest))
+    return False
+
+
+def _pick_trajectory(candidates: list[Path], sequence: str = "") -> Path | None:
+    cands = [p for p in candidates if not _is_gt_name(p, sequence)]
+    if not cands:
+        return None
+    hinted = [p for p in cands if _TRAJ_HINT.search(p.stem)]
+    return sorted(hinted or cands)[0]
+
+
+def _find_groundtruth(
+    folders: list[Path], sequence: str, root: Path | None = None
+) -> Path | None:
+    """The first ground-truth file in ``folders``; in ``root`` (searched last, it holds the
+    ground truths of many sequences) its name must start with the sequence's name."""
+    search = [(f, False) for f in folders] + ([(root, True)] if root is not None else [])
+    for folder, need_prefix in search:
+        try:
+            files = sorted(p for p in folder.iterdir() if p.is_file())
+        except OSError:
+            continue
+        gts = [p for p in _trajectory_files(files) if _is_gt_name(p, sequence)]
+        if need_prefix:
+            gts = [p for p in gts if p.stem.lower().startswith(sequence.lower())]
+        if gts:
+            return sorted(gts)[0]
+    return None
+
+
+def _is_paired_log(path: Path) -> bool:
+    cols = paired_columns(path)
+    return cols is not None
+
+
+def paired_columns(path: Path) -> tuple[str, str] | None:
+    """For a paired pose log (estimate and ground truth on one row), the column prefixes.
+
+    Returns ``(estimate_prefix, "gt_")`` (e.g. ``("slam_", "gt_")``) when the first line
+    of a ``.csv`` file names ``gt_x`` and one of ``slam_x``/``est_x``/``estimate_x``.
+    """
+    if path.suffix.lower() != ".csv":
+        return None
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            header = fh.readline()
+    except OSError:
+        return None
+    cols = {c.strip().lower() for c in header.split(",")}
+    if "gt_x" not in cols:
+        return None
+    for est in _PAIRED_EST:
+        if est in cols:
+            return est[:-1], "gt_"
+    return None
+
+
+def _mirror_folders(folder: Path, sequence: str) -> list[Path]:
+    """``trajectories/<group>/.../<sequence>`` folders beside a ``maps/<group>/...`` tree."""
+    parts = folder.resolve().parts
+    out: list[Path] = []
+    for i in range(len(parts) - 2, -1, -1):
+        if parts[i] != "maps":
+            continue
+        group_root = Path(*parts[:i]) / "trajectories" / parts[i + 1]
+        if not group_root.is_dir():
+            continue
+        for sub, dirs, _ in os.walk(group_root):
+            dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+            if Path(sub).name == sequence:
+                out.append(Path(sub))
+        break
+    return out
+
+
+def _flat_trajectories(
+    folder: Path, algorithm: str, algos: list[str], sequence: str, root: Path
+) -> tuple[Path | None, Path | None]:
+    traj: Path | None = None
+    gt: Path | None = None
+    search = [folder, *_mirror_folders(folder, sequence)]
+    for where in search:
+        try:
+            files = sorted(p for p in where.iterdir() if p.is_file())
+        except OSError:
+            continue
+        files = _trajectory_files(files)
+        mine = [p for p in files if _belongs_to(p.stem, algorithm, algos)]
+        pick = _pick_trajectory(mine, sequence)
+        if traj is None and pick is not None:
+            traj = pick
+        if gt is None:
+            gt = _find_groundtruth([where], sequence)
+        if traj is not None and gt is not None:
+            break
+    if gt is None and root != folder:
+        gt = _find_groundtruth([], sequence, root)
+    if gt is None and traj is not None and _is_paired_log(traj):
+        gt = traj
+    return traj, gt
+
+
+def _belongs_to(stem: str, algorithm: str, algos: list[str]) -> bool:
+    """Is ``stem`` a trajectory of ``algorithm`` (longest algorithm prefix wins)?"""
+
+    def matches(a: str) -> bool:
+        return stem == a or stem.startswith(a + "_") or stem.startswith(a + ".")
+
+    if not matches(algorithm):
+        return False
+    return not any(len(a) > len(algorithm) and matches(a) for a in algos)

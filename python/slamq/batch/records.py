@@ -1,0 +1,321 @@
+"""One result record per map: the columns, the content hash, and the per-map worker.
+
+:func:`evaluate_run` is what every executor (thread pool, process pool, Dask worker) runs
+for one :class:`~slamq.batch.discover.Run`. It never raises for a bad map: the failure
+becomes the record's ``error`` (``"file: reason"``) and the batch goes on.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from dataclasses import fields
+from pathlib import Path
+from typing import Any
+
+from slamq.batch.discover import Run, paired_columns, yaml_image
+from slamq.errors import ParamError, SlamqError
+from slamq.params import Params
+from slamq.quality import MapQuality
+
+__all__ = [
+    "RUN_COLUMNS",
+    "QUALITY_COLUMNS",
+    "ATE_COLUMNS",
+    "ATE_STATS",
+    "columns",
+    "content_hash",
+    "map_files",
+    "evaluate_run",
+    "EvalOptions",
+]
+
+#: Where the map belongs, and how the record was made.
+RUN_COLUMNS = (
+    "map", "algorithm", "sequence", "run", "trajectory", "groundtruth",
+    "hash", "config", "unknown_value", "error", "seconds",
+)
+_PARAM_COLUMNS = tuple(f"param_{f.name}" for f in fields(Params))
+#: Every key of ``MapQuality.to_dict()`` (``curve`` is dropped unless asked for).
+QUALITY_COLUMNS = tuple(
+    f.name for f in fields(MapQuality) if f.name != "params"
+) + _PARAM_COLUMNS
+ATE_STATS = ("rmse", "mean", "median", "std", "min", "max", "n")
+#: Trajectory error against ground truth (SPEC section 6), when both are known.
+ATE_COLUMNS = tuple(f"ate_{s}" for s in ATE_STATS) + ("ate_error",)
+
+_READ_CHUNK = 1 << 20
+
+
+def columns(curve: bool = False) -> tuple[str, ...]:
+    """The record keys, in order (``curve`` only when asked for).
+
+    Examples
+    --------
+    >>> cols = columns()
+    >>> cols[:3], "corners" in cols, "curve" in cols, "ate_rmse" in cols
+    (('map', 'algorithm', 'sequence'), True, False, True)
+    """
+    q = QUALITY_COLUMNS if curve else tuple(c for c in QUALITY_COLUMNS if c != "curve")
+    return RUN_COLUMNS + q + ATE_COLUMNS
+
+
+def map_files(path: os.PathLike[str] | str) -> list[Path]:
+    """The files a map is made of: a YAML and the image it names, or an image alone.
+
+    The image is resolved like the loader does: relative to the YAML's folder; an
+    absolute path that does not exist falls back to the file of that name beside the YAML.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "m.yaml").write_text("image: m.pgm\\nresolution: 0.05\\n")
+    >>> [p.name for p in map_files(d / "m.yaml")]
+    ['m.yaml', 'm.pgm']
+    """
+    path = Path(path)
+    if path.suffix.lower() not in (".yaml", ".yml"):
+        return [path]
+    img = yaml_image(path)
+    return [path] if img is None else [path, img]
+
+
+def content_hash(path: os.PathLike[str] | str) -> str:
+    """Hex SHA-1 of a map's bytes: the YAML (if any) and its image, each length-prefixed.
+
+    SHA-1 here is a fast content fingerprint (hardware accelerated, about 2 GB/s), not a
+    security measure. A file that cannot be read raises ``OSError``.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "a.pgm").write_bytes(b"P5 1 1 255 \\x00")
+    >>> content_hash(d / "a.pgm") == content_hash(d / "a.pgm"), len(content_hash(d / "a.pgm"))
+    (True, 40)
+    """
+    h = hashlib.sha1(usedforsecurity=False) if _HAS_USEDFORSECURITY else hashlib.sha1()
+    for f in map_files(path):
+        data = f.read_bytes()
+        h.update(len(data).to_bytes(8, "little"))
+        h.update(data)
+    return h.hexdigest()
+
+
+try:
+    hashlib.sha1(usedforsecurity=False)
+    _HAS_USEDFORSECURITY = True
+except TypeError:  # pragma: no cover - Python < 3.9 builds
+    _HAS_USEDFORSECURITY = False
+
+
+class EvalOptions:
+    """The per-map settings of a batch: metric parameters and what else to compute.
+
+    Parameters
+    ----------
+    params : dict
+        Keywords of :func:`slamq.evaluate`: the :class:`slamq.Params` fields,
+        ``unknown_value``, ``curve`` and ``verify``.
+    ate_align : str
+        Alignment for the trajectory error (``se2`` by default; see SPEC section 6).
+    ate_max_dt : float
+        Largest timestamp difference when associating poses, seconds.
+    ate_unsorted : {"error", "last", "sort"}
+        What to do with a trajectory whose timestamps go backwards (a restarted log):
+        record an ``ate_error`` (default), keep the rows after the last restart, or sort.
+    """
+
+    _EVAL_KEYS = frozenset({"unknown_value", "curve", "verify"})
+
+    def __init__(
+        self, params: dict[str, Any] | None = None, *, ate_align: str = "se2",
+        ate_max_dt: float = 0.01, ate_unsorted: str = "error",
+    ) -> None:
+        params = dict(params or {})
+        extra = {k: params.pop(k) for k in list(params) if k in self._EVAL_KEYS}
+        self.params = Params.from_kwargs(**params)
+        uv = extra.get("unknown_value")
+        bad_uv = isinstance(uv, bool) or not isinstance(uv, int) or not 0 <= uv <= 255
+        if uv is not None and bad_uv:
+            raise ParamError(f"unknown_value must be an integer in 0..255, got {uv!r}")
+        self.unknown_value: int | None = uv
+        self.curve = bool(extra.get("curve", False))
+        self.verify = bool(extra.get("verify", False))
+        self.ate_align = str(ate_align)
+        self.ate_max_dt = float(ate_max_dt)
+        if ate_unsorted not in ("error", "last", "sort"):
+            raise ParamError(
+                f"ate_unsorted must be 'error', 'last' or 'sort', not {ate_unsorted!r}"
+            )
+        self.ate_unsorted = ate_unsorted
+
+    def __getstate__(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
+    def columns(self) -> tuple[str, ...]:
+        return columns(self.curve)
+
+    @property
+    def config(self) -> str:
+        """Every setting that changes a record, as a short JSON string (stored per record):
+        the metric parameters, ``unknown_value``, ``curve`` and the ATE options."""
+        return json.dumps(
+            {
+                "params": self.params.to_dict(),
+                "unknown_value": self.unknown_value,
+                "curve": self.curve,
+                "ate": [self.ate_align, self.ate_max_dt, self.ate_unsorted],
+            },
+            sort_keys=True,
+            separators=(",", ":"),
+        )
+
+    @staticmethod
+    def fingerprint(record: dict[str, Any]) -> str:
+        """What must match for a stored record to count as done (besides having no
+        error): the map's content hash, the settings and the trajectory files."""
+        return json.dumps(
+            [
+                record.get("hash"),
+                record.get("config"),
+                record.get("trajectory") or None,
+                record.get("groundtruth") or None,
+            ]
+        )
+
+    def expected_fingerprint(self, run: Run, digest: str | None) -> str:
+        return self.fingerprint(
+            {"hash": digest, "config": self.config, "trajectory": _str(run.trajectory),
+             "groundtruth": _str(run.groundtruth)}
+        )
+
+
+def _str(p: Path | None) -> str | None:
+    return None if p is None else str(p)
+
+
+def _message(where: str, exc: BaseException) -> str:
+    msg = str(exc) or type(exc).__name__
+    if not isinstance(exc, SlamqError):
+        msg = f"{type(exc).__name__}: {msg}"
+    msg = " ".join(msg.split())  # one line
+    return msg if where in msg else f"{where}: {msg}"
+
+
+def evaluate_run(
+    run: Run, options: EvalOptions, done: str | None = None
+) -> dict[str, Any] | None:
+    """Evaluate one run and return its record, or None when ``done`` says it is current.
+
+    Parameters
+    ----------
+    run : Run
+    options : EvalOptions
+    done : str, optional
+        The fingerprint of a stored, error-free record of this run (resume). When the
+        map's content hash gives the same fingerprint, nothing is evaluated.
+
+    Returns
+    -------
+    dict or None
+        Keys :func:`columns`; ``error`` is None or ``"file: reason"``.
+
+    Examples
+    --------
+    >>> rec = evaluate_run(Run("no/such/map.yaml", "a", "s"), EvalOptions())
+    >>> rec["error"]
+    'no/such/map.yaml: FileNotFoundError: no such file'
+    """
+    t0 = time.perf_counter()
+    rec: dict[str, Any] = dict.fromkeys(options.columns())
+    rec.update(
+        map=str(run.map), algorithm=run.algorithm, sequence=run.sequence, run=run.run,
+        trajectory=_str(run.trajectory), groundtruth=_str(run.groundtruth),
+        unknown_value=options.unknown_value, config=options.config,
+    )
+    rec.update({f"param_{k}": v for k, v in options.params.to_dict().items()})
+    where = str(run.map)
+    try:
+        digest: str | None = content_hash(run.map)
+    except FileNotFoundError:
+        digest = None
+        rec["error"] = f"{where}: FileNotFoundError: no such file"
+    except OSError as exc:
+        digest = None
+        rec["error"] = _message(where, exc)
+    rec["hash"] = digest
+    if digest is not None and done is not None:
+        if options.expected_fingerprint(run, digest) == done:
+            return None
+    if rec["error"] is None:
+        try:
+            from slamq.quality import evaluate
+
+            q = evaluate(
+                str(run.map), threads=1, curve=options.curve, verify=options.verify,
+                unknown_value=options.unknown_value, **options.params.to_dict(),
+            )
+            d = q.to_dict()
+            if not options.curve:
+                d.pop("curve", None)
+            rec.update(d)
+        except ImportError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a bad map is a row, never a crash
+            rec["error"] = _message(where, exc)
+    if rec["error"] is None and run.trajectory is not None and run.groundtruth is not None:
+        rec.update(_ate_fields(run, options))
+    rec["seconds"] = time.perf_counter() - t0
+    return rec
+
+
+def _ate_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
+    """``ate_*`` of the run's trajectory against its ground truth (SPEC section 6)."""
+    try:
+        from slamq import trajectory as T
+    except ImportError:  # the trajectory module is not part of this build
+        return {}
+    assert run.trajectory is not None and run.groundtruth is not None
+    try:
+        est, gt = _load_pair(T, run.trajectory, run.groundtruth, options.ate_unsorted)
+        res = T.ate(gt, est, align=options.ate_align, max_dt=options.ate_max_dt)
+    except Exception as exc:  # noqa: BLE001 - a bad trajectory is a field, never a crash
+        return {"ate_error": _message(str(run.trajectory), exc)}
+    out: dict[str, Any] = {f"ate_{s}": float(getattr(res, s)) for s in ATE_STATS if s != "n"}
+    out["ate_n"] = int(res.n)
+    return out
+
+
+def _load_pair(T: Any, traj: Path, gt: Path, unsorted: str) -> tuple[Any, Any]:
+    """Load estimate and ground truth; a paired pose log gives both from one file."""
+    cols = paired_columns(traj) if traj == gt else None
+    if cols is None:
+        return (
+            T.load_trajectory(traj, unsorted=unsorted),
+            T.load_trajectory(gt, unsorted=unsorted),
+        )
+    est_prefix, gt_prefix = cols
+    with open(traj, encoding="utf-8", errors="replace") as fh:
+        header = [c.strip() for c in fh.readline().split(",")]
+    t_col = next((c for c in header if c.lower().startswith(("timestamp", "time", "t"))),
+                 header[0])
+
+    def mapping(prefix: str) -> dict[str, str]:
+        m = {"t": t_col}
+        for axis in ("x", "y", "z", "yaw", "qx", "qy", "qz", "qw"):
+            name = next((c for c in header if c.lower() == prefix + axis), None)
+            if name is not None:
+                m[axis] = name
+        return m
+
+    return (
+        T.load_trajectory(traj, columns=mapping(est_prefix), unsorted=unsorted),
+        T.load_trajectory(traj, columns=mapping(gt_prefix), unsorted=unsorted),
+    )
