@@ -184,15 +184,16 @@ def _write_gif(frames: list[np.ndarray], path: Path, duration_ms: int) -> Path:
     return path
 
 
-def bag_maps(path: Path) -> list[OccupancyMap] | None:
-    """Every map on the bag's ``/map`` topic, when :mod:`slamq.bags` can read them, else None."""
+def bag_maps(path: Path, topic: str = "/map") -> list[OccupancyMap] | None:
+    """Every map on the bag's ``/map`` topic (:func:`slamq.bags.read_bag_maps`), else None.
+
+    At most :data:`MAX_FRAMES` maps are kept (evenly spaced, the last one included).
+    """
     try:
-        from slamq import bags
+        from slamq.bags import bag_topics, read_bag_maps
     except ImportError:
         return None
-    reader = getattr(bags, "read_maps", None)
-    if reader is None:
+    if topic not in bag_topics(path):
         return None
-    maps = reader(path)
-    maps = [m[-1] if isinstance(m, tuple) else m for m in maps]
-    return [m for m in maps if isinstance(m, OccupancyMap)] or None
+    maps = [m for _, m in read_bag_maps(path, topic)]
+    return _subsample(maps, MAX_FRAMES) or None

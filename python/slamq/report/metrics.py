@@ -220,7 +220,8 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
 
     On each metric with values, algorithms are ranked by their mean over runs (1 = lowest
     = best; ties share the average rank; an algorithm without a value on a metric is not
-    ranked on it). The overall score is the mean of an algorithm's ranks; ties are broken
+    ranked on it, and the ranks of those that have it are stretched to span 1..N).
+    The overall score is the mean of an algorithm's ranks; ties are broken
     by the ATE RMSE rank, then by name. A metric "disagrees" when its best algorithm(s) do
     not include the overall winner.
 
@@ -258,6 +259,10 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
             continue
         used.append(m)
         r = means.rank(method="average", ascending=True)
+        # stretch to 1..N when only some of the N algorithms have this metric (e.g. ATE),
+        # so that lacking a metric neither helps nor hurts
+        if 1 < len(means) < len(algorithms):
+            r = 1 + (r - 1) * (len(algorithms) - 1) / (len(means) - 1)
         ranks[m.key] = {str(a): float(v) for a, v in r.items()}
         low = means.min()
         best[m.key] = sorted(str(a) for a, v in means.items() if v == low)

@@ -21,6 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from matplotlib.ticker import FuncFormatter, NullFormatter  # noqa: E402
 
 from slamq.report.metrics import Metric  # noqa: E402
 
@@ -126,6 +127,9 @@ def metric_figure(
             else:
                 ax.set_yscale("symlog", linthresh=1.0)
                 ax.set_ylim(bottom=0)
+            plain = FuncFormatter(lambda v, _pos: f"{v:g}")
+            ax.yaxis.set_major_formatter(plain)
+            ax.yaxis.set_minor_formatter(plain if _decades(allv) < 1.0 else NullFormatter())
         ax.grid(axis="y", alpha=0.3, which="both")
         if i % cols == 0:
             ax.set_ylabel(metric.heading + (" (log)" if metric.log else ""))
@@ -134,6 +138,11 @@ def metric_figure(
     fig.savefig(path, dpi=_DPI)
     plt.close(fig)
     return counts
+
+
+def _decades(v: np.ndarray) -> float:
+    v = v[v > 0]
+    return float(np.log10(v.max() / v.min())) if len(v) else 0.0
 
 
 def curve_figure(curve: Sequence[int], sweep_values: Sequence[int], best_u: int,

@@ -66,6 +66,8 @@ summary{cursor:pointer;color:#0a58ca}
 .swatch{display:inline-block;width:13px;height:13px;background:#1f77b4;opacity:.75;
  vertical-align:middle}
 .big img{max-width:100%;height:auto;border:1px solid #ccc}
+.top{display:flex;gap:24px;align-items:flex-start;flex-wrap:wrap}
+.mapcol{flex:1;min-width:320px}
 footer{color:#777;font-size:.85em;margin-top:3em}
 a{color:#0a58ca}
 """
@@ -244,12 +246,13 @@ def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool) -> 
                     f"the results file says {key} = {int(rec[key])}, the map as loaded now "
                     f"gives {drawn} (file changed, or other parameters?)")
         sections.append(
-            "<h2>The map</h2><p class=\"legend\"><span><i class=\"ring\"></i> "
+            "<div class=\"mapcol\"><h2>The map</h2><p class=\"legend\">"
+            "<span><i class=\"ring\"></i> "
             f"{ov.n_corners} corners</span><span><i class=\"swatch\"></i> {ov.n_regions} "
             f"enclosed areas, counted with unknown cells set to u = {u}</span>"
             "<span>unknown cells: grey; north up</span></p>"
             f"<p class=\"big\"><a href=\"../{mp.full}\"><img src=\"../{mp.full}\" "
-            f"alt=\"map with corners and enclosed areas\"></a></p>")
+            f"alt=\"map with corners and enclosed areas\"></a></p></div>")
         curve_png = f"img/{mp.slug}_curve.png"
         curve_figure(list(quality.curve), list(params.sweep_values),
                      int(quality.enclosed_unknown_value), out / curve_png)
@@ -267,18 +270,20 @@ def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool) -> 
     notes = "".join(f"<p class=\"warn\">{_e(n)}</p>" for n in mp.notes)
     head = (f"<p><a href=\"../index.html\">&larr; back to the report</a></p>"
             f"<h1>{_e(rec['algorithm'])} on {_e(rec['sequence'])}, run {_e(rec['run'])}</h1>"
-            f"<p class=\"sub\">{_e(rec['map'])}</p>{notes}"
-            f"<h2>Numbers</h2><table class=\"numbers\">{rows}</table>")
+            f"<p class=\"sub\">{_e(rec['map'])}</p>{notes}")
+    numbers = f"<div><h2>Numbers</h2><table class=\"numbers\">{rows}</table></div>"
+    first = sections[0] if sections else ""
+    rest = "".join(s for s in sections[1:] if s)
     (out / mp.page).write_text(
         _page(f"{rec['algorithm']} / {rec['sequence']} / run {rec['run']}",
-              head + "".join(s for s in sections if s)), encoding="utf-8")
+              head + f"<div class=\"top\">{numbers}{first}</div>" + rest), encoding="utf-8")
 
 
 _DETAIL_KEYS = (
     "ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n",
     "occupied_fraction", "corners", "enclosed_areas", "enclosed_unknown_value",
     "proportion", "threshold", "occupied", "free", "unknown", "known", "total",
-    "height", "width", "seconds", "trajectory", "groundtruth", "hash",
+    "height", "width", "seconds", "trajectory", "groundtruth", "ate_error", "hash",
 )
 
 
@@ -300,7 +305,7 @@ def _trajectory_section(rec: dict, grid: Any, out: Path, mp: _MapPage) -> str:
     png = f"img/{mp.slug}_traj.png"
     try:
         caption = draw_trajectory(rec, grid, out / png)
-    except (SlamqError, OSError, ValueError) as exc:
+    except Exception as exc:  # noqa: BLE001 - a bad trajectory is a note, never a crash
         return f"<h2>Trajectory</h2><p class=\"warn\">not drawn: {_e(exc)}</p>"
     return (f"<h2>Trajectory over the map</h2><p>{_e(caption)}</p>"
             f"<p class=\"big\"><img src=\"../{png}\" alt=\"trajectory coloured by ATE\"></p>")
@@ -376,9 +381,12 @@ def _index_body(
     for s in sequences:
         r = rankings[s]
         sent = _e(r.sentence())
+        head = _e(f"{s}:")
+        if sent.startswith(head):
+            sent = sent[len(head):]
         if r.winner and len(r.order) > 1:
             sent = sent.replace(_e(r.winner), f"<b>{_e(r.winner)}</b>", 1)
-        parts.append(f"<li><a href=\"#seq-{_slug(s)}\">{sent}</a></li>")
+        parts.append(f"<li><a href=\"#seq-{_slug(s)}\">{_e(s)}</a>:{sent}</li>")
     if not sequences:
         parts.append("<li>No map was evaluated successfully.</li>")
     parts.append("</ul></section>")
@@ -411,7 +419,8 @@ def _how_to_read() -> str:
     return (
         "<details id=\"how\"><summary>How to read this page</summary><ul>" + items +
         "<li><b>Ranking</b>: on each metric the algorithms are ranked by their mean over runs "
-        "(1 = lowest; ties share the rank); an algorithm's score is its mean rank over the "
+        "(1 = lowest; ties share the rank; when only some algorithms have a metric, such as "
+        "ATE, their ranks are stretched to 1..N); an algorithm's score is its mean rank over the "
         "metrics it has; ties go to the better ATE RMSE. &#9733; marks the best value per "
         "column. A metric <i>disagrees</i> when its best algorithm is not the overall "
         "winner.</li><li>The map metrics compare maps of one sequence with similar coverage "
@@ -467,7 +476,7 @@ def _sequence_section(
     for alg in ranking.order:
         picks = gallery.get((seq, alg), [])
         figs = []
-        for which, i in zip(("best", "worst") if len(picks) > 1 else ("only run",), picks):
+        for which, i in zip(("best", "worst") if len(picks) > 1 else ("",), picks):
             figs.append(_thumb(pages.get(i), ok.loc[i], which))
         parts.append(f"<div class=\"card\"><h4>{_e(alg)}</h4><div class=\"pair\">"
                      + "".join(figs) + "</div></div>")
@@ -477,7 +486,7 @@ def _sequence_section(
 
 
 def _thumb(mp: _MapPage | None, rec: pd.Series, which: str) -> str:
-    label = f"{which}: run {rec['run']}"
+    label = f"{which}: run {rec['run']}" if which else f"run {rec['run']}"
     nums = ", ".join(f"{m.label} {format_value(_num(rec.get(m.key)))}" for m in METRICS
                      if usable(rec.get(m.key)) and math.isfinite(_num(rec.get(m.key))))
     if mp is None or not mp.thumb:

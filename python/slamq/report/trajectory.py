@@ -47,31 +47,54 @@ def world_to_cells(grid: OccupancyMap, xy: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def _load_pair(traj: str, gt: str) -> tuple[Any, Any]:
-    try:
-        from slamq.batch.records import _load_pair as batch_pair
-    except ImportError:
-        batch_pair = None
-    if batch_pair is not None:
-        return batch_pair(Path(traj), Path(gt))
+    """Estimate and ground truth; a paired pose log (``slam_x ... gt_x``) gives both.
+
+    Same reading as ``slamq batch`` (its ``paired_columns`` names the column prefixes).
+    """
     from slamq.trajectory import load_trajectory
 
-    return load_trajectory(traj), load_trajectory(gt)
+    cols = None
+    if Path(traj) == Path(gt):
+        try:
+            from slamq.batch.discover import paired_columns
+        except ImportError:
+            paired_columns = None
+        cols = paired_columns(Path(traj)) if paired_columns else None
+    if cols is None:
+        return load_trajectory(traj), load_trajectory(gt)
+    with open(traj, encoding="utf-8", errors="replace") as fh:
+        header = [c.strip() for c in fh.readline().split(",")]
+    t_col = next((c for c in header if c.lower().startswith(("timestamp", "time", "t"))),
+                 header[0])
+
+    def mapping(prefix: str) -> dict[str, str]:
+        m = {"t": t_col}
+        for axis in ("x", "y", "z", "yaw", "qx", "qy", "qz", "qw"):
+            name = next((c for c in header if c.lower() == prefix + axis), None)
+            if name is not None:
+                m[axis] = name
+        return m
+
+    return (load_trajectory(traj, columns=mapping(cols[0])),
+            load_trajectory(traj, columns=mapping(cols[1])))
 
 
 def _per_pose(est: Any, gt: Any, errors: np.ndarray, max_dt: float) -> np.ndarray:
-    """Indices of the estimate's poses the ATE errors belong to."""
-    n = len(est.timestamps)
-    if len(errors) == n:
-        return np.arange(n)
-    from slamq.trajectory.sync import matching_indices
+    """Indices of the estimate's poses the ATE errors belong to (the ATE association)."""
+    from slamq.trajectory import associate
 
-    if n <= len(gt.timestamps):
-        i_est, _ = matching_indices(est.timestamps, gt.timestamps, max_dt)
-    else:
-        _, i_est = matching_indices(gt.timestamps, est.timestamps, max_dt)
+    _, i_est = associate(gt, est, max_dt=max_dt)
     if len(i_est) != len(errors):
         raise TrajectoryError(f"{est.source}: cannot match the ATE errors to poses")
     return np.asarray(i_est)
+
+
+def _number(x: Any, default: float) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return default
+    return v if math.isfinite(v) else default
 
 
 def draw_trajectory(record: dict, grid: OccupancyMap, path: Path) -> str:
@@ -101,8 +124,9 @@ def draw_trajectory(record: dict, grid: OccupancyMap, path: Path) -> str:
     from slamq.trajectory import ate
 
     est, ref = _load_pair(traj, str(gt))
-    max_dt = float(record.get("param_ate_max_dt") or 0.01)
-    res = ate(ref, est, max_dt=max_dt)
+    max_dt = _number(record.get("ate_max_dt"), 0.01)
+    align = record.get("ate_align") if isinstance(record.get("ate_align"), str) else "se2"
+    res = ate(ref, est, align=align, max_dt=max_dt)
     errors = np.asarray(res.errors, float)
     idx = _per_pose(est, ref, errors, max_dt)
     rows, cols = world_to_cells(grid, est.positions[idx, :2])
