@@ -13,6 +13,9 @@ import cv2
 import numpy as np
 import pytest
 import slamq
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 from slamq.errors import MapError, MapWarning, ParamError
 from slamq.maps import OccupancyMap, from_occupancy_grid, load_map
 
@@ -204,6 +207,13 @@ def test_map_saver_rule_with_nav2_thresholds_warns_and_keeps_205_unknown(tmp_pat
     assert m.unknown.tolist() == [[False, True, False], [False, True, False]]
     assert m.meta["unknown_rule"].startswith("map_saver")
     assert any("nav2.yaml" in w for w in m.meta["warnings"])
+
+
+def test_unknown_value_replaces_the_205_rule_and_its_warning(tmp_path):
+    write_pgm(tmp_path / "nav2.pgm", np.array([[0, 205, 254]], np.uint8))
+    y = write_yaml(tmp_path / "nav2.yaml", "nav2.pgm", free_thresh=0.25)
+    m = load_no_warning(y, unknown_value=254)
+    assert m.unknown.tolist() == [[False, False, True]]
 
 
 def test_map_saver_rule_with_ros1_thresholds_is_silent(tmp_path):
@@ -680,3 +690,43 @@ def test_pnm_parser_agrees_with_opencv_on_the_corpus(shared_data):
         ours = load_quiet(p).meta["pixels"]
         theirs = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
         assert np.array_equal(ours, theirs), p
+
+
+# ------------------------------------------------------------ property: an independent loop
+
+def _expected_unknown(pixel: int, negate: bool, occ: float, free: float, saver: bool) -> bool:
+    if saver:
+        return pixel == 205
+    v = 255 - pixel if negate else pixel
+    p = (255 - v) / 255
+    return free <= p <= occ
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    img=arrays(np.uint8, st.tuples(st.integers(1, 12), st.integers(1, 12)),
+               elements=st.sampled_from([0, 1, 89, 90, 128, 204, 205, 206, 254, 255])),
+    negate=st.booleans(),
+    occ=st.sampled_from([0.65, 0.5, 100 / 255, 1.0]),
+    free=st.sampled_from([0.196, 0.25, 50 / 255, 0.0]),
+    ascii_=st.booleans(),
+)
+def test_pgm_round_trip_and_unknown_rule_match_a_per_pixel_loop(
+    tmp_path_factory, img, negate, occ, free, ascii_
+):
+    d = tmp_path_factory.mktemp("prop")
+    h, w = img.shape
+    if ascii_:
+        body = "\n".join(" ".join(str(int(x)) for x in row) for row in img)
+        (d / "m.pgm").write_bytes(f"P2\n{w} {h}\n255\n{body}\n".encode())
+    else:
+        write_pgm(d / "m.pgm", img)
+    y = write_yaml(d / "m.yaml", "m.pgm", negate=int(negate), occupied_thresh=repr(occ),
+                   free_thresh=repr(free))
+    m = load_quiet(y)
+    saver = set(np.unique(img).tolist()) <= {0, 205, 254, 255}
+    expected = [[_expected_unknown(int(x), negate, occ, free, saver) for x in row]
+                for row in img]
+    assert m.unknown.tolist() == expected
+    assert m.meta["pixels"].tolist() == img.tolist()
+    assert m.values.tolist() == (255 - img if negate else img).tolist()

@@ -653,15 +653,16 @@ def _load_yaml(
             origin = (0.0, 0.0, 0.0)
             warnings_out.append(f"{path}: the YAML has no 'origin'; using [0, 0, 0]")
 
+    # The unknown value's range depends on the mode (raw data may say -1).
+    n = None if unknown_value is None else _check_unknown_value(
+        unknown_value, path, grid=mode == "raw")
     image_path = _resolve_image(path, image, warnings_out)
     try:
         img = _read_image_file(image_path)
     except MapError as exc:
         raise MapError(f"{path}: {exc}") from None
-    if mode == "raw" and img.alpha is not None:
-        pass  # map_server ignores alpha in raw mode
     values, unknown, interp = _interpret(
-        img, mode=mode, negate=negate, occ=occ, free=free, unknown_value=unknown_value,
+        img, mode=mode, negate=negate, occ=occ, free=free, unknown_value=n,
         where=str(path), warn_disagreement=True, warnings_out=warnings_out,
     )
     meta = {
@@ -927,12 +928,8 @@ def _load(
             raise _fail(where, "is a directory (not a ROS 2 bag); use "
                                "slamq.maps.discover_maps to find the maps in a folder")
         if path.suffix.lower() in YAML_SUFFIXES:
-            # The unknown value's range depends on the mode, known only after parsing.
-            m = _load_yaml(path, unknown_value=None, resolution=res, origin=org,
-                           warnings_out=warnings_out)
-            if unknown_value is not None:
-                m = _reapply(m, unknown_value, None, None)
-            return m
+            return _load_yaml(path, unknown_value=unknown_value, resolution=res, origin=org,
+                              warnings_out=warnings_out)
         n = None if unknown_value is None else _check_unknown_value(
             unknown_value, where, grid=False)
         img = _read_image_file(path)
