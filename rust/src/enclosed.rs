@@ -1,0 +1,432 @@
+//! Enclosed areas (SPEC section 4, paper III.C): for every unknown value `u`, the map with its
+//! unknown cells set to `u` is split at its Otsu threshold `T_u`, and the free components that
+//! touch no image border (and have at least `min_area` cells) are counted.
+//!
+//! Literally that is 256 labellings. Here:
+//! 1. `T_u` for every `u` comes from one histogram ([`threshold_table`]).
+//! 2. A binarisation is fixed by which known values are free (`v > T_u`, so only the rank of
+//!    `T_u` among the known values present matters) and whether unknown cells are free
+//!    (`u > T_u`). Most maps have two or three distinct binarisations across all 256 `u`.
+//! 3. Each family (unknown free / unknown not free) with few distinct thresholds is labelled
+//!    directly by runs ([`Components`]); a family with many (graded maps) is counted in one
+//!    incremental union-find pass over the known cells in decreasing value order, reading the
+//!    count off as the threshold falls past each needed value.
+//!
+//! Both paths count exactly what the literal definition counts, for any thread count.
+
+use crate::grid::{Grid, Histogram};
+use crate::label::{Components, RowSource};
+use crate::otsu::threshold_table;
+use std::collections::BTreeMap;
+
+/// Parameters of SPEC section 4.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EnclosedParams {
+    /// `u` runs over `(0..256).step_by(sweep_step)`.
+    pub sweep_step: usize,
+    /// Components smaller than this are not counted.
+    pub min_area: u32,
+}
+
+impl Default for EnclosedParams {
+    fn default() -> Self {
+        EnclosedParams {
+            sweep_step: 1,
+            min_area: 1,
+        }
+    }
+}
+
+/// A family with at most this many distinct thresholds is labelled directly, one run
+/// labelling per threshold; more go through the incremental pass.
+pub const DIRECT_MAX: usize = 4;
+
+/// Known cells are free iff `v >= cut` (`cut` in 0..=256); unknown cells iff `unknown_free`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+struct Binarisation {
+    unknown_free: bool,
+    cut: u16,
+}
+
+/// The rows of one binarisation, computed on the fly from the grid.
+struct FreeRows<'a> {
+    grid: &'a Grid<'a>,
+    cut: u16,
+    unknown_free: bool,
+}
+
+impl RowSource for FreeRows<'_> {
+    #[inline]
+    fn row<'b>(&'b self, r: usize, buf: &'b mut [u8]) -> &'b [u8] {
+        let (vals, unk) = (self.grid.value_row(r), self.grid.unknown_row(r));
+        let uf = self.unknown_free as u8;
+        for ((b, &v), &u) in buf.iter_mut().zip(vals).zip(unk) {
+            let u = u as u8;
+            *b = (((v as u16) >= self.cut) as u8 & (u ^ 1)) | (uf & u);
+        }
+        buf
+    }
+}
+
+/// `count_u` for every swept `u` (in `(0..256).step_by(sweep_step)` order).
+pub fn sweep(grid: &Grid, hist: &Histogram, params: &EnclosedParams) -> Vec<usize> {
+    let table = threshold_table(hist);
+    // cut_of[t]: the smallest present known value above t (256 if none), so that the known
+    // free set {v > t} is {v >= cut_of[t]}; equal cuts mean equal binarisations.
+    let mut cut_of = [256u16; 256];
+    let mut next = 256u16;
+    for t in (0..256).rev() {
+        cut_of[t] = next;
+        if hist.known[t] > 0 {
+            next = t as u16;
+        }
+    }
+    let step = params.sweep_step.max(1);
+    let keys: Vec<Binarisation> = (0..256usize)
+        .step_by(step)
+        .map(|u| {
+            let t = table[u];
+            Binarisation {
+                unknown_free: hist.unknown > 0 && u > t as usize,
+                cut: cut_of[t as usize],
+            }
+        })
+        .collect();
+    let mut counts: BTreeMap<Binarisation, usize> = keys.iter().map(|k| (*k, 0)).collect();
+    for unknown_free in [false, true] {
+        let cuts: Vec<u16> = counts
+            .keys()
+            .filter(|k| k.unknown_free == unknown_free)
+            .map(|k| k.cut)
+            .collect();
+        if cuts.is_empty() {
+            continue;
+        }
+        let found = if cuts.len() <= DIRECT_MAX {
+            cuts.iter()
+                .map(|&cut| (cut, direct(grid, cut, unknown_free, params.min_area)))
+                .collect()
+        } else {
+            incremental(grid, hist, unknown_free, &cuts, params.min_area)
+        };
+        for (cut, n) in found {
+            counts.insert(Binarisation { unknown_free, cut }, n);
+        }
+    }
+    keys.iter().map(|k| counts[k]).collect()
+}
+
+/// One binarisation labelled by runs.
+fn direct(grid: &Grid, cut: u16, unknown_free: bool, min_area: u32) -> usize {
+    if cut == 256 && !unknown_free {
+        return 0; // nothing is free
+    }
+    let rows = FreeRows {
+        grid,
+        cut,
+        unknown_free,
+    };
+    Components::label(&rows, grid.height, grid.width).count_enclosed(min_area)
+}
+
+const ABSENT: i32 = i32::MIN;
+
+/// Union-find over cells with incremental counting of "good" components (no border cell,
+/// at least `min_area` cells). Roots hold `-size`; absent cells hold [`ABSENT`].
+struct Forest {
+    parent: Vec<i32>,
+    border: Vec<u64>,
+    min_area: u32,
+    good: usize,
+}
+
+impl Forest {
+    #[inline]
+    fn find(&mut self, mut x: usize) -> usize {
+        loop {
+            let p = self.parent[x];
+            if p < 0 {
+                return x;
+            }
+            let gp = self.parent[p as usize];
+            if gp < 0 {
+                return p as usize;
+            }
+            self.parent[x] = gp;
+            x = gp as usize;
+        }
+    }
+
+    #[inline]
+    fn is_good(&self, root: usize) -> bool {
+        let size = (-(self.parent[root] as i64)) as u64;
+        (self.border[root >> 6] >> (root & 63)) & 1 == 0 && size >= self.min_area as u64
+    }
+
+    #[inline]
+    fn add(&mut self, x: usize, on_border: bool) {
+        self.parent[x] = -1;
+        if on_border {
+            self.border[x >> 6] |= 1 << (x & 63);
+        }
+        self.good += self.is_good(x) as usize;
+    }
+
+    #[inline]
+    fn join(&mut self, a: usize, b: usize) {
+        let ra = self.find(a);
+        let rb = self.find(b);
+        if ra == rb {
+            return;
+        }
+        self.good -= self.is_good(ra) as usize + self.is_good(rb) as usize;
+        let (sa, sb) = (-(self.parent[ra] as i64), -(self.parent[rb] as i64));
+        let (big, small) = if sa >= sb { (ra, rb) } else { (rb, ra) };
+        // sizes saturate at i32::MAX, above any allowed min_area
+        self.parent[big] = -((sa + sb).min(i32::MAX as i64) as i32);
+        self.parent[small] = big as i32;
+        if (self.border[small >> 6] >> (small & 63)) & 1 == 1 {
+            self.border[big >> 6] |= 1 << (big & 63);
+        }
+        self.good += self.is_good(big) as usize;
+    }
+
+    #[inline]
+    fn present(&self, x: usize) -> bool {
+        self.parent[x] != ABSENT
+    }
+}
+
+/// Every threshold of one family in one pass: known cells join in decreasing value order and
+/// the count of good components is read off each time the cut falls to a needed value.
+fn incremental(
+    grid: &Grid,
+    hist: &Histogram,
+    unknown_free: bool,
+    cuts: &[u16],
+    min_area: u32,
+) -> Vec<(u16, usize)> {
+    let (h, w) = (grid.height, grid.width);
+    let n = h * w;
+    let lowest = *cuts.iter().min().unwrap_or(&256) as usize;
+    // counting sort of the known cells with v >= lowest, by value (raster order within one)
+    let mut start = [0usize; 257];
+    for v in (lowest..256).rev() {
+        start[v] = start[v + 1] + hist.known[v] as usize;
+    }
+    // bucket v occupies order[start[v+1]..start[v]] (descending values first)
+    let mut fill = [0usize; 256];
+    if lowest < 256 {
+        fill[lowest..256].copy_from_slice(&start[lowest + 1..257]);
+    }
+    let mut order = vec![0u32; start[lowest.min(255)]];
+    if lowest < 256 {
+        for (i, (&v, &u)) in grid.values.iter().zip(grid.unknown).enumerate() {
+            if !u && v as usize >= lowest {
+                order[fill[v as usize]] = i as u32;
+                fill[v as usize] += 1;
+            }
+        }
+    }
+    let mut f = Forest {
+        parent: vec![ABSENT; n],
+        border: vec![0u64; n.div_ceil(64)],
+        min_area,
+        good: 0,
+    };
+    let edge = |r: usize, c: usize| r == 0 || c == 0 || r + 1 == h || c + 1 == w;
+    if unknown_free {
+        for r in 0..h {
+            let unk = grid.unknown_row(r);
+            let above = if r > 0 {
+                Some(grid.unknown_row(r - 1))
+            } else {
+                None
+            };
+            for c in 0..w {
+                if !unk[c] {
+                    continue;
+                }
+                let i = r * w + c;
+                f.add(i, edge(r, c));
+                if c > 0 && unk[c - 1] {
+                    f.join(i, i - 1);
+                }
+                if let Some(up) = above {
+                    if c > 0 && up[c - 1] {
+                        f.join(i, i - w - 1);
+                    }
+                    if up[c] {
+                        f.join(i, i - w);
+                    }
+                    if c + 1 < w && up[c + 1] {
+                        f.join(i, i - w + 1);
+                    }
+                }
+            }
+        }
+    }
+    let mut wanted: Vec<u16> = cuts.to_vec();
+    wanted.sort_unstable_by(|a, b| b.cmp(a));
+    let mut out = Vec::with_capacity(wanted.len());
+    let mut v = 256usize; // values >= v have joined
+    for cut in wanted {
+        while v > cut as usize {
+            v -= 1;
+            let bucket = &order[start[v + 1]..start[v]];
+            let (mut r, mut row0) = (0usize, 0usize);
+            for &idx in bucket {
+                let idx = idx as usize;
+                while idx >= row0 + w {
+                    r += 1;
+                    row0 += w;
+                }
+                let c = idx - row0;
+                f.add(idx, edge(r, c));
+                let (up, down, left, right) = (r > 0, r + 1 < h, c > 0, c + 1 < w);
+                if up {
+                    let a = idx - w;
+                    if left && f.present(a - 1) {
+                        f.join(idx, a - 1);
+                    }
+                    if f.present(a) {
+                        f.join(idx, a);
+                    }
+                    if right && f.present(a + 1) {
+                        f.join(idx, a + 1);
+                    }
+                }
+                if left && f.present(idx - 1) {
+                    f.join(idx, idx - 1);
+                }
+                if right && f.present(idx + 1) {
+                    f.join(idx, idx + 1);
+                }
+                if down {
+                    let b = idx + w;
+                    if left && f.present(b - 1) {
+                        f.join(idx, b - 1);
+                    }
+                    if f.present(b) {
+                        f.join(idx, b);
+                    }
+                    if right && f.present(b + 1) {
+                        f.join(idx, b + 1);
+                    }
+                }
+            }
+        }
+        out.push((cut, f.good));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The literal definition: one labelling per swept u.
+    fn literal(grid: &Grid, hist: &Histogram, params: &EnclosedParams) -> Vec<usize> {
+        let table = threshold_table(hist);
+        (0..256usize)
+            .step_by(params.sweep_step)
+            .map(|u| {
+                let t = table[u] as usize;
+                let free: Vec<u8> = grid
+                    .values
+                    .iter()
+                    .zip(grid.unknown)
+                    .map(|(&v, &k)| ((if k { u } else { v as usize }) > t) as u8)
+                    .collect();
+                let rows = crate::label::MaskRows {
+                    mask: &free,
+                    width: grid.width,
+                };
+                Components::label(&rows, grid.height, grid.width).count_enclosed(params.min_area)
+            })
+            .collect()
+    }
+
+    fn lcg(state: &mut u64) -> u64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        *state >> 33
+    }
+
+    #[test]
+    fn rooms() {
+        // two closed rooms in unknown space
+        let rows = [
+            "??????????????",
+            "?#####?#####??",
+            "?#...#?#...#??",
+            "?#...#?#.#.#??",
+            "?#####?#####??",
+            "??????????????",
+        ];
+        let (h, w) = (rows.len(), rows[0].len());
+        let mut v = Vec::new();
+        let mut u = Vec::new();
+        for r in rows {
+            for b in r.bytes() {
+                v.push(match b {
+                    b'#' => 0,
+                    b'.' => 254,
+                    _ => 205,
+                });
+                u.push(b == b'?');
+            }
+        }
+        let g = Grid::new(&v, &u, h, w).unwrap();
+        let hist = g.histogram();
+        let p = EnclosedParams::default();
+        let c = sweep(&g, &hist, &p);
+        assert_eq!(c, literal(&g, &hist, &p));
+        assert_eq!(*c.iter().max().unwrap(), 2);
+    }
+
+    #[test]
+    fn fast_equals_literal_on_graded_noise() {
+        let mut s = 7u64;
+        for trial in 0..40 {
+            let h = 1 + (lcg(&mut s) % 40) as usize;
+            let w = 1 + (lcg(&mut s) % 40) as usize;
+            let levels = 2 + lcg(&mut s) % 200;
+            let unk_pct = lcg(&mut s) % 60;
+            let v: Vec<u8> = (0..h * w)
+                .map(|_| ((lcg(&mut s) % levels) * 255 / levels.max(1)) as u8)
+                .collect();
+            let u: Vec<bool> = (0..h * w).map(|_| lcg(&mut s) % 100 < unk_pct).collect();
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            let hist = g.histogram();
+            for p in [
+                EnclosedParams {
+                    sweep_step: 1,
+                    min_area: 1,
+                },
+                EnclosedParams {
+                    sweep_step: 3,
+                    min_area: 3,
+                },
+            ] {
+                assert_eq!(
+                    sweep(&g, &hist, &p),
+                    literal(&g, &hist, &p),
+                    "trial {trial}"
+                );
+                // force the incremental path too, against direct labelling
+                for uf in [false, true] {
+                    let cuts: Vec<u16> = (0..=256u16).step_by(17).collect();
+                    for (cut, n) in incremental(&g, &hist, uf, &cuts, p.min_area) {
+                        assert_eq!(
+                            n,
+                            direct(&g, cut, uf, p.min_area),
+                            "trial {trial} cut {cut}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,41 @@
+//! All three metrics of one map (SPEC sections 2-4), and of many maps in parallel.
+
+use crate::corners::{count_corners, CornerParams};
+use crate::enclosed::{sweep, EnclosedParams};
+use crate::grid::Grid;
+use crate::proportion::{occupancy, Occupancy};
+use rayon::prelude::*;
+
+/// Every parameter of SPEC sections 3-4.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Params {
+    pub corners: CornerParams,
+    pub enclosed: EnclosedParams,
+}
+
+/// The integers of one evaluation; ratios are formed by the caller from these.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Quality {
+    pub occupancy: Occupancy,
+    pub corners: usize,
+    /// `count_u` for every swept `u`.
+    pub curve: Vec<usize>,
+}
+
+/// Evaluate one map.
+pub fn evaluate(grid: &Grid, params: &Params) -> Quality {
+    let hist = grid.histogram();
+    let occupancy = occupancy(&hist);
+    let corners = count_corners(grid, &params.corners);
+    let curve = sweep(grid, &hist, &params.enclosed);
+    Quality {
+        occupancy,
+        corners,
+        curve,
+    }
+}
+
+/// Evaluate many maps in parallel (each map's own passes are parallel too); results in order.
+pub fn evaluate_many(grids: &[Grid], params: &Params) -> Vec<Quality> {
+    grids.par_iter().map(|g| evaluate(g, params)).collect()
+}

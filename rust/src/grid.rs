@@ -1,0 +1,217 @@
+//! A borrowed occupancy grid: values (uint8, 0 = occupied ... 255 = free) and an unknown mask,
+//! both row-major H x W, plus the helpers every metric shares (row bands, the value histogram).
+
+use rayon::prelude::*;
+use std::fmt;
+
+/// Rows per band for the parallel passes. Fixed (not derived from the thread count) so that
+/// the work split, and therefore every intermediate, is the same for any number of threads.
+pub const BAND_ROWS: usize = 64;
+
+/// Why a pair of buffers is not a valid grid.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum GridError {
+    /// Height or width is zero.
+    Empty { height: usize, width: usize },
+    /// A buffer's length is not `height * width`.
+    Length {
+        what: &'static str,
+        expected: usize,
+        got: usize,
+    },
+    /// The grid has more cells than the core indexes (2^32 - 1).
+    TooLarge { cells: usize },
+}
+
+impl fmt::Display for GridError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GridError::Empty { height, width } => {
+                write!(f, "the map has zero cells ({height} x {width})")
+            }
+            GridError::Length {
+                what,
+                expected,
+                got,
+            } => {
+                write!(f, "{what} holds {got} cells, expected {expected}")
+            }
+            GridError::TooLarge { cells } => {
+                write!(
+                    f,
+                    "the map has {cells} cells; at most 4294967295 are supported"
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for GridError {}
+
+/// A read-only view of one map. Unknown cells' values are ignored by every metric.
+#[derive(Clone, Copy, Debug)]
+pub struct Grid<'a> {
+    pub values: &'a [u8],
+    pub unknown: &'a [bool],
+    pub height: usize,
+    pub width: usize,
+}
+
+impl<'a> Grid<'a> {
+    /// Check the buffers against the shape.
+    pub fn new(
+        values: &'a [u8],
+        unknown: &'a [bool],
+        height: usize,
+        width: usize,
+    ) -> Result<Self, GridError> {
+        if height == 0 || width == 0 {
+            return Err(GridError::Empty { height, width });
+        }
+        let cells = height
+            .checked_mul(width)
+            .ok_or(GridError::TooLarge { cells: usize::MAX })?;
+        if cells > u32::MAX as usize {
+            return Err(GridError::TooLarge { cells });
+        }
+        for (what, got) in [("values", values.len()), ("unknown mask", unknown.len())] {
+            if got != cells {
+                return Err(GridError::Length {
+                    what,
+                    expected: cells,
+                    got,
+                });
+            }
+        }
+        Ok(Grid {
+            values,
+            unknown,
+            height,
+            width,
+        })
+    }
+
+    /// Number of cells.
+    #[inline]
+    pub fn cells(&self) -> usize {
+        self.height * self.width
+    }
+
+    /// Row `r` of the values.
+    #[inline]
+    pub fn value_row(&self, r: usize) -> &'a [u8] {
+        &self.values[r * self.width..(r + 1) * self.width]
+    }
+
+    /// Row `r` of the unknown mask.
+    #[inline]
+    pub fn unknown_row(&self, r: usize) -> &'a [bool] {
+        &self.unknown[r * self.width..(r + 1) * self.width]
+    }
+
+    /// Histogram of the known cells' values, and the number of unknown cells.
+    pub fn histogram(&self) -> Histogram {
+        let w = self.width;
+        let band = BAND_ROWS * w;
+        let parts: Vec<([u64; 256], u64)> = self
+            .values
+            .par_chunks(band)
+            .zip(self.unknown.par_chunks(band))
+            .map(|(vals, unk)| {
+                // four sub-histograms break the store-to-load dependency on repeated values
+                let mut h = [[0u32; 256]; 4];
+                let mut unknown = 0u64;
+                let mut vc = vals.chunks_exact(4);
+                let mut uc = unk.chunks_exact(4);
+                for (v, u) in (&mut vc).zip(&mut uc) {
+                    for k in 0..4 {
+                        // unknown cells are counted in bin 0 of sub-histogram k and removed below
+                        h[k][if u[k] { 0 } else { v[k] as usize }] += 1;
+                        unknown += u[k] as u64;
+                    }
+                }
+                for (v, u) in vc.remainder().iter().zip(uc.remainder()) {
+                    h[0][if *u { 0 } else { *v as usize }] += 1;
+                    unknown += *u as u64;
+                }
+                let mut out = [0u64; 256];
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = h.iter().map(|hk| hk[i] as u64).sum();
+                }
+                out[0] -= unknown;
+                (out, unknown)
+            })
+            .collect();
+        let mut known = [0u64; 256];
+        let mut unknown = 0u64;
+        for (h, u) in parts {
+            for (k, c) in known.iter_mut().zip(h.iter()) {
+                *k += c;
+            }
+            unknown += u;
+        }
+        Histogram { known, unknown }
+    }
+}
+
+/// Value histogram of the known cells plus the unknown count.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Histogram {
+    pub known: [u64; 256],
+    pub unknown: u64,
+}
+
+impl Histogram {
+    /// Number of known cells.
+    pub fn known_count(&self) -> u64 {
+        self.known.iter().sum()
+    }
+}
+
+/// Row ranges `[start, end)` of the fixed-size bands covering `height` rows.
+pub fn bands(height: usize) -> Vec<(usize, usize)> {
+    (0..height)
+        .step_by(BAND_ROWS)
+        .map(|s| (s, (s + BAND_ROWS).min(height)))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejects_bad_shapes() {
+        let v = [0u8; 6];
+        let u = [false; 6];
+        assert!(Grid::new(&v, &u, 2, 3).is_ok());
+        assert!(matches!(
+            Grid::new(&v, &u, 0, 3),
+            Err(GridError::Empty { .. })
+        ));
+        assert!(matches!(
+            Grid::new(&v, &u[..5], 2, 3),
+            Err(GridError::Length { .. })
+        ));
+        assert!(matches!(
+            Grid::new(&v, &u, 3, 3),
+            Err(GridError::Length { .. })
+        ));
+    }
+
+    #[test]
+    fn histogram_counts_known_and_unknown() {
+        let v: Vec<u8> = (0..200u32).map(|i| (i % 7) as u8).collect();
+        let u: Vec<bool> = (0..200u32).map(|i| i % 3 == 0).collect();
+        let g = Grid::new(&v, &u, 10, 20).unwrap();
+        let h = g.histogram();
+        let mut expect = [0u64; 256];
+        for (a, b) in v.iter().zip(&u) {
+            if !b {
+                expect[*a as usize] += 1;
+            }
+        }
+        assert_eq!(h.known, expect);
+        assert_eq!(h.unknown, u.iter().filter(|x| **x).count() as u64);
+    }
+}

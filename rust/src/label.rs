@@ -1,0 +1,415 @@
+//! 8-connected component labelling of binary images, by runs.
+//!
+//! Each row is cut into runs of set cells; a union-find over runs joins runs of neighbouring
+//! rows that touch (8-connectivity: their column ranges overlap or meet diagonally). Rows are
+//! processed in fixed bands of [`BAND_ROWS`](crate::grid::BAND_ROWS) in parallel, then the
+//! band seams are joined. Union is by smaller run index, so after one flattening pass every
+//! run points straight at its root, and the component statistics (size, border contact) are
+//! the same whatever the thread count.
+
+use crate::grid::bands;
+use rayon::prelude::*;
+
+/// A run of set cells `[start, end)` in one row.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Run {
+    pub start: u32,
+    pub end: u32,
+}
+
+/// Where rows of a binary image come from.
+pub trait RowSource: Sync {
+    /// Row `r` as 0/1 bytes, either borrowed from the source or written into `buf`
+    /// (`buf.len()` is the width).
+    fn row<'b>(&'b self, r: usize, buf: &'b mut [u8]) -> &'b [u8];
+}
+
+/// A binary image held as a row-major 0/1 byte mask.
+pub struct MaskRows<'a> {
+    pub mask: &'a [u8],
+    pub width: usize,
+}
+
+impl RowSource for MaskRows<'_> {
+    #[inline]
+    fn row<'b>(&'b self, r: usize, _buf: &'b mut [u8]) -> &'b [u8] {
+        &self.mask[r * self.width..(r + 1) * self.width]
+    }
+}
+
+/// The labelled components of one binary image.
+pub struct Components {
+    height: usize,
+    width: usize,
+    /// Runs of all rows, concatenated in row order.
+    runs: Vec<Run>,
+    /// `row_start[r]..row_start[r + 1]` are the runs of row `r`.
+    row_start: Vec<usize>,
+    /// For every run, the index of its component's root run.
+    root: Vec<u32>,
+    /// At root runs: the component's cell count (saturating).
+    size: Vec<u32>,
+    /// At root runs: whether the component touches the image border.
+    border: Vec<bool>,
+}
+
+const ALL_ONES: u64 = 0x0101_0101_0101_0101;
+
+/// First index `>= x` whose byte is non-zero (or `row.len()`).
+#[inline]
+fn next_set(row: &[u8], mut x: usize) -> usize {
+    while x + 8 <= row.len() {
+        let mut word = [0u8; 8];
+        word.copy_from_slice(&row[x..x + 8]);
+        if u64::from_ne_bytes(word) != 0 {
+            break;
+        }
+        x += 8;
+    }
+    while x < row.len() && row[x] == 0 {
+        x += 1;
+    }
+    x
+}
+
+/// First index `>= x` whose byte is zero (or `row.len()`); bytes are 0 or 1.
+#[inline]
+fn next_clear(row: &[u8], mut x: usize) -> usize {
+    while x + 8 <= row.len() {
+        let mut word = [0u8; 8];
+        word.copy_from_slice(&row[x..x + 8]);
+        if u64::from_ne_bytes(word) != ALL_ONES {
+            break;
+        }
+        x += 8;
+    }
+    while x < row.len() && row[x] != 0 {
+        x += 1;
+    }
+    x
+}
+
+/// Append the runs of one 0/1 row to `out`.
+pub fn push_runs(row: &[u8], out: &mut Vec<Run>) {
+    let n = row.len();
+    let mut x = next_set(row, 0);
+    while x < n {
+        let s = x;
+        x = next_clear(row, x);
+        out.push(Run {
+            start: s as u32,
+            end: x as u32,
+        });
+        x = next_set(row, x);
+    }
+}
+
+#[inline]
+fn find(parent: &mut [u32], mut x: u32) -> u32 {
+    // path halving
+    while parent[x as usize] != x {
+        let p = parent[x as usize];
+        let gp = parent[p as usize];
+        parent[x as usize] = gp;
+        x = gp;
+    }
+    x
+}
+
+#[inline]
+fn union(parent: &mut [u32], a: u32, b: u32) {
+    let ra = find(parent, a);
+    let rb = find(parent, b);
+    if ra < rb {
+        parent[rb as usize] = ra;
+    } else if rb < ra {
+        parent[ra as usize] = rb;
+    }
+}
+
+/// Join the runs of two consecutive rows that are 8-connected. `base` is subtracted from the
+/// run indices to index `parent` (a band's slice of the global array).
+fn join_rows(
+    parent: &mut [u32],
+    runs: &[Run],
+    prev: (usize, usize),
+    cur: (usize, usize),
+    base: usize,
+) {
+    let (mut i, pe) = prev;
+    let (mut j, ce) = cur;
+    while i < pe && j < ce {
+        let a = runs[i];
+        let b = runs[j];
+        if a.start <= b.end && b.start <= a.end {
+            union(parent, (i - base) as u32, (j - base) as u32);
+        }
+        if a.end < b.end {
+            i += 1;
+        } else {
+            j += 1;
+        }
+    }
+}
+
+impl Components {
+    /// Label the 8-connected components of an `height x width` binary image.
+    pub fn label<S: RowSource>(source: &S, height: usize, width: usize) -> Components {
+        let bands = bands(height);
+        // 1. runs of every band, in parallel
+        let band_runs: Vec<(Vec<Run>, Vec<usize>)> = bands
+            .par_iter()
+            .map(|&(r0, r1)| {
+                let mut buf = vec![0u8; width];
+                let mut runs = Vec::new();
+                let mut starts = Vec::with_capacity(r1 - r0);
+                for r in r0..r1 {
+                    starts.push(runs.len());
+                    push_runs(source.row(r, &mut buf), &mut runs);
+                }
+                (runs, starts)
+            })
+            .collect();
+        let total: usize = band_runs.iter().map(|(r, _)| r.len()).sum();
+        let mut runs = Vec::with_capacity(total);
+        let mut row_start = Vec::with_capacity(height + 1);
+        let mut band_base = Vec::with_capacity(bands.len() + 1);
+        for (br, starts) in band_runs {
+            let base = runs.len();
+            band_base.push(base);
+            row_start.extend(starts.iter().map(|s| s + base));
+            runs.extend_from_slice(&br);
+        }
+        band_base.push(runs.len());
+        row_start.push(runs.len());
+        assert!(
+            runs.len() < u32::MAX as usize,
+            "run count exceeds u32 (grid checked earlier)"
+        );
+
+        // 2. unions inside each band, in parallel on disjoint slices of `parent`
+        let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
+        {
+            let mut slices = Vec::with_capacity(bands.len());
+            let mut rest: &mut [u32] = &mut parent;
+            for b in 0..bands.len() {
+                let (head, tail) = rest.split_at_mut(band_base[b + 1] - band_base[b]);
+                slices.push(head);
+                rest = tail;
+            }
+            let runs_ref = &runs;
+            let rs = &row_start;
+            slices
+                .into_par_iter()
+                .zip(bands.par_iter())
+                .zip(band_base.par_iter())
+                .for_each(|((slice, &(r0, r1)), &base)| {
+                    // local indices: parent values are relative to `base`
+                    for (k, p) in slice.iter_mut().enumerate() {
+                        *p = k as u32;
+                    }
+                    for r in r0 + 1..r1 {
+                        join_rows(
+                            slice,
+                            runs_ref,
+                            (rs[r - 1], rs[r]),
+                            (rs[r], rs[r + 1]),
+                            base,
+                        );
+                    }
+                    for p in slice.iter_mut() {
+                        *p += base as u32;
+                    }
+                });
+        }
+        // 3. the seams between bands
+        for &(r0, _) in bands.iter().skip(1) {
+            join_rows(
+                &mut parent,
+                &runs,
+                (row_start[r0 - 1], row_start[r0]),
+                (row_start[r0], row_start[r0 + 1]),
+                0,
+            );
+        }
+        // 4. flatten: union by smaller index keeps parent[i] <= i, so one ascending pass
+        // resolves every run to its root.
+        for i in 0..parent.len() {
+            let p = parent[i] as usize;
+            parent[i] = parent[p];
+        }
+        // 5. component statistics at the roots
+        let mut size = vec![0u32; runs.len()];
+        let mut border = vec![false; runs.len()];
+        for r in 0..height {
+            let edge_row = r == 0 || r + 1 == height;
+            for i in row_start[r]..row_start[r + 1] {
+                let run = runs[i];
+                let root = parent[i] as usize;
+                size[root] = size[root].saturating_add(run.end - run.start);
+                border[root] |= edge_row || run.start == 0 || run.end as usize == width;
+            }
+        }
+        Components {
+            height,
+            width,
+            runs,
+            row_start,
+            root: parent,
+            size,
+            border,
+        }
+    }
+
+    /// Indices of the root runs (one per component).
+    fn roots(&self) -> impl Iterator<Item = usize> + '_ {
+        self.root
+            .iter()
+            .enumerate()
+            .filter(|(i, r)| *i == **r as usize)
+            .map(|(i, _)| i)
+    }
+
+    /// Number of components.
+    pub fn count(&self) -> usize {
+        self.roots().count()
+    }
+
+    /// Number of components that touch no border cell and have at least `min_area` cells.
+    pub fn count_enclosed(&self, min_area: u32) -> usize {
+        self.roots()
+            .filter(|&i| !self.border[i] && self.size[i] >= min_area)
+            .count()
+    }
+
+    /// Zero, in `mask` (row-major, this image's shape), the cells of every component with
+    /// fewer than `min_size` cells.
+    pub fn clear_small(&self, mask: &mut [u8], min_size: u32) {
+        for r in 0..self.height {
+            let row = &mut mask[r * self.width..(r + 1) * self.width];
+            for i in self.row_start[r]..self.row_start[r + 1] {
+                if self.size[self.root[i] as usize] < min_size {
+                    let run = self.runs[i];
+                    row[run.start as usize..run.end as usize].fill(0);
+                }
+            }
+        }
+    }
+
+    /// Component label of every cell (0 = background, 1.. in order of first run), for tests
+    /// and overlays.
+    pub fn labels(&self) -> Vec<u32> {
+        let mut ids = vec![0u32; self.runs.len()];
+        let mut next = 0u32;
+        let mut out = vec![0u32; self.height * self.width];
+        for r in 0..self.height {
+            for i in self.row_start[r]..self.row_start[r + 1] {
+                let root = self.root[i] as usize;
+                if ids[root] == 0 {
+                    next += 1;
+                    ids[root] = next;
+                }
+                let run = self.runs[i];
+                out[r * self.width + run.start as usize..r * self.width + run.end as usize]
+                    .fill(ids[root]);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn from_str(rows: &[&str]) -> (Vec<u8>, usize, usize) {
+        let h = rows.len();
+        let w = rows[0].len();
+        let mut m = Vec::with_capacity(h * w);
+        for r in rows {
+            m.extend(r.bytes().map(|b| (b == b'#') as u8));
+        }
+        (m, h, w)
+    }
+
+    fn naive_count(mask: &[u8], h: usize, w: usize) -> (usize, usize) {
+        // flood fill: (components, components touching no border)
+        let mut seen = vec![false; h * w];
+        let (mut all, mut inner) = (0, 0);
+        for s in 0..h * w {
+            if mask[s] == 0 || seen[s] {
+                continue;
+            }
+            all += 1;
+            let mut border = false;
+            let mut stack = vec![s];
+            seen[s] = true;
+            while let Some(c) = stack.pop() {
+                let (r, x) = (c / w, c % w);
+                border |= r == 0 || x == 0 || r + 1 == h || x + 1 == w;
+                for dr in -1i64..=1 {
+                    for dx in -1i64..=1 {
+                        let (rr, xx) = (r as i64 + dr, x as i64 + dx);
+                        if rr < 0 || xx < 0 || rr >= h as i64 || xx >= w as i64 {
+                            continue;
+                        }
+                        let n = rr as usize * w + xx as usize;
+                        if mask[n] != 0 && !seen[n] {
+                            seen[n] = true;
+                            stack.push(n);
+                        }
+                    }
+                }
+            }
+            if !border {
+                inner += 1;
+            }
+        }
+        (all, inner)
+    }
+
+    #[test]
+    fn diagonal_contact_joins() {
+        let (m, h, w) = from_str(&["......", ".#....", "..#...", "....#.", "......"]);
+        let c = Components::label(&MaskRows { mask: &m, width: w }, h, w);
+        assert_eq!(c.count(), 2);
+        assert_eq!(c.count_enclosed(1), 2);
+        assert_eq!(c.count_enclosed(2), 1);
+    }
+
+    #[test]
+    fn border_contact() {
+        let (m, h, w) = from_str(&["#.....", "......", "..##..", "......", ".....#"]);
+        let c = Components::label(&MaskRows { mask: &m, width: w }, h, w);
+        assert_eq!(c.count(), 3);
+        assert_eq!(c.count_enclosed(1), 1);
+    }
+
+    #[test]
+    fn matches_flood_fill_across_bands() {
+        // pseudo-random masks taller than one band
+        let mut state = 12345u64;
+        for density in [20u64, 45, 60] {
+            let (h, w) = (300, 37);
+            let m: Vec<u8> = (0..h * w)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((state >> 33) % 100 < density) as u8
+                })
+                .collect();
+            let c = Components::label(&MaskRows { mask: &m, width: w }, h, w);
+            assert_eq!((c.count(), c.count_enclosed(1)), naive_count(&m, h, w));
+        }
+    }
+
+    #[test]
+    fn clear_small_removes_dots() {
+        let (mut m, h, w) = from_str(&["#....", "..###", ".....", "#...."]);
+        let c = Components::label(&MaskRows { mask: &m, width: w }, h, w);
+        c.clear_small(&mut m, 2);
+        let (expect, _, _) = from_str(&[".....", "..###", ".....", "....."]);
+        assert_eq!(m, expect);
+    }
+}

@@ -1,0 +1,31 @@
+//! slamq core: the three no-reference 2D SLAM map metrics of Filatov et al. (arXiv 1708.02354),
+//! as pinned down by SPEC.md, on borrowed occupancy grids.
+//!
+//! Module map (one idea per file; nothing here knows about Python except `python`):
+//! - [`grid`]: the borrowed map view and its checks, the value histogram, row bands.
+//! - [`border`]: reflect-101 indexing shared by every filter.
+//! - [`filter`]: integer binomial blur + Laplacian, Sobel and 2x2 box sums.
+//! - [`label`]: 8-connected labelling of binary images by runs (union-find, parallel bands).
+//! - [`otsu`]: OpenCV-exact Otsu, and the threshold for every unknown value.
+//! - [`proportion`]: SPEC section 2.
+//! - [`corners`]: SPEC section 3.
+//! - [`enclosed`]: SPEC section 4, the sweep over unknown values.
+//! - [`evaluate`]: all three metrics of one map, and of many maps in parallel.
+//! - `python` (feature `python`): the pyo3 bindings, and nothing else.
+
+// Stencil loops index several rows at offsets from one column index; iterator chains would
+// hide the arithmetic the SPEC describes.
+#![allow(clippy::needless_range_loop)]
+
+pub mod border;
+pub mod corners;
+pub mod enclosed;
+pub mod evaluate;
+pub mod filter;
+pub mod grid;
+pub mod label;
+pub mod otsu;
+pub mod proportion;
+
+#[cfg(feature = "python")]
+mod python;
