@@ -730,3 +730,15 @@ def test_pgm_round_trip_and_unknown_rule_match_a_per_pixel_loop(
     assert m.unknown.tolist() == expected
     assert m.meta["pixels"].tolist() == img.tolist()
     assert m.values.tolist() == (255 - img if negate else img).tolist()
+
+
+def test_non_contiguous_and_grey_alpha_arrays():
+    a = np.arange(96, dtype=np.uint8).reshape(4, 24)
+    m = load_no_warning(a[::-1, ::3])
+    assert np.array_equal(m.values, a[::-1, ::3]) and m.values.flags.c_contiguous
+    assert np.array_equal(m.unknown, (a[::-1, ::3] >= 90) & (a[::-1, ::3] <= 205))
+    la = np.dstack([a, np.full_like(a, 255)])
+    m = load_no_warning(la)
+    assert np.array_equal(m.values, a) and m.meta["channels"] == 2
+    g = np.array([[1, 2], [3, 4]], np.int8)[:, ::-1]
+    assert load_no_warning(g).values.tolist() == [[245, 247], [250, 252]]  # [[4, 3], [2, 1]]

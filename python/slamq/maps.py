@@ -424,6 +424,22 @@ def _read_image_file(path: Path) -> _Image:
 # ---------------------------------------------------------------------------------------
 
 
+def _apply_lut(img: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """``table[img]`` for a uint8 image and a 256-entry uint8 table (OpenCV: ~4x numpy)."""
+    import cv2
+
+    out = cv2.LUT(img, table)
+    return out.reshape(img.shape)
+
+
+def _present_values(img: np.ndarray) -> np.ndarray:
+    """The distinct pixel values of a uint8 image (a 256-bin histogram's non-empty bins)."""
+    import cv2
+
+    hist = cv2.calcHist([np.ascontiguousarray(img)], [0], None, [256], [0, 256])
+    return np.flatnonzero(hist.ravel())
+
+
 def _threshold_unknown_lut(negate: bool, occ: float, free: float) -> np.ndarray:
     """Unknown decision for each pixel 0..255: free <= p <= occ, p = (255 - v) / 255."""
     pix = np.arange(256, dtype=np.int64)
@@ -447,8 +463,8 @@ def _interpret(
     grey = img.grey
     meta: dict[str, Any] = {}
     if mode == "raw":
-        g = _NEGATE[grey] if negate else grey
-        values = _RAW_LUT[g]
+        g = _apply_lut(grey, _NEGATE) if negate else grey
+        values = _apply_lut(g, _RAW_LUT)
         if unknown_value is None:
             unknown = g > 100
             meta["unknown_rule"] = "raw: values outside 0..100"
@@ -457,13 +473,12 @@ def _interpret(
             meta["unknown_rule"] = f"unknown_value={unknown_value}"
         return values, unknown, meta
 
-    values = _NEGATE[grey] if negate else grey
+    values = _apply_lut(grey, _NEGATE) if negate else grey
     if unknown_value is not None:
         meta["unknown_rule"] = f"unknown_value={unknown_value}"
         return values, grey == unknown_value, meta
 
-    hist = np.bincount(grey.ravel(), minlength=256)
-    present = np.flatnonzero(hist)
+    present = _present_values(grey)
     lut = _threshold_unknown_lut(negate, occ, free)
     if set(present.tolist()) <= MAP_SAVER_SHADES:
         rule = np.zeros(256, dtype=bool)
@@ -480,7 +495,7 @@ def _interpret(
         meta["unknown_rule"] = "map_saver: 205 unknown, 0/254/255 known"
     else:
         meta["unknown_rule"] = f"thresholds: {free} <= p <= {occ}"
-    unknown = np.take(lut, grey)
+    unknown = _apply_lut(grey, lut.astype(np.uint8)).view(bool)
     if mode == "scale" and img.alpha is not None:
         unknown |= img.alpha < 255
         meta["unknown_rule"] += "; alpha < 255"
@@ -701,7 +716,7 @@ def _reapply(
         if not isinstance(pixels, np.ndarray) or pixels.shape != m.values.shape:
             pixels = m.values  # a hand-built map: its values are its pixels
         if grid:
-            g = _NEGATE[pixels] if meta.get("negate") else pixels
+            g = _apply_lut(pixels, _NEGATE) if meta.get("negate") else pixels
             unknown = _unknown_value_mask(pixels, g, n, m.source)
         else:
             unknown = pixels == n
@@ -805,7 +820,7 @@ def from_occupancy_grid(
         "pixels": pixels,
         "unknown_rule": "OccupancyGrid: values outside 0..100",
     }
-    return OccupancyMap(_RAW_LUT[pixels], pixels > 100, res, org, source, meta)
+    return OccupancyMap(_apply_lut(pixels, _RAW_LUT), pixels > 100, res, org, source, meta)
 
 
 def load_map(
