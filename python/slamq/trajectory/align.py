@@ -54,8 +54,18 @@ class Alignment:
         """``scale * R p + t`` for positions ``(N, 3)`` (scale first, as evo does)."""
         if self.kind == "none":
             return p
-        q = p * self.scale if self.scale != 1.0 else p
-        return q @ self.rotation.T + self.translation
+        r, t, s = self.rotation, self.translation, self.scale
+        out = np.empty_like(p)
+        x, y, z = p[:, 0], p[:, 1], p[:, 2]
+        for k in range(3):  # column by column: no BLAS threads, no (N, 3) temporaries
+            col = r[k, 0] * x
+            col += r[k, 1] * y
+            col += r[k, 2] * z
+            if s != 1.0:
+                col *= s
+            col += t[k]
+            out[:, k] = col
+        return out
 
     def apply_orientations(self, q: np.ndarray) -> np.ndarray:
         """Left-multiply the orientations ``(N, 4)`` (w, x, y, z) by the rotation."""

@@ -204,9 +204,9 @@ class Trajectory:
             if back.any():
                 i = _first_bad_row(back)
                 raise TrajectoryError(
-                    f"{src}: non-monotonic timestamps: pose {i + 2} ({t[i + 1]!r} s) is "
-                    f"earlier than pose {i + 1} ({t[i]!r} s); a log that restarts can be "
-                    f"read with load_trajectory(..., unsorted='last') or 'sort'"
+                    f"{src}: non-monotonic timestamps: pose {i + 2} ({float(t[i + 1])!r} s) is "
+                    f"earlier than pose {i + 1} ({float(t[i])!r} s); a log that restarts can be "
+                    f"read with unsorted='last' or 'sort' (CLI: --unsorted last)"
                 )
         for arr in (t, p, q):
             arr.flags.writeable = False

@@ -1,0 +1,152 @@
+"""Benchmark: ATE with alignment on a million poses, slamq vs evo, same files, same run.
+
+Synthesises a ground-truth TUM file and an estimate (the ground truth moved by a rigid
+motion, with noise and timestamp jitter) in a temporary folder, then times, with the
+file reading included:
+
+- slamq: ``load_trajectory`` x 2 + ``ate(align="se3")`` (and ``align="se2"``),
+- evo's Python API: ``file_interface.read_tum_trajectory_file`` x 2 +
+  ``sync.associate_trajectories`` + ``main_ape.ape(align=True)``,
+- optionally the ``evo_ape tum GT EST -a`` command (``--cli``; includes start-up),
+
+asserts that the RMSE (and every statistic) agree to 1e-9, and prints a table with the
+ratios measured in this run.
+
+Usage::
+
+    PYTHONPATH=python python benches/bench_ate.py [--n 1000000] [--repeat 3] [--cli]
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import logging
+import platform
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+STATS = ("rmse", "mean", "median", "std", "min", "max", "sse")
+
+
+def synthesize(folder: Path, n: int, seed: int = 0) -> tuple[Path, Path]:
+    """Write gt.txt and est.txt (TUM) with ``n`` poses each; returns their paths."""
+    rng = np.random.default_rng(seed)
+    t = 1.6e9 + np.arange(n) * 0.01
+    steps = rng.normal(size=(n, 3)) * [0.01, 0.01, 0.001]
+    xyz = np.cumsum(steps, axis=0)
+    yaw = np.cumsum(rng.normal(size=n) * 0.005)
+    quat = np.zeros((n, 4))  # qx qy qz qw
+    quat[:, 2] = np.sin(yaw / 2)
+    quat[:, 3] = np.cos(yaw / 2)
+    a = 0.7
+    r = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+    est_xyz = (xyz - [3.0, -2.0, 0.5]) @ r + rng.normal(size=(n, 3)) * 0.02
+    est_t = t + rng.uniform(-0.002, 0.002, size=n)
+    est_quat = np.zeros((n, 4))
+    est_quat[:, 2] = np.sin((yaw - a) / 2)
+    est_quat[:, 3] = np.cos((yaw - a) / 2)
+    gt_path, est_path = folder / "gt.txt", folder / "est.txt"
+    fmt = "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f"
+    with open(gt_path, "w") as f:
+        f.write("# timestamp tx ty tz qx qy qz qw\n")
+        np.savetxt(f, np.column_stack([t, xyz, quat]), fmt=fmt)
+    with open(est_path, "w") as f:
+        np.savetxt(f, np.column_stack([est_t, est_xyz, est_quat]), fmt=fmt)
+    return gt_path, est_path
+
+
+def run_slamq(gt: Path, est: Path, align: str) -> dict:
+    from slamq.trajectory import ate, load_trajectory
+
+    r = ate(load_trajectory(gt), load_trajectory(est), align=align)
+    return {k: float(getattr(r, k)) for k in STATS} | {"n": r.n}
+
+
+def run_evo(gt: Path, est: Path) -> dict:
+    from evo.core import metrics, sync
+    from evo.main_ape import ape
+    from evo.tools import file_interface
+
+    ref = file_interface.read_tum_trajectory_file(str(gt))
+    e = file_interface.read_tum_trajectory_file(str(est))
+    ref, e = sync.associate_trajectories(ref, e)
+    res = ape(ref, copy.copy(e), metrics.PoseRelation.translation_part, align=True)
+    return {k: float(res.stats[k]) for k in STATS} | {"n": len(res.np_arrays["error_array"])}
+
+
+def run_evo_cli(gt: Path, est: Path) -> dict:
+    exe = shutil.which("evo_ape")
+    if exe is None:
+        raise RuntimeError("evo_ape not on PATH")
+    out = subprocess.run([exe, "tum", str(gt), str(est), "-a"], capture_output=True,
+                         text=True, check=True).stdout
+    stats = {}
+    for k in STATS:
+        m = re.search(rf"^\s*{k}\s+([-+0-9.eE]+)\s*$", out, re.M)
+        stats[k] = float(m.group(1)) if m else float("nan")
+    return stats
+
+
+def timed(fn, repeat: int):
+    best, out = float("inf"), None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=1_000_000, help="poses per file")
+    ap.add_argument("--repeat", type=int, default=3, help="slamq repetitions (best kept)")
+    ap.add_argument("--evo-repeat", type=int, default=1, help="evo repetitions")
+    ap.add_argument("--cli", action="store_true", help="also time the evo_ape command")
+    args = ap.parse_args(argv)
+    logging.getLogger("evo").setLevel(logging.WARNING)
+    import evo
+    import pandas  # noqa: F401 - imported before timing, like evo
+
+    with tempfile.TemporaryDirectory(prefix="slamq_bench_ate_") as tmp:
+        t0 = time.perf_counter()
+        gt, est = synthesize(Path(tmp), args.n)
+        print(f"synthesised 2 x {args.n} poses in {time.perf_counter() - t0:.1f} s "
+              f"({gt.stat().st_size / 1e6:.0f} MB each)")
+        rows = []
+        t_s3, r_s3 = timed(lambda: run_slamq(gt, est, "se3"), args.repeat)
+        t_s2, r_s2 = timed(lambda: run_slamq(gt, est, "se2"), args.repeat)
+        t_evo, r_evo = timed(lambda: run_evo(gt, est), args.evo_repeat)
+        for k in STATS:
+            tol = 1e-9 * max(1.0, abs(r_evo[k]))
+            assert abs(r_s3[k] - r_evo[k]) <= tol, (k, r_s3[k], r_evo[k])
+        assert r_s3["n"] == r_evo["n"], (r_s3["n"], r_evo["n"])
+        rows.append(("evo Python API (read+assoc+ape -a)", t_evo, r_evo["rmse"], 1.0))
+        rows.append(("slamq ate(align='se3')", t_s3, r_s3["rmse"], t_evo / t_s3))
+        rows.append(("slamq ate(align='se2')", t_s2, r_s2["rmse"], t_evo / t_s2))
+        if args.cli:
+            t_cli, r_cli = timed(lambda: run_evo_cli(gt, est), 1)
+            assert abs(r_cli["rmse"] - r_s3["rmse"]) <= 1e-6, (r_cli["rmse"], r_s3["rmse"])
+            rows.insert(1, ("evo_ape tum GT EST -a (command)", t_cli, r_cli["rmse"],
+                            t_evo / t_cli))
+        print(f"\nATE with alignment, {args.n} poses per file, file reading included; "
+              f"{r_s3['n']} associated pairs")
+        print(f"python {platform.python_version()}, numpy {np.__version__}, "
+              f"evo {evo.__version__}, {platform.machine()}")
+        print(f"{'':38s} {'seconds':>9s} {'RMSE (m)':>14s} {'speed-up vs evo':>16s}")
+        for name, sec, rmse, ratio in rows:
+            print(f"{name:38s} {sec:9.3f} {rmse:14.9f} {ratio:15.1f}x")
+        print("slamq se3 statistics equal evo's to 1e-9: yes "
+              f"(max |diff| {max(abs(r_s3[k] - r_evo[k]) for k in STATS):.1e})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
