@@ -57,14 +57,16 @@ def load_results(results: ResultsLike) -> pd.DataFrame:
         frame = _read_file(path)
     if frame.empty:
         raise SlamqError(f"{where}: no result records")
-    if "map" not in frame:
+    if "map" not in frame or frame["map"].map(_missing).all():
         raise SlamqError(f"{where}: results have no 'map' column (not a slamq batch file?)")
     frame = frame.reset_index(drop=True)
-    frame["map"] = frame["map"].astype(str)
     for col in ("trajectory", "groundtruth", "error"):
         if col not in frame:
             frame[col] = None
-    frame["error"] = [None if _missing(e) else str(e) for e in frame["error"]]
+    frame["error"] = [
+        "record without a map path" if _missing(m) and _missing(e) else None if _missing(e)
+        else str(e) for m, e in zip(frame["map"], frame["error"])]
+    frame["map"] = ["" if _missing(m) else str(m) for m in frame["map"]]
     if "algorithm" not in frame:
         frame["algorithm"] = None
     frame["algorithm"] = [
