@@ -11,6 +11,7 @@ OpenCV reference (:mod:`slamq.reference`).
 
 from __future__ import annotations
 
+from slamq.batch import discover_runs, evaluate_many, read_results, summarize
 from slamq.errors import (
     BagError,
     ConformanceError,
@@ -22,7 +23,6 @@ from slamq.errors import (
 from slamq.maps import OccupancyMap, load_map
 from slamq.params import Params
 from slamq.quality import MapQuality, evaluate
-from slamq.batch import discover_runs, evaluate_many, read_results, summarize
 from slamq.trajectory import Trajectory, ate, ate_runs, load_trajectory, rpe
 
 __version__ = "0.1.0"

@@ -117,8 +117,8 @@ def evaluate_many(
     >>> img = np.full((20, 20), 254, np.uint8); img[5:15, 5:15] = 0
     >>> for name in ("a_map", "b_map"):
     ...     _ = cv2.imwrite(str(d / f"{name}.pgm"), img)
-    >>> [(r["algorithm"], r["corners"]) for r in slamq.evaluate_many(d, threads=2)]
-    [('a', 4), ('b', 4)]
+    >>> [(r["algorithm"], r["occupied"]) for r in slamq.evaluate_many(d, threads=2)]
+    [('a', 100), ('b', 100)]
     """
     options = EvalOptions(
         params, ate_align=ate_align, ate_max_dt=ate_max_dt, ate_unsorted=ate_unsorted

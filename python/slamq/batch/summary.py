@@ -66,8 +66,8 @@ def summarize(
     >>> recs = [{"algorithm": "a", "sequence": "s", "run": str(i), "corners": c,
     ...          "error": None} for i, c in enumerate([10, 12, 14])]
     >>> s = summarize(recs)
-    >>> s.loc[0, ["n", "corners_mean", "corners_std"]].tolist()
-    [3, 12.0, 2.0]
+    >>> int(s.loc[0, "n"]), s.loc[0, ["corners_mean", "corners_std"]].tolist()
+    (3, [12.0, 2.0])
     """
     import numpy as np
     import pandas as pd
