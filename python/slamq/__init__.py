@@ -11,6 +11,7 @@ OpenCV reference (:mod:`slamq.reference`).
 
 from __future__ import annotations
 
+from slamq.bags import read_bag_maps, read_bag_trajectory, read_last_map
 from slamq.batch import discover_runs, evaluate_many, read_results, summarize
 from slamq.errors import (
     BagError,
@@ -22,6 +23,7 @@ from slamq.errors import (
 )
 from slamq.maps import OccupancyMap, load_map
 from slamq.params import Params
+from slamq.pbstream import read_pbstream_trajectory
 from slamq.quality import MapQuality, evaluate
 from slamq.trajectory import Trajectory, ate, ate_runs, load_trajectory, rpe
 
@@ -45,6 +47,10 @@ __all__ = [
     "evaluate_many",
     "load_map",
     "load_trajectory",
+    "read_bag_maps",
+    "read_bag_trajectory",
+    "read_last_map",
+    "read_pbstream_trajectory",
     "read_results",
     "rpe",
     "summarize",

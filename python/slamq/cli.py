@@ -11,13 +11,15 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from typing import Optional, Sequence
+import warnings
+from typing import IO, Optional, Sequence
 
 #: Modules that each add one subcommand with ``add_parser(subparsers)``.
 _COMMAND_MODULES: tuple[str, ...] = (
     "slamq.report.cli",
     "slamq.batch_cli",
     "slamq.trajectory_cli",
+    "slamq.timeline",
 )
 
 EXIT_OK = 0
@@ -139,9 +141,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _warning_line(message: Warning | str, category: type, filename: str, lineno: int,
+                  file: Optional[IO[str]] = None, line: Optional[str] = None) -> None:
+    """Show a warning as one line on stderr (the message already names the file)."""
+    print(f"slamq: warning: {message}", file=sys.stderr)
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run the ``slamq`` command line; returns the exit code."""
     args = build_parser().parse_args(argv)
+    warnings.showwarning = _warning_line
     try:
         return int(args.func(args))
     except KeyboardInterrupt:
