@@ -3,6 +3,23 @@
 SPEC.md section 1 is the contract. Every map is held image-style (row 0 at the top,
 north up) as ``values`` (uint8, 0 = surely occupied, 255 = surely free) plus an
 ``unknown`` mask.
+
+Choices the SPEC leaves open, made here:
+
+* The *pixel* is the file's grey level (RGB/RGBA: ``rint`` of the mean of the colour
+  channels), before ``negate``. The map_saver shade rule looks at pixels (all in
+  {0, 205, 254, 255} -> 205 unknown) in ``trinary`` and ``scale`` modes, with or without
+  ``negate``; ``unknown_value`` compares pixels too. ``scale`` still makes alpha < 255
+  unknown under the shade rule.
+* ``raw`` applies ``negate`` first, like ROS map_server. Unknown cells of ``raw`` maps and
+  OccupancyGrid data hold 205 in ``values``; ``unknown_value`` that would make an
+  out-of-range grid value known is refused (it has no occupancy).
+* PGM/PPM with maxval < 255 are scaled as SDL_image (map_server's reader) does:
+  ``x * 255 // maxval``. 16-bit and float images are refused.
+* Decoding never allocates more than the file can hold: PGM sizes are checked against the
+  file length, PNG sizes against zlib's best ratio, before any pixel buffer exists.
+* Per-pixel work is a 256-entry table (``cv2.LUT``): the unknown decision is computed once
+  per pixel value with the SPEC formula ``p = (255 - v) / 255`` in float64, bounds inclusive.
 """
 
 from __future__ import annotations
