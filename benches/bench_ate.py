@@ -48,7 +48,7 @@ def synthesize(folder: Path, n: int, seed: int = 0) -> tuple[Path, Path]:
     quat[:, 3] = np.cos(yaw / 2)
     a = 0.7
     r = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
-    est_xyz = (xyz - [3.0, -2.0, 0.5]) @ r + rng.normal(size=(n, 3)) * 0.02
+    est_xyz = (xyz - [3.0, -2.0, 0.0]) @ r + rng.normal(size=(n, 3)) * 0.02
     est_t = t + rng.uniform(-0.002, 0.002, size=n)
     est_quat = np.zeros((n, 4))
     est_quat[:, 2] = np.sin((yaw - a) / 2)
