@@ -109,6 +109,15 @@ def test_rpe_equals_evo_on_tum_rgbd(evo_data, align):
     _check_rpe(gt, est, egt, eest, align, 5, "frames", "angle_deg")
 
 
+def test_rpe_pairs_from_reference_equals_evo(evo_data):
+    gt, est, egt, eest = evo_data[2]
+    rg, re_ = sync.associate_trajectories(egt, eest)
+    res = evo_rpe(copy.deepcopy(rg), copy.deepcopy(re_), evo_metrics.PoseRelation.translation_part,
+                  delta=0.25, delta_unit=evo_metrics.Unit.meters, pairs_from_reference=True,
+                  align=True, correct_scale=True)
+    _same(rpe(gt, est, delta=0.25, unit="m", pairs_from="gt", align="sim3"), res)
+
+
 def test_ape_equals_evo_with_max_dt_and_offset(evo_data):
     gt, est, egt, eest = evo_data[2]
     for max_dt, offset in ((0.02, 0.0), (0.005, 0.01), (0.05, -0.03)):
