@@ -21,7 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from matplotlib.ticker import FuncFormatter, NullFormatter  # noqa: E402
+from matplotlib.ticker import FuncFormatter, MaxNLocator, NullFormatter  # noqa: E402
 
 from slamq.report.metrics import Metric  # noqa: E402
 
@@ -207,6 +207,8 @@ def timeline_figure(
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     axes[-1, 0].set_xlabel("snapshot", fontsize=8)
+    axes[-1, 0].xaxis.set_major_locator(MaxNLocator(integer=True, nbins=6))
+    axes[-1, 0].xaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{int(v) + 1}"))
     axes[-1, 0].set_xlim(-0.5, max(n - 0.5, 0.5))
     fig.tight_layout(pad=0.4)
     fig.canvas.draw()

@@ -67,7 +67,8 @@ summary{cursor:pointer;color:#0a58ca}
  vertical-align:middle}
 .big img{max-width:100%;height:auto;border:1px solid #ccc}
 .top{display:flex;gap:24px;align-items:flex-start;flex-wrap:wrap}
-.mapcol{flex:1;min-width:320px}
+.mapcol{flex:1;min-width:420px}
+.files{font-size:.85em;padding-left:1.2em;word-break:break-all}
 footer{color:#777;font-size:.85em;margin-top:3em}
 a{color:#0a58ca}
 """
@@ -267,10 +268,13 @@ def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool) -> 
     rows = "".join(
         f"<tr><th>{_e(k)}</th><td class=\"num\">{_e(_fmt_cell(rec.get(k)))}</td></tr>"
         for k in _DETAIL_KEYS if k in rec and usable(rec.get(k)))
+    files = "".join(
+        f"<li>{_e(k)}: <code>{_e(rec.get(k))}</code></li>"
+        for k in _FILE_KEYS if k in rec and usable(rec.get(k)))
     notes = "".join(f"<p class=\"warn\">{_e(n)}</p>" for n in mp.notes)
     head = (f"<p><a href=\"../index.html\">&larr; back to the report</a></p>"
             f"<h1>{_e(rec['algorithm'])} on {_e(rec['sequence'])}, run {_e(rec['run'])}</h1>"
-            f"<p class=\"sub\">{_e(rec['map'])}</p>{notes}")
+            f"<ul class=\"sub files\">{files}</ul>{notes}")
     numbers = f"<div><h2>Numbers</h2><table class=\"numbers\">{rows}</table></div>"
     first = sections[0] if sections else ""
     rest = "".join(s for s in sections[1:] if s)
@@ -283,8 +287,9 @@ _DETAIL_KEYS = (
     "ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n",
     "occupied_fraction", "corners", "enclosed_areas", "enclosed_unknown_value",
     "proportion", "threshold", "occupied", "free", "unknown", "known", "total",
-    "height", "width", "seconds", "trajectory", "groundtruth", "ate_error", "hash",
+    "height", "width", "seconds",
 )
+_FILE_KEYS = ("map", "trajectory", "groundtruth", "ate_error", "hash")
 
 
 def _fmt_cell(x: Any) -> str:
@@ -448,7 +453,7 @@ def _sequence_section(
         cells = []
         for m in metrics:
             mean, std, n = row[f"{m.key}_mean"], row[f"{m.key}_std"], int(row[f"{m.key}_n"])
-            best = alg in ranking.best.get(m.key, []) and len(ranking.order) > 1
+            best = alg in ranking.best.get(m.key, []) and len(ranking.ranks[m.key]) > 1
             cells.append(
                 f"<td class=\"num{_BEST if best else ''}\" data-metric=\"{m.key}\" "
                 f"data-mean=\"{float(mean)!r}\" data-std=\"{float(std)!r}\" data-n=\"{n}\">"
