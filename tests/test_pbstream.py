@@ -8,6 +8,8 @@ import struct
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from slamq import TrajectoryError
 from slamq.pbstream import (
     PBSTREAM_MAGIC,
@@ -206,3 +208,35 @@ def test_protobuf_library_agrees_if_installed(tmp_path):
     assert [m.timestamp for m in msgs] == ticks.tolist()
     assert [[m.pose.translation.x, m.pose.translation.y, m.pose.translation.z]
             for m in msgs] == pos.tolist()
+
+
+finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.integers(0, 2**31 - 1),  # node_index
+            st.integers(-(2**63), 2**63 - 1),  # universal ticks, any int64
+            st.tuples(finite, finite, finite),
+            st.tuples(finite, finite, finite, finite),
+        ),
+        min_size=1,
+        max_size=8,
+    ),
+    st.integers(-(2**31), 2**31 - 1),
+)
+def test_wire_round_trip_is_exact(tmp_path_factory, nodes, tid):
+    """Any node list (negative ints, zeros left off, any doubles) decodes to what was encoded."""
+    encoded = [f_msg(5, rigid3d(t, q)) + f_varint(1, ticks) + f_varint(7, index)
+               for index, ticks, t, q in nodes]
+    graph = pose_graph([trajectory(tid, encoded)])
+    p = write(tmp_path_factory.mktemp("pb"), stream(f_varint(1, 2), f_msg(1, graph)))
+    (key,) = read_pbstream_poses(p)
+    assert key == tid
+    idx, ticks, pos, rot = read_pbstream_poses(p)[tid]
+    assert idx.tolist() == [n[0] for n in nodes]
+    assert ticks.tolist() == [n[1] for n in nodes]
+    assert pos.tolist() == [list(n[2]) for n in nodes]
+    assert rot.tolist() == [[n[3][3], n[3][0], n[3][1], n[3][2]] for n in nodes]
