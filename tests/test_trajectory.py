@@ -407,3 +407,26 @@ def test_cli_rpe(tmp_path, capsys):
     ref = rpe(load_trajectory(g), load_trajectory(e), delta=0.5, unit="m")
     assert doc["results"][0]["rmse"] == pytest.approx(ref.rmse, abs=1e-15)
     assert "RPE" in capsys.readouterr().out
+
+
+# ---------------------------------------------------------------- ROS bags
+@pytest.mark.parametrize("fmt", ["ros1", "mcap"])
+def test_bag_trajectory_through_load_trajectory(tmp_path, fmt, capsys):
+    _bagdata = pytest.importorskip("_bagdata")
+    gt = _planar(30)
+    est = _moved(gt, 0.5, (2.0, -1.0, 0.0), noise=0.01)
+    path = _bagdata.bag_path(tmp_path, fmt)
+    with _bagdata.BagWriter(path, fmt) as w:
+        for t, p, q in zip(est.timestamps + 100.0, est.positions, est.orientations):
+            msg = w.T["geometry_msgs/msg/PoseStamped"](header=w.header(t), pose=w.pose(p, q))
+            w.write("/slam_pose", "geometry_msgs/msg/PoseStamped", msg)
+    gt_file = Trajectory(gt.timestamps + 100.0, gt.positions, gt.orientations).write_tum(
+        tmp_path / "gt.txt")
+    from_bag = load_trajectory(path, topic="/slam_pose")
+    assert len(from_bag) == 30
+    assert np.allclose(from_bag.positions, est.positions, atol=1e-12)
+    ref = ate(load_trajectory(gt_file), Trajectory(est.timestamps + 100.0, est.positions,
+                                                   est.orientations))
+    assert ate(gt_file, path).rmse == pytest.approx(ref.rmse, abs=1e-9)
+    rc = main(["ate", str(gt_file), str(path), "--topic", "/slam_pose"])
+    assert rc == 0 and f"{ref.rmse:.6f}" in capsys.readouterr().out
