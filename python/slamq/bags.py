@@ -107,12 +107,12 @@ def _open(bag: PathLike) -> Iterator[Any]:
     from rosbags.highlevel import AnyReader
 
     path = Path(bag)
+    if not path.is_dir() and path.suffix.lower() not in BAG_SUFFIXES:
+        raise BagError(f"{path}: not a bag (expected {', '.join(BAG_SUFFIXES)} or a ROS2 folder)")
     if not path.exists():
         raise BagError(f"{path}: no such file or folder")
     if path.is_dir() and not (path / "metadata.yaml").is_file():
         raise BagError(f"{path}: folder is not a ROS2 bag (no metadata.yaml)")
-    if path.is_file() and path.suffix.lower() not in BAG_SUFFIXES:
-        raise BagError(f"{path}: not a bag (expected {', '.join(BAG_SUFFIXES)} or a ROS2 folder)")
     try:
         reader = AnyReader([path], default_typestore=_default_typestore())
         reader.open()
@@ -177,6 +177,10 @@ def bag_topics(bag: PathLike) -> dict[str, str]:
     --------
     >>> bag_topics("run1.bag")  # doctest: +SKIP
     {'/map': 'nav_msgs/msg/OccupancyGrid', '/tf': 'tf2_msgs/msg/TFMessage'}
+    >>> bag_topics("missing.bag")
+    Traceback (most recent call last):
+    ...
+    slamq.errors.BagError: missing.bag: no such file or folder
     """
     with _open(bag) as reader:
         return _topic_types(reader)
@@ -326,6 +330,10 @@ def read_bag_maps(
     --------
     >>> for t, m in read_bag_maps("run1.bag", every=10):  # doctest: +SKIP
     ...     print(f"{t:.1f}", m.shape)
+    >>> next(read_bag_maps("map.yaml"))
+    Traceback (most recent call last):
+    ...
+    slamq.errors.BagError: map.yaml: not a bag (expected .bag, .db3, .mcap or a ROS2 folder)
     """
     if isinstance(every, bool) or not isinstance(every, int) or every < 1:
         raise BagError(f"{bag}: every must be a positive integer, got {every!r}")
@@ -384,8 +392,12 @@ def read_last_map(bag: PathLike, topic: str = "/map") -> OccupancyMap:
     Examples
     --------
     >>> m = read_last_map("run1.bag")  # doctest: +SKIP
-    >>> m.meta["topic"]  # doctest: +SKIP
-    '/map'
+    >>> m.meta["topic"], m.meta["stamp"]  # doctest: +SKIP
+    ('/map', 1503324571.12)
+    >>> read_last_map("missing.mcap")
+    Traceback (most recent call last):
+    ...
+    slamq.errors.BagError: missing.mcap: no such file or folder
     """
     last = None
     # every=huge: only map 0 is decoded on the way; include_last decodes the final one.

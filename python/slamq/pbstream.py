@@ -322,6 +322,10 @@ def read_pbstream_trajectory(path: PathLike, trajectory_id: int = 0) -> Trajecto
     >>> traj = read_pbstream_trajectory("map.pbstream")  # doctest: +SKIP
     >>> traj.positions.shape  # doctest: +SKIP
     (1843, 3)
+    >>> read_pbstream_trajectory("missing.pbstream")
+    Traceback (most recent call last):
+    ...
+    slamq.errors.TrajectoryError: missing.pbstream: no such file
     """
     p = Path(path)
     poses = read_pbstream_poses(p)
