@@ -430,3 +430,21 @@ def test_bag_trajectory_through_load_trajectory(tmp_path, fmt, capsys):
     assert ate(gt_file, path).rmse == pytest.approx(ref.rmse, abs=1e-9)
     rc = main(["ate", str(gt_file), str(path), "--topic", "/slam_pose"])
     assert rc == 0 and f"{ref.rmse:.6f}" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "text, reason",
+    [
+        ("0 1 2 0 0 0 0 1\n0.1 nan 2 0 0 0 0 1\n", "NaN"),
+        ("0.2 1 2 0 0 0 0 1\n0.1 1 2 0 0 0 0 1\n", "non-monotonic timestamps"),
+        ("0 1 2 0 0 0 0 1\n0.1 1 2 0 0 0 0 1\n0.2 1 2 0 0 0 0 1\n", "degenerate alignment"),
+    ],
+)
+def test_cli_bad_estimate_one_line_exit_2(tmp_path, capsys, text, reason):
+    gt = _planar(40).write_tum(tmp_path / "gt.txt")
+    bad = tmp_path / "est.txt"
+    bad.write_text(text)
+    rc = main(["ate", str(gt), str(bad), "--align", "se2"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1
+    assert str(bad) in err[0] and reason in err[0]
