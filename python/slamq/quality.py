@@ -217,10 +217,10 @@ def evaluate(
     --------
     >>> import numpy as np, slamq
     >>> img = np.full((20, 20), 254, np.uint8)
-    >>> img[5:15, 5:15] = 0          # a square obstacle in open space
+    >>> img[8:12, 8:12] = 0          # a square obstacle in open space
     >>> q = slamq.evaluate(img)
     >>> q.occupied, q.corners, q.enclosed_areas
-    (100, 4, 0)
+    (16, 4, 0)
     """
     from slamq import _core
 
