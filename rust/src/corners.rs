@@ -37,12 +37,12 @@ impl Default for CornerParams {
 }
 
 /// The integer threshold equivalent to `L as f64 > threshold` for integer `L`.
-fn integer_threshold(threshold: f64) -> Option<i64> {
+fn integer_threshold(threshold: f64) -> Option<i32> {
     if threshold.is_nan() {
         None
     } else {
-        // saturating cast: +inf -> i64::MAX (no cell passes), -inf -> i64::MIN (all pass)
-        Some(threshold.floor() as i64)
+        // |L| <= 4 * 65280, so clamping keeps every comparison and lets L stay in i32
+        Some(threshold.floor().clamp(-(1 << 20) as f64, (1 << 20) as f64) as i32)
     }
 }
 
@@ -67,23 +67,32 @@ pub fn structure_mask(grid: &Grid, log_threshold: f64) -> Vec<u8> {
                 })
                 .collect();
             let s_of = |k: usize| -> &[u16] { &s_rows[k - base] };
-            let mut vbuf = vec![0u16; w];
-            let g_rows: Vec<Vec<u16>> = (r0 as isize - 1..r1 as isize + 1)
-                .map(|k| {
-                    let mut g = vec![0u16; w];
-                    blur_row(&s_of, reflect101(k, h), h, &mut vbuf, &mut g);
-                    g
-                })
+            let s_any: Vec<bool> = s_rows
+                .iter()
+                .map(|row| row.iter().any(|&x| x != 0))
                 .collect();
+            let mut vbuf = vec![0u16; w];
+            // G rows r0-1 ..= r1 (reflect-mapped); a row whose five S rows are all zero is zero
+            let mut g_rows: Vec<Vec<u16>> = Vec::with_capacity(r1 - r0 + 2);
+            let mut g_any: Vec<bool> = Vec::with_capacity(r1 - r0 + 2);
+            for k in r0 as isize - 1..r1 as isize + 1 {
+                let gr = reflect101(k, h);
+                let nonzero = (-2..=2).any(|j| s_any[reflect101(gr as isize + j, h) - base]);
+                let mut g = vec![0u16; w];
+                if nonzero {
+                    blur_row(&s_of, gr, h, &mut vbuf, &mut g);
+                }
+                g_rows.push(g);
+                g_any.push(nonzero);
+            }
             for r in r0..r1 {
                 let i = r - r0 + 1;
-                laplacian_mask_row(
-                    &g_rows[i - 1],
-                    &g_rows[i],
-                    &g_rows[i + 1],
-                    t,
-                    &mut out[(r - r0) * w..(r - r0 + 1) * w],
-                );
+                let row_out = &mut out[(r - r0) * w..(r - r0 + 1) * w];
+                if !(g_any[i - 1] || g_any[i] || g_any[i + 1]) {
+                    row_out.fill((0 > t) as u8); // L = 0 everywhere on this row
+                    continue;
+                }
+                laplacian_mask_row(&g_rows[i - 1], &g_rows[i], &g_rows[i + 1], t, row_out);
             }
         });
     mask
@@ -124,46 +133,95 @@ pub fn response(a: i64, b: i64, c: i64, k: f64) -> f64 {
     ((a * c - b * b) as f64) - k * ((s * s) as f64)
 }
 
-/// Step 6: the packed Harris sums of every cell of a 0/1 mask, and the largest response
-/// among cells whose sums are not all zero (`None` when there is no such cell).
+/// Whether each row of a 0/1 mask has a set cell.
+fn row_any(mask: &[u8], height: usize, width: usize) -> Vec<bool> {
+    (0..height)
+        .into_par_iter()
+        .map(|r| mask[r * width..(r + 1) * width].iter().any(|&b| b != 0))
+        .collect()
+}
+
+/// Step 6: the packed Harris sums of every cell of a 0/1 mask, and the largest response over
+/// the cells whose sums are not all zero (`None` when there is none; every other cell has
+/// `R = 0`).
 pub fn harris_sums(mask: &[u8], height: usize, width: usize, k: f64) -> (Vec<u32>, Option<f64>) {
     let (h, w) = (height, width);
     let mut abc = vec![0u32; h * w];
+    let any = row_any(mask, h, w);
     let m_row = |r: usize| &mask[r * w..(r + 1) * w];
+    // a product row is all zero when its three mask rows are
+    let product_zero = |yy: usize| {
+        !(any[reflect101(yy as isize - 1, h)] || any[yy] || any[reflect101(yy as isize + 1, h)])
+    };
     let maxima: Vec<Option<f64>> = abc
         .par_chunks_mut(BAND_ROWS * w)
         .zip(bands(h))
         .map(|(out, (r0, r1))| {
             let mut p = vec![0i16; w];
             let mut d = vec![0i16; w];
-            let mut prod = |yy: usize, bufs: &mut [Vec<i16>; 3]| {
+            // products of rows r-1 (prev) and r (cur); `*_zero` marks a row known all zero
+            let mut prev: [Vec<i16>; 3] = std::array::from_fn(|_| vec![0i16; w]);
+            let mut cur: [Vec<i16>; 3] = std::array::from_fn(|_| vec![0i16; w]);
+            let mut fill = |yy: usize, bufs: &mut [Vec<i16>; 3]| -> bool {
+                if product_zero(yy) {
+                    return true;
+                }
                 let up = m_row(reflect101(yy as isize - 1, h));
                 let dn = m_row(reflect101(yy as isize + 1, h));
                 let [xx, xy, yyv] = bufs;
                 sobel_products_row(up, m_row(yy), dn, &mut p, &mut d, xx, xy, yyv);
+                false
             };
-            let mut prev: [Vec<i16>; 3] = std::array::from_fn(|_| vec![0i16; w]);
-            let mut cur: [Vec<i16>; 3] = std::array::from_fn(|_| vec![0i16; w]);
-            prod(reflect101(r0 as isize - 1, h), &mut prev);
-            let (mut a, mut b, mut c) = (vec![0i32; w], vec![0i32; w], vec![0i32; w]);
-            let mut best: Option<f64> = None;
+            let mut prev_zero = fill(reflect101(r0 as isize - 1, h), &mut prev);
+            let mut cur_zero;
+            let (mut sa, mut sb, mut sc) = (vec![0i16; w], vec![0i16; w], vec![0i16; w]);
+            let mut best = f64::NEG_INFINITY;
+            let mut seen = false;
             for r in r0..r1 {
-                prod(r, &mut cur);
-                box2_row(&prev[0], &cur[0], &mut a);
-                box2_row(&prev[1], &cur[1], &mut b);
-                box2_row(&prev[2], &cur[2], &mut c);
-                let row_out = &mut out[(r - r0) * w..(r - r0 + 1) * w];
-                for x in 0..w {
-                    let t = pack(a[x], b[x], c[x]);
-                    row_out[x] = t;
-                    if t != 0 {
-                        let resp = response(a[x] as i64, b[x] as i64, c[x] as i64, k);
-                        best = Some(best.map_or(resp, |m: f64| m.max(resp)));
+                cur_zero = fill(r, &mut cur);
+                if !(prev_zero && cur_zero) {
+                    if prev_zero {
+                        prev.iter_mut().for_each(|b| b.fill(0));
+                    }
+                    if cur_zero {
+                        cur.iter_mut().for_each(|b| b.fill(0));
+                    }
+                    // column sums of the two rows, then the 2x2 box as neighbouring column pairs
+                    for (s, (pv, cv)) in [&mut sa, &mut sb, &mut sc]
+                        .into_iter()
+                        .zip(prev.iter().zip(&cur))
+                    {
+                        for x in 0..w {
+                            s[x] = pv[x] + cv[x];
+                        }
+                    }
+                    let l0 = reflect101(-1, w);
+                    let row_out = &mut out[(r - r0) * w..(r - r0 + 1) * w];
+                    let mut put = |x: usize, l: usize| {
+                        let a = (sa[l] + sa[x]) as i32;
+                        let b = (sb[l] + sb[x]) as i32;
+                        let c = (sc[l] + sc[x]) as i32;
+                        row_out[x] = pack(a, b, c);
+                    };
+                    put(0, l0);
+                    for x in 1..w {
+                        put(x, x - 1);
+                    }
+                    for &t in row_out.iter() {
+                        if t != 0 {
+                            let (a, b, c) = unpack(t);
+                            let resp = response(a, b, c, k);
+                            if resp > best {
+                                best = resp;
+                            }
+                            seen = true;
+                        }
                     }
                 }
                 std::mem::swap(&mut prev, &mut cur);
+                prev_zero = cur_zero;
             }
-            best
+            seen.then_some(best)
         })
         .collect();
     let best = maxima.into_iter().flatten().reduce(f64::max);

@@ -47,10 +47,10 @@ pub fn blur_row<'s>(
 /// Row of the Laplacian `L = G(up) + G(down) + G(left) + G(right) - 4 G` (OpenCV
 /// `Laplacian` ksize 1), thresholded: `out[x] = (L > t)` as 0/1, with `t` an integer
 /// (the caller turns the float threshold into `floor`, which is exact for integer L).
-pub fn laplacian_mask_row(up: &[u16], mid: &[u16], down: &[u16], t: i64, out: &mut [u8]) {
+pub fn laplacian_mask_row(up: &[u16], mid: &[u16], down: &[u16], t: i32, out: &mut [u8]) {
     let w = mid.len();
-    let lap = |x: usize, l: usize, r: usize| -> i64 {
-        up[x] as i64 + down[x] as i64 + mid[l] as i64 + mid[r] as i64 - 4 * mid[x] as i64
+    let lap = |x: usize, l: usize, r: usize| -> i32 {
+        up[x] as i32 + down[x] as i32 + mid[l] as i32 + mid[r] as i32 - 4 * mid[x] as i32
     };
     if w >= 3 {
         for x in 1..w - 1 {
