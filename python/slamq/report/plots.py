@@ -34,6 +34,9 @@ __all__ = [
 ]
 
 _DPI = 110
+#: matplotlib's tab10, fixed (other libraries, e.g. evo, change the rcParams cycle).
+_TAB10 = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+          "#7f7f7f", "#bcbd22", "#17becf")
 
 
 def algorithm_colours(algorithms: Sequence[str]) -> dict[str, str]:
@@ -44,7 +47,7 @@ def algorithm_colours(algorithms: Sequence[str]) -> dict[str, str]:
     >>> algorithm_colours(["b", "a"])["a"]
     '#1f77b4'
     """
-    cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    cycle = _TAB10
     return {a: cycle[i % len(cycle)] for i, a in enumerate(sorted(set(algorithms)))}
 
 
