@@ -473,3 +473,16 @@ def test_resume_after_sigkill(tmp_path: Path, name: str) -> None:
     # the rows written before the kill are the same as a fresh evaluation's
     first = df.set_index("map").loc[partial["map"]]
     assert first["corners"].tolist() == partial["corners"].tolist()
+
+
+def test_symlinked_folders_are_followed_once(tmp_path: Path) -> None:
+    real = tmp_path / "store" / "run 7"
+    write_map(real / "map", room())
+    root = tmp_path / "runs"
+    (root / "gmapping" / "hall").mkdir(parents=True)
+    (root / "gmapping" / "hall" / "r7").symlink_to(real, target_is_directory=True)
+    (root / "gmapping" / "hall" / "r7-again").symlink_to(real, target_is_directory=True)
+    (root / "gmapping" / "loop").symlink_to(root, target_is_directory=True)  # a cycle
+    runs = discover_runs(root)
+    assert [(r.algorithm, r.sequence, r.run) for r in runs] == [("gmapping", "hall", "r7")]
+    assert runs[0].map == root / "gmapping" / "hall" / "r7" / "map.yaml"

@@ -3,11 +3,12 @@
 A *run* is one map built by one SLAM algorithm on one sequence (a recorded data set),
 optionally with the trajectory the algorithm estimated and the sequence's ground truth.
 
-Rules (also in the docstring of :func:`discover_runs`)
------------------------------------------------------
+Rules (:func:`discover_runs` applies them)
+------------------------------------------
 Maps in a folder are YAML map files (a ``.yaml``/``.yml`` with an ``image`` key) and images
 (``slamq.maps.IMAGE_SUFFIXES``: ``.pgm .png .jpg ...``) that no YAML in the folder names.
-Hidden entries (``.name``) and ROS 2 bag folders are skipped. Numbered snapshots
+Hidden entries (``.name``) and ROS 2 bag folders are skipped; symbolic links to folders
+are followed (each real folder once). Numbered snapshots
 (``map_0001.pgm``: a name ending in three or more digits) beside a non-numbered map are
 frames of the map being built, not runs; a folder holding only snapshots contributes its
 last one (by name).
@@ -323,8 +324,14 @@ def folder_maps(folder: Path, files: list[Path] | None = None) -> list[Path]:
 def _discover_folder(root: Path) -> list[Run]:
     runs: list[Run] = []
     root_name = root.resolve().name
-    for folder, dirs, names in os.walk(root):
+    visited: set[Path] = set()
+    for folder, dirs, names in os.walk(root, followlinks=True):
         here = Path(folder)
+        real = here.resolve()
+        if real in visited:  # a symlink cycle, or the same folder linked twice
+            dirs[:] = []
+            continue
+        visited.add(real)
         dirs[:] = sorted(
             d for d in dirs
             if not d.startswith(".") and not (here / d / "metadata.yaml").is_file()

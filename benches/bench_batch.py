@@ -1,0 +1,180 @@
+"""Batch throughput: 2,000 maps of 1 million cells, 1 vs 2 threads, maps/s, peak RSS.
+
+Targets (issue 4): 2 threads >= 1.7x the 1-thread throughput; >= 100 maps/s end to end
+(read, evaluate, write); peak RSS independent of the number of maps.
+
+The maps are crops and copies of the real maps in ../shared/data, placed on 1000 x 1000
+canvases (a larger map is cropped at a random window, a smaller one is pasted at a random
+offset on an unknown canvas) and written as PGM to a temporary folder (about 1 MB each;
+they stay in the page cache, so "read" means decoding, not disk I/O). Every measurement
+runs ``slamq batch`` in a fresh subprocess that reports its own peak RSS, so the runs do
+not share caches or memory.
+
+    PYTHONPATH=python python benches/bench_batch.py            # 2,000 maps
+    PYTHONPATH=python python benches/bench_batch.py --maps 400 # quicker
+
+Prints a table; each ratio is computed from numbers measured in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+CORPUS = Path(os.environ.get("SLAMQ_SHARED_DATA", REPO.parent / "shared" / "data")) / "maps"
+SIDE = 1000
+
+CHILD = r"""
+import json, resource, sys, time
+from slamq.batch import evaluate_many
+src, out, threads, chunk = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+t0 = time.perf_counter()
+n = failed = 0
+for rec in evaluate_many(src, threads=threads, chunk_size=chunk, out=out):
+    n += 1
+    failed += rec["error"] is not None
+dt = time.perf_counter() - t0
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+print(json.dumps({"n": n, "failed": failed, "seconds": dt, "rss_mb": rss}))
+"""
+
+
+def corpus_images() -> list[np.ndarray]:
+    """Grey images of the corpus maps (PGM/PNG), as uint8 arrays."""
+    images = []
+    for p in sorted(CORPUS.rglob("*")):
+        if p.suffix.lower() not in (".pgm", ".png"):
+            continue
+        img = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+        if img is not None and min(img.shape) >= 64:
+            images.append(img)
+    if not images:
+        sys.exit(f"no corpus maps under {CORPUS} (set SLAMQ_SHARED_DATA)")
+    return images
+
+
+def make_map(src: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A SIDE x SIDE map: a random crop of ``src``, or ``src`` pasted on an unknown canvas."""
+    canvas = np.full((SIDE, SIDE), 205, np.uint8)
+    h, w = src.shape
+    r0 = int(rng.integers(0, h - SIDE + 1)) if h > SIDE else 0
+    c0 = int(rng.integers(0, w - SIDE + 1)) if w > SIDE else 0
+    part = src[r0 : r0 + SIDE, c0 : c0 + SIDE]
+    ph, pw = part.shape
+    dr = int(rng.integers(0, SIDE - ph + 1))
+    dc = int(rng.integers(0, SIDE - pw + 1))
+    canvas[dr : dr + ph, dc : dc + pw] = part
+    if rng.random() < 0.5:
+        canvas = np.ascontiguousarray(canvas[:, ::-1])
+    return canvas
+
+
+def write_maps(folder: Path, n: int, seed: int = 0) -> None:
+    """``n`` maps as ``<algorithm>/<sequence>/<run>/map.pgm`` (8 algorithms, 5 sequences)."""
+    rng = np.random.default_rng(seed)
+    images = corpus_images()
+    for i in range(n):
+        img = make_map(images[i % len(images)], rng)
+        run = folder / f"alg{i % 8}" / f"seq{(i // 8) % 5}" / f"run{i:05d}"
+        run.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(run / "map.pgm"), img)
+
+
+def run_batch(src: Path, out: Path, threads: int, chunk: int) -> dict:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(
+        [str(REPO / "python")] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else [])
+    )
+    if out.exists():
+        out.unlink()
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, "-c", CHILD, str(src), str(out), str(threads), str(chunk)],
+        env=env, capture_output=True, text=True, check=False,
+    )
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        sys.exit(f"batch failed:\n{proc.stderr}")
+    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    res["wall"] = wall
+    return res
+
+
+def subset(folder: Path, n: int, dest: Path) -> Path:
+    """A folder of symlinks to the first ``n`` runs (same files, no copies)."""
+    runs = sorted(folder.glob("*/*/*"), key=lambda p: p.name)[:n]
+    for r in runs:
+        link = dest / r.relative_to(folder)
+        link.parent.mkdir(parents=True, exist_ok=True)
+        link.symlink_to(r, target_is_directory=True)
+    return dest
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--maps", type=int, default=2000, help="maps in the big run (default 2000)")
+    ap.add_argument("--scaling-maps", type=int, default=300,
+                    help="maps for the 1- vs 2-thread comparison (default 300)")
+    ap.add_argument("--chunk-size", type=int, default=32)
+    ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
+    args = ap.parse_args()
+
+    tmp = Path(tempfile.mkdtemp(prefix="slamq-bench-batch-"))
+    try:
+        t0 = time.perf_counter()
+        maps = tmp / "maps"
+        write_maps(maps, args.maps)
+        gen = time.perf_counter() - t0
+        size = sum(p.stat().st_size for p in maps.rglob("*.pgm")) / 1e6
+        print(f"wrote {args.maps} maps of {SIDE}x{SIDE} cells ({size:.0f} MB) in {gen:.1f} s "
+              f"to {maps}; CPUs available: {len(os.sched_getaffinity(0))}")
+
+        small = subset(maps, min(args.scaling_maps, args.maps), tmp / "small")
+        quarter = subset(maps, max(1, args.maps // 4), tmp / "quarter")
+        rows = []
+        t1 = run_batch(small, tmp / "t1.parquet", 1, args.chunk_size)
+        t2 = run_batch(small, tmp / "t2.parquet", 2, args.chunk_size)
+        rows.append((f"{t1['n']} maps, 1 thread", t1))
+        rows.append((f"{t2['n']} maps, 2 threads", t2))
+        q = run_batch(quarter, tmp / "q.parquet", 2, args.chunk_size)
+        rows.append((f"{q['n']} maps, 2 threads", q))
+        full = run_batch(maps, tmp / "full.parquet", 2, args.chunk_size)
+        rows.append((f"{full['n']} maps, 2 threads", full))
+
+        print()
+        print("| run | maps/s (in batch) | maps/s (process wall) | peak RSS MB | failed |")
+        print("|---|---|---|---|---|")
+        for name, r in rows:
+            print(f"| {name} | {r['n'] / r['seconds']:.1f} | {r['n'] / r['wall']:.1f} | "
+                  f"{r['rss_mb']:.0f} | {r['failed']} |")
+        ratio = (t2["n"] / t2["seconds"]) / (t1["n"] / t1["seconds"])
+        print()
+        print(f"2-thread / 1-thread throughput: {ratio:.2f}x (target >= 1.7x)")
+        print(f"end to end, {full['n']} maps: {full['n'] / full['seconds']:.1f} maps/s "
+              f"(target >= 100)")
+        print(f"peak RSS {q['n']} vs {full['n']} maps: {q['rss_mb']:.0f} vs "
+              f"{full['rss_mb']:.0f} MB ({full['rss_mb'] / q['rss_mb']:.2f}x; "
+              f"independent of the map count means ~1.0x)")
+        per_map_ms = 1000.0 * t1["seconds"] / t1["n"]
+        print(f"one thread spends {per_map_ms:.1f} ms per map (hash + decode + metrics + "
+              f"write); 100 maps/s on 2 threads needs <= 20 ms")
+    finally:
+        if args.keep:
+            print(f"kept {tmp}")
+        else:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
