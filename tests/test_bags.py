@@ -270,3 +270,43 @@ def test_tf_pair_and_chain(tmp_path, fmt):
         read_bag_trajectory(bag, "/tf")
     with pytest.raises(BagError, match=r"no tf chain from map to camera"):
         read_bag_trajectory(bag, "/tf", parent_frame="map", child_frame="camera")
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_pose_topics_equal_evo(tmp_path, fmt):
+    """Same stamps and poses as evo's bag reader (which also uses rosbags) on every type."""
+    pytest.importorskip("evo")
+    from evo.tools import file_interface
+    from rosbags.rosbag1 import Reader as Reader1
+    from rosbags.rosbag2 import Reader as Reader2
+
+    rng = np.random.default_rng(3)
+    poses = [(5.0 + 0.01 * i + rng.uniform(0, 1e-3), tuple(rng.normal(size=3)),
+              float(rng.uniform(-3, 3))) for i in range(50)]
+    bag = bag_path(tmp_path, fmt)
+    with BagWriter(bag, fmt) as w:
+        for t, xyz, yaw in poses:
+            w.write("/a", "geometry_msgs/msg/PoseStamped", _pose_stamped(w, t, xyz, yaw))
+            w.write("/b", "geometry_msgs/msg/PoseWithCovarianceStamped", _cov_pose(w, t, xyz, yaw))
+            w.write("/c", "nav_msgs/msg/Odometry", _odom(w, t, xyz, yaw))
+            w.write("/d", "geometry_msgs/msg/TransformStamped", _tf(w, t, "w", "r", xyz, yaw))
+            w.write("/e", "geometry_msgs/msg/PointStamped", w.T["geometry_msgs/msg/PointStamped"](
+                header=w.header(t), point=w.T["geometry_msgs/msg/Point"](
+                    x=xyz[0], y=xyz[1], z=xyz[2])))
+    for topic in ("/a", "/b", "/c", "/d", "/e"):
+        with (Reader1 if fmt == "ros1" else Reader2)(bag) as reader:
+            ref = file_interface.read_bag_trajectory(reader, topic)
+        got = read_bag_trajectory(bag, topic)
+        np.testing.assert_array_equal(got.timestamps, ref.timestamps)
+        np.testing.assert_array_equal(got.positions, ref.positions_xyz)
+        np.testing.assert_allclose(got.orientations, ref.orientations_quat_wxyz, atol=1e-15)
+
+
+def test_evo_style_tf_id(tmp_path):
+    bag = bag_path(tmp_path, "ros1")
+    tfm = "tf2_msgs/msg/TFMessage"
+    with BagWriter(bag, "ros1") as w:
+        for t, xyz, yaw in POSES:
+            w.write("/tf", tfm, w.T[tfm](transforms=[_tf(w, t, "odom", "base_link", xyz, yaw)]))
+    _check(read_bag_trajectory(bag, "/tf:odom.base_link"))
+    _check(read_bag_trajectory(bag))  # the only moving pair

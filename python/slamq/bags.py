@@ -59,6 +59,7 @@ POSE_TYPES = (
     "geometry_msgs/msg/PoseWithCovarianceStamped",
     "nav_msgs/msg/Odometry",
     "geometry_msgs/msg/TransformStamped",
+    "geometry_msgs/msg/PointStamped",
     PATH_TYPE,
 )
 
@@ -509,10 +510,12 @@ def read_bag_trajectory(
         ROS1 ``.bag``, ROS2 ``.db3`` / ``.mcap`` file, or ROS2 bag folder.
     topic : str, optional
         A ``geometry_msgs/PoseStamped``, ``PoseWithCovarianceStamped``,
-        ``TransformStamped``, ``nav_msgs/Odometry`` or ``nav_msgs/Path`` topic (for a Path,
-        the poses of its last message), or a ``tf2_msgs/TFMessage`` topic (``/tf``;
-        ``"/tf:map->base_link"`` also names the frames). By default the bag's only pose
-        topic, else ``/tf``.
+        ``TransformStamped``, ``PointStamped`` (identity orientations), ``nav_msgs/Odometry``
+        or ``nav_msgs/Path`` topic (for a Path, the poses of its last message), or a
+        ``tf2_msgs/TFMessage`` topic (``/tf``; ``"/tf:map->base_link"`` or evo's
+        ``"/tf:map.base_link"`` also names the frames). By default the bag's only pose
+        topic, else ``/tf``. The poses equal evo's ``read_bag_trajectory`` for the topic
+        types both read; ``/tf`` needs no ROS install here.
     parent_frame, child_frame : str, optional
         For ``/tf``: the pose of ``child_frame`` in ``parent_frame``. A chain of frames
         (``map -> odom -> base_link``) is composed through ``/tf`` and ``/tf_static``, at the
@@ -538,9 +541,9 @@ def read_bag_trajectory(
     """
     from slamq.trajectory import Trajectory
 
-    if topic is not None and ":" in topic and "->" in topic:  # "/tf:map->base_link"
+    if topic is not None and ":" in topic:  # "/tf:map->base_link", or evo's "/tf:map.base_link"
         topic, _, frames = topic.partition(":")
-        parent, _, child = frames.partition("->")
+        parent, _, child = frames.partition("->" if "->" in frames else ".")
         parent_frame = parent_frame or parent.strip() or None
         child_frame = child_frame or child.strip() or None
     with _open(bag) as reader:
@@ -585,11 +588,20 @@ def read_bag_trajectory(
     return Trajectory(t, p, q / norms[:, None], source=where)
 
 
+class _Identity:
+    w, x, y, z = 1.0, 0.0, 0.0, 0.0
+
+
+_IDENTITY = _Identity()
+
+
 def _pose_of(msgtype: str, msg: Any) -> tuple[Any, Any]:
     if msgtype == "geometry_msgs/msg/PoseStamped":
         return msg.pose.position, msg.pose.orientation
     if msgtype == "geometry_msgs/msg/TransformStamped":
         return msg.transform.translation, msg.transform.rotation
+    if msgtype == "geometry_msgs/msg/PointStamped":
+        return msg.point, _IDENTITY
     # PoseWithCovarianceStamped and Odometry: pose.pose
     return msg.pose.pose.position, msg.pose.pose.orientation
 
