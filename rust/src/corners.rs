@@ -7,7 +7,7 @@
 //! cell (the mask) and four (the packed Harris sums `A, B, C`).
 
 use crate::border::reflect101;
-use crate::filter::{blur_row, box2_row, laplacian_mask_row, sobel_products_row, structure_row};
+use crate::filter::{blur_row, laplacian_mask_row, sobel_products_row, structure_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
 use crate::label::{Components, MaskRows};
 use rayon::prelude::*;

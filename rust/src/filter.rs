@@ -1,5 +1,6 @@
 //! Exact integer filters for the corner metric (SPEC section 3), row at a time so that the
 //! callers can stream row bands without full-size intermediates. Every border is reflect-101.
+//! (The 2x2 box sum of the Harris products is fused with packing in `corners`.)
 
 use crate::border::reflect101;
 
@@ -102,18 +103,6 @@ pub fn sobel_products_row(
             reflect101(x as isize - 1, w),
             reflect101(x as isize + 1, w),
         );
-    }
-}
-
-/// 2x2 box sum whose bottom-right cell is the cell itself (OpenCV `boxFilter` with an even
-/// block's default anchor), given the product rows above (`prev`, reflect-mapped) and at
-/// (`cur`) the cell: `out[x] = prev[x-1] + prev[x] + cur[x-1] + cur[x]`, column reflect-101.
-pub fn box2_row(prev: &[i16], cur: &[i16], out: &mut [i32]) {
-    let w = cur.len();
-    let l0 = reflect101(-1, w);
-    out[0] = prev[l0] as i32 + prev[0] as i32 + cur[l0] as i32 + cur[0] as i32;
-    for x in 1..w {
-        out[x] = prev[x - 1] as i32 + prev[x] as i32 + cur[x - 1] as i32 + cur[x] as i32;
     }
 }
 
