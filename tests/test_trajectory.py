@@ -148,6 +148,14 @@ def test_generic_tables(tmp_path):
     n = tmp_path / "xy.csv"
     n.write_text("x,y\n1,2\n3,4\n")
     assert load_trajectory(n).timestamps.tolist() == [0.0, 1.0]  # no t: index
+    h = tmp_path / "commented.txt"
+    h.write_text("# recorded by me\n\n# time x y yaw\n0 1 2 0\n# pause\n1 3 4 0.25\n")
+    tr = load_trajectory(h)  # the header is the comment line above the data
+    assert tr.positions[:, :2].tolist() == [[1.0, 2.0], [3.0, 4.0]]
+    assert np.isclose(tr.yaw[1], 0.25)
+    h.write_text("# notes\n\ntime x y\n\n0 1 2\n1 3 4\n")
+    assert load_trajectory(h, columns={"t": "time", "x": "x", "y": "y"}).timestamps.tolist() == [
+        0.0, 1.0]
 
 
 def test_parse_columns():

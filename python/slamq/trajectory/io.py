@@ -280,6 +280,34 @@ def _split(line: str, sep: str) -> list[str]:
     return [c.strip() for c in line.split(sep)]
 
 
+def _header(path: Path, sep: str | None) -> tuple[list[str], int, str]:
+    """The header cells, the header's line index (-1: none) and the separator.
+
+    The header is the first line that is neither blank nor a ``#`` comment when it is
+    not numeric; else the last ``#`` comment line above the first data row when it has
+    as many cells as that row (``# timestamp x y ...``, EuRoC's ``#timestamp,...``).
+    """
+    last_comment: tuple[str, int] | None = None
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
+        for i, line in enumerate(f):
+            s = line.strip()
+            if not s:
+                continue
+            if s.startswith("#"):
+                last_comment = (s, i)
+                continue
+            sep = sep or _guess_sep(s)
+            cells = _split(s, sep)
+            if not all(_is_number(c) for c in cells if c != ""):
+                return cells, i, sep
+            if last_comment is not None:
+                ccells = _split(last_comment[0].lstrip("#").strip(), sep)
+                if len(ccells) == len(cells) and not any(_is_number(c) for c in ccells):
+                    return ccells, last_comment[1], sep
+            return [], -1, sep
+    raise TrajectoryError(f"{path}: empty file (no poses)")
+
+
 def _guess_sep(line: str) -> str:
     if "," in line:
         return ","
@@ -337,13 +365,8 @@ def read_table(
     """
     path = Path(path)
     mapping = parse_columns(columns) if columns is not None else None
-    first, first_idx = _first_line(path)
-    if first_idx < 0:
-        raise TrajectoryError(f"{path}: empty file (no poses)")
-    if sep is None:
-        sep = _guess_sep(first)
-    cells = _split(first, sep)
-    has_header = not all(_is_number(c) for c in cells if c != "")
+    cells, header_idx, sep = _header(path, sep)
+    has_header = header_idx >= 0
     names = [_norm_name(c) for c in cells] if has_header else []
     if mapping is None:
         if not has_header:
@@ -380,11 +403,7 @@ def read_table(
                 f"{path}: no column {col!r} for {role!r}; the header has {cells}"
             )
         index[role] = names.index(key)
-    arr = _read_table(
-        path, sep=sep if sep != "\t" else "\t",
-        skiprows=first_idx + 1 if has_header else 0,
-        comment="#",
-    )
+    arr = _read_table(path, sep=sep, skiprows=header_idx + 1, comment="#")
     _nonempty(arr, path)
     ncol = arr.shape[1]
     for role, i in index.items():
@@ -454,10 +473,10 @@ def _guess_format(path: Path) -> str:
             return "tum"
         if len(cells) == 12:
             return "kitti"
-    if sep == "," and not all(_is_number(c) for c in cells):
-        return "csv"
     if not all(_is_number(c) for c in cells):
-        return "csv"
+        return "csv"  # a header line
+    if _header(path, None)[1] >= 0:
+        return "csv"  # a '# name name ...' comment header with one name per column
     raise TrajectoryError(
         f"{path}: cannot tell the format ({len(cells)} numbers per row, not TUM's 8 or "
         f"KITTI's 12); pass format= and columns= (e.g. columns='t,x,y,yaw')"
