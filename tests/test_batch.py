@@ -212,7 +212,7 @@ def test_results_file_roundtrip_and_torn_line(tmp_path: Path, name: str) -> None
         fh.write('{"map": "m3.pgm", "algorithm": "a", "seq')
     assert read_results(path)["corners"].tolist() == [0, 1, 2]
     with ResultsFile(path) as rf:  # resuming cuts the torn line off, then appends
-        assert len(rf.existing) == 3
+        assert len(rf) == 3
         rf.append([_rec(3), _rec(1, corners=10)])  # a re-evaluated run replaces its row
     df = read_results(path)
     assert df["corners"].tolist() == [0, 2, 3, 10]
@@ -227,6 +227,10 @@ def test_read_results_errors(tmp_path: Path) -> None:
         read_results(tmp_path / "r.csv")
     with pytest.raises(slamq.MapError, match="no such results file"):
         read_results(tmp_path / "r.parquet")
+    mid = tmp_path / "mid.jsonl"
+    mid.write_text('{"map": "a", "run": "0"}\n{"map": garbage}\n{"map": "b", "run": "0"}\n')
+    with pytest.raises(slamq.MapError, match="mid.jsonl: line 2: not a JSON record"):
+        read_results(mid)
     bad = tmp_path / "bad.parquet"
     bad.write_bytes(b"PAR1 not really")
     with pytest.raises(slamq.MapError, match="bad.parquet: not a readable Parquet"):

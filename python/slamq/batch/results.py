@@ -30,6 +30,8 @@ from slamq.errors import MapError, ParamError
 __all__ = ["ResultsFile", "read_results", "read_records", "results_format", "KEY"]
 
 KEY = ("algorithm", "sequence", "run", "map")
+#: Besides the key, what resuming reads back from a results file.
+_RESUME_COLUMNS = ("hash", "config", "trajectory", "groundtruth", "error")
 _JSONL = (".jsonl", ".ndjson")
 _PARQUET = (".parquet", ".pq")
 
@@ -91,48 +93,117 @@ def _clean(value: Any) -> Any:
     return str(value)
 
 
-def _read_jsonl(path: Path, *, truncate_partial: bool = False) -> list[dict[str, Any]]:
-    """Complete lines of a JSON Lines file; a partial or corrupt last line is dropped
-    (and cut off the file when ``truncate_partial``)."""
+def _cut_torn_tail(path: Path) -> None:
+    """Cut a partial last line (a write interrupted by kill -9) off a JSON Lines file."""
     try:
-        data = path.read_bytes()
+        fh = open(path, "r+b")
     except FileNotFoundError:
-        return []
-    except OSError as exc:
-        raise MapError(f"{path}: cannot read results: {exc}") from exc
-    end = data.rfind(b"\n") + 1
-    if truncate_partial and end < len(data):
-        with open(path, "r+b") as fh:
-            fh.truncate(end)
+        return
+    with fh:
+        size = fh.seek(0, os.SEEK_END)
+        pos = size
+        while pos > 0:
+            step = min(65536, pos)
+            fh.seek(pos - step)
+            block = fh.read(step)
+            nl = block.rfind(b"\n")
+            if nl >= 0:
+                pos = pos - step + nl + 1
+                break
+            pos -= step
+        if pos < size:
+            fh.truncate(pos)
             fh.flush()
             os.fsync(fh.fileno())
-    records = []
-    lines = data[:end].split(b"\n")
-    for i, line in enumerate(lines):
-        if not line.strip():
-            continue
-        try:
-            rec = json.loads(line)
-        except ValueError as exc:
-            if i >= len(lines) - 2:  # a torn last line (kill -9 mid-write)
+
+
+def _iter_jsonl(path: Path) -> Iterator[dict[str, Any]]:
+    """The records of a JSON Lines file, streamed; a torn last line is skipped."""
+    try:
+        fh = open(path, "rb")
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise MapError(f"{path}: cannot read results: {exc}") from exc
+    with fh:
+        for i, line in enumerate(fh, start=1):
+            if not line.strip():
                 continue
-            raise MapError(f"{path}: line {i + 1}: not a JSON record: {exc}") from exc
-        if not isinstance(rec, dict):
-            raise MapError(f"{path}: line {i + 1}: not a JSON object")
-        records.append(rec)
-    return records
+            try:
+                rec = json.loads(line)
+            except ValueError as exc:
+                if not line.endswith(b"\n"):
+                    continue  # the unterminated last line of a write cut by kill -9
+                raise MapError(f"{path}: line {i}: not a JSON record: {exc}") from exc
+            if not isinstance(rec, dict):
+                raise MapError(f"{path}: line {i}: not a JSON object")
+            yield rec
 
 
-def _read_parquet(path: Path) -> list[dict[str, Any]]:
-    if not path.exists():
-        return []
+def _jsonl_tables(path: Path, batch: int = 8192) -> Iterator[Any]:
+    """A JSON Lines file as Arrow tables of at most ``batch`` rows (bounded memory)."""
+    rows: list[dict[str, Any]] = []
+    for rec in _iter_jsonl(path):
+        rows.append(rec)
+        if len(rows) >= batch:
+            yield _arrow_table(rows)
+            rows = []
+    if rows:
+        yield _arrow_table(rows)
+
+
+def _parquet_table(path: Path, columns: list[str] | None = None) -> Any:
     import pyarrow.parquet as pq
 
     try:
-        table = pq.read_table(path)
+        if columns is not None:
+            have = set(pq.read_schema(path).names)
+            columns = [c for c in columns if c in have]
+        return pq.read_table(path, columns=columns)
     except Exception as exc:  # noqa: BLE001 - pyarrow raises several types
         raise MapError(f"{path}: not a readable Parquet file: {exc}") from exc
-    return table.to_pylist()
+
+
+def _concat(tables: list[Any]) -> Any:
+    import pyarrow as pa
+
+    tables = [t for t in tables if t.num_rows or len(tables) == 1]
+    if not tables:
+        return _arrow_table([])
+    if len(tables) == 1:
+        return tables[0]
+    try:
+        return pa.concat_tables(tables, promote_options="permissive")
+    except TypeError:  # pyarrow < 14
+        return pa.concat_tables(tables, promote=True)
+
+
+def _dedup_table(table: Any) -> Any:
+    """Keep the last row of every ``(algorithm, sequence, run, map)``, in file order."""
+    import pyarrow as pa
+
+    if table.num_rows == 0 or not all(k in table.column_names for k in KEY):
+        return table
+    keys = table.select(list(KEY)).to_pandas()
+    keep = ~keys.astype(str).duplicated(keep="last").to_numpy()
+    if keep.all():
+        return table
+    return table.filter(pa.array(keep))
+
+
+def _results_table(path: Path) -> Any:
+    """A results file (plus a Parquet file's journal) as one deduplicated Arrow table."""
+    fmt = results_format(path)
+    if fmt == "jsonl":
+        if not path.exists():
+            raise MapError(f"{path}: no such results file")
+        return _dedup_table(_concat(list(_jsonl_tables(path))))
+    jpath = journal_path(path)
+    if not path.exists() and not jpath.exists():
+        raise MapError(f"{path}: no such results file")
+    tables = [_parquet_table(path)] if path.exists() else []
+    tables += list(_jsonl_tables(jpath))
+    return _dedup_table(_concat(tables))
 
 
 def read_records(path: PathLike) -> list[dict[str, Any]]:
@@ -140,27 +211,7 @@ def read_records(path: PathLike) -> list[dict[str, Any]]:
 
     For Parquet, rows of an unfinished batch's journal are included.
     """
-    path = Path(path)
-    fmt = results_format(path)
-    if fmt == "jsonl":
-        if not path.exists():
-            raise MapError(f"{path}: no such results file")
-        records = _read_jsonl(path)
-    else:
-        jpath = journal_path(path)
-        if not path.exists() and not jpath.exists():
-            raise MapError(f"{path}: no such results file")
-        records = _read_parquet(path) + _read_jsonl(jpath)
-    return _dedup(records)
-
-
-def _dedup(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    last: dict[tuple[str, str, str, str], int] = {}
-    for i, rec in enumerate(records):
-        last[_key(rec)] = i
-    if len(last) == len(records):
-        return records
-    return [rec for i, rec in enumerate(records) if last[_key(rec)] == i]
+    return _results_table(Path(path)).to_pylist()
 
 
 def _ordered_columns(records: list[dict[str, Any]]) -> list[str]:
@@ -215,8 +266,7 @@ def read_results(path: PathLike) -> Any:
     >>> read_results(p)[["map", "corners"]].values.tolist()
     [['a.pgm', 3]]
     """
-    table = _arrow_table(read_records(path))
-    return table.to_pandas()
+    return _results_table(Path(path)).to_pandas()
 
 
 def _fsync_dir(path: Path) -> None:
@@ -232,27 +282,39 @@ def _fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
-def _write_jsonl_atomic(path: Path, records: list[dict[str, Any]]) -> None:
+def _rewrite_jsonl_dedup(path: Path) -> None:
+    """Rewrite a JSON Lines file without superseded rows (two streaming passes)."""
+    last: dict[tuple[str, str, str, str], int] = {}
+    for i, rec in enumerate(_iter_jsonl(path)):
+        last[_key(rec)] = i
     tmp = path.with_name(path.name + ".tmp")
     with open(tmp, "w", encoding="utf-8") as fh:
-        for rec in records:
-            fh.write(_dumps(rec))
+        for i, rec in enumerate(_iter_jsonl(path)):
+            if last[_key(rec)] == i:
+                fh.write(_dumps(rec))
         fh.flush()
         os.fsync(fh.fileno())
     os.replace(tmp, path)
     _fsync_dir(path.parent)
 
 
-def _write_parquet_atomic(path: Path, records: list[dict[str, Any]], row_group: int) -> None:
+def _compact_parquet(path: Path, journal: Path, row_group: int) -> None:
+    """Parquet file + journal -> a new Parquet file (atomic rename), then drop the journal."""
     import pyarrow.parquet as pq
 
+    tables = [_parquet_table(path)] if path.exists() else []
+    tables += list(_jsonl_tables(journal))
+    table = _dedup_table(_concat(tables))
     tmp = path.with_name(path.name + ".tmp")
-    table = _arrow_table(records)
     pq.write_table(table, tmp, row_group_size=max(1, row_group))
     with open(tmp, "rb") as fh:
         os.fsync(fh.fileno())
     os.replace(tmp, path)
     _fsync_dir(path.parent)
+    try:
+        journal.unlink()
+    except FileNotFoundError:
+        pass
 
 
 def _dumps(rec: dict[str, Any]) -> str:
@@ -261,6 +323,9 @@ def _dumps(rec: dict[str, Any]) -> str:
 
 class ResultsFile:
     """A results file being written by a batch (see the module docstring).
+
+    Opening it cuts a torn last line (left by kill -9) off the append file and reads
+    what resuming needs (keys, content hashes, settings, errors), not whole records.
 
     Parameters
     ----------
@@ -283,27 +348,31 @@ class ResultsFile:
         self.path = Path(path)
         self.format = results_format(self.path)
         self.row_group = row_group
-        if self.path.parent and not self.path.parent.exists():
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
         self._append_to = self.path if self.format == "jsonl" else journal_path(self.path)
-        # records already there (a resumed batch); a torn last line is cut off
-        if self.format == "jsonl":
-            stored = _read_jsonl(self.path, truncate_partial=True)
-        else:
-            stored = _read_parquet(self.path) + _read_jsonl(
-                self._append_to, truncate_partial=True
-            )
-        self._stored_count = len(stored)
-        self.existing: list[dict[str, Any]] = _dedup(stored)
-        self._superseded = len(self.existing) != self._stored_count
-        self._keys = {_key(r) for r in self.existing}
-        self._appended = 0
+        _cut_torn_tail(self._append_to)
+        self._stored: dict[tuple[str, str, str, str], dict[str, Any]] = {}
+        self._superseded = False
+        for rec in self._stored_records():
+            k = _key(rec)
+            self._superseded = self._superseded or k in self._stored
+            self._stored[k] = rec
+        self._keys = set(self._stored)
         self._fh: Any | None = None
 
+    def _stored_records(self) -> Iterator[dict[str, Any]]:
+        if self.format == "parquet" and self.path.exists():
+            yield from _parquet_table(self.path, list(KEY + _RESUME_COLUMNS)).to_pylist()
+        for rec in _iter_jsonl(self._append_to):
+            yield {k: rec.get(k) for k in KEY + _RESUME_COLUMNS}
+
     def done(self) -> Iterator[tuple[tuple[str, str, str, str], dict[str, Any]]]:
-        """``(key, record)`` of every stored record."""
-        for rec in self.existing:
-            yield _key(rec), rec
+        """``(key, record)`` of every stored run; the record holds the key columns and
+        ``hash, config, trajectory, groundtruth, error``."""
+        yield from self._stored.items()
+
+    def __len__(self) -> int:
+        return len(self._stored)
 
     def append(self, records: Iterable[dict[str, Any]]) -> None:
         """Append one finished chunk and make it durable (flush + fsync)."""
@@ -321,7 +390,6 @@ class ResultsFile:
         self._fh.write("".join(lines))
         self._fh.flush()
         os.fsync(self._fh.fileno())
-        self._appended += len(lines)
 
     def close(self) -> None:
         """Finish: rewrite without superseded rows (JSONL) / compact into Parquet."""
@@ -330,19 +398,12 @@ class ResultsFile:
             self._fh = None
         if self.format == "jsonl":
             if self._superseded:
-                _write_jsonl_atomic(self.path, _dedup(_read_jsonl(self.path)))
+                _rewrite_jsonl_dedup(self.path)
             elif not self.path.exists():
                 self.path.touch()
             return
-        jpath = self._append_to
-        if not jpath.exists() and self.path.exists() and not self._superseded:
-            return
-        records = _dedup(_read_parquet(self.path) + _read_jsonl(jpath))
-        _write_parquet_atomic(self.path, records, self.row_group)
-        try:
-            jpath.unlink()
-        except FileNotFoundError:
-            pass
+        if self._append_to.exists() or not self.path.exists() or self._superseded:
+            _compact_parquet(self.path, self._append_to, self.row_group)
 
     def __enter__(self) -> ResultsFile:
         return self
