@@ -332,7 +332,10 @@ def test_resume_skips_done_and_redoes_changed(tmp_path: Path) -> None:
     out = tmp_path / "r.parquet"
     first = list(evaluate_many(tmp_path / "runs", out=out, threads=2, chunk_size=4))
     assert len(first) == 6
-    assert list(evaluate_many(tmp_path / "runs", out=out, threads=2)) == []
+    calls: list[tuple[int, int]] = []
+    skipped = evaluate_many(tmp_path / "runs", out=out, progress=lambda *a: calls.append(a))
+    assert list(skipped) == []
+    assert calls == [(i, 6) for i in range(7)]  # skipped maps count as progress
     write_map(paths[1].with_suffix(""), room(seed=99))  # new content: evaluated again
     again = list(evaluate_many(tmp_path / "runs", out=out, threads=2))
     assert [r["map"] for r in again] == [str(paths[1])]

@@ -85,7 +85,7 @@ def evaluate_many(
         in it with no error, the same content hash, parameters and trajectory files are
         skipped (and not yielded); failed runs are retried and their old rows replaced.
     progress : callable(done, total), optional
-        Called after every map (skipped ones included).
+        Called with (0, total) first, then after every map (skipped ones included).
     ate_align, ate_max_dt, ate_unsorted
         Trajectory error options (SPEC section 6; ``ate_unsorted`` as ``unsorted`` of
         :func:`slamq.trajectory.load_trajectory`), used for runs with a trajectory and a
@@ -165,6 +165,8 @@ def _stream(
                 done[key] = options.fingerprint(rec)
     total = len(runs)
     finished = 0
+    if progress is not None:
+        progress(0, total)
     kind, target = backend
     if kind == "dask":
         results = _run_dask(runs, options, done, target, threads, chunk)
