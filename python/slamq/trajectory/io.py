@@ -136,7 +136,7 @@ def _read_table(
 
 def _read_table_numpy(
     path: Path, *, sep: str, skiprows: int, comment: str | None
-) -> np.ndarray:  # pragma: no cover - used without pandas only
+) -> np.ndarray:
     try:
         arr = np.loadtxt(path, delimiter=None if sep == "ws" else sep, comments=comment,
                          skiprows=skiprows, ndmin=2)
