@@ -43,7 +43,8 @@ seeds = st.integers(min_value=0, max_value=2**32 - 1)
 def map_sizes(min_side: int = 1, max_side: int = 200) -> st.SearchStrategy[tuple[int, int]]:
     """``(H, W)`` with both sides in ``min_side..max_side``, biased to small and thin maps."""
     small = st.integers(min_side, max(min_side, min(max_side, 8)))
-    side = st.one_of(small, st.integers(min_side, max_side))
+    medium = st.integers(max(min_side, min(max_side, 9)), max(min_side, min(max_side, 64)))
+    side = st.one_of(small, medium, st.integers(min_side, max_side))
     return st.tuples(side, side)
 
 

@@ -98,7 +98,7 @@ def test_corpus_map_with_other_parameters(shared_data: Path) -> None:
     )
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(occupancy_maps(max_side=200))
 def test_hypothesis_maps(grid: OccupancyMap) -> None:
     assert_conforms(grid)
@@ -115,13 +115,13 @@ params_strategy = st.builds(
 )
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(occupancy_maps(max_side=80), params_strategy)
 def test_hypothesis_maps_any_parameters(grid: OccupancyMap, params: Params) -> None:
     assert_conforms(grid, **params.to_dict())
 
 
-@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(occupancy_maps(min_side=30, max_side=200))
 def test_thread_count_does_not_matter(grid: OccupancyMap) -> None:
     one = slamq.evaluate(grid, curve=True, threads=1)
