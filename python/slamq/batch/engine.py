@@ -3,10 +3,12 @@
 How it runs
 -----------
 * **Local** (default): a thread pool of ``threads`` workers. Each worker hashes, loads
-  (OpenCV decoding releases the GIL) and evaluates one map with
-  ``slamq.evaluate(map, threads=1)`` (the Rust core releases the GIL), so the threads run
-  in parallel. At most ``max(2 * threads, chunk_size)`` maps are queued at once and only
-  the running ones are in memory; records come back in input order.
+  (OpenCV decoding releases the GIL) and evaluates one map with ``slamq.evaluate`` (the
+  Rust core releases the GIL), so the threads run in parallel. With one worker the core
+  gets ``threads=1``; with several it runs on the worker's own thread (``threads=None``,
+  see :meth:`EvalOptions.for_workers`). At most ``max(2 * threads, chunk_size)`` maps
+  are queued at once and only the running ones are in memory; records come back in
+  input order.
 * **concurrent.futures.Executor**: the same, with your executor (a process pool works).
 * **Dask**: chunks of ``chunk_size`` runs are sent to the workers (only paths travel; the
   workers must see the same files), each chunk is evaluated with a thread pool inside the
@@ -19,6 +21,7 @@ Results are written to ``out`` one chunk at a time (see :mod:`slamq.batch.result
 from __future__ import annotations
 
 import os
+import uuid
 from collections import deque
 from collections.abc import Iterator
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
@@ -204,6 +207,9 @@ def _run_local(
     chunk: int,
 ) -> Iterator[dict[str, Any] | None]:
     n = threads or _default_threads()
+    if executor is not None:
+        n = max(n, getattr(executor, "_max_workers", n))
+    options = options.for_workers(n)
     own = executor is None
     pool = ThreadPoolExecutor(max_workers=n, thread_name_prefix="slamq") if own else executor
     assert pool is not None
@@ -237,6 +243,7 @@ def evaluate_chunk(
             per_task = 1
         threads = max(1, cpus // per_task)
     threads = min(threads, max(1, len(runs)))
+    options = options.for_workers(threads)
     if threads == 1:
         return [evaluate_run(r, options, d) for r, d in zip(runs, done)]
     with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="slamq-chunk") as pool:
@@ -271,6 +278,7 @@ def _run_dask(
         client = target
     try:
         chunks = [runs[i : i + chunk] for i in range(0, len(runs), chunk)]
+        batch_id = uuid.uuid4().hex[:12]
         worker_threads = sum(client.nthreads().values()) or 1
         window = max(2, 2 * worker_threads)
         results: dict[int, list[dict[str, Any] | None]] = {}
@@ -283,7 +291,7 @@ def _run_dask(
             part = chunks[i]
             fut = client.submit(
                 evaluate_chunk, part, options, [done.get(r.key) for r in part], threads,
-                pure=False, key=f"slamq-batch-chunk-{i}-{os.getpid()}-{id(chunks)}",
+                pure=False, key=f"slamq-batch-{batch_id}-{i}",
             )
             futures[fut] = i
             ac.add(fut)

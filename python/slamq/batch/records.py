@@ -7,6 +7,7 @@ becomes the record's ``error`` (``"file: reason"``) and the batch goes on.
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import os
@@ -152,6 +153,20 @@ class EvalOptions:
                 f"ate_unsorted must be 'error', 'last' or 'sort', not {ate_unsorted!r}"
             )
         self.ate_unsorted = ate_unsorted
+        #: ``threads`` of each ``slamq.evaluate`` call; see :meth:`for_workers`.
+        self.core_threads: int | None = 1
+
+    def for_workers(self, workers: int) -> EvalOptions:
+        """These options for ``workers`` maps evaluated at once.
+
+        One worker: each map is evaluated with ``threads=1`` (the core on one thread).
+        Several: ``threads=None``, so the core runs on the calling thread (its parallel
+        sections use rayon's global pool). ``threads=1`` would send every concurrent
+        call to the core's single shared 1-thread pool and serialise them.
+        """
+        other = copy.copy(self)
+        other.core_threads = 1 if workers <= 1 else None
+        return other
 
     def __getstate__(self) -> dict[str, Any]:
         return dict(self.__dict__)
@@ -255,7 +270,8 @@ def evaluate_run(
             from slamq.quality import evaluate
 
             q = evaluate(
-                str(run.map), threads=1, curve=options.curve, verify=options.verify,
+                str(run.map), threads=options.core_threads, curve=options.curve,
+                verify=options.verify,
                 unknown_value=options.unknown_value, **options.params.to_dict(),
             )
             d = q.to_dict()
