@@ -465,7 +465,7 @@ def filled_image(grid: OccupancyMap, u: int) -> np.ndarray:
     u = int(u)
     if not 0 <= u <= 255:
         raise ValueError(f"unknown value u must be in 0..255, got {u}")
-    return np.where(grid.unknown, np.uint8(u), grid.values).astype(np.uint8)
+    return np.where(grid.unknown, np.uint8(u), grid.values).astype(np.uint8, copy=False)
 
 
 def _enclosed_components(
@@ -474,7 +474,8 @@ def _enclosed_components(
     """Labels of Free at ``u`` and the boolean 'counted' flag per label (0 = background)."""
     p = _params(params)
     e = filled_image(grid, u)
-    free = (e > otsu_threshold(e)).astype(np.uint8)
+    with ipp_disabled():  # cv2 binarises: free = 1 where E_u > T_u (Otsu), else 0
+        _, free = cv2.threshold(e, 0, 1, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(free, connectivity=8, ltype=cv2.CV_32S)
     height, width = free.shape
     left = stats[:, cv2.CC_STAT_LEFT]
