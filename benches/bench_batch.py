@@ -45,8 +45,9 @@ for rec in evaluate_many(src, threads=threads, chunk_size=chunk, out=out):
     n += 1
     failed += rec["error"] is not None
 dt = time.perf_counter() - t0
-rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-print(json.dumps({"n": n, "failed": failed, "seconds": dt, "rss_mb": rss}))
+ru = resource.getrusage(resource.RUSAGE_SELF)
+print(json.dumps({"n": n, "failed": failed, "seconds": dt, "rss_mb": ru.ru_maxrss / 1024.0,
+                  "cpu": ru.ru_utime + ru.ru_stime}))
 """
 
 
@@ -130,6 +131,7 @@ def main() -> None:
     ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
     args = ap.parse_args()
 
+    load0 = os.getloadavg()[0]
     tmp = Path(tempfile.mkdtemp(prefix="slamq-bench-batch-"))
     try:
         t0 = time.perf_counter()
@@ -153,11 +155,12 @@ def main() -> None:
         rows.append((f"{full['n']} maps, 2 threads", full))
 
         print()
-        print("| run | maps/s (in batch) | maps/s (process wall) | peak RSS MB | failed |")
-        print("|---|---|---|---|---|")
+        print("| run | maps/s (in batch) | maps/s (process wall) | CPU s / wall s | "
+              "peak RSS MB | failed |")
+        print("|---|---|---|---|---|---|")
         for name, r in rows:
             print(f"| {name} | {r['n'] / r['seconds']:.1f} | {r['n'] / r['wall']:.1f} | "
-                  f"{r['rss_mb']:.0f} | {r['failed']} |")
+                  f"{r['cpu'] / r['wall']:.2f} | {r['rss_mb']:.0f} | {r['failed']} |")
         ratio = (t2["n"] / t2["seconds"]) / (t1["n"] / t1["seconds"])
         print()
         print(f"2-thread / 1-thread throughput: {ratio:.2f}x (target >= 1.7x)")
@@ -167,6 +170,9 @@ def main() -> None:
               f"{full['rss_mb']:.0f} MB ({full['rss_mb'] / q['rss_mb']:.2f}x; "
               f"independent of the map count means ~1.0x)")
         per_map_ms = 1000.0 * t1["seconds"] / t1["n"]
+        print(f"load average (1 min) before / after: {load0:.1f} / {os.getloadavg()[0]:.1f} "
+              f"on {len(os.sched_getaffinity(0))} CPUs (other work competes for the CPUs; "
+              f"'CPU s / wall s' is how many cores the batch actually got)")
         print(f"one thread spends {per_map_ms:.1f} ms per map (hash + decode + metrics + "
               f"write); 100 maps/s on 2 threads needs <= 20 ms")
     finally:
