@@ -3,7 +3,9 @@
 ``se3`` and ``sim3`` are evo's ``-a`` and ``-as`` (same Umeyama formulas and the same
 degeneracy test), ``origin`` is evo's ``--align_origin`` (first poses made equal),
 ``se2`` is Umeyama in the x-y plane: a rotation about z and a translation in x and y
-(z is left as it is), the natural alignment for 2-D SLAM.
+(z is left as it is), the natural alignment for 2-D SLAM. On planar data (z = 0) se2 and
+se3 give the same alignment, except when the best 3-D fit turns the estimate upside down
+(a half turn about an in-plane axis, i.e. a mirrored 2-D trajectory), which se2 excludes.
 """
 
 from __future__ import annotations
