@@ -133,6 +133,12 @@ def test_flat_layout_names_and_mirrored_trajectories(tmp_path: Path) -> None:
     assert runs["gmapping"].groundtruth == runs["gmapping"].trajectory
     assert runs["karto"].trajectory == traj / "karto.txt" and runs["karto"].groundtruth is None
     assert runs["slam_toolbox"].trajectory is None
+    # a ground-truth map joins its sequence as algorithm "ground_truth"
+    write_map(maps.parent.parent / "ground_truths" / "office_ground_truth", room(seed=6))
+    found = discover_runs(maps.parent.parent)
+    gt = [r for r in found if r.algorithm == "ground_truth"]
+    assert [(r.sequence, r.map.name) for r in gt] == [("office", "office_ground_truth.yaml")]
+    assert len(found) == 6
 
 
 def test_single_map_file_and_missing_source(tmp_path: Path) -> None:

@@ -20,6 +20,9 @@ last one (by name).
   sequence = the folder's name, algorithm = the file stem with its ``_map`` token removed
   (``gmapping_map`` -> ``gmapping``, ``gmapping_map_cropped`` -> ``gmapping_cropped``;
   ``gmapping_map_3`` -> algorithm ``gmapping``, run ``3``), run = ``"0"`` otherwise.
+  A ground-truth map ``<sequence>_ground_truth`` (or ``_gt``, e.g. slam_comparison_tools'
+  ``ground_truths/office_ground_truth.yaml``) becomes algorithm ``ground_truth`` of that
+  sequence, wherever it lies, so it sits beside the SLAM maps in the summary.
 * **Trajectories** (``.txt .csv .tum .kitti``): in a run folder, the one trajectory file
   (names holding ``traj``, ``pose``, ``odom`` or ``est`` first, then by name). In the flat
   layout, a file whose stem is the algorithm or starts with ``<algorithm>_`` or
@@ -52,6 +55,8 @@ from slamq.maps import IMAGE_SUFFIXES, YAML_SUFFIXES
 __all__ = ["Run", "discover_runs", "read_manifest", "IMAGE_SUFFIXES", "TRAJECTORY_SUFFIXES"]
 
 TRAJECTORY_SUFFIXES = frozenset({".txt", ".csv", ".tum", ".kitti"})
+#: The algorithm name given to ground-truth maps found in a flat layout.
+GROUND_TRUTH = "ground_truth"
 MANIFEST_COLUMNS = ("algorithm", "sequence", "run", "map", "trajectory", "groundtruth")
 
 _SNAPSHOT = re.compile(r"^(.*?)[_-]?(\d{3,})$")
@@ -243,8 +248,17 @@ def _resolve(base: Path, cell: str) -> Path:
 def _single_map(path: Path) -> Run:
     algorithm, run_id = _flat_names(path.stem)
     seq = path.resolve().parent.name
+    gt_seq = _ground_truth_map(path.stem)
+    if gt_seq is not None:
+        return Run(path, GROUND_TRUTH, gt_seq, "0")
     traj, gt = _flat_trajectories(path.parent, algorithm, [algorithm], seq, path.parent)
     return Run(path, algorithm, seq, run_id, traj, gt)
+
+
+def _ground_truth_map(stem: str) -> str | None:
+    """The sequence of a ground-truth map named ``<sequence>_ground_truth`` (or ``_gt``)."""
+    m = re.match(r"^(.+?)[_-](ground[_-]?truth|gt)(_map)?$", stem, re.IGNORECASE)
+    return m.group(1) if m else None
 
 
 def _flat_names(stem: str) -> tuple[str, str]:
@@ -349,12 +363,16 @@ def _discover_folder(root: Path) -> list[Run]:
                 gt = traj
             runs.append(Run(maps[0], algorithm, sequence, run_id, traj, gt))
             continue
-        sequence = here.name if rel else root_name
+        folder_seq = here.name if rel else root_name
         names_here = [_flat_names(m.stem) for m in maps]
         algos = sorted({a for a, _ in names_here}, key=len, reverse=True)
         for m, (algorithm, run_id) in zip(maps, names_here):
-            traj, gt = _flat_trajectories(here, algorithm, algos, sequence, root)
-            runs.append(Run(m, algorithm, sequence, run_id, traj, gt))
+            gt_seq = _ground_truth_map(m.stem)
+            if gt_seq is not None:
+                runs.append(Run(m, GROUND_TRUTH, gt_seq, "0"))
+                continue
+            traj, gt = _flat_trajectories(here, algorithm, algos, folder_seq, root)
+            runs.append(Run(m, algorithm, folder_seq, run_id, traj, gt))
     return runs
 
 
