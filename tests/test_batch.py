@@ -446,7 +446,7 @@ def _journal_lines(out: Path) -> int:
 @needs_core
 @pytest.mark.parametrize("name", ["results.parquet", "results.jsonl"])
 def test_resume_after_sigkill(tmp_path: Path, name: str) -> None:
-    n = 40
+    n = 60
     for i in range(n):
         write_map(tmp_path / "runs" / f"alg{i % 3}" / "seq" / f"r {i:02d}" / "map",
                   room(64, seed=i, walls=6))
