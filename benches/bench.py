@@ -27,7 +27,6 @@ from typing import Callable
 
 import cv2
 import numpy as np
-
 import slamq
 from slamq import reference
 from slamq.params import Params
@@ -223,14 +222,15 @@ def main() -> int:
         results = {}
         for threads in (1, cores):
             cv2.setNumThreads(threads)
-            t, mem, q = timed(lambda: slamq.evaluate(m, threads=threads, curve=True), args.runs)
+            t, mem, q = timed(lambda m=m, th=threads: slamq.evaluate(m, threads=th, curve=True),
+                              args.runs)
             results[("slamq", threads)] = (t, mem, q)
-            t, mem, o = timed(lambda: opencv_pipeline(m, p), max(1, args.runs // 2))
+            t, mem, o = timed(lambda m=m: opencv_pipeline(m, p), max(1, args.runs // 2))
             results[("opencv", threads)] = (t, mem, o)
         cv2.setNumThreads(-1)
         if not args.no_reference:
             cv2.setNumThreads(1)
-            t, mem, ref = timed(lambda: reference.evaluate(m, curve=True), 1)
+            t, mem, ref = timed(lambda m=m: reference.evaluate(m, curve=True), 1)
             cv2.setNumThreads(-1)
             results[("reference", 1)] = (t, mem, ref)
             diffs = results[("slamq", 1)][2].differences(ref)

@@ -12,7 +12,8 @@ import argparse
 import importlib
 import sys
 import warnings
-from typing import IO, Optional, Sequence
+from collections.abc import Sequence
+from typing import IO
 
 #: Modules that each add one subcommand with ``add_parser(subparsers)``.
 _COMMAND_MODULES: tuple[str, ...] = (
@@ -142,12 +143,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _warning_line(message: Warning | str, category: type, filename: str, lineno: int,
-                  file: Optional[IO[str]] = None, line: Optional[str] = None) -> None:
+                  file: IO[str] | None = None, line: str | None = None) -> None:
     """Show a warning as one line on stderr (the message already names the file)."""
     print(f"slamq: warning: {message}", file=sys.stderr)
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``slamq`` command line; returns the exit code."""
     args = build_parser().parse_args(argv)
     warnings.showwarning = _warning_line

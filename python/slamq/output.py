@@ -11,8 +11,9 @@ import json
 import math
 import os
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import IO, Any, Optional, Sequence, Union
+from typing import IO, Any, Union
 
 from slamq.quality import MapQuality
 
@@ -31,7 +32,7 @@ _COLUMNS = (
 )
 
 
-def _cell(q: MapQuality, key: Optional[str]) -> str:
+def _cell(q: MapQuality, key: str | None) -> str:
     if key is None:
         return f"{q.height} x {q.width}"
     value = getattr(q, key)
@@ -73,7 +74,7 @@ def format_table(results: Sequence[MapQuality]) -> str:
 
 
 def print_table(
-    results: Sequence[MapQuality], *, curve: bool = False, file: Optional[IO[str]] = None
+    results: Sequence[MapQuality], *, curve: bool = False, file: IO[str] | None = None
 ) -> None:
     """Print :func:`format_table` (and each map's enclosed-area curve when ``curve``)."""
     out = file or sys.stdout

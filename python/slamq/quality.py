@@ -10,8 +10,10 @@ expressions :mod:`slamq.reference` uses, so both sides agree bit for bit.
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any, Optional, Sequence, Union
+from typing import Any, Union
 
 from slamq.errors import ConformanceError
 from slamq.maps import OccupancyMap, load_map
@@ -19,7 +21,8 @@ from slamq.params import Params
 
 __all__ = ["MapQuality", "evaluate"]
 
-MapSource = Union[str, "os.PathLike[str]", OccupancyMap, Any]
+#: What :func:`evaluate` accepts: a path, an :class:`OccupancyMap`, or a numpy image array.
+MapSource = Union[str, os.PathLike, OccupancyMap, Any]
 
 
 @dataclass(frozen=True)
@@ -77,7 +80,7 @@ class MapQuality:
     corners: int
     enclosed_areas: int
     enclosed_unknown_value: int
-    curve: Optional[tuple[int, ...]] = None
+    curve: tuple[int, ...] | None = None
     params: Params = field(default_factory=Params)
 
     @classmethod
@@ -186,8 +189,8 @@ def evaluate(
     min_area: int = 1,
     curve: bool = False,
     verify: bool = False,
-    threads: Optional[int] = None,
-    unknown_value: Optional[int] = None,
+    threads: int | None = None,
+    unknown_value: int | None = None,
 ) -> MapQuality:
     """Compute the three map metrics of SPEC.md sections 2-4 with the Rust core.
 
