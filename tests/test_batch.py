@@ -499,3 +499,23 @@ def test_symlinked_folders_are_followed_once(tmp_path: Path) -> None:
     runs = discover_runs(root)
     assert [(r.algorithm, r.sequence, r.run) for r in runs] == [("gmapping", "hall", "r7")]
     assert runs[0].map == root / "gmapping" / "hall" / "r7" / "map.yaml"
+
+
+@needs_core
+def test_batch_then_report(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    import argparse
+
+    from slamq.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    if "report" not in sub.choices:
+        pytest.skip("the report command is not part of this build")
+    for alg in ("gmapping", "karto"):
+        write_map(tmp_path / "maps" / "hall" / f"{alg}_map", room(32, seed=len(alg)))
+    site = tmp_path / "site"
+    rc = cli_main(["batch", str(tmp_path / "maps"), "--report", str(site), "--no-progress",
+                   "-q"])
+    assert rc == 0, capsys.readouterr().err
+    assert (site / "results.parquet").is_file()  # the default --out beside the report
+    assert (site / "index.html").is_file()
+    assert sorted(read_results(site / "results.parquet")["algorithm"]) == ["gmapping", "karto"]
