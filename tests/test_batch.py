@@ -519,3 +519,13 @@ def test_batch_then_report(tmp_path: Path, capsys: pytest.CaptureFixture) -> Non
     assert (site / "results.parquet").is_file()  # the default --out beside the report
     assert (site / "index.html").is_file()
     assert sorted(read_results(site / "results.parquet")["algorithm"]) == ["gmapping", "karto"]
+
+
+def test_shipped_fixtures_find_their_pose_logs(test_data: Path) -> None:
+    """tests/data keeps maps in <group>/ and trajectories in trajectories/<group>/."""
+    runs = {r.algorithm: r for r in discover_runs(test_data / "slam_comparison_tools")}
+    assert runs["ground_truth"].sequence == "office"
+    logs = test_data / "trajectories" / "slam_comparison_tools" / "office"
+    for alg in ("cartographer", "gmapping", "lidar_rtabmap", "rgbd_rtabmap", "slam_toolbox"):
+        assert runs[alg].trajectory == (logs / f"{alg}_pose_log.csv").resolve()
+        assert runs[alg].groundtruth == runs[alg].trajectory

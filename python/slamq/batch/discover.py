@@ -26,9 +26,10 @@ last one (by name).
 * **Trajectories** (``.txt .csv .tum .kitti``): in a run folder, the one trajectory file
   (names holding ``traj``, ``pose``, ``odom`` or ``est`` first, then by name). In the flat
   layout, a file whose stem is the algorithm or starts with ``<algorithm>_`` or
-  ``<algorithm>.`` (the longest algorithm name wins), in the map's folder or, when the
-  map lies under a folder called ``maps``, in ``trajectories/<group>/.../<sequence>/``
-  beside it (the ../shared/data convention).
+  ``<algorithm>.`` (the longest algorithm name wins), in the map's folder or in
+  ``trajectories/<group>/.../<sequence>/`` beside the map's group folder
+  (``data/maps/<group>/...`` or ``data/<group>/...``: the ../shared/data and tests/data
+  convention).
 * **Ground truth**: a trajectory file named ``groundtruth*``, ``ground_truth*``, ``gt``,
   ``gt_*``/``gt-*`` or ``<sequence>_groundtruth*``/``<sequence>_ground_truth*``/
   ``<sequence>_gt*``, searched in the run folder, then the sequence folder, then the root.
@@ -42,6 +43,7 @@ last one (by name).
 from __future__ import annotations
 
 import csv
+import functools
 import os
 import re
 from collections.abc import Iterable
@@ -144,6 +146,7 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
     """
     if isinstance(sources, (str, os.PathLike, Run)):
         sources = [sources]
+    _mirror_cached.cache_clear()  # the cache lives for one discovery only
     out: list[Run] = []
     seen: set[tuple[str, str, str, str]] = set()
     for src in sources:
@@ -446,21 +449,34 @@ def paired_columns(path: Path) -> tuple[str, str] | None:
 
 
 def _mirror_folders(folder: Path, sequence: str) -> list[Path]:
-    """``trajectories/<group>/.../<sequence>`` folders beside a ``maps/<group>/...`` tree."""
-    parts = folder.resolve().parts
-    out: list[Path] = []
-    for i in range(len(parts) - 2, -1, -1):
-        if parts[i] != "maps":
-            continue
-        group_root = Path(*parts[:i]) / "trajectories" / parts[i + 1]
-        if not group_root.is_dir():
-            continue
-        for sub, dirs, _ in os.walk(group_root):
-            dirs[:] = sorted(d for d in dirs if not d.startswith("."))
-            if Path(sub).name == sequence:
-                out.append(Path(sub))
-        break
-    return out
+    """``trajectories/<group>/.../<sequence>`` folders of a map folder ``.../<group>/...``.
+
+    The group's trajectories live in a ``trajectories`` folder beside the group
+    (``data/<group>`` -> ``data/trajectories/<group>``) or beside the ``maps`` folder
+    holding it (``data/maps/<group>`` -> ``data/trajectories/<group>``); the nearest one
+    wins.
+    """
+    return [Path(p) for p in _mirror_cached(str(folder.resolve()), sequence)]
+
+
+@functools.lru_cache(maxsize=1024)
+def _mirror_cached(folder: str, sequence: str) -> tuple[str, ...]:
+    parts = Path(folder).parts
+    for i in range(len(parts) - 1, 0, -1):
+        bases = [Path(*parts[:i])]
+        if parts[i - 1] == "maps" and i >= 2:
+            bases.append(Path(*parts[: i - 1]))
+        for base in bases:
+            group_root = base / "trajectories" / parts[i]
+            if parts[i] == "trajectories" or not group_root.is_dir():
+                continue
+            found = []
+            for sub, dirs, _ in os.walk(group_root):
+                dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+                if Path(sub).name == sequence:
+                    found.append(sub)
+            return tuple(found)
+    return ()
 
 
 def _flat_trajectories(
