@@ -529,3 +529,20 @@ def test_shipped_fixtures_find_their_pose_logs(test_data: Path) -> None:
     for alg in ("cartographer", "gmapping", "lidar_rtabmap", "rgbd_rtabmap", "slam_toolbox"):
         assert runs[alg].trajectory == (logs / f"{alg}_pose_log.csv").resolve()
         assert runs[alg].groundtruth == runs[alg].trajectory
+
+
+@needs_core
+def test_ros2_bag_folder_as_a_map(tmp_path: Path) -> None:
+    pytest.importorskip("rosbags")
+    from _bagdata import BagWriter, bag_path, room_grid
+
+    bag = bag_path(tmp_path, "sqlite3", "hall run")
+    with BagWriter(bag, "sqlite3") as w:
+        w.write("/map", "nav_msgs/msg/OccupancyGrid", w.grid(1.0, room_grid(30)))
+    (run,) = discover_runs(bag)
+    assert run.map == bag and run.sequence == tmp_path.name
+    out = tmp_path / "r.jsonl"
+    (rec,) = list(evaluate_many(bag, out=out))
+    assert rec["error"] is None and rec["hash"] is not None
+    assert rec["enclosed_areas"] == slamq.evaluate(bag).enclosed_areas
+    assert list(evaluate_many(bag, out=out)) == []  # its files are hashed: resumable

@@ -119,8 +119,9 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
     ----------
     sources : path, Run, or an iterable of them
         A folder (searched recursively with the layout rules of :mod:`slamq.batch.discover`),
-        a manifest ``.csv``, a map file (YAML or image: sequence = its folder's name), or a
-        ready :class:`Run`.
+        a manifest ``.csv``, a map file (YAML, image, or a ROS bag file or ROS 2 bag folder,
+        whose last ``/map`` is evaluated; sequence = the folder's name), or a ready
+        :class:`Run`.
 
     Returns
     -------
@@ -154,7 +155,9 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
             found = [src]
         else:
             path = Path(os.path.expanduser(os.fspath(src)))
-            if path.is_dir():
+            if path.is_dir() and (path / "metadata.yaml").is_file():
+                found = [_single_map(path)]  # a ROS 2 bag: its last /map
+            elif path.is_dir():
                 found = _discover_folder(path)
             elif path.is_file() and path.suffix.lower() == ".csv":
                 found = read_manifest(path)

@@ -64,7 +64,8 @@ def columns(curve: bool = False) -> tuple[str, ...]:
 
 
 def map_files(path: os.PathLike[str] | str) -> list[Path]:
-    """The files a map is made of: a YAML and the image it names, or an image alone.
+    """The files a map is made of: a YAML and the image it names, an image or bag file
+    alone, or every file of a ROS 2 bag folder.
 
     The image is resolved like the loader does: relative to the YAML's folder; an
     absolute path that does not exist falls back to the file of that name beside the YAML.
@@ -78,6 +79,8 @@ def map_files(path: os.PathLike[str] | str) -> list[Path]:
     ['m.yaml', 'm.pgm']
     """
     path = Path(path)
+    if path.is_dir():  # a ROS 2 bag folder: every file in it
+        return sorted(p for p in path.rglob("*") if p.is_file())
     if path.suffix.lower() not in (".yaml", ".yml"):
         return [path]
     img = yaml_image(path)
