@@ -11,31 +11,35 @@ use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::cell::RefCell;
 use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::Arc;
 
-/// Thread pools by size, built once (`threads == 0` means rayon's global pool).
+thread_local! {
+    /// This calling thread's pools, by size. Per calling thread, so that Python threads each
+    /// asking for `threads=1` run side by side instead of queueing on one shared pool.
+    static POOLS: RefCell<HashMap<usize, Arc<rayon::ThreadPool>>> = RefCell::new(HashMap::new());
+}
+
+/// A pool of `threads` workers for the calling thread (`threads == 0`: rayon's global pool).
 fn pool(threads: usize) -> PyResult<Option<Arc<rayon::ThreadPool>>> {
     if threads == 0 {
         return Ok(None);
     }
-    static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
-    let pools = POOLS.get_or_init(|| Mutex::new(HashMap::new()));
-    let mut guard = pools
-        .lock()
-        .map_err(|_| PyRuntimeError::new_err("thread pool lock poisoned"))?;
-    if let Some(p) = guard.get(&threads) {
-        return Ok(Some(p.clone()));
-    }
-    let p = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .thread_name(move |i| format!("slamq-{threads}-{i}"))
-        .build()
-        .map_err(|e| PyRuntimeError::new_err(format!("cannot start {threads} threads: {e}")))?;
-    let p = Arc::new(p);
-    guard.insert(threads, p.clone());
-    Ok(Some(p))
+    POOLS.with(|pools| {
+        if let Some(p) = pools.borrow().get(&threads) {
+            return Ok(Some(p.clone()));
+        }
+        let p = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(move |i| format!("slamq-{threads}-{i}"))
+            .build()
+            .map_err(|e| PyRuntimeError::new_err(format!("cannot start {threads} threads: {e}")))?;
+        let p = Arc::new(p);
+        pools.borrow_mut().insert(threads, p.clone());
+        Ok(Some(p))
+    })
 }
 
 /// Run `f` without the GIL, on a pool of `threads` (0 = all cores), turning a panic into a

@@ -4,9 +4,8 @@ How it runs
 -----------
 * **Local** (default): a thread pool of ``threads`` workers. Each worker hashes, loads
   (OpenCV decoding releases the GIL) and evaluates one map with ``slamq.evaluate`` (the
-  Rust core releases the GIL), so the threads run in parallel. With one worker the core
-  gets ``threads=1``; with several it runs on the worker's own thread (``threads=None``,
-  see :meth:`EvalOptions.for_workers`). At most ``max(2 * threads, chunk_size)`` maps
+  Rust core releases the GIL), so the threads run in parallel; each map is evaluated on
+  one core (``threads=1``: every calling thread has its own 1-thread pool). At most ``max(2 * threads, chunk_size)`` maps
   are queued at once and only the running ones are in memory; records come back in
   input order.
 * **concurrent.futures.Executor**: the same, with your executor (a process pool works).
@@ -209,7 +208,6 @@ def _run_local(
     n = threads or _default_threads()
     if executor is not None:
         n = max(n, getattr(executor, "_max_workers", n))
-    options = options.for_workers(n)
     own = executor is None
     pool = ThreadPoolExecutor(max_workers=n, thread_name_prefix="slamq") if own else executor
     assert pool is not None
@@ -243,7 +241,6 @@ def evaluate_chunk(
             per_task = 1
         threads = max(1, cpus // per_task)
     threads = min(threads, max(1, len(runs)))
-    options = options.for_workers(threads)
     if threads == 1:
         return [evaluate_run(r, options, d) for r, d in zip(runs, done)]
     with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="slamq-chunk") as pool:

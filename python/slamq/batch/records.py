@@ -156,20 +156,9 @@ class EvalOptions:
                 f"ate_unsorted must be 'error', 'last' or 'sort', not {ate_unsorted!r}"
             )
         self.ate_unsorted = ate_unsorted
-        #: ``threads`` of each ``slamq.evaluate`` call; see :meth:`for_workers`.
+        #: ``threads`` of each ``slamq.evaluate`` call: one core per map, the maps in
+        #: parallel (each calling thread gets its own 1-thread pool in the core).
         self.core_threads: int | None = 1
-
-    def for_workers(self, workers: int) -> EvalOptions:
-        """These options for ``workers`` maps evaluated at once.
-
-        One worker: each map is evaluated with ``threads=1`` (the core on one thread).
-        Several: ``threads=None``, so the core runs on the calling thread (its parallel
-        sections use rayon's global pool). ``threads=1`` would send every concurrent
-        call to the core's single shared 1-thread pool and serialise them.
-        """
-        other = copy.copy(self)
-        other.core_threads = 1 if workers <= 1 else None
-        return other
 
     def __getstate__(self) -> dict[str, Any]:
         return dict(self.__dict__)
