@@ -27,6 +27,7 @@ from typing import Callable
 
 import cv2
 import numpy as np
+
 import slamq
 from slamq import reference
 from slamq.params import Params

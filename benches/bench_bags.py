@@ -26,6 +26,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 from _bagdata import BagWriter, bag_path  # noqa: E402
+
 from slamq.bags import read_bag_maps, read_bag_trajectory, read_last_map  # noqa: E402
 
 

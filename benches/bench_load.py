@@ -13,6 +13,7 @@ import warnings
 from pathlib import Path
 
 import cv2
+
 from slamq.errors import MapError
 from slamq.maps import discover_maps, load_map
 

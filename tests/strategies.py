@@ -31,6 +31,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 from hypothesis import strategies as st
+
 from slamq import OccupancyMap
 
 __all__ = ["KINDS", "graded_maps", "map_sizes", "occupancy_maps", "seeds"]

@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import slamq
 from _bagdata import (
     FORMATS,
     BagWriter,
@@ -17,6 +16,8 @@ from _bagdata import (
     expected_values,
     room_grid,
 )
+
+import slamq
 from slamq import BagError
 from slamq.bags import bag_topics, is_bag, read_bag_maps, read_bag_trajectory, read_last_map
 

@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 import pandas as pd
 import pytest
+
 import slamq
 from slamq.batch import Run, discover_runs, evaluate_many, read_manifest, read_results, summarize
 from slamq.batch.records import content_hash

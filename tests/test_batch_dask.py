@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 
 import pytest
+
 from slamq.batch import evaluate_many, read_results
 from slamq.cli import main as cli_main
 

@@ -18,11 +18,12 @@ from typing import Any
 
 import numpy as np
 import pytest
-import slamq
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from slamq import MapError, OccupancyMap, Params, reference
 from strategies import occupancy_maps
+
+import slamq
+from slamq import MapError, OccupancyMap, Params, reference
 
 pytest.importorskip("slamq._core", reason="the Rust core is not built (maturin develop)")
 

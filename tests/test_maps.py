@@ -12,10 +12,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-import slamq
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+
+import slamq
 from slamq.errors import MapError, MapWarning, ParamError
 from slamq.maps import OccupancyMap, from_occupancy_grid, load_map
 

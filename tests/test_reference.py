@@ -19,11 +19,12 @@ from typing import Any, Callable
 import cv2
 import numpy as np
 import pytest
-import slamq
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from slamq import OccupancyMap, Params, reference
 from strategies import occupancy_maps
+
+import slamq
+from slamq import OccupancyMap, Params, reference
 
 # ---------------------------------------------------------------------------------------
 # The two implementations

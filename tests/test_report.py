@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from PIL import Image
+
 from slamq import OccupancyMap, Params, reference
 from slamq.errors import SlamqError
 from slamq.report import build_report

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from slamq.report import build_report
 
 REPO = Path(__file__).resolve().parent.parent

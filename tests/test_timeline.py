@@ -7,9 +7,10 @@ import json
 
 import numpy as np
 import pytest
-import slamq
 from _bagdata import BagWriter, bag_path, room_grid
 from PIL import Image
+
+import slamq
 from slamq import BagError, OccupancyMap
 from slamq.animation import UNKNOWN_RGB, render_frames, render_map, write_gif
 from slamq.bags import read_bag_maps

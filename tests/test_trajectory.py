@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 import slamq
 from slamq.cli import main
 from slamq.errors import SlamqError, TrajectoryError

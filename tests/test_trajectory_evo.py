@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+
 from slamq.trajectory import Trajectory, ate, load_trajectory, matching_indices, rpe
 
 evo_metrics = pytest.importorskip("evo.core.metrics")

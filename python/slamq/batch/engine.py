@@ -5,9 +5,9 @@ How it runs
 * **Local** (default): a thread pool of ``threads`` workers. Each worker hashes, loads
   (OpenCV decoding releases the GIL) and evaluates one map with ``slamq.evaluate`` (the
   Rust core releases the GIL), so the threads run in parallel; each map is evaluated on
-  one core (``threads=1``: every calling thread has its own 1-thread pool). At most ``max(2 * threads, chunk_size)`` maps
-  are queued at once and only the running ones are in memory; records come back in
-  input order.
+  one core (``threads=1``: every calling thread has its own 1-thread pool). At most
+  ``max(2 * threads, chunk_size)`` maps are queued at once and only the running ones are
+  in memory; records come back in input order.
 * **concurrent.futures.Executor**: the same, with your executor (a process pool works).
 * **Dask**: chunks of ``chunk_size`` runs are sent to the workers (only paths travel; the
   workers must see the same files), each chunk is evaluated with a thread pool inside the

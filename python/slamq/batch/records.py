@@ -7,7 +7,6 @@ becomes the record's ``error`` (``"file: reason"``) and the batch goes on.
 
 from __future__ import annotations
 
-import copy
 import hashlib
 import json
 import os
