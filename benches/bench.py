@@ -16,6 +16,7 @@ peak MB  : peak resident memory above the baseline during the call (sampled ever
 from __future__ import annotations
 
 import argparse
+import ctypes
 import datetime as dt
 import os
 import platform
@@ -157,6 +158,15 @@ def bench_maps(quick: bool) -> list[slamq.OccupancyMap]:
 # timing
 
 
+def _trim() -> None:
+    """Give freed heap memory back to the OS (glibc), so that RSS growth during the next call
+    measures that call's own allocations rather than reuse of memory kept from earlier ones."""
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
+
+
 class PeakRSS:
     """Peak resident memory above the level at entry, sampled every millisecond."""
 
@@ -170,6 +180,7 @@ class PeakRSS:
             return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
     def __enter__(self) -> PeakRSS:
+        _trim()
         self.base = self.rss()
         self._t = threading.Thread(target=self._run, daemon=True)
         self._t.start()
