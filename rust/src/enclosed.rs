@@ -197,8 +197,10 @@ impl Forest {
     }
 }
 
-/// Every threshold of one family in one pass: known cells join in decreasing value order and
-/// the count of good components is read off each time the cut falls to a needed value.
+/// Every threshold of one family in one pass. The smallest free set (the highest cut) is
+/// labelled by runs and seeds the forest; the known cells below that cut then join in
+/// decreasing value order, and the count of good components is read off each time the cut
+/// falls to a needed value.
 fn incremental(
     grid: &Grid,
     hist: &Histogram,
@@ -207,69 +209,35 @@ fn incremental(
     min_area: u32,
 ) -> Vec<(u16, usize)> {
     let (h, w) = (grid.height, grid.width);
-    let n = h * w;
-    let lowest = *cuts.iter().min().unwrap_or(&256) as usize;
-    // counting sort of the known cells with v >= lowest, by value (raster order within one)
-    let mut start = [0usize; 257];
-    for v in (lowest..256).rev() {
-        start[v] = start[v + 1] + hist.known[v] as usize;
-    }
-    // bucket v occupies order[start[v+1]..start[v]] (descending values first)
-    let mut fill = [0usize; 256];
-    if lowest < 256 {
-        fill[lowest..256].copy_from_slice(&start[lowest + 1..257]);
-    }
-    let mut order = vec![0u32; start[lowest.min(255)]];
-    if lowest < 256 {
-        for (i, (&v, &u)) in grid.values.iter().zip(grid.unknown).enumerate() {
-            if !u && v as usize >= lowest {
-                order[fill[v as usize]] = i as u32;
-                fill[v as usize] += 1;
-            }
-        }
-    }
-    let mut f = Forest {
-        parent: vec![ABSENT; n],
-        border: vec![0u64; n.div_ceil(64)],
-        min_area,
-        good: 0,
-    };
-    let edge = |r: usize, c: usize| r == 0 || c == 0 || r + 1 == h || c + 1 == w;
-    if unknown_free {
-        for r in 0..h {
-            let unk = grid.unknown_row(r);
-            let above = if r > 0 {
-                Some(grid.unknown_row(r - 1))
-            } else {
-                None
-            };
-            for c in 0..w {
-                if !unk[c] {
-                    continue;
-                }
-                let i = r * w + c;
-                f.add(i, edge(r, c));
-                if c > 0 && unk[c - 1] {
-                    f.join(i, i - 1);
-                }
-                if let Some(up) = above {
-                    if c > 0 && up[c - 1] {
-                        f.join(i, i - w - 1);
-                    }
-                    if up[c] {
-                        f.join(i, i - w);
-                    }
-                    if c + 1 < w && up[c + 1] {
-                        f.join(i, i - w + 1);
-                    }
-                }
-            }
-        }
-    }
     let mut wanted: Vec<u16> = cuts.to_vec();
     wanted.sort_unstable_by(|a, b| b.cmp(a));
+    wanted.dedup();
+    let (Some(&top), Some(&lowest)) = (wanted.first(), wanted.last()) else {
+        return Vec::new();
+    };
+    let (top, lowest) = (top as usize, lowest as usize);
+    let mut f = seed(grid, top as u16, unknown_free, min_area);
+    // counting sort of the known cells with lowest <= v < top, by value (raster order within
+    // one value): bucket v is order[start[v + 1]..start[v]]
+    let mut start = [0usize; 257];
+    for v in (lowest..top).rev() {
+        start[v] = start[v + 1] + hist.known[v] as usize;
+    }
+    let mut fill = [0usize; 256];
+    fill[lowest..top].copy_from_slice(&start[lowest + 1..top + 1]);
+    let mut order = vec![0u32; start[lowest]];
+    if lowest < top {
+        for (i, (&v, &u)) in grid.values.iter().zip(grid.unknown).enumerate() {
+            let v = v as usize;
+            if !u && (lowest..top).contains(&v) {
+                order[fill[v]] = i as u32;
+                fill[v] += 1;
+            }
+        }
+    }
+    let edge = |r: usize, c: usize| r == 0 || c == 0 || r + 1 == h || c + 1 == w;
     let mut out = Vec::with_capacity(wanted.len());
-    let mut v = 256usize; // values >= v have joined
+    let mut v = top; // known values >= v have joined
     for cut in wanted {
         while v > cut as usize {
             v -= 1;
@@ -284,34 +252,33 @@ fn incremental(
                 let c = idx - row0;
                 f.add(idx, edge(r, c));
                 let (up, down, left, right) = (r > 0, r + 1 < h, c > 0, c + 1 < w);
+                let mut try_join = |n: usize| {
+                    if f.present(n) {
+                        f.join(idx, n);
+                    }
+                };
                 if up {
-                    let a = idx - w;
-                    if left && f.present(a - 1) {
-                        f.join(idx, a - 1);
+                    if left {
+                        try_join(idx - w - 1);
                     }
-                    if f.present(a) {
-                        f.join(idx, a);
-                    }
-                    if right && f.present(a + 1) {
-                        f.join(idx, a + 1);
+                    try_join(idx - w);
+                    if right {
+                        try_join(idx - w + 1);
                     }
                 }
-                if left && f.present(idx - 1) {
-                    f.join(idx, idx - 1);
+                if left {
+                    try_join(idx - 1);
                 }
-                if right && f.present(idx + 1) {
-                    f.join(idx, idx + 1);
+                if right {
+                    try_join(idx + 1);
                 }
                 if down {
-                    let b = idx + w;
-                    if left && f.present(b - 1) {
-                        f.join(idx, b - 1);
+                    if left {
+                        try_join(idx + w - 1);
                     }
-                    if f.present(b) {
-                        f.join(idx, b);
-                    }
-                    if right && f.present(b + 1) {
-                        f.join(idx, b + 1);
+                    try_join(idx + w);
+                    if right {
+                        try_join(idx + w + 1);
                     }
                 }
             }
@@ -319,6 +286,37 @@ fn incremental(
         out.push((cut, f.good));
     }
     out
+}
+
+/// A forest holding the components of one binarisation, from a run labelling: every cell
+/// of a component points at the component's first cell, which holds its size.
+fn seed(grid: &Grid, cut: u16, unknown_free: bool, min_area: u32) -> Forest {
+    let (h, w) = (grid.height, grid.width);
+    let mut f = Forest {
+        parent: vec![ABSENT; h * w],
+        border: vec![0u64; (h * w).div_ceil(64)],
+        min_area,
+        good: 0,
+    };
+    let rows = FreeRows {
+        grid,
+        cut,
+        unknown_free,
+    };
+    let comps = Components::label(&rows, h, w);
+    comps.for_each_run(|r, run, root_cell, size, on_border| {
+        let base = r * w;
+        let cells = base + run.start as usize..base + run.end as usize;
+        f.parent[cells].fill(root_cell as i32);
+        if base + run.start as usize == root_cell {
+            f.parent[root_cell] = -(size.min(i32::MAX as u32) as i32);
+            if on_border {
+                f.border[root_cell >> 6] |= 1 << (root_cell & 63);
+            }
+            f.good += f.is_good(root_cell) as usize;
+        }
+    });
+    f
 }
 
 #[cfg(test)]

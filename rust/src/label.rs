@@ -296,6 +296,24 @@ impl Components {
         }
     }
 
+    /// Visit every run in row order as `(row, run, root_cell, size, border)`: `root_cell` is
+    /// the row-major index of the first cell of the run's component (the first cell of its
+    /// root run), `size` and `border` the component's.
+    pub fn for_each_run(&self, mut visit: impl FnMut(usize, Run, usize, u32, bool)) {
+        // the root run has the smallest index of its component, so it is seen first
+        let mut root_cell = vec![0usize; self.runs.len()];
+        for r in 0..self.height {
+            for i in self.row_start[r]..self.row_start[r + 1] {
+                let run = self.runs[i];
+                let root = self.root[i] as usize;
+                if root == i {
+                    root_cell[i] = r * self.width + run.start as usize;
+                }
+                visit(r, run, root_cell[root], self.size[root], self.border[root]);
+            }
+        }
+    }
+
     /// Component label of every cell (0 = background, 1.. in order of first run), for tests
     /// and overlays.
     pub fn labels(&self) -> Vec<u32> {
