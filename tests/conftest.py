@@ -25,3 +25,15 @@ def shared_data() -> Path:
 def test_data() -> Path:
     """The small maps shipped in tests/data."""
     return TEST_DATA
+
+
+def slamq_env(base: dict[str, str] | None = None) -> dict[str, str]:
+    """An environment whose Python imports the same slamq as this test process (the source
+    tree during development, site-packages in CI): for tests that start subprocesses."""
+    import slamq
+
+    root = str(Path(slamq.__file__).resolve().parent.parent)
+    env = dict(os.environ if base is None else base)
+    rest = [env["PYTHONPATH"]] if env.get("PYTHONPATH") else []
+    env["PYTHONPATH"] = os.pathsep.join([root, *rest])
+    return env

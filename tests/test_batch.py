@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import shutil
 import signal
 import subprocess
@@ -17,6 +16,7 @@ import cv2
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import slamq_env  # noqa: E402
 
 import slamq
 from slamq.batch import Run, discover_runs, evaluate_many, read_manifest, read_results, summarize
@@ -24,7 +24,6 @@ from slamq.batch.records import content_hash
 from slamq.batch.results import ResultsFile, journal_path
 from slamq.cli import main as cli_main
 
-REPO = Path(__file__).resolve().parent.parent
 
 def _core_available() -> bool:
     try:
@@ -452,10 +451,7 @@ def test_resume_after_sigkill(tmp_path: Path, name: str) -> None:
         write_map(tmp_path / "runs" / f"alg{i % 3}" / "seq" / f"r {i:02d}" / "map",
                   room(64, seed=i, walls=6))
     out = tmp_path / name
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(
-        [str(REPO / "python")] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else [])
-    )
+    env = slamq_env()
     # --verify runs the slow reference too, so the batch takes seconds and is killed mid-way
     cmd = [sys.executable, "-m", "slamq.cli", "batch", str(tmp_path / "runs"), "--out",
            str(out), "--chunk-size", "1", "--threads", "1", "--verify", "--no-progress", "-q"]

@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 
 import pytest
+from conftest import slamq_env  # noqa: E402
 
 from slamq.batch import evaluate_many, read_results
 from slamq.cli import main as cli_main
@@ -30,10 +31,8 @@ def test_local_cluster_equals_local(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     local = list(evaluate_many(root, threads=2, chunk_size=2))
     assert sum(r["error"] is not None for r in local) == 1
 
-    # the worker processes import slamq from the same source tree as this process
-    src = str(Path(__file__).resolve().parent.parent / "python")
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(
-        [src] + ([os.environ["PYTHONPATH"]] if os.environ.get("PYTHONPATH") else [])))
+    # the worker processes import the same slamq as this process
+    monkeypatch.setenv("PYTHONPATH", slamq_env()["PYTHONPATH"])
     cluster = distributed.LocalCluster(
         n_workers=2, processes=True, threads_per_worker=1, host="127.0.0.1",
         dashboard_address=None,

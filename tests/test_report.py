@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import slamq_env
 from PIL import Image
 
 from slamq import OccupancyMap, Params, reference
@@ -34,7 +35,6 @@ from slamq.report.metrics import (
 from slamq.report.overlays import CORNER_RGB, draw_overlay
 from slamq.report.plots import metric_figure
 
-REPO = Path(__file__).resolve().parent.parent
 FREE, WALL, UNKNOWN = 254, 0, 205
 
 
@@ -321,7 +321,7 @@ def test_detail_page_has_overlay_curve_trajectory_and_gif(site):
 
 def test_cli_report(tmp_path, site):
     results, _ = site
-    env_py = str(REPO / "python")
+    env_py = slamq_env()["PYTHONPATH"]
     run = subprocess.run(
         [sys.executable, "-m", "slamq.cli", "report", str(results), "--out",
          str(tmp_path / "s"), "--details", "gallery", "--no-gifs"],
