@@ -336,3 +336,20 @@ def test_cli_report(tmp_path, site):
         env={"PYTHONPATH": env_py, "PATH": "/usr/bin:/bin"}, timeout=120)
     assert bad.returncode == 2
     assert bad.stderr.strip().count("\n") == 0 and "none.jsonl" in bad.stderr
+
+
+def test_reference_maps_are_shown_but_not_ranked() -> None:
+    from slamq.report.metrics import rank_sequence
+    from slamq.report.metrics import summarize as report_summary
+
+    df = pd.DataFrame({
+        "sequence": "s",
+        "algorithm": ["ground_truth", "a", "b"],
+        "corners": [1, 5, 9],
+        "occupied_fraction": [0.01, 0.1, 0.2],
+        "enclosed_areas": [0, 1, 3],
+    })
+    r = rank_sequence(report_summary(df), "s")
+    assert r.order == ["a", "b"]
+    assert r.references == ["ground_truth"]
+    assert "ground_truth" not in r.score and r.winner == "a"

@@ -11,12 +11,9 @@ command resumes: maps already in the results file are skipped.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import sys
-import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -149,32 +146,6 @@ class _Progress:
             print(text, file=sys.stderr, flush=True)
 
 
-@contextlib.contextmanager
-def _compact_warnings(line: Any, limit: int = 5) -> Iterator[None]:
-    """Show Python warnings (e.g. MapWarning) as one ``slamq: warning:`` line each, the
-    first ``limit`` of them, then how many more there were."""
-    import warnings
-
-    count = 0
-    lock = threading.Lock()
-
-    def show(message: Any, category: Any, filename: str, lineno: int, *_: Any) -> None:
-        nonlocal count
-        with lock:
-            count += 1
-            if count <= limit:
-                line(f"slamq: warning: {' '.join(str(message).split())}")
-
-    old = warnings.showwarning
-    warnings.showwarning = show
-    try:
-        yield
-    finally:
-        warnings.showwarning = old
-        if count > limit:
-            line(f"slamq: warning: {count - limit} more warning(s) not shown")
-
-
 def _stdout_console() -> Any:
     from rich.console import Console
 
@@ -200,7 +171,7 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     ate_failed = 0
     evaluated = 0
     total = 0
-    with _Progress(not args.no_progress) as progress, _compact_warnings(progress.line):
+    with _Progress(not args.no_progress) as progress:
 
         def on_progress(done: int, n: int) -> None:
             nonlocal total

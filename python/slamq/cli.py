@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import threading
 import warnings
 from collections.abc import Sequence
 from typing import IO
@@ -142,16 +143,40 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _warning_line(message: Warning | str, category: type, filename: str, lineno: int,
-                  file: IO[str] | None = None, line: str | None = None) -> None:
-    """Show a warning as one line on stderr (the message already names the file)."""
-    print(f"slamq: warning: {message}", file=sys.stderr)
+class _WarningDigest:
+    """Python warnings (e.g. :class:`slamq.MapWarning`) as one stderr line each; a warning
+    that repeats for other files (same text after the file name) is shown once and counted."""
+
+    def __init__(self) -> None:
+        self.counts: dict[tuple[type, str], int] = {}
+        self.lock = threading.Lock()
+
+    def show(self, message: Warning | str, category: type, filename: str, lineno: int,
+             file: IO[str] | None = None, line: str | None = None) -> None:
+        text = " ".join(str(message).split())
+        _, sep, reason = text.partition(": ")
+        key = (category, reason if sep else text)
+        with self.lock:
+            seen = self.counts.get(key, 0)
+            self.counts[key] = seen + 1
+        if not seen:
+            print(f"slamq: warning: {text}", file=sys.stderr)
+
+    def summary(self) -> None:
+        for (_, reason), n in self.counts.items():
+            if n > 1:
+                short = reason if len(reason) <= 70 else reason[:67] + "..."
+                print(f"slamq: warning: the same for {n - 1} more file(s): {short}",
+                      file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``slamq`` command line; returns the exit code."""
     args = build_parser().parse_args(argv)
-    warnings.showwarning = _warning_line
+    outer = not isinstance(getattr(warnings.showwarning, "__self__", None), _WarningDigest)
+    digest = _WarningDigest()
+    if outer:  # a command that runs another (batch --report) keeps the outer digest
+        previous, warnings.showwarning = warnings.showwarning, digest.show
     try:
         return int(args.func(args))
     except KeyboardInterrupt:
@@ -161,7 +186,15 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         error_line("", exc)
         return EXIT_BAD_INPUT if isinstance(exc, (SlamqError, OSError)) else EXIT_ERROR
+    finally:
+        if outer:
+            warnings.showwarning = previous
+            digest.summary()
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # run the importable module, not this __main__ copy, so that state such as the warning
+    # digest is shared with commands that call slamq.cli.main again (batch --report)
+    from slamq.cli import main as _main
+
+    sys.exit(_main())

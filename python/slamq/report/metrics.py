@@ -24,7 +24,7 @@ standard deviation.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -166,6 +166,9 @@ class SequenceRanking:
         Metrics whose best algorithm is not the overall winner.
     partial : list of str
         Algorithms whose maps know fewer than half the median known cells (paper III.A).
+    references : list of str
+        Reference maps in the sequence (an "algorithm" named ground_truth, groundtruth, gt
+        or reference): shown beside the ranking, never ranked.
     """
 
     sequence: str
@@ -176,6 +179,7 @@ class SequenceRanking:
     metrics: list[Metric]
     disagree: list[Metric]
     partial: list[str]
+    references: list[str] = field(default_factory=list)
 
     @property
     def winner(self) -> str | None:
@@ -215,12 +219,18 @@ def _join(parts: list[str]) -> str:
     return ", ".join(parts[:-1]) + " and " + parts[-1]
 
 
+#: "Algorithms" that are reference maps (e.g. a ground-truth map beside the SLAM maps, as
+#: ``slamq batch`` names ``<sequence>_ground_truth`` files): shown, never ranked.
+REFERENCE_NAMES = frozenset({"ground_truth", "groundtruth", "gt", "reference"})
+
+
 def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
     """Rank the algorithms of one sequence: mean rank over the metrics, lower is better.
 
     On each metric with values, algorithms are ranked by their mean over runs (1 = lowest
     = best; ties share the average rank; an algorithm without a value on a metric is not
     ranked on it, and the ranks of those that have it are stretched to span 1..N).
+    Reference maps (:data:`REFERENCE_NAMES`) are left out of the ranking.
     The overall score is the mean of an algorithm's ranks; ties are broken
     by the ATE RMSE rank, then by name. A metric "disagrees" when its best algorithm(s) do
     not include the overall winner.
@@ -245,6 +255,8 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
     (['a', 'b'], [])
     """
     block = summary.xs(sequence, level="sequence") if len(summary) else summary
+    references = [str(a) for a in block.index if str(a).lower() in REFERENCE_NAMES]
+    block = block.drop(index=references)
     algorithms = [str(a) for a in block.index]
     ranks: dict[str, dict[str, float]] = {}
     best: dict[str, list[str]] = {}
@@ -281,7 +293,7 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
         partial = sorted(str(a) for a, v in known.items() if v < PARTIAL_COVERAGE * median)
     return SequenceRanking(
         sequence=str(sequence), order=order, score=score, ranks=ranks, best=best,
-        metrics=used, disagree=disagree, partial=partial,
+        metrics=used, disagree=disagree, partial=partial, references=references,
     )
 
 

@@ -448,22 +448,25 @@ def _sequence_section(
     metrics = ranking.metrics
     head = "".join(f"<th>{_e(m.heading)}</th>" for m in metrics)
     rows = []
-    for place, alg in enumerate(ranking.order, start=1):
+    for place, alg in enumerate(ranking.order + ranking.references, start=1):
+        ranked = alg in ranking.score
         row = block.loc[alg]
         cells = []
         for m in metrics:
             mean, std, n = row[f"{m.key}_mean"], row[f"{m.key}_std"], int(row[f"{m.key}_n"])
-            best = alg in ranking.best.get(m.key, []) and len(ranking.ranks[m.key]) > 1
+            best = (ranked and alg in ranking.best.get(m.key, [])
+                    and len(ranking.ranks[m.key]) > 1)
             cells.append(
                 f"<td class=\"num{_BEST if best else ''}\" data-metric=\"{m.key}\" "
                 f"data-mean=\"{float(mean)!r}\" data-std=\"{float(std)!r}\" data-n=\"{n}\">"
                 f"{_e(format_mean_std(mean, std))}</td>")
-        score = ranking.score[alg]
+        rank = str(place) if ranked else "ref."
+        score = format_value(ranking.score[alg]) if ranked else "reference map, not ranked"
         rows.append(
-            f"<tr data-algorithm=\"{_e(alg)}\"{_WINNER if place == 1 else ''}>"
-            f"<td class=\"num\">{place}</td><td class=\"alg\">{_e(alg)}</td>"
+            f"<tr data-algorithm=\"{_e(alg)}\"{_WINNER if place == 1 and ranked else ''}>"
+            f"<td class=\"num\">{rank}</td><td class=\"alg\">{_e(alg)}</td>"
             f"<td class=\"num\">{int(row['runs'])}</td>{''.join(cells)}"
-            f"<td class=\"num\">{_e(format_value(score))}</td></tr>")
+            f"<td class=\"num\">{_e(score)}</td></tr>")
     parts = [
         f"<h2 id=\"seq-{_slug(seq)}\">{_e(seq)}</h2>",
         f"<p>{_e(ranking.sentence())}</p>",
@@ -478,7 +481,7 @@ def _sequence_section(
         f"<th>algorithm</th><th>runs</th>{head}<th>mean rank</th></tr>"
         + "".join(rows) + "</table>")
     parts.append("<h3>Maps: best and worst run per algorithm</h3><div class=\"gallery\">")
-    for alg in ranking.order:
+    for alg in ranking.order + ranking.references:
         picks = gallery.get((seq, alg), [])
         figs = []
         for which, i in zip(("best", "worst") if len(picks) > 1 else ("",), picks):
