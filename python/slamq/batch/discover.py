@@ -147,7 +147,8 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
     """
     if isinstance(sources, (str, os.PathLike, Run)):
         sources = [sources]
-    _mirror_cached.cache_clear()  # the cache lives for one discovery only
+    _mirror_cached.cache_clear()  # the caches live for one discovery only
+    _files.cache_clear()
     out: list[Run] = []
     seen: set[tuple[str, str, str, str]] = set()
     for src in sources:
@@ -315,6 +316,13 @@ def yaml_image(path: Path) -> Path | None:
     return path.parent / ref.name
 
 
+@functools.lru_cache(maxsize=4096)
+def _files(folder: Path) -> list[Path]:
+    """The files directly in ``folder``, sorted. Cached while one :func:`discover_runs` call
+    runs (every map of a flat folder looks at the same folders); cleared at each call."""
+    return sorted(p for p in folder.iterdir() if p.is_file())
+
+
 def folder_maps(folder: Path, files: list[Path] | None = None) -> list[Path]:
     """The maps directly in ``folder`` (YAML maps and images no YAML there names).
 
@@ -322,7 +330,7 @@ def folder_maps(folder: Path, files: list[Path] | None = None) -> list[Path]:
     a folder of snapshots only gives its last one.
     """
     if files is None:
-        files = sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith("."))
+        files = [p for p in _files(folder) if not p.name.startswith(".")]
     yamls = [p for p in files if p.suffix.lower() in YAML_SUFFIXES and _is_map_yaml(p)]
     named: set[Path] = set()
     for y in yamls:
@@ -413,7 +421,7 @@ def _find_groundtruth(
     search = [(f, False) for f in folders] + ([(root, True)] if root is not None else [])
     for folder, need_prefix in search:
         try:
-            files = sorted(p for p in folder.iterdir() if p.is_file())
+            files = _files(folder)
         except OSError:
             continue
         gts = [p for p in _trajectory_files(files) if _is_gt_name(p, sequence)]
@@ -490,7 +498,7 @@ def _flat_trajectories(
     search = [folder, *_mirror_folders(folder, sequence)]
     for where in search:
         try:
-            files = sorted(p for p in where.iterdir() if p.is_file())
+            files = _files(where)
         except OSError:
             continue
         files = _trajectory_files(files)
