@@ -125,8 +125,8 @@ def subset(folder: Path, n: int, dest: Path) -> Path:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--maps", type=int, default=2000, help="maps in the big run (default 2000)")
-    ap.add_argument("--scaling-maps", type=int, default=300,
-                    help="maps for the 1- vs 2-thread comparison (default 300)")
+    ap.add_argument("--scaling-maps", type=int, default=1000,
+                    help="maps for the 1- vs 2-thread comparison (default 1000)")
     ap.add_argument("--chunk-size", type=int, default=32)
     ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
     args = ap.parse_args()
