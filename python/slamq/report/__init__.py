@@ -16,7 +16,23 @@ Modules: :mod:`~slamq.report.metrics` (directions, ranking, formatting),
 
 from __future__ import annotations
 
-from slamq.report.metrics import METRICS, Metric, rank_sequence, summarize
-from slamq.report.site import build_report
+import importlib
+from typing import Any
 
 __all__ = ["METRICS", "Metric", "build_report", "rank_sequence", "summarize"]
+
+# Loaded on first use (PEP 562), so that `slamq --help` and `slamq eval` do not import
+# pandas and matplotlib just to register the `report` subcommand.
+_WHERE = {
+    "METRICS": "slamq.report.metrics",
+    "Metric": "slamq.report.metrics",
+    "rank_sequence": "slamq.report.metrics",
+    "summarize": "slamq.report.metrics",
+    "build_report": "slamq.report.site",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        return getattr(importlib.import_module(_WHERE[name]), name)
+    raise AttributeError(f"module 'slamq.report' has no attribute {name!r}")
