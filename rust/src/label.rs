@@ -182,10 +182,9 @@ impl Components {
         }
         band_base.push(runs.len());
         row_start.push(runs.len());
-        assert!(
-            runs.len() < u32::MAX as usize,
-            "run count exceeds u32 (grid checked earlier)"
-        );
+        // a grid has at most u32::MAX cells (Grid::new), so at most half as many runs plus
+        // one per row: run indices fit in u32
+        debug_assert!(runs.len() < u32::MAX as usize);
 
         // 2. unions inside each band, in parallel on disjoint slices of `parent`
         let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
