@@ -173,6 +173,11 @@ def test_errors_name_the_file_and_reason(tmp_path):
     broken = stream(f_varint(1, 2), f_msg(1, b"\x22\x7f\x01"))  # length runs past the end
     with pytest.raises(TrajectoryError, match=r"corrupt pbstream \(truncated length"):
         read_pbstream_trajectory(write(tmp_path, broken, "broken.pbstream"))
+    for size in (1 << 40, (1 << 64) - 1):  # a corrupt record size: no huge allocation
+        huge = struct.pack("<Q", PBSTREAM_MAGIC) + struct.pack("<Q", size) + b"abc"
+        with pytest.raises(TrajectoryError, match=rf"huge.pbstream: truncated pbstream "
+                           rf"\(record of {size} bytes, 3 left\)"):
+            read_pbstream_trajectory(write(tmp_path, huge, "huge.pbstream"))
     with pytest.raises(TrajectoryError, match=r"format_version 9"):
         read_pbstream_trajectory(write(tmp_path, stream(f_varint(1, 9)), "v9.pbstream"))
     empty_traj = stream(f_varint(1, 2), f_msg(1, pose_graph([trajectory(0, [])])))

@@ -176,6 +176,7 @@ def _trajectory(buf: memoryview) -> tuple[int | None, list[tuple[int, int, list,
 
 
 def _records(f: BinaryIO, path: Path) -> Iterator[bytes]:
+    file_size = os.fstat(f.fileno()).st_size
     head = f.read(8)
     if len(head) < 8 or struct.unpack("<Q", head)[0] != PBSTREAM_MAGIC:
         raise TrajectoryError(f"{path}: not a Cartographer pbstream (bad magic number)")
@@ -186,11 +187,12 @@ def _records(f: BinaryIO, path: Path) -> Iterator[bytes]:
         if len(size_bytes) < 8:
             raise TrajectoryError(f"{path}: truncated pbstream (partial record size)")
         (size,) = struct.unpack("<Q", size_bytes)
-        data = f.read(size)
-        if len(data) < size:
+        left = file_size - f.tell()
+        if size > left:  # checked before reading: a corrupt size must not allocate it
             raise TrajectoryError(
-                f"{path}: truncated pbstream (record of {size} bytes, {len(data)} left)"
+                f"{path}: truncated pbstream (record of {size} bytes, {max(left, 0)} left)"
             )
+        data = f.read(size)
         try:
             yield gzip.decompress(data)
         except (OSError, EOFError, zlib.error) as exc:
