@@ -342,6 +342,33 @@ def test_rpe_frames_and_metres():
         rpe(gt, est, delta=50)
     with pytest.raises(TrajectoryError, match="integer"):
         rpe(gt, est, delta=1.5)
+    for bad in (float("inf"), float("nan")):  # were OverflowError / ValueError
+        with pytest.raises(TrajectoryError, match="integer >= 1"):
+            rpe(gt, est, delta=bad)
+        with pytest.raises(TrajectoryError, match="number > 0"):
+            rpe(gt, est, delta=bad, unit="m")
+
+
+def test_rpe_metre_pairs_on_a_long_trajectory_are_fast_and_sequential():
+    """Pairs by path length on 200,000 poses (a pair every ~2 steps): evo's sequential
+    rule (the sum restarts at 0 at every pair), in well under a second."""
+    import time
+
+    n = 200_000
+    step = np.random.default_rng(3).uniform(0.0, 0.02, n - 1)
+    x = np.concatenate([[0.0], np.cumsum(step)])
+    tr = Trajectory.from_xy_yaw(np.arange(n) * 0.01, x, 0 * x)
+    t0 = time.perf_counter()
+    r = rpe(tr, tr, delta=0.015, unit="m")
+    assert time.perf_counter() - t0 < 3.0
+    ids, travelled = [0], 0.0
+    for k, d in enumerate(np.abs(np.diff(x)).tolist(), 1):
+        travelled += d
+        if travelled >= 0.015:
+            ids.append(k)
+            travelled = 0.0
+    assert r.n == len(ids) - 1 and r.n > n // 3
+    assert np.array_equal(r.timestamps, tr.timestamps[ids[1:]])
 
 
 def test_rpe_is_invariant_to_rigid_alignment():
@@ -363,7 +390,8 @@ def test_ate_runs_population_and_sample_std():
     assert r.mean == pytest.approx(0.3)
     assert r.std == pytest.approx(np.std(offsets))
     assert r.std_sample == pytest.approx(np.std(offsets, ddof=1))
-    assert r.n_runs == 3 and "\u00b1" in str(r)
+    assert r.n_runs == 3
+    assert str(r) == f"0.300 \u00b1 {np.std(offsets, ddof=1):.3f} m (3 runs, sample std)"
     one = ate_runs(gt, ests[:1], align="none")
     assert np.isnan(one.std_sample) and one.std == 0.0
     assert one.to_dict()["rmse_std_sample"] is None
@@ -387,6 +415,28 @@ def test_cli_ate_on_the_pose_logs(tmp_path, capsys):
     doc = json.loads(out.read_text())
     assert [round(r["rmse"], 4) for r in doc["results"]] == [0.0948, 0.0425]
     assert doc["summary"]["runs"] == 2 and doc["failed"] == []
+
+
+def test_cli_runs_std_is_the_one_slamq_summary_prints(tmp_path, capsys):
+    """`slamq ate GT r1 r2 r3` and `slamq summary` give the same "mean +- std" (sample)."""
+    from slamq.batch.summary import summarize
+
+    gt = _planar(80)
+    g = gt.write_tum(tmp_path / "gt.txt")
+    runs = [Trajectory(gt.timestamps, gt.positions + [o, 0, 0], gt.orientations)
+            .write_tum(tmp_path / f"run{i}.txt") for i, o in enumerate((0.1, 0.2, 0.6))]
+    out = tmp_path / "ate.json"
+    assert main(["ate", str(g), *map(str, runs), "-a", "none", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    rmse = [r["rmse"] for r in doc["results"]]
+    s = summarize([{"algorithm": "a", "sequence": "s", "run": str(i), "ate_rmse": v,
+                    "error": None} for i, v in enumerate(rmse)])
+    std = float(s.loc[0, "ate_rmse_std"])
+    assert std == pytest.approx(np.std(rmse, ddof=1), rel=1e-12)
+    assert f"\u00b1 {std:.6f} m (sample std" in text
+    assert doc["summary"]["rmse_std_sample"] == pytest.approx(std, rel=1e-12)
+    assert doc["summary"]["rmse_std"] == pytest.approx(np.std(rmse), rel=1e-12)
 
 
 def test_cli_errors_exit_2_with_one_line(tmp_path, capsys):

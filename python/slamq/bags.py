@@ -411,29 +411,6 @@ def read_last_map(bag: PathLike, topic: str = "/map") -> OccupancyMap:
 # ----------------------------------------------------------------------------- poses
 
 
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product of (..., 4) wxyz quaternions."""
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack(
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ],
-        axis=-1,
-    )
-
-
-def _quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate (..., 3) vectors by (..., 4) wxyz unit quaternions."""
-    w = q[..., :1]
-    u = q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
-
-
 def _slerp(q0: np.ndarray, q1: np.ndarray, s: np.ndarray) -> np.ndarray:
     dot = np.sum(q0 * q1, axis=-1)
     q1 = np.where((dot < 0)[:, None], -q1, q1)
@@ -613,6 +590,8 @@ def _tf_trajectory(
     parent_frame: str | None,
     child_frame: str | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    from slamq.trajectory.model import quat_multiply, quat_rotate
+
     types = _topic_types(reader)
     topics = [topic]
     if topic == "/tf" and types.get("/tf_static") == TF_TYPE:
@@ -665,7 +644,7 @@ def _tf_trajectory(
     ok = np.ones(len(times), bool)
     for series in chain:  # T = T_parent_a * T_a_b * ...
         p, q, good = series.at(times)
-        pos = pos + _quat_rotate(rot, p)
-        rot = _quat_mul(rot, q)
+        pos = pos + quat_rotate(rot, p)
+        rot = quat_multiply(rot, q)
         ok &= good
     return times[ok], pos[ok], rot[ok]

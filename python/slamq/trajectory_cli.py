@@ -1,7 +1,9 @@
 """``slamq ate`` and ``slamq rpe``: trajectory error of one or more estimates.
 
 Each estimate is compared with the one ground truth; with several estimates (repeated
-runs) ``slamq ate`` also prints the mean and standard deviation of the per-run RMSE.
+runs) ``slamq ate`` also prints the mean and the sample standard deviation of the per-run
+RMSE (as ``slamq summary`` does; the JSON has both ``rmse_std`` (population, as
+:class:`slamq.trajectory.RunsResult.std`) and ``rmse_std_sample``).
 Exit codes: 0 success, 2 bad input (one stderr line names the file and the reason).
 """
 
@@ -150,10 +152,10 @@ def _run(args: argparse.Namespace, metric: str) -> int:
                 "rmse_std": float(rmse.std()),
                 "rmse_std_sample": float(rmse.std(ddof=1)),
             }
-            print(
+            print(  # sample std, as slamq summary prints by default
                 f"RMSE over {len(results)} runs: {summary['rmse_mean']:.6f} \u00b1 "
-                f"{summary['rmse_std']:.6f} {unit} (population std; sample std "
-                f"{summary['rmse_std_sample']:.6f})"
+                f"{summary['rmse_std_sample']:.6f} {unit} (sample std; population std "
+                f"{summary['rmse_std']:.6f})"
             )
     if args.json:
         doc = {

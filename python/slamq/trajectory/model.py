@@ -19,6 +19,7 @@ __all__ = [
     "quat_to_matrix",
     "matrix_to_quat",
     "quat_multiply",
+    "quat_rotate",
     "yaw_to_quat",
 ]
 
@@ -126,6 +127,21 @@ def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         ],
         axis=-1,
     )
+
+
+def quat_rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Vectors ``v`` (..., 3) rotated by unit quaternions ``q`` (..., 4) (w, x, y, z).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> quat_rotate(yaw_to_quat(np.array([np.pi / 2])), np.array([[1.0, 0, 0]])).round(12)
+    array([[0., 1., 0.]])
+    """
+    w = q[..., :1]
+    u = q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
 
 
 def _first_bad_row(mask: np.ndarray) -> int:
