@@ -109,6 +109,16 @@ def test_kitti_matched_by_index(tmp_path):
     assert np.allclose(k.rotations, tr.rotations, atol=1e-14)
     assert np.array_equal(k.positions, tr.positions)
     assert ate(k, k, align="none").n == 30
+    # six printed digits (KITTI's own files) still read; garbage rotations do not
+    np.savetxt(tmp_path / "six.txt", m, fmt="%.6e")
+    assert np.allclose(load_trajectory(tmp_path / "six.txt").positions, tr.positions, atol=1e-5)
+    for name, block in (("zero", np.zeros(9)), ("scaled", 2 * np.eye(3).ravel()),
+                        ("mirror", np.diag([1.0, 1.0, -1.0]).ravel())):
+        bad = m.copy()
+        bad[4, [0, 1, 2, 4, 5, 6, 8, 9, 10]] = block
+        np.savetxt(tmp_path / f"{name}.txt", bad, fmt="%.17g")
+        with pytest.raises(TrajectoryError, match=rf"{name}.txt: pose 5 is not a rigid"):
+            load_trajectory(tmp_path / f"{name}.txt")
 
 
 def test_euroc_csv(tmp_path):

@@ -14,7 +14,7 @@ from typing import Union
 import numpy as np
 
 from slamq.errors import TrajectoryError
-from slamq.trajectory.model import Trajectory, matrix_to_quat, yaw_to_quat
+from slamq.trajectory.model import Trajectory, yaw_to_quat
 
 __all__ = ["load_trajectory", "parse_columns", "FORMATS", "ROLES"]
 
@@ -219,7 +219,7 @@ def read_kitti(path: PathLike) -> Trajectory:
     """Read a KITTI pose file: 12 numbers per line (a 3x4 pose matrix, row major).
 
     KITTI files have no timestamps: the pose index is used as the timestamp, so two
-    KITTI files are matched by index.
+    KITTI files are matched by index. A row whose 3x3 block is not a rotation raises.
 
     Examples
     --------
@@ -234,10 +234,9 @@ def read_kitti(path: PathLike) -> Trajectory:
     arr = _read_table(path, sep="ws")
     _nonempty(arr, path)
     _check_cols(arr, path, 12, "KITTI")
-    m = arr.reshape(-1, 3, 4)
-    t = np.arange(m.shape[0], dtype=np.float64)
-    return Trajectory(t, m[:, :, 3], matrix_to_quat(m[:, :, :3]), source=str(path),
-                      meta={"format": "kitti"})
+    tr = Trajectory.from_matrices(arr.reshape(-1, 3, 4), source=str(path))
+    tr.meta["format"] = "kitti"
+    return tr
 
 
 def read_euroc(path: PathLike, *, unsorted: str = "error") -> Trajectory:

@@ -148,6 +148,23 @@ def _first_bad_row(mask: np.ndarray) -> int:
     return int(np.flatnonzero(mask)[0])
 
 
+#: Largest deviation of ``R^T R`` from the identity accepted in a pose matrix (files print
+#: rotations with 6 to 9 digits; anything further off is not a rotation).
+ROTATION_TOL = 1e-3
+
+
+def _check_rotations(r: np.ndarray, source: str) -> None:
+    """Raise when a ``(N, 3, 3)`` block is not a rotation (not orthonormal, or a mirror)."""
+    off = np.abs(np.einsum("nji,njk->nik", r, r) - np.eye(3)).max(axis=(1, 2))
+    bad = (off > ROTATION_TOL) | (np.linalg.det(r) <= 0)
+    if bad.any():
+        row = _first_bad_row(bad)
+        raise TrajectoryError(
+            f"{source}: pose {row + 1} is not a rigid transform (its 3x3 block is not a "
+            f"rotation: R^T R differs from I by {off[row]:.3g}, det {np.linalg.det(r[row]):.3g})"
+        )
+
+
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """Timestamped poses: ``N`` timestamps, positions and orientations.
@@ -266,6 +283,8 @@ class Trajectory:
         """A trajectory from ``(N, 3, 4)`` or ``(N, 4, 4)`` pose matrices.
 
         Without ``timestamps`` the pose index is the timestamp (KITTI: matched by index).
+        A 3x3 block that is not a rotation (``R^T R`` off the identity by more than
+        ``ROTATION_TOL``, or a mirror) raises :class:`TrajectoryError`.
 
         Examples
         --------
@@ -281,6 +300,7 @@ class Trajectory:
         if not np.isfinite(m).all():
             row = _first_bad_row(~np.isfinite(m).reshape(m.shape[0], -1).all(axis=1))
             raise TrajectoryError(f"{source}: NaN or infinite value in pose {row + 1}")
+        _check_rotations(m[:, :3, :3], source)
         return cls(timestamps, m[:, :3, 3], matrix_to_quat(m[:, :3, :3]), source=source)
 
     # ------------------------------------------------------------------ views
