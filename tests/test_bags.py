@@ -81,13 +81,22 @@ def test_map_updates_are_pasted_bottom_first(tmp_path, fmt):
     assert len(list(read_bag_maps(bag, updates=False))) == 1
 
 
-def test_update_outside_the_map_is_an_error(tmp_path):
+def test_update_outside_the_map_is_skipped_with_a_warning(tmp_path):
+    """As rviz and nav2 do: a patch for a map of another size is dropped, the rest kept."""
     bag = bag_path(tmp_path, "ros1")
     with BagWriter(bag, "ros1") as w:
         w.write("/map", GRID, w.grid(1.0, np.zeros((3, 3), np.int8)))
         w.write("/map_updates", UPDATE, w.update(2.0, 2, 2, np.zeros((2, 2))))
-    with pytest.raises(BagError, match=r"outside the 3x3 map"):
-        list(read_bag_maps(bag))
+        w.write("/map_updates", UPDATE, w.update(2.5, -1, 0, np.zeros((1, 1))))
+        w.write("/map_updates", UPDATE, w.update(3.0, 0, 0, np.full((1, 1), 100)))
+    with pytest.warns(slamq.MapWarning) as caught:
+        got = list(read_bag_maps(bag))
+    msgs = [str(c.message) for c in caught]
+    assert len(msgs) == 2 and all(bag.name in m for m in msgs)
+    assert "x=2 y=2 2x2 lies outside the 3x3 map" in msgs[0] and "x=-1" in msgs[1]
+    assert [t for t, _ in got] == [1.0, 3.0]
+    assert [m.meta["index"] for _, m in got] == [0, 1]
+    assert got[-1][1].values[2, 0] == 0 and (got[-1][1].values[:2] == 255).all()
 
 
 def test_every_and_include_last(tmp_path):

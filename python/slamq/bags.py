@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -30,7 +31,7 @@ from typing import TYPE_CHECKING, Any, Union
 
 import numpy as np
 
-from slamq.errors import BagError, MapError
+from slamq.errors import BagError, MapError, MapWarning
 
 if TYPE_CHECKING:  # pragma: no cover
     from slamq.maps import OccupancyMap
@@ -244,22 +245,32 @@ class _Grid:
             stamp=_stamp(msg.header, bag_ns),
         )
 
-    def apply(self, upd: Any, bag_ns: int, path: PathLike, topic: str) -> None:
-        """Paste an OccupancyGridUpdate patch (x, y = column, row of its lower-left cell)."""
+    def apply(self, upd: Any, bag_ns: int, path: PathLike, topic: str) -> bool:
+        """Paste an OccupancyGridUpdate patch (x, y = column, row of its lower-left cell).
+
+        A patch that does not fit the map (it was meant for a full map of another size,
+        e.g. received just before the enlarged map) or whose data is not width x height
+        cells is skipped with a :class:`slamq.MapWarning`, as rviz and nav2's static
+        layer ignore it; returns whether the patch was applied.
+        """
         x, y, w, h = int(upd.x), int(upd.y), int(upd.width), int(upd.height)
         data = np.asarray(upd.data).astype(np.int8, copy=False).reshape(-1)
         height, width = self.cells.shape
+        problem = None
         if data.size != w * h:
-            raise BagError(
-                f"{path}: {topic} update holds {data.size} cells, width*height = {w * h}"
+            problem = f"holds {data.size} cells, width*height = {w}*{h} = {w * h}"
+        elif x < 0 or y < 0 or x + w > width or y + h > height:
+            problem = f"x={x} y={y} {w}x{h} lies outside the {width}x{height} map"
+        if problem is not None:
+            warnings.warn(
+                MapWarning(f"{path}: skipped a {topic} update at {_stamp(upd.header, bag_ns):.3f}"
+                           f" s: it {problem}"),
+                stacklevel=2,
             )
-        if x < 0 or y < 0 or x + w > width or y + h > height:
-            raise BagError(
-                f"{path}: {topic} update x={x} y={y} {w}x{h} lies outside the "
-                f"{width}x{height} map"
-            )
+            return False
         self.cells[y : y + h, x : x + w] = data.reshape(h, w)
         self.stamp = _stamp(upd.header, bag_ns)
+        return True
 
     def to_map(self, path: PathLike, topic: str, index: int) -> OccupancyMap:
         from slamq.maps import from_occupancy_grid
@@ -310,7 +321,7 @@ def read_bag_maps(
         Apply ``map_msgs/OccupancyGridUpdate`` patches from ``<topic>_updates`` when the bag
         has that topic (a string names another update topic; False ignores updates). Each
         applied patch is a new map in the sequence; patches before the first full map are
-        skipped.
+        skipped, and so are patches that do not fit the map (with a ``MapWarning``).
     include_last : bool, default False
         Also yield the last map when ``every`` skipped it.
 
@@ -366,7 +377,8 @@ def read_bag_maps(
                     assert pending is not None
                     grid = _decode_grid(reader, bag, topic, pending)
                     pending = None
-                grid.apply(_deserialize(reader, bag, conn, raw), ns, bag, conn.topic)
+                if not grid.apply(_deserialize(reader, bag, conn, raw), ns, bag, conn.topic):
+                    continue
             index += 1
             if index % every == 0:
                 if grid is None:
