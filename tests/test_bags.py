@@ -243,6 +243,27 @@ def test_pose_topics(tmp_path, fmt):
         read_bag_trajectory(bag, "/nope")
 
 
+def test_bad_quaternions_and_positions_in_a_bag_name_the_bag_and_pose(tmp_path):
+    bag = bag_path(tmp_path, "mcap")
+    with BagWriter(bag, "mcap") as w:
+        for i, (t, xyz, _) in enumerate(POSES):
+            q = (0.0, 0.0, 0.0, 0.0) if i == 2 else (2.0, 0.0, 0.0, 0.0)  # zero / not unit
+            msg = w.T["geometry_msgs/msg/PoseStamped"](header=w.header(t), pose=w.pose(xyz, q))
+            w.write("/zero", "geometry_msgs/msg/PoseStamped", msg)
+            nan = (math.nan, 0.0, 0.0) if i == 3 else xyz
+            w.write("/nan", "geometry_msgs/msg/PoseStamped", _pose_stamped(w, t, nan))
+            w.write("/long", "geometry_msgs/msg/PoseStamped",
+                    w.T["geometry_msgs/msg/PoseStamped"](header=w.header(t),
+                                                         pose=w.pose(xyz, (2.0, 0, 0, 0))))
+    with pytest.raises(slamq.TrajectoryError,
+                       match=rf"{bag.name}:/zero: zero quaternion in pose 3"):
+        read_bag_trajectory(bag, "/zero")
+    with pytest.raises(slamq.TrajectoryError, match=rf"{bag.name}:/nan: NaN or infinite position "
+                       r"in pose 4"):
+        read_bag_trajectory(bag, "/nan")
+    np.testing.assert_array_equal(read_bag_trajectory(bag, "/long").orientations[:, 0], 1.0)
+
+
 def test_only_pose_topic_is_the_default(tmp_path):
     bag = bag_path(tmp_path, "ros1")
     with BagWriter(bag, "ros1") as w:

@@ -521,6 +521,9 @@ def read_bag_trajectory(
     BagError
         Missing/truncated bag, missing topic (the message lists the topics), wrong type,
         unknown frames (the message lists the frame pairs), no poses.
+    TrajectoryError
+        A NaN or infinite pose or an all-zero quaternion (other quaternions are
+        normalised), naming the bag, the topic and the pose.
 
     Examples
     --------
@@ -571,10 +574,8 @@ def read_bag_trajectory(
             where = f"{bag}:{topic}"
     if len(t) == 0:
         raise BagError(f"{where}: no poses")
-    norms = np.linalg.norm(q, axis=1)
-    if not np.all(norms > 0):
-        raise BagError(f"{where}: a pose has an all-zero quaternion")
-    return Trajectory(t, p, q / norms[:, None], source=where)
+    # Trajectory normalises the quaternions; zero or NaN ones raise naming `where`
+    return Trajectory(t, p, q, source=where)
 
 
 class _Identity:
