@@ -139,6 +139,21 @@ def test_read_back_exact_poses(tmp_path, version):
     assert raw[0][1].tolist() == [unix_ticks(s) for _, s, _, _ in NODES0]
 
 
+def test_load_trajectory_and_cli_read_pbstreams(tmp_path, capsys):
+    from slamq.cli import main
+    from slamq.trajectory import ate, load_trajectory
+
+    p = write(tmp_path, full_stream())
+    check(load_trajectory(p), NODES0)
+    check(load_trajectory(p, topic="1"), NODES1)
+    with pytest.raises(TrajectoryError, match="topic is a trajectory id"):
+        load_trajectory(p, topic="/tf")
+    gt = load_trajectory(p).write_tum(tmp_path / "gt.txt")
+    assert main(["ate", str(gt), str(p), "-a", "none"]) == 0
+    assert f"{ate(gt, p, align='none').rmse:.6f}" == "0.000000"
+    assert "map.pbstream#trajectory0" in capsys.readouterr().out
+
+
 def test_legacy_stream_without_header(tmp_path):
     # pre-header streams start with the PoseGraph; proto2 trajectories carry no id
     graph = pose_graph([trajectory(0, encoded_nodes(NODES1)), trajectory(0, encoded_nodes(NODES0))])

@@ -99,6 +99,32 @@ def test_tum_round_trip_with_comments_and_irregular_spacing(tmp_path):
     assert np.array_equal(b.positions, tr.positions[:10])
 
 
+@pytest.mark.parametrize("variant", ["crlf", "cr", "bom", "blank_lines", "tabs",
+                                     "comment_between", "comment_after", "single_pose"])
+def test_tum_text_variants_read_the_same_numbers(tmp_path, variant):
+    tr = _planar(6)
+    lines = tr.write_tum(tmp_path / "ref.txt").read_text().splitlines()
+    if variant == "single_pose":
+        lines = lines[:1]
+    text = {
+        "crlf": "\r\n".join(lines) + "\r\n",
+        "cr": "\r".join(lines) + "\r",
+        "bom": "\ufeff" + "\n".join(lines) + "\n",
+        "blank_lines": "\n\n" + "\n\n".join(lines) + "\n\n  \n",
+        "tabs": "\n".join(ln.replace(" ", "\t") for ln in lines) + "\n",
+        "comment_between": "\n".join(lines[:3] + ["# restart?"] + lines[3:]) + "\n",
+        "comment_after": "\n".join(ln + " # note" for ln in lines) + "\n",
+        "single_pose": lines[0] + "\n",
+    }[variant]
+    p = tmp_path / "v.txt"
+    p.write_bytes(text.encode())
+    back = load_trajectory(p)
+    assert back.meta["format"] == "tum"
+    n = len(lines)
+    assert np.array_equal(back.timestamps, tr.timestamps[:n])
+    assert np.array_equal(back.positions, tr.positions[:n])
+
+
 def test_kitti_matched_by_index(tmp_path):
     tr = _planar(30)
     m = tr.matrices()[:, :3, :].reshape(-1, 12)

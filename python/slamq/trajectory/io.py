@@ -1,4 +1,5 @@
-"""Trajectory readers: TUM, KITTI, EuRoC, generic CSV / whitespace tables, ROS bags.
+"""Trajectory readers: TUM, KITTI, EuRoC, generic CSV / whitespace tables, ROS bags,
+Cartographer pbstreams.
 
 Text files are parsed by pandas' C parser when pandas is installed (about 0.25 s per
 million TUM lines), else by :func:`numpy.loadtxt` (several times slower, same numbers).
@@ -19,7 +20,7 @@ from slamq.trajectory.model import Trajectory, yaw_to_quat
 __all__ = ["load_trajectory", "parse_columns", "FORMATS", "ROLES"]
 
 #: Formats :func:`load_trajectory` reads (``None`` = guess from the name and content).
-FORMATS = ("tum", "kitti", "euroc", "csv", "bag")
+FORMATS = ("tum", "kitti", "euroc", "csv", "bag", "pbstream")
 #: Column roles of the generic table reader.
 ROLES = ("t", "x", "y", "z", "yaw", "qw", "qx", "qy", "qz")
 _BAG_SUFFIXES = {".bag", ".mcap", ".db3"}
@@ -453,9 +454,21 @@ def _read_bag(path: Path, topic: str | None) -> Trajectory:
     return reader(path, topic=topic)
 
 
+def _read_pbstream(path: Path, topic: str | None) -> Trajectory:
+    from slamq.pbstream import read_pbstream_trajectory
+
+    if topic is None:
+        return read_pbstream_trajectory(path)
+    if not re.fullmatch(r"-?\d+", topic.strip()):
+        raise TrajectoryError(f"{path}: for a pbstream, topic is a trajectory id, not {topic!r}")
+    return read_pbstream_trajectory(path, int(topic))
+
+
 def _guess_format(path: Path) -> str:
     if _is_bag(path):
         return "bag"
+    if path.suffix.lower() == ".pbstream":
+        return "pbstream"
     raw, idx = _first_line(path)
     if idx < 0:
         raise TrajectoryError(f"{path}: empty file (no poses)")
@@ -465,6 +478,7 @@ def _guess_format(path: Path) -> str:
     data, didx = _first_line(path, comment=True)
     if didx < 0:
         raise TrajectoryError(f"{path}: empty file (no poses, only comments)")
+    data = data.split("#", 1)[0].strip()  # a trailing comment, as the readers allow
     sep = _guess_sep(data)
     cells = _split(data, sep)
     if sep == "ws" and all(_is_number(c) for c in cells):
@@ -495,11 +509,13 @@ def load_trajectory(
     Parameters
     ----------
     path : str or Path
-        A TUM, KITTI, EuRoC or CSV/whitespace table file, or a ROS1/ROS2 bag
-        (``.bag``, ``.mcap``, ``.db3`` or a folder with ``metadata.yaml``).
-    format : {"tum", "kitti", "euroc", "csv", "bag"}, optional
-        Guessed when omitted: bags by name; ``#timestamp`` headers are EuRoC; a header
-        line means CSV; 8 numbers a row TUM, 12 KITTI. ``columns`` implies ``"csv"``.
+        A TUM, KITTI, EuRoC or CSV/whitespace table file, a ROS1/ROS2 bag
+        (``.bag``, ``.mcap``, ``.db3`` or a folder with ``metadata.yaml``), or a
+        Cartographer ``.pbstream`` (its trajectory node poses).
+    format : {"tum", "kitti", "euroc", "csv", "bag", "pbstream"}, optional
+        Guessed when omitted: bags and pbstreams by name; ``#timestamp`` headers are
+        EuRoC; a header line means CSV; 8 numbers a row TUM, 12 KITTI. ``columns`` implies
+        ``"csv"``.
     columns : mapping or str, optional
         For tables: role -> column name or 0-based index, see :func:`read_table`.
         The slam_comparison_tools pose logs load with
@@ -507,7 +523,8 @@ def load_trajectory(
         ``"x": "gt_x", "y": "gt_y"`` for their ground truth).
     topic : str, optional
         Bag topic (PoseStamped, PoseWithCovarianceStamped, Odometry, TransformStamped,
-        or ``/tf`` as ``"/tf:parent->child"``), see ``slamq.bags.read_bag_trajectory``.
+        or ``/tf`` as ``"/tf:parent->child"``), see ``slamq.bags.read_bag_trajectory``;
+        for a pbstream the trajectory id (default ``"0"``).
     unsorted : {"error", "last", "sort"}
         Timestamps that go backwards raise by default; ``"last"`` keeps the rows after
         the last restart of the log, ``"sort"`` sorts them (stable).
@@ -553,6 +570,8 @@ def load_trajectory(
         return read_kitti(path)
     if format == "euroc":
         return read_euroc(path, unsorted=unsorted)
+    if format == "pbstream":
+        return _read_pbstream(path, topic)
     if format == "csv":
         return read_table(path, columns, unsorted=unsorted)
     raise TrajectoryError(f"{path}: columns= only applies to format 'csv'")
