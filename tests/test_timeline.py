@@ -117,6 +117,25 @@ def test_cli_timeline(run_bag, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("fmt", ["ros1", "sqlite3", "mcap"])
+def test_cli_truncated_bag_exits_2_with_one_line(tmp_path, capsys, fmt):
+    good = growing_run(bag_path(tmp_path, fmt, "good"), fmt, n=3)
+    bad = growing_run(bag_path(tmp_path, fmt, "bad"), fmt, n=3)
+    data = bad if bad.is_file() else next(p for p in bad.iterdir() if p.suffix != ".yaml")
+    data.write_bytes(data.read_bytes()[: data.stat().st_size // 2])
+    assert main(["timeline", str(bad), "--out", str(tmp_path / "t")]) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and bad.name in err[0] and "truncated" in err[0], err
+    assert "Traceback" not in captured.err
+    # slamq eval: the bad bag is reported, the good one still evaluated
+    assert main(["eval", str(good), str(bad), "--sweep-step", "16"]) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and bad.name in err[0] and "truncated" in err[0], err
+    assert good.name in captured.out
+
+
+@pytest.mark.parametrize("fmt", ["ros1", "sqlite3", "mcap"])
 def test_cli_eval_on_a_bag_evaluates_the_last_map(tmp_path, capsys, fmt):
     bag = growing_run(bag_path(tmp_path, fmt), fmt, n=3)
     target = bag if fmt == "ros1" else next(bag.glob("*.db3"), bag)  # a file or the folder
