@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -99,3 +100,20 @@ def test_discovering_the_shared_corpus(shared_data):
     assert "nanobot/new_maps/gmapping_processed.pgm" in rel
     assert len(rel) == 117
     assert np.all([p.exists() for p in maps])
+
+
+def test_symlink_loops_fifos_and_broken_links_are_reported_not_fatal(tmp_path):
+    good = _pgm(tmp_path / "good.pgm")
+    (tmp_path / "a.pgm").symlink_to(tmp_path / "b.pgm")
+    (tmp_path / "b.pgm").symlink_to(tmp_path / "a.pgm")
+    (tmp_path / "gone.pgm").symlink_to(tmp_path / "nowhere.pgm")
+    os.mkfifo(tmp_path / "pipe.yaml")  # reading it would block for ever
+    maps, problems = discover_maps([tmp_path, tmp_path / "a.pgm"])
+    assert [p.name for p in maps] == ["a.pgm", "b.pgm", "gone.pgm", "good.pgm"]
+    # found in a folder, the loop is a map whose loading fails; named, it is a problem
+    reasons = {Path(p).name: r for p, r in problems}
+    assert reasons == {
+        "pipe.yaml": "not a regular file (a FIFO, device or socket), not a map YAML",
+        "a.pgm": "cannot read: Too many levels of symbolic links",
+    }
+    assert load_map(good).shape == (2, 2)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import struct
 import time
 import tracemalloc
@@ -569,6 +572,72 @@ def test_missing_paths_directories_and_odd_sources(tmp_path):
         load_map([[0, 1]])
     with raises_named("<array>", "resolution must be > 0"):
         load_map(np.zeros((2, 2), np.uint8), resolution=-1)
+
+
+@contextlib.contextmanager
+def _within(seconds: int):
+    """Fail (instead of hanging) when the block takes longer than ``seconds``."""
+
+    def _timeout(*_):
+        raise TimeoutError(f"took more than {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, _timeout)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def test_hostile_files_fail_fast_naming_the_file_and_reason(tmp_path):
+    write_pgm(tmp_path / "m.pgm", np.array([[0, 205, 254]], np.uint8))
+    fifo = tmp_path / "fifo.pgm"
+    os.mkfifo(fifo)
+    (tmp_path / "loop_a.pgm").symlink_to(tmp_path / "loop_b.pgm")
+    (tmp_path / "loop_b.pgm").symlink_to(tmp_path / "loop_a.pgm")
+    (tmp_path / "dangling.pgm").symlink_to(tmp_path / "nowhere.pgm")
+    (tmp_path / "zero.yaml").write_bytes(b"")
+    (tmp_path / "binary.yaml").write_bytes(bytes(range(256)) * 4)
+    fifo_yaml = tmp_path / "fifo.yaml"
+    os.mkfifo(fifo_yaml)
+    with _within(10):
+        with raises_named(fifo, "not a regular file"):   # open() would block for ever
+            load_map(fifo)
+        with raises_named(fifo_yaml, "not a regular file"):
+            load_map(fifo_yaml)
+        with raises_named(write_yaml(tmp_path / "f.yaml", "fifo.pgm"), str(fifo),
+                          "not a regular file"):
+            load_map(tmp_path / "f.yaml")
+        with raises_named(tmp_path / "loop_a.pgm", "symbolic links"):
+            load_map(tmp_path / "loop_a.pgm")
+        with raises_named(write_yaml(tmp_path / "l.yaml", "loop_a.pgm"), "symbolic links"):
+            load_map(tmp_path / "l.yaml")
+        with raises_named(tmp_path / "dangling.pgm", "broken symbolic link"):
+            load_map(tmp_path / "dangling.pgm")
+        with raises_named(tmp_path / "zero.yaml", "not a map YAML"):
+            load_map(tmp_path / "zero.yaml")
+        with raises_named(tmp_path / "binary.yaml", "unparsable YAML"):
+            load_map(tmp_path / "binary.yaml")
+        with raises_named(write_yaml(tmp_path / "self.yaml", "self.yaml"), "YAML file"):
+            load_map(tmp_path / "self.yaml")
+        for text, reason in [
+            ("just a sentence\n", "not a map YAML"),
+            ("image: m.pgm\nresolution: .inf\n", "resolution must be finite"),
+            ("image: m.pgm\nresolution: [0.05]\n", "resolution must be a number"),
+            ("image: m.pgm\nresolution: 0.05\norigin: {x: 1, y: 2}\n", "origin"),
+            ("image: m.pgm\nresolution: 0.05\norigin: [1, 2, .nan]\n", "origin must be finite"),
+            ("image: m.pgm\nresolution: 0.05\norigin: 12\n", "origin"),
+            ("image: m.pgm\nnegate: 'yes'\n", "negate must be"),
+        ]:
+            y = tmp_path / "bad.yaml"
+            y.write_text(text)
+            with raises_named(y, reason):
+                load_quiet(y)
+    # YAML 1.1: a bare `yes` is a boolean, so it negates
+    y = tmp_path / "yes.yaml"
+    y.write_text("image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: yes\n")
+    assert load_quiet(y).meta["negate"] is True
 
 
 def test_bag_paths_dispatch_to_the_bag_reader(tmp_path):

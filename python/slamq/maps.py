@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import stat
 import struct
 import warnings
 from dataclasses import dataclass, field
@@ -131,6 +132,8 @@ GRID_UNKNOWN_SHADE = 205
 MAX_CELLS = 1 << 30
 #: A map YAML larger than this is not a map YAML.
 _MAX_YAML_BYTES = 1 << 20
+#: An image file larger than this is refused before it is read (MAX_CELLS RGBA pixels).
+_MAX_IMAGE_BYTES = 4 * MAX_CELLS + (1 << 20)
 #: zlib cannot compress better than about 1032:1; a PNG header claiming more raw bytes
 #: than that allows is corrupt (or a decompression bomb), and is refused before decoding.
 _DEFLATE_MAX_RATIO = 1032
@@ -424,16 +427,37 @@ def _decode_image(data: bytes, name: str) -> _Image:
     return _Image(np.ascontiguousarray(grey), alpha, ch, None, fmt)
 
 
-def _read_image_file(path: Path) -> _Image:
+def _stat(path: Path) -> os.stat_result:
+    """``os.stat`` of ``path``, or a MapError naming it and why (missing, a symlink loop)."""
     try:
-        data = path.read_bytes()
+        return path.stat()
     except FileNotFoundError:
-        raise _fail(path, "no such file") from None
-    except IsADirectoryError:
-        raise _fail(path, "is a directory, not an image") from None
+        broken = path.is_symlink()
+        raise _fail(path, "broken symbolic link" if broken else "no such file or directory"
+                    ) from None
+    except (OSError, RuntimeError) as exc:
+        reason = getattr(exc, "strerror", None) or _one_line(exc)
+        raise _fail(path, f"cannot read: {reason}") from None
+
+
+def _read_regular_file(path: Path, what: str, limit: int) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes (never blocks on a FIFO)."""
+    st = _stat(path)
+    if stat.S_ISDIR(st.st_mode):
+        raise _fail(path, f"is a directory, not {what}")
+    if not stat.S_ISREG(st.st_mode):
+        raise _fail(path, f"not a regular file (a FIFO, device or socket), not {what}")
+    if st.st_size > limit:
+        raise _fail(path, f"{st.st_size} bytes is too large for {what}")
+    try:
+        with path.open("rb") as fh:
+            return fh.read(st.st_size)  # a file still growing is cut at its size above
     except OSError as exc:
         raise _fail(path, f"cannot read: {exc.strerror or exc}") from None
-    return _decode_image(data, str(path))
+
+
+def _read_image_file(path: Path) -> _Image:
+    return _decode_image(_read_regular_file(path, "an image", _MAX_IMAGE_BYTES), str(path))
 
 
 # ---------------------------------------------------------------------------------------
@@ -600,10 +624,9 @@ def _resolve_image(yaml_path: Path, image: str, warnings_out: list[str]) -> Path
     ref = Path(image)
     if not ref.is_absolute():
         candidate = yaml_path.parent / ref
-        if not candidate.is_file():
-            what = "is a directory" if candidate.is_dir() else "not found"
-            raise _fail(yaml_path, f"image {image!r} {what} (looked for {candidate})")
-        return candidate
+        if not os.path.lexists(candidate):
+            raise _fail(yaml_path, f"image {image!r} not found (looked for {candidate})")
+        return candidate  # a directory, a FIFO or a symlink loop is named when it is read
     if ref.is_file():
         return ref
     beside = yaml_path.parent / ref.name
@@ -625,12 +648,7 @@ def _load_yaml(
 ) -> OccupancyMap:
     import yaml
 
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise _fail(path, f"cannot read: {exc.strerror or exc}") from None
-    if len(raw) > _MAX_YAML_BYTES:
-        raise _fail(path, f"{len(raw)} bytes is too large for a map YAML")
+    raw = _read_regular_file(path, "a map YAML", _MAX_YAML_BYTES)
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     try:
         doc = yaml.load(raw, Loader=loader)  # noqa: S506 - a safe loader
@@ -689,6 +707,8 @@ def _load_yaml(
     n = None if unknown_value is None else _check_unknown_value(
         unknown_value, path, grid=mode == "raw")
     image_path = _resolve_image(path, image, warnings_out)
+    if image_path.suffix.lower() in YAML_SUFFIXES:
+        raise _fail(path, f"image {image!r} is a YAML file, not an image")
     try:
         img = _read_image_file(image_path)
     except MapError as exc:
@@ -952,8 +972,7 @@ def _load(
         where = str(path)
         res = _check_resolution(resolution, where)
         org = None if origin is None else _check_origin(origin, where)
-        if not path.exists():
-            raise _fail(where, "no such file or directory")
+        _stat(path)  # missing, a broken link or a symlink loop: say which
         if _is_bag(path):
             return _reapply(_load_bag(path), unknown_value, res, org)
         if path.is_dir():
@@ -978,6 +997,21 @@ def _load(
 # ---------------------------------------------------------------------------------------
 
 
+def _resolved(path: Path) -> Path:
+    """``path.resolve()``, or the absolute path when it cannot be resolved (a symlink loop)."""
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError):
+        return path.absolute()
+
+
+def _reason(exc: MapError, path: Path) -> str:
+    """The reason of a MapError raised for ``path``, without the leading path."""
+    msg = str(exc)
+    prefix = f"{path}: "
+    return msg[len(prefix):] if msg.startswith(prefix) else msg
+
+
 def _yaml_image_target(path: Path) -> tuple[Path | None, str | None]:
     """(resolved image path or None, problem or None) of a YAML met while searching.
 
@@ -988,8 +1022,15 @@ def _yaml_image_target(path: Path) -> tuple[Path | None, str | None]:
     try:
         if path.stat().st_size > _MAX_YAML_BYTES:
             return None, None
-        doc = yaml.load(path.read_bytes(), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
-    except (OSError, yaml.YAMLError, UnicodeDecodeError) as exc:
+    except OSError:
+        pass  # said below
+    try:
+        raw = _read_regular_file(path, "a map YAML", _MAX_YAML_BYTES)
+    except MapError as exc:
+        return None, _reason(exc, path)
+    try:
+        doc = yaml.load(raw, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
         return None, f"unparsable YAML: {_one_line(exc)}"
     if not isinstance(doc, dict) or not isinstance(doc.get("image"), str):
         return None, None
@@ -1038,15 +1079,17 @@ def discover_maps(paths: Any) -> tuple[list[Path], list[tuple[str, str]]]:
     seen: set[Path] = set()
 
     def add(p: Path) -> None:
-        key = p.resolve()
+        key = _resolved(p)
         if key not in seen:
             seen.add(key)
             found.append(p)
 
     for item in paths:
         path = Path(os.fspath(item))
-        if not path.exists():
-            problems.append((str(path), "no such file or directory"))
+        try:
+            _stat(path)
+        except MapError as exc:
+            problems.append((str(path), _reason(exc, path)))
             continue
         if path.is_file():
             suffix = path.suffix.lower()
@@ -1081,8 +1124,8 @@ def discover_maps(paths: Any) -> tuple[list[Path], list[tuple[str, str]]]:
                 problems.append((str(y), problem))
             elif target is not None:
                 maps_here.append(y)
-                named.add(target.resolve())
-        maps_here.extend(i for i in images if i.resolve() not in named)
+                named.add(_resolved(target))
+        maps_here.extend(i for i in images if _resolved(i) not in named)
         for p in sorted(maps_here):
             add(p)
     return found, problems
