@@ -16,6 +16,8 @@ from conftest import TEST_DATA, slamq_env
 
 import slamq
 from slamq.cli import main
+from slamq.maps import load_map
+from slamq.output import read_results
 
 OFFICE = TEST_DATA / "slam_comparison_tools" / "test_results" / "office"
 
@@ -101,3 +103,99 @@ def test_console_entry_point(tmp_path: Path) -> None:
                          capture_output=True, text=True, env=slamq_env(), timeout=120)
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and "x.yaml" in run.stderr
+
+
+def test_unknown_value_reaches_the_loader_for_every_path(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    room = _room_pgm(tmp_path / "room.pgm")                     # 205 outside the walls
+    (tmp_path / "sub").mkdir()
+    _room_pgm(tmp_path / "sub" / "twin.pgm")
+    twin = tmp_path / "sub" / "twin.yaml"
+    twin.write_text(
+        "image: twin.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nfree_thresh: 0.25\n")
+    js = tmp_path / "r.json"
+    assert main(["eval", str(room), str(tmp_path / "sub"), "--unknown-value", "254",
+                 "--json", str(js)]) == 0
+    records = {Path(r["source"]).name: r for r in json.loads(js.read_text())}
+    assert sorted(records) == ["room.pgm", "twin.yaml"]
+    for rec in records.values():
+        # 254 (the room's floor, 18 x 28) is unknown; 205 is known (and bright: free)
+        assert rec["unknown"] == 18 * 28 and rec["known"] == 30 * 40 - 18 * 28
+    assert records["room.pgm"]["known"] == load_map(room, unknown_value=254).known_count
+    with pytest.warns(slamq.MapWarning):
+        assert load_map(twin).known_count == 20 * 30  # without the option: 205 unknown
+
+
+def test_a_map_with_no_known_cell_gives_nan_ratios_and_zero_counts(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    blank = tmp_path / "blank.pgm"
+    blank.write_bytes(b"P5 4 3 255\n" + bytes([205] * 12))     # every cell unknown
+    js, cs = tmp_path / "r.json", tmp_path / "r.csv"
+    assert main(["eval", str(blank), "--json", str(js), "--csv", str(cs)]) == 0
+    row = capsys.readouterr().out.splitlines()[1].split()
+    assert row[-7:] == ["0", "0", "nan", "nan", "0", "0", "0"]  # known .. at u
+    (rec,) = read_results(js)
+    assert "NaN" not in js.read_text()                          # valid JSON: null
+    q = slamq.evaluate(blank)
+    for name in ("occupied_fraction", "proportion", "threshold"):
+        assert math.isnan(rec[name]) and math.isnan(getattr(q, name))
+    assert (rec["known"], rec["occupied"], rec["free"], rec["corners"],
+            rec["enclosed_areas"], rec["unknown"]) == (0, 0, 0, 0, 0, 12)
+    (crow,) = list(csv.DictReader(cs.open()))
+    assert math.isnan(float(crow["proportion"])) and crow["known"] == "0"
+    assert list(crow) == list(q.to_dict())
+
+
+def test_csv_and_json_without_results_keep_the_columns(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.pgm"
+    bad.write_bytes(b"")
+    js, cs = tmp_path / "r.json", tmp_path / "r.csv"
+    assert main(["eval", str(bad), "--json", str(js), "--csv", str(cs)]) == 2
+    assert json.loads(js.read_text()) == []
+    q = slamq.evaluate(np.full((2, 2), 254, np.uint8))
+    assert cs.read_text().strip().split(",") == list(q.to_dict())
+
+
+def test_a_folder_with_a_symlink_loop_still_evaluates_the_rest(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    _room_pgm(tmp_path / "room.pgm")
+    (tmp_path / "a.pgm").symlink_to(tmp_path / "b.pgm")
+    (tmp_path / "b.pgm").symlink_to(tmp_path / "a.pgm")
+    js = tmp_path / "r.json"
+    assert main(["eval", str(tmp_path), "--json", str(js)]) == 2
+    errors = capsys.readouterr().err.strip().splitlines()
+    assert len(errors) == 2 and all("symbolic links" in e for e in errors), errors
+    assert [Path(r["source"]).name for r in read_results(js)] == ["room.pgm"]
+
+
+def test_an_unexpected_failure_on_one_map_costs_no_other_map(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A bug (not a bad input) on one map: that map's line, the others' results, exit 1."""
+    from slamq import _core
+
+    real = _core.evaluate
+
+    def flaky(values, *args):
+        if values.shape == (3, 3):
+            raise RuntimeError("simulated bug")
+        return real(values, *args)
+
+    monkeypatch.setattr(_core, "evaluate", flaky)
+    good = _room_pgm(tmp_path / "room.pgm")
+    odd = tmp_path / "odd.pgm"
+    odd.write_bytes(b"P5 3 3 255\n" + bytes(9))
+    js = tmp_path / "r.json"
+    assert main(["eval", str(good), str(odd), "--json", str(js)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"slamq: error: {odd}: unexpected RuntimeError: simulated bug"]
+    assert [Path(r["source"]).name for r in read_results(js)] == ["room.pgm"]
+
+
+def test_threads_below_one_is_exit_2_before_any_work(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    good = _room_pgm(tmp_path / "room.pgm")
+    assert main(["eval", str(good), "--threads", "0"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--threads" in err[0]

@@ -80,10 +80,12 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
     try:
         Params(**metric_kwargs(args))
+        if args.threads is not None and args.threads < 1:
+            raise ParamError(f"--threads must be a positive integer, got {args.threads}")
     except ParamError as exc:
         error_line("", exc)
         return EXIT_BAD_INPUT
-    failed = 0
+    failed = unexpected = 0
     sources, problems = discover_maps(args.paths)
     for where, reason in problems:
         error_line(where, reason)
@@ -103,6 +105,10 @@ def _cmd_eval(args: argparse.Namespace) -> int:
             error_line(str(src), exc)
             failed += 1
             continue
+        except Exception as exc:  # noqa: BLE001 - a bug on one map must not cost the others
+            error_line(str(src), RuntimeError(f"unexpected {type(exc).__name__}: {exc}"))
+            unexpected += 1
+            continue
         results.append(q)
     if results:
         print_table(results, curve=args.curve)
@@ -110,6 +116,8 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         write_json(args.json, results)
     if args.csv:
         write_csv(args.csv, results)
+    if unexpected:
+        return EXIT_ERROR
     if not results and not failed:
         error_line("", ValueError("no map found in " + ", ".join(map(str, args.paths))))
         return EXIT_BAD_INPUT

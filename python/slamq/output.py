@@ -117,13 +117,19 @@ def write_json(path: PathLike, results: Sequence[MapQuality]) -> Path:
     return path
 
 
+def _csv_header() -> list[str]:
+    """The columns of ``MapQuality.to_dict()``, for a file with no result."""
+    from slamq.params import Params
+
+    names = [k for k in MapQuality.__dataclass_fields__ if k != "params"]
+    return names + [f"param_{k}" for k in Params.__dataclass_fields__]
+
+
 def write_csv(path: PathLike, results: Sequence[MapQuality]) -> Path:
     """Write one CSV row per map (the curve, when present, as ``;``-joined counts)."""
     path = Path(path)
     records = _records(results)
-    fields = list(records[0].keys()) if records else [
-        k for k in MapQuality.__dataclass_fields__ if k != "params"
-    ]
+    fields = list(records[0].keys()) if records else _csv_header()
     with path.open("w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=fields)
         writer.writeheader()
@@ -134,15 +140,27 @@ def write_csv(path: PathLike, results: Sequence[MapQuality]) -> Path:
     return path
 
 
+#: The float fields that are NaN when a map has no known cell (null in JSON).
+_RATIOS = ("occupied_fraction", "proportion", "threshold")
+
+
 def read_results(path: PathLike) -> list[dict[str, Any]]:
     """Reload a file written by :func:`write_json` (or ``slamq eval --json``).
+
+    The ratios written as null (a map with no known cell) come back as NaN, so a record
+    equals the ``MapQuality.to_dict()`` it was written from (NaN compared as NaN).
 
     Examples
     --------
     >>> import json, tempfile, os
     >>> p = os.path.join(tempfile.mkdtemp(), "r.json")
-    >>> _ = open(p, "w").write(json.dumps([{"corners": 3}]))
+    >>> _ = open(p, "w").write(json.dumps([{"corners": 3, "proportion": None}]))
     >>> read_results(p)
-    [{'corners': 3}]
+    [{'corners': 3, 'proportion': nan}]
     """
-    return list(json.loads(Path(path).read_text()))
+    records = list(json.loads(Path(path).read_text()))
+    for r in records:
+        for k in _RATIOS:
+            if k in r and r[k] is None:
+                r[k] = math.nan
+    return records
