@@ -498,6 +498,26 @@ def test_symlinked_folders_are_followed_once(tmp_path: Path) -> None:
     assert runs[0].map == root / "gmapping" / "hall" / "r7" / "map.yaml"
 
 
+def test_discovery_is_linear_in_the_number_of_maps(tmp_path: Path) -> None:
+    """3,000 maps and their trajectories in one flat folder: each map used to filter the
+    whole folder for its trajectory and ground truth (quadratic: about 20 s here)."""
+    seq = tmp_path / "hall"
+    seq.mkdir()
+    pgm = cv2.imencode(".pgm", room(20, walls=0))[1].tobytes()
+    n = 3000
+    for i in range(n):
+        (seq / f"alg{i}_map.pgm").write_bytes(pgm)
+        (seq / f"alg{i}_traj.txt").write_text("0 0 0 0 0 0 0 1\n")
+    (seq / "hall_groundtruth.txt").write_text("0 0 0 0 0 0 0 1\n")
+    t0 = time.perf_counter()
+    runs = discover_runs(tmp_path)
+    seconds = time.perf_counter() - t0
+    assert len(runs) == n
+    assert all(r.trajectory == seq / f"{r.algorithm}_traj.txt" for r in runs)
+    assert all(r.groundtruth == seq / "hall_groundtruth.txt" for r in runs)
+    assert seconds < 4.0, f"discovering {n} maps took {seconds:.1f} s"
+
+
 @needs_core
 def test_batch_then_report(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     import argparse

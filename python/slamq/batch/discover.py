@@ -147,8 +147,8 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
     """
     if isinstance(sources, (str, os.PathLike, Run)):
         sources = [sources]
-    _mirror_cached.cache_clear()  # the caches live for one discovery only
-    _files.cache_clear()
+    for cache in _CACHES:  # the caches live for one discovery only
+        cache.cache_clear()
     out: list[Run] = []
     seen: set[tuple[str, str, str, str]] = set()
     for src in sources:
@@ -258,7 +258,8 @@ def _single_map(path: Path) -> Run:
     gt_seq = _ground_truth_map(path.stem)
     if gt_seq is not None:
         return Run(path, GROUND_TRUTH, gt_seq, "0")
-    traj, gt = _flat_trajectories(path.parent, algorithm, [algorithm], seq, path.parent)
+    traj, gt = _flat_trajectories(path.parent, algorithm, frozenset([algorithm]), seq,
+                                  path.parent)
     return Run(path, algorithm, seq, run_id, traj, gt)
 
 
@@ -296,16 +297,17 @@ def _load_yaml(path: Path) -> object:
 _UNREADABLE = object()
 
 
-def _is_map_yaml(path: Path) -> bool:
+def _is_map_doc(doc: object) -> bool:
     """A YAML with an ``image`` key, or one that cannot be parsed (the batch reports it)."""
-    doc = _load_yaml(path)
     return doc is _UNREADABLE or (isinstance(doc, dict) and "image" in doc)
 
 
-def yaml_image(path: Path) -> Path | None:
+def yaml_image(path: Path, doc: object = None) -> Path | None:
     """The image a map YAML names, resolved like the loader does (relative to the YAML's
-    folder; an absolute path that does not exist falls back to the name beside the YAML)."""
-    doc = _load_yaml(path)
+    folder; an absolute path that does not exist falls back to the name beside the YAML).
+    ``doc``: the YAML already parsed by :func:`_load_yaml`."""
+    if doc is None:
+        doc = _load_yaml(path)
     if not isinstance(doc, dict) or not isinstance(doc.get("image"), str):
         return None
     ref = Path(doc["image"])
@@ -331,14 +333,16 @@ def folder_maps(folder: Path, files: list[Path] | None = None) -> list[Path]:
     """
     if files is None:
         files = [p for p in _files(folder) if not p.name.startswith(".")]
-    yamls = [p for p in files if p.suffix.lower() in YAML_SUFFIXES and _is_map_yaml(p)]
+    docs = {p: _load_yaml(p) for p in files if p.suffix.lower() in YAML_SUFFIXES}
+    yamls = [p for p, doc in docs.items() if _is_map_doc(doc)]
     named: set[Path] = set()
     for y in yamls:
-        img = yaml_image(y)
+        img = yaml_image(y, docs[y])
         if img is not None:
             named.add(img.resolve())
     images = [
-        p for p in files if p.suffix.lower() in IMAGE_SUFFIXES and p.resolve() not in named
+        p for p in files
+        if p.suffix.lower() in IMAGE_SUFFIXES and not (named and p.resolve() in named)
     ]
     maps = sorted(yamls + images)
     snaps = [p for p in maps if _SNAPSHOT.match(p.stem)]
@@ -379,7 +383,7 @@ def _discover_folder(root: Path) -> list[Run]:
             continue
         folder_seq = here.name if rel else root_name
         names_here = [_flat_names(m.stem) for m in maps]
-        algos = sorted({a for a, _ in names_here}, key=len, reverse=True)
+        algos = frozenset(a for a, _ in names_here)  # one object: its hash is cached
         for m, (algorithm, run_id) in zip(maps, names_here):
             gt_seq = _ground_truth_map(m.stem)
             if gt_seq is not None:
@@ -420,16 +424,28 @@ def _find_groundtruth(
     ground truths of many sequences) its name must start with the sequence's name."""
     search = [(f, False) for f in folders] + ([(root, True)] if root is not None else [])
     for folder, need_prefix in search:
-        try:
-            files = _files(folder)
-        except OSError:
-            continue
-        gts = [p for p in _trajectory_files(files) if _is_gt_name(p, sequence)]
-        if need_prefix:
-            gts = [p for p in gts if p.stem.lower().startswith(sequence.lower())]
-        if gts:
-            return sorted(gts)[0]
+        gt = _groundtruth_in(folder, sequence, need_prefix)
+        if gt is not None:
+            return gt
     return None
+
+
+@functools.lru_cache(maxsize=4096)
+def _folder_trajectories(folder: Path) -> list[Path]:
+    """The trajectory files directly in ``folder`` ([] when it cannot be listed); cached
+    like :func:`_files`, so that the maps of one flat folder do not filter it each."""
+    try:
+        return _trajectory_files(_files(folder))
+    except OSError:
+        return []
+
+
+@functools.lru_cache(maxsize=4096)
+def _groundtruth_in(folder: Path, sequence: str, need_prefix: bool) -> Path | None:
+    gts = [p for p in _folder_trajectories(folder) if _is_gt_name(p, sequence)]
+    if need_prefix:
+        gts = [p for p in gts if p.stem.lower().startswith(sequence.lower())]
+    return min(gts) if gts else None
 
 
 def _is_paired_log(path: Path) -> bool:
@@ -459,7 +475,8 @@ def paired_columns(path: Path) -> tuple[str, str] | None:
     return None
 
 
-def _mirror_folders(folder: Path, sequence: str) -> list[Path]:
+@functools.lru_cache(maxsize=4096)
+def _mirror_folders(folder: Path, sequence: str) -> tuple[Path, ...]:
     """``trajectories/<group>/.../<sequence>`` folders of a map folder ``.../<group>/...``.
 
     The group's trajectories live in a ``trajectories`` folder beside the group
@@ -467,7 +484,7 @@ def _mirror_folders(folder: Path, sequence: str) -> list[Path]:
     holding it (``data/maps/<group>`` -> ``data/trajectories/<group>``); the nearest one
     wins.
     """
-    return [Path(p) for p in _mirror_cached(str(folder.resolve()), sequence)]
+    return tuple(Path(p) for p in _mirror_cached(str(folder.resolve()), sequence))
 
 
 @functools.lru_cache(maxsize=1024)
@@ -491,18 +508,13 @@ def _mirror_cached(folder: str, sequence: str) -> tuple[str, ...]:
 
 
 def _flat_trajectories(
-    folder: Path, algorithm: str, algos: list[str], sequence: str, root: Path
+    folder: Path, algorithm: str, algos: frozenset[str], sequence: str, root: Path
 ) -> tuple[Path | None, Path | None]:
     traj: Path | None = None
     gt: Path | None = None
     search = [folder, *_mirror_folders(folder, sequence)]
     for where in search:
-        try:
-            files = _files(where)
-        except OSError:
-            continue
-        files = _trajectory_files(files)
-        mine = [p for p in files if _belongs_to(p.stem, algorithm, algos)]
+        mine = _owned_trajectories(where, algos).get(algorithm, [])
         pick = _pick_trajectory(mine, sequence)
         if traj is None and pick is not None:
             traj = pick
@@ -517,12 +529,36 @@ def _flat_trajectories(
     return traj, gt
 
 
-def _belongs_to(stem: str, algorithm: str, algos: list[str]) -> bool:
-    """Is ``stem`` a trajectory of ``algorithm`` (longest algorithm prefix wins)?"""
+@functools.lru_cache(maxsize=4096)
+def _owned_trajectories(folder: Path, algos: frozenset[str]) -> dict[str, list[Path]]:
+    """The trajectory files of ``folder`` by the algorithm they belong to (one pass over
+    the folder for all its maps, so discovery stays linear in the number of maps)."""
+    owned: dict[str, list[Path]] = {}
+    for p in _folder_trajectories(folder):
+        owner = _owner(p.stem, algos)
+        if owner is not None:
+            owned.setdefault(owner, []).append(p)
+    return owned
 
-    def matches(a: str) -> bool:
-        return stem == a or stem.startswith(a + "_") or stem.startswith(a + ".")
 
-    if not matches(algorithm):
-        return False
-    return not any(len(a) > len(algorithm) and matches(a) for a in algos)
+def _owner(stem: str, algos: frozenset[str]) -> str | None:
+    """The algorithm a trajectory named ``stem`` belongs to: the longest ``a`` in ``algos``
+    with ``stem == a`` or ``stem`` starting with ``a_`` or ``a.``.
+
+    >>> _owner("karto_slam_traj", frozenset({"karto", "karto_slam"}))
+    'karto_slam'
+    >>> _owner("kartoslam", frozenset({"karto"})) is None
+    True
+    """
+    if stem in algos:
+        return stem
+    for i in range(len(stem) - 1, 0, -1):
+        if stem[i] in "_." and stem[:i] in algos:
+            return stem[:i]
+    return None
+
+
+_CACHES = (
+    _files, _folder_trajectories, _groundtruth_in, _owned_trajectories, _mirror_folders,
+    _mirror_cached,
+)
