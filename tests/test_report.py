@@ -353,3 +353,31 @@ def test_reference_maps_are_shown_but_not_ranked() -> None:
     assert r.order == ["a", "b"]
     assert r.references == ["ground_truth"]
     assert "ground_truth" not in r.score and r.winner == "a"
+
+
+def test_user_strings_are_escaped_and_never_read_as_mathtext(tmp_path) -> None:
+    """Algorithm, sequence and file names go into HTML escaped, and into the plots as plain
+    text (matplotlib would parse ``$\\nope$`` as mathtext and fail)."""
+    img = rooms_image(1)
+    names = ["<script>alert(1)</script>", "a$\\nope$", "x\"y'z & ü"]
+    recs = []
+    for k, alg in enumerate(names):
+        yaml = write_map(tmp_path / f"maps {k}", img, name=f"m<{k}>")
+        for run in range(2):
+            recs.append({"map": str(yaml), "algorithm": alg, "sequence": "s <i>$\\x$</i>",
+                         "run": run, "occupied_fraction": 0.1 + 0.01 * k + 0.001 * run,
+                         "corners": 4 + k, "enclosed_areas": 1, "enclosed_unknown_value": 0,
+                         "error": None})
+    recs.append({"map": str(tmp_path / "<img src=x onerror=alert(1)>.pgm"), "algorithm": "b",
+                 "sequence": "t", "run": 0, "error": "boom <b>"})
+    index = build_report(recs, tmp_path / "site", gifs=False)
+    pages = [index, *sorted((tmp_path / "site" / "maps").glob("*.html"))]
+    assert len(pages) == 1 + 6
+    for page in pages:
+        text = page.read_text(encoding="utf-8")
+        for raw in ("<script>", "<i>$", "<img src=x", "<b>\"", "m<0>", "boom <b>"):
+            assert raw not in text, (page.name, raw)
+    html = index.read_text(encoding="utf-8")
+    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in html
+    assert "x&quot;y&#x27;z &amp; ü" in html and "boom &lt;b&gt;" in html
+    assert (tmp_path / "site" / "img" / "plot_corners.png").stat().st_size > 0

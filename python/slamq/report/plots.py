@@ -10,9 +10,11 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any, Callable, TypeVar
 
 import matplotlib
 
@@ -38,6 +40,20 @@ _DPI = 110
 _TAB10 = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
           "#7f7f7f", "#bcbd22", "#17becf")
 
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def _plain_text(fn: _F) -> _F:
+    """Draw every text as it is: algorithm, sequence and file names are user strings, and
+    matplotlib would read ``$...$`` in them as mathtext (and fail on ``$\\x$``)."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with plt.rc_context({"text.parse_math": False}):
+            return fn(*args, **kwargs)
+
+    return wrapper  # type: ignore[return-value]
+
 
 def algorithm_colours(algorithms: Sequence[str]) -> dict[str, str]:
     """A stable colour per algorithm (same in every figure of one report).
@@ -51,6 +67,7 @@ def algorithm_colours(algorithms: Sequence[str]) -> dict[str, str]:
     return {a: cycle[i % len(cycle)] for i, a in enumerate(sorted(set(algorithms)))}
 
 
+@_plain_text
 def metric_figure(
     ok: pd.DataFrame,
     metric: Metric,
@@ -148,6 +165,7 @@ def _decades(v: np.ndarray) -> float:
     return float(np.log10(v.max() / v.min())) if len(v) else 0.0
 
 
+@_plain_text
 def curve_figure(curve: Sequence[int], sweep_values: Sequence[int], best_u: int,
                  path: Path) -> None:
     """Enclosed areas counted at every unknown value ``u``, the maximum marked.
@@ -174,6 +192,7 @@ def curve_figure(curve: Sequence[int], sweep_values: Sequence[int], best_u: int,
     plt.close(fig)
 
 
+@_plain_text
 def timeline_figure(
     series: dict[str, Sequence[float]], labels: Sequence[str], size_px: tuple[int, int],
 ) -> tuple[np.ndarray, list[int]]:
@@ -223,6 +242,7 @@ def timeline_figure(
     return img, xs
 
 
+@_plain_text
 def trajectory_figure(
     base_rgb: np.ndarray,
     rows: np.ndarray,
