@@ -88,3 +88,16 @@ def test_the_buffers_are_not_copied_or_changed() -> None:
     u.setflags(write=False)  # read-only input works: the core only borrows
     _core.evaluate(v, u)
     assert np.array_equal(v, before[0]) and np.array_equal(u, before[1])
+
+
+def test_numpy_scalars_are_accepted_as_parameters_and_threads() -> None:
+    v, u = _room()
+    grid = slamq.OccupancyMap(v, u)
+    q = slamq.evaluate(grid, sweep_step=np.int64(5), min_area=np.int32(2),
+                       harris_k=np.float32(0.04), threads=np.int64(2))
+    assert q.params == slamq.Params(sweep_step=5, min_area=2, harris_k=float(np.float32(0.04)))
+    assert type(q.params.sweep_step) is int and q.to_dict()["param_sweep_step"] == 5
+    assert q == slamq.evaluate(grid, sweep_step=5, min_area=2, harris_k=float(np.float32(0.04)))
+    for bad in (0, 1.5, "2", True):
+        with pytest.raises(slamq.ParamError, match="threads"):
+            slamq.evaluate(grid, threads=bad)

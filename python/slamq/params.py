@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
@@ -52,7 +53,7 @@ class Params:
     def __post_init__(self) -> None:
         for name in ("log_threshold", "harris_k", "harris_quality"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
                 raise ParamError(f"{name} must be a number, got {value!r}")
             if not math.isfinite(float(value)):
                 raise ParamError(f"{name} must be finite, got {value!r}")
@@ -65,8 +66,10 @@ class Params:
             ("min_area", 0, 2**31 - 1),
         ):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            if (isinstance(value, bool) or not isinstance(value, numbers.Integral)
+                    or not lo <= value <= hi):
                 raise ParamError(f"{name} must be an integer in {lo}..{hi}, got {value!r}")
+            object.__setattr__(self, name, int(value))  # numpy integers become int
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> Params:

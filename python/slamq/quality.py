@@ -10,6 +10,7 @@ expressions :mod:`slamq.reference` uses, so both sides agree bit for bit.
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
@@ -235,11 +236,12 @@ def evaluate(
         sweep_step=sweep_step,
         min_area=min_area,
     )
-    grid = load_map(source, unknown_value=unknown_value)
-    if threads is not None and (isinstance(threads, bool) or int(threads) < 1):
+    if threads is not None and (isinstance(threads, bool) or not isinstance(
+            threads, numbers.Integral) or threads < 1):
         from slamq.errors import ParamError
 
         raise ParamError(f"threads must be a positive integer, got {threads!r}")
+    grid = load_map(source, unknown_value=unknown_value)
     raw = _core.evaluate(
         grid.values,
         grid.unknown,
