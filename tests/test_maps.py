@@ -452,6 +452,26 @@ def test_png_header_claiming_far_more_cells_is_refused_before_decoding(tmp_path)
         load_map(p)
 
 
+def test_jpeg_truncated_or_claiming_far_more_cells_is_refused(tmp_path):
+    img = np.full((64, 48), 254, np.uint8)
+    img[10:30, 5:40] = 0
+    ok, buf = cv2.imencode(".jpg", img)
+    assert ok
+    data = buf.tobytes()
+    p = tmp_path / "m.jpg"
+    p.write_bytes(data)
+    assert load_no_warning(p).shape == (64, 48)
+    p.write_bytes(data[: len(data) // 2])  # libjpeg would fill the rest with grey
+    with raises_named(p, "truncated JPEG"):
+        load_map(p)
+    sof = data.find(b"\xff\xc0")
+    lying = bytearray(data)
+    struct.pack_into(">HH", lying, sof + 5, 30000, 30000)
+    p.write_bytes(bytes(lying))  # refused before decoding (libjpeg would allocate 900 MB)
+    with raises_named(p, "JPEG", "30000x30000"):
+        load_map(p)
+
+
 @pytest.mark.parametrize(
     "content, reason",
     [

@@ -17,7 +17,8 @@ Choices the SPEC leaves open, made here:
 * PGM/PPM with maxval < 255 are scaled as SDL_image (map_server's reader) does:
   ``x * 255 // maxval``. 16-bit and float images are refused.
 * Decoding never allocates more than the file can hold: PGM sizes are checked against the
-  file length, PNG sizes against zlib's best ratio, before any pixel buffer exists.
+  file length, PNG sizes against zlib's best ratio, JPEG sizes against one bit per 8x8
+  block, before any pixel buffer exists. Only regular files are read (never a FIFO).
 * Per-pixel work is a 256-entry table (``cv2.LUT``): the unknown decision is computed once
   per pixel value with the SPEC formula ``p = (255 - v) / 255`` in float64, bounds inclusive.
 """
@@ -380,6 +381,39 @@ def _check_png_header(data: bytes, name: str) -> None:
         raise _fail(name, "truncated PNG: the file ends before its IEND chunk")
 
 
+#: JPEG start-of-frame markers (baseline, progressive, lossless, arithmetic): they hold
+#: the image size.
+_JPEG_SOF = frozenset(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}
+
+
+def _check_jpeg_header(data: bytes, name: str) -> None:
+    """Refuse a JPEG whose frame header claims more cells than the file can hold, or that
+    ends before its EOI marker (libjpeg would fill the missing part with grey)."""
+    pos = 2
+    while pos + 4 <= len(data):
+        if data[pos] != 0xFF:
+            break
+        marker = data[pos + 1]
+        if marker == 0xFF:  # fill byte
+            pos += 1
+            continue
+        length = struct.unpack(">H", data[pos + 2:pos + 4])[0]
+        if marker in _JPEG_SOF:
+            if pos + 9 > len(data):
+                break
+            height, width = struct.unpack(">HH", data[pos + 5:pos + 9])
+            cells = width * height
+            # at least one bit per 8x8 block and component, whatever the coding
+            if cells > 512 * len(data) + 4096:
+                raise _fail(name, f"corrupt or truncated JPEG: the header claims "
+                                  f"{width}x{height} ({cells} cells) but the file holds only "
+                                  f"{len(data)} bytes")
+            break
+        pos += 2 + length
+    if data.rfind(b"\xff\xd9") < 0:
+        raise _fail(name, "truncated JPEG: the file ends before its EOI marker")
+
+
 def _split_channels(arr: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray | None, int]:
     """(grey, alpha, channels) of a uint8 image array: colour channels averaged (rint)."""
     if arr.ndim == 2:
@@ -408,6 +442,9 @@ def _decode_image(data: bytes, name: str) -> _Image:
     if data[:8] == _PNG_SIGNATURE:
         _check_png_header(data, name)
         fmt = "PNG"
+    elif data[:3] == b"\xff\xd8\xff":
+        _check_jpeg_header(data, name)
+        fmt = "JPEG"
     import cv2
 
     try:
