@@ -485,6 +485,7 @@ def test_jpeg_truncated_or_claiming_far_more_cells_is_refused(tmp_path):
         (b"P5\n2 1\n15\n\x00\x10", "exceeds maxval"),
         (b"P2\n2 2\n255\n1 2 3", "truncated"),
         (b"P2\n2 2\n255\n1 2 3 x", "not a decimal"),
+        (b"P2\n2 1\n255\n1 99999999999999999999999", "not a decimal"),
         (b"P2\n2 1\n255\n1 300", "exceeds maxval"),
         (b"P4\n8 1\n\x00", "PBM"),
         (b"hello, this is not an image", "not a readable image"),

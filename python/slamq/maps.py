@@ -325,8 +325,9 @@ def _parse_pnm(data: bytes, name: str) -> _Image:
                               f"only {len(tokens)} samples")
         try:
             wide = np.array(tokens, dtype=np.bytes_).astype(np.int64)
-        except ValueError:
-            raise _fail(name, f"bad ASCII {kind}: a sample is not a decimal number") from None
+        except (ValueError, OverflowError):
+            raise _fail(name, f"bad ASCII {kind}: a sample is not a decimal number "
+                              "in 0..maxval") from None
         if wide.min() < 0:
             raise _fail(name, f"bad ASCII {kind}: negative sample")
         if wide.max() > maxval:
