@@ -12,38 +12,29 @@ The reference labels each map once per sweep value, so the corpus part takes min
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from conftest import SHARED_DATA, TEST_DATA
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from strategies import occupancy_maps
 
 import slamq
 from slamq import MapError, OccupancyMap, Params, reference
+from slamq.maps import discover_maps
 
 pytest.importorskip("slamq._core", reason="the Rust core is not built (maturin develop)")
 
-REPO = Path(__file__).resolve().parent.parent
-TEST_DATA = REPO / "tests" / "data"
-SHARED_DATA = Path(os.environ.get("SLAMQ_SHARED_DATA", REPO.parent / "shared" / "data"))
 
 
 def _discover(root: Path) -> list[Any]:
     """One pytest param per map under ``root`` (ids relative to it); problems become skips."""
     if not root.is_dir():
         return [pytest.param(None, id="absent")]
-    discover = getattr(slamq.maps, "discover_maps", None)
-    if discover is None:  # loader not landed yet: YAML files and bare images
-        found = sorted(
-            p for p in root.rglob("*") if p.suffix.lower() in {".yaml", ".yml", ".pgm", ".png"}
-        )
-        problems: list[tuple[str, str]] = []
-    else:
-        found, problems = discover([root])
+    found, problems = discover_maps([root])
     params = [pytest.param(Path(p), id=str(Path(p).relative_to(root))) for p in found]
     params += [pytest.param((path, reason), id=f"problem:{path}") for path, reason in problems]
     return params or [pytest.param(None, id="empty")]
