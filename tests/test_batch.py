@@ -355,6 +355,35 @@ def test_resume_skips_done_and_redoes_changed(tmp_path: Path) -> None:
 
 
 @needs_core
+def test_other_settings_are_never_mixed_silently(tmp_path: Path) -> None:
+    _tree(tmp_path / "runs", 4)
+    out = tmp_path / "r.jsonl"
+    assert len(list(evaluate_many(tmp_path / "runs", out=out))) == 4
+    with pytest.warns(UserWarning, match=r"4 stored record\(s\) .*other settings "
+                      r"\(min_area: 1, 3\); this batch evaluates its maps again, but 3 "
+                      r"record\(s\) of maps outside this batch keep theirs"):
+        again = list(evaluate_many(discover_runs(tmp_path / "runs")[:1], out=out, min_area=3))
+    assert [r["param_min_area"] for r in again] == [3]
+    df = read_results(out)
+    assert len(df) == 4 and sorted(df["param_min_area"]) == [1, 1, 1, 3]
+    with pytest.warns(UserWarning, match=r"different settings \(min_area: 1, 3\)"):
+        summarize(df)
+    from slamq.report import build_report
+
+    site = build_report(df, tmp_path / "site", details="gallery", gifs=False)
+    assert 'id="mixed-settings"' in site.read_text(encoding="utf-8")
+    # the whole batch again with the new setting: one setting left, no warning
+    with pytest.warns(UserWarning, match="this batch evaluates its maps again$"):
+        assert len(list(evaluate_many(tmp_path / "runs", out=out, min_area=3))) == 3
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert (summarize(out)["n"] == 2).all()
+        assert list(evaluate_many(tmp_path / "runs", out=out, min_area=3)) == []
+
+
+@needs_core
 def test_batch_over_shared_data_like_tree(tmp_path: Path, test_data: Path) -> None:
     """slam_comparison_tools' flat layout, with its trajectories in the mirrored tree."""
     src = test_data / "slam_comparison_tools" / "test_results" / "office"

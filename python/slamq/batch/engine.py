@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import os
 import uuid
+import warnings
 from collections import deque
 from collections.abc import Iterator
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from typing import Any, Callable
 
 from slamq.batch.discover import Run, discover_runs
-from slamq.batch.records import EvalOptions, evaluate_run
+from slamq.batch.records import EvalOptions, evaluate_run, settings_difference
 from slamq.batch.results import ResultsFile
 from slamq.errors import ParamError
 
@@ -86,6 +87,8 @@ def evaluate_many(
         Results file (``.parquet`` or ``.jsonl``), appended as chunks finish. Runs already
         in it with no error, the same content hash, parameters and trajectory files are
         skipped (and not yielded); failed runs are retried and their old rows replaced.
+        Stored records made with other settings are replaced too, with a ``UserWarning``
+        (which also says when records of maps outside this batch keep other settings).
     progress : callable(done, total), optional
         Called with (0, total) first, then after every map (skipped ones included).
     ate_align, ate_max_dt, ate_unsorted
@@ -162,9 +165,13 @@ def _stream(
     store = ResultsFile(out) if out is not None else None
     done: dict[tuple[str, str, str, str], str] = {}
     if store is not None:
+        other = 0  # stored records computed with other settings
         for key, rec in store.done():
             if rec.get("error") in (None, ""):
                 done[key] = options.fingerprint(rec)
+            other += rec.get("config") not in (None, "", options.config)
+        if other:
+            _warn_other_settings(store, runs, options, other)
     total = len(runs)
     finished = 0
     if progress is not None:
@@ -195,6 +202,29 @@ def _stream(
         results.close()  # cancel queued maps when the consumer stops early
         if store is not None:
             store.close()
+
+
+def _warn_other_settings(
+    store: ResultsFile, runs: list[Run], options: EvalOptions, other: int
+) -> None:
+    """Say that a results file holds records made with other settings, and whether the
+    file will mix settings once this batch is done (records of maps not in this batch)."""
+    keys = {r.key for r in runs}
+    configs = [rec.get("config") for _, rec in store.done()] + [options.config]
+    stay = sum(
+        1 for key, rec in store.done()
+        if key not in keys and rec.get("config") not in (None, "", options.config)
+    )
+    text = (
+        f"{store.path}: {other} stored record(s) were computed with other settings "
+        f"({settings_difference(configs) or 'unknown'}); this batch evaluates its maps again"
+    )
+    if stay:
+        text += (
+            f", but {stay} record(s) of maps outside this batch keep theirs, so the file "
+            "will mix settings (use another results file)"
+        )
+    warnings.warn(text, UserWarning, stacklevel=4)
 
 
 def _run_local(

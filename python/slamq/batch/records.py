@@ -11,6 +11,7 @@ import hashlib
 import json
 import os
 import time
+from collections.abc import Iterable
 from dataclasses import fields
 from pathlib import Path
 from typing import Any
@@ -30,6 +31,7 @@ __all__ = [
     "map_files",
     "evaluate_run",
     "EvalOptions",
+    "settings_difference",
 ]
 
 #: Where the map belongs, and how the record was made.
@@ -201,6 +203,42 @@ class EvalOptions:
             {"hash": digest, "config": self.config, "trajectory": _str(run.trajectory),
              "groundtruth": _str(run.groundtruth)}
         )
+
+
+def settings_difference(configs: Iterable[Any]) -> str | None:
+    """Which settings differ between the ``config`` strings of some records (None when
+    they are all alike).
+
+    Examples
+    --------
+    >>> a = EvalOptions({"min_area": 1}).config
+    >>> b = EvalOptions({"min_area": 3}).config
+    >>> settings_difference([a, b, a]), settings_difference([a, a, None])
+    ('min_area: 1, 3', None)
+    """
+    distinct = sorted({c for c in configs if isinstance(c, str) and c})
+    if len(distinct) < 2:
+        return None
+    flat: list[dict[str, str]] = []
+    for text in distinct:
+        try:
+            doc = json.loads(text)
+        except ValueError:
+            doc = {"config": text}
+        if not isinstance(doc, dict):
+            doc = {"config": doc}
+        one: dict[str, str] = {}
+        for key, value in doc.items():
+            inner = value if isinstance(value, dict) else {key: value}
+            one.update({k: json.dumps(v) for k, v in inner.items()})
+        flat.append(one)
+    keys = sorted({k for one in flat for k in one})
+    diffs = []
+    for k in keys:
+        values = sorted({one.get(k, "none") for one in flat})
+        if len(values) > 1:
+            diffs.append(f"{k}: {', '.join(values)}")
+    return "; ".join(diffs) or "config"
 
 
 def _str(p: Path | None) -> str | None:

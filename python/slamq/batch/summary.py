@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -59,7 +60,16 @@ def summarize(
         ``n`` (runs without error), ``failed`` (runs with an error, left out of the
         statistics), then ``<metric>_mean`` and ``<metric>_std`` for every metric in
         :data:`SUMMARY_METRICS`, and for the ``ate_*`` columns when any run has a
-        trajectory error (``ate_runs`` counts the runs that have one).
+        trajectory error (``ate_runs`` counts the runs that have one). A metric's mean and
+        std are over the runs where it is a number (a map with no known cell has NaN
+        ratios), so they may cover fewer than ``n`` runs.
+
+    Warns
+    -----
+    UserWarning
+        The records were computed with different settings (their ``config`` column:
+        metric parameters, ``unknown_value``, ATE options), e.g. a results file resumed
+        with other parameters and interrupted, or shared by two batches.
 
     Examples
     --------
@@ -72,11 +82,21 @@ def summarize(
     import numpy as np
     import pandas as pd
 
-    df = _frame(results)
+    from slamq.batch.records import settings_difference
+
     if ddof not in (0, 1):
         from slamq.errors import ParamError
 
         raise ParamError(f"ddof must be 0 or 1, got {ddof!r}")
+    df = _frame(results)
+    mixed = settings_difference(df["config"]) if "config" in df.columns else None
+    if mixed:
+        warnings.warn(
+            f"the results were computed with different settings ({mixed}); their "
+            "statistics mix them (evaluate every map again with one setting, or use another "
+            "results file)", UserWarning,
+            stacklevel=2,
+        )
     for col in ("algorithm", "sequence"):
         if col not in df.columns:
             df = df.assign(**{col: ""})

@@ -187,11 +187,25 @@ def build_report(
 
     plots = _plots(ok, out, sequences)
     body = _index_body(title, frame, ok, failed, summary, sequences, rankings, gallery,
-                       pages, plots)
+                       pages, plots, _mixed_settings(frame))
     index = out / "index.html"
     index.write_text(_page(title, body), encoding="utf-8")
     summary.reset_index().to_csv(out / "summary.csv", index=False)
     return index
+
+
+def _mixed_settings(frame: pd.DataFrame) -> str:
+    """A warning paragraph when the records were made with different settings, else ""."""
+    if "config" not in frame:
+        return ""
+    from slamq.batch.records import settings_difference
+
+    mixed = settings_difference(frame["config"])
+    if not mixed:
+        return ""
+    return (f"<p class=\"warn\" id=\"mixed-settings\">These results were computed with "
+            f"different settings ({_e(mixed)}): the tables and plots mix them. Evaluate every "
+            "map again with one setting, or write the batch to another results file.</p>")
 
 
 def _run_scores(group: pd.DataFrame) -> pd.Series:
@@ -372,6 +386,7 @@ def _index_body(
     gallery: dict[tuple[str, str], list[int]],
     pages: dict[int, _MapPage],
     plots: list[tuple[str, str]],
+    warning: str = "",
 ) -> str:
     from slamq import __version__
 
@@ -381,6 +396,7 @@ def _index_body(
         f"<p class=\"sub\">{len(frame)} maps: {len(ok)} evaluated, {len(failed)} failed; "
         f"{len(sequences)} sequences, {n_alg} algorithms. Generated "
         f"{_dt.datetime.now().strftime('%Y-%m-%d %H:%M')} by slamq {__version__}.</p>",
+        warning,
         "<section class=\"verdict\" id=\"verdict\"><b>In one sentence per sequence</b><ul>",
     ]
     for s in sequences:
