@@ -349,7 +349,8 @@ def test_resume_skips_done_and_redoes_changed(tmp_path: Path) -> None:
     assert len(df) == 6 and not df.duplicated(["algorithm", "sequence", "run", "map"]).any()
     assert df.set_index("map").loc[str(paths[1]), "hash"] == content_hash(paths[1])
     # other parameters: everything again, still one row per run
-    assert len(list(evaluate_many(tmp_path / "runs", out=out, min_area=3))) == 6
+    with pytest.warns(UserWarning, match="other settings"):
+        assert len(list(evaluate_many(tmp_path / "runs", out=out, min_area=3))) == 6
     df = read_results(out)
     assert len(df) == 6 and (df["param_min_area"] == 3).all()
 
