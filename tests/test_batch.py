@@ -385,6 +385,29 @@ def test_other_settings_are_never_mixed_silently(tmp_path: Path) -> None:
 
 
 @needs_core
+def test_report_draws_trajectories_with_the_batch_ate_options(tmp_path: Path) -> None:
+    """A restarted log scored with ate_unsorted="last": the report reads it the same way."""
+    from slamq.report import build_report
+
+    run = tmp_path / "runs" / "gmapping" / "hall" / "r1"
+    write_map(run / "map", room(40))
+    t = np.arange(20.0)
+    gt_xy = np.c_[0.5 + 0.05 * t, 1.0 + 0.2 * np.sin(t / 3)]
+    write_tum(run.parent / "groundtruth.txt", gt_xy)
+    est = [f"{100 + i} 9 9 0 0 0 0 1" for i in range(3)]  # the log before a restart
+    est += [f"{ti:.3f} {x + 0.01:.6f} {y:.6f} 0 0 0 0 1" for ti, (x, y) in zip(t, gt_xy)]
+    (run / "trajectory.txt").write_text("\n".join(est) + "\n")
+    out = tmp_path / "r.jsonl"
+    (rec,) = evaluate_many(tmp_path / "runs", out=out, ate_unsorted="last", ate_align="none")
+    assert rec["ate_error"] is None and rec["ate_n"] == 20
+    assert rec["ate_rmse"] == pytest.approx(0.01)
+    site = build_report(out, tmp_path / "site", gifs=False)
+    page = next((site.parent / "maps").glob("*.html")).read_text(encoding="utf-8")
+    assert "not drawn" not in page and "_traj.png" in page
+    assert "20 poses, ATE RMSE 0.01 m" in page
+
+
+@needs_core
 def test_batch_over_shared_data_like_tree(tmp_path: Path, test_data: Path) -> None:
     """slam_comparison_tools' flat layout, with its trajectories in the mirrored tree."""
     src = test_data / "slam_comparison_tools" / "test_results" / "office"

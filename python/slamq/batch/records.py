@@ -31,6 +31,7 @@ __all__ = [
     "map_files",
     "evaluate_run",
     "EvalOptions",
+    "load_pair",
     "settings_difference",
 ]
 
@@ -325,7 +326,7 @@ def _ate_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
         return {}
     assert run.trajectory is not None and run.groundtruth is not None
     try:
-        est, gt = _load_pair(T, run.trajectory, run.groundtruth, options.ate_unsorted)
+        est, gt = load_pair(run.trajectory, run.groundtruth, options.ate_unsorted)
         res = T.ate(gt, est, align=options.ate_align, max_dt=options.ate_max_dt)
     except Exception as exc:  # noqa: BLE001 - a bad trajectory is a field, never a crash
         return {"ate_error": _message(str(run.trajectory), exc)}
@@ -334,8 +335,12 @@ def _ate_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
     return out
 
 
-def _load_pair(T: Any, traj: Path, gt: Path, unsorted: str) -> tuple[Any, Any]:
-    """Load estimate and ground truth; a paired pose log gives both from one file."""
+def load_pair(traj: Path | str, gt: Path | str, unsorted: str = "error") -> tuple[Any, Any]:
+    """Load estimate and ground truth (``slamq.trajectory.Trajectory``); a paired pose log
+    (one CSV with ``slam_x ... gt_x`` columns, see ``paired_columns``) gives both."""
+    from slamq import trajectory as T
+
+    traj, gt = Path(traj), Path(gt)
     cols = paired_columns(traj) if traj == gt else None
     if cols is None:
         return (

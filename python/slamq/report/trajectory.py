@@ -2,11 +2,13 @@
 
 Needs :mod:`slamq.trajectory` (``load_trajectory``, ``ate``); the estimate is drawn in the
 map's frame as it was logged (the map was built in that frame), the colours are the
-per-pose errors after the alignment ``ate`` uses (SE(2) by default, SPEC section 6).
+per-pose errors after the association and alignment the batch used (the record's
+``config``: SE(2) by default, SPEC section 6).
 """
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -46,37 +48,24 @@ def world_to_cells(grid: OccupancyMap, xy: np.ndarray) -> tuple[np.ndarray, np.n
     return rows, cols
 
 
-def _load_pair(traj: str, gt: str) -> tuple[Any, Any]:
-    """Estimate and ground truth; a paired pose log (``slam_x ... gt_x``) gives both.
+def ate_options(record: dict) -> tuple[str, float, str]:
+    """``(align, max_dt, unsorted)`` the batch computed the record's ATE with (its
+    ``config``), else the defaults.
 
-    Same reading as ``slamq batch`` (its ``paired_columns`` names the column prefixes).
+    Examples
+    --------
+    >>> ate_options({"config": '{"ate": ["sim3", 0.05, "last"]}'})
+    ('sim3', 0.05, 'last')
+    >>> ate_options({})
+    ('se2', 0.01, 'error')
     """
-    from slamq.trajectory import load_trajectory
-
-    cols = None
-    if Path(traj) == Path(gt):
-        try:
-            from slamq.batch.discover import paired_columns
-        except ImportError:
-            paired_columns = None
-        cols = paired_columns(Path(traj)) if paired_columns else None
-    if cols is None:
-        return load_trajectory(traj), load_trajectory(gt)
-    with open(traj, encoding="utf-8", errors="replace") as fh:
-        header = [c.strip() for c in fh.readline().split(",")]
-    t_col = next((c for c in header if c.lower().startswith(("timestamp", "time", "t"))),
-                 header[0])
-
-    def mapping(prefix: str) -> dict[str, str]:
-        m = {"t": t_col}
-        for axis in ("x", "y", "z", "yaw", "qx", "qy", "qz", "qw"):
-            name = next((c for c in header if c.lower() == prefix + axis), None)
-            if name is not None:
-                m[axis] = name
-        return m
-
-    return (load_trajectory(traj, columns=mapping(cols[0])),
-            load_trajectory(traj, columns=mapping(cols[1])))
+    align, max_dt, unsorted = "se2", 0.01, "error"
+    try:
+        a, d, u = json.loads(record.get("config") or "{}").get("ate")
+        align, max_dt, unsorted = str(a), _number(d, max_dt), str(u)
+    except (TypeError, ValueError, AttributeError):
+        pass
+    return align, max_dt, unsorted
 
 
 def _per_pose(est: Any, gt: Any, errors: np.ndarray, max_dt: float) -> np.ndarray:
@@ -112,20 +101,20 @@ def draw_trajectory(record: dict, grid: OccupancyMap, path: Path) -> str:
 
     traj = str(record["trajectory"])
     gt = record.get("groundtruth")
+    align, max_dt, unsorted = ate_options(record)
     base = render_base(grid)
     if gt is None or (isinstance(gt, float) and math.isnan(gt)):
         from slamq.trajectory import load_trajectory
 
-        est = load_trajectory(traj)
+        est = load_trajectory(traj, unsorted=unsorted)
         rows, cols = world_to_cells(grid, est.positions[:, :2])
         trajectory_figure(base, rows, cols, np.zeros(len(rows)), path,
                           title=Path(traj).name)
         return f"{Path(traj).name}: {len(rows)} poses (no ground truth, so no ATE colours)."
+    from slamq.batch.records import load_pair
     from slamq.trajectory import ate
 
-    est, ref = _load_pair(traj, str(gt))
-    max_dt = _number(record.get("ate_max_dt"), 0.01)
-    align = record.get("ate_align") if isinstance(record.get("ate_align"), str) else "se2"
+    est, ref = load_pair(traj, str(gt), unsorted)
     res = ate(ref, est, align=align, max_dt=max_dt)
     errors = np.asarray(res.errors, float)
     idx = _per_pose(est, ref, errors, max_dt)
