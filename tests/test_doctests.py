@@ -11,7 +11,9 @@ import pytest
 import slamq
 
 MODULES = sorted(
-    m.name for m in pkgutil.walk_packages(slamq.__path__, "slamq.") if m.name != "slamq._core"
+    m.name
+    for m in pkgutil.walk_packages(slamq.__path__, "slamq.")
+    if m.name not in ("slamq._core", "slamq.__main__")  # the extension; the CLI entry point
 ) + ["slamq"]
 
 
