@@ -333,6 +333,30 @@ def test_corrupt_map_in_the_middle(tmp_path: Path, capsys: pytest.CaptureFixture
 
 
 @needs_core
+def test_fifo_in_a_manifest_is_a_failed_row_not_a_hang(tmp_path: Path) -> None:
+    import os
+
+    good = write_map(tmp_path / "good", room())
+    os.mkfifo(tmp_path / "pipe.pgm")
+    os.mkfifo(tmp_path / "pipe.yaml")
+    (tmp_path / "m.csv").write_text(
+        f"run,map\n1,pipe.pgm\n2,pipe.yaml\n3,{good.name}\n")
+    import threading
+
+    got: list = []
+    worker = threading.Thread(  # daemon: a hang fails the test instead of stalling pytest
+        target=lambda: got.extend(evaluate_many(tmp_path / "m.csv", threads=2)), daemon=True)
+    worker.start()
+    worker.join(timeout=60)
+    assert not worker.is_alive(), "evaluate_many hangs on a FIFO"
+    recs = got
+    assert [r["run"] for r in recs] == ["1", "2", "3"]
+    assert "pipe.pgm" in recs[0]["error"] and "not a regular file" in recs[0]["error"]
+    assert "pipe.yaml" in recs[1]["error"] and "not a regular file" in recs[1]["error"]
+    assert recs[2]["error"] is None and recs[2]["hash"] == content_hash(good)
+
+
+@needs_core
 def test_resume_skips_done_and_redoes_changed(tmp_path: Path) -> None:
     paths = _tree(tmp_path / "runs", 6)
     out = tmp_path / "r.parquet"

@@ -46,6 +46,7 @@ import csv
 import functools
 import os
 import re
+import stat
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -286,7 +287,10 @@ def _load_yaml(path: Path) -> object:
     import yaml
 
     try:
-        if path.stat().st_size > 1 << 20:
+        st = path.stat()
+        if not stat.S_ISREG(st.st_mode):  # a FIFO would block the read below
+            return _UNREADABLE
+        if st.st_size > 1 << 20:
             return None
         loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
         return yaml.load(path.read_bytes(), Loader=loader)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import stat
 import time
 from collections.abc import Iterable
 from dataclasses import fields
@@ -103,19 +104,26 @@ def content_hash(path: os.PathLike[str] | str) -> str:
     >>> content_hash(d / "a.pgm") == content_hash(d / "a.pgm"), len(content_hash(d / "a.pgm"))
     (True, 40)
     """
-    h = hashlib.sha1(usedforsecurity=False) if _HAS_USEDFORSECURITY else hashlib.sha1()
+    h = hashlib.sha1(usedforsecurity=False)
     for f in map_files(path):
-        data = f.read_bytes()
-        h.update(len(data).to_bytes(8, "little"))
-        h.update(data)
+        _hash_file(h, f)
     return h.hexdigest()
 
 
-try:
-    hashlib.sha1(usedforsecurity=False)
-    _HAS_USEDFORSECURITY = True
-except TypeError:  # pragma: no cover - Python < 3.9 builds
-    _HAS_USEDFORSECURITY = False
+def _hash_file(h: Any, path: Path) -> None:
+    """Add the size and the bytes of one regular file to ``h``, read in chunks (a bag file
+    can be gigabytes); a FIFO or device would block or never end, so it is refused."""
+    if not stat.S_ISREG(os.stat(path).st_mode):
+        raise OSError(f"{path}: not a regular file")
+    with open(path, "rb") as fh:
+        size = os.fstat(fh.fileno()).st_size
+        h.update(size.to_bytes(8, "little"))
+        seen = 0
+        while chunk := fh.read(_READ_CHUNK):
+            seen += len(chunk)
+            h.update(chunk)
+    if seen != size:
+        raise OSError(f"{path}: changed while being read")
 
 
 class EvalOptions:
