@@ -507,6 +507,8 @@ def test_bad_parameters_fail_before_any_work(tmp_path: Path) -> None:
         evaluate_many(tmp_path, no_such_param=1)
     with pytest.raises(slamq.ParamError, match="executor"):
         evaluate_many(tmp_path, executor="rayon")
+    with pytest.raises(slamq.ParamError, match="r.csv: unknown results format"):
+        evaluate_many(tmp_path / "no such folder", out=tmp_path / "r.csv")
 
 
 # --------------------------------------------------------------------------- kill -9

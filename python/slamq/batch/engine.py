@@ -29,7 +29,7 @@ from typing import Any, Callable
 
 from slamq.batch.discover import Run, discover_runs
 from slamq.batch.records import EvalOptions, evaluate_run, settings_difference
-from slamq.batch.results import ResultsFile
+from slamq.batch.results import ResultsFile, results_format
 from slamq.errors import ParamError
 
 __all__ = ["evaluate_many", "evaluate_chunk"]
@@ -131,6 +131,8 @@ def evaluate_many(
     if threads is not None:
         _positive("threads", threads)
     chunk = DEFAULT_CHUNK_SIZE if chunk_size is None else _positive("chunk_size", chunk_size)
+    if out is not None:
+        results_format(out)  # a bad suffix fails now, not after discovery
     runs = discover_runs(sources)
     backend = _backend(executor)
     return _stream(runs, options, backend, threads, chunk, out, progress)
