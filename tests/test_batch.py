@@ -150,7 +150,7 @@ def test_single_map_file_and_missing_source(tmp_path: Path) -> None:
     assert discover_runs([m, m, Run(m, "cartographer", "lab")]) == [r]
 
 
-def test_manifest(tmp_path: Path) -> None:
+def test_manifest(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     d = tmp_path / "my batch"
     write_map(d / "maps" / "a b", room(seed=1))
     write_tum(d / "est 1.txt", np.zeros((3, 2)))
@@ -172,6 +172,11 @@ def test_manifest(tmp_path: Path) -> None:
     assert runs[1].trajectory is None and runs[1].groundtruth is None
     assert runs[2].map == d / "maps" / "missing, really.pgm"  # kept: the batch reports it
     assert discover_runs(d / "runs.csv") == runs
+    # a manifest given by a relative path, CRLF line ends: blank sequence = map's folder
+    (d / "crlf.csv").write_bytes(b"map,sequence\r\nmaps/../est 1.txt,\r\n")
+    monkeypatch.chdir(d)
+    (r,) = read_manifest("crlf.csv")
+    assert (r.algorithm, r.sequence, r.run) == ("est 1", "my batch", "0")
 
 
 @pytest.mark.parametrize(

@@ -230,7 +230,7 @@ def read_manifest(path: PathLike) -> list[Run]:
             raise MapError(f"{path}: line {lineno}: empty 'map' cell")
         map_path = _resolve(base, cells["map"])
         algorithm = cells.get("algorithm") or _flat_names(map_path.stem)[0]
-        sequence = cells.get("sequence") or map_path.parent.name
+        sequence = cells.get("sequence") or map_path.resolve().parent.name
         run_id = cells.get("run") or "0"
         traj = _resolve(base, cells["trajectory"]) if cells.get("trajectory") else None
         gt = _resolve(base, cells["groundtruth"]) if cells.get("groundtruth") else None
