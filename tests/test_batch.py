@@ -385,6 +385,21 @@ def test_resume_skips_done_and_redoes_changed(tmp_path: Path) -> None:
 
 
 @needs_core
+def test_resume_from_another_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Paths in the results file are absolute: the same batch spelt from another working
+    folder resumes (no duplicate rows), and the report can reopen the maps from anywhere."""
+    _tree(tmp_path / "runs", 3)
+    out = tmp_path / "r.jsonl"
+    monkeypatch.chdir(tmp_path)
+    first = list(evaluate_many("runs", out="r.jsonl"))
+    assert len(first) == 3 and all(Path(r["map"]).is_absolute() for r in first)
+    monkeypatch.chdir(tmp_path / "runs")
+    assert list(evaluate_many("../runs", out=out)) == []
+    assert list(evaluate_many(tmp_path / "runs", out=out)) == []
+    assert len(read_results(out)) == 3
+
+
+@needs_core
 def test_other_settings_are_never_mixed_silently(tmp_path: Path) -> None:
     _tree(tmp_path / "runs", 4)
     out = tmp_path / "r.jsonl"

@@ -129,6 +129,8 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
     list of Run
         Folder contents sorted by path; the order of ``sources`` and of manifest rows is
         kept. A run listed twice (same algorithm, sequence, run and map) is kept once.
+        Paths are absolute (not resolved: symbolic links keep their names), except those
+        of a ready :class:`Run`.
 
     Raises
     ------
@@ -156,7 +158,9 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
         if isinstance(src, Run):
             found = [src]
         else:
-            path = Path(os.path.expanduser(os.fspath(src)))
+            # absolute: the results file must not depend on where the batch was started
+            # (resume from another folder, a report built elsewhere)
+            path = Path(os.path.abspath(os.path.expanduser(os.fspath(src))))
             if path.is_dir() and (path / "metadata.yaml").is_file():
                 found = [_single_map(path)]  # a ROS 2 bag: its last /map
             elif path.is_dir():
@@ -200,7 +204,7 @@ def read_manifest(path: PathLike) -> list[Run]:
     ('hector', '2', 'a b.yaml')
     """
     path = Path(path)
-    base = path.parent
+    base = Path(os.path.abspath(path)).parent
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:
             lines = [(i + 1, line) for i, line in enumerate(fh)]
