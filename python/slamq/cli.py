@@ -153,28 +153,30 @@ def build_parser() -> argparse.ArgumentParser:
 
 class _WarningDigest:
     """Python warnings (e.g. :class:`slamq.MapWarning`) as one stderr line each; a warning
-    that repeats for other files (same text after the file name) is shown once and counted."""
+    that repeats for other files (same text after the file name) is shown once and the other
+    files are counted (each file once, however often it was loaded)."""
 
     def __init__(self) -> None:
-        self.counts: dict[tuple[type, str], int] = {}
+        self.files: dict[tuple[type, str], set[str]] = {}
         self.lock = threading.Lock()
 
     def show(self, message: Warning | str, category: type, filename: str, lineno: int,
              file: IO[str] | None = None, line: str | None = None) -> None:
         text = " ".join(str(message).split())
-        _, sep, reason = text.partition(": ")
+        where, sep, reason = text.partition(": ")
         key = (category, reason if sep else text)
         with self.lock:
-            seen = self.counts.get(key, 0)
-            self.counts[key] = seen + 1
-        if not seen:
+            seen = self.files.setdefault(key, set())
+            first = not seen
+            seen.add(where if sep else text)
+        if first:
             print(f"slamq: warning: {text}", file=sys.stderr)
 
     def summary(self) -> None:
-        for (_, reason), n in self.counts.items():
-            if n > 1:
+        for (_, reason), files in self.files.items():
+            if len(files) > 1:
                 short = reason if len(reason) <= 70 else reason[:67] + "..."
-                print(f"slamq: warning: the same for {n - 1} more file(s): {short}",
+                print(f"slamq: warning: the same for {len(files) - 1} more file(s): {short}",
                       file=sys.stderr)
 
 
