@@ -3,13 +3,14 @@
 //!
 //! Everything up to the Harris response is exact integer arithmetic; the response is one
 //! float64 formula, `R = (A*C - B*B) - k*(A + C)^2`, evaluated as `slamq.reference` does.
-//! Work is done in fixed row bands in parallel; full-size intermediates are one byte per
-//! cell (the mask) and four (the packed Harris sums `A, B, C`).
+//! Work is done in fixed row bands in parallel; the full-size intermediates are two 0/1
+//! masks (structure, corners), one byte per cell each. The Harris sums are computed only
+//! next to set structure cells, twice (for the maximum, then for the threshold).
 
 use crate::border::reflect101;
-use crate::filter::{blur_row, laplacian_mask_row, sobel_products_row, structure_row};
+use crate::filter::{blur_row, laplacian_mask_row, sobel_products, structure_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
-use crate::label::{Components, MaskRows};
+use crate::label::{push_runs, Components, MaskRows, Run};
 use rayon::prelude::*;
 
 /// Parameters of SPEC section 3 (defaults in `Default`).
@@ -107,125 +108,198 @@ pub fn drop_dots(mask: &mut [u8], height: usize, width: usize, min_dot_area: u32
     comps.clear_small(mask, min_dot_area);
 }
 
-/// Pack the Harris sums; 0 means `A = B = C = 0` (then `R = 0`).
-#[inline]
-fn pack(a: i32, b: i32, c: i32) -> u32 {
-    if a == 0 && c == 0 {
-        0
-    } else {
-        (a as u32) | ((c as u32) << 8) | (((b + 128) as u32) << 16)
-    }
-}
-
-#[inline]
-fn unpack(t: u32) -> (i64, i64, i64) {
-    (
-        (t & 0xff) as i64,
-        ((t >> 16) & 0xff) as i64 - 128,
-        ((t >> 8) & 0xff) as i64,
-    )
-}
-
-/// The Harris response of packed sums, exactly `(A*C - B*B) - k*(A+C)^2` in float64.
+/// The Harris response of one cell's sums, exactly `(A*C - B*B) - k*(A+C)^2` in float64.
 #[inline]
 pub fn response(a: i64, b: i64, c: i64, k: f64) -> f64 {
     let s = a + c;
     ((a * c - b * b) as f64) - k * ((s * s) as f64)
 }
 
-/// Whether each row of a 0/1 mask has a set cell.
-fn row_any(mask: &[u8], height: usize, width: usize) -> Vec<bool> {
-    (0..height)
-        .into_par_iter()
-        .map(|r| mask[r * width..(r + 1) * width].iter().any(|&b| b != 0))
-        .collect()
-}
+/// How far (in columns, each side) a set mask cell can make the Harris sums non-zero:
+/// `A, B, C` at column `x` read mask columns `x-2 ..= x+1` (reflect-101 included).
+const REACH: usize = 3;
 
-/// Step 6: the packed Harris sums of every cell of a 0/1 mask, and the largest response over
-/// the cells whose sums are not all zero (`None` when there is none; every other cell has
-/// `R = 0`).
-pub fn harris_sums(mask: &[u8], height: usize, width: usize, k: f64) -> (Vec<u32>, Option<f64>) {
-    let (h, w) = (height, width);
-    let mut abc = vec![0u32; h * w];
-    let any = row_any(mask, h, w);
-    let m_row = |r: usize| &mask[r * w..(r + 1) * w];
-    // a product row is all zero when its three mask rows are
-    let product_zero = |yy: usize| {
-        !(any[reflect101(yy as isize - 1, h)] || any[yy] || any[reflect101(yy as isize + 1, h)])
-    };
-    let maxima: Vec<Option<f64>> = abc
-        .par_chunks_mut(BAND_ROWS * w)
-        .zip(bands(h))
-        .map(|(out, (r0, r1))| {
-            let mut p = vec![0i16; w];
-            let mut d = vec![0i16; w];
-            // products of rows r-1 (prev) and r (cur); `*_zero` marks a row known all zero
-            let mut prev: [Vec<i16>; 3] = std::array::from_fn(|_| vec![0i16; w]);
-            let mut cur: [Vec<i16>; 3] = std::array::from_fn(|_| vec![0i16; w]);
-            let mut fill = |yy: usize, bufs: &mut [Vec<i16>; 3]| -> bool {
-                if product_zero(yy) {
-                    return true;
-                }
-                let up = m_row(reflect101(yy as isize - 1, h));
-                let dn = m_row(reflect101(yy as isize + 1, h));
-                let [xx, xy, yyv] = bufs;
-                sobel_products_row(up, m_row(yy), dn, &mut p, &mut d, xx, xy, yyv);
-                false
-            };
-            let mut prev_zero = fill(reflect101(r0 as isize - 1, h), &mut prev);
-            let mut cur_zero;
-            let (mut sa, mut sb, mut sc) = (vec![0i16; w], vec![0i16; w], vec![0i16; w]);
-            let mut best = f64::NEG_INFINITY;
-            let mut seen = false;
+/// The runs of set cells of every row of a 0/1 mask: `runs[row_start[r]..row_start[r+1]]`.
+fn mask_runs(mask: &[u8], height: usize, width: usize) -> (Vec<Run>, Vec<usize>) {
+    let parts: Vec<(Vec<Run>, Vec<usize>)> = bands(height)
+        .into_par_iter()
+        .map(|(r0, r1)| {
+            let mut runs = Vec::new();
+            let mut starts = Vec::with_capacity(r1 - r0);
             for r in r0..r1 {
-                cur_zero = fill(r, &mut cur);
-                if !(prev_zero && cur_zero) {
-                    if prev_zero {
-                        prev.iter_mut().for_each(|b| b.fill(0));
-                    }
-                    if cur_zero {
-                        cur.iter_mut().for_each(|b| b.fill(0));
-                    }
-                    // column sums of the two rows, then the 2x2 box as neighbouring column pairs
-                    for (s, (pv, cv)) in [&mut sa, &mut sb, &mut sc]
-                        .into_iter()
-                        .zip(prev.iter().zip(&cur))
-                    {
-                        for x in 0..w {
-                            s[x] = pv[x] + cv[x];
-                        }
-                    }
-                    let l0 = reflect101(-1, w);
-                    let row_out = &mut out[(r - r0) * w..(r - r0 + 1) * w];
-                    let mut put = |x: usize, l: usize| {
-                        let a = (sa[l] + sa[x]) as i32;
-                        let b = (sb[l] + sb[x]) as i32;
-                        let c = (sc[l] + sc[x]) as i32;
-                        row_out[x] = pack(a, b, c);
-                    };
-                    put(0, l0);
-                    for x in 1..w {
-                        put(x, x - 1);
-                    }
-                    for &t in row_out.iter() {
-                        if t != 0 {
-                            let (a, b, c) = unpack(t);
-                            let resp = response(a, b, c, k);
-                            if resp > best {
-                                best = resp;
-                            }
-                            seen = true;
-                        }
-                    }
-                }
-                std::mem::swap(&mut prev, &mut cur);
-                prev_zero = cur_zero;
+                starts.push(runs.len());
+                push_runs(&mask[r * width..(r + 1) * width], &mut runs);
             }
-            seen.then_some(best)
+            (runs, starts)
         })
         .collect();
-    let best = maxima.into_iter().flatten().reduce(f64::max);
-    (abc, best)
+    let mut runs = Vec::new();
+    let mut row_start = Vec::with_capacity(height + 1);
+    for (part, starts) in parts {
+        let base = runs.len();
+        row_start.extend(starts.iter().map(|s| s + base));
+        runs.extend_from_slice(&part);
+    }
+    row_start.push(runs.len());
+    (runs, row_start)
+}
+
+/// Harris sums over the parts of one output row where they can be non-zero.
+struct HarrisRow<'a> {
+    mask: &'a [u8],
+    runs: &'a [Run],
+    row_start: &'a [usize],
+    height: usize,
+    width: usize,
+    spans: Vec<(usize, usize)>,
+    // scratch, indexed from the start of the current span's gather window
+    p: Vec<i16>,
+    d: Vec<i16>,
+    prod: [[Vec<i16>; 3]; 2],
+}
+
+impl<'a> HarrisRow<'a> {
+    fn new(
+        mask: &'a [u8],
+        runs: &'a [Run],
+        row_start: &'a [usize],
+        height: usize,
+        width: usize,
+    ) -> Self {
+        HarrisRow {
+            mask,
+            runs,
+            row_start,
+            height,
+            width,
+            spans: Vec::new(),
+            p: Default::default(),
+            d: Default::default(),
+            prod: Default::default(),
+        }
+    }
+
+    /// Column intervals `[a, b)` of row `r` outside which `A = B = C = 0`: the set runs of
+    /// mask rows `r-2 ..= r+1` (reflect-mapped), widened by [`REACH`] and merged.
+    fn find_spans(&mut self, r: usize) {
+        let (h, w) = (self.height, self.width);
+        self.spans.clear();
+        let mut rows = [0usize; 4];
+        for (k, dr) in (-2isize..=1).enumerate() {
+            rows[k] = reflect101(r as isize + dr, h);
+        }
+        rows.sort_unstable();
+        let mut prev_row = usize::MAX;
+        for &rr in &rows {
+            if rr == prev_row {
+                continue;
+            }
+            prev_row = rr;
+            for run in &self.runs[self.row_start[rr]..self.row_start[rr + 1]] {
+                let a = (run.start as usize).saturating_sub(REACH);
+                let b = (run.end as usize + REACH).min(w);
+                self.spans.push((a, b));
+            }
+        }
+        self.spans.sort_unstable();
+        let mut merged: Vec<(usize, usize)> = Vec::with_capacity(self.spans.len());
+        for &(a, b) in &self.spans {
+            match merged.last_mut() {
+                Some(last) if a <= last.1 => last.1 = last.1.max(b),
+                _ => merged.push((a, b)),
+            }
+        }
+        self.spans = merged;
+    }
+
+    /// Call `visit(x, A, B, C)` for every column of row `r` where the sums are not all zero.
+    fn for_each(&mut self, r: usize, mut visit: impl FnMut(usize, i32, i32, i32)) {
+        self.find_spans(r);
+        let (h, w) = (self.height, self.width);
+        let m_row = |k: usize| &self.mask[k * w..(k + 1) * w];
+        // product rows: reflect(r-1) (box row above) and r
+        let yys = [reflect101(r as isize - 1, h), r];
+        let spans = std::mem::take(&mut self.spans);
+        for &(a, b) in &spans {
+            // product columns needed: reflect(x-1) and x for x in [a, b)
+            let lo = a.saturating_sub(1);
+            let hi = if a == 0 { b.max(2.min(w)) } else { b };
+            for (slot, &yy) in yys.iter().enumerate() {
+                let [xx, xy, yy2] = &mut self.prod[slot];
+                sobel_products(
+                    m_row(reflect101(yy as isize - 1, h)),
+                    m_row(yy),
+                    m_row(reflect101(yy as isize + 1, h)),
+                    (lo, hi),
+                    &mut self.p,
+                    &mut self.d,
+                    xx,
+                    xy,
+                    yy2,
+                );
+            }
+            let [pxx, pxy, pyy] = &self.prod[0];
+            let [cxx, cxy, cyy] = &self.prod[1];
+            for x in a..b {
+                let l = reflect101(x as isize - 1, w) - lo;
+                let i = x - lo;
+                let av = (pxx[l] + pxx[i] + cxx[l] + cxx[i]) as i32;
+                let cv = (pyy[l] + pyy[i] + cyy[l] + cyy[i]) as i32;
+                if av == 0 && cv == 0 {
+                    continue; // then B = 0 too (B^2 <= A*C), and R = 0
+                }
+                let bv = (pxy[l] + pxy[i] + cxy[l] + cxy[i]) as i32;
+                visit(x, av, bv, cv);
+            }
+        }
+        self.spans = spans;
+    }
+}
+
+/// Steps 6-7: the corner mask (0/1 per cell) of a dot-free structure mask.
+///
+/// The sums are visited only next to set mask cells: elsewhere `A = B = C = 0`, so `R = 0`.
+/// Only a cell with `R > 0` can pass `R > harris_quality * max R` (the threshold is never
+/// negative, and a map whose largest response is `<= 0` has no corner), so those cells are
+/// kept, with their response, in the one pass that also finds the maximum.
+pub fn corner_mask(mask: &[u8], height: usize, width: usize, params: &CornerParams) -> Vec<u8> {
+    let (h, w) = (height, width);
+    let k = params.harris_k;
+    let (runs, row_start) = mask_runs(mask, h, w);
+    let bands_found: Vec<(f64, Vec<(usize, f64)>)> = bands(h)
+        .into_par_iter()
+        .map(|(r0, r1)| {
+            let mut rows = HarrisRow::new(mask, &runs, &row_start, h, w);
+            let mut best = f64::NEG_INFINITY;
+            let mut positive = Vec::new();
+            for r in r0..r1 {
+                rows.for_each(r, |x, a, b, c| {
+                    let resp = response(a as i64, b as i64, c as i64, k);
+                    if resp > best {
+                        best = resp;
+                    }
+                    if resp > 0.0 {
+                        positive.push((r * w + x, resp));
+                    }
+                });
+            }
+            (best, positive)
+        })
+        .collect();
+    let best = bands_found
+        .iter()
+        .map(|(b, _)| *b)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let mut out = vec![0u8; h * w];
+    if best > 0.0 {
+        let threshold = params.harris_quality * best;
+        for (_, positive) in &bands_found {
+            for &(idx, resp) in positive {
+                out[idx] = (resp > threshold) as u8;
+            }
+        }
+    }
+    out
 }
 
 /// Steps 1-8: the number of corners of a map.
@@ -233,42 +307,17 @@ pub fn count_corners(grid: &Grid, params: &CornerParams) -> usize {
     let (h, w) = (grid.height, grid.width);
     let mut mask = structure_mask(grid, params.log_threshold);
     drop_dots(&mut mask, h, w, params.min_dot_area);
-    corner_mask_in_place(&mut mask, h, w, params);
+    let corners = corner_mask(&mask, h, w, params);
+    drop(mask);
     Components::label(
         &MaskRows {
-            mask: &mask,
+            mask: &corners,
             width: w,
         },
         h,
         w,
     )
     .count()
-}
-
-/// Steps 6-7: turn the (dot-free) structure mask into the corner mask, in place.
-pub fn corner_mask_in_place(mask: &mut [u8], height: usize, width: usize, params: &CornerParams) {
-    let (abc, best) = harris_sums(mask, height, width, params.harris_k);
-    let threshold = match best {
-        // cells with all-zero sums have R = 0; a max <= 0 means no corner at all
-        Some(m) if m > 0.0 => params.harris_quality * m,
-        _ => {
-            mask.fill(0);
-            return;
-        }
-    };
-    let k = params.harris_k;
-    mask.par_chunks_mut(BAND_ROWS * width)
-        .zip(abc.par_chunks(BAND_ROWS * width))
-        .for_each(|(m, t)| {
-            for (mv, &tv) in m.iter_mut().zip(t) {
-                *mv = if tv == 0 {
-                    0
-                } else {
-                    let (a, b, c) = unpack(tv);
-                    (response(a, b, c, k) > threshold) as u8
-                };
-            }
-        });
 }
 
 #[cfg(test)]
@@ -311,20 +360,6 @@ mod tests {
             let u = vec![false; h * w];
             let g = Grid::new(&v, &u, h, w).unwrap();
             let _ = count_corners(&g, &CornerParams::default());
-        }
-    }
-
-    #[test]
-    fn pack_roundtrip() {
-        for a in 0..=64 {
-            for c in [0, 1, 33, 64] {
-                for b in [-64, -1, 0, 5, 64] {
-                    if a == 0 && c == 0 {
-                        continue;
-                    }
-                    assert_eq!(unpack(pack(a, b, c)), (a as i64, b as i64, c as i64));
-                }
-            }
         }
     }
 }

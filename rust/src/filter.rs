@@ -27,15 +27,22 @@ pub fn blur_row<'s>(
 ) {
     let rows: [&[u16]; 5] =
         std::array::from_fn(|k| s_row(reflect101(r as isize + k as isize - 2, height)));
-    // vertical taps
-    for (x, v) in vbuf.iter_mut().enumerate() {
-        *v = rows[0][x] + 4 * rows[1][x] + 6 * rows[2][x] + 4 * rows[3][x] + rows[4][x];
+    // vertical taps (zipped slices: no bounds checks, so the loop vectorises)
+    let [r0, r1, r2, r3, r4] = rows;
+    for ((((v, &a), &b), &c), (&d, &e)) in vbuf
+        .iter_mut()
+        .zip(r0)
+        .zip(r1)
+        .zip(r2)
+        .zip(r3.iter().zip(r4))
+    {
+        *v = a + 4 * b + 6 * c + 4 * d + e;
     }
     // horizontal taps: interior without index mapping, the two cells at each end with it
     let w = vbuf.len();
     if w >= 5 {
-        for x in 2..w - 2 {
-            out[x] = vbuf[x - 2] + 4 * vbuf[x - 1] + 6 * vbuf[x] + 4 * vbuf[x + 1] + vbuf[x + 2];
+        for (o, t) in out[2..w - 2].iter_mut().zip(vbuf.windows(5)) {
+            *o = t[0] + 4 * t[1] + 6 * t[2] + 4 * t[3] + t[4];
         }
     }
     for x in (0..w.min(2)).chain(w.saturating_sub(2).max(2.min(w))..w) {
@@ -54,8 +61,13 @@ pub fn laplacian_mask_row(up: &[u16], mid: &[u16], down: &[u16], t: i32, out: &m
         up[x] as i32 + down[x] as i32 + mid[l] as i32 + mid[r] as i32 - 4 * mid[x] as i32
     };
     if w >= 3 {
-        for x in 1..w - 1 {
-            out[x] = (lap(x, x - 1, x + 1) > t) as u8;
+        let inner = out[1..w - 1]
+            .iter_mut()
+            .zip(mid.windows(3))
+            .zip(up[1..].iter().zip(&down[1..]));
+        for ((o, m), (&u, &d)) in inner {
+            let l = u as i32 + d as i32 + m[0] as i32 + m[2] as i32 - 4 * m[1] as i32;
+            *o = (l > t) as u8;
         }
     }
     for x in [0, w - 1] {
@@ -65,44 +77,55 @@ pub fn laplacian_mask_row(up: &[u16], mid: &[u16], down: &[u16], t: i32, out: &m
     }
 }
 
-/// Sobel derivative products of one row of a 0/1 mask: `xx = Ix^2`, `xy = Ix Iy`,
-/// `yy = Iy^2` with `Ix`, `Iy` OpenCV's 3x3 Sobel (`dx = right - left`, `dy = down - up`).
-/// `up`, `mid`, `down` are the mask rows above, at and below (already reflect-mapped);
-/// `p`, `d` are scratch of the row width.
+/// Sobel derivative products of one row of a 0/1 mask, on columns `lo..hi`: `xx = Ix^2`,
+/// `xy = Ix Iy`, `yy = Iy^2` (index `q` is column `lo + q`), with `Ix`, `Iy` OpenCV's 3x3
+/// Sobel (`dx = right - left`, `dy = down - up`) and reflect-101 columns. `up`, `mid`, `down`
+/// are the full mask rows above, at and below (already reflect-mapped); `p`, `d` are scratch.
 #[allow(clippy::too_many_arguments)]
-pub fn sobel_products_row(
+pub fn sobel_products(
     up: &[u8],
     mid: &[u8],
     down: &[u8],
-    p: &mut [i16],
-    d: &mut [i16],
-    xx: &mut [i16],
-    xy: &mut [i16],
-    yy: &mut [i16],
+    (lo, hi): (usize, usize),
+    p: &mut Vec<i16>,
+    d: &mut Vec<i16>,
+    xx: &mut Vec<i16>,
+    xy: &mut Vec<i16>,
+    yy: &mut Vec<i16>,
 ) {
     let w = mid.len();
-    for x in 0..w {
-        p[x] = up[x] as i16 + 2 * mid[x] as i16 + down[x] as i16;
-        d[x] = down[x] as i16 - up[x] as i16;
-    }
-    let mut put = |x: usize, l: usize, r: usize| {
-        let ix = p[r] - p[l];
-        let iy = d[l] + 2 * d[x] + d[r];
-        xx[x] = ix * ix;
-        xy[x] = ix * iy;
-        yy[x] = iy * iy;
-    };
-    if w >= 3 {
-        for x in 1..w - 1 {
-            put(x, x - 1, x + 1);
+    // vertical smoothing (p) and difference (d) on columns lo-1 ..= hi, reflect-mapped
+    p.clear();
+    d.clear();
+    if lo >= 1 && hi < w {
+        // interior: no index mapping
+        let cols = lo - 1..hi + 1;
+        for ((&u, &m), &dn) in up[cols.clone()]
+            .iter()
+            .zip(&mid[cols.clone()])
+            .zip(&down[cols])
+        {
+            p.push(u as i16 + 2 * m as i16 + dn as i16);
+            d.push(dn as i16 - u as i16);
+        }
+    } else {
+        for c in lo as isize - 1..hi as isize + 1 {
+            let cc = reflect101(c, w);
+            p.push(up[cc] as i16 + 2 * mid[cc] as i16 + down[cc] as i16);
+            d.push(down[cc] as i16 - up[cc] as i16);
         }
     }
-    for x in [0, w - 1] {
-        put(
-            x,
-            reflect101(x as isize - 1, w),
-            reflect101(x as isize + 1, w),
-        );
+    let n = hi - lo;
+    xx.resize(n, 0);
+    xy.resize(n, 0);
+    yy.resize(n, 0);
+    for q in 0..n {
+        // column lo + q has its left and right neighbours at p/d indices q and q + 2
+        let ix = p[q + 2] - p[q];
+        let iy = d[q] + 2 * d[q + 1] + d[q + 2];
+        xx[q] = ix * ix;
+        xy[q] = ix * iy;
+        yy[q] = iy * iy;
     }
 }
 
