@@ -7,7 +7,7 @@
 //! run points straight at its root, and the component statistics (size, border contact) are
 //! the same whatever the thread count.
 
-use crate::grid::bands;
+use crate::grid::{bands, BAND_ROWS};
 use rayon::prelude::*;
 
 /// A run of set cells `[start, end)` in one row.
@@ -152,6 +152,18 @@ fn join_rows(
     }
 }
 
+/// `v` cut into the consecutive pieces `v[base[b]..base[b + 1]]`, one per band.
+fn split_bands<'v, T>(v: &'v mut [T], base: &[usize]) -> Vec<&'v mut [T]> {
+    let mut out = Vec::with_capacity(base.len().saturating_sub(1));
+    let mut rest = v;
+    for b in base.windows(2) {
+        let (head, tail) = rest.split_at_mut(b[1] - b[0]);
+        out.push(head);
+        rest = tail;
+    }
+    out
+}
+
 impl Components {
     /// Label the 8-connected components of an `height x width` binary image.
     pub fn label<S: RowSource>(source: &S, height: usize, width: usize) -> Components {
@@ -186,69 +198,94 @@ impl Components {
         // one per row: run indices fit in u32
         debug_assert!(runs.len() < u32::MAX as usize);
 
-        // 2. unions inside each band, in parallel on disjoint slices of `parent`
-        let mut parent: Vec<u32> = (0..runs.len() as u32).collect();
-        {
-            let mut slices = Vec::with_capacity(bands.len());
-            let mut rest: &mut [u32] = &mut parent;
-            for b in 0..bands.len() {
-                let (head, tail) = rest.split_at_mut(band_base[b + 1] - band_base[b]);
-                slices.push(head);
-                rest = tail;
-            }
-            let runs_ref = &runs;
-            let rs = &row_start;
-            slices
-                .into_par_iter()
-                .zip(bands.par_iter())
-                .zip(band_base.par_iter())
-                .for_each(|((slice, &(r0, r1)), &base)| {
-                    // local indices: parent values are relative to `base`
-                    for (k, p) in slice.iter_mut().enumerate() {
+        // 2. in parallel, each band on its own slices: unions of its rows, flattening (union by
+        // smaller index keeps parent[i] <= i, so one ascending pass resolves every run to its
+        // band-local root), and the band-local components' size and border contact
+        let mut parent: Vec<u32> = vec![0; runs.len()];
+        let mut size = vec![0u32; runs.len()];
+        let mut border = vec![false; runs.len()];
+        let local_roots: Vec<Vec<u32>> = {
+            let parts = split_bands(&mut parent, &band_base)
+                .into_iter()
+                .zip(split_bands(&mut size, &band_base))
+                .zip(split_bands(&mut border, &band_base));
+            let jobs: Vec<_> = parts.zip(bands.iter().zip(&band_base)).collect();
+            let (runs_ref, rs) = (&runs, &row_start);
+            jobs.into_par_iter()
+                .map(|(((par, siz), bor), (&(r0, r1), &base))| {
+                    for (k, p) in par.iter_mut().enumerate() {
                         *p = k as u32;
                     }
                     for r in r0 + 1..r1 {
-                        join_rows(
-                            slice,
-                            runs_ref,
-                            (rs[r - 1], rs[r]),
-                            (rs[r], rs[r + 1]),
-                            base,
-                        );
+                        join_rows(par, runs_ref, (rs[r - 1], rs[r]), (rs[r], rs[r + 1]), base);
                     }
-                    for p in slice.iter_mut() {
+                    let mut roots = Vec::new();
+                    for r in r0..r1 {
+                        let edge_row = r == 0 || r + 1 == height;
+                        for i in rs[r]..rs[r + 1] {
+                            let k = i - base;
+                            let root = par[par[k] as usize];
+                            par[k] = root;
+                            if root as usize == k {
+                                roots.push(i as u32);
+                            }
+                            let run = runs_ref[i];
+                            let root = root as usize;
+                            siz[root] = siz[root].saturating_add(run.end - run.start);
+                            bor[root] |= edge_row || run.start == 0 || run.end as usize == width;
+                        }
+                    }
+                    for p in par.iter_mut() {
                         *p += base as u32;
                     }
-                });
-        }
-        // 3. the seams between bands
+                    roots
+                })
+                .collect()
+        };
+        // 3. the seams between bands: unions of band-local roots (never of the other runs,
+        // whose parent must stay their band-local root for step 5)
         for &(r0, _) in bands.iter().skip(1) {
-            join_rows(
-                &mut parent,
-                &runs,
-                (row_start[r0 - 1], row_start[r0]),
-                (row_start[r0], row_start[r0 + 1]),
-                0,
-            );
-        }
-        // 4. flatten: union by smaller index keeps parent[i] <= i, so one ascending pass
-        // resolves every run to its root.
-        for i in 0..parent.len() {
-            let p = parent[i] as usize;
-            parent[i] = parent[p];
-        }
-        // 5. component statistics at the roots
-        let mut size = vec![0u32; runs.len()];
-        let mut border = vec![false; runs.len()];
-        for r in 0..height {
-            let edge_row = r == 0 || r + 1 == height;
-            for i in row_start[r]..row_start[r + 1] {
-                let run = runs[i];
-                let root = parent[i] as usize;
-                size[root] = size[root].saturating_add(run.end - run.start);
-                border[root] |= edge_row || run.start == 0 || run.end as usize == width;
+            let (mut i, pe) = (row_start[r0 - 1], row_start[r0]);
+            let (mut j, ce) = (row_start[r0], row_start[r0 + 1]);
+            while i < pe && j < ce {
+                let (a, b) = (runs[i], runs[j]);
+                if a.start <= b.end && b.start <= a.end {
+                    let (ra, rb) = (parent[i], parent[j]);
+                    union(&mut parent, ra, rb);
+                }
+                if a.end < b.end {
+                    i += 1;
+                } else {
+                    j += 1;
+                }
             }
         }
+        // 4. each band-local root hands its statistics to its component's root and then
+        // points straight at it (serial, but over components, not runs)
+        for &lr in local_roots.iter().flatten() {
+            let g = find(&mut parent, lr);
+            if g != lr {
+                let (g, lr) = (g as usize, lr as usize);
+                size[g] = size[g].saturating_add(size[lr]);
+                border[g] |= border[lr];
+                parent[lr] = g as u32;
+            }
+        }
+        // 5. every run points at its component's root: its band-local root's parent
+        split_bands(&mut parent, &band_base)
+            .into_par_iter()
+            .zip(band_base.par_iter())
+            .for_each(|(par, &base)| {
+                let band = base..base + par.len();
+                for k in 0..par.len() {
+                    // a run points at its band-local root, or (a merged local root) already
+                    // at the component's root, which may lie in another band
+                    let p = par[k] as usize;
+                    if band.contains(&p) {
+                        par[k] = par[p - base];
+                    }
+                }
+            });
         Components {
             height,
             width,
@@ -261,9 +298,9 @@ impl Components {
     }
 
     /// Indices of the root runs (one per component).
-    fn roots(&self) -> impl Iterator<Item = usize> + '_ {
+    fn roots(&self) -> impl ParallelIterator<Item = usize> + '_ {
         self.root
-            .iter()
+            .par_iter()
             .enumerate()
             .filter(|(i, r)| *i == **r as usize)
             .map(|(i, _)| i)
@@ -284,15 +321,20 @@ impl Components {
     /// Zero, in `mask` (row-major, this image's shape), the cells of every component with
     /// fewer than `min_size` cells.
     pub fn clear_small(&self, mask: &mut [u8], min_size: u32) {
-        for r in 0..self.height {
-            let row = &mut mask[r * self.width..(r + 1) * self.width];
-            for i in self.row_start[r]..self.row_start[r + 1] {
-                if self.size[self.root[i] as usize] < min_size {
-                    let run = self.runs[i];
-                    row[run.start as usize..run.end as usize].fill(0);
+        let w = self.width;
+        mask.par_chunks_mut(BAND_ROWS * w)
+            .zip(bands(self.height))
+            .for_each(|(band, (r0, r1))| {
+                for r in r0..r1 {
+                    let row = &mut band[(r - r0) * w..(r - r0 + 1) * w];
+                    for i in self.row_start[r]..self.row_start[r + 1] {
+                        if self.size[self.root[i] as usize] < min_size {
+                            let run = self.runs[i];
+                            row[run.start as usize..run.end as usize].fill(0);
+                        }
+                    }
                 }
-            }
-        }
+            });
     }
 
     /// Visit every run in row order as `(row, run, root_cell, size, border)`: `root_cell` is
