@@ -10,7 +10,7 @@
 use crate::border::reflect101;
 use crate::filter::{blur_row, laplacian_mask_row, sobel_products, structure_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
-use crate::label::{push_runs, Components, MaskRows, Run};
+use crate::label::{Components, MaskRows, RowRuns, Run};
 use rayon::prelude::*;
 
 /// Parameters of SPEC section 3 (defaults in `Default`).
@@ -99,13 +99,16 @@ pub fn structure_mask(grid: &Grid, log_threshold: f64) -> Vec<u8> {
     mask
 }
 
-/// Step 5: remove 8-connected mask components with fewer than `min_dot_area` cells.
-pub fn drop_dots(mask: &mut [u8], height: usize, width: usize, min_dot_area: u32) {
+/// Step 5: remove 8-connected mask components with fewer than `min_dot_area` cells; returns
+/// the runs of what remains (the corner step reads them instead of scanning the mask again).
+pub fn drop_dots(mask: &mut [u8], height: usize, width: usize, min_dot_area: u32) -> RowRuns {
+    let rows = MaskRows { mask, width };
     if min_dot_area <= 1 {
-        return;
+        return RowRuns::of(&rows, height, width);
     }
-    let comps = Components::label(&MaskRows { mask, width }, height, width);
+    let comps = Components::label(&rows, height, width);
     comps.clear_small(mask, min_dot_area);
+    comps.runs_of_large(min_dot_area)
 }
 
 /// The Harris response of one cell's sums, exactly `(A*C - B*B) - k*(A+C)^2` in float64.
@@ -119,36 +122,10 @@ pub fn response(a: i64, b: i64, c: i64, k: f64) -> f64 {
 /// `A, B, C` at column `x` read mask columns `x-2 ..= x+1` (reflect-101 included).
 const REACH: usize = 3;
 
-/// The runs of set cells of every row of a 0/1 mask: `runs[row_start[r]..row_start[r+1]]`.
-fn mask_runs(mask: &[u8], height: usize, width: usize) -> (Vec<Run>, Vec<usize>) {
-    let parts: Vec<(Vec<Run>, Vec<usize>)> = bands(height)
-        .into_par_iter()
-        .map(|(r0, r1)| {
-            let mut runs = Vec::new();
-            let mut starts = Vec::with_capacity(r1 - r0);
-            for r in r0..r1 {
-                starts.push(runs.len());
-                push_runs(&mask[r * width..(r + 1) * width], &mut runs);
-            }
-            (runs, starts)
-        })
-        .collect();
-    let mut runs = Vec::new();
-    let mut row_start = Vec::with_capacity(height + 1);
-    for (part, starts) in parts {
-        let base = runs.len();
-        row_start.extend(starts.iter().map(|s| s + base));
-        runs.extend_from_slice(&part);
-    }
-    row_start.push(runs.len());
-    (runs, row_start)
-}
-
 /// Harris sums over the parts of one output row where they can be non-zero.
 struct HarrisRow<'a> {
     mask: &'a [u8],
-    runs: &'a [Run],
-    row_start: &'a [usize],
+    runs: &'a RowRuns,
     height: usize,
     width: usize,
     spans: Vec<(usize, usize)>,
@@ -159,17 +136,10 @@ struct HarrisRow<'a> {
 }
 
 impl<'a> HarrisRow<'a> {
-    fn new(
-        mask: &'a [u8],
-        runs: &'a [Run],
-        row_start: &'a [usize],
-        height: usize,
-        width: usize,
-    ) -> Self {
+    fn new(mask: &'a [u8], runs: &'a RowRuns, height: usize, width: usize) -> Self {
         HarrisRow {
             mask,
             runs,
-            row_start,
             height,
             width,
             spans: Vec::new(),
@@ -195,7 +165,7 @@ impl<'a> HarrisRow<'a> {
                 continue;
             }
             prev_row = rr;
-            for run in &self.runs[self.row_start[rr]..self.row_start[rr + 1]] {
+            for run in self.runs.row(rr) {
                 let a = (run.start as usize).saturating_sub(REACH);
                 let b = (run.end as usize + REACH).min(w);
                 self.spans.push((a, b));
@@ -256,20 +226,29 @@ impl<'a> HarrisRow<'a> {
     }
 }
 
-/// Steps 6-7: the corner mask (0/1 per cell) of a dot-free structure mask.
+/// One band's largest response and its cells with `R > 0`, as `(row, column, R)` in order.
+type BandResponses = (f64, Vec<(usize, usize, f64)>);
+
+/// Steps 6-7: the corner mask of a dot-free structure mask (given with its runs), as runs.
 ///
 /// The sums are visited only next to set mask cells: elsewhere `A = B = C = 0`, so `R = 0`.
 /// Only a cell with `R > 0` can pass `R > harris_quality * max R` (the threshold is never
 /// negative, and a map whose largest response is `<= 0` has no corner), so those cells are
 /// kept, with their response, in the one pass that also finds the maximum.
-pub fn corner_mask(mask: &[u8], height: usize, width: usize, params: &CornerParams) -> Vec<u8> {
+pub fn corner_runs(
+    mask: &[u8],
+    runs: &RowRuns,
+    height: usize,
+    width: usize,
+    params: &CornerParams,
+) -> RowRuns {
     let (h, w) = (height, width);
     let k = params.harris_k;
-    let (runs, row_start) = mask_runs(mask, h, w);
-    let bands_found: Vec<(f64, Vec<(usize, f64)>)> = bands(h)
+    // per band, in row-major order: the cells with R > 0 as (row, column, R)
+    let found: Vec<BandResponses> = bands(h)
         .into_par_iter()
         .map(|(r0, r1)| {
-            let mut rows = HarrisRow::new(mask, &runs, &row_start, h, w);
+            let mut rows = HarrisRow::new(mask, runs, h, w);
             let mut best = f64::NEG_INFINITY;
             let mut positive = Vec::new();
             for r in r0..r1 {
@@ -279,45 +258,62 @@ pub fn corner_mask(mask: &[u8], height: usize, width: usize, params: &CornerPara
                         best = resp;
                     }
                     if resp > 0.0 {
-                        positive.push((r * w + x, resp));
+                        positive.push((r, x, resp));
                     }
                 });
             }
             (best, positive)
         })
         .collect();
-    let best = bands_found
+    let best = found
         .iter()
         .map(|(b, _)| *b)
         .fold(f64::NEG_INFINITY, f64::max);
-    let mut out = vec![0u8; h * w];
-    if best > 0.0 {
-        let threshold = params.harris_quality * best;
-        for (_, positive) in &bands_found {
-            for &(idx, resp) in positive {
-                out[idx] = (resp > threshold) as u8;
+    let threshold = if best > 0.0 {
+        params.harris_quality * best
+    } else {
+        f64::INFINITY
+    };
+    let parts = found
+        .into_par_iter()
+        .zip(bands(h))
+        .map(|((_, positive), (r0, r1))| {
+            let mut out: Vec<Run> = Vec::new();
+            let mut starts = Vec::with_capacity(r1 - r0);
+            let mut cells = positive
+                .into_iter()
+                .filter(|&(_, _, resp)| resp > threshold)
+                .peekable();
+            for r in r0..r1 {
+                starts.push(out.len());
+                let row_first = out.len();
+                while let Some(&(_, x, _)) = cells.peek().filter(|c| c.0 == r) {
+                    cells.next();
+                    let n = out.len();
+                    if n > row_first && out[n - 1].end as usize == x {
+                        out[n - 1].end += 1; // the cell right of the row's last run
+                    } else {
+                        out.push(Run {
+                            start: x as u32,
+                            end: x as u32 + 1,
+                        });
+                    }
+                }
             }
-        }
-    }
-    out
+            (out, starts)
+        })
+        .collect();
+    RowRuns::concat(parts)
 }
 
 /// Steps 1-8: the number of corners of a map.
 pub fn count_corners(grid: &Grid, params: &CornerParams) -> usize {
     let (h, w) = (grid.height, grid.width);
     let mut mask = structure_mask(grid, params.log_threshold);
-    drop_dots(&mut mask, h, w, params.min_dot_area);
-    let corners = corner_mask(&mask, h, w, params);
-    drop(mask);
-    Components::label(
-        &MaskRows {
-            mask: &corners,
-            width: w,
-        },
-        h,
-        w,
-    )
-    .count()
+    let runs = drop_dots(&mut mask, h, w, params.min_dot_area);
+    let corners = corner_runs(&mask, &runs, h, w, params);
+    drop((mask, runs));
+    Components::from_runs(corners.runs, corners.row_start, h, w).count()
 }
 
 #[cfg(test)]

@@ -37,6 +37,59 @@ impl RowSource for MaskRows<'_> {
     }
 }
 
+/// The runs of set cells of every row of a binary image, found in parallel row bands.
+pub struct RowRuns {
+    /// Runs of all rows, concatenated in row order.
+    pub runs: Vec<Run>,
+    /// `row_start[r]..row_start[r + 1]` are the runs of row `r` (length `height + 1`).
+    pub row_start: Vec<usize>,
+}
+
+impl RowRuns {
+    /// The runs of every row of `source`.
+    pub fn of<S: RowSource>(source: &S, height: usize, width: usize) -> RowRuns {
+        let parts: Vec<(Vec<Run>, Vec<usize>)> = bands(height)
+            .into_par_iter()
+            .map(|(r0, r1)| {
+                let mut buf = vec![0u8; width];
+                let mut runs = Vec::new();
+                let mut starts = Vec::with_capacity(r1 - r0);
+                for r in r0..r1 {
+                    starts.push(runs.len());
+                    push_runs(source.row(r, &mut buf), &mut runs);
+                }
+                (runs, starts)
+            })
+            .collect();
+        RowRuns::concat(parts)
+    }
+
+    /// Join per-band `(runs, row starts relative to the band)` in band order.
+    pub fn concat(parts: Vec<(Vec<Run>, Vec<usize>)>) -> RowRuns {
+        let total: usize = parts.iter().map(|(r, _)| r.len()).sum();
+        let rows: usize = parts.iter().map(|(_, s)| s.len()).sum();
+        let mut runs = Vec::with_capacity(total);
+        let mut row_start = Vec::with_capacity(rows + 1);
+        for (part, starts) in parts {
+            let base = runs.len();
+            row_start.extend(starts.iter().map(|s| s + base));
+            runs.extend_from_slice(&part);
+        }
+        row_start.push(runs.len());
+        RowRuns { runs, row_start }
+    }
+
+    /// The runs of row `r`.
+    #[inline]
+    pub fn row(&self, r: usize) -> &[Run] {
+        &self.runs[self.row_start[r]..self.row_start[r + 1]]
+    }
+
+    fn into_parts(self) -> (Vec<Run>, Vec<usize>) {
+        (self.runs, self.row_start)
+    }
+}
+
 /// The labelled components of one binary image.
 pub struct Components {
     height: usize,
@@ -167,33 +220,16 @@ fn split_bands<'v, T>(v: &'v mut [T], base: &[usize]) -> Vec<&'v mut [T]> {
 impl Components {
     /// Label the 8-connected components of an `height x width` binary image.
     pub fn label<S: RowSource>(source: &S, height: usize, width: usize) -> Components {
+        let (runs, row_start) = RowRuns::of(source, height, width).into_parts();
+        Components::from_runs(runs, row_start, height, width)
+    }
+
+    /// Label components given the runs of every row (`runs[row_start[r]..row_start[r + 1]]`
+    /// are row `r`'s runs, left to right).
+    pub fn from_runs(runs: Vec<Run>, row_start: Vec<usize>, height: usize, width: usize) -> Self {
         let bands = bands(height);
-        // 1. runs of every band, in parallel
-        let band_runs: Vec<(Vec<Run>, Vec<usize>)> = bands
-            .par_iter()
-            .map(|&(r0, r1)| {
-                let mut buf = vec![0u8; width];
-                let mut runs = Vec::new();
-                let mut starts = Vec::with_capacity(r1 - r0);
-                for r in r0..r1 {
-                    starts.push(runs.len());
-                    push_runs(source.row(r, &mut buf), &mut runs);
-                }
-                (runs, starts)
-            })
-            .collect();
-        let total: usize = band_runs.iter().map(|(r, _)| r.len()).sum();
-        let mut runs = Vec::with_capacity(total);
-        let mut row_start = Vec::with_capacity(height + 1);
-        let mut band_base = Vec::with_capacity(bands.len() + 1);
-        for (br, starts) in band_runs {
-            let base = runs.len();
-            band_base.push(base);
-            row_start.extend(starts.iter().map(|s| s + base));
-            runs.extend_from_slice(&br);
-        }
+        let mut band_base: Vec<usize> = bands.iter().map(|&(r0, _)| row_start[r0]).collect();
         band_base.push(runs.len());
-        row_start.push(runs.len());
         // a grid has at most u32::MAX cells (Grid::new), so at most half as many runs plus
         // one per row: run indices fit in u32
         debug_assert!(runs.len() < u32::MAX as usize);
@@ -335,6 +371,29 @@ impl Components {
                     }
                 }
             });
+    }
+
+    /// The runs of the components with at least `min_size` cells (what [`clear_small`] keeps).
+    ///
+    /// [`clear_small`]: Components::clear_small
+    pub fn runs_of_large(&self, min_size: u32) -> RowRuns {
+        let parts: Vec<(Vec<Run>, Vec<usize>)> = bands(self.height)
+            .into_par_iter()
+            .map(|(r0, r1)| {
+                let mut runs = Vec::new();
+                let mut starts = Vec::with_capacity(r1 - r0);
+                for r in r0..r1 {
+                    starts.push(runs.len());
+                    for i in self.row_start[r]..self.row_start[r + 1] {
+                        if self.size[self.root[i] as usize] >= min_size {
+                            runs.push(self.runs[i]);
+                        }
+                    }
+                }
+                (runs, starts)
+            })
+            .collect();
+        RowRuns::concat(parts)
     }
 
     /// Visit every run in row order as `(row, run, root_cell, size, border)`: `root_cell` is
