@@ -180,22 +180,21 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
     }
 }
 
-/// Join the runs of two consecutive rows that are 8-connected. `base` is subtracted from the
-/// run indices to index `parent` (a band's slice of the global array).
-fn join_rows(
-    parent: &mut [u32],
+/// Call `touch(i, j)` for every run `i` of the previous row (`runs[prev.0..prev.1]`) and
+/// run `j` of the current row (`runs[cur.0..cur.1]`) that are 8-connected: their column
+/// ranges overlap or meet diagonally.
+fn touching_runs(
     runs: &[Run],
     prev: (usize, usize),
     cur: (usize, usize),
-    base: usize,
+    mut touch: impl FnMut(usize, usize),
 ) {
     let (mut i, pe) = prev;
     let (mut j, ce) = cur;
     while i < pe && j < ce {
-        let a = runs[i];
-        let b = runs[j];
+        let (a, b) = (runs[i], runs[j]);
         if a.start <= b.end && b.start <= a.end {
-            union(parent, (i - base) as u32, (j - base) as u32);
+            touch(i, j);
         }
         if a.end < b.end {
             i += 1;
@@ -253,7 +252,9 @@ impl Components {
                         *p = k as u32;
                     }
                     for r in r0 + 1..r1 {
-                        join_rows(par, runs_ref, (rs[r - 1], rs[r]), (rs[r], rs[r + 1]), base);
+                        touching_runs(runs_ref, (rs[r - 1], rs[r]), (rs[r], rs[r + 1]), |i, j| {
+                            union(par, (i - base) as u32, (j - base) as u32)
+                        });
                     }
                     let mut roots = Vec::new();
                     for r in r0..r1 {
@@ -281,20 +282,14 @@ impl Components {
         // 3. the seams between bands: unions of band-local roots (never of the other runs,
         // whose parent must stay their band-local root for step 5)
         for &(r0, _) in bands.iter().skip(1) {
-            let (mut i, pe) = (row_start[r0 - 1], row_start[r0]);
-            let (mut j, ce) = (row_start[r0], row_start[r0 + 1]);
-            while i < pe && j < ce {
-                let (a, b) = (runs[i], runs[j]);
-                if a.start <= b.end && b.start <= a.end {
-                    let (ra, rb) = (parent[i], parent[j]);
-                    union(&mut parent, ra, rb);
-                }
-                if a.end < b.end {
-                    i += 1;
-                } else {
-                    j += 1;
-                }
-            }
+            let (prev, cur) = (
+                (row_start[r0 - 1], row_start[r0]),
+                (row_start[r0], row_start[r0 + 1]),
+            );
+            touching_runs(&runs, prev, cur, |i, j| {
+                let (ra, rb) = (parent[i], parent[j]);
+                union(&mut parent, ra, rb);
+            });
         }
         // 4. each band-local root hands its statistics to its component's root and then
         // points straight at it (serial, but over components, not runs)
