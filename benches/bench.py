@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 import slamq
-from slamq import reference
+from slamq.metrics import reference
 from slamq.params import Params
 
 HERE = Path(__file__).resolve().parent

@@ -65,7 +65,8 @@ def synthesize(folder: Path, n: int, seed: int = 0) -> tuple[Path, Path]:
 
 
 def run_slamq(gt: Path, est: Path, align: str) -> dict:
-    from slamq.trajectory import ate, load_trajectory
+    from slamq.metrics.ate import ate
+    from slamq.sources.trajectories import load_trajectory
 
     r = ate(load_trajectory(gt), load_trajectory(est), align=align)
     return {k: float(getattr(r, k)) for k in STATS} | {"n": r.n}

@@ -4,7 +4,7 @@ Writes, in a temporary folder, one bag per format (ROS1, ROS2 sqlite3, MCAP) hol
 ``--poses`` PoseStamped messages and ``--maps`` growing 1000 x 1000 OccupancyGrids, then
 times, in the same run:
 
-- poses: ``slamq.bags.read_bag_trajectory`` vs evo's ``file_interface.read_bag_trajectory``
+- poses: ``read_bag_trajectory`` vs evo's ``file_interface.read_bag_trajectory``
   (both on rosbags), asserting identical stamps and positions;
 - maps: ``read_bag_maps`` (every map), ``read_bag_maps(every=10)`` and ``read_last_map``.
 
@@ -27,7 +27,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 
 from _bagdata import BagWriter, bag_path  # noqa: E402
 
-from slamq.bags import read_bag_maps, read_bag_trajectory, read_last_map  # noqa: E402
+from slamq.sources.bag_maps import read_bag_maps, read_last_map
+from slamq.sources.bag_poses import read_bag_trajectory  # noqa: E402
 
 
 def best(fn, repeat: int) -> tuple[float, object]:

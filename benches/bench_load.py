@@ -15,7 +15,7 @@ from pathlib import Path
 import cv2
 
 from slamq.errors import MapError
-from slamq.maps import discover_maps, load_map
+from slamq.sources import discover_maps, load_map
 
 
 def best_of(fn, n: int = 5) -> float:

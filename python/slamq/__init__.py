@@ -1,8 +1,14 @@
 """slamq: score 2D SLAM results.
 
 The three no-reference map metrics of Filatov et al. (arXiv 1708.02354) on occupancy
-grids, pinned down by SPEC.md, computed by a Rust core and checked against a plain
-OpenCV reference (:mod:`slamq.reference`).
+grids, pinned down by docs/spec.md, computed by a Rust core and checked against a plain
+OpenCV reference (:mod:`slamq.metrics.reference`), plus trajectory error and batch
+evaluation.
+
+Data flows one way through the subpackages, and nothing imports upward:
+:mod:`slamq.sources` (readers) -> :mod:`slamq.models` (plain data) -> :mod:`slamq.metrics`
+-> :mod:`slamq.results` -> :mod:`slamq.batch` -> :mod:`slamq.report` -> :mod:`slamq.cli`.
+Heavy parts (batch, bags, pbstream) are imported on first use.
 
 >>> import numpy as np, slamq
 >>> slamq.evaluate(np.full((8, 8), 254, np.uint8)).occupied
@@ -11,8 +17,9 @@ OpenCV reference (:mod:`slamq.reference`).
 
 from __future__ import annotations
 
-from slamq.bags import read_bag_maps, read_bag_trajectory, read_last_map
-from slamq.batch import discover_runs, evaluate_many, read_results, summarize
+import importlib
+from typing import Any
+
 from slamq.errors import (
     BagError,
     ConformanceError,
@@ -22,13 +29,36 @@ from slamq.errors import (
     SlamqError,
     TrajectoryError,
 )
-from slamq.maps import OccupancyMap, load_map
+from slamq.metrics import ate, ate_runs, evaluate, rpe
+from slamq.models import MapQuality, OccupancyMap, Trajectory
 from slamq.params import Params
-from slamq.pbstream import read_pbstream_trajectory
-from slamq.quality import MapQuality, evaluate
-from slamq.trajectory import Trajectory, ate, ate_runs, load_trajectory, rpe
+from slamq.sources import load_map, load_trajectory
 
 __version__ = "0.1.0"
+
+#: Public names imported on first use: name -> module.
+_LAZY = {
+    "discover_runs": "slamq.batch.runs",
+    "evaluate_many": "slamq.batch.engine",
+    "read_results": "slamq.results.files",
+    "summarize": "slamq.results.summary",
+    "read_bag_maps": "slamq.sources.bag_maps",
+    "read_last_map": "slamq.sources.bag_maps",
+    "read_bag_trajectory": "slamq.sources.bag_poses",
+    "read_pbstream_trajectory": "slamq.sources.pbstream",
+    "reference": "slamq.metrics.reference",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'slamq' has no attribute {name!r}")
+    mod = importlib.import_module(module)
+    value = mod if module.endswith("." + name) else getattr(mod, name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "BagError",

@@ -1,41 +1,40 @@
 """Type stubs of the Rust core (rust/src/python.rs). Use :func:`slamq.evaluate` instead:
-it loads maps, checks parameters and turns these integers into a :class:`slamq.MapQuality`."""
-
-from typing import TypedDict
+it loads maps, checks parameters and turns these integers into a :class:`slamq.MapQuality`.
+tests/test_stubs.py checks these names and signatures against the built module."""
 
 import numpy as np
 import numpy.typing as npt
 
+from slamq.params import Params
+
 __version__: str
 
-class RawQuality(TypedDict):
-    known: int
-    occupied: int
-    sum_darkness: int
-    corners: int
-    curve: list[int]
+class RawQuality:
+    """The integers of one evaluation (SPEC sections 2-4)."""
+
+    @property
+    def known(self) -> int: ...
+    @property
+    def occupied(self) -> int: ...
+    @property
+    def sum_darkness(self) -> int: ...
+    @property
+    def corners(self) -> int: ...
+    @property
+    def curve(self) -> list[int]: ...
 
 def evaluate(
     values: npt.NDArray[np.uint8],
     unknown: npt.NDArray[np.bool_],
-    log_threshold: float = 0.1,
-    min_dot_area: int = 5,
-    harris_k: float = 0.04,
-    harris_quality: float = 0.01,
-    sweep_step: int = 1,
-    min_area: int = 1,
+    params: Params,
     threads: int = 0,
 ) -> RawQuality: ...
 def evaluate_many(
     maps: list[tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_]]],
-    log_threshold: float = 0.1,
-    min_dot_area: int = 5,
-    harris_k: float = 0.04,
-    harris_quality: float = 0.01,
-    sweep_step: int = 1,
-    min_area: int = 1,
+    params: Params,
     threads: int = 0,
 ) -> list[RawQuality]: ...
 def otsu_table(
     values: npt.NDArray[np.uint8], unknown: npt.NDArray[np.bool_]
 ) -> list[int]: ...
+def default_params() -> dict[str, float | int]: ...

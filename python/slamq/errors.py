@@ -33,7 +33,8 @@ class ParamError(SlamqError, ValueError):
 
 
 class ConformanceError(SlamqError, AssertionError):
-    """The Rust core and :mod:`slamq.reference` disagree (``evaluate(..., verify=True)``)."""
+    """The Rust core and :mod:`slamq.metrics.reference` disagree
+    (``evaluate(..., verify=True)``)."""
 
 
 class TrajectoryError(SlamqError, ValueError):

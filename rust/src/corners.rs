@@ -3,39 +3,18 @@
 //!
 //! Everything up to the Harris response is exact integer arithmetic; the response is one
 //! float64 formula, `R = (A*C - B*B) - k*(A + C)^2`, evaluated as `slamq.reference` does.
-//! Work is done in fixed row bands in parallel; the full-size intermediates are two 0/1
-//! masks (structure, corners), one byte per cell each. The Harris sums are computed only
-//! next to set structure cells, twice (for the maximum, then for the threshold).
+//! Work is done in fixed row bands in parallel; the one full-size intermediate is the 0/1
+//! structure mask (one byte per cell). Dot removal hands the mask's surviving runs on; the
+//! Harris sums (with their 2x2 box sum, fused here) are computed once, only on column spans
+//! next to set structure cells, keeping the cells with `R > 0` and their response, so the
+//! relative threshold needs no second pass; the corner blobs are counted from runs.
 
 use crate::border::reflect101;
 use crate::filter::{blur_row, laplacian_mask_row, sobel_products, structure_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
 use crate::label::{Components, MaskRows, RowRuns, Run};
+use crate::params::CornerParams;
 use rayon::prelude::*;
-
-/// Parameters of SPEC section 3 (defaults in `Default`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CornerParams {
-    /// Structure mask: `L > log_threshold * 255 * 256`.
-    pub log_threshold: f64,
-    /// Mask components with fewer cells are dropped.
-    pub min_dot_area: u32,
-    /// Harris `k`.
-    pub harris_k: f64,
-    /// Corner mask: `R > harris_quality * max R`.
-    pub harris_quality: f64,
-}
-
-impl Default for CornerParams {
-    fn default() -> Self {
-        CornerParams {
-            log_threshold: 0.1,
-            min_dot_area: 5,
-            harris_k: 0.04,
-            harris_quality: 0.01,
-        }
-    }
-}
 
 /// The integer threshold equivalent to `L as f64 > threshold` for integer `L`.
 fn integer_threshold(threshold: f64) -> Option<i32> {

@@ -17,25 +17,8 @@
 use crate::grid::{Grid, Histogram};
 use crate::label::{Components, RowSource};
 use crate::otsu::threshold_table;
+use crate::params::EnclosedParams;
 use std::collections::BTreeMap;
-
-/// Parameters of SPEC section 4.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct EnclosedParams {
-    /// `u` runs over `(0..256).step_by(sweep_step)`.
-    pub sweep_step: usize,
-    /// Components smaller than this are not counted.
-    pub min_area: u32,
-}
-
-impl Default for EnclosedParams {
-    fn default() -> Self {
-        EnclosedParams {
-            sweep_step: 1,
-            min_area: 1,
-        }
-    }
-}
 
 /// A family with at most this many distinct thresholds is labelled directly, one run
 /// labelling per threshold; more go through the incremental pass.

@@ -1,17 +1,11 @@
 //! All three metrics of one map (SPEC sections 2-4), and of many maps in parallel.
 
-use crate::corners::{count_corners, CornerParams};
-use crate::enclosed::{sweep, EnclosedParams};
+use crate::corners::count_corners;
+use crate::enclosed::sweep;
 use crate::grid::Grid;
+use crate::params::Params;
 use crate::proportion::{occupancy, Occupancy};
 use rayon::prelude::*;
-
-/// Every parameter of SPEC sections 3-4.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct Params {
-    pub corners: CornerParams,
-    pub enclosed: EnclosedParams,
-}
 
 /// The integers of one evaluation; ratios are formed by the caller from these.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -1,6 +1,6 @@
 //! Exact integer filters for the corner metric (SPEC section 3), row at a time so that the
 //! callers can stream row bands without full-size intermediates. Every border is reflect-101.
-//! (The 2x2 box sum of the Harris products is fused with packing in `corners`.)
+//! (The 2x2 box sum of the Sobel products is fused into the Harris step in `corners`.)
 
 use crate::border::reflect101;
 

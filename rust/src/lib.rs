@@ -1,12 +1,14 @@
 //! slamq core: the three no-reference 2D SLAM map metrics of Filatov et al. (arXiv 1708.02354),
-//! as pinned down by SPEC.md, on borrowed occupancy grids.
+//! as pinned down by docs/spec.md, on borrowed occupancy grids.
 //!
 //! Module map (one idea per file; nothing here knows about Python except `python`):
 //! - [`grid`]: the borrowed map view and its checks, the value histogram, row bands.
 //! - [`border`]: reflect-101 indexing shared by every filter.
-//! - [`filter`]: integer binomial blur + Laplacian, Sobel and 2x2 box sums.
+//! - [`filter`]: integer binomial blur + Laplacian, and the Sobel products (their 2x2 box
+//!   sum is fused into the Harris step in [`corners`]).
 //! - [`label`]: 8-connected labelling of binary images by runs (union-find, parallel bands).
 //! - [`otsu`]: OpenCV-exact Otsu, and the threshold for every unknown value.
+//! - [`params`]: every metric parameter and its default.
 //! - [`proportion`]: SPEC section 2.
 //! - [`corners`]: SPEC section 3.
 //! - [`enclosed`]: SPEC section 4, the sweep over unknown values.
@@ -25,6 +27,7 @@ pub mod filter;
 pub mod grid;
 pub mod label;
 pub mod otsu;
+pub mod params;
 pub mod proportion;
 
 #[cfg(feature = "python")]

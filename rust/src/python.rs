@@ -1,12 +1,9 @@
 //! The pyo3 bindings (`slamq._core`), and nothing else: argument checks, zero-copy views of
 //! the numpy buffers, the GIL released around compute, panics turned into Python errors.
 
-use crate::corners::CornerParams;
-use crate::enclosed::EnclosedParams;
-use crate::evaluate::{
-    evaluate as evaluate_grid, evaluate_many as evaluate_grids, Params, Quality,
-};
+use crate::evaluate::{evaluate as evaluate_grid, evaluate_many as evaluate_grids, Quality};
 use crate::grid::Grid;
+use crate::params::{CornerParams, EnclosedParams, Params};
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -84,122 +81,150 @@ fn grid<'a>(
     Grid::new(v, u, shape[0], shape[1]).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
-#[allow(clippy::too_many_arguments)]
-fn params(
+/// The metric parameters as the Python side gives them: any object with these attributes,
+/// normally a `slamq.Params` (python/slamq/params.py, the table of names, ranges and units).
+#[derive(FromPyObject)]
+struct PyParams {
     log_threshold: f64,
     min_dot_area: i64,
     harris_k: f64,
     harris_quality: f64,
     sweep_step: i64,
     min_area: i64,
-) -> PyResult<Params> {
-    let bad = |name: &str, v: String| PyValueError::new_err(format!("{name} out of range: {v}"));
-    if !log_threshold.is_finite() {
-        return Err(bad("log_threshold", log_threshold.to_string()));
-    }
-    if !harris_k.is_finite() {
-        return Err(bad("harris_k", harris_k.to_string()));
-    }
-    if !(0.0..=1.0).contains(&harris_quality) {
-        return Err(bad("harris_quality", harris_quality.to_string()));
-    }
-    if !(1..=256).contains(&sweep_step) {
-        return Err(bad("sweep_step", sweep_step.to_string()));
-    }
-    let min_dot_area =
-        u32::try_from(min_dot_area).map_err(|_| bad("min_dot_area", min_dot_area.to_string()))?;
-    let min_area = u32::try_from(min_area)
-        .ok()
-        .filter(|v| *v <= i32::MAX as u32)
-        .ok_or_else(|| bad("min_area", min_area.to_string()))?;
-    Ok(Params {
-        corners: CornerParams {
-            log_threshold,
-            min_dot_area,
-            harris_k,
-            harris_quality,
-        },
-        enclosed: EnclosedParams {
-            sweep_step: sweep_step as usize,
-            min_area,
-        },
-    })
 }
 
-fn quality_dict<'py>(py: Python<'py>, q: &Quality) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("known", q.occupancy.known)?;
-    d.set_item("occupied", q.occupancy.occupied)?;
-    d.set_item("sum_darkness", q.occupancy.sum_darkness)?;
-    d.set_item("corners", q.corners)?;
-    d.set_item("curve", q.curve.clone())?;
-    Ok(d)
+impl PyParams {
+    /// The core's [`Params`], or a `ValueError` naming the parameter out of range (the
+    /// Python table checks these first; this guards direct callers of `_core`).
+    fn checked(&self) -> PyResult<Params> {
+        let bad =
+            |name: &str, v: String| PyValueError::new_err(format!("{name} out of range: {v}"));
+        if !self.log_threshold.is_finite() {
+            return Err(bad("log_threshold", self.log_threshold.to_string()));
+        }
+        if !self.harris_k.is_finite() {
+            return Err(bad("harris_k", self.harris_k.to_string()));
+        }
+        if !(0.0..=1.0).contains(&self.harris_quality) {
+            return Err(bad("harris_quality", self.harris_quality.to_string()));
+        }
+        if !(1..=256).contains(&self.sweep_step) {
+            return Err(bad("sweep_step", self.sweep_step.to_string()));
+        }
+        let in_i32 = |name: &str, v: i64| {
+            u32::try_from(v)
+                .ok()
+                .filter(|v| *v <= i32::MAX as u32)
+                .ok_or_else(|| bad(name, v.to_string()))
+        };
+        Ok(Params {
+            corners: CornerParams {
+                log_threshold: self.log_threshold,
+                min_dot_area: in_i32("min_dot_area", self.min_dot_area)?,
+                harris_k: self.harris_k,
+                harris_quality: self.harris_quality,
+            },
+            enclosed: EnclosedParams {
+                sweep_step: self.sweep_step as usize,
+                min_area: in_i32("min_area", self.min_area)?,
+            },
+        })
+    }
 }
 
-/// evaluate(values, unknown, log_threshold, min_dot_area, harris_k, harris_quality,
-/// sweep_step, min_area, threads) -> dict(known, occupied, sum_darkness, corners, curve)
+/// The integers of one evaluation (SPEC sections 2-4); `slamq.MapQuality.from_counts`
+/// forms the ratios from them.
+#[pyclass(frozen, get_all, eq, module = "slamq._core")]
+#[derive(PartialEq)]
+struct RawQuality {
+    /// Known cells.
+    known: u64,
+    /// Known cells darker than the mean darkness (SPEC 2).
+    occupied: u64,
+    /// Sum of `255 - v` over known cells.
+    sum_darkness: u64,
+    /// Corner count (SPEC 3).
+    corners: usize,
+    /// `count_u` for every swept `u` (SPEC 4).
+    curve: Vec<usize>,
+}
+
+impl From<Quality> for RawQuality {
+    fn from(q: Quality) -> Self {
+        RawQuality {
+            known: q.occupancy.known,
+            occupied: q.occupancy.occupied,
+            sum_darkness: q.occupancy.sum_darkness,
+            corners: q.corners,
+            curve: q.curve,
+        }
+    }
+}
+
+#[pymethods]
+impl RawQuality {
+    fn __repr__(&self) -> String {
+        format!(
+            "RawQuality(known={}, occupied={}, sum_darkness={}, corners={}, curve=[{} values])",
+            self.known,
+            self.occupied,
+            self.sum_darkness,
+            self.corners,
+            self.curve.len()
+        )
+    }
+}
+
+/// evaluate(values, unknown, params, threads=0) -> RawQuality
 ///
-/// The integers of SPEC sections 2-4 for one map. `threads` = 0 uses every core.
+/// The integers of SPEC sections 2-4 for one map. `params`: a `slamq.Params`; `threads` = 0
+/// uses every core.
 #[pyfunction]
-#[pyo3(signature = (values, unknown, log_threshold=0.1, min_dot_area=5, harris_k=0.04,
-                    harris_quality=0.01, sweep_step=1, min_area=1, threads=0))]
-#[allow(clippy::too_many_arguments)]
-fn evaluate<'py>(
-    py: Python<'py>,
-    values: PyReadonlyArray2<'py, u8>,
-    unknown: PyReadonlyArray2<'py, bool>,
-    log_threshold: f64,
-    min_dot_area: i64,
-    harris_k: f64,
-    harris_quality: f64,
-    sweep_step: i64,
-    min_area: i64,
+#[pyo3(signature = (values, unknown, params, threads=0))]
+fn evaluate(
+    py: Python<'_>,
+    values: PyReadonlyArray2<'_, u8>,
+    unknown: PyReadonlyArray2<'_, bool>,
+    params: PyParams,
     threads: usize,
-) -> PyResult<Bound<'py, PyDict>> {
-    let p = params(
-        log_threshold,
-        min_dot_area,
-        harris_k,
-        harris_quality,
-        sweep_step,
-        min_area,
-    )?;
+) -> PyResult<RawQuality> {
+    let p = params.checked()?;
     let g = grid(&values, &unknown)?;
-    let q = compute(py, threads, || evaluate_grid(&g, &p))?;
-    quality_dict(py, &q)
+    Ok(compute(py, threads, || evaluate_grid(&g, &p))?.into())
 }
 
-/// evaluate_many(maps, ..., threads) -> list[dict]: like `evaluate` for a list of
-/// `(values, unknown)` pairs, the maps in parallel.
+/// evaluate_many(maps, params, threads=0) -> list[RawQuality]: like `evaluate` for a list
+/// of `(values, unknown)` pairs, the maps in parallel.
 #[pyfunction]
-#[pyo3(signature = (maps, log_threshold=0.1, min_dot_area=5, harris_k=0.04,
-                    harris_quality=0.01, sweep_step=1, min_area=1, threads=0))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (maps, params, threads=0))]
 fn evaluate_many<'py>(
     py: Python<'py>,
     maps: Vec<(PyReadonlyArray2<'py, u8>, PyReadonlyArray2<'py, bool>)>,
-    log_threshold: f64,
-    min_dot_area: i64,
-    harris_k: f64,
-    harris_quality: f64,
-    sweep_step: i64,
-    min_area: i64,
+    params: PyParams,
     threads: usize,
-) -> PyResult<Vec<Bound<'py, PyDict>>> {
-    let p = params(
-        log_threshold,
-        min_dot_area,
-        harris_k,
-        harris_quality,
-        sweep_step,
-        min_area,
-    )?;
+) -> PyResult<Vec<RawQuality>> {
+    let p = params.checked()?;
     let grids = maps
         .iter()
         .map(|(v, u)| grid(v, u))
         .collect::<PyResult<Vec<_>>>()?;
     let qs = compute(py, threads, || evaluate_grids(&grids, &p))?;
-    qs.iter().map(|q| quality_dict(py, q)).collect()
+    Ok(qs.into_iter().map(RawQuality::from).collect())
+}
+
+/// default_params() -> dict: the core's own defaults (rust/src/params.rs), for the test that
+/// keeps them equal to the Python table's.
+#[pyfunction]
+fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let p = Params::default();
+    let d = PyDict::new(py);
+    d.set_item("log_threshold", p.corners.log_threshold)?;
+    d.set_item("min_dot_area", p.corners.min_dot_area)?;
+    d.set_item("harris_k", p.corners.harris_k)?;
+    d.set_item("harris_quality", p.corners.harris_quality)?;
+    d.set_item("sweep_step", p.enclosed.sweep_step)?;
+    d.set_item("min_area", p.enclosed.min_area)?;
+    Ok(d)
 }
 
 /// otsu_table(values, unknown) -> list[int]: T_u for u = 0..255 (SPEC section 4 step 2).
@@ -220,6 +245,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate_many, m)?)?;
     m.add_function(wrap_pyfunction!(otsu_table, m)?)?;
+    m.add_function(wrap_pyfunction!(default_params, m)?)?;
+    m.add_class::<RawQuality>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

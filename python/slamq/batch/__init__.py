@@ -2,33 +2,30 @@
 
 Follow a batch from here:
 
-* :mod:`slamq.batch.discover` finds the runs (``<algorithm>/<sequence>/<run>/`` folders,
+* :mod:`slamq.batch.runs` finds the runs (``<algorithm>/<sequence>/<run>/`` folders,
   flat ``<sequence>/<algorithm>_map.yaml`` folders, manifest CSV files) and their
   trajectories; the rules are in its docstring.
 * :mod:`slamq.batch.engine` (:func:`evaluate_many`) evaluates them in parallel (thread
   pool, any ``concurrent.futures`` executor, or Dask) and streams records in input order.
 * :mod:`slamq.batch.records` makes one record per map (:func:`evaluate_run`), with the
   content hash used to resume.
-* :mod:`slamq.batch.results` appends records to ``.jsonl`` / ``.parquet`` files that
-  survive ``kill -9`` (:func:`read_results` reads them back).
-* :mod:`slamq.batch.summary` (:func:`summarize`) gives mean and standard deviation per
-  (algorithm, sequence), the paper's Table I.
+* :class:`slamq.results.ResultsFile` appends the records to ``.jsonl`` / ``.parquet``
+  files that survive ``kill -9`` (:func:`slamq.results.read_results` reads them back), and
+  :func:`slamq.results.summarize` gives mean and standard deviation per (algorithm,
+  sequence), the paper's Table I.
 
->>> from slamq.batch import summarize
->>> summarize([{"algorithm": "a", "sequence": "s", "corners": 4, "error": None}])["n"].tolist()
-[1]
+>>> from slamq.batch import Run
+>>> Run("m.yaml", "gmapping", "office").run
+'0'
 """
 
 from __future__ import annotations
 
-from slamq.batch.discover import Run, discover_runs, read_manifest
 from slamq.batch.engine import evaluate_chunk, evaluate_many
 from slamq.batch.records import columns, content_hash, evaluate_run
-from slamq.batch.results import ResultsFile, read_records, read_results
-from slamq.batch.summary import summarize, summary_table
+from slamq.batch.runs import Run, discover_runs, read_manifest
 
 __all__ = [
-    "ResultsFile",
     "Run",
     "columns",
     "content_hash",
@@ -37,8 +34,4 @@ __all__ = [
     "evaluate_many",
     "evaluate_run",
     "read_manifest",
-    "read_records",
-    "read_results",
-    "summarize",
-    "summary_table",
 ]

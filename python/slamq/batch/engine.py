@@ -27,10 +27,11 @@ from collections.abc import Iterator
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from typing import Any, Callable
 
-from slamq.batch.discover import Run, discover_runs
-from slamq.batch.records import EvalOptions, evaluate_run, settings_difference
-from slamq.batch.results import ResultsFile, results_format
+from slamq.batch.records import EvalOptions, evaluate_run
+from slamq.batch.runs import Run, discover_runs
 from slamq.errors import ParamError
+from slamq.results.columns import settings_difference
+from slamq.results.files import ResultsFile, results_format
 
 __all__ = ["evaluate_many", "evaluate_chunk"]
 
@@ -93,7 +94,7 @@ def evaluate_many(
         Called with (0, total) first, then after every map (skipped ones included).
     ate_align, ate_max_dt, ate_unsorted
         Trajectory error options (SPEC section 6; ``ate_unsorted`` as ``unsorted`` of
-        :func:`slamq.trajectory.load_trajectory`), used for runs with a trajectory and a
+        :func:`slamq.load_trajectory`), used for runs with a trajectory and a
         ground truth. A trajectory that cannot be scored sets ``ate_error``, not ``error``.
     **params
         Keywords of :func:`slamq.evaluate`: metric parameters, ``unknown_value``,

@@ -12,58 +12,19 @@ import json
 import os
 import stat
 import time
-from collections.abc import Iterable
-from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
-from slamq.batch.discover import Run, paired_columns, yaml_image
+from slamq.batch.runs import Run
 from slamq.errors import ParamError, SlamqError
 from slamq.params import Params
-from slamq.quality import MapQuality
+from slamq.results.columns import ATE_STATS, columns
+from slamq.sources.trajectories import load_pair
+from slamq.sources.walk import yaml_image
 
-__all__ = [
-    "RUN_COLUMNS",
-    "QUALITY_COLUMNS",
-    "ATE_COLUMNS",
-    "ATE_STATS",
-    "columns",
-    "content_hash",
-    "map_files",
-    "evaluate_run",
-    "EvalOptions",
-    "load_pair",
-    "settings_difference",
-]
-
-#: Where the map belongs, and how the record was made.
-RUN_COLUMNS = (
-    "map", "algorithm", "sequence", "run", "trajectory", "groundtruth",
-    "hash", "config", "unknown_value", "error", "seconds",
-)
-_PARAM_COLUMNS = tuple(f"param_{f.name}" for f in fields(Params))
-#: Every key of ``MapQuality.to_dict()`` (``curve`` is dropped unless asked for).
-QUALITY_COLUMNS = tuple(
-    f.name for f in fields(MapQuality) if f.name != "params"
-) + _PARAM_COLUMNS
-ATE_STATS = ("rmse", "mean", "median", "std", "min", "max", "n")
-#: Trajectory error against ground truth (SPEC section 6), when both are known.
-ATE_COLUMNS = tuple(f"ate_{s}" for s in ATE_STATS) + ("ate_error",)
+__all__ = ["EvalOptions", "content_hash", "evaluate_run", "map_files"]
 
 _READ_CHUNK = 1 << 20
-
-
-def columns(curve: bool = False) -> tuple[str, ...]:
-    """The record keys, in order (``curve`` only when asked for).
-
-    Examples
-    --------
-    >>> cols = columns()
-    >>> cols[:3], "corners" in cols, "curve" in cols, "ate_rmse" in cols
-    (('map', 'algorithm', 'sequence'), True, False, True)
-    """
-    q = QUALITY_COLUMNS if curve else tuple(c for c in QUALITY_COLUMNS if c != "curve")
-    return RUN_COLUMNS + q + ATE_COLUMNS
 
 
 def map_files(path: os.PathLike[str] | str) -> list[Path]:
@@ -214,42 +175,6 @@ class EvalOptions:
         )
 
 
-def settings_difference(configs: Iterable[Any]) -> str | None:
-    """Which settings differ between the ``config`` strings of some records (None when
-    they are all alike).
-
-    Examples
-    --------
-    >>> a = EvalOptions({"min_area": 1}).config
-    >>> b = EvalOptions({"min_area": 3}).config
-    >>> settings_difference([a, b, a]), settings_difference([a, a, None])
-    ('min_area: 1, 3', None)
-    """
-    distinct = sorted({c for c in configs if isinstance(c, str) and c})
-    if len(distinct) < 2:
-        return None
-    flat: list[dict[str, str]] = []
-    for text in distinct:
-        try:
-            doc = json.loads(text)
-        except ValueError:
-            doc = {"config": text}
-        if not isinstance(doc, dict):
-            doc = {"config": doc}
-        one: dict[str, str] = {}
-        for key, value in doc.items():
-            inner = value if isinstance(value, dict) else {key: value}
-            one.update({k: json.dumps(v) for k, v in inner.items()})
-        flat.append(one)
-    keys = sorted({k for one in flat for k in one})
-    diffs = []
-    for k in keys:
-        values = sorted({one.get(k, "none") for one in flat})
-        if len(values) > 1:
-            diffs.append(f"{k}: {', '.join(values)}")
-    return "; ".join(diffs) or "config"
-
-
 def _str(p: Path | None) -> str | None:
     return None if p is None else str(p)
 
@@ -305,7 +230,7 @@ def evaluate_run(
             return None
     if rec["error"] is None:
         try:
-            from slamq.quality import evaluate
+            from slamq.metrics.evaluate import evaluate
 
             q = evaluate(
                 str(run.map), threads=options.core_threads, curve=options.curve,
@@ -316,8 +241,6 @@ def evaluate_run(
             if not options.curve:
                 d.pop("curve", None)
             rec.update(d)
-        except ImportError:
-            raise
         except Exception as exc:  # noqa: BLE001 - a bad map is a row, never a crash
             rec["error"] = _message(where, exc)
     if rec["error"] is None and run.trajectory is not None and run.groundtruth is not None:
@@ -328,48 +251,14 @@ def evaluate_run(
 
 def _ate_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
     """``ate_*`` of the run's trajectory against its ground truth (SPEC section 6)."""
-    try:
-        from slamq import trajectory as T
-    except ImportError:  # the trajectory module is not part of this build
-        return {}
+    from slamq.metrics.ate import ate
+
     assert run.trajectory is not None and run.groundtruth is not None
     try:
         est, gt = load_pair(run.trajectory, run.groundtruth, options.ate_unsorted)
-        res = T.ate(gt, est, align=options.ate_align, max_dt=options.ate_max_dt)
+        res = ate(gt, est, align=options.ate_align, max_dt=options.ate_max_dt)
     except Exception as exc:  # noqa: BLE001 - a bad trajectory is a field, never a crash
         return {"ate_error": _message(str(run.trajectory), exc)}
     out: dict[str, Any] = {f"ate_{s}": float(getattr(res, s)) for s in ATE_STATS if s != "n"}
     out["ate_n"] = int(res.n)
     return out
-
-
-def load_pair(traj: Path | str, gt: Path | str, unsorted: str = "error") -> tuple[Any, Any]:
-    """Load estimate and ground truth (``slamq.trajectory.Trajectory``); a paired pose log
-    (one CSV with ``slam_x ... gt_x`` columns, see ``paired_columns``) gives both."""
-    from slamq import trajectory as T
-
-    traj, gt = Path(traj), Path(gt)
-    cols = paired_columns(traj) if traj == gt else None
-    if cols is None:
-        return (
-            T.load_trajectory(traj, unsorted=unsorted),
-            T.load_trajectory(gt, unsorted=unsorted),
-        )
-    est_prefix, gt_prefix = cols
-    with open(traj, encoding="utf-8", errors="replace") as fh:
-        header = [c.strip() for c in fh.readline().split(",")]
-    t_col = next((c for c in header if c.lower().startswith(("timestamp", "time", "t"))),
-                 header[0])
-
-    def mapping(prefix: str) -> dict[str, str]:
-        m = {"t": t_col}
-        for axis in ("x", "y", "z", "yaw", "qx", "qy", "qz", "qw"):
-            name = next((c for c in header if c.lower() == prefix + axis), None)
-            if name is not None:
-                m[axis] = name
-        return m
-
-    return (
-        T.load_trajectory(traj, columns=mapping(est_prefix), unsorted=unsorted),
-        T.load_trajectory(traj, columns=mapping(gt_prefix), unsorted=unsorted),
-    )

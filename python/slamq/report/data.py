@@ -6,7 +6,6 @@ Results are batch records (see ``slamq.batch``): one per map, with ``map``, ``al
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any, Union
@@ -14,21 +13,19 @@ from typing import Any, Union
 import pandas as pd
 
 from slamq.errors import SlamqError
-from slamq.params import Params
+from slamq.params import PARAM_NAMES, Params
 
 __all__ = ["ResultsLike", "evaluate_map", "load_results", "params_of", "usable"]
 
 ResultsLike = Union[str, Path, pd.DataFrame, list]
 
-_PARAM_NAMES = ("log_threshold", "min_dot_area", "harris_k", "harris_quality",
-                "sweep_step", "min_area")
 
 
 def load_results(results: ResultsLike) -> pd.DataFrame:
     """Results as a DataFrame, from a batch results file, a DataFrame or a list of dicts.
 
-    Files are read with :func:`slamq.batch.read_results` when that module is present
-    (``.jsonl``/``.parquet``), else here (``.jsonl``, ``.json`` list, ``.parquet``, ``.csv``).
+    Files are read with :func:`slamq.results.read_results` (``.jsonl``, ``.parquet``, and
+    ``.json``/``.csv`` as ``slamq eval`` writes them).
     Missing ``sequence`` becomes ``"all maps"``; missing ``algorithm`` the map's file stem;
     missing ``run`` the record's position within its (sequence, algorithm).
 
@@ -84,29 +81,17 @@ def load_results(results: ResultsLike) -> pd.DataFrame:
 
 
 def _read_file(path: Path) -> pd.DataFrame:
+    from slamq.results.files import read_results
+
+    if path.suffix.lower() not in (".jsonl", ".ndjson", ".parquet", ".pq", ".json", ".csv"):
+        raise SlamqError(f"{path}: unknown results format {path.suffix!r} "
+                         "(use .jsonl, .parquet, .json or .csv)")
     try:
-        from slamq.batch import read_results
-    except ImportError:
-        read_results = None
-    suffix = path.suffix.lower()
-    try:
-        if read_results is not None and suffix in (".jsonl", ".parquet"):
-            return read_results(path)
-        if suffix == ".jsonl":
-            lines = path.read_text(encoding="utf-8").splitlines()
-            return pd.DataFrame([json.loads(x) for x in lines if x.strip()])
-        if suffix == ".json":
-            data = json.loads(path.read_text(encoding="utf-8"))
-            return pd.DataFrame(data if isinstance(data, list) else data.get("results", []))
-        if suffix == ".parquet":
-            return pd.read_parquet(path)
-        if suffix == ".csv":
-            return pd.read_csv(path)
+        return read_results(path)
     except SlamqError:
         raise
     except (OSError, ValueError) as exc:
         raise SlamqError(f"{path}: cannot read results: {exc}") from exc
-    raise SlamqError(f"{path}: unknown results format {suffix!r} (use .jsonl, .parquet, .csv)")
 
 
 def _missing(x: Any) -> bool:
@@ -131,7 +116,7 @@ def params_of(record: dict) -> Params:
     3
     """
     kw = {}
-    for name in _PARAM_NAMES:
+    for name in PARAM_NAMES:
         v = record.get(f"param_{name}")
         if usable(v):
             kw[name] = int(v) if name in ("min_dot_area", "sweep_step", "min_area") else float(v)
@@ -139,7 +124,7 @@ def params_of(record: dict) -> Params:
 
 
 def evaluate_map(source: Any, params: Params, *, curve: bool = True):
-    """``slamq.evaluate`` (Rust core), or :mod:`slamq.reference` when the core is not built.
+    """``slamq.evaluate`` of a map with the parameters a record was computed with.
 
     Examples
     --------
@@ -147,13 +132,6 @@ def evaluate_map(source: Any, params: Params, *, curve: bool = True):
     >>> evaluate_map(np.full((4, 4), 254, np.uint8), slamq.Params()).corners
     0
     """
-    kw = params.to_dict()
-    try:
-        from slamq import _core  # noqa: F401
-    except ImportError:
-        from slamq import reference
+    from slamq.metrics.evaluate import evaluate
 
-        return reference.evaluate(source, curve=curve, **kw)
-    from slamq.quality import evaluate
-
-    return evaluate(source, curve=curve, **kw)
+    return evaluate(source, params=params, curve=curve)

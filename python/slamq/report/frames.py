@@ -4,7 +4,7 @@ A run folder that holds numbered snapshots (``map_0001.pgm``, ``map_0002.yaml``,
 wins over the image it names) gets an animated GIF: the map as it grows (north up, scaled
 to a fixed box) beside the occupied fraction, corners and enclosed areas of every snapshot,
 with a cursor on the current one. A ROS bag with a ``/map`` topic gives the same when
-:mod:`slamq.bags` can read its maps.
+:mod:`slamq.sources.bag_maps` can read its maps.
 """
 
 from __future__ import annotations
@@ -18,10 +18,11 @@ from typing import Any
 import numpy as np
 from PIL import Image, ImageDraw
 
-from slamq.maps import OccupancyMap, load_map
+from slamq.models import OccupancyMap
 from slamq.params import Params
 from slamq.report.data import evaluate_map
 from slamq.report.overlays import render_base
+from slamq.sources import load_map
 
 __all__ = ["Timeline", "find_snapshots", "build_timeline", "write_timeline_gif"]
 
@@ -172,28 +173,25 @@ def write_timeline_gif(
 
 
 def _write_gif(frames: list[np.ndarray], path: Path, duration_ms: int) -> Path:
-    try:
-        from slamq.animation import write_gif
-    except ImportError:
-        write_gif = None
-    if write_gif is not None:
-        return Path(write_gif(frames, path, duration_ms=duration_ms))
-    images = [Image.fromarray(f) for f in frames]
-    images[0].save(path, save_all=True, append_images=images[1:], duration=duration_ms,
-                   loop=0, optimize=False)
-    return path
+    from slamq.report.animation import write_gif
+
+    return Path(write_gif(frames, path, duration_ms=duration_ms))
 
 
 def bag_maps(path: Path, topic: str = "/map") -> list[OccupancyMap] | None:
-    """Every map on the bag's ``/map`` topic (:func:`slamq.bags.read_bag_maps`), else None.
+    """Every map on the bag's ``/map`` topic (:func:`~slamq.sources.bag_maps.read_bag_maps`),
+    else None.
 
     At most :data:`MAX_FRAMES` maps are kept (evenly spaced, the last one included).
     """
+    from slamq.errors import BagError
+    from slamq.sources.bag_maps import read_bag_maps
+    from slamq.sources.bagfile import bag_topics
+
     try:
-        from slamq.bags import bag_topics, read_bag_maps
-    except ImportError:
-        return None
-    if topic not in bag_topics(path):
+        if topic not in bag_topics(path):
+            return None
+    except BagError:  # not a readable bag (or the 'bags' extra is missing): no animation
         return None
     maps = [m for _, m in read_bag_maps(path, topic)]
     return _subsample(maps, MAX_FRAMES) or None

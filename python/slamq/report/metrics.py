@@ -98,7 +98,7 @@ PARTIAL_COVERAGE = 0.5
 
 
 def summarize(ok: pd.DataFrame) -> pd.DataFrame:
-    """Mean, sample std and run count of every metric per (sequence, algorithm).
+    """:func:`slamq.results.summarize` of successful records, indexed for the report.
 
     Parameters
     ----------
@@ -108,8 +108,9 @@ def summarize(ok: pd.DataFrame) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        Index (sequence, algorithm); columns ``runs``, ``<key>_mean``, ``<key>_std``,
-        ``<key>_n`` for every metric in :data:`METRICS`, and ``known_mean``.
+        Index (sequence, algorithm); the columns of :func:`slamq.results.summarize`
+        (``n``, ``<key>_mean``, ``<key>_std``, ``<key>_n``), with every metric of
+        :data:`METRICS` present (NaN, count 0, when no record has it).
 
     Examples
     --------
@@ -121,21 +122,15 @@ def summarize(ok: pd.DataFrame) -> pd.DataFrame:
     >>> float(s.loc[("s", "a"), "corners_mean"]), round(float(s.loc[("s", "a"), "corners_std"]), 4)
     (12.0, 2.8284)
     """
-    rows = []
-    for (seq, alg), group in ok.groupby(["sequence", "algorithm"], sort=True):
-        row: dict[str, object] = {"sequence": seq, "algorithm": alg, "runs": len(group)}
-        for m in METRICS:
-            values = _finite(group, m.key)
-            row[f"{m.key}_n"] = len(values)
-            row[f"{m.key}_mean"] = float(np.mean(values)) if len(values) else math.nan
-            row[f"{m.key}_std"] = float(np.std(values, ddof=1)) if len(values) > 1 else math.nan
-        known = _finite(group, "known")
-        row["known_mean"] = float(np.mean(known)) if len(known) else math.nan
-        rows.append(row)
-    columns = ["sequence", "algorithm", "runs"]
-    if not rows:
-        return pd.DataFrame(columns=columns).set_index(["sequence", "algorithm"])
-    return pd.DataFrame(rows).set_index(["sequence", "algorithm"])
+    from slamq.results.summary import summarize as summarize_records
+
+    summary = summarize_records(ok).set_index(["sequence", "algorithm"])
+    for m in METRICS:
+        if f"{m.key}_n" not in summary:
+            summary[f"{m.key}_n"] = 0
+            summary[f"{m.key}_mean"] = math.nan
+            summary[f"{m.key}_std"] = math.nan
+    return summary
 
 
 def _finite(frame: pd.DataFrame, key: str) -> np.ndarray:

@@ -1,6 +1,6 @@
 """Maps drawn for people: north up, corners ringed, counted enclosed areas coloured.
 
-The corners and regions come from :mod:`slamq.reference` (``corner_points`` and
+The corners and regions come from :mod:`slamq.metrics.reference` (``corner_points`` and
 ``enclosed_labels``), so the picture shows exactly what the numbers counted: one ring per
 counted corner (SPEC section 3) and one colour per enclosed free region counted at the
 unknown value ``enclosed_unknown_value`` (SPEC section 4).
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from PIL import Image, ImageDraw
 
-from slamq.maps import OccupancyMap
+from slamq.models import OccupancyMap
 from slamq.params import Params
 
 __all__ = ["CORNER_RGB", "REGION_PALETTE", "Overlay", "draw_overlay", "render_base"]
@@ -27,7 +27,7 @@ REGION_PALETTE: tuple[tuple[int, int, int], ...] = (
     (188, 189, 34), (227, 119, 194), (140, 86, 75), (0, 90, 50), (90, 0, 160),
     (0, 160, 120), (200, 150, 0),
 )
-#: Unknown cells in the base image (mid grey), as slamq.animation.render_map draws them.
+#: Unknown cells in the base image (mid grey), as slamq.report.animation.render_map draws them.
 UNKNOWN_GREY = 128
 
 
@@ -76,7 +76,7 @@ class Overlay:
 def render_base(grid: OccupancyMap) -> np.ndarray:
     """The map as RGB: known cells by value (0 black = occupied), unknown mid grey.
 
-    Uses :func:`slamq.animation.render_map` when that module is present, so that the
+    Uses :func:`slamq.report.animation.render_map` when that module is present, so that the
     report and the animations look alike.
 
     Examples
@@ -86,16 +86,9 @@ def render_base(grid: OccupancyMap) -> np.ndarray:
     >>> render_base(m).tolist()
     [[[0, 0, 0], [128, 128, 128]]]
     """
-    try:
-        from slamq.animation import render_map
-    except ImportError:
-        render_map = None
-    if render_map is not None:
-        rgb = np.asarray(render_map(grid))
-        if rgb.shape[:2] == grid.shape and rgb.ndim == 3 and rgb.shape[2] == 3:
-            return np.ascontiguousarray(rgb, dtype=np.uint8)
-    grey = np.where(grid.unknown, np.uint8(UNKNOWN_GREY), grid.values).astype(np.uint8)
-    return np.repeat(grey[:, :, None], 3, axis=2)
+    from slamq.report.animation import render_map
+
+    return np.ascontiguousarray(render_map(grid), dtype=np.uint8)
 
 
 def _scale_for(shape: tuple[int, int], target: int) -> int:
@@ -140,7 +133,7 @@ def draw_overlay(
     >>> ov.n_regions, ov.image.shape[2]
     (1, 3)
     """
-    from slamq import reference
+    from slamq.metrics import reference
 
     params = params or Params()
     base = render_base(grid).astype(np.float32)

@@ -198,7 +198,7 @@ def _mixed_settings(frame: pd.DataFrame) -> str:
     """A warning paragraph when the records were made with different settings, else ""."""
     if "config" not in frame:
         return ""
-    from slamq.batch.records import settings_difference
+    from slamq.results.columns import settings_difference
 
     mixed = settings_difference(frame["config"])
     if not mixed:
@@ -232,9 +232,9 @@ def _best_worst(group: pd.DataFrame) -> list[int]:
 
 
 def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool) -> None:
-    from slamq.maps import load_map
     from slamq.report.overlays import draw_overlay
     from slamq.report.plots import curve_figure
+    from slamq.sources import load_map
 
     rec = mp.record
     out / "img"
@@ -317,10 +317,8 @@ def _fmt_cell(x: Any) -> str:
 def _trajectory_section(rec: dict, grid: Any, out: Path, mp: _MapPage) -> str:
     if not usable(rec.get("trajectory")):
         return ""
-    try:
-        from slamq.report.trajectory import draw_trajectory
-    except ImportError as exc:  # the trajectory module is optional
-        return f"<h2>Trajectory</h2><p class=\"warn\">not drawn: {_e(exc)}</p>"
+    from slamq.report.trajectory import draw_trajectory
+
     png = f"img/{mp.slug}_traj.png"
     try:
         caption = draw_trajectory(rec, grid, out / png)
@@ -428,7 +426,7 @@ def _index_body(
                      f"<table><tr><th>map</th><th>error</th></tr>{rows}</table>")
     parts.append(
         "<footer>Metrics: Filatov, Filatov, Krinkin, Chen, Molodan, <i>2D SLAM Quality "
-        "Evaluation Methods</i>, arXiv:1708.02354, as pinned down by slamq's SPEC.md. "
+        "Evaluation Methods</i>, arXiv:1708.02354, as pinned down by slamq's spec (docs/spec.md). "
         "Means and sample standard deviations (n&minus;1) over runs; "
         "<a href=\"summary.csv\">summary.csv</a> holds them unrounded.</footer>")
     return "".join(parts)
@@ -481,7 +479,7 @@ def _sequence_section(
         rows.append(
             f"<tr data-algorithm=\"{_e(alg)}\"{_WINNER if place == 1 and ranked else ''}>"
             f"<td class=\"num\">{rank}</td><td class=\"alg\">{_e(alg)}</td>"
-            f"<td class=\"num\">{int(row['runs'])}</td>{''.join(cells)}"
+            f"<td class=\"num\">{int(row['n'])}</td>{''.join(cells)}"
             f"<td class=\"num\">{_e(score)}</td></tr>")
     parts = [
         f"<h2 id=\"seq-{_slug(seq)}\">{_e(seq)}</h2>",

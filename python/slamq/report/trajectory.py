@@ -1,7 +1,7 @@
 """A run's estimated trajectory drawn over its map, each pose coloured by its ATE.
 
-Needs :mod:`slamq.trajectory` (``load_trajectory``, ``ate``); the estimate is drawn in the
-map's frame as it was logged (the map was built in that frame), the colours are the
+Uses :func:`slamq.sources.trajectories.load_pair` and :func:`slamq.ate`; the estimate is
+drawn in the map's frame as it was logged (the map was built in that frame), the colours are the
 per-pose errors after the association and alignment the batch used (the record's
 ``config``: SE(2) by default, SPEC section 6).
 """
@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from slamq.errors import TrajectoryError
-from slamq.maps import OccupancyMap
+from slamq.models import OccupancyMap
 
 __all__ = ["draw_trajectory", "world_to_cells"]
 
@@ -70,7 +70,7 @@ def ate_options(record: dict) -> tuple[str, float, str]:
 
 def _per_pose(est: Any, gt: Any, errors: np.ndarray, max_dt: float) -> np.ndarray:
     """Indices of the estimate's poses the ATE errors belong to (the ATE association)."""
-    from slamq.trajectory import associate
+    from slamq.metrics.sync import associate
 
     _, i_est = associate(gt, est, max_dt=max_dt)
     if len(i_est) != len(errors):
@@ -104,15 +104,15 @@ def draw_trajectory(record: dict, grid: OccupancyMap, path: Path) -> str:
     align, max_dt, unsorted = ate_options(record)
     base = render_base(grid)
     if gt is None or (isinstance(gt, float) and math.isnan(gt)):
-        from slamq.trajectory import load_trajectory
+        from slamq.sources.trajectories import load_trajectory
 
         est = load_trajectory(traj, unsorted=unsorted)
         rows, cols = world_to_cells(grid, est.positions[:, :2])
         trajectory_figure(base, rows, cols, np.zeros(len(rows)), path,
                           title=Path(traj).name)
         return f"{Path(traj).name}: {len(rows)} poses (no ground truth, so no ATE colours)."
-    from slamq.batch.records import load_pair
-    from slamq.trajectory import ate
+    from slamq.metrics.ate import ate
+    from slamq.sources.trajectories import load_pair
 
     est, ref = load_pair(traj, str(gt), unsorted)
     res = ate(ref, est, align=align, max_dt=max_dt)

@@ -1,0 +1,464 @@
+"""Finding the runs of a batch: folder layouts and manifest CSV files.
+
+A *run* is one map built by one SLAM algorithm on one sequence (a recorded data set),
+optionally with the trajectory the algorithm estimated and the sequence's ground truth.
+
+Rules (:func:`discover_runs` applies them)
+------------------------------------------
+The maps of a folder are found by the one folder walk, :mod:`slamq.sources.walk` (the
+same rules as ``slamq eval DIR``): map YAMLs, images no YAML names, numbered snapshots
+left out beside a real map, hidden entries and bag folders skipped, symbolic links
+followed once.
+
+* **Run layout** ``<algorithm>/<sequence>/<run>/``: a folder at least three levels below
+  the root that holds exactly one map. algorithm, sequence and run are the names of the
+  grandparent, parent and folder itself.
+* **Flat layout** (everything else), e.g. ``test_results/<world>/<algo>_map.yaml``:
+  sequence = the folder's name, algorithm = the file stem with its ``_map`` token removed
+  (``gmapping_map`` -> ``gmapping``, ``gmapping_map_cropped`` -> ``gmapping_cropped``;
+  ``gmapping_map_3`` -> algorithm ``gmapping``, run ``3``), run = ``"0"`` otherwise.
+  A ground-truth map ``<sequence>_ground_truth`` (or ``_gt``, e.g. slam_comparison_tools'
+  ``ground_truths/office_ground_truth.yaml``) becomes algorithm ``ground_truth`` of that
+  sequence, wherever it lies, so it sits beside the SLAM maps in the summary.
+* **Trajectories** (``.txt .csv .tum .kitti``): in a run folder, the one trajectory file
+  (names holding ``traj``, ``pose``, ``odom`` or ``est`` first, then by name). In the flat
+  layout, a file whose stem is the algorithm or starts with ``<algorithm>_`` or
+  ``<algorithm>.`` (the longest algorithm name wins), in the map's folder or in
+  ``trajectories/<group>/.../<sequence>/`` beside the map's group folder
+  (``data/maps/<group>/...`` or ``data/<group>/...``: the ../shared/data and tests/data
+  convention).
+* **Ground truth**: a trajectory file named ``groundtruth*``, ``ground_truth*``, ``gt``,
+  ``gt_*``/``gt-*`` or ``<sequence>_groundtruth*``/``<sequence>_ground_truth*``/
+  ``<sequence>_gt*``, searched in the run folder, then the sequence folder, then the root.
+  A CSV trajectory whose header has both ``gt_x`` and an estimate column (``slam_x``,
+  ``est_x``) is its own ground truth (a paired pose log).
+* **Manifest** (``.csv``): columns ``algorithm, sequence, run, map, trajectory,
+  groundtruth`` (only ``map`` required; others may be blank), paths relative to the
+  manifest's folder, ``#`` lines are comments, spaces after commas are ignored.
+"""
+
+from __future__ import annotations
+
+import csv
+import functools
+import os
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+from slamq.errors import MapError
+from slamq.sources.files import PathLike
+from slamq.sources.trajectories import paired_columns
+from slamq.sources.walk import walk_folders
+
+__all__ = ["Run", "discover_runs", "read_manifest", "TRAJECTORY_SUFFIXES"]
+
+TRAJECTORY_SUFFIXES = frozenset({".txt", ".csv", ".tum", ".kitti"})
+#: The algorithm name given to ground-truth maps found in a flat layout.
+GROUND_TRUTH = "ground_truth"
+MANIFEST_COLUMNS = ("algorithm", "sequence", "run", "map", "trajectory", "groundtruth")
+
+_GT_NAME = re.compile(r"^(ground[_-]?truth|gt)([_\-.].*)?$", re.IGNORECASE)
+_TRAJ_HINT = re.compile(r"traj|pose|odom|est", re.IGNORECASE)
+
+
+
+@dataclass(frozen=True)
+class Run:
+    """One map of a batch, with where it belongs and its trajectory files.
+
+    Attributes
+    ----------
+    map : pathlib.Path
+        The map file (YAML or image).
+    algorithm, sequence, run : str
+        The SLAM algorithm, the data set it ran on, and which repetition.
+    trajectory, groundtruth : pathlib.Path or None
+        The estimated trajectory and the sequence's ground truth, when known (the same
+        file for a paired pose log).
+
+    Examples
+    --------
+    >>> from slamq.batch import Run
+    >>> Run("gmapping/office/1/map.yaml", "gmapping", "office", "1").key
+    ('gmapping', 'office', '1', 'gmapping/office/1/map.yaml')
+    """
+
+    map: Path
+    algorithm: str
+    sequence: str
+    run: str = "0"
+    trajectory: Path | None = None
+    groundtruth: Path | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "map", Path(self.map))
+        for name in ("trajectory", "groundtruth"):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, Path):
+                object.__setattr__(self, name, Path(value))
+        for name in ("algorithm", "sequence", "run"):
+            object.__setattr__(self, name, str(getattr(self, name)))
+
+    @property
+    def key(self) -> tuple[str, str, str, str]:
+        """``(algorithm, sequence, run, map)``: a run's identity in a results file."""
+        return (self.algorithm, self.sequence, self.run, str(self.map))
+
+
+def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Run]:
+    """Find the runs in folders, manifest CSV files and map files.
+
+    Parameters
+    ----------
+    sources : path, Run, or an iterable of them
+        A folder (searched recursively with the layout rules of :mod:`slamq.batch.discover`),
+        a manifest ``.csv``, a map file (YAML, image, or a ROS bag file or ROS 2 bag folder,
+        whose last ``/map`` is evaluated; sequence = the folder's name), or a ready
+        :class:`Run`.
+
+    Returns
+    -------
+    list of Run
+        Folder contents sorted by path; the order of ``sources`` and of manifest rows is
+        kept. A run listed twice (same algorithm, sequence, run and map) is kept once.
+        Paths are absolute (not resolved: symbolic links keep their names), except those
+        of a ready :class:`Run`.
+
+    Raises
+    ------
+    slamq.MapError
+        A source that does not exist, or a malformed manifest (naming file and line).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> run = root / "gmapping" / "office" / "run 1"
+    >>> run.mkdir(parents=True)
+    >>> _ = (run / "map.pgm").write_bytes(b"P5 1 1 255 \\xfe")
+    >>> _ = (run / "trajectory.txt").write_text("0 0 0 0 0 0 0 1\\n")
+    >>> [(r.algorithm, r.sequence, r.run, r.trajectory.name) for r in discover_runs(root)]
+    [('gmapping', 'office', 'run 1', 'trajectory.txt')]
+    """
+    if isinstance(sources, (str, os.PathLike, Run)):
+        sources = [sources]
+    for cache in _CACHES:  # the caches live for one discovery only
+        cache.cache_clear()
+    out: list[Run] = []
+    seen: set[tuple[str, str, str, str]] = set()
+    for src in sources:
+        if isinstance(src, Run):
+            found = [src]
+        else:
+            # absolute: the results file must not depend on where the batch was started
+            # (resume from another folder, a report built elsewhere)
+            path = Path(os.path.abspath(os.path.expanduser(os.fspath(src))))
+            if path.is_dir() and (path / "metadata.yaml").is_file():
+                found = [_single_map(path)]  # a ROS 2 bag: its last /map
+            elif path.is_dir():
+                found = _discover_folder(path)
+            elif path.is_file() and path.suffix.lower() == ".csv":
+                found = read_manifest(path)
+            elif path.is_file():
+                found = [_single_map(path)]
+            elif not path.exists():
+                raise MapError(f"{path}: no such file or folder")
+            else:
+                raise MapError(f"{path}: not a file or folder")
+        for run in found:
+            if run.key not in seen:
+                seen.add(run.key)
+                out.append(run)
+    return out
+
+
+# --------------------------------------------------------------------------- manifest
+
+
+def read_manifest(path: PathLike) -> list[Run]:
+    """Read a manifest CSV: one run per row, paths relative to the manifest's folder.
+
+    Columns (header row required, any order, case-insensitive): ``map`` (required),
+    ``algorithm``, ``sequence``, ``run``, ``trajectory``, ``groundtruth``. Blank
+    algorithm defaults to the flat-layout name of the map, blank sequence to the map's
+    folder name, blank run to ``"0"``; blank trajectory/groundtruth mean none. Lines
+    starting with ``#`` are comments. A map file that does not exist is kept: the batch
+    reports it as a failed row.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> text = "algorithm, sequence, run, map\\nhector, lab, 2, a b.yaml\\n"
+    >>> _ = (d / "runs.csv").write_text(text)
+    >>> r = read_manifest(d / "runs.csv")[0]
+    >>> r.algorithm, r.run, r.map.name
+    ('hector', '2', 'a b.yaml')
+    """
+    path = Path(path)
+    base = Path(os.path.abspath(path)).parent
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            lines = [(i + 1, line) for i, line in enumerate(fh)]
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MapError(f"{path}: cannot read manifest: {exc}") from exc
+    lines = [(n, line) for n, line in lines if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise MapError(f"{path}: empty manifest (expected a header with a 'map' column)")
+    rows = csv.reader([line for _, line in lines], skipinitialspace=True)
+    header = [h.strip().lower() for h in next(rows)]
+    if "map" not in header:
+        raise MapError(
+            f"{path}: line {lines[0][0]}: manifest header has no 'map' column "
+            f"(columns: {', '.join(MANIFEST_COLUMNS)})"
+        )
+    if len(set(header)) != len(header):
+        raise MapError(f"{path}: line {lines[0][0]}: duplicate column names in the header")
+    runs: list[Run] = []
+    seen: dict[tuple[str, str, str, str], int] = {}
+    for (lineno, _), row in zip(lines[1:], rows):
+        if len(row) > len(header):
+            raise MapError(
+                f"{path}: line {lineno}: {len(row)} fields but the header has {len(header)}"
+            )
+        cells = {h: (row[i].strip() if i < len(row) else "") for i, h in enumerate(header)}
+        if not cells["map"]:
+            raise MapError(f"{path}: line {lineno}: empty 'map' cell")
+        map_path = _resolve(base, cells["map"])
+        algorithm = cells.get("algorithm") or _flat_names(map_path.stem)[0]
+        sequence = cells.get("sequence") or map_path.resolve().parent.name
+        run_id = cells.get("run") or "0"
+        traj = _resolve(base, cells["trajectory"]) if cells.get("trajectory") else None
+        gt = _resolve(base, cells["groundtruth"]) if cells.get("groundtruth") else None
+        run = Run(map_path, algorithm, sequence, run_id, traj, gt)
+        if run.key in seen:
+            raise MapError(
+                f"{path}: line {lineno}: run {algorithm}/{sequence}/{run_id} with map "
+                f"{cells['map']!r} is already listed on line {seen[run.key]}"
+            )
+        seen[run.key] = lineno
+        runs.append(run)
+    return runs
+
+
+def _resolve(base: Path, cell: str) -> Path:
+    p = Path(os.path.expanduser(cell))
+    return p if p.is_absolute() else base / p
+
+
+# --------------------------------------------------------------------------- folders
+
+
+def _single_map(path: Path) -> Run:
+    algorithm, run_id = _flat_names(path.stem)
+    seq = path.resolve().parent.name
+    gt_seq = _ground_truth_map(path.stem)
+    if gt_seq is not None:
+        return Run(path, GROUND_TRUTH, gt_seq, "0")
+    traj, gt = _flat_trajectories(path.parent, algorithm, frozenset([algorithm]), seq,
+                                  path.parent)
+    return Run(path, algorithm, seq, run_id, traj, gt)
+
+
+def _ground_truth_map(stem: str) -> str | None:
+    """The sequence of a ground-truth map named ``<sequence>_ground_truth`` (or ``_gt``)."""
+    m = re.match(r"^(.+?)[_-](ground[_-]?truth|gt)(_map)?$", stem, re.IGNORECASE)
+    return m.group(1) if m else None
+
+
+def _flat_names(stem: str) -> tuple[str, str]:
+    """``(algorithm, run)`` from a flat-layout map name."""
+    m = re.match(r"^(.+?)_map_(\d+)$", stem)
+    if m:
+        return m.group(1), m.group(2)
+    if stem.endswith("_map") and len(stem) > 4:
+        return stem[:-4], "0"
+    m = re.match(r"^(.+?)_map_(.+)$", stem)
+    if m:
+        return f"{m.group(1)}_{m.group(2)}", "0"
+    return stem, "0"
+
+
+@functools.lru_cache(maxsize=4096)
+def _files(folder: Path) -> list[Path]:
+    """The files directly in ``folder``, sorted. Cached while one :func:`discover_runs` call
+    runs (every map of a flat folder looks at the same folders); cleared at each call."""
+    return sorted(p for p in folder.iterdir() if p.is_file())
+
+
+def _discover_folder(root: Path) -> list[Run]:
+    runs: list[Run] = []
+    root_name = root.resolve().name
+    for here, files, maps in walk_folders(root):
+        if not maps:
+            continue
+        rel = here.relative_to(root).parts
+        if len(rel) >= 3 and len(maps) == 1:
+            algorithm, sequence, run_id = rel[-3], rel[-2], rel[-1]
+            traj = _pick_trajectory(_trajectory_files(files), sequence)
+            gt = _find_groundtruth([here, here.parent], sequence, root)
+            if gt is None and traj is not None and _is_paired_log(traj):
+                gt = traj
+            runs.append(Run(maps[0], algorithm, sequence, run_id, traj, gt))
+            continue
+        folder_seq = here.name if rel else root_name
+        names_here = [_flat_names(m.stem) for m in maps]
+        algos = frozenset(a for a, _ in names_here)  # one object: its hash is cached
+        for m, (algorithm, run_id) in zip(maps, names_here):
+            gt_seq = _ground_truth_map(m.stem)
+            if gt_seq is not None:
+                runs.append(Run(m, GROUND_TRUTH, gt_seq, "0"))
+                continue
+            traj, gt = _flat_trajectories(here, algorithm, algos, folder_seq, root)
+            runs.append(Run(m, algorithm, folder_seq, run_id, traj, gt))
+    return runs
+
+
+def _trajectory_files(files: Iterable[Path]) -> list[Path]:
+    return [p for p in files if p.suffix.lower() in TRAJECTORY_SUFFIXES]
+
+
+def _is_gt_name(path: Path, sequence: str) -> bool:
+    stem = path.stem
+    if _GT_NAME.match(stem):
+        return True
+    low, seq = stem.lower(), sequence.lower()
+    if seq and low.startswith(seq):
+        rest = low[len(seq):].lstrip("_-")
+        return bool(_GT_NAME.match(rest))
+    return False
+
+
+def _pick_trajectory(candidates: list[Path], sequence: str = "") -> Path | None:
+    cands = [p for p in candidates if not _is_gt_name(p, sequence)]
+    if not cands:
+        return None
+    hinted = [p for p in cands if _TRAJ_HINT.search(p.stem)]
+    return sorted(hinted or cands)[0]
+
+
+def _find_groundtruth(
+    folders: list[Path], sequence: str, root: Path | None = None
+) -> Path | None:
+    """The first ground-truth file in ``folders``; in ``root`` (searched last, it holds the
+    ground truths of many sequences) its name must start with the sequence's name."""
+    search = [(f, False) for f in folders] + ([(root, True)] if root is not None else [])
+    for folder, need_prefix in search:
+        gt = _groundtruth_in(folder, sequence, need_prefix)
+        if gt is not None:
+            return gt
+    return None
+
+
+@functools.lru_cache(maxsize=4096)
+def _folder_trajectories(folder: Path) -> list[Path]:
+    """The trajectory files directly in ``folder`` ([] when it cannot be listed); cached
+    like :func:`_files`, so that the maps of one flat folder do not filter it each."""
+    try:
+        return _trajectory_files(_files(folder))
+    except OSError:
+        return []
+
+
+@functools.lru_cache(maxsize=4096)
+def _groundtruth_in(folder: Path, sequence: str, need_prefix: bool) -> Path | None:
+    gts = [p for p in _folder_trajectories(folder) if _is_gt_name(p, sequence)]
+    if need_prefix:
+        gts = [p for p in gts if p.stem.lower().startswith(sequence.lower())]
+    return min(gts) if gts else None
+
+
+def _is_paired_log(path: Path) -> bool:
+    cols = paired_columns(path)
+    return cols is not None
+
+
+@functools.lru_cache(maxsize=4096)
+def _mirror_folders(folder: Path, sequence: str) -> tuple[Path, ...]:
+    """``trajectories/<group>/.../<sequence>`` folders of a map folder ``.../<group>/...``.
+
+    The group's trajectories live in a ``trajectories`` folder beside the group
+    (``data/<group>`` -> ``data/trajectories/<group>``) or beside the ``maps`` folder
+    holding it (``data/maps/<group>`` -> ``data/trajectories/<group>``); the nearest one
+    wins.
+    """
+    return tuple(Path(p) for p in _mirror_cached(str(folder.resolve()), sequence))
+
+
+@functools.lru_cache(maxsize=1024)
+def _mirror_cached(folder: str, sequence: str) -> tuple[str, ...]:
+    parts = Path(folder).parts
+    for i in range(len(parts) - 1, 0, -1):
+        bases = [Path(*parts[:i])]
+        if parts[i - 1] == "maps" and i >= 2:
+            bases.append(Path(*parts[: i - 1]))
+        for base in bases:
+            group_root = base / "trajectories" / parts[i]
+            if parts[i] == "trajectories" or not group_root.is_dir():
+                continue
+            found = []
+            for sub, dirs, _ in os.walk(group_root):
+                dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+                if Path(sub).name == sequence:
+                    found.append(sub)
+            return tuple(found)
+    return ()
+
+
+def _flat_trajectories(
+    folder: Path, algorithm: str, algos: frozenset[str], sequence: str, root: Path
+) -> tuple[Path | None, Path | None]:
+    traj: Path | None = None
+    gt: Path | None = None
+    search = [folder, *_mirror_folders(folder, sequence)]
+    for where in search:
+        mine = _owned_trajectories(where, algos).get(algorithm, [])
+        pick = _pick_trajectory(mine, sequence)
+        if traj is None and pick is not None:
+            traj = pick
+        if gt is None:
+            gt = _find_groundtruth([where], sequence)
+        if traj is not None and gt is not None:
+            break
+    if gt is None and root != folder:
+        gt = _find_groundtruth([], sequence, root)
+    if gt is None and traj is not None and _is_paired_log(traj):
+        gt = traj
+    return traj, gt
+
+
+@functools.lru_cache(maxsize=4096)
+def _owned_trajectories(folder: Path, algos: frozenset[str]) -> dict[str, list[Path]]:
+    """The trajectory files of ``folder`` by the algorithm they belong to (one pass over
+    the folder for all its maps, so discovery stays linear in the number of maps)."""
+    owned: dict[str, list[Path]] = {}
+    for p in _folder_trajectories(folder):
+        owner = _owner(p.stem, algos)
+        if owner is not None:
+            owned.setdefault(owner, []).append(p)
+    return owned
+
+
+def _owner(stem: str, algos: frozenset[str]) -> str | None:
+    """The algorithm a trajectory named ``stem`` belongs to: the longest ``a`` in ``algos``
+    with ``stem == a`` or ``stem`` starting with ``a_`` or ``a.``.
+
+    >>> _owner("karto_slam_traj", frozenset({"karto", "karto_slam"}))
+    'karto_slam'
+    >>> _owner("kartoslam", frozenset({"karto"})) is None
+    True
+    """
+    if stem in algos:
+        return stem
+    for i in range(len(stem) - 1, 0, -1):
+        if stem[i] in "_." and stem[:i] in algos:
+            return stem[:i]
+    return None
+
+
+_CACHES = (
+    _files, _folder_trajectories, _groundtruth_in, _owned_trajectories, _mirror_folders,
+    _mirror_cached,
+)

@@ -1,0 +1,67 @@
+"""The ``slamq`` command line: one module per command.
+
+``slamq eval`` (:mod:`slamq.cli.eval`), ``batch`` (:mod:`~slamq.cli.batch`), ``summary``
+(:mod:`~slamq.cli.summary`), ``report`` (:mod:`~slamq.cli.report`), ``ate`` / ``rpe``
+(:mod:`~slamq.cli.trajectory`), ``timeline`` (:mod:`~slamq.cli.timeline`). Each module has
+``add_parser(subparsers)``; commands call library functions, never :func:`main`. This module
+is the one place that turns errors into exit codes: 0 success, 2 bad input (one stderr line
+names the file and the reason), 1 anything unexpected, 130 Ctrl-C; and the one warning
+digest (:class:`slamq.cli.common.WarningDigest`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import warnings
+from collections.abc import Sequence
+
+from slamq.cli.common import EXIT_BAD_INPUT, EXIT_ERROR, WarningDigest, error_line
+
+#: The command modules, in ``--help`` order.
+COMMANDS: tuple[str, ...] = (
+    "slamq.cli.eval",
+    "slamq.cli.batch",
+    "slamq.cli.summary",
+    "slamq.cli.report",
+    "slamq.cli.trajectory",
+    "slamq.cli.timeline",
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full ``slamq`` argument parser."""
+    parser = argparse.ArgumentParser(
+        prog="slamq", description="Score 2D SLAM results (maps and trajectories)."
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name in COMMANDS:
+        importlib.import_module(name).add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``slamq`` command line; returns the exit code."""
+    from slamq.errors import SlamqError
+
+    args = build_parser().parse_args(argv)
+    digest = WarningDigest()
+    previous, warnings.showwarning = warnings.showwarning, digest.show
+    try:
+        return int(args.func(args))
+    except KeyboardInterrupt:
+        return 130
+    except (SlamqError, OSError) as exc:
+        error_line("", exc)
+        return EXIT_BAD_INPUT
+    except Exception as exc:  # noqa: BLE001 - last line of defence: one clear line
+        error_line("", f"unexpected {type(exc).__name__}: {exc}")
+        return EXIT_ERROR
+    finally:
+        warnings.showwarning = previous
+        digest.summary()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

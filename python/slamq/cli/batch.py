@@ -1,0 +1,196 @@
+"""``slamq batch``: the command-line face of :mod:`slamq.batch`.
+
+``slamq batch DIR_OR_MANIFEST... --out results.parquet`` evaluates every run it finds,
+with a progress bar on stderr (when stderr is a terminal), one stderr line per failed map,
+a summary table on stdout, and exit code 2 when some maps failed. Rerunning the same
+command resumes: maps already in the results file are skipped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from slamq.cli.common import (
+    EXIT_BAD_INPUT,
+    EXIT_OK,
+    add_map_options,
+    error_line,
+    need_extra,
+    stdout_console,
+)
+
+__all__ = ["add_parser"]
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register ``slamq batch``."""
+    p = subparsers.add_parser(
+        "batch",
+        help="evaluate many maps (folders of runs or a manifest), resumable",
+        description=(
+            "Evaluate every run under the given folders / manifest CSV files and append the "
+            "records to a results file as chunks finish. Layouts: <algorithm>/<sequence>/"
+            "<run>/ folders holding one map (and optionally a trajectory), or flat "
+            "<sequence>/<algorithm>_map.yaml folders; a manifest CSV has the columns "
+            "algorithm, sequence, run, map, trajectory, groundtruth (paths relative to it). "
+            "Rerunning the same command skips maps already in the results file."
+        ),
+    )
+    p.add_argument("sources", nargs="+", metavar="DIR_OR_MANIFEST",
+                   help="folders, manifest .csv files or map files")
+    p.add_argument("--out", "-o", metavar="FILE", default=None,
+                   help="results file, .parquet or .jsonl (default: results.parquet, or "
+                   "DIR/results.parquet with --report DIR)")
+    p.add_argument("--threads", type=int, default=None,
+                   help="worker threads (default: all CPUs; with Dask: per chunk in a worker)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   default=os.environ.get("DASK_SCHEDULER_ADDRESS") or None,
+                   help="Dask scheduler (tcp://host:8786) to send chunks of maps to; 'dask' "
+                   "starts a local cluster, 'local' forces local threads (default: "
+                   "$DASK_SCHEDULER_ADDRESS, else local threads)")
+    p.add_argument("--chunk-size", type=int, default=None,
+                   help="maps per results-file append and per Dask task (default 32)")
+    p.add_argument("--curve", action="store_true",
+                   help="keep the enclosed-area curve in the records")
+    p.add_argument("--verify", action="store_true",
+                   help="also run slamq.metrics.reference (slow) on every map")
+    p.add_argument("--align", default="se2", choices=("se2", "se3", "sim3", "origin", "none"),
+                   help="trajectory alignment for ATE (default %(default)s)")
+    p.add_argument("--max-dt", type=float, default=0.01,
+                   help="pose association window for ATE, seconds (default %(default)s)")
+    p.add_argument("--unsorted", default="error", choices=("error", "last", "sort"),
+                   help="trajectories whose timestamps go backwards (restarted logs): "
+                   "report an ATE error (default), keep the rows after the last restart, "
+                   "or sort them")
+    p.add_argument("--report", metavar="DIR", default=None,
+                   help="then write the HTML report of the results to DIR (slamq report)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", "-q", action="store_true", help="no summary table")
+    add_map_options(p)
+    p.set_defaults(func=_cmd_batch)
+
+
+class _Progress:
+    """A rich progress bar on stderr (maps/s and ETA), or nothing when not a terminal."""
+
+    def __init__(self, enabled: bool) -> None:
+        from rich.console import Console
+
+        self.console = Console(stderr=True)
+        self.bar: Any | None = None
+        self.task: Any = None
+        if enabled and self.console.is_terminal:
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
+
+            self.bar = Progress(
+                TextColumn("[bold]slamq batch"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TextColumn("{task.fields[rate]} maps/s"),
+                TimeElapsedColumn(),
+                TextColumn("ETA"),
+                TimeRemainingColumn(),
+                console=self.console,
+                transient=False,
+            )
+        self.t0 = time.perf_counter()
+
+    def __enter__(self) -> _Progress:
+        if self.bar is not None:
+            self.bar.start()
+            self.task = self.bar.add_task("maps", total=None, rate="-")
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+
+    def update(self, done: int, total: int) -> None:
+        if self.bar is None:
+            return
+        dt = time.perf_counter() - self.t0
+        rate = f"{done / dt:.1f}" if dt > 0 else "-"
+        self.bar.update(self.task, completed=done, total=total, rate=rate)
+
+    def line(self, text: str) -> None:
+        """One stderr line that does not break the bar."""
+        if self.bar is not None:
+            self.bar.console.print(text, markup=False, highlight=False, soft_wrap=True)
+        else:
+            print(text, file=sys.stderr, flush=True)
+
+
+def _cmd_batch(args: argparse.Namespace) -> int:
+    from slamq.batch import evaluate_many
+    from slamq.errors import SlamqError
+    from slamq.params import params_from_args
+    from slamq.results import read_results, summarize, summary_table
+
+    if args.report:
+        need_extra("report", "slamq batch --report")
+
+    out = Path(args.out) if args.out else (
+        Path(args.report) / "results.parquet" if args.report else Path("results.parquet")
+    )
+    executor: Any = None
+    if args.scheduler and args.scheduler != "local":
+        executor = args.scheduler
+    params = params_from_args(args).to_dict()
+    params.update(unknown_value=args.unknown_value, curve=args.curve, verify=args.verify)
+    failed = 0
+    ate_failed = 0
+    evaluated = 0
+    total = 0
+    with _Progress(not args.no_progress) as progress:
+
+        def on_progress(done: int, n: int) -> None:
+            nonlocal total
+            total = n
+            progress.update(done, n)
+
+        try:
+            records = evaluate_many(
+                args.sources, threads=args.threads, executor=executor,
+                chunk_size=args.chunk_size, out=out, progress=on_progress,
+                ate_align=args.align, ate_max_dt=args.max_dt, ate_unsorted=args.unsorted,
+                **params,
+            )
+            for rec in records:
+                evaluated += 1
+                if rec.get("error"):
+                    failed += 1
+                    progress.line(f"slamq: error: {rec['error']}")
+                elif rec.get("ate_error"):
+                    ate_failed += 1
+                    progress.line(f"slamq: warning: no ATE: {rec['ate_error']}")
+        except SlamqError as exc:
+            error_line("", exc)
+            return EXIT_BAD_INPUT
+    skipped = total - evaluated
+    print(
+        f"slamq batch: {evaluated} map(s) evaluated, {skipped} already in {out}, "
+        f"{failed} failed, {ate_failed} without ATE; results in {out}",
+        file=sys.stderr,
+    )
+    if total == 0:
+        error_line("", "no map found in " + ", ".join(map(str, args.sources)))
+        return EXIT_BAD_INPUT
+    if not args.quiet:
+        stdout_console().print(summary_table(summarize(read_results(out)), title=str(out)))
+    if args.report:
+        from slamq.report import build_report
+
+        print(f"report written: {build_report(out, args.report)}")
+    return EXIT_BAD_INPUT if failed else EXIT_OK

@@ -1,0 +1,99 @@
+"""What every ``slamq`` command shares: exit codes, the one error line, the warning digest,
+option helpers, and the check for optional extras.
+
+Commands raise :class:`~slamq.errors.SlamqError` (or ``OSError``) for a failure that ends
+the whole command; :func:`slamq.cli.main` turns it into one stderr line and exit code 2.
+A failure of one input among many is printed with :func:`error_line` and counted by the
+command, which goes on with the others.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+import threading
+from typing import IO, Any
+
+from slamq.errors import SlamqError
+
+EXIT_OK = 0
+EXIT_ERROR = 1
+EXIT_BAD_INPUT = 2
+
+#: Optional extras: name -> the modules they bring.
+EXTRAS = {
+    "report": ("matplotlib", "PIL", "pandas"),
+    "bags": ("rosbags",),
+    "dask": ("distributed",),
+}
+
+
+def error_line(where: str, exc: BaseException | str) -> None:
+    """Print one clear line for a failed input on stderr."""
+    msg = " ".join(str(exc).split())
+    if where and where not in msg:
+        msg = f"{where}: {msg}"
+    print(f"slamq: error: {msg}", file=sys.stderr)
+
+
+def need_extra(extra: str, what: str) -> None:
+    """Raise a :class:`SlamqError` with the install command when ``extra`` is missing.
+
+    Examples
+    --------
+    >>> need_extra("report", "slamq report")   # installed here: nothing happens
+    """
+    missing = [m for m in EXTRAS[extra] if importlib.util.find_spec(m) is None]
+    if missing:
+        raise SlamqError(f"{what} needs the '{extra}' extra ({', '.join(missing)} not "
+                         f"installed): pip install 'slamq[{extra}]'")
+
+
+def add_map_options(parser: argparse.ArgumentParser) -> None:
+    """Every metric parameter of the table (:func:`slamq.params.add_param_options`), plus
+    ``--unknown-value`` (shared by eval, batch, timeline)."""
+    from slamq.params import add_param_options
+
+    add_param_options(parser)
+    parser.add_argument("--unknown-value", type=int, default=None,
+                        help="treat pixels equal to this value as unknown, and nothing else")
+
+
+def stdout_console() -> Any:
+    """A rich console on stdout (wide when stdout is not a terminal)."""
+    from rich.console import Console
+
+    console = Console()
+    if not console.is_terminal:
+        console = Console(width=160)
+    return console
+
+
+class WarningDigest:
+    """Python warnings (e.g. :class:`slamq.MapWarning`) as one stderr line each; a warning
+    that repeats for other files (same text after the file name) is shown once and the other
+    files are counted (each file once, however often it was loaded)."""
+
+    def __init__(self) -> None:
+        self.files: dict[tuple[type, str], set[str]] = {}
+        self.lock = threading.Lock()
+
+    def show(self, message: Warning | str, category: type, filename: str, lineno: int,
+             file: IO[str] | None = None, line: str | None = None) -> None:
+        text = " ".join(str(message).split())
+        where, sep, reason = text.partition(": ")
+        key = (category, reason if sep else text)
+        with self.lock:
+            seen = self.files.setdefault(key, set())
+            first = not seen
+            seen.add(where if sep else text)
+        if first:
+            print(f"slamq: warning: {text}", file=sys.stderr)
+
+    def summary(self) -> None:
+        for (_, reason), files in self.files.items():
+            if len(files) > 1:
+                short = reason if len(reason) <= 70 else reason[:67] + "..."
+                print(f"slamq: warning: the same for {len(files) - 1} more file(s): {short}",
+                      file=sys.stderr)

@@ -1,0 +1,41 @@
+"""``slamq report RESULTS --out DIR``: the evaluation report as a static site."""
+
+from __future__ import annotations
+
+import argparse
+
+from slamq.cli.common import EXIT_OK, need_extra
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Register ``slamq report``."""
+    p = subparsers.add_parser(
+        "report",
+        help="write an HTML evaluation report (tables, plots, map gallery) from results",
+        description="Write a self-contained HTML report (no server, no internet) from a "
+        "results file written by `slamq batch` (.jsonl, .parquet) or `slamq eval` (.json, .csv).",
+    )
+    p.add_argument("results", help="results file (.jsonl, .parquet, .json or .csv)")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder to write the site to")
+    p.add_argument("--title", default="slamq evaluation report", help="page title")
+    p.add_argument("--details", choices=("all", "gallery"), default="all",
+                   help="detail pages for every map, or only for the gallery's best/worst "
+                   "runs (faster on huge batches; default %(default)s)")
+    p.add_argument("--no-gifs", action="store_true",
+                   help="skip map-building animations from snapshots")
+    p.add_argument("--no-trajectories", action="store_true",
+                   help="skip drawing trajectories over maps")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Build the report; print where it is."""
+    need_extra("report", "slamq report")
+    from slamq.report import build_report
+
+    index = build_report(
+        args.results, args.out, title=args.title, details=args.details,
+        gifs=not args.no_gifs, trajectories=not args.no_trajectories,
+    )
+    print(f"report written: {index}")
+    return EXIT_OK

@@ -1,0 +1,183 @@
+"""``slamq ate`` and ``slamq rpe``: trajectory error of one or more estimates.
+
+Each estimate is compared with the one ground truth; with several estimates (repeated
+runs) ``slamq ate`` also prints the mean and the sample standard deviation of the per-run
+RMSE (as ``slamq summary`` does; the JSON has both ``rmse_std`` (population, as
+:class:`slamq.metrics.ate.RunsResult.std`) and ``rmse_std_sample``).
+Exit codes: 0 success, 2 bad input (one stderr line names the file and the reason).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+from slamq.cli.common import EXIT_BAD_INPUT, EXIT_OK, error_line
+
+__all__ = ["add_parser"]
+
+_STATS = ("rmse", "mean", "median", "std", "min", "max")
+
+
+def _common_options(p: argparse.ArgumentParser, default_align: str) -> None:
+    from slamq.metrics.align import ALIGNMENTS
+    from slamq.sources.trajectories import FORMATS
+
+    p.add_argument("gt", metavar="GT", help="ground-truth trajectory (file or bag)")
+    p.add_argument("est", metavar="EST", nargs="+", help="estimated trajectories (runs)")
+    p.add_argument("--align", "-a", choices=ALIGNMENTS, default=default_align,
+                   help="alignment of each estimate onto GT (default %(default)s; se2 = "
+                   "rotation about z + planar translation; se3/sim3/origin as evo -a/-as/"
+                   "--align_origin)")
+    p.add_argument("--max-dt", type=float, default=0.01, metavar="S",
+                   help="largest time difference of associated poses, s (default %(default)s)")
+    p.add_argument("--offset", type=float, default=0.0, metavar="S",
+                   help="seconds added to the estimate timestamps (default %(default)s)")
+    p.add_argument("--format", choices=FORMATS, default=None,
+                   help="file format of GT and EST (default: guessed)")
+    p.add_argument("--columns", metavar="MAP", default=None,
+                   help="table columns, 'role=name,...' or positional 't,x,y,yaw' "
+                   "(roles t x y z yaw qw qx qy qz), for GT and EST")
+    p.add_argument("--gt-columns", metavar="MAP", default=None,
+                   help="table columns of GT when they differ from --columns "
+                   "(e.g. t=timestamp_sec,x=gt_x,y=gt_y)")
+    p.add_argument("--topic", default=None, help="bag topic of the estimates")
+    p.add_argument("--gt-topic", default=None, help="bag topic of the ground truth")
+    p.add_argument("--unsorted", choices=("error", "last", "sort"), default="error",
+                   help="timestamps going backwards: fail (default), keep the last run of "
+                   "a restarted log, or sort")
+    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
+    p.add_argument("--per-pose", action="store_true",
+                   help="include the per-pose errors in the JSON")
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Register ``slamq ate`` and ``slamq rpe``."""
+    p = subparsers.add_parser(
+        "ate",
+        help="absolute trajectory error (RMSE ...) of estimates against ground truth",
+        description="Absolute trajectory error (docs/spec.md section 6): associate poses by "
+        "timestamp, align, and report RMSE, mean, median, std, min, max and n per "
+        "estimate; for several estimates also the RMSE mean and std over the runs. "
+        "Equal to evo_ape for se3 (-a), sim3 (-as), origin and none.",
+    )
+    _common_options(p, "se2")
+    p.set_defaults(func=_cmd_ate)
+
+    p = subparsers.add_parser(
+        "rpe",
+        help="relative pose error of estimates against ground truth",
+        description="Relative pose error as evo_rpe: pose pairs DELTA frames or metres "
+        "apart, translation (m) or rotation angle error of the relative motion.",
+    )
+    _common_options(p, "none")
+    p.add_argument("--delta", type=float, default=1,
+                   help="pair distance in --unit (default %(default)s)")
+    p.add_argument("--unit", choices=("frames", "m"), default="frames",
+                   help="unit of --delta (default %(default)s)")
+    p.add_argument("--relation", choices=("trans", "angle_deg", "angle_rad"),
+                   default="trans", help="error of the relative pose (default %(default)s)")
+    p.add_argument("--pairs-from", choices=("est", "gt"), default="est",
+                   help="whose path length picks the pairs for --unit m (default est)")
+    p.set_defaults(func=_cmd_rpe)
+
+
+def _load(path: str, args: argparse.Namespace, gt: bool):
+    from slamq.sources.trajectories import load_trajectory
+
+    columns = args.gt_columns if (gt and args.gt_columns) else args.columns
+    topic = args.gt_topic if gt else args.topic
+    return load_trajectory(path, format=args.format, columns=columns, topic=topic,
+                           unsorted=args.unsorted)
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.6f}" if math.isfinite(x) else str(x)
+
+
+def _print_table(results: list, unit: str) -> None:
+    rows = [[r.est_source, str(r.n), *(_fmt(getattr(r, k)) for k in _STATS)]
+            for r in results]
+    head = ["estimate", "n", *(f"{k} ({unit})" for k in _STATS)]
+    widths = [max(len(h), *(len(row[i]) for row in rows)) for i, h in enumerate(head)]
+    line = "  ".join(h.ljust(w) if i == 0 else h.rjust(w)
+                     for i, (h, w) in enumerate(zip(head, widths)))
+    print(line)
+    for row in rows:
+        print("  ".join(c.ljust(w) if i == 0 else c.rjust(w)
+                        for i, (c, w) in enumerate(zip(row, widths))))
+
+
+def _run(args: argparse.Namespace, metric: str) -> int:
+    from slamq.errors import SlamqError
+    from slamq.metrics.ate import ate, rpe
+
+    try:
+        gt = _load(args.gt, args, gt=True)
+    except (SlamqError, OSError) as exc:
+        error_line(args.gt, exc)
+        return EXIT_BAD_INPUT
+    results, failed = [], []
+    for path in args.est:
+        try:
+            est = _load(path, args, gt=False)
+            if metric == "ate":
+                r = ate(gt, est, align=args.align, max_dt=args.max_dt, offset=args.offset)
+            else:
+                r = rpe(gt, est, align=args.align, max_dt=args.max_dt, offset=args.offset,
+                        delta=args.delta, unit=args.unit, relation=args.relation,
+                        pairs_from=args.pairs_from)
+        except (SlamqError, OSError) as exc:
+            error_line(path, exc)
+            failed.append({"file": path, "error": str(exc)})
+            continue
+        results.append(r)
+    unit = {"trans": "m", "angle_deg": "deg", "angle_rad": "rad"}[
+        getattr(args, "relation", "trans")]
+    summary = None
+    if results:
+        title = f"{metric.upper()} vs {gt.source} (align {args.align}"
+        if metric == "rpe":
+            d = args.delta
+            title += f", delta {int(d) if args.unit == 'frames' else d} {args.unit}"
+        print(title + ")")
+        _print_table(results, unit)
+        if len(results) > 1:
+            import numpy as np
+
+            rmse = np.array([r.rmse for r in results])
+            summary = {
+                "runs": len(results),
+                "rmse_mean": float(rmse.mean()),
+                "rmse_std": float(rmse.std()),
+                "rmse_std_sample": float(rmse.std(ddof=1)),
+            }
+            print(  # sample std, as slamq summary prints by default
+                f"RMSE over {len(results)} runs: {summary['rmse_mean']:.6f} \u00b1 "
+                f"{summary['rmse_std_sample']:.6f} {unit} (sample std; population std "
+                f"{summary['rmse_std']:.6f})"
+            )
+    if args.json:
+        doc = {
+            "metric": metric,
+            "groundtruth": gt.source,
+            "results": [r.to_dict(errors=args.per_pose) for r in results],
+            "summary": summary,
+            "failed": failed,
+        }
+        try:
+            Path(args.json).write_text(json.dumps(doc, indent=2) + "\n")
+        except OSError as exc:
+            error_line(args.json, exc)
+            return EXIT_BAD_INPUT
+    return EXIT_BAD_INPUT if failed else EXIT_OK
+
+
+def _cmd_ate(args: argparse.Namespace) -> int:
+    return _run(args, "ate")
+
+
+def _cmd_rpe(args: argparse.Namespace) -> int:
+    return _run(args, "rpe")

@@ -1,0 +1,31 @@
+"""The metrics: map quality (the Rust core, and its OpenCV reference) and trajectory error.
+
+- :func:`evaluate` (:mod:`slamq.metrics.evaluate`): the three map metrics of
+  docs/spec.md sections 2-4, computed by the Rust core.
+- :mod:`slamq.metrics.reference`: the same numbers, literally, with OpenCV (the definition).
+- :func:`ate`, :func:`rpe`, :func:`ate_runs` (:mod:`slamq.metrics.ate`): trajectory error
+  (docs/spec.md section 6) on :class:`~slamq.models.Trajectory` objects, with association
+  (:mod:`~slamq.metrics.sync`) and alignment (:mod:`~slamq.metrics.align`).
+"""
+
+from __future__ import annotations
+
+from slamq.metrics.align import ALIGNMENTS, Alignment, estimate_alignment, umeyama
+from slamq.metrics.ate import ErrorResult, RunsResult, ate, ate_runs, rpe
+from slamq.metrics.evaluate import evaluate
+from slamq.metrics.sync import associate, matching_indices
+
+__all__ = [
+    "ALIGNMENTS",
+    "Alignment",
+    "ErrorResult",
+    "RunsResult",
+    "associate",
+    "ate",
+    "ate_runs",
+    "estimate_alignment",
+    "evaluate",
+    "matching_indices",
+    "rpe",
+    "umeyama",
+]

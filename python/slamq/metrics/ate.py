@@ -1,0 +1,468 @@
+"""Absolute and relative trajectory error (docs/spec.md section 6), and statistics over runs.
+
+The numbers equal evo's (``evo_ape`` / ``evo_rpe``, translation part, metres) for the
+alignments evo has: association by :func:`slamq.metrics.sync.associate`, alignment by
+:func:`slamq.metrics.align.estimate_alignment`, statistics as evo's ``get_statistic``
+(``std`` is the population standard deviation of the per-pose errors).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Union
+
+import numpy as np
+
+from slamq.errors import TrajectoryError
+from slamq.metrics.align import ALIGNMENTS, Alignment, estimate_alignment
+from slamq.metrics.sync import associate
+from slamq.models.trajectory import Trajectory, quat_multiply, quat_rotate
+
+__all__ = ["ErrorResult", "RunsResult", "ate", "rpe", "ate_runs", "STAT_NAMES"]
+
+#: The statistics of an :class:`ErrorResult`, in output order.
+STAT_NAMES = ("rmse", "mean", "median", "std", "min", "max", "sse")
+TrajLike = Union[Trajectory, str, Path]
+
+
+@dataclass(frozen=True, eq=False)
+class ErrorResult:
+    """Per-pose errors of one estimate against the ground truth, and their statistics.
+
+    Attributes
+    ----------
+    rmse, mean, median, std, min, max, sse : float
+        Statistics of ``errors`` (metres, or degrees/radians for rotation RPE); ``std``
+        is the population standard deviation (ddof=0), ``sse`` the sum of squares.
+    n : int
+        Number of errors (associated poses for ATE, pose pairs for RPE).
+    errors : ndarray (n,)
+        The per-pose (ATE) or per-pair (RPE) errors.
+    timestamps : ndarray (n,)
+        Estimate timestamps of the compared poses (RPE: the second pose of each pair).
+    metric : str
+        ``"ate"`` or ``"rpe"``.
+    align : str
+        The alignment used.
+    alignment : Alignment
+        The fitted transformation (``alignment.matrix()`` is evo's Sim(3) matrix).
+    gt_source, est_source : str
+        The files (or ``"<array>"``).
+    params : dict
+        ``max_dt``, ``offset`` and, for RPE, ``delta``, ``unit``, ``relation``.
+    """
+
+    rmse: float
+    mean: float
+    median: float
+    std: float
+    min: float
+    max: float
+    sse: float
+    n: int
+    errors: np.ndarray
+    timestamps: np.ndarray
+    metric: str
+    align: str
+    alignment: Alignment
+    gt_source: str = "<array>"
+    est_source: str = "<array>"
+    params: dict = field(default_factory=dict)
+
+    @property
+    def scale(self) -> float:
+        """The fitted scale (1 unless ``align="sim3"``)."""
+        return float(self.alignment.scale)
+
+    def stats(self) -> dict:
+        """The statistics as a dict (``rmse`` ... ``sse``, ``n``)."""
+        out = {k: float(getattr(self, k)) for k in STAT_NAMES}
+        out["n"] = int(self.n)
+        return out
+
+    def to_dict(self, errors: bool = False) -> dict:
+        """A JSON-ready dict; per-pose errors included when ``errors`` is true.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from slamq.models import Trajectory
+        >>> from slamq.metrics.ate import ate
+        >>> gt = Trajectory.from_xy_yaw([0, 1, 2], [0, 1, 2], [0, 0, 1])
+        >>> ate(gt, gt, align="none").to_dict()["rmse"]
+        0.0
+        """
+        d = {
+            "metric": self.metric,
+            "groundtruth": self.gt_source,
+            "estimate": self.est_source,
+            "align": self.align,
+            **self.stats(),
+            "scale": self.scale,
+            "alignment": self.alignment.matrix().tolist(),
+            **self.params,
+        }
+        if errors:
+            d["errors"] = self.errors.tolist()
+            d["timestamps"] = self.timestamps.tolist()
+        return d
+
+    def __str__(self) -> str:
+        unit = "m" if self.params.get("relation", "trans") == "trans" else (
+            "deg" if self.params.get("relation") == "angle_deg" else "rad")
+        return (
+            f"{self.metric.upper()} {self.est_source}: rmse {self.rmse:.6g} {unit} "
+            f"(mean {self.mean:.6g}, median {self.median:.6g}, std {self.std:.6g}, "
+            f"min {self.min:.6g}, max {self.max:.6g}, n {self.n}, align {self.align})"
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class RunsResult:
+    """ATE over repeated runs of one (algorithm, sequence): the paper's "mean +- std".
+
+    Both standard deviations are kept; the printed "mean +- std" (``str()``, ``slamq ate``
+    with several estimates) uses the sample one, as ``slamq summary`` and the report do by
+    default.
+
+    Attributes
+    ----------
+    rmse : ndarray (runs,)
+        Per-run ATE RMSE.
+    mean : float
+        Mean of ``rmse``.
+    std : float
+        Population standard deviation of ``rmse`` (``ddof=0``, numpy's default).
+    std_sample : float
+        Sample standard deviation (``ddof=1``, Bessel-corrected); NaN for one run.
+    results : list of ErrorResult
+        The per-run results.
+    """
+
+    rmse: np.ndarray
+    mean: float
+    std: float
+    std_sample: float
+    results: list
+
+    @property
+    def n_runs(self) -> int:
+        """Number of runs."""
+        return int(self.rmse.shape[0])
+
+    def to_dict(self) -> dict:
+        """A JSON-ready dict: per-run RMSE and the summary."""
+        return {
+            "runs": self.n_runs,
+            "rmse": self.rmse.tolist(),
+            "rmse_mean": self.mean,
+            "rmse_std": self.std,
+            "rmse_std_sample": None if math.isnan(self.std_sample) else self.std_sample,
+            "estimates": [r.est_source for r in self.results],
+        }
+
+    def __str__(self) -> str:
+        if self.n_runs == 1:
+            return f"{self.mean:.3f} m (1 run)"
+        return f"{self.mean:.3f} \u00b1 {self.std_sample:.3f} m ({self.n_runs} runs, sample std)"
+
+
+def _as_traj(x: TrajLike, what: str) -> Trajectory:
+    if isinstance(x, Trajectory):
+        return x
+    if isinstance(x, (str, Path)):
+        # Deprecated: the metrics work on Trajectory objects; reading files is the sources'
+        # job (slamq.load_trajectory). Kept, with a warning, so old callers still work.
+        import warnings
+
+        from slamq.sources.trajectories import load_trajectory
+
+        warnings.warn(
+            f"passing a file path as {what} is deprecated; read it with "
+            "slamq.load_trajectory(path) first", DeprecationWarning, stacklevel=3)
+        return load_trajectory(x)
+    raise TrajectoryError(f"{what} must be a Trajectory or a file path, not {type(x).__name__}")
+
+
+def _stats(errors: np.ndarray) -> dict:
+    """evo's ``PE.get_statistic`` for every statistic."""
+    sq = np.power(errors, 2)
+    return {
+        "rmse": math.sqrt(np.mean(sq)),
+        "mean": float(np.mean(errors)),
+        "median": float(np.median(errors)),
+        "std": float(np.std(errors)),
+        "min": float(np.min(errors)),
+        "max": float(np.max(errors)),
+        "sse": float(np.sum(sq)),
+    }
+
+
+def _check_align(align: str) -> None:
+    if align not in ALIGNMENTS:
+        raise TrajectoryError(f"unknown alignment {align!r} (one of {', '.join(ALIGNMENTS)})")
+
+
+def _associated(gt: Trajectory, est: Trajectory, max_dt: float, offset: float):
+    gi, ei = associate(gt, est, max_dt=max_dt, offset=offset)
+    return gi, ei
+
+
+def ate(
+    gt: TrajLike,
+    est: TrajLike,
+    *,
+    align: str = "se2",
+    max_dt: float = 0.01,
+    offset: float = 0.0,
+) -> ErrorResult:
+    """Absolute trajectory error: position differences after association and alignment.
+
+    Parameters
+    ----------
+    gt, est : Trajectory or path
+        Ground truth and estimate (file paths still work, deprecated: read them with
+        :func:`slamq.load_trajectory`).
+    align : {"se2", "se3", "sim3", "origin", "none"}
+        ``se2`` (default): rotation about z + x-y translation, for 2-D SLAM; ``se3`` and
+        ``sim3``: evo's ``-a`` and ``-as``; ``origin``: first associated poses made
+        equal (evo's ``--align_origin``); ``none``: as is.
+    max_dt : float
+        Largest time difference of associated poses, seconds (evo's ``--t_max_diff``).
+    offset : float
+        Seconds added to the estimate's timestamps (evo's ``--t_offset``).
+
+    Returns
+    -------
+    ErrorResult
+        ``rmse, mean, median, std, min, max, sse, n`` and the per-pose ``errors``
+        (3-D distance between aligned estimate and ground truth, metres). Equal to
+        ``evo_ape tum GT EST [-a|-as|--align_origin]`` to 1e-9.
+
+    Raises
+    ------
+    TrajectoryError
+        No associated poses, unknown alignment, degenerate alignment (se2: fewer than 2
+        distinct positions, se3/sim3: fewer than 3 or collinear).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq.models import Trajectory
+    >>> from slamq.metrics.ate import ate
+    >>> t = np.arange(50) * 0.1
+    >>> gt = Trajectory.from_xy_yaw(t, np.cos(t), np.sin(2 * t))
+    >>> c, s = np.cos(0.3), np.sin(0.3)          # the estimate: gt rotated and shifted
+    >>> est = Trajectory.from_xy_yaw(t, c * np.cos(t) - s * np.sin(2 * t) + 4,
+    ...                              s * np.cos(t) + c * np.sin(2 * t) - 1)
+    >>> round(ate(gt, est).rmse, 9), ate(gt, est, align="none").rmse > 1
+    (0.0, True)
+    """
+    _check_align(align)
+    gt = _as_traj(gt, "gt")
+    est = _as_traj(est, "est")
+    gi, ei = _associated(gt, est, max_dt, offset)
+    gp = gt.positions[gi]
+    ep = est.positions[ei]
+    if align == "origin":
+        a = estimate_alignment(align, gp[:1], ep[:1], gt.orientations[gi[:1]],
+                               est.orientations[ei[:1]], source=est.source)
+    else:
+        a = estimate_alignment(align, gp, ep, gp, ep, source=est.source)
+    ep = a.apply_positions(ep)
+    diff = ep - gp
+    errors = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+    return ErrorResult(
+        **_stats(errors),
+        n=int(errors.shape[0]),
+        errors=errors,
+        timestamps=est.timestamps[ei],
+        metric="ate",
+        align=align,
+        alignment=a,
+        gt_source=gt.source,
+        est_source=est.source,
+        params={"max_dt": float(max_dt), "offset": float(offset)},
+    )
+
+
+def _pairs_by_frames(n: int, delta: int) -> tuple[np.ndarray, np.ndarray]:
+    ids = np.arange(0, n, delta)
+    return ids[:-1], ids[1:]
+
+
+def _pairs_by_path(p: np.ndarray, delta: float) -> tuple[np.ndarray, np.ndarray]:
+    """evo's consecutive ``filter_pairs_by_path``: a new id whenever the path travelled
+    since the last id (summed step by step from 0) reaches ``delta``."""
+    ids = [0]
+    travelled = 0.0
+    # one sequential float sum, as evo's loop (a plain loop: ~0.3 s per million poses)
+    for k, step in enumerate(np.linalg.norm(np.diff(p, axis=0), axis=1).tolist(), 1):
+        travelled += step
+        if travelled >= delta:
+            ids.append(k)
+            travelled = 0.0
+    arr = np.asarray(ids)
+    return arr[:-1], arr[1:]
+
+
+def rpe(
+    gt: TrajLike,
+    est: TrajLike,
+    *,
+    delta: float = 1,
+    unit: str = "frames",
+    relation: str = "trans",
+    align: str = "none",
+    max_dt: float = 0.01,
+    offset: float = 0.0,
+    pairs_from: str = "est",
+) -> ErrorResult:
+    """Relative pose error between pose pairs ``delta`` apart (evo's ``evo_rpe``).
+
+    Parameters
+    ----------
+    gt, est : Trajectory or path
+    delta : float
+        Distance between the poses of a pair: frames (an integer >= 1) or metres of
+        travelled path.
+    unit : {"frames", "m"}
+        ``frames``: pairs ``(0, d), (d, 2d), ...`` of associated poses; ``m``: a new
+        pair ends when the path travelled since the previous end reaches ``delta``
+        (evo's consecutive pairs).
+    relation : {"trans", "angle_deg", "angle_rad"}
+        Norm of the translation of the relative error pose (metres, evo's default), or
+        its rotation angle.
+    align : {"none", "se2", "se3", "sim3", "origin"}
+        Applied before the RPE (rigid alignments do not change it; ``sim3`` scales).
+    max_dt, offset : float
+        Association, as in :func:`ate`.
+    pairs_from : {"est", "gt"}
+        Whose path length chooses the pairs for ``unit="m"`` (evo: the estimate, or the
+        reference with ``--pairs_from_reference``).
+
+    Returns
+    -------
+    ErrorResult
+        One error per pair; equal to ``evo_rpe`` to 1e-9.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq.models import Trajectory
+    >>> from slamq.metrics.ate import rpe
+    >>> t = np.arange(10.0)
+    >>> gt = Trajectory.from_xy_yaw(t, t, 0 * t)
+    >>> est = Trajectory.from_xy_yaw(t, 1.1 * t, 0 * t)   # 10 % too long steps
+    >>> r = rpe(gt, est, delta=2)
+    >>> r.n, round(r.rmse, 12)
+    (4, 0.2)
+    """
+    _check_align(align)
+    if unit not in ("frames", "m"):
+        raise TrajectoryError(f"unit must be 'frames' or 'm', not {unit!r}")
+    if relation not in ("trans", "angle_deg", "angle_rad"):
+        raise TrajectoryError(
+            f"relation must be 'trans', 'angle_deg' or 'angle_rad', not {relation!r}"
+        )
+    if pairs_from not in ("est", "gt"):
+        raise TrajectoryError(f"pairs_from must be 'est' or 'gt', not {pairs_from!r}")
+    if unit == "frames":
+        if not math.isfinite(delta) or float(delta) != int(delta) or int(delta) < 1:
+            raise TrajectoryError(f"delta must be an integer >= 1 for unit 'frames', not {delta}")
+        delta = int(delta)
+    elif not (math.isfinite(delta) and delta > 0):
+        raise TrajectoryError(f"delta must be a number > 0 for unit 'm', not {delta}")
+    gt = _as_traj(gt, "gt")
+    est = _as_traj(est, "est")
+    gi, ei = _associated(gt, est, max_dt, offset)
+    gp, gq = gt.positions[gi], gt.orientations[gi]
+    ep, eq = est.positions[ei], est.orientations[ei]
+    if align == "origin":
+        a = estimate_alignment(align, gp[:1], ep[:1], gq[:1], eq[:1], source=est.source)
+    else:
+        a = estimate_alignment(align, gp, ep, gq, eq, source=est.source)
+    ep = a.apply_positions(ep)
+    eq = a.apply_orientations(eq)
+    if unit == "frames":
+        i, j = _pairs_by_frames(gp.shape[0], delta)
+    else:
+        i, j = _pairs_by_path(ep if pairs_from == "est" else gp, float(delta))
+    if i.shape[0] == 0:
+        raise TrajectoryError(
+            f"{est.source}: delta = {delta} ({unit}) leaves no pose pair among the "
+            f"{gp.shape[0]} associated poses; try a smaller delta"
+        )
+    conj = np.array([1.0, -1.0, -1.0, -1.0])
+    if relation == "trans":
+        # |t(E)| with E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j) is |R_Pi^T dP - R_Qi^T dQ|
+        tq = quat_rotate(gq[i] * conj, gp[j] - gp[i])
+        tp = quat_rotate(eq[i] * conj, ep[j] - ep[i])
+        d = tp - tq
+        errors = np.sqrt(np.einsum("ij,ij->i", d, d))
+    else:
+        rq = quat_multiply(gq[i] * conj, gq[j])
+        rp = quat_multiply(eq[i] * conj, eq[j])
+        e = quat_multiply(rq * conj, rp)
+        errors = 2.0 * np.arctan2(np.linalg.norm(e[:, 1:], axis=1), np.abs(e[:, 0]))
+        if relation == "angle_deg":
+            errors = np.rad2deg(errors)
+    return ErrorResult(
+        **_stats(errors),
+        n=int(errors.shape[0]),
+        errors=errors,
+        timestamps=est.timestamps[ei][j],
+        metric="rpe",
+        align=align,
+        alignment=a,
+        gt_source=gt.source,
+        est_source=est.source,
+        params={"max_dt": float(max_dt), "offset": float(offset), "delta": delta,
+                "unit": unit, "relation": relation},
+    )
+
+
+def ate_runs(
+    gt: TrajLike,
+    ests: Sequence[TrajLike],
+    *,
+    align: str = "se2",
+    max_dt: float = 0.01,
+    offset: float = 0.0,
+) -> RunsResult:
+    """ATE of repeated runs against one ground truth: per-run RMSE, mean and std.
+
+    ``std`` is the population standard deviation of the per-run RMSE (``ddof=0``),
+    ``std_sample`` the sample standard deviation (``ddof=1``, NaN for a single run; the
+    one ``str(result)``, ``slamq ate`` and ``slamq summary`` print). The paper's Table I
+    reports "mean +- std" of the per-run RMSE without saying which.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq.models import Trajectory
+    >>> from slamq.metrics.ate import ate_runs
+    >>> t = np.arange(20.0)
+    >>> gt = Trajectory.from_xy_yaw(t, t, np.sin(t))
+    >>> ests = [Trajectory.from_xy_yaw(t, t, np.sin(t) + e) for e in (0.1, 0.3)]
+    >>> r = ate_runs(gt, ests, align="none")
+    >>> np.round(r.rmse, 12).tolist(), round(r.mean, 12), round(r.std, 12)
+    ([0.1, 0.3], 0.2, 0.1)
+    """
+    if len(ests) == 0:
+        raise TrajectoryError("ate_runs needs at least one estimate")
+    gt = _as_traj(gt, "gt")
+    results = [ate(gt, e, align=align, max_dt=max_dt, offset=offset) for e in ests]
+    rmse = np.array([r.rmse for r in results])
+    std_sample = float(np.std(rmse, ddof=1)) if rmse.shape[0] > 1 else float("nan")
+    return RunsResult(
+        rmse=rmse,
+        mean=float(np.mean(rmse)),
+        std=float(np.std(rmse)),
+        std_sample=std_sample,
+        results=results,
+    )
+

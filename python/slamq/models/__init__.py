@@ -1,0 +1,14 @@
+"""Plain data, no I/O: what the readers produce and the metrics consume.
+
+- :class:`OccupancyMap`: an occupancy grid held image-style (SPEC section 1).
+- :class:`Trajectory`: timestamped poses (SPEC section 6).
+- :class:`MapQuality`: the three map metrics of one map (SPEC sections 2-4).
+"""
+
+from __future__ import annotations
+
+from slamq.models.occupancy import OccupancyMap
+from slamq.models.quality import MapQuality
+from slamq.models.trajectory import Trajectory
+
+__all__ = ["MapQuality", "OccupancyMap", "Trajectory"]

@@ -1,0 +1,79 @@
+"""``OccupancyMap``: an occupancy grid held image-style (row 0 at the top, north up), as
+SPEC section 1 defines it. Plain data: the readers that build it live in :mod:`slamq.sources`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from slamq.errors import MapError
+
+__all__ = ["OccupancyMap"]
+
+
+@dataclass(frozen=True, eq=False)
+class OccupancyMap:
+    """An occupancy grid held image-style (row 0 = top = north).
+
+    Attributes
+    ----------
+    values : numpy.ndarray
+        ``(H, W)`` uint8, C-contiguous. 0 = surely occupied, 255 = surely free. The value
+        of an unknown cell is whatever the file held; the metrics ignore it.
+    unknown : numpy.ndarray
+        ``(H, W)`` bool, C-contiguous; True where the cell is unknown.
+    resolution : float or None
+        Metres per cell (None for a bare image without metadata).
+    origin : tuple of float
+        ``(x, y, yaw)`` of the lower-left cell, ROS convention.
+    source : str
+        Where the map came from: a file path, or ``"<array>"``.
+    meta : dict
+        Loader details (mode, thresholds, negate, image path, warnings).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import OccupancyMap
+    >>> m = OccupancyMap(np.full((2, 3), 254, np.uint8), np.zeros((2, 3), bool))
+    >>> m.shape, m.known_count
+    ((2, 3), 6)
+    """
+
+    values: np.ndarray
+    unknown: np.ndarray
+    resolution: float | None = None
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    source: str = "<array>"
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        values = np.asarray(self.values)
+        unknown = np.asarray(self.unknown)
+        if values.ndim != 2 or values.dtype != np.uint8:
+            raise MapError(
+                f"{self.source}: values must be a 2-D uint8 array, "
+                f"got {values.ndim}-D {values.dtype}"
+            )
+        if unknown.shape != values.shape:
+            raise MapError(
+                f"{self.source}: unknown mask shape {unknown.shape} != values shape {values.shape}"
+            )
+        if values.size == 0:
+            raise MapError(f"{self.source}: the map has zero cells")
+        if self.resolution is not None and not (float(self.resolution) > 0.0):
+            raise MapError(f"{self.source}: resolution must be > 0, got {self.resolution}")
+        object.__setattr__(self, "values", np.ascontiguousarray(values))
+        object.__setattr__(self, "unknown", np.ascontiguousarray(unknown, dtype=bool))
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(H, W)`` in cells."""
+        return (int(self.values.shape[0]), int(self.values.shape[1]))
+
+    @property
+    def known_count(self) -> int:
+        """Number of known cells."""
+        return int(self.unknown.size - np.count_nonzero(self.unknown))

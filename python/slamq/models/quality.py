@@ -1,0 +1,166 @@
+"""``MapQuality``: the three map metrics of one map (SPEC sections 2-4), built from the
+integers both implementations (the Rust core and :mod:`slamq.metrics.reference`) produce."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from slamq.params import Params
+
+__all__ = ["MapQuality"]
+
+
+@dataclass(frozen=True)
+class MapQuality:
+    """The three metrics of one map (docs/spec.md sections 2-4) and the parameters used.
+
+    Attributes
+    ----------
+    source : str
+        The map's path, or ``"<array>"``.
+    height, width : int
+        Map size in cells.
+    total, known, unknown, occupied, free : int
+        Cell counts. ``free = known - occupied``; ``total = known + unknown``.
+    occupied_fraction : float
+        ``occupied / known`` (NaN when no cell is known): the canvas-independent figure.
+    proportion : float
+        ``occupied / (free + unknown)``: the paper's Fig. 5 ratio (canvas dependent).
+    threshold : float
+        Mean occupancy probability of the known cells, ``sum(255 - v) / (255 * known)``.
+    corners : int
+        Corner count (LoG structure mask + Harris), SPEC section 3.
+    enclosed_areas : int
+        Largest number of enclosed free regions over the unknown-value sweep, SPEC section 4.
+    enclosed_unknown_value : int
+        The smallest unknown value ``u`` reaching ``enclosed_areas``.
+    curve : tuple of int or None
+        ``count_u`` for every ``u`` in ``params.sweep_values`` (when asked for).
+    params : Params
+        The parameters used.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import slamq
+    >>> room = np.full((7, 7), 205, np.uint8)
+    >>> room[1:6, 1:6] = 0
+    >>> room[2:5, 2:5] = 254
+    >>> q = slamq.evaluate(slamq.OccupancyMap(room, room == 205))
+    >>> q.enclosed_areas, q.occupied, q.free
+    (1, 16, 9)
+    """
+
+    source: str
+    height: int
+    width: int
+    total: int
+    known: int
+    unknown: int
+    occupied: int
+    free: int
+    occupied_fraction: float
+    proportion: float
+    threshold: float
+    corners: int
+    enclosed_areas: int
+    enclosed_unknown_value: int
+    curve: tuple[int, ...] | None = None
+    params: Params = field(default_factory=Params)
+
+    @classmethod
+    def from_counts(
+        cls,
+        *,
+        source: str,
+        shape: tuple[int, int],
+        known: int,
+        occupied: int,
+        sum_darkness: int,
+        corners: int,
+        curve: Sequence[int],
+        params: Params,
+        keep_curve: bool,
+    ) -> MapQuality:
+        """Build the result from the integers both implementations produce.
+
+        ``curve`` holds ``count_u`` for every ``u`` in ``params.sweep_values``.
+        """
+        height, width = int(shape[0]), int(shape[1])
+        total = height * width
+        known = int(known)
+        occupied = int(occupied)
+        unknown = total - known
+        free = known - occupied
+        nan = math.nan
+        occupied_fraction = occupied / known if known else nan
+        denominator = free + unknown
+        proportion = (occupied / denominator if denominator else nan) if known else nan
+        threshold = int(sum_darkness) / (255 * known) if known else nan
+        counts = tuple(int(c) for c in curve)
+        best = max(counts) if counts else 0
+        best_u = params.sweep_values[counts.index(best)] if counts else 0
+        return cls(
+            source=source,
+            height=height,
+            width=width,
+            total=total,
+            known=known,
+            unknown=unknown,
+            occupied=occupied,
+            free=free,
+            occupied_fraction=occupied_fraction,
+            proportion=proportion,
+            threshold=threshold,
+            corners=int(corners),
+            enclosed_areas=best,
+            enclosed_unknown_value=int(best_u),
+            curve=counts if keep_curve else None,
+            params=params,
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """A flat, JSON-ready dict: every field, the curve as a list, params inlined.
+
+        Examples
+        --------
+        >>> import numpy as np, slamq
+        >>> d = slamq.evaluate(np.full((3, 3), 254, np.uint8)).to_dict()
+        >>> d["corners"], d["param_sweep_step"]
+        (0, 1)
+        """
+        out = asdict(self)
+        params = out.pop("params")
+        if out["curve"] is not None:
+            out["curve"] = list(out["curve"])
+        out.update({f"param_{k}": v for k, v in params.items()})
+        return out
+
+    def differences(self, other: MapQuality, rel: float = 1e-12) -> list[str]:
+        """Fields on which two results disagree (integers exactly, ratios to ``rel``).
+
+        Examples
+        --------
+        >>> import numpy as np, slamq
+        >>> q = slamq.evaluate(np.zeros((4, 4), np.uint8))
+        >>> q.differences(q)
+        []
+        """
+        diffs = []
+        for name in (
+            "height", "width", "total", "known", "unknown", "occupied", "free",
+            "corners", "enclosed_areas", "enclosed_unknown_value", "curve",
+        ):
+            a, b = getattr(self, name), getattr(other, name)
+            if a != b and not (name == "curve" and (a is None or b is None)):
+                diffs.append(f"{name}: {a!r} != {b!r}")
+        for name in ("occupied_fraction", "proportion", "threshold"):
+            a, b = getattr(self, name), getattr(other, name)
+            if math.isnan(a) and math.isnan(b):
+                continue
+            if not math.isclose(a, b, rel_tol=rel, abs_tol=0.0):
+                diffs.append(f"{name}: {a!r} != {b!r}")
+        return diffs

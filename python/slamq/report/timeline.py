@@ -1,0 +1,198 @@
+"""``slamq timeline``: the map metrics over time, from the maps a SLAM run published in a bag.
+
+The paper's service kept "PGM representations of a map at every stage as it is built";
+a bag holds the same stages on ``/map``. :func:`timeline` evaluates every N-th of them
+(and the last one) and writes, into one folder:
+
+- ``metrics.jsonl`` and ``metrics.csv``: one row per map: ``index`` (message number,
+  counting ``/map_updates`` patches), ``timestamp`` (header stamp, s), ``elapsed`` (s since
+  the first selected map), then every :class:`slamq.MapQuality` field;
+- ``frames/frame_00000.png`` ...: each map rendered (:func:`slamq.report.animation.render_map`);
+- ``timeline.gif``: the frames aligned in world coordinates, with a progress bar;
+- ``metrics.png``: occupied fraction, corners and enclosed areas over time.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any, NamedTuple, Union
+
+import numpy as np
+
+__all__ = ["timeline"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: Output file names inside the timeline folder.
+JSONL, CSV, GIF, PLOT = "metrics.jsonl", "metrics.csv", "timeline.gif", "metrics.png"
+FRAMES = "frames"
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, (np.integer,)):
+        return int(v)
+    if isinstance(v, (np.floating,)):
+        return _jsonable(float(v))
+    return v
+
+
+def timeline(
+    bag: PathLike,
+    out_dir: PathLike,
+    *,
+    every: int = 1,
+    topic: str = "/map",
+    max_size: int | None = 512,
+    duration_ms: int = 200,
+    frames: bool = True,
+    gif: bool = True,
+    plot: bool = True,
+    **params: Any,
+) -> list[dict[str, Any]]:
+    """Evaluate every ``every``-th map of a bag (and the last one); write metrics and pictures.
+
+    Parameters
+    ----------
+    bag : path
+        ROS1 ``.bag``, ROS2 ``.db3``/``.mcap`` file or ROS2 bag folder (see
+        :func:`slamq.sources.bag_maps.read_bag_maps`; ``<topic>_updates`` patches are applied).
+    out_dir : path
+        Folder for ``metrics.jsonl``, ``metrics.csv``, ``frames/``, ``timeline.gif`` and
+        ``metrics.png`` (created).
+    every : int, default 1
+        Keep maps 0, N, 2N, ... and always the last one.
+    topic : str, default "/map"
+    max_size : int, optional, default 512
+        Longest side of PNG frames and of the GIF, in pixels (never enlarged; None: full
+        size).
+    duration_ms : int, default 200
+        GIF frame time.
+    frames, gif, plot : bool, default True
+        Write the PNG frames, the GIF, the metrics plot.
+    **params
+        Passed to :func:`slamq.evaluate` (metric parameters, ``threads``,
+        ``unknown_value``...).
+
+    Returns
+    -------
+    list of dict
+        The rows written to ``metrics.jsonl`` (``curve`` left out), in bag order.
+
+    Raises
+    ------
+    BagError
+        The bag cannot be read, lacks the topic, or holds no map.
+    ParamError
+        A bad metric parameter.
+
+    Examples
+    --------
+    >>> rows = timeline("run1.bag", "out/run1", every=10)  # doctest: +SKIP
+    >>> [(r["timestamp"], r["corners"]) for r in rows]  # doctest: +SKIP
+    """
+    from slamq.metrics.evaluate import evaluate
+    from slamq.params import Params, check_threads
+    from slamq.report.animation import render_frames, render_map, write_gif
+    from slamq.sources.bag_maps import read_bag_maps
+
+    # fail on a bad parameter before reading the bag
+    options = {k: params.pop(k) for k in ("threads", "unknown_value") if k in params}
+    metric_params = Params.from_kwargs(**params)
+    check_threads(options.get("threads"))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    if frames:
+        (out / FRAMES).mkdir(exist_ok=True)
+    rows: list[dict[str, Any]] = []
+    geometry: list[_Geometry] = []  # the maps without their cells, for the GIF
+    renders: list[np.ndarray] = []
+    t0 = None
+    for stamp, grid in read_bag_maps(bag, topic, every, include_last=True):
+        q = evaluate(grid, params=metric_params, **options)
+        t0 = stamp if t0 is None else t0
+        row: dict[str, Any] = {
+            "index": int(grid.meta["index"]),
+            "timestamp": float(stamp),
+            "elapsed": float(stamp - t0),
+        }
+        row.update({k: _jsonable(v) for k, v in q.to_dict().items() if k != "curve"})
+        rows.append(row)
+        if frames or gif:
+            small = render_map(grid, max_size=max_size)
+            if frames:
+                from PIL import Image
+
+                Image.fromarray(small).save(out / FRAMES / f"frame_{len(rows) - 1:05d}.png")
+            if gif:
+                renders.append(small)
+                geometry.append(_Geometry(grid.shape, grid.resolution, grid.origin))
+    _write_rows(out, rows)
+    if gif and renders:
+        pictures = render_frames(geometry, max_size=max_size, renders=renders)
+        write_gif([_progress(f, i, len(pictures)) for i, f in enumerate(pictures)],
+                  out / GIF, duration_ms=duration_ms)
+    if plot and rows:
+        _plot(rows, out / PLOT)
+    return rows
+
+
+class _Geometry(NamedTuple):
+    """What :func:`slamq.report.animation.render_frames` needs of a map when given its render."""
+
+    shape: tuple[int, int]
+    resolution: float | None
+    origin: tuple[float, float, float]
+
+
+def _progress(frame: np.ndarray, i: int, n: int) -> np.ndarray:
+    """A 3-pixel progress bar under the frame (consecutive GIF frames then never merge)."""
+    h, w = frame.shape[:2]
+    bar = np.full((3, w, 3), 255, np.uint8)
+    bar[:, : max(1, round(w * (i + 1) / n))] = (220, 40, 40)
+    return np.concatenate([frame, bar], axis=0)
+
+
+def _write_rows(out: Path, rows: list[dict[str, Any]]) -> None:
+    with open(out / JSONL, "w", encoding="utf-8") as f:
+        for row in rows:
+            f.write(json.dumps(row, allow_nan=False) + "\n")
+    names: list[str] = []
+    for row in rows:
+        names.extend(k for k in row if k not in names)
+    with open(out / CSV, "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=names)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
+
+
+def _plot(rows: list[dict[str, Any]], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure
+
+    t = [r["elapsed"] for r in rows]
+    series = (
+        ("occupied_fraction", "occupied fraction"),
+        ("corners", "corners"),
+        ("enclosed_areas", "enclosed areas"),
+    )
+    fig = Figure(figsize=(6.0, 5.0), dpi=100)
+    axes = fig.subplots(len(series), 1, sharex=True)
+    for ax, (key, label) in zip(axes, series):
+        ys = [np.nan if r[key] is None else r[key] for r in rows]
+        ax.plot(t, ys, marker="o", markersize=3, linewidth=1.2)
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("time since first map (s)")
+    fig.suptitle(f"{Path(str(rows[0]['source']).split(':')[0]).name}: map metrics over time",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path)

@@ -1,0 +1,530 @@
+"""Results files: JSON Lines and Parquet, appended chunk by chunk, safe against kill -9.
+
+* ``.jsonl`` (also ``.ndjson``): one JSON object per line, appended and ``fsync``-ed per
+  chunk. A process killed while writing leaves at most a partial last line, which the next
+  run cuts off before appending (and :func:`read_results` ignores).
+* ``.parquet`` (also ``.pq``): a half-written Parquet file has no footer and cannot be read
+  at all, so finished chunks go to a journal beside it, ``<out>.journal.jsonl``
+  (the JSON Lines rules above), and the Parquet file is rewritten when the batch ends:
+  written to ``<out>.tmp``, then renamed over ``<out>`` (atomic), then the journal is
+  deleted. Killed at any point, the next run (or :func:`read_results`) sees the old
+  Parquet file plus the journal.
+
+Records are identified by ``(algorithm, sequence, run, map)``; when a key appears more
+than once (a failed map retried, or a map re-evaluated with other parameters), the last
+record wins. Both files are rewritten without the superseded rows at the end of a batch.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+from collections.abc import Iterable, Iterator, Sequence
+from pathlib import Path
+from typing import Any, Union
+
+from slamq.errors import MapError, ParamError
+from slamq.models import MapQuality
+from slamq.results.columns import ATE_COLUMNS, KEY, QUALITY_COLUMNS, RUN_COLUMNS, json_value
+
+__all__ = [
+    "ResultsFile",
+    "read_records",
+    "read_results",
+    "results_format",
+    "write_csv",
+    "write_json",
+]
+
+#: Besides the key, what resuming reads back from a results file.
+_RESUME_COLUMNS = ("hash", "config", "trajectory", "groundtruth", "error")
+_JSONL = (".jsonl", ".ndjson")
+_PARQUET = (".parquet", ".pq")
+
+_INT_COLUMNS = {
+    "unknown_value", "height", "width", "total", "known", "unknown", "occupied", "free",
+    "corners", "enclosed_areas", "enclosed_unknown_value", "param_min_dot_area",
+    "param_sweep_step", "param_min_area", "ate_n",
+}
+#: Float columns that are NaN when a map has no known cell (null in JSON).
+_FLOAT_COLUMNS = {"occupied_fraction", "proportion", "threshold", "seconds",
+                  "param_log_threshold", "param_harris_k", "param_harris_quality"} | {
+    f"ate_{s}" for s in ("rmse", "mean", "median", "std", "min", "max")}
+_STR_COLUMNS = {
+    "map", "algorithm", "sequence", "run", "trajectory", "groundtruth", "hash", "config",
+    "error",
+    "source", "ate_error",
+}
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def results_format(path: PathLike) -> str:
+    """``"jsonl"`` or ``"parquet"`` from the file name.
+
+    Examples
+    --------
+    >>> results_format("out/results.parquet"), results_format("r.jsonl")
+    ('parquet', 'jsonl')
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix in _JSONL:
+        return "jsonl"
+    if suffix in _PARQUET:
+        return "parquet"
+    raise ParamError(
+        f"{path}: unknown results format {suffix!r}; use .parquet or .jsonl"
+    )
+
+
+def journal_path(path: PathLike) -> Path:
+    """Where a Parquet results file keeps the chunks of an unfinished batch."""
+    p = Path(path)
+    return p.with_name(p.name + ".journal.jsonl")
+
+
+def _key(rec: dict[str, Any]) -> tuple[str, str, str, str]:
+    return tuple(str(rec.get(k)) for k in KEY)  # type: ignore[return-value]
+
+
+def _cut_torn_tail(path: Path) -> None:
+    """Cut a partial last line (a write interrupted by kill -9) off a JSON Lines file."""
+    try:
+        fh = open(path, "r+b")
+    except FileNotFoundError:
+        return
+    with fh:
+        size = fh.seek(0, os.SEEK_END)
+        pos = size
+        while pos > 0:
+            step = min(65536, pos)
+            fh.seek(pos - step)
+            block = fh.read(step)
+            nl = block.rfind(b"\n")
+            if nl >= 0:
+                pos = pos - step + nl + 1
+                break
+            pos -= step
+        if pos < size:
+            fh.truncate(pos)
+            fh.flush()
+            os.fsync(fh.fileno())
+
+
+def _iter_jsonl(path: Path) -> Iterator[dict[str, Any]]:
+    """The records of a JSON Lines file, streamed; a torn last line is skipped."""
+    try:
+        fh = open(path, "rb")
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise MapError(f"{path}: cannot read results: {exc}") from exc
+    with fh:
+        for i, line in enumerate(fh, start=1):
+            if not line.strip():
+                continue
+            try:
+                rec = json.loads(line)
+            except ValueError as exc:
+                if not line.endswith(b"\n"):
+                    continue  # the unterminated last line of a write cut by kill -9
+                raise MapError(f"{path}: line {i}: not a JSON record: {exc}") from exc
+            if not isinstance(rec, dict):
+                raise MapError(f"{path}: line {i}: not a JSON object")
+            yield rec
+
+
+def _jsonl_tables(path: Path, batch: int = 8192) -> Iterator[Any]:
+    """A JSON Lines file as Arrow tables of at most ``batch`` rows (bounded memory)."""
+    rows: list[dict[str, Any]] = []
+    for rec in _iter_jsonl(path):
+        rows.append(rec)
+        if len(rows) >= batch:
+            yield _arrow_table(rows)
+            rows = []
+    if rows:
+        yield _arrow_table(rows)
+
+
+def _parquet_table(path: Path, columns: list[str] | None = None) -> Any:
+    import pyarrow.parquet as pq
+
+    try:
+        if columns is not None:
+            have = set(pq.read_schema(path).names)
+            columns = [c for c in columns if c in have]
+        return pq.read_table(path, columns=columns)
+    except Exception as exc:  # noqa: BLE001 - pyarrow raises several types
+        raise MapError(f"{path}: not a readable Parquet file: {exc}") from exc
+
+
+def _concat(tables: list[Any]) -> Any:
+    import pyarrow as pa
+
+    tables = [t for t in tables if t.num_rows or len(tables) == 1]
+    if not tables:
+        return _arrow_table([])
+    if len(tables) == 1:
+        return tables[0]
+    try:
+        return pa.concat_tables(tables, promote_options="permissive")
+    except TypeError:  # pyarrow < 14
+        return pa.concat_tables(tables, promote=True)
+
+
+def _dedup_table(table: Any) -> Any:
+    """Keep the last row of every ``(algorithm, sequence, run, map)``, in file order."""
+    import pyarrow as pa
+
+    if table.num_rows == 0 or not all(k in table.column_names for k in KEY):
+        return table
+    keys = table.select(list(KEY)).to_pandas()
+    keep = ~keys.astype(str).duplicated(keep="last").to_numpy()
+    if keep.all():
+        return table
+    return table.filter(pa.array(keep))
+
+
+def _results_table(path: Path) -> Any:
+    """A results file (plus a Parquet file's journal) as one deduplicated Arrow table."""
+    fmt = results_format(path)
+    if fmt == "jsonl":
+        if not path.exists():
+            raise MapError(f"{path}: no such results file")
+        return _dedup_table(_concat(list(_jsonl_tables(path))))
+    jpath = journal_path(path)
+    if not path.exists() and not jpath.exists():
+        raise MapError(f"{path}: no such results file")
+    tables = [_parquet_table(path)] if path.exists() else []
+    tables += list(_jsonl_tables(jpath))
+    return _dedup_table(_concat(tables))
+
+
+def read_records(path: PathLike) -> list[dict[str, Any]]:
+    """Every current record of a results file (last record per key wins), in file order.
+
+    Any results file slamq writes (``.jsonl``, ``.parquet``, ``.json``, ``.csv``); for
+    Parquet, rows of an unfinished batch's journal are included.
+
+    Examples
+    --------
+    >>> import json, tempfile, os
+    >>> p = os.path.join(tempfile.mkdtemp(), "r.json")
+    >>> _ = open(p, "w").write(json.dumps([{"corners": 3, "proportion": None}]))
+    >>> read_records(p)
+    [{'corners': 3, 'proportion': nan}]
+    """
+    path = Path(path)
+    if _readable_format(path) == "plain":
+        return _read_plain(path)
+    return _results_table(path).to_pylist()
+
+
+def _ordered_columns(records: list[dict[str, Any]]) -> list[str]:
+    cols: dict[str, None] = {}
+    for name in RUN_COLUMNS + QUALITY_COLUMNS + ATE_COLUMNS:
+        cols[name] = None
+    for rec in records:
+        for name in rec:
+            cols.setdefault(name, None)
+    present = {name for rec in records for name in rec}
+    return [c for c in cols if c in present or c in RUN_COLUMNS]
+
+
+def _arrow_table(records: list[dict[str, Any]]) -> Any:
+    import pyarrow as pa
+
+    cols = _ordered_columns(records)
+    arrays = []
+    for name in cols:
+        values = [json_value(rec.get(name)) for rec in records]
+        if name in _STR_COLUMNS:
+            typ: Any = pa.string()
+            values = [None if v is None else str(v) for v in values]
+        elif name in _INT_COLUMNS:
+            typ = pa.int64()
+            values = [None if v is None else int(v) for v in values]
+        elif name == "curve":
+            typ = pa.list_(pa.int32())
+        elif name.startswith(("param_", "ate_")) or name in QUALITY_COLUMNS or name == "seconds":
+            typ = pa.float64()
+            values = [None if v is None else float(v) for v in values]
+        else:
+            typ = None
+        arrays.append(pa.array(values, type=typ))
+    return pa.Table.from_arrays(arrays, names=cols)
+
+
+def read_results(path: PathLike) -> Any:
+    """Read any results file slamq writes into a pandas DataFrame.
+
+    ``.jsonl`` and ``.parquet`` (``slamq batch``): one row per run (the last record of
+    each ``(algorithm, sequence, run, map)``), in the order the batch produced them; a
+    Parquet file's unfinished-batch journal is included, so the results of a killed batch
+    can be read before it is resumed. ``.json`` and ``.csv`` (``slamq eval --json/--csv``):
+    one row per map. Integer columns of failed rows are missing values; ``NaN`` ratios
+    read back as ``NaN``.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "r.jsonl"
+    >>> _ = p.write_text('{"map": "a.pgm", "algorithm": "x", "sequence": "s", "run": "0", '
+    ...                  '"corners": 3, "error": null}\\n')
+    >>> read_results(p)[["map", "corners"]].values.tolist()
+    [['a.pgm', 3]]
+    """
+    import pandas as pd
+
+    path = Path(path)
+    if _readable_format(path) == "plain":
+        return pd.DataFrame(read_records(path))
+    return _results_table(path).to_pandas()
+
+
+def _readable_format(path: Path) -> str:
+    """"plain" (``.json``/``.csv``) or the batch format; ParamError for anything else."""
+    suffix = path.suffix.lower()
+    if suffix in (".json", ".csv"):
+        return "plain"
+    if suffix in _JSONL + _PARQUET:
+        return results_format(path)
+    raise ParamError(f"{path}: unknown results format {suffix!r}; slamq reads .parquet, "
+                     ".jsonl, .json and .csv")
+
+
+def _read_plain(path: Path) -> list[dict[str, Any]]:
+    """The records of a ``slamq eval --json`` / ``--csv`` file (ratios null -> NaN)."""
+
+
+    try:
+        if path.suffix.lower() == ".json":
+            records = json.loads(path.read_text(encoding="utf-8"))
+            if isinstance(records, dict):
+                records = records.get("results", [])
+            if not isinstance(records, list) or not all(isinstance(r, dict) for r in records):
+                raise MapError(f"{path}: not a slamq results file (expected a JSON list of "
+                               "records)")
+        else:
+            with path.open(newline="", encoding="utf-8") as fh:
+                records = [_csv_record(r) for r in csv.DictReader(fh)]
+    except FileNotFoundError:
+        raise MapError(f"{path}: no such results file") from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise MapError(f"{path}: cannot read results: {' '.join(str(exc).split())}") from None
+    for r in records:
+        for k, v in r.items():
+            if v is None and k in _FLOAT_COLUMNS:
+                r[k] = math.nan
+    return records
+
+
+def _csv_record(row: dict[str, str]) -> dict[str, Any]:
+    """A CSV row with its numbers as numbers, blanks as None, the curve as a list."""
+    out: dict[str, Any] = {}
+    for k, v in row.items():
+        if v is None or v == "":
+            out[k] = None
+        elif k == "curve":
+            out[k] = [int(c) for c in v.split(";") if c]
+        elif k in _INT_COLUMNS:
+            out[k] = int(v)
+        elif k in _FLOAT_COLUMNS or k.startswith("param_"):
+            out[k] = float(v)
+            if k.startswith("param_") and out[k].is_integer() and k in _INT_COLUMNS:
+                out[k] = int(out[k])
+        else:
+            out[k] = v
+    return out
+
+
+
+
+def _records(results: Sequence[MapQuality]) -> list[dict[str, Any]]:
+    return [q.to_dict() for q in results]
+
+
+def write_json(path: PathLike, results: Sequence[MapQuality]) -> Path:
+    """Write the results as a JSON list of ``MapQuality.to_dict()`` (NaN as null).
+
+    Examples
+    --------
+    >>> import numpy as np, slamq, tempfile, os
+    >>> q = slamq.evaluate(np.full((4, 4), 254, np.uint8))
+    >>> p = write_json(os.path.join(tempfile.mkdtemp(), "r.json"), [q])
+    >>> read_records(p)[0]["known"]
+    16
+    """
+    path = Path(path)
+    records = [{k: json_value(v) for k, v in r.items()} for r in _records(results)]
+    path.write_text(json.dumps(records, indent=2) + "\n")
+    return path
+
+
+def _csv_header() -> list[str]:
+    """The columns of ``MapQuality.to_dict()``, for a file with no result."""
+    return list(QUALITY_COLUMNS)
+
+
+def write_csv(path: PathLike, results: Sequence[MapQuality]) -> Path:
+    """Write one CSV row per map (the curve, when present, as ``;``-joined counts)."""
+    path = Path(path)
+    records = _records(results)
+    fields = list(records[0].keys()) if records else _csv_header()
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=fields)
+        writer.writeheader()
+        for r in records:
+            if r.get("curve") is not None:
+                r["curve"] = ";".join(str(c) for c in r["curve"])
+            writer.writerow(r)
+    return path
+
+
+#: The float fields that are NaN when a map has no known cell (null in JSON).
+_RATIOS = ("occupied_fraction", "proportion", "threshold")
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def _rewrite_jsonl_dedup(path: Path) -> None:
+    """Rewrite a JSON Lines file without superseded rows (two streaming passes)."""
+    last: dict[tuple[str, str, str, str], int] = {}
+    for i, rec in enumerate(_iter_jsonl(path)):
+        last[_key(rec)] = i
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w", encoding="utf-8") as fh:
+        for i, rec in enumerate(_iter_jsonl(path)):
+            if last[_key(rec)] == i:
+                fh.write(_dumps(rec))
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    _fsync_dir(path.parent)
+
+
+def _compact_parquet(path: Path, journal: Path, row_group: int) -> None:
+    """Parquet file + journal -> a new Parquet file (atomic rename), then drop the journal."""
+    import pyarrow.parquet as pq
+
+    tables = [_parquet_table(path)] if path.exists() else []
+    tables += list(_jsonl_tables(journal))
+    table = _dedup_table(_concat(tables))
+    tmp = path.with_name(path.name + ".tmp")
+    pq.write_table(table, tmp, row_group_size=max(1, row_group))
+    with open(tmp, "rb") as fh:
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    _fsync_dir(path.parent)
+    try:
+        journal.unlink()
+    except FileNotFoundError:
+        pass
+
+
+def _dumps(rec: dict[str, Any]) -> str:
+    return json.dumps({k: json_value(v) for k, v in rec.items()}, allow_nan=False) + "\n"
+
+
+class ResultsFile:
+    """A results file being written by a batch (see the module docstring).
+
+    Opening it cuts a torn last line (left by kill -9) off the append file and reads
+    what resuming needs (keys, content hashes, settings, errors), not whole records.
+
+    Parameters
+    ----------
+    path : path
+        ``*.jsonl`` or ``*.parquet``.
+    row_group : int
+        Rows per Parquet row group when the file is rewritten.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "r.parquet"
+    >>> with ResultsFile(p) as rf:
+    ...     rf.append([{"map": "m.pgm", "algorithm": "a", "sequence": "s", "run": "0"}])
+    >>> len(read_results(p))
+    1
+    """
+
+    def __init__(self, path: PathLike, *, row_group: int = 1024) -> None:
+        self.path = Path(path)
+        self.format = results_format(self.path)
+        self.row_group = row_group
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._append_to = self.path if self.format == "jsonl" else journal_path(self.path)
+        _cut_torn_tail(self._append_to)
+        self._stored: dict[tuple[str, str, str, str], dict[str, Any]] = {}
+        self._superseded = False
+        for rec in self._stored_records():
+            k = _key(rec)
+            self._superseded = self._superseded or k in self._stored
+            self._stored[k] = rec
+        self._keys = set(self._stored)
+        self._fh: Any | None = None
+
+    def _stored_records(self) -> Iterator[dict[str, Any]]:
+        if self.format == "parquet" and self.path.exists():
+            yield from _parquet_table(self.path, list(KEY + _RESUME_COLUMNS)).to_pylist()
+        for rec in _iter_jsonl(self._append_to):
+            yield {k: rec.get(k) for k in KEY + _RESUME_COLUMNS}
+
+    def done(self) -> Iterator[tuple[tuple[str, str, str, str], dict[str, Any]]]:
+        """``(key, record)`` of every stored run; the record holds the key columns and
+        ``hash, config, trajectory, groundtruth, error``."""
+        yield from self._stored.items()
+
+    def __len__(self) -> int:
+        return len(self._stored)
+
+    def append(self, records: Iterable[dict[str, Any]]) -> None:
+        """Append one finished chunk and make it durable (flush + fsync)."""
+        lines = []
+        for rec in records:
+            k = _key(rec)
+            if k in self._keys:
+                self._superseded = True
+            self._keys.add(k)
+            lines.append(_dumps(rec))
+        if not lines:
+            return
+        if self._fh is None:
+            self._fh = open(self._append_to, "a", encoding="utf-8")
+        self._fh.write("".join(lines))
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+
+    def close(self) -> None:
+        """Finish: rewrite without superseded rows (JSONL) / compact into Parquet."""
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+        if self.format == "jsonl":
+            if self._superseded:
+                _rewrite_jsonl_dedup(self.path)
+            elif not self.path.exists():
+                self.path.touch()
+            return
+        if self._append_to.exists() or not self.path.exists() or self._superseded:
+            _compact_parquet(self.path, self._append_to, self.row_group)
+
+    def __enter__(self) -> ResultsFile:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()

@@ -1,0 +1,173 @@
+"""``summarize``: mean and standard deviation over runs, per (algorithm, sequence).
+
+This is the paper's Table I (trajectory RMSE "0.239 +- 0.011" per algorithm and
+sequence) extended to every map metric. The standard deviation is the **sample** standard
+deviation (``ddof=1``, dividing by ``n - 1``; NaN for a single run) unless you pass
+``ddof=0`` (population). The paper does not say which it used; with few runs the sample
+estimate is the honest one.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from slamq.errors import ParamError
+from slamq.results.columns import settings_difference
+
+__all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "summary_table"]
+
+#: Map metrics summarised (every numeric MapQuality output).
+SUMMARY_METRICS = (
+    "occupied_fraction", "proportion", "threshold", "corners", "enclosed_areas",
+    "enclosed_unknown_value", "occupied", "free", "unknown", "known", "total",
+)
+#: Trajectory error columns summarised when the results have any.
+ATE_METRICS = ("ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n")
+
+
+def _frame(results: Any) -> Any:
+    import pandas as pd
+
+    from slamq.results.files import read_results
+
+    if isinstance(results, pd.DataFrame):
+        return results
+    if isinstance(results, (str, os.PathLike)):
+        return read_results(Path(results))
+    return pd.DataFrame(list(results))
+
+
+def summarize(
+    results: Any | str | os.PathLike[str] | Iterable[dict[str, Any]], *, ddof: int = 1
+) -> Any:
+    """Mean and standard deviation of every metric over runs, per (algorithm, sequence).
+
+    Parameters
+    ----------
+    results : pandas.DataFrame, path, or iterable of records
+        The output of :func:`slamq.evaluate_many` / :func:`slamq.read_results`, or a
+        results file.
+    ddof : int, default 1
+        Delta degrees of freedom of the standard deviation: 1 = sample (divide by n - 1),
+        0 = population (divide by n).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (algorithm, sequence), sorted; columns ``algorithm``, ``sequence``,
+        ``n`` (runs without error), ``failed`` (runs with an error, left out of the
+        statistics), then ``<metric>_mean`` and ``<metric>_std`` for every metric in
+        :data:`SUMMARY_METRICS`, and for the ``ate_*`` columns when any run has a
+        trajectory error (``ate_runs`` counts the runs that have one), and ``<metric>_n``,
+        the number of runs where the metric is a number: a metric's mean and std are over
+        those runs (a map with no known cell has NaN ratios), so they may cover fewer than
+        ``n`` runs.
+
+    Warns
+    -----
+    UserWarning
+        The records were computed with different settings (their ``config`` column:
+        metric parameters, ``unknown_value``, ATE options), e.g. a results file resumed
+        with other parameters and interrupted, or shared by two batches.
+
+    Examples
+    --------
+    >>> recs = [{"algorithm": "a", "sequence": "s", "run": str(i), "corners": c,
+    ...          "error": None} for i, c in enumerate([10, 12, 14])]
+    >>> s = summarize(recs)
+    >>> int(s.loc[0, "n"]), s.loc[0, ["corners_mean", "corners_std"]].tolist()
+    (3, [12.0, 2.0])
+    """
+    import numpy as np
+    import pandas as pd
+
+    if ddof not in (0, 1):
+        raise ParamError(f"ddof must be 0 or 1, got {ddof!r}")
+    df = _frame(results)
+    mixed = settings_difference(df["config"]) if "config" in df.columns else None
+    if mixed:
+        warnings.warn(
+            f"the results were computed with different settings ({mixed}); their "
+            "statistics mix them (evaluate every map again with one setting, or use another "
+            "results file)", UserWarning,
+            stacklevel=2,
+        )
+    for col in ("algorithm", "sequence"):
+        if col not in df.columns:
+            df = df.assign(**{col: ""})
+    err = df["error"] if "error" in df.columns else pd.Series([None] * len(df), index=df.index)
+    failed_mask = err.notna() & (err.astype(object) != "")
+    has_ate = "ate_rmse" in df.columns and df.loc[~failed_mask, "ate_rmse"].notna().any()
+    metrics = [m for m in SUMMARY_METRICS if m in df.columns]
+    if has_ate:
+        metrics += [m for m in ATE_METRICS if m in df.columns]
+    rows = []
+    keys = df[["algorithm", "sequence"]].astype(str)
+    for (alg, seq), idx in keys.groupby(["algorithm", "sequence"], sort=True).groups.items():
+        part = df.loc[idx]
+        ok = part[~failed_mask.loc[idx]]
+        row: dict[str, Any] = {
+            "algorithm": alg, "sequence": seq, "n": int(len(ok)),
+            "failed": int(len(part) - len(ok)),
+        }
+        if has_ate:
+            row["ate_runs"] = int(ok["ate_rmse"].notna().sum())
+        for m in metrics:
+            vals = pd.to_numeric(ok[m], errors="coerce").to_numpy(dtype=float)
+            vals = vals[~np.isnan(vals)]
+            row[f"{m}_n"] = int(len(vals))
+            row[f"{m}_mean"] = float(vals.mean()) if len(vals) else math.nan
+            row[f"{m}_std"] = (
+                float(vals.std(ddof=ddof)) if len(vals) > ddof else math.nan
+            )
+        rows.append(row)
+    cols = ["algorithm", "sequence", "n", "failed"] + (["ate_runs"] if has_ate else [])
+    cols += [f"{m}_{s}" for m in metrics for s in ("mean", "std", "n")]
+    return pd.DataFrame(rows, columns=cols)
+
+
+#: (column, heading, format) of the printed table.
+_SHOWN = (
+    ("ate_rmse", "ATE RMSE [m]", "{:.3f}"),
+    ("occupied_fraction", "occupied frac.", "{:.4f}"),
+    ("proportion", "proportion", "{:.4f}"),
+    ("corners", "corners", "{:.1f}"),
+    ("enclosed_areas", "enclosed areas", "{:.1f}"),
+)
+
+
+def _pm(mean: float, std: float, fmt: str) -> str:
+    if mean is None or (isinstance(mean, float) and math.isnan(mean)):
+        return "-"
+    text = fmt.format(mean)
+    if std is not None and not (isinstance(std, float) and math.isnan(std)):
+        text += " ± " + fmt.format(std)
+    return text
+
+
+def summary_table(summary: Any, *, title: str = "") -> Any:
+    """A :class:`rich.table.Table` of a :func:`summarize` frame: ``mean ± std`` cells."""
+    from rich.table import Table
+
+    table = Table(title=title or None)
+    table.add_column("sequence")
+    table.add_column("algorithm")
+    table.add_column("n", justify="right")
+    shown = [s for s in _SHOWN if f"{s[0]}_mean" in summary.columns]
+    for _, heading, _ in shown:
+        table.add_column(heading, justify="right")
+    if "failed" in summary.columns and summary["failed"].sum():
+        table.add_column("failed", justify="right")
+    ordered = summary.sort_values(["sequence", "algorithm"], kind="stable")
+    for _, row in ordered.iterrows():
+        cells = [str(row["sequence"]), str(row["algorithm"]), str(int(row["n"]))]
+        cells += [_pm(row[f"{c}_mean"], row[f"{c}_std"], fmt) for c, _, fmt in shown]
+        if len(table.columns) > len(cells):
+            cells.append(str(int(row["failed"])))
+        table.add_row(*cells)
+    return table

@@ -1,0 +1,35 @@
+"""Every reader: occupancy grids and trajectories from files, arrays and bags.
+
+- :func:`load_map`: map_server YAML + image, bare images, OccupancyGrid arrays, ROS bags
+  (:mod:`slamq.sources.maps` dispatches to :mod:`~slamq.sources.mapserver`,
+  :mod:`~slamq.sources.images`, :mod:`~slamq.sources.grids`, :mod:`~slamq.sources.bag_maps`).
+- :func:`load_trajectory`: TUM, KITTI, EuRoC, CSV, ROS bags, Cartographer ``.pbstream``
+  (:mod:`slamq.sources.trajectories`, :mod:`~slamq.sources.bag_poses`,
+  :mod:`~slamq.sources.pbstream`).
+- :func:`discover_maps`: the one folder walk (:mod:`slamq.sources.walk`), shared by
+  ``slamq eval`` and ``slamq batch``.
+- :mod:`slamq.sources.files`: the size budgets and the regular-file rule every reader obeys.
+
+Bag readers need the ``bags`` extra (``pip install 'slamq[bags]'``); they are imported when
+a bag is read.
+"""
+
+from __future__ import annotations
+
+from slamq.sources.files import is_bag
+from slamq.sources.grids import from_occupancy_grid
+from slamq.sources.maps import load_map
+from slamq.sources.pbstream import read_pbstream_trajectory
+from slamq.sources.trajectories import FORMATS, load_trajectory, parse_columns
+from slamq.sources.walk import discover_maps
+
+__all__ = [
+    "FORMATS",
+    "discover_maps",
+    "from_occupancy_grid",
+    "is_bag",
+    "load_map",
+    "load_trajectory",
+    "parse_columns",
+    "read_pbstream_trajectory",
+]

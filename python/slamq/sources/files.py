@@ -1,0 +1,135 @@
+"""What every reader shares: size budgets, file suffixes, the regular-file rule (never block
+on a FIFO, never read more than the budget), and the checks of map metadata values."""
+
+from __future__ import annotations
+
+import math
+import os
+import stat
+from pathlib import Path
+from typing import Any, Union
+
+import numpy as np
+
+from slamq.errors import MapError, ParamError
+
+#: What the readers accept as a file name.
+PathLike = Union[str, "os.PathLike[str]"]
+
+# ---------------------------------------------------------------------------------------
+# Constants
+# ---------------------------------------------------------------------------------------
+
+#: Refuse images with more cells than this (OpenCV's own default limit is the same).
+MAX_CELLS = 1 << 30
+#: A map YAML larger than this is not a map YAML.
+MAX_YAML_BYTES = 1 << 20
+#: An image file larger than this is refused before it is read (MAX_CELLS RGBA pixels).
+MAX_IMAGE_BYTES = 4 * MAX_CELLS + (1 << 20)
+IMAGE_SUFFIXES = frozenset(
+    (".pgm", ".pnm", ".ppm", ".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
+)
+YAML_SUFFIXES = frozenset((".yaml", ".yml"))
+#: File suffixes read as bags (a folder holding ``metadata.yaml`` is a ROS 2 bag too).
+BAG_SUFFIXES = (".bag", ".db3", ".mcap")
+
+
+# ---------------------------------------------------------------------------------------
+# Small helpers
+# ---------------------------------------------------------------------------------------
+
+
+def one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def fail(where: Any, reason: str) -> MapError:
+    return MapError(f"{where}: {reason}")
+
+
+def as_float(value: Any, what: str, where: Any) -> float:
+    if isinstance(value, bool) or value is None:
+        raise fail(where, f"{what} must be a number, got {value!r}")
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise fail(where, f"{what} must be a number, got {value!r}") from None
+    if not math.isfinite(out):
+        raise fail(where, f"{what} must be finite, got {value!r}")
+    return out
+
+
+def check_resolution(value: Any, where: Any) -> float | None:
+    if value is None:
+        return None
+    res = as_float(value, "resolution", where)
+    if not res > 0.0:
+        raise fail(where, f"resolution must be > 0, got {value!r}")
+    return res
+
+
+def check_origin(value: Any, where: Any) -> tuple[float, float, float]:
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+        raise fail(where, f"origin must be [x, y, yaw], got {value!r}")
+    items = list(value)
+    if len(items) not in (2, 3):
+        raise fail(where, f"origin must be [x, y, yaw], got {value!r}")
+    nums = [as_float(x, "origin", where) for x in items]
+    if len(nums) == 2:
+        nums.append(0.0)
+    return (nums[0], nums[1], nums[2])
+
+
+def check_unknown_value(value: Any, where: Any, *, grid: bool) -> int:
+    """``unknown_value`` as the uint8 pixel it matches (for grids -1 means 255)."""
+
+    lo = -128 if grid else 0
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ParamError(f"{where}: unknown_value must be an integer, got {value!r}")
+    n = int(value)
+    if not lo <= n <= 255:
+        raise ParamError(f"{where}: unknown_value must be in {lo}..255, got {n}")
+    return n % 256
+
+
+def stat_path(path: Path) -> os.stat_result:
+    """``os.stat`` of ``path``, or a MapError naming it and why (missing, a symlink loop)."""
+    try:
+        return path.stat()
+    except FileNotFoundError:
+        broken = path.is_symlink()
+        raise fail(path, "broken symbolic link" if broken else "no such file or directory"
+                    ) from None
+    except (OSError, RuntimeError) as exc:
+        reason = getattr(exc, "strerror", None) or one_line(exc)
+        raise fail(path, f"cannot read: {reason}") from None
+
+
+def read_regular_file(path: Path, what: str, limit: int) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes (never blocks on a FIFO)."""
+    st = stat_path(path)
+    if stat.S_ISDIR(st.st_mode):
+        raise fail(path, f"is a directory, not {what}")
+    if not stat.S_ISREG(st.st_mode):
+        raise fail(path, f"not a regular file (a FIFO, device or socket), not {what}")
+    if st.st_size > limit:
+        raise fail(path, f"{st.st_size} bytes is too large for {what}")
+    try:
+        with path.open("rb") as fh:
+            return fh.read(st.st_size)  # a file still growing is cut at its size above
+    except OSError as exc:
+        raise fail(path, f"cannot read: {exc.strerror or exc}") from None
+
+
+def is_bag(path: PathLike) -> bool:
+    """True when ``path`` names a bag: a ``.bag``/``.db3``/``.mcap`` file or a ROS 2 folder.
+
+    Examples
+    --------
+    >>> is_bag("run1.bag"), is_bag("map.yaml")
+    (True, False)
+    """
+    p = Path(path)
+    if p.suffix.lower() in BAG_SUFFIXES:
+        return True
+    return p.is_dir() and (p / "metadata.yaml").is_file()

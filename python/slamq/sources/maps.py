@@ -1,0 +1,186 @@
+"""Loading occupancy grids: ROS map_server YAML + image, bare images, OccupancyGrid arrays.
+
+docs/spec.md section 1 is the contract. Every map is held image-style (row 0 at the top,
+north up) as ``values`` (uint8, 0 = surely occupied, 255 = surely free) plus an
+``unknown`` mask.
+
+Choices the SPEC leaves open, made here:
+
+* The *pixel* is the file's grey level (RGB/RGBA: ``rint`` of the mean of the colour
+  channels), before ``negate``. The map_saver shade rule looks at pixels (all in
+  {0, 205, 254, 255} -> 205 unknown) in ``trinary`` and ``scale`` modes, with or without
+  ``negate``; ``unknown_value`` compares pixels too. ``scale`` still makes alpha < 255
+  unknown under the shade rule.
+* ``raw`` applies ``negate`` first, like ROS map_server. Unknown cells of ``raw`` maps and
+  OccupancyGrid data hold 205 in ``values``; ``unknown_value`` that would make an
+  out-of-range grid value known is refused (it has no occupancy).
+* PGM/PPM with maxval < 255 are scaled as SDL_image (map_server's reader) does:
+  ``x * 255 // maxval``. 16-bit and float images are refused.
+* Decoding never allocates more than the file can hold: PGM sizes are checked against the
+  file length, PNG sizes against zlib's best ratio, JPEG sizes against one bit per 8x8
+  block, before any pixel buffer exists. Only regular files are read (never a FIFO).
+* Per-pixel work is a 256-entry table (``cv2.LUT``): the unknown decision is computed once
+  per pixel value with the SPEC formula ``p = (255 - v) / 255`` in float64, bounds inclusive.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from slamq.errors import MapError, MapWarning
+from slamq.models import OccupancyMap
+from slamq.sources.files import (
+    YAML_SUFFIXES,
+    check_origin,
+    check_resolution,
+    check_unknown_value,
+    fail,
+    is_bag,
+    stat_path,
+)
+from slamq.sources.grids import from_occupancy_grid
+from slamq.sources.images import Image, read_image_file, split_channels
+from slamq.sources.mapserver import image_map, load_yaml_map, reapply
+
+
+def _load_bag(path: Path) -> OccupancyMap:
+    from slamq.sources.bag_maps import read_last_map
+
+    return read_last_map(path)
+
+
+def load_map(
+    source: Any,
+    *,
+    unknown_value: int | None = None,
+    resolution: float | None = None,
+    origin: Any = None,
+) -> OccupancyMap:
+    """Load an occupancy grid from a file, an array or a bag, per docs/spec.md section 1.
+
+    Parameters
+    ----------
+    source : str, os.PathLike, numpy.ndarray or OccupancyMap
+        * a ROS map_server YAML (``.yaml``/``.yml``) and the image it names (PGM, PNG or
+          anything OpenCV reads; grey, RGB or RGBA; modes ``trinary``, ``scale``, ``raw``;
+          ``negate``). An absolute ``image:`` path that does not exist falls back to the
+          file of that name beside the YAML, with a :class:`~slamq.errors.MapWarning`.
+        * a bare image: map_server's defaults (trinary, 0.65 / 0.196, no negate); the
+          resolution comes from a PGM comment like ``# CREATOR: map_saver.cpp 0.050 m/pix``
+          when there is one.
+        * a ROS bag (``.bag``, ``.mcap``, ``.db3``, or a folder holding ``metadata.yaml``):
+          the last map on ``/map``, via ``slamq.sources.bag_maps.read_last_map``.
+        * a uint8 image array (``HxW``, ``HxWx3``, ``HxWx4``): the image defaults.
+        * an int8 nav_msgs/OccupancyGrid array (row 0 = bottom): see
+          :func:`from_occupancy_grid`.
+        * an :class:`OccupancyMap`: returned as is, unless an argument below changes it.
+    unknown_value : int, optional
+        Treat pixel == ``unknown_value`` as unknown, and nothing else (no thresholds, no
+        205 rule, no alpha). The pixel is the file's grey level before ``negate`` (for
+        RGB the rounded channel mean); for OccupancyGrid data it is the grid value (-1 and
+        255 are the same). Re-applied to an :class:`OccupancyMap` through
+        ``meta["pixels"]``, the loader's pixel array (for a hand-built map: its values).
+    resolution : float, optional
+        Metres per cell; overrides the YAML's.
+    origin : (x, y, yaw), optional
+        Overrides the YAML's origin.
+
+    Returns
+    -------
+    OccupancyMap
+        ``meta`` holds: ``kind`` (yaml, image, array, occupancy_grid, or what the bag
+        reader says), ``mode``, ``negate``, ``occupied_thresh``, ``free_thresh``, ``yaml``
+        and ``image`` paths, ``format``, ``channels``, ``resolution_from``,
+        ``unknown_rule`` (which rule made cells unknown), ``warnings`` (the messages also
+        issued as :class:`~slamq.errors.MapWarning`) and ``pixels`` (the grey pixel
+        array before ``negate``; the same array as ``values`` when nothing changed it).
+
+    Raises
+    ------
+    MapError
+        The message starts with the file (or ``<array>``) and gives the reason:
+        missing or unreadable file, truncated or corrupt image, a header claiming more
+        cells than the file holds, 16-bit or float pixels, a YAML that does not parse or
+        has no ``image``, an unknown mode, resolution <= 0, a map with zero cells, ...
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import load_map
+    >>> img = np.array([[0, 205], [254, 255]], np.uint8)     # map_saver's shades
+    >>> m = load_map(img)
+    >>> m.unknown.tolist(), m.meta["unknown_rule"]
+    ([[False, True], [False, False]], 'map_saver: 205 unknown, 0/254/255 known')
+    >>> load_map(img, unknown_value=255).unknown.tolist()
+    [[False, False], [False, True]]
+    """
+    warnings_out: list[str] = []
+    result = _load(source, unknown_value, resolution, origin, warnings_out)
+    for msg in warnings_out:
+        warnings.warn(MapWarning(msg), stacklevel=2)
+    return result
+
+
+def _load(
+    source: Any,
+    unknown_value: int | None,
+    resolution: Any,
+    origin: Any,
+    warnings_out: list[str],
+) -> OccupancyMap:
+    if isinstance(source, OccupancyMap):
+        where = source.source
+        res = check_resolution(resolution, where)
+        org = None if origin is None else check_origin(origin, where)
+        return reapply(source, unknown_value, res, org)
+
+    if isinstance(source, np.ndarray):
+        where = "<array>"
+        res = check_resolution(resolution, where)
+        org = (0.0, 0.0, 0.0) if origin is None else check_origin(origin, where)
+        if source.dtype == np.int8:
+            if source.ndim != 2:
+                raise fail(where, f"an int8 OccupancyGrid array must be 2-D, got "
+                                   f"{source.ndim}-D (use from_occupancy_grid for flat data)")
+            grid = from_occupancy_grid(source, resolution=res, origin=org, source=where)
+            return reapply(grid, unknown_value, None, None)
+        if source.dtype != np.uint8:
+            raise fail(where, f"unsupported array dtype {source.dtype}: expected a uint8 "
+                               "image or an int8 OccupancyGrid")
+        if source.size == 0:
+            raise fail(where, "the map has zero cells")
+        n = None if unknown_value is None else check_unknown_value(
+            unknown_value, where, grid=False)
+        grey, alpha, ch = split_channels(source, where)
+        img = Image(np.ascontiguousarray(grey), alpha, ch, None, "array")
+        return image_map(img, source=where, kind="array", unknown_value=n,
+                          resolution=res, origin=org, warnings_out=warnings_out)
+
+    if isinstance(source, (str, os.PathLike)):
+        path = Path(os.fspath(source))
+        where = str(path)
+        res = check_resolution(resolution, where)
+        org = None if origin is None else check_origin(origin, where)
+        stat_path(path)  # missing, a broken link or a symlink loop: say which
+        if is_bag(path):
+            return reapply(_load_bag(path), unknown_value, res, org)
+        if path.is_dir():
+            raise fail(where, "is a directory (not a ROS 2 bag); use "
+                               "slamq.sources.discover_maps to find the maps in a folder")
+        if path.suffix.lower() in YAML_SUFFIXES:
+            return load_yaml_map(path, unknown_value=unknown_value, resolution=res, origin=org,
+                              warnings_out=warnings_out)
+        n = None if unknown_value is None else check_unknown_value(
+            unknown_value, where, grid=False)
+        img = read_image_file(path)
+        return image_map(img, source=where, kind="image", unknown_value=n, resolution=res,
+                          origin=(0.0, 0.0, 0.0) if org is None else org,
+                          warnings_out=warnings_out)
+
+    raise MapError(f"<{type(source).__name__}>: cannot load a map from a "
+                   f"{type(source).__name__}; expected a path, a numpy array or an OccupancyMap")

@@ -1,0 +1,222 @@
+"""ROS map_server maps: a YAML and the image it names (SPEC section 1), and bare images with
+map_server's defaults."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from slamq.errors import MapError
+from slamq.models import OccupancyMap
+from slamq.sources.files import (
+    MAX_YAML_BYTES,
+    YAML_SUFFIXES,
+    as_float,
+    check_origin,
+    check_resolution,
+    check_unknown_value,
+    fail,
+    one_line,
+    read_regular_file,
+)
+from slamq.sources.images import Image, read_image_file
+from slamq.sources.pixels import (
+    DEFAULT_FREE_THRESH,
+    DEFAULT_MODE,
+    DEFAULT_OCCUPIED_THRESH,
+    MODES,
+    NEGATE,
+    apply_lut,
+    interpret,
+    unknown_value_mask,
+)
+
+
+def image_map(
+    img: Image,
+    *,
+    source: str,
+    kind: str,
+    unknown_value: int | None,
+    resolution: float | None,
+    origin: tuple[float, float, float],
+    warnings_out: list[str],
+) -> OccupancyMap:
+    values, unknown, meta = interpret(
+        img, mode=DEFAULT_MODE, negate=False, occ=DEFAULT_OCCUPIED_THRESH,
+        free=DEFAULT_FREE_THRESH, unknown_value=unknown_value, where=source,
+        warn_disagreement=False, warnings_out=warnings_out,
+    )
+    res_from = "argument" if resolution is not None else None
+    if resolution is None and img.resolution_hint is not None:
+        resolution, res_from = img.resolution_hint, "pgm comment"
+    meta = {
+        "kind": kind,
+        "mode": DEFAULT_MODE,
+        "negate": False,
+        "occupied_thresh": DEFAULT_OCCUPIED_THRESH,
+        "free_thresh": DEFAULT_FREE_THRESH,
+        "yaml": None,
+        "image": source if kind == "image" else None,
+        "format": img.format,
+        "channels": img.channels,
+        "resolution_from": res_from,
+        "warnings": list(warnings_out),
+        "pixels": img.grey,
+        **meta,
+    }
+    return OccupancyMap(values, unknown, resolution, origin, source, meta)
+
+
+def _resolve_image(yaml_path: Path, image: str, warnings_out: list[str]) -> Path:
+    ref = Path(image)
+    if not ref.is_absolute():
+        candidate = yaml_path.parent / ref
+        if not os.path.lexists(candidate):
+            raise fail(yaml_path, f"image {image!r} not found (looked for {candidate})")
+        return candidate  # a directory, a FIFO or a symlink loop is named when it is read
+    if ref.is_file():
+        return ref
+    beside = yaml_path.parent / ref.name
+    if beside.is_file():
+        warnings_out.append(
+            f"{yaml_path}: image {image!r} does not exist; using {ref.name!r} beside the YAML"
+        )
+        return beside
+    raise fail(yaml_path, f"image {image!r} not found (also looked for {beside})")
+
+
+def load_yaml_map(
+    path: Path,
+    *,
+    unknown_value: int | None,
+    resolution: float | None,
+    origin: tuple[float, float, float] | None,
+    warnings_out: list[str],
+) -> OccupancyMap:
+    import yaml
+
+    raw = read_regular_file(path, "a map YAML", MAX_YAML_BYTES)
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    try:
+        doc = yaml.load(raw, Loader=loader)  # noqa: S506 - a safe loader
+    except yaml.YAMLError as exc:
+        raise fail(path, f"unparsable YAML: {one_line(exc)}") from None
+    except UnicodeDecodeError:
+        raise fail(path, "unparsable YAML: not UTF-8 text") from None
+    if isinstance(doc, dict) and "rosbag2_bagfile_information" in doc:
+        from slamq.sources.bag_maps import read_last_map
+
+        return read_last_map(path.parent)
+    if not isinstance(doc, dict):
+        raise fail(path, "not a map YAML: expected a mapping with an 'image' field, "
+                          f"got {type(doc).__name__}")
+    image = doc.get("image")
+    if image is None:
+        raise fail(path, "the YAML has no 'image' field")
+    if not isinstance(image, str) or not image.strip():
+        raise fail(path, f"'image' must be a file name, got {image!r}")
+
+    mode = doc.get("mode", DEFAULT_MODE)
+    if not isinstance(mode, str) or mode.strip().lower() not in MODES:
+        raise fail(path, f"unknown mode {mode!r} (expected trinary, scale or raw)")
+    mode = mode.strip().lower()
+    neg = doc.get("negate", 0)
+    if isinstance(neg, bool):
+        negate = neg
+    elif isinstance(neg, (int, float)) and neg in (0, 1):
+        negate = bool(neg)
+    else:
+        raise fail(path, f"negate must be 0, 1, true or false, got {neg!r}")
+    occ = as_float(doc.get("occupied_thresh", DEFAULT_OCCUPIED_THRESH),
+                    "occupied_thresh", path)
+    free = as_float(doc.get("free_thresh", DEFAULT_FREE_THRESH), "free_thresh", path)
+    for what, t in (("occupied_thresh", occ), ("free_thresh", free)):
+        if not 0.0 <= t <= 1.0:
+            raise fail(path, f"{what} must be in 0..1, got {t}")
+    if free > occ and mode != "raw":
+        warnings_out.append(f"{path}: free_thresh {free} > occupied_thresh {occ}: "
+                            "no cell can be unknown by the thresholds")
+
+    res_from: str | None = "argument"
+    if resolution is None:
+        if "resolution" in doc:
+            resolution = check_resolution(doc["resolution"], path)
+            res_from = "yaml"
+        else:
+            res_from = None
+            warnings_out.append(f"{path}: the YAML has no 'resolution'")
+    if origin is None:
+        if "origin" in doc:
+            origin = check_origin(doc["origin"], path)
+        else:
+            origin = (0.0, 0.0, 0.0)
+            warnings_out.append(f"{path}: the YAML has no 'origin'; using [0, 0, 0]")
+
+    # The unknown value's range depends on the mode (raw data may say -1).
+    n = None if unknown_value is None else check_unknown_value(
+        unknown_value, path, grid=mode == "raw")
+    image_path = _resolve_image(path, image, warnings_out)
+    if image_path.suffix.lower() in YAML_SUFFIXES:
+        raise fail(path, f"image {image!r} is a YAML file, not an image")
+    try:
+        img = read_image_file(image_path)
+    except MapError as exc:
+        raise MapError(f"{path}: {exc}") from None
+    values, unknown, interp = interpret(
+        img, mode=mode, negate=negate, occ=occ, free=free, unknown_value=n,
+        where=str(path), warn_disagreement=True, warnings_out=warnings_out,
+    )
+    meta = {
+        "kind": "yaml",
+        "mode": mode,
+        "negate": negate,
+        "occupied_thresh": occ,
+        "free_thresh": free,
+        "yaml": str(path),
+        "image": str(image_path),
+        "format": img.format,
+        "channels": img.channels,
+        "resolution_from": res_from,
+        "warnings": list(warnings_out),
+        "pixels": img.grey,
+        **interp,
+    }
+    return OccupancyMap(values, unknown, resolution, origin, str(path), meta)
+
+
+def reapply(
+    m: OccupancyMap,
+    unknown_value: int | None,
+    resolution: float | None,
+    origin: tuple[float, float, float] | None,
+) -> OccupancyMap:
+    """An OccupancyMap with ``unknown_value`` / resolution / origin re-applied."""
+    if unknown_value is None and resolution is None and origin is None:
+        return m
+    meta = dict(m.meta)
+    unknown = m.unknown
+    if unknown_value is not None:
+        grid = meta.get("mode") == "raw"
+        n = check_unknown_value(unknown_value, m.source, grid=grid)
+        pixels = meta.get("pixels")
+        if not isinstance(pixels, np.ndarray) or pixels.shape != m.values.shape:
+            pixels = m.values  # a hand-built map: its values are its pixels
+        if grid:
+            g = apply_lut(pixels, NEGATE) if meta.get("negate") else pixels
+            unknown = unknown_value_mask(pixels, g, n, m.source)
+        else:
+            unknown = pixels == n
+        meta["unknown_rule"] = f"unknown_value={n}"
+    if resolution is not None:
+        meta["resolution_from"] = "argument"
+    return OccupancyMap(
+        m.values,
+        unknown,
+        m.resolution if resolution is None else resolution,
+        m.origin if origin is None else origin,
+        m.source,
+        meta,
+    )

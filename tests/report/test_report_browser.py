@@ -1,0 +1,141 @@
+"""The report page in a real browser: headless Chromium (Debian's ``chromium``) via Playwright.
+
+Checks: no console error and no failed request, every image decodes (non-zero natural
+size), the ranking tables hold the results file's numbers, gallery links open the detail
+pages; a screenshot of the page is saved under test-artifacts/ (git-ignored).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from slamq.report import build_report
+
+REPO = Path(__file__).resolve().parents[2]
+ARTIFACTS = REPO / "test-artifacts"
+
+
+def _chromium() -> str:
+    for name in (os.environ.get("SLAMQ_CHROMIUM", ""), "chromium", "chromium-browser",
+                 "google-chrome"):
+        if name and shutil.which(name):
+            return shutil.which(name)
+    pytest.skip("no chromium executable found (apt-get install chromium, or set "
+                "SLAMQ_CHROMIUM): the report is not checked in a browser")
+
+
+@pytest.fixture(scope="module")
+def browser():
+    sync_api = pytest.importorskip("playwright.sync_api",
+                                   reason="playwright for Python is not installed")
+    exe = _chromium()
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=exe, args=["--no-sandbox"])
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    from test_report import make_results
+
+    root = tmp_path_factory.mktemp("browser")
+    results = make_results(root)
+    return results, build_report(results, root / "site")
+
+
+def _open(browser, url: str):
+    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    problems: list[str] = []
+    page.on("console", lambda m: problems.append(f"console {m.type}: {m.text}")
+            if m.type in ("error", "warning") else None)
+    page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
+    page.on("requestfailed", lambda r: problems.append(f"failed request: {r.url}"))
+    page.on("response", lambda r: problems.append(f"HTTP {r.status}: {r.url}")
+            if r.status >= 400 else None)
+    page.goto(url, wait_until="load")
+    return page, problems
+
+
+def _broken_images(page) -> list[str]:
+    return page.evaluate(
+        "() => Array.from(document.images).filter(i => !(i.complete && i.naturalWidth > 0 "
+        "&& i.naturalHeight > 0)).map(i => i.getAttribute('src'))")
+
+
+def test_index_loads_clean_and_matches_results(browser, report):
+    results, index = report
+    page, problems = _open(browser, index.as_uri())
+    n_images = page.evaluate("() => document.images.length")
+    assert n_images >= 12 + 4                       # gallery thumbnails + plots
+    assert _broken_images(page) == []
+    # every requested URL is a local file inside the site
+    assert page.evaluate(
+        "() => performance.getEntriesByType('resource').every(e => e.name.startsWith('file:'))")
+
+    recs = [json.loads(x) for x in results.read_text().splitlines()]
+    ok = [r for r in recs if r.get("error") is None]
+    cells = page.evaluate(
+        "() => Array.from(document.querySelectorAll('table.ranking td[data-metric]')).map("
+        "td => ({seq: td.closest('table').dataset.sequence, "
+        "alg: td.closest('tr').dataset.algorithm, metric: td.dataset.metric, "
+        "mean: td.dataset.mean, std: td.dataset.std, n: td.dataset.n, text: td.innerText}))")
+    assert len(cells) == 2 * 3 * 4                  # sequences x algorithms x metrics
+    for c in cells:
+        vals = [float(r[c["metric"]]) for r in ok if r["sequence"] == c["seq"]
+                and r["algorithm"] == c["alg"] and r.get(c["metric"]) is not None
+                and math.isfinite(float(r[c["metric"]]))]
+        assert int(c["n"]) == len(vals)
+        if not vals:
+            assert c["text"].strip() == "–"
+            continue
+        mean = float(np.mean(vals))
+        assert float(c["mean"]) == pytest.approx(mean, rel=1e-12, abs=1e-15)
+        if len(vals) > 1:
+            assert float(c["std"]) == pytest.approx(float(np.std(vals, ddof=1)), rel=1e-12,
+                                                    abs=1e-15)
+        shown = re.findall(r"[-+]?\d*\.?\d+(?:e[-+]?\d+)?", c["text"])
+        assert float(shown[0]) == pytest.approx(mean, rel=6e-3, abs=1e-12), c
+
+    ARTIFACTS.mkdir(exist_ok=True)
+    shot = ARTIFACTS / "report_index.png"
+    page.screenshot(path=str(shot), full_page=True)
+    print(f"\nreport screenshot: {shot}")
+    assert shot.stat().st_size > 10_000
+    assert problems == []
+    page.close()
+
+
+def test_gallery_links_open_detail_pages(browser, report):
+    _, index = report
+    page, problems = _open(browser, index.as_uri())
+    links = page.evaluate(
+        "() => Array.from(document.querySelectorAll('.gallery a.detail')).map(a => a.href)")
+    assert len(links) == 12
+    page.click(".gallery a.detail >> nth=0")
+    page.wait_for_load_state("load")
+    assert page.url == links[0]
+    assert page.locator("h1").inner_text()
+    assert page.locator("table.numbers").count() == 1
+    assert _broken_images(page) == []
+    for url in links[1:]:
+        page.goto(url, wait_until="load")
+        assert "run" in page.locator("h1").inner_text()
+        assert _broken_images(page) == []
+        assert page.locator("img").count() >= 2     # overlay + curve at least
+    gif_page = next(u for u in links if u.endswith("-office-good-0.html"))
+    page.goto(gif_page, wait_until="load")
+    page.screenshot(path=str(ARTIFACTS / "report_detail.png"), full_page=True)
+    page.click("text=back to the report")
+    page.wait_for_load_state("load")
+    assert page.url == index.as_uri()
+    assert problems == []
+    page.close()

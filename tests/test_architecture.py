@@ -1,0 +1,179 @@
+"""The package's shape: data flows one way (no import cycle, nothing imports upward), one
+table of parameters, and typed stubs that match the built Rust module."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import inspect
+import pkgutil
+from pathlib import Path
+
+import pytest
+
+import slamq
+from slamq import _core
+
+PACKAGE = Path(slamq.__file__).parent
+
+#: The layers, bottom first; a module may import its own layer and the layers below it.
+LAYERS = ("errors", "params", "models", "sources", "metrics", "results", "batch", "report",
+          "cli")
+
+
+def _modules() -> list[str]:
+    names = ["slamq"]
+    for info in pkgutil.walk_packages([str(PACKAGE)], prefix="slamq."):
+        names.append(info.name)
+    return sorted(n for n in names if n not in ("slamq.__main__", "slamq._core"))
+
+
+MODULES = frozenset(_modules())
+
+
+def _layer(module: str) -> int | None:
+    parts = module.split(".")
+    if len(parts) < 2 or parts[1] not in LAYERS:
+        return None
+    return LAYERS.index(parts[1])
+
+
+def _imports(module: str) -> set[str]:
+    """Every slamq module named in an ``import`` statement of ``module`` (any depth: also
+    the imports inside functions, which run later)."""
+    mod = importlib.import_module(module)
+    tree = ast.parse(Path(inspect.getfile(mod)).read_text(encoding="utf-8"))
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names if a.name.startswith("slamq"))
+        elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("slamq"):
+            found.add(node.module)
+            for a in node.names:  # "from slamq.metrics import reference" imports a module
+                if f"{node.module}.{a.name}" in MODULES:
+                    found.add(f"{node.module}.{a.name}")
+    return found
+
+
+def test_nothing_imports_upward() -> None:
+    upward = []
+    for module in _modules():
+        mine = _layer(module)
+        if mine is None:
+            continue
+        for target in _imports(module):
+            theirs = _layer(target)
+            if theirs is not None and theirs > mine:
+                upward.append(f"{module} -> {target}")
+    assert upward == []
+
+
+def test_no_import_cycle() -> None:
+    graph = {m: {t for t in _imports(m) if t in set(_modules())} for m in _modules()}
+    # a package's __init__ re-exporting its own modules is not a cycle between layers
+    for m, targets in graph.items():
+        graph[m] = {t for t in targets if not t.startswith(m + ".")}
+    state: dict[str, int] = {}
+    cycles: list[list[str]] = []
+
+    def visit(node: str, path: list[str]) -> None:
+        state[node] = 1
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                cycles.append(path[path.index(nxt):] + [nxt] if nxt in path else [node, nxt])
+            elif nxt not in state:
+                visit(nxt, path + [nxt])
+        state[node] = 2
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m, [m])
+    assert cycles == []
+
+
+def test_no_import_error_guard_on_slamq_modules() -> None:
+    guarded = []
+    for module in _modules():
+        mod = importlib.import_module(module)
+        tree = ast.parse(Path(inspect.getfile(mod)).read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if not isinstance(node, ast.Try):
+                continue
+            catches = {ast.unparse(h.type) for h in node.handlers if h.type is not None}
+            if not catches & {"ImportError", "ModuleNotFoundError"}:
+                continue
+            body = ast.unparse(ast.Module(body=node.body, type_ignores=[]))
+            if "import slamq" in body or "from slamq" in body:
+                guarded.append(module)
+    assert guarded == []
+
+
+def test_every_module_imports_first_in_a_fresh_interpreter() -> None:
+    """Each module imported first, alone: an import cycle would fail for some order."""
+    import subprocess
+    import sys
+    from concurrent.futures import ThreadPoolExecutor
+
+    from conftest import slamq_env
+
+    env = slamq_env()
+
+    def run(module: str) -> tuple[str, int, str]:
+        proc = subprocess.run([sys.executable, "-c", f"import {module}"], capture_output=True,
+                              text=True, env=env, timeout=120)
+        return module, proc.returncode, proc.stderr[-500:]
+
+    with ThreadPoolExecutor(4) as pool:
+        failed = [r for r in pool.map(run, _modules()) if r[1] != 0]
+    assert failed == []
+
+
+def _stub_signatures() -> dict[str, ast.FunctionDef]:
+    tree = ast.parse((PACKAGE / "_core.pyi").read_text(encoding="utf-8"))
+    return {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
+
+
+def test_stubs_name_exactly_the_functions_of_the_core() -> None:
+    runtime = {n for n, v in vars(_core).items() if callable(v) and not isinstance(v, type)}
+    assert set(_stub_signatures()) == runtime
+    tree = ast.parse((PACKAGE / "_core.pyi").read_text(encoding="utf-8"))
+    classes = {n.name for n in tree.body if isinstance(n, ast.ClassDef) and
+               not n.name.startswith("_")}
+    assert classes == {n for n, v in vars(_core).items() if isinstance(v, type)}
+
+
+@pytest.mark.parametrize("name", sorted(_stub_signatures()))
+def test_stub_parameters_match_the_core(name: str) -> None:
+    stub = _stub_signatures()[name]
+    args = stub.args.args
+    defaults = [None] * (len(args) - len(stub.args.defaults)) + [
+        ast.literal_eval(d) for d in stub.args.defaults]
+    expected = [(a.arg, d) for a, d in zip(args, defaults)]
+    sig = inspect.signature(getattr(_core, name))
+    actual = [(p.name, None if p.default is inspect.Parameter.empty else p.default)
+              for p in sig.parameters.values() if p.name != "py"]
+    assert actual == expected
+
+
+def test_raw_quality_fields_match_the_stub() -> None:
+    tree = ast.parse((PACKAGE / "_core.pyi").read_text(encoding="utf-8"))
+    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "RawQuality")
+    stub_fields = {n.name for n in cls.body if isinstance(n, ast.FunctionDef)}
+    import numpy as np
+
+    raw = _core.evaluate(np.zeros((3, 3), np.uint8), np.zeros((3, 3), bool), slamq.Params())
+    assert stub_fields == {n for n in dir(raw) if not n.startswith("_")}
+
+
+def test_every_cli_option_of_a_parameter_comes_from_the_table() -> None:
+    from slamq.cli import build_parser
+    from slamq.params import PARAM_NAMES
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    for command in ("eval", "batch", "timeline"):
+        options = {a.dest: a for a in sub.choices[command]._actions}
+        for name in PARAM_NAMES:
+            assert options[name].default == getattr(slamq.Params(), name)
+            assert options[name].help.startswith(
+                slamq.Params.__dataclass_fields__[name].metadata["help"][:20])
