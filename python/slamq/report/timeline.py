@@ -16,30 +16,20 @@ from __future__ import annotations
 
 import csv
 import json
-import math
-import os
 from pathlib import Path
-from typing import Any, NamedTuple, Union
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from slamq.results.columns import json_value
+from slamq.sources.files import PathLike
+
 __all__ = ["timeline"]
 
-PathLike = Union[str, "os.PathLike[str]"]
 
 #: Output file names inside the timeline folder.
 JSONL, CSV, GIF, PLOT = "metrics.jsonl", "metrics.csv", "timeline.gif", "metrics.png"
 FRAMES = "frames"
-
-
-def _jsonable(v: Any) -> Any:
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    if isinstance(v, (np.integer,)):
-        return int(v)
-    if isinstance(v, (np.floating,)):
-        return _jsonable(float(v))
-    return v
 
 
 def timeline(
@@ -121,7 +111,7 @@ def timeline(
             "timestamp": float(stamp),
             "elapsed": float(stamp - t0),
         }
-        row.update({k: _jsonable(v) for k, v in q.to_dict().items() if k != "curve"})
+        row.update({k: json_value(v) for k, v in q.to_dict().items() if k != "curve"})
         rows.append(row)
         if frames or gif:
             small = render_map(grid, max_size=max_size)

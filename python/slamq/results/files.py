@@ -23,11 +23,12 @@ import math
 import os
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, Union
+from typing import Any
 
 from slamq.errors import MapError, ParamError
 from slamq.models import MapQuality
 from slamq.results.columns import ATE_COLUMNS, KEY, QUALITY_COLUMNS, RUN_COLUMNS, json_value
+from slamq.sources.files import PathLike
 
 __all__ = [
     "ResultsFile",
@@ -58,7 +59,6 @@ _STR_COLUMNS = {
     "source", "ate_error",
 }
 
-PathLike = Union[str, "os.PathLike[str]"]
 
 
 def results_format(path: PathLike) -> str:

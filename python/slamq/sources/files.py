@@ -133,3 +133,21 @@ def is_bag(path: PathLike) -> bool:
     if p.suffix.lower() in BAG_SUFFIXES:
         return True
     return p.is_dir() and (p / "metadata.yaml").is_file()
+
+
+def resolve_image(yaml_path: Path, image: str) -> tuple[Path, bool]:
+    """Where the image a map YAML names is, as ROS map_server (and slamq) resolve it:
+    relative to the YAML's folder; an absolute path that does not exist falls back to the
+    file of that name beside the YAML. Returns ``(path, fell_back)``; the path may not exist.
+
+    Examples
+    --------
+    >>> resolve_image(Path("maps/m.yaml"), "/nowhere/m.pgm")
+    (PosixPath('maps/m.pgm'), True)
+    """
+    ref = Path(image)
+    if not ref.is_absolute():
+        return yaml_path.parent / ref, False
+    if ref.is_file():
+        return ref, False
+    return yaml_path.parent / ref.name, True

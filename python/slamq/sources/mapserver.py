@@ -20,6 +20,7 @@ from slamq.sources.files import (
     fail,
     one_line,
     read_regular_file,
+    resolve_image,
 )
 from slamq.sources.images import Image, read_image_file
 from slamq.sources.pixels import (
@@ -71,21 +72,17 @@ def image_map(
 
 
 def _resolve_image(yaml_path: Path, image: str, warnings_out: list[str]) -> Path:
-    ref = Path(image)
-    if not ref.is_absolute():
-        candidate = yaml_path.parent / ref
-        if not os.path.lexists(candidate):
-            raise fail(yaml_path, f"image {image!r} not found (looked for {candidate})")
-        return candidate  # a directory, a FIFO or a symlink loop is named when it is read
-    if ref.is_file():
-        return ref
-    beside = yaml_path.parent / ref.name
-    if beside.is_file():
+    path, fell_back = resolve_image(yaml_path, image)
+    if not fell_back:
+        if not os.path.lexists(path):
+            raise fail(yaml_path, f"image {image!r} not found (looked for {path})")
+        return path  # a directory, a FIFO or a symlink loop is named when it is read
+    if path.is_file():
         warnings_out.append(
-            f"{yaml_path}: image {image!r} does not exist; using {ref.name!r} beside the YAML"
+            f"{yaml_path}: image {image!r} does not exist; using {path.name!r} beside the YAML"
         )
-        return beside
-    raise fail(yaml_path, f"image {image!r} not found (also looked for {beside})")
+        return path
+    raise fail(yaml_path, f"image {image!r} not found (also looked for {path})")
 
 
 def load_yaml_map(

@@ -16,7 +16,7 @@ import numpy as np
 
 from slamq.errors import TrajectoryError
 from slamq.models.trajectory import Trajectory, yaw_to_quat
-from slamq.sources.files import is_bag
+from slamq.sources.files import PathLike, is_bag
 
 __all__ = ["load_trajectory", "parse_columns", "FORMATS", "ROLES"]
 
@@ -24,7 +24,6 @@ __all__ = ["load_trajectory", "parse_columns", "FORMATS", "ROLES"]
 FORMATS = ("tum", "kitti", "euroc", "csv", "bag", "pbstream")
 #: Column roles of the generic table reader.
 ROLES = ("t", "x", "y", "z", "yaw", "qw", "qx", "qy", "qz")
-PathLike = Union[str, Path]
 Columns = Mapping[str, Union[str, int]]
 
 # Header names recognised without a mapping (lower case, units in [] or () stripped).

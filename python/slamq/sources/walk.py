@@ -34,6 +34,7 @@ from slamq.sources.files import (
     YAML_SUFFIXES,
     PathLike,
     is_bag,
+    resolve_image,
     stat_path,
 )
 
@@ -85,12 +86,7 @@ def yaml_image(path: Path, doc: Any = None) -> Path | None:
         doc = read_yaml(path)
     if not isinstance(doc, dict) or not isinstance(doc.get("image"), str):
         return None
-    ref = Path(doc["image"])
-    if not ref.is_absolute():
-        return path.parent / ref
-    if ref.is_file():
-        return ref
-    return path.parent / ref.name
+    return resolve_image(path, doc["image"])[0]
 
 
 def _resolved(path: Path) -> Path:
