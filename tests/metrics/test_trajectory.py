@@ -540,14 +540,3 @@ def test_cli_bad_estimate_one_line_exit_2(tmp_path, capsys, text, reason):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1
     assert str(bad) in err[0] and reason in err[0]
-
-
-def test_numpy_fallback_reader_gives_the_same_numbers(tmp_path):
-    from slamq.sources.trajectories import _read_table, _read_table_numpy
-
-    p = _planar(40).write_tum(tmp_path / "a.txt")
-    text = "# header\n" + p.read_text().replace(" ", "  \t", 3)
-    p.write_text(text)
-    a = _read_table(p, sep="ws")
-    b = _read_table_numpy(p, sep="ws", skiprows=0, comment="#")
-    assert a.shape == (40, 8) and np.array_equal(a, b)

@@ -98,12 +98,7 @@ def _read_table(
     path: Path, *, sep: str, skiprows: int = 0, comment: str | None = "#"
 ) -> np.ndarray:
     """All data rows of a numeric text table as a float64 array (rows, cols)."""
-    try:
-        import pandas as pd
-    except ImportError:  # pragma: no cover - pandas is part of the 'traj' extra
-        pd = None
-    if pd is None:  # pragma: no cover
-        return _read_table_numpy(path, sep=sep, skiprows=skiprows, comment=comment)
+    import pandas as pd
     from pandas.errors import EmptyDataError, ParserError
 
     seps = [" ", r"\s+"] if sep == "ws" else [sep]
@@ -132,17 +127,6 @@ def _read_table(
         raise TrajectoryError(f"{path}: not a numeric table ({msg})")
     # sep=' ' found empty fields and \s+ failed without raising: cannot happen
     raise TrajectoryError(f"{path}: not a numeric table")  # pragma: no cover
-
-
-def _read_table_numpy(
-    path: Path, *, sep: str, skiprows: int, comment: str | None
-) -> np.ndarray:
-    try:
-        arr = np.loadtxt(path, delimiter=None if sep == "ws" else sep, comments=comment,
-                         skiprows=skiprows, ndmin=2)
-    except ValueError as exc:
-        raise TrajectoryError(f"{path}: not a numeric table ({exc})") from None
-    return arr
 
 
 def _nonempty(arr: np.ndarray, path: Path) -> None:
