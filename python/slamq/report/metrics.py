@@ -124,7 +124,8 @@ def summarize(ok: pd.DataFrame) -> pd.DataFrame:
     """
     from slamq.results.summary import summarize as summarize_records
 
-    summary = summarize_records(ok).set_index(["sequence", "algorithm"])
+    # the report states mixed settings on its page (site.py), not as a Python warning
+    summary = summarize_records(ok, check_settings=False).set_index(["sequence", "algorithm"])
     for m in METRICS:
         if f"{m.key}_n" not in summary:
             summary[f"{m.key}_n"] = 0

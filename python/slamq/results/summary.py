@@ -43,7 +43,8 @@ def _frame(results: Any) -> Any:
 
 
 def summarize(
-    results: Any | str | os.PathLike[str] | Iterable[dict[str, Any]], *, ddof: int = 1
+    results: Any | str | os.PathLike[str] | Iterable[dict[str, Any]], *, ddof: int = 1,
+    check_settings: bool = True,
 ) -> Any:
     """Mean and standard deviation of every metric over runs, per (algorithm, sequence).
 
@@ -55,6 +56,9 @@ def summarize(
     ddof : int, default 1
         Delta degrees of freedom of the standard deviation: 1 = sample (divide by n - 1),
         0 = population (divide by n).
+    check_settings : bool, default True
+        Warn when the records were computed with different settings (below); the report
+        says so on its page instead.
 
     Returns
     -------
@@ -89,7 +93,8 @@ def summarize(
     if ddof not in (0, 1):
         raise ParamError(f"ddof must be 0 or 1, got {ddof!r}")
     df = _frame(results)
-    mixed = settings_difference(df["config"]) if "config" in df.columns else None
+    mixed = (settings_difference(df["config"]) if check_settings and "config" in df.columns
+             else None)
     if mixed:
         warnings.warn(
             f"the results were computed with different settings ({mixed}); their "
