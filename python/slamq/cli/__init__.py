@@ -17,7 +17,14 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from slamq.cli.common import EXIT_BAD_INPUT, EXIT_ERROR, WarningDigest, error_line
+from slamq.cli.common import (
+    EXIT_BAD_INPUT,
+    EXIT_ERROR,
+    WarningDigest,
+    add_verbosity_options,
+    error_line,
+    set_verbosity,
+)
 
 #: The command modules, in ``--help`` order.
 COMMANDS: tuple[str, ...] = (
@@ -30,14 +37,28 @@ COMMANDS: tuple[str, ...] = (
 )
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("slamq")
+    except PackageNotFoundError:  # a source tree on sys.path, not installed
+        return "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The full ``slamq`` argument parser."""
     parser = argparse.ArgumentParser(
-        prog="slamq", description="Score 2D SLAM results (maps and trajectories)."
+        prog="slamq", description="Score 2D SLAM results (maps and trajectories).",
+        epilog="Exit codes: 0 success, 2 bad input (one line names the file and the "
+        "reason), 1 anything unexpected, 130 interrupted.",
     )
+    parser.add_argument("--version", action="version", version=f"slamq {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name in COMMANDS:
         importlib.import_module(name).add_parser(sub)
+    for command in sub.choices.values():
+        add_verbosity_options(command)
     return parser
 
 
@@ -46,11 +67,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     from slamq.errors import SlamqError
 
     args = build_parser().parse_args(argv)
-    digest = WarningDigest()
+    set_verbosity(args.verbose - args.quiet)
+    digest = WarningDigest(quiet=args.quiet > 0)
     previous, warnings.showwarning = warnings.showwarning, digest.show
     try:
         return int(args.func(args))
     except KeyboardInterrupt:
+        print("slamq: interrupted", file=sys.stderr)
         return 130
     except (SlamqError, OSError) as exc:
         error_line("", exc)

@@ -70,7 +70,6 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--report", metavar="DIR", default=None,
                    help="then write the HTML report of the results to DIR (slamq report)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--quiet", "-q", action="store_true", help="no summary table")
     add_map_options(p)
     p.set_defaults(func=_cmd_batch)
 
@@ -153,7 +152,7 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     ate_failed = 0
     evaluated = 0
     total = 0
-    with _Progress(not args.no_progress) as progress:
+    with _Progress(not args.no_progress and not args.quiet) as progress:
 
         def on_progress(done: int, n: int) -> None:
             nonlocal total
@@ -187,7 +186,7 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     if total == 0:
         error_line("", "no map found in " + ", ".join(map(str, args.sources)))
         return EXIT_BAD_INPUT
-    if not args.quiet:
+    if not args.quiet:  # -q/--quiet: every command has it
         stdout_console().print(summary_table(summarize(read_results(out)), title=str(out)))
     if args.report:
         from slamq.report import build_report

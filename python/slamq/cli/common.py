@@ -10,7 +10,8 @@ command, which goes on with the others.
 from __future__ import annotations
 
 import argparse
-import importlib.util
+import importlib
+import logging
 import sys
 import threading
 from typing import IO, Any
@@ -44,7 +45,12 @@ def need_extra(extra: str, what: str) -> None:
     --------
     >>> need_extra("report", "slamq report")   # installed here: nothing happens
     """
-    missing = [m for m in EXTRAS[extra] if importlib.util.find_spec(m) is None]
+    missing = []
+    for module in EXTRAS[extra]:
+        try:
+            importlib.import_module(module)
+        except ImportError:
+            missing.append(module)
     if missing:
         raise SlamqError(f"{what} needs the '{extra}' extra ({', '.join(missing)} not "
                          f"installed): pip install 'slamq[{extra}]'")
@@ -58,6 +64,35 @@ def add_map_options(parser: argparse.ArgumentParser) -> None:
     add_param_options(parser)
     parser.add_argument("--unknown-value", type=int, default=None,
                         help="treat pixels equal to this value as unknown, and nothing else")
+
+
+def add_verbosity_options(parser: argparse.ArgumentParser) -> None:
+    """``-v/--verbose`` and ``-q/--quiet`` (every command has them)."""
+    parser.add_argument("-v", "--verbose", action="count", default=0,
+                        help="say more (debug messages, e.g. how each map was read)")
+    parser.add_argument("-q", "--quiet", action="count", default=0,
+                        help="say less: no warnings, progress or summary tables (errors and "
+                        "results only)")
+
+
+class _LowerLevelFormatter(logging.Formatter):
+    """``slamq: debug: ...`` like the ``slamq: warning:`` and ``slamq: error:`` lines."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        return super().format(record).replace(
+            f"slamq: {record.levelname}:", f"slamq: {record.levelname.lower()}:", 1)
+
+
+def set_verbosity(level: int) -> None:
+    """Route the ``slamq`` logger to stderr: debug messages at ``level >= 1``."""
+    logger = logging.getLogger("slamq")
+    if not any(getattr(h, "slamq_cli", False) for h in logger.handlers):
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(_LowerLevelFormatter("slamq: %(levelname)s: %(message)s"))
+        handler.slamq_cli = True  # type: ignore[attr-defined]
+        logger.addHandler(handler)
+    logger.setLevel(logging.DEBUG if level >= 1 else
+                    logging.WARNING if level == 0 else logging.ERROR)
 
 
 def stdout_console() -> Any:
@@ -75,9 +110,10 @@ class WarningDigest:
     that repeats for other files (same text after the file name) is shown once and the other
     files are counted (each file once, however often it was loaded)."""
 
-    def __init__(self) -> None:
+    def __init__(self, quiet: bool = False) -> None:
         self.files: dict[tuple[type, str], set[str]] = {}
         self.lock = threading.Lock()
+        self.quiet = quiet
 
     def show(self, message: Warning | str, category: type, filename: str, lineno: int,
              file: IO[str] | None = None, line: str | None = None) -> None:
@@ -88,10 +124,12 @@ class WarningDigest:
             seen = self.files.setdefault(key, set())
             first = not seen
             seen.add(where if sep else text)
-        if first:
+        if first and not self.quiet:
             print(f"slamq: warning: {text}", file=sys.stderr)
 
     def summary(self) -> None:
+        if self.quiet:
+            return
         for (_, reason), files in self.files.items():
             if len(files) > 1:
                 short = reason if len(reason) <= 70 else reason[:67] + "..."

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 import numpy as np
@@ -99,11 +100,17 @@ def interpret(
         differ = present[lut[present] != rule[present]]
         if warn_disagreement and differ.size:
             shades = ", ".join(str(int(x)) for x in differ)
-            warnings_out.append(
+            message = (
                 f"{where}: the YAML thresholds (occupied_thresh {occ}, free_thresh {free}"
                 f"{', negate 1' if negate else ''}) would classify map_saver shade(s) "
                 f"{shades} differently; using the map_saver rule (205 unknown, 0/254/255 known)"
             )
+            if differ.tolist() == [MAP_SAVER_UNKNOWN] and not negate and free > 0.196:
+                # nav2 / slam_toolbox write free_thresh 0.25 with 205 as unknown: their own
+                # convention, handled as they mean it; a note, not a warning
+                logging.getLogger("slamq").debug("%s", message)
+            else:
+                warnings_out.append(message)
         lut = rule
         meta["unknown_rule"] = "map_saver: 205 unknown, 0/254/255 known"
     else:
