@@ -38,7 +38,8 @@ def test_eval_folder_json_csv(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     records = json.loads(js.read_text())
     assert sorted(Path(r["source"]).name for r in records) == sorted(
         p.name for p in OFFICE.glob("*.yaml"))
-    assert len(out.out.strip().splitlines()) == 1 + len(records)
+    table = out.out.strip().splitlines()
+    assert table[0].split()[0] == "map" and table[1 + len(records)].startswith("lower is better")
     rows = list(csv.DictReader(cs.open()))
     assert [r["source"] for r in rows] == [r["source"] for r in records]
     for rec, row in zip(records, rows):
@@ -258,3 +259,45 @@ def test_version_and_help_start_fast() -> None:
     elapsed = time.perf_counter() - t0
     assert proc.returncode == 0 and proc.stdout.startswith("slamq ")
     assert elapsed < 2.0  # a generous bound for a loaded CI machine; ~0.25 s measured
+
+
+def test_eval_reads_stdin_and_writes_json_or_csv_to_stdout(tmp_path: Path) -> None:
+    room = _room_pgm(tmp_path / "room.pgm")
+    expected = slamq.evaluate(room)
+    cmd = [sys.executable, "-m", "slamq", "eval", "-", "--json", "-"]
+    proc = subprocess.run(cmd, input=room.read_bytes(), capture_output=True, env=slamq_env(),
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    (rec,) = json.loads(proc.stdout)  # stdout holds only the JSON; the table went to stderr
+    assert rec["source"] == "<stdin>" and rec["corners"] == expected.corners
+    assert b"occupied_fraction" in proc.stderr
+    proc = subprocess.run([sys.executable, "-m", "slamq", "eval", str(room), "--csv", "-", "-q"],
+                          capture_output=True, text=True, env=slamq_env(), timeout=120)
+    (row,) = list(csv.DictReader(proc.stdout.splitlines()))
+    assert int(row["corners"]) == expected.corners and proc.stderr == ""
+    assert not (tmp_path / "-").exists() and not Path("-").exists()
+
+
+def test_summary_and_report_read_what_eval_writes(tmp_path: Path) -> None:
+    js, cs = tmp_path / "e.json", tmp_path / "e.csv"
+    run = [sys.executable, "-m", "slamq"]
+    proc = subprocess.run([*run, "eval", str(OFFICE), "--json", str(js), "--csv", str(cs)],
+                          capture_output=True, text=True, env=slamq_env(), timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    for results in (js, cs):
+        proc = subprocess.run([*run, "summary", str(results)], capture_output=True, text=True,
+                              env=slamq_env(), timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        assert "gmapping_map" in proc.stdout or "all maps" in proc.stdout, proc.stdout
+    proc = subprocess.run([*run, "report", str(cs), "--out", str(tmp_path / "site"),
+                           "--no-gifs"], capture_output=True, text=True, env=slamq_env(),
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "site" / "index.html").is_file()
+
+
+def test_occupancy_map_repr_does_not_dump_arrays() -> None:
+    m = load_map(OFFICE / "gmapping_map.yaml")
+    text = repr(m)
+    assert text.startswith("OccupancyMap(") and "array" not in text and len(text) < 200
+    assert "608x896 cells" in text and "resolution=0.05" in text

@@ -197,3 +197,18 @@ def test_write_gif(tmp_path):
     assert gif.convert("RGB").getpixel((0, 0)) == (60, 60, 60)
     with pytest.raises(ValueError, match="at least one frame"):
         write_gif([], tmp_path / "y.gif")
+
+
+def test_cli_eval_on_a_bag_reads_the_topic_it_is_given(tmp_path, capsys):
+    bag = bag_path(tmp_path, "ros1")
+    with BagWriter(bag, "ros1") as w:
+        w.write("/map", GRID, w.grid(1.0, room_grid(size=20), resolution=RES))
+        w.write("/local_map", GRID, w.grid(1.0, room_grid(size=40), resolution=RES))
+    out = tmp_path / "q.json"
+    assert main(["eval", str(bag), "--topic", "/local_map", "--json", str(out)]) == 0
+    (got,) = json.loads(out.read_text())
+    assert (got["height"], got["width"]) == (48, 48)
+    assert main(["eval", str(bag), "--json", str(out)]) == 0  # default /map: 28 x 28
+    assert json.loads(out.read_text())[0]["height"] == 28
+    assert main(["eval", str(bag), "--topic", "/nothing"]) == 2
+    assert "no topic /nothing" in capsys.readouterr().err

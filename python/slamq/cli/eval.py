@@ -8,6 +8,9 @@ file (rust/src/proportion.rs, corners.rs, enclosed.rs).
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
+from typing import Any
 
 from slamq.cli.common import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_OK, add_map_options, error_line
 
@@ -21,9 +24,17 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "recursively with the rules slamq batch uses; an image named by a YAML beside it is "
         "evaluated once, through the YAML).",
     )
-    p.add_argument("paths", nargs="+", help="map files or folders")
-    p.add_argument("--json", metavar="FILE", help="write the results as JSON")
-    p.add_argument("--csv", metavar="FILE", help="write the results as CSV")
+    p.add_argument("paths", nargs="+",
+                   help="map files or folders; '-' reads one map image (PGM, PNG, ...) "
+                   "from standard input")
+    p.add_argument("--json", metavar="FILE",
+                   help="write the results as JSON ('-': to standard output, and the table "
+                   "to standard error)")
+    p.add_argument("--csv", metavar="FILE",
+                   help="write the results as CSV ('-': to standard output, and the table "
+                   "to standard error)")
+    p.add_argument("--topic", default=None,
+                   help="for bags: the nav_msgs/OccupancyGrid topic (default /map)")
     p.add_argument("--curve", action="store_true",
                    help="keep the enclosed-area curve over the unknown value")
     p.add_argument("--verify", action="store_true",
@@ -35,7 +46,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Evaluate every map found; one error line per bad map, the others still evaluated."""
-    from slamq.errors import SlamqError
+    from slamq.errors import ParamError, SlamqError
     from slamq.metrics.evaluate import evaluate
     from slamq.params import check_threads, params_from_args
     from slamq.results.files import write_csv, write_json
@@ -44,16 +55,22 @@ def run(args: argparse.Namespace) -> int:
 
     params = params_from_args(args)
     check_threads(args.threads, "--threads")
+    if args.json == "-" and args.csv == "-":
+        raise ParamError("--json - and --csv - cannot both write to standard output")
     failed = unexpected = 0
-    sources, problems = discover_maps(args.paths)
+    stdin = "-" in args.paths
+    sources, problems = discover_maps([p for p in args.paths if p != "-"])
+    if stdin:
+        sources.insert(args.paths.index("-"), STDIN)
     for where, reason in problems:
         error_line(where, reason)
         failed += 1
     results = []
     for src in sources:
         try:
-            q = evaluate(src, params=params, curve=args.curve, verify=args.verify,
-                         threads=args.threads, unknown_value=args.unknown_value)
+            grid = _load(src, args)
+            q = evaluate(grid, params=params, curve=args.curve, verify=args.verify,
+                         threads=args.threads)
         except SlamqError as exc:
             error_line(str(src), exc)
             failed += 1
@@ -63,15 +80,33 @@ def run(args: argparse.Namespace) -> int:
             unexpected += 1
             continue
         results.append(q)
-    if results:
-        print_table(results, curve=args.curve)
+    to_stdout = "-" in (args.json, args.csv)
+    if results and not args.quiet:
+        print_table(results, curve=args.curve, file=sys.stderr if to_stdout else sys.stdout)
     if args.json:
-        write_json(args.json, results)
+        write_json(sys.stdout if args.json == "-" else args.json, results)
     if args.csv:
-        write_csv(args.csv, results)
+        write_csv(sys.stdout if args.csv == "-" else args.csv, results)
     if unexpected:
         return EXIT_ERROR
     if not results and not failed:
         error_line("", "no map found in " + ", ".join(map(str, args.paths)))
         return EXIT_BAD_INPUT
     return EXIT_BAD_INPUT if failed else EXIT_OK
+
+
+#: Stands for standard input among the sources.
+STDIN = Path("-")
+
+
+def _load(src: Path, args: argparse.Namespace) -> Any:
+    """The map of one source: standard input (an image's bytes), a bag on ``--topic``, or
+    a file."""
+    from slamq.sources import load_map
+    from slamq.sources.files import MAX_IMAGE_BYTES
+    from slamq.sources.maps import load_map_bytes
+
+    if src is STDIN:
+        data = sys.stdin.buffer.read(MAX_IMAGE_BYTES + 1)
+        return load_map_bytes(data, unknown_value=args.unknown_value)
+    return load_map(src, unknown_value=args.unknown_value, topic=args.topic)

@@ -40,6 +40,8 @@ class OccupancyMap:
     >>> m = OccupancyMap(np.full((2, 3), 254, np.uint8), np.zeros((2, 3), bool))
     >>> m.shape, m.known_count
     ((2, 3), 6)
+    >>> m
+    OccupancyMap('<array>', 2x3 cells, 6 known, resolution=None, origin=(0, 0, 0))
     """
 
     values: np.ndarray
@@ -67,6 +69,12 @@ class OccupancyMap:
             raise MapError(f"{self.source}: resolution must be > 0, got {self.resolution}")
         object.__setattr__(self, "values", np.ascontiguousarray(values))
         object.__setattr__(self, "unknown", np.ascontiguousarray(unknown, dtype=bool))
+
+    def __repr__(self) -> str:
+        res = "None" if self.resolution is None else f"{self.resolution:g}"
+        origin = ", ".join(f"{x:g}" for x in self.origin)
+        return (f"OccupancyMap({self.source!r}, {self.shape[0]}x{self.shape[1]} cells, "
+                f"{self.known_count} known, resolution={res}, origin=({origin}))")
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -23,7 +23,7 @@ import math
 import os
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from slamq.errors import MapError, ParamError
 from slamq.models import MapQuality
@@ -318,6 +318,8 @@ def _read_plain(path: Path) -> list[dict[str, Any]]:
         for k, v in r.items():
             if v is None and k in _FLOAT_COLUMNS:
                 r[k] = math.nan
+        if "map" not in r and "source" in r:  # slamq eval's records name the map "source"
+            r["map"] = r["source"]
     return records
 
 
@@ -346,8 +348,10 @@ def _records(results: Sequence[MapQuality]) -> list[dict[str, Any]]:
     return [q.to_dict() for q in results]
 
 
-def write_json(path: PathLike, results: Sequence[MapQuality]) -> Path:
+def write_json(path: PathLike | IO[str], results: Sequence[MapQuality]) -> Path | None:
     """Write the results as a JSON list of ``MapQuality.to_dict()`` (NaN as null).
+
+    ``path`` may be an open text stream (e.g. ``sys.stdout``); then None is returned.
 
     Examples
     --------
@@ -357,9 +361,13 @@ def write_json(path: PathLike, results: Sequence[MapQuality]) -> Path:
     >>> read_records(p)[0]["known"]
     16
     """
-    path = Path(path)
     records = [{k: json_value(v) for k, v in r.items()} for r in _records(results)]
-    path.write_text(json.dumps(records, indent=2) + "\n")
+    text = json.dumps(records, indent=2) + "\n"
+    if hasattr(path, "write"):
+        path.write(text)
+        return None
+    path = Path(path)
+    path.write_text(text)
     return path
 
 
@@ -368,18 +376,28 @@ def _csv_header() -> list[str]:
     return list(QUALITY_COLUMNS)
 
 
-def write_csv(path: PathLike, results: Sequence[MapQuality]) -> Path:
-    """Write one CSV row per map (the curve, when present, as ``;``-joined counts)."""
-    path = Path(path)
+def write_csv(path: PathLike | IO[str], results: Sequence[MapQuality]) -> Path | None:
+    """Write one CSV row per map (the curve, when present, as ``;``-joined counts).
+
+    ``path`` may be an open text stream (e.g. ``sys.stdout``); then None is returned.
+    """
     records = _records(results)
     fields = list(records[0].keys()) if records else _csv_header()
-    with path.open("w", newline="") as fh:
+
+    def write(fh: IO[str]) -> None:
         writer = csv.DictWriter(fh, fieldnames=fields)
         writer.writeheader()
         for r in records:
             if r.get("curve") is not None:
                 r["curve"] = ";".join(str(c) for c in r["curve"])
             writer.writerow(r)
+
+    if hasattr(path, "write"):
+        write(path)
+        return None
+    path = Path(path)
+    with path.open("w", newline="") as fh:
+        write(fh)
     return path
 
 

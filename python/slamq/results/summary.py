@@ -102,9 +102,12 @@ def summarize(
             "results file)", UserWarning,
             stacklevel=2,
         )
-    for col in ("algorithm", "sequence"):
-        if col not in df.columns:
-            df = df.assign(**{col: ""})
+    if "algorithm" not in df.columns:  # each map its own row, named by its file
+        stems = [Path(str(m)).stem if isinstance(m, str) else "" for m in
+                 (df["map"] if "map" in df.columns else [None] * len(df))]
+        df = df.assign(algorithm=stems)
+    if "sequence" not in df.columns:
+        df = df.assign(sequence="all maps")
     err = df["error"] if "error" in df.columns else pd.Series([None] * len(df), index=df.index)
     failed_mask = err.notna() & (err.astype(object) != "")
     has_ate = "ate_rmse" in df.columns and df.loc[~failed_mask, "ate_rmse"].notna().any()

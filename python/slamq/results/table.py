@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+import textwrap
 from collections.abc import Sequence
 from typing import IO
 
@@ -17,34 +18,62 @@ __all__ = ["format_table", "print_table"]
 
 _COLUMNS = (
     ("map", "source", "<"),
-    ("H x W", None, ">"),
+    ("cells", None, ">"),
     ("known", "known", ">"),
     ("occupied", "occupied", ">"),
-    ("occ. fraction", "occupied_fraction", ">"),
+    ("occupied_fraction", "occupied_fraction", ">"),
     ("proportion", "proportion", ">"),
     ("corners", "corners", ">"),
-    ("enclosed", "enclosed_areas", ">"),
-    ("at u", "enclosed_unknown_value", ">"),
+    ("enclosed_areas", "enclosed_areas", ">"),
+    ("peak_at_u", "enclosed_unknown_value", ">"),
+)
+
+#: Printed under the table: what the columns mean.
+LEGEND = (
+    "lower is better for occupied_fraction, corners and enclosed_areas (paper III); "
+    "peak_at_u: the unknown value at which enclosed_areas peaks; proportion = occupied / "
+    "(free + unknown) depends on the canvas"
 )
 
 
-def _cell(q: MapQuality, key: str | None) -> str:
+def _cell(q: MapQuality, key: str | None, names: dict[str, str]) -> str:
     if key is None:
-        return f"{q.height} x {q.width}"
+        return f"{q.height}x{q.width}"
     value = getattr(q, key)
     if isinstance(value, float):
         return "nan" if math.isnan(value) else f"{value:.4f}"
     if key == "source":
-        return _short(str(value))
+        return names.get(str(value), str(value))
     return str(value)
 
 
-def _short(path: str) -> str:
-    try:
-        rel = os.path.relpath(path)
-    except ValueError:
-        return path
-    return rel if len(rel) <= len(path) else path
+def short_names(paths: Sequence[str]) -> dict[str, str]:
+    """Each path without the folder all of them share (and relative to the current folder
+    when that is shorter): ``/data/runs/office/a.yaml`` -> ``office/a.yaml``.
+
+    Examples
+    --------
+    >>> short_names(["/d/runs/office/a.yaml", "/d/runs/lab/b.yaml"])
+    {'/d/runs/office/a.yaml': 'office/a.yaml', '/d/runs/lab/b.yaml': 'lab/b.yaml'}
+    """
+    files = [p.partition(":/")[0] for p in paths if not p.startswith("<")]  # bag:/topic[i]
+    if len(files) > 1:
+        common = os.path.commonpath([os.path.dirname(os.path.abspath(p)) for p in files])
+    else:
+        common = os.path.dirname(os.path.abspath(files[0])) if files else ""
+    out = {}
+    for p in paths:
+        if p.startswith("<"):
+            out[p] = p
+            continue
+        path, sep, topic = p.partition(":/")
+        short = os.path.relpath(os.path.abspath(path), common) if common else path
+        try:
+            rel = os.path.relpath(path)
+        except ValueError:
+            rel = path
+        out[p] = min((short, rel, path), key=len) + sep + topic
+    return out
 
 
 def format_table(results: Sequence[MapQuality]) -> str:
@@ -53,11 +82,15 @@ def format_table(results: Sequence[MapQuality]) -> str:
     Examples
     --------
     >>> import numpy as np, slamq
-    >>> print(format_table([slamq.evaluate(np.full((4, 4), 254, np.uint8))]).splitlines()[0])
-    map      H x W  known  occupied  occ. fraction  proportion  corners  enclosed  at u
+    >>> header, row = format_table([slamq.evaluate(np.full((4, 4), 254, np.uint8))]).splitlines()
+    >>> header.split()[:5]
+    ['map', 'cells', 'known', 'occupied', 'occupied_fraction']
+    >>> row.split()[:5]
+    ['<array>', '4x4', '16', '0', '0.0000']
     """
+    names = short_names([q.source for q in results])
     rows = [[h for h, _, _ in _COLUMNS]]
-    rows += [[_cell(q, key) for _, key, _ in _COLUMNS] for q in results]
+    rows += [[_cell(q, key, names) for _, key, _ in _COLUMNS] for q in results]
     widths = [max(len(r[i]) for r in rows) for i in range(len(_COLUMNS))]
     lines = []
     for r in rows:
@@ -75,9 +108,11 @@ def print_table(
     """Print :func:`format_table` (and each map's enclosed-area curve when ``curve``)."""
     out = file or sys.stdout
     print(format_table(results), file=out)
+    print(textwrap.fill(LEGEND, width=100), file=out)
     if curve:
+        names = short_names([q.source for q in results])
         for q in results:
             if q.curve is not None:
                 values = q.params.sweep_values
                 pairs = " ".join(f"{u}:{c}" for u, c in zip(values, q.curve))
-                print(f"{_short(q.source)} curve u:count_u {pairs}", file=out)
+                print(f"{names[q.source]} curve u:count_u {pairs}", file=out)

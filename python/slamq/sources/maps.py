@@ -35,6 +35,7 @@ import numpy as np
 from slamq.errors import MapError, MapWarning
 from slamq.models import OccupancyMap
 from slamq.sources.files import (
+    MAX_IMAGE_BYTES,
     YAML_SUFFIXES,
     check_origin,
     check_resolution,
@@ -44,14 +45,14 @@ from slamq.sources.files import (
     stat_path,
 )
 from slamq.sources.grids import from_occupancy_grid
-from slamq.sources.images import Image, read_image_file, split_channels
+from slamq.sources.images import Image, decode_image, read_image_file, split_channels
 from slamq.sources.mapserver import image_map, load_yaml_map, reapply
 
 
-def _load_bag(path: Path) -> OccupancyMap:
+def _load_bag(path: Path, topic: str | None) -> OccupancyMap:
     from slamq.sources.bag_maps import read_last_map
 
-    return read_last_map(path)
+    return read_last_map(path, topic or "/map")
 
 
 def load_map(
@@ -60,6 +61,7 @@ def load_map(
     unknown_value: int | None = None,
     resolution: float | None = None,
     origin: Any = None,
+    topic: str | None = None,
 ) -> OccupancyMap:
     """Load an occupancy grid from a file, an array or a bag, per docs/spec.md section 1.
 
@@ -89,6 +91,8 @@ def load_map(
         Metres per cell; overrides the YAML's.
     origin : (x, y, yaw), optional
         Overrides the YAML's origin.
+    topic : str, optional
+        For a bag: the nav_msgs/OccupancyGrid topic (default ``/map``).
 
     Returns
     -------
@@ -120,7 +124,7 @@ def load_map(
     [[False, False], [False, True]]
     """
     warnings_out: list[str] = []
-    result = _load(source, unknown_value, resolution, origin, warnings_out)
+    result = _load(source, unknown_value, resolution, origin, warnings_out, topic)
     for msg in warnings_out:
         warnings.warn(MapWarning(msg), stacklevel=2)
     return result
@@ -132,6 +136,7 @@ def _load(
     resolution: Any,
     origin: Any,
     warnings_out: list[str],
+    topic: str | None = None,
 ) -> OccupancyMap:
     if isinstance(source, OccupancyMap):
         where = source.source
@@ -168,7 +173,7 @@ def _load(
         org = None if origin is None else check_origin(origin, where)
         stat_path(path)  # missing, a broken link or a symlink loop: say which
         if is_bag(path):
-            return reapply(_load_bag(path), unknown_value, res, org)
+            return reapply(_load_bag(path, topic), unknown_value, res, org)
         if path.is_dir():
             raise fail(where, "is a directory (not a ROS 2 bag); use "
                                "slamq.sources.discover_maps to find the maps in a folder")
@@ -184,3 +189,33 @@ def _load(
 
     raise MapError(f"<{type(source).__name__}>: cannot load a map from a "
                    f"{type(source).__name__}; expected a path, a numpy array or an OccupancyMap")
+
+
+def load_map_bytes(
+    data: bytes,
+    *,
+    source: str = "<stdin>",
+    unknown_value: int | None = None,
+    resolution: float | None = None,
+) -> OccupancyMap:
+    """Load a map from the bytes of an image file (PGM, PNG, ... as :func:`load_map` reads a
+    bare image: map_server's defaults), e.g. an image piped into ``slamq eval -``.
+
+    Examples
+    --------
+    >>> from slamq.sources.maps import load_map_bytes
+    >>> m = load_map_bytes(b"P5 2 1 255 " + bytes([0, 254]))
+    >>> m.source, m.shape, m.known_count
+    ('<stdin>', (1, 2), 2)
+    """
+    warnings_out: list[str] = []
+    res = check_resolution(resolution, source)
+    n = None if unknown_value is None else check_unknown_value(unknown_value, source, grid=False)
+    if len(data) > MAX_IMAGE_BYTES:
+        raise fail(source, f"{len(data)} bytes is too large for an image")
+    img = decode_image(data, source)
+    result = image_map(img, source=source, kind="image", unknown_value=n, resolution=res,
+                       origin=(0.0, 0.0, 0.0), warnings_out=warnings_out)
+    for msg in warnings_out:
+        warnings.warn(MapWarning(msg), stacklevel=2)
+    return result
