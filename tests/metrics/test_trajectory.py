@@ -179,7 +179,7 @@ def test_generic_tables(tmp_path):
     assert tr.orientations.tolist() == [[0.0, 0.0, 0.0, 1.0]]
     n = tmp_path / "xy.csv"
     n.write_text("x,y\n1,2\n3,4\n")
-    assert load_trajectory(n).timestamps.tolist() == [0.0, 1.0]  # no t: index
+    assert load_trajectory(n, by_index=True).timestamps.tolist() == [0.0, 1.0]  # row index
     h = tmp_path / "commented.txt"
     h.write_text("# recorded by me\n\n# time x y yaw\n0 1 2 0\n# pause\n1 3 4 0.25\n")
     tr = load_trajectory(h)  # the header is the comment line above the data
@@ -440,10 +440,10 @@ def test_cli_ate_on_the_pose_logs(tmp_path, capsys):
     out = tmp_path / "ate.json"
     rc = main(["ate", logs[0], *logs, "--gt-columns", "t=timestamp_sec,x=gt_x,y=gt_y",
                "--columns", "t=timestamp_sec,x=slam_x,y=slam_y", "-a", "none",
-               "--json", str(out)])
+               "--json", str(out), "--runs"])
     assert rc == 0
     text = capsys.readouterr().out
-    assert "RMSE over 2 runs" in text and "0.0948" in text
+    assert "RMSE over 2 runs (align none)" in text and "0.0948" in text
     doc = json.loads(out.read_text())
     assert [round(r["rmse"], 4) for r in doc["results"]] == [0.0948, 0.0425]
     assert doc["summary"]["runs"] == 2 and doc["failed"] == []
@@ -458,7 +458,8 @@ def test_cli_runs_std_is_the_one_slamq_summary_prints(tmp_path, capsys):
     runs = [Trajectory(gt.timestamps, gt.positions + [o, 0, 0], gt.orientations)
             .write_tum(tmp_path / f"run{i}.txt") for i, o in enumerate((0.1, 0.2, 0.6))]
     out = tmp_path / "ate.json"
-    assert main(["ate", str(g), *map(str, runs), "-a", "none", "--json", str(out)]) == 0
+    assert main(["ate", str(g), *map(str, runs), "-a", "none", "--json", str(out),
+                 "--runs"]) == 0
     text = capsys.readouterr().out
     doc = json.loads(out.read_text())
     rmse = [r["rmse"] for r in doc["results"]]
@@ -540,3 +541,45 @@ def test_cli_bad_estimate_one_line_exit_2(tmp_path, capsys, text, reason):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1
     assert str(bad) in err[0] and reason in err[0]
+
+
+def test_cli_ate_reads_a_paired_pose_log_as_batch_does(capsys):
+    """`slamq ate LOG.csv`: a slam_comparison_tools log holds estimate and ground truth;
+    the same column detection as `slamq batch`, so the same number."""
+    from slamq.sources.trajectories import load_pair
+
+    log = TRAJ / "office" / "gmapping_pose_log.csv"
+    est, gt = load_pair(log, log)
+    expected = ate(gt, est)
+    assert main(["ate", str(log)]) == 0
+    out = capsys.readouterr().out
+    assert "(align se2)" in out and f"{expected.rmse:.6f}" in out
+
+
+def test_tables_without_time_are_refused_unless_by_index(tmp_path, capsys):
+    xy = tmp_path / "xy.csv"
+    xy.write_text("x,y\n0,0\n1,0\n2,0\n")
+    gt = tmp_path / "gt.csv"
+    gt.write_text("x,y\n0,0\n1,0.1\n2,0\n")
+    with pytest.raises(TrajectoryError, match="no time column.*by_index=True"):
+        load_trajectory(xy)
+    assert main(["ate", str(gt), str(xy)]) == 2
+    assert "--by-index" in capsys.readouterr().err
+    assert main(["ate", str(gt), str(xy), "--by-index", "-a", "none"]) == 0
+    assert "0.057735" in capsys.readouterr().out  # sqrt(0.01 / 3)
+    # no orientation column: an angle RPE would be all zeros, so it is refused
+    assert main(["rpe", str(gt), str(xy), "--by-index", "--relation", "angle_deg"]) == 2
+    assert "no orientation column" in capsys.readouterr().err
+
+
+def test_cli_ate_several_estimates_is_one_row_each_unless_runs(tmp_path, capsys):
+    gt = _planar(40)
+    g = gt.write_tum(tmp_path / "gt.txt")
+    a = Trajectory(gt.timestamps, gt.positions + [0.1, 0, 0], gt.orientations)
+    b = Trajectory(gt.timestamps, gt.positions + [0.3, 0, 0], gt.orientations)
+    files = [str(a.write_tum(tmp_path / "a.txt")), str(b.write_tum(tmp_path / "b.txt"))]
+    assert main(["ate", str(g), *files, "-a", "none"]) == 0
+    out = capsys.readouterr().out
+    assert "RMSE over" not in out and "one row per estimate; --runs" in out
+    assert main(["ate", str(g), *files, "-a", "none", "--runs"]) == 0
+    assert "RMSE over 2 runs (align none): 0.200000" in capsys.readouterr().out

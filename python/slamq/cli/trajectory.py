@@ -1,9 +1,15 @@
 """``slamq ate`` and ``slamq rpe``: trajectory error of one or more estimates.
 
-Each estimate is compared with the one ground truth; with several estimates (repeated
-runs) ``slamq ate`` also prints the mean and the sample standard deviation of the per-run
-RMSE (as ``slamq summary`` does; the JSON has both ``rmse_std`` (population, as
-:class:`slamq.metrics.ate.RunsResult.std`) and ``rmse_std_sample``).
+Each estimate is compared with the one ground truth and gets its own row (as evo does);
+with ``--runs`` the estimates are repeated runs of one system and the mean and the sample
+standard deviation of their RMSE are printed too (as ``slamq summary`` does; the JSON has
+both ``rmse_std`` (population, as :class:`slamq.metrics.ate.RunsResult.std`) and
+``rmse_std_sample``). A paired pose log (``slam_x ... gt_x`` columns in one CSV, as
+slam_comparison_tools writes) is its own ground truth: ``slamq ate LOG.csv``.
+
+Alignment differs from evo's defaults: ``slamq ate`` aligns with ``se2`` unless told
+otherwise (``evo_ape`` aligns nothing without ``-a``); ``slamq rpe`` aligns nothing, as
+``evo_rpe``. Every printed result says its alignment.
 Exit codes: 0 success, 2 bad input (one stderr line names the file and the reason).
 """
 
@@ -25,8 +31,18 @@ def _common_options(p: argparse.ArgumentParser, default_align: str) -> None:
     from slamq.metrics.align import ALIGNMENTS
     from slamq.sources.trajectories import FORMATS
 
-    p.add_argument("gt", metavar="GT", help="ground-truth trajectory (file or bag)")
-    p.add_argument("est", metavar="EST", nargs="+", help="estimated trajectories (runs)")
+    p.add_argument("gt", metavar="GT",
+                   help="ground-truth trajectory (file or bag), or a paired pose log "
+                   "(slam_x ... gt_x columns) that holds both")
+    p.add_argument("est", metavar="EST", nargs="*",
+                   help="estimated trajectories (default: the estimate columns of a paired "
+                   "pose log GT)")
+    p.add_argument("--runs", action="store_true",
+                   help="the estimates are repeated runs of one system: also print the RMSE "
+                   "mean and sample std over them (default: one row per file, as evo)")
+    p.add_argument("--by-index", action="store_true",
+                   help="accept tables without a time column, pairing poses by row number "
+                   "(refused otherwise)")
     p.add_argument("--align", "-a", choices=ALIGNMENTS, default=default_align,
                    help="alignment of each estimate onto GT (default %(default)s; se2 = "
                    "rotation about z + planar translation; se3/sim3/origin as evo -a/-as/"
@@ -85,12 +101,17 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _load(path: str, args: argparse.Namespace, gt: bool):
-    from slamq.sources.trajectories import load_trajectory
+    from slamq.sources.trajectories import load_trajectory, paired_mappings
 
     columns = args.gt_columns if (gt and args.gt_columns) else args.columns
+    if columns is None and args.format in (None, "csv"):
+        # a paired pose log: the same column detection as slamq batch
+        mappings = paired_mappings(path)
+        if mappings is not None:
+            columns = mappings[1] if gt else mappings[0]
     topic = args.gt_topic if gt else args.topic
     return load_trajectory(path, format=args.format, columns=columns, topic=topic,
-                           unsorted=args.unsorted)
+                           unsorted=args.unsorted, by_index=args.by_index)
 
 
 def _fmt(x: float) -> str:
@@ -120,7 +141,7 @@ def _run(args: argparse.Namespace, metric: str) -> int:
         error_line(args.gt, exc)
         return EXIT_BAD_INPUT
     results, failed = [], []
-    for path in args.est:
+    for path in args.est or [args.gt]:
         try:
             est = _load(path, args, gt=False)
             if metric == "ate":
@@ -144,7 +165,10 @@ def _run(args: argparse.Namespace, metric: str) -> int:
             title += f", delta {int(d) if args.unit == 'frames' else d} {args.unit}"
         print(title + ")")
         _print_table(results, unit)
-        if len(results) > 1:
+        if len(results) > 1 and not args.runs:
+            print("one row per estimate; --runs if they are repeated runs of one system "
+                  "(RMSE mean and std over them)")
+        if len(results) > 1 and args.runs:
             import numpy as np
 
             rmse = np.array([r.rmse for r in results])
@@ -155,13 +179,15 @@ def _run(args: argparse.Namespace, metric: str) -> int:
                 "rmse_std_sample": float(rmse.std(ddof=1)),
             }
             print(  # sample std, as slamq summary prints by default
-                f"RMSE over {len(results)} runs: {summary['rmse_mean']:.6f} \u00b1 "
+                f"RMSE over {len(results)} runs (align {args.align}): "
+                f"{summary['rmse_mean']:.6f} \u00b1 "
                 f"{summary['rmse_std_sample']:.6f} {unit} (sample std; population std "
                 f"{summary['rmse_std']:.6f})"
             )
     if args.json:
         doc = {
             "metric": metric,
+            "align": args.align,
             "groundtruth": gt.source,
             "results": [r.to_dict(errors=args.per_pose) for r in results],
             "summary": summary,

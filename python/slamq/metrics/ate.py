@@ -378,6 +378,12 @@ def rpe(
         raise TrajectoryError(f"delta must be a number > 0 for unit 'm', not {delta}")
     gt = _as_traj(gt, "gt")
     est = _as_traj(est, "est")
+    if relation != "trans":
+        for name, tr in (("gt", gt), ("est", est)):
+            if tr.meta.get("orientation") is False:
+                raise TrajectoryError(
+                    f"{tr.source}: has no orientation column, so the {relation} error of "
+                    f"{name} would be zero by construction; use relation='trans'")
     gi, ei = _associated(gt, est, max_dt, offset)
     gp, gq = gt.positions[gi], gt.orientations[gi]
     ep, eq = est.positions[ei], est.orientations[ei]

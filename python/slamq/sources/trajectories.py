@@ -318,6 +318,7 @@ def read_table(
     *,
     sep: str | None = None,
     unsorted: str = "error",
+    by_index: bool = False,
 ) -> Trajectory:
     """Read a CSV or whitespace table with a column mapping.
 
@@ -328,14 +329,17 @@ def read_table(
         Role -> column, where a column is a header name or a 0-based index; roles are
         ``t`` (seconds), ``x``, ``y``, ``z``, and either ``yaw`` (radians about z) or
         all of ``qw, qx, qy, qz``. ``"t,x,y,yaw"`` names the roles of the columns in
-        order. Without ``t`` the row index is the timestamp (matched by index); without
-        ``z`` z = 0; without an orientation the identity. ``None``: guess from the
+        order. A table without ``t`` is refused unless ``by_index`` (then the row index
+        is the timestamp, and poses are paired by row number); without ``z`` z = 0;
+        without an orientation the identity (``meta["orientation"]`` is False). ``None``: guess from the
         header (``t/time/timestamp``, ``x``, ``y``, ``z``, ``yaw/theta``, ``qx``...).
     sep : str, optional
         ``","``, ``";"``, ``"\\t"`` or ``"ws"`` (any whitespace); guessed by default.
     unsorted : {"error", "last", "sort"}
         What to do when timestamps go backwards: raise, keep the rows after the last
         restart of the log, or sort by time (stable).
+    by_index : bool, default False
+        Accept a table without a time column: row ``i`` gets timestamp ``i`` seconds.
 
     Examples
     --------
@@ -354,8 +358,8 @@ def read_table(
     if mapping is None:
         if not has_header:
             raise TrajectoryError(
-                f"{path}: no header to find the columns in; pass columns= "
-                f"(e.g. 't,x,y,yaw' or 't=0,x=1,y=2')"
+                f"{path}: no header to find the columns in; pass columns= (CLI --columns, "
+                "e.g. 't,x,y,yaw' or 't=0,x=1,y=2')"
             )
         mapping = {}
         for role, aliases in _AUTO_NAMES.items():
@@ -373,7 +377,8 @@ def read_table(
         except TrajectoryError:
             raise TrajectoryError(
                 f"{path}: cannot tell the x and y columns from the header "
-                f"{cells}; pass columns= (e.g. 't=time,x=pos_x,y=pos_y')"
+                f"{cells}; pass columns= (CLI --columns / --gt-columns, e.g. "
+                "'t=time,x=pos_x,y=pos_y')"
             ) from None
     index: dict[str, int] = {}
     for role, col in mapping.items():
@@ -400,6 +405,11 @@ def read_table(
         row = int(np.flatnonzero(bad)[0]) + 1
         raise TrajectoryError(f"{path}: missing or NaN value in data row {row}")
     n = arr.shape[0]
+    if "t" not in index and not by_index:
+        raise TrajectoryError(
+            f"{path}: no time column, so poses cannot be paired by time; name it (columns= "
+            "'t=...', CLI --columns) or pair poses by row number with by_index=True (CLI "
+            "--by-index)")
     t = arr[:, index["t"]] if "t" in index else np.arange(n, dtype=np.float64)
     pos = np.zeros((n, 3))
     pos[:, 0] = arr[:, index["x"]]
@@ -411,7 +421,8 @@ def read_table(
         quat = yaw_to_quat(arr[:, index["yaw"]])
     elif "qw" in index:
         quat = arr[:, [index["qw"], index["qx"], index["qy"], index["qz"]]]
-    meta = {"format": "csv", "columns": {r: (names[i] if names else i) for r, i in index.items()}}
+    meta = {"format": "csv", "columns": {r: (names[i] if names else i) for r, i in index.items()},
+            "orientation": quat is not None, "by_index": "t" not in index}
     return _build(path, t, pos, quat, unsorted, meta)
 
 
@@ -470,6 +481,7 @@ def load_trajectory(
     columns: str | Columns | None = None,
     topic: str | None = None,
     unsorted: str = "error",
+    by_index: bool = False,
 ) -> Trajectory:
     """Read a trajectory file (or ROS bag) into a :class:`Trajectory`.
 
@@ -495,6 +507,9 @@ def load_trajectory(
     unsorted : {"error", "last", "sort"}
         Timestamps that go backwards raise by default; ``"last"`` keeps the rows after
         the last restart of the log, ``"sort"`` sorts them (stable).
+    by_index : bool, default False
+        Accept a table without a time column, pairing poses by row number (see
+        :func:`read_table`); refused otherwise.
 
     Raises
     ------
@@ -528,7 +543,7 @@ def load_trajectory(
     if path.is_dir():
         raise TrajectoryError(f"{path}: is a folder, not a trajectory file or bag")
     if columns is not None and format in (None, "csv"):
-        return read_table(path, columns, unsorted=unsorted)
+        return read_table(path, columns, unsorted=unsorted, by_index=by_index)
     if format is None:
         format = _guess_format(path)
     if format == "tum":
@@ -540,7 +555,7 @@ def load_trajectory(
     if format == "pbstream":
         return _read_pbstream(path, topic)
     if format == "csv":
-        return read_table(path, columns, unsorted=unsorted)
+        return read_table(path, columns, unsorted=unsorted, by_index=by_index)
     raise TrajectoryError(f"{path}: columns= only applies to format 'csv'")
 
 
@@ -548,14 +563,37 @@ def load_pair(traj: Path | str, gt: Path | str, unsorted: str = "error") -> tupl
     """Load estimate and ground truth (``slamq.Trajectory``); a paired pose log
     (one CSV with ``slam_x ... gt_x`` columns, see ``paired_columns``) gives both."""
     traj, gt = Path(traj), Path(gt)
-    cols = paired_columns(traj) if traj == gt else None
-    if cols is None:
+    mappings = paired_mappings(traj) if traj == gt else None
+    if mappings is None:
         return (
             load_trajectory(traj, unsorted=unsorted),
             load_trajectory(gt, unsorted=unsorted),
         )
+    est_map, gt_map = mappings
+    return (
+        load_trajectory(traj, columns=est_map, unsorted=unsorted),
+        load_trajectory(traj, columns=gt_map, unsorted=unsorted),
+    )
+
+
+def paired_mappings(path: Path | str) -> tuple[dict[str, str], dict[str, str]] | None:
+    """The column mappings ``(estimate, ground truth)`` of a paired pose log (one CSV with
+    ``slam_x ... gt_x`` columns, as slam_comparison_tools writes), else None.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "gmapping_pose_log.csv"
+    >>> _ = p.write_text("timestamp_sec,slam_x,slam_y,gt_x,gt_y\\n0,0,0,0,0\\n")
+    >>> paired_mappings(p)[1]
+    {'t': 'timestamp_sec', 'x': 'gt_x', 'y': 'gt_y'}
+    """
+    path = Path(path)
+    cols = paired_columns(path)
+    if cols is None:
+        return None
     est_prefix, gt_prefix = cols
-    with open(traj, encoding="utf-8", errors="replace") as fh:
+    with open(path, encoding="utf-8", errors="replace") as fh:
         header = [c.strip() for c in fh.readline().split(",")]
     t_col = next((c for c in header if c.lower().startswith(("timestamp", "time", "t"))),
                  header[0])
@@ -568,10 +606,7 @@ def load_pair(traj: Path | str, gt: Path | str, unsorted: str = "error") -> tupl
                 m[axis] = name
         return m
 
-    return (
-        load_trajectory(traj, columns=mapping(est_prefix), unsorted=unsorted),
-        load_trajectory(traj, columns=mapping(gt_prefix), unsorted=unsorted),
-    )
+    return mapping(est_prefix), mapping(gt_prefix)
 
 
 #: Estimate columns of a paired pose log (estimate and ground truth on one row).
