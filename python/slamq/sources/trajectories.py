@@ -331,8 +331,9 @@ def read_table(
         all of ``qw, qx, qy, qz``. ``"t,x,y,yaw"`` names the roles of the columns in
         order. A table without ``t`` is refused unless ``by_index`` (then the row index
         is the timestamp, and poses are paired by row number); without ``z`` z = 0;
-        without an orientation the identity (``meta["orientation"]`` is False). ``None``: guess from the
-        header (``t/time/timestamp``, ``x``, ``y``, ``z``, ``yaw/theta``, ``qx``...).
+        without an orientation the identity (``meta["orientation"]`` is False).
+        ``None``: guess from the header (``t/time/timestamp``, ``x``, ``y``, ``z``,
+        ``yaw/theta``, ``qx``...).
     sep : str, optional
         ``","``, ``";"``, ``"\\t"`` or ``"ws"`` (any whitespace); guessed by default.
     unsorted : {"error", "last", "sort"}
