@@ -666,3 +666,23 @@ def test_ros2_bag_folder_as_a_map(tmp_path: Path) -> None:
     assert rec["error"] is None and rec["hash"] is not None
     assert rec["enclosed_areas"] == slamq.evaluate(bag).enclosed_areas
     assert list(evaluate_many(bag, out=out)) == []  # its files are hashed: resumable
+
+
+def test_dry_run_prints_the_runs_and_warns_about_a_suspicious_layout(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """tfm_turtlebot4's maps/gmapping/default.yaml and maps/hector/hector.yaml look like
+    two runs of one algorithm; --dry-run shows it and the batch says so."""
+    for algo, name in (("gmapping", "default"), ("hector", "hector")):
+        folder = tmp_path / "tfm" / "maps" / algo
+        folder.mkdir(parents=True)
+        (folder / f"{name}.pgm").write_bytes(b"P5 2 2 255\n" + bytes([0, 205, 254, 254]))
+    out = tmp_path / "r.jsonl"
+    assert cli_main(["batch", str(tmp_path), "--dry-run", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert text.splitlines()[1].split()[:4] == ["tfm", "maps", "gmapping", "runs"]
+    assert "2 runs: 1 algorithm(s) x 1 sequence(s)" in text
+    assert "are they algorithms rather than runs?" in text
+    assert not out.exists()  # nothing evaluated
+    assert cli_main(["batch", str(tmp_path), "--out", str(out), "--no-progress"]) == 0
+    err = capsys.readouterr().err
+    assert "slamq batch: 2 runs" in err and "slamq: warning: algorithm 'tfm'" in err

@@ -44,7 +44,7 @@ import functools
 import os
 import re
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from slamq.errors import MapError
@@ -52,7 +52,7 @@ from slamq.sources.files import PathLike
 from slamq.sources.trajectories import paired_columns
 from slamq.sources.walk import walk_folders
 
-__all__ = ["Run", "discover_runs", "read_manifest", "TRAJECTORY_SUFFIXES"]
+__all__ = ["Run", "describe_layout", "discover_runs", "read_manifest", "TRAJECTORY_SUFFIXES"]
 
 TRAJECTORY_SUFFIXES = frozenset({".txt", ".csv", ".tum", ".kitti"})
 #: The algorithm name given to ground-truth maps found in a flat layout.
@@ -91,6 +91,9 @@ class Run:
     run: str = "0"
     trajectory: Path | None = None
     groundtruth: Path | None = None
+    #: How the run was found: "runs" (``<algorithm>/<sequence>/<run>/`` folders), "flat",
+    #: "manifest", "file" (named directly), or "" (built by hand). Not part of the key.
+    layout: str = field(default="", compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "map", Path(self.map))
@@ -232,7 +235,7 @@ def read_manifest(path: PathLike) -> list[Run]:
         run_id = cells.get("run") or "0"
         traj = _resolve(base, cells["trajectory"]) if cells.get("trajectory") else None
         gt = _resolve(base, cells["groundtruth"]) if cells.get("groundtruth") else None
-        run = Run(map_path, algorithm, sequence, run_id, traj, gt)
+        run = Run(map_path, algorithm, sequence, run_id, traj, gt, layout="manifest")
         if run.key in seen:
             raise MapError(
                 f"{path}: line {lineno}: run {algorithm}/{sequence}/{run_id} with map "
@@ -256,10 +259,10 @@ def _single_map(path: Path) -> Run:
     seq = path.resolve().parent.name
     gt_seq = _ground_truth_map(path.stem)
     if gt_seq is not None:
-        return Run(path, GROUND_TRUTH, gt_seq, "0")
+        return Run(path, GROUND_TRUTH, gt_seq, "0", layout="file")
     traj, gt = _flat_trajectories(path.parent, algorithm, frozenset([algorithm]), seq,
                                   path.parent)
-    return Run(path, algorithm, seq, run_id, traj, gt)
+    return Run(path, algorithm, seq, run_id, traj, gt, layout="file")
 
 
 def _ground_truth_map(stem: str) -> str | None:
@@ -301,7 +304,7 @@ def _discover_folder(root: Path) -> list[Run]:
             gt = _find_groundtruth([here, here.parent], sequence, root)
             if gt is None and traj is not None and _is_paired_log(traj):
                 gt = traj
-            runs.append(Run(maps[0], algorithm, sequence, run_id, traj, gt))
+            runs.append(Run(maps[0], algorithm, sequence, run_id, traj, gt, layout="runs"))
             continue
         folder_seq = here.name if rel else root_name
         names_here = [_flat_names(m.stem) for m in maps]
@@ -309,10 +312,10 @@ def _discover_folder(root: Path) -> list[Run]:
         for m, (algorithm, run_id) in zip(maps, names_here):
             gt_seq = _ground_truth_map(m.stem)
             if gt_seq is not None:
-                runs.append(Run(m, GROUND_TRUTH, gt_seq, "0"))
+                runs.append(Run(m, GROUND_TRUTH, gt_seq, "0", layout="flat"))
                 continue
             traj, gt = _flat_trajectories(here, algorithm, algos, folder_seq, root)
-            runs.append(Run(m, algorithm, folder_seq, run_id, traj, gt))
+            runs.append(Run(m, algorithm, folder_seq, run_id, traj, gt, layout="flat"))
     return runs
 
 
@@ -462,3 +465,44 @@ _CACHES = (
     _files, _folder_trajectories, _groundtruth_in, _owned_trajectories, _mirror_folders,
     _mirror_cached,
 )
+
+
+def describe_layout(runs: list[Run]) -> list[str]:
+    """Lines saying how a batch's runs were found, and warnings for layouts that look
+    guessed wrongly: an (algorithm, sequence) of run folders whose maps have different file
+    names is probably algorithms mistaken for runs.
+
+    Examples
+    --------
+    >>> runs = [Run("r/maps/gmapping/default.yaml", "r", "maps", "gmapping", layout="runs"),
+    ...         Run("r/maps/hector/hector.yaml", "r", "maps", "hector", layout="runs")]
+    >>> print("\\n".join(describe_layout(runs)))  # doctest: +NORMALIZE_WHITESPACE
+    2 runs: 1 algorithm(s) x 1 sequence(s); layout: 2 in <algorithm>/<sequence>/<run>/ folders
+    warning: algorithm 'r', sequence 'maps': its runs ('gmapping', 'hector') hold maps named
+    differently (default.yaml, hector.yaml); are they algorithms rather than runs? Check
+    with --dry-run, or use a manifest CSV
+    """
+    from collections import Counter, defaultdict
+
+    names = {"runs": "in <algorithm>/<sequence>/<run>/ folders",
+             "flat": "in flat <sequence>/<algorithm>_map files", "manifest": "from manifests",
+             "file": "named directly", "": "given as Run objects"}
+    counts = Counter(r.layout for r in runs)
+    algos = {r.algorithm for r in runs}
+    seqs = {r.sequence for r in runs}
+    layout = ", ".join(f"{n} {names.get(k, k)}" for k, n in counts.most_common())
+    lines = [f"{len(runs)} runs: {len(algos)} algorithm(s) x {len(seqs)} sequence(s); "
+             f"layout: {layout}"]
+    groups: dict[tuple[str, str], list[Run]] = defaultdict(list)
+    for r in runs:
+        if r.layout == "runs":
+            groups[(r.algorithm, r.sequence)].append(r)
+    for (alg, seq), members in sorted(groups.items()):
+        stems = sorted({m.map.name for m in members})
+        if len(stems) > 1:
+            ids = ", ".join(repr(m.run) for m in members[:4])
+            lines.append(
+                f"warning: algorithm {alg!r}, sequence {seq!r}: its runs ({ids}) hold maps "
+                f"named differently ({', '.join(stems[:4])}); are they algorithms rather "
+                "than runs? Check with --dry-run, or use a manifest CSV")
+    return lines

@@ -70,6 +70,9 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--report", metavar="DIR", default=None,
                    help="then write the HTML report of the results to DIR (slamq report)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--dry-run", action="store_true",
+                   help="print the algorithm / sequence / run of every map found (and the "
+                   "layout that was detected), and evaluate nothing")
     add_map_options(p)
     p.set_defaults(func=_cmd_batch)
 
@@ -132,13 +135,24 @@ class _Progress:
 
 
 def _cmd_batch(args: argparse.Namespace) -> int:
-    from slamq.batch import evaluate_many
+    from slamq.batch import discover_runs, evaluate_many
+    from slamq.batch.runs import describe_layout
     from slamq.errors import SlamqError
     from slamq.params import params_from_args
     from slamq.results import read_results, summarize, summary_table
 
     if args.report:
         need_extra("report", "slamq batch --report")
+    runs = discover_runs(args.sources)
+    if args.dry_run:
+        _print_runs(runs)
+        for line in describe_layout(runs):
+            print(line)
+        return EXIT_OK if runs else EXIT_BAD_INPUT
+    if not args.quiet:
+        for line in describe_layout(runs):
+            print(f"slamq batch: {line}" if not line.startswith("warning:")
+                  else f"slamq: {line}", file=sys.stderr)
 
     out = Path(args.out) if args.out else (
         Path(args.report) / "results.parquet" if args.report else Path("results.parquet")
@@ -161,7 +175,7 @@ def _cmd_batch(args: argparse.Namespace) -> int:
 
         try:
             records = evaluate_many(
-                args.sources, threads=args.threads, executor=executor,
+                runs, threads=args.threads, executor=executor,
                 chunk_size=args.chunk_size, out=out, progress=on_progress,
                 ate_align=args.align, ate_max_dt=args.max_dt, ate_unsorted=args.unsorted,
                 **params,
@@ -177,6 +191,11 @@ def _cmd_batch(args: argparse.Namespace) -> int:
         except SlamqError as exc:
             error_line("", exc)
             return EXIT_BAD_INPUT
+        except KeyboardInterrupt:
+            progress.line(
+                f"slamq batch: interrupted after {evaluated} map(s); every finished chunk is "
+                f"in {out}: run the same command again to resume")
+            raise
     skipped = total - evaluated
     print(
         f"slamq batch: {evaluated} map(s) evaluated, {skipped} already in {out}, "
@@ -193,3 +212,18 @@ def _cmd_batch(args: argparse.Namespace) -> int:
 
         print(f"report written: {build_report(out, args.report)}")
     return EXIT_BAD_INPUT if failed else EXIT_OK
+
+
+def _print_runs(runs: list) -> None:
+    """The runs a batch would evaluate, one line each (``--dry-run``)."""
+    from slamq.results.table import short_names
+
+    names = short_names([str(r.map) for r in runs])
+    rows = [("algorithm", "sequence", "run", "layout", "map", "trajectory", "groundtruth")]
+    for r in runs:
+        rows.append((r.algorithm, r.sequence, r.run, r.layout, names[str(r.map)],
+                     r.trajectory.name if r.trajectory else "-",
+                     r.groundtruth.name if r.groundtruth else "-"))
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    for row in rows:
+        print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())
