@@ -159,12 +159,14 @@ def test_rgb_and_rgba_use_the_rounded_mean_of_colour_channels(tmp_path):
     rgb[0, 2] = (255, 255, 254)  # 254.67 -> 255
     expected = np.rint(rgb.astype(np.float64).mean(axis=2)).astype(np.uint8)
     assert expected[0, :3].tolist() == [2, 0, 255]
-    m = load_no_warning(write_png(tmp_path / "rgb.png", rgb))
+    with pytest.warns(MapWarning, match="rgb.png: has colour pixels, like a screenshot"):
+        m = load_map(write_png(tmp_path / "rgb.png", rgb))
     assert np.array_equal(m.values, expected)
     assert m.meta["channels"] == 3
     # RGBA: alpha is not a colour channel
     rgba = np.dstack([rgb, np.full(rgb.shape[:2], 17, np.uint8)])
-    m4 = load_no_warning(write_png(tmp_path / "rgba.png", rgba))
+    with pytest.warns(MapWarning, match="rgba.png: has colour pixels"):
+        m4 = load_map(write_png(tmp_path / "rgba.png", rgba))
     assert np.array_equal(m4.values, expected)
     assert np.array_equal(m4.unknown, (expected >= 90) & (expected <= 205))
     # numpy arrays: the same rule
@@ -173,7 +175,8 @@ def test_rgb_and_rgba_use_the_rounded_mean_of_colour_channels(tmp_path):
     # a binary PPM (P6) decodes through our own parser to the same grey
     ppm = tmp_path / "c.ppm"
     ppm.write_bytes(b"P6\n11 9\n255\n" + rgb.tobytes())
-    assert np.array_equal(load_no_warning(ppm).values, expected)
+    with pytest.warns(MapWarning, match="c.ppm: has colour pixels"):
+        assert np.array_equal(load_map(ppm).values, expected)
 
 
 # ------------------------------------------------------------------------ raw mode
@@ -782,7 +785,8 @@ def test_awabot_128_unknown_loads_correctly_under_its_yaml_thresholds(shared_dat
 def test_yaml_and_bare_pgm_of_the_same_map_agree(shared_data):
     d = shared_data / "maps" / "lfz1994_robot_navigation"
     a = load_no_warning(d / "karto.yaml")
-    b = load_no_warning(d / "karto.pgm")
+    with pytest.warns(MapWarning, match="karto.yaml beside it names this image"):
+        b = load_map(d / "karto.pgm")
     assert np.array_equal(a.values, b.values) and np.array_equal(a.unknown, b.unknown)
     assert b.resolution == 0.05  # from "# CREATOR: map_saver.cpp 0.050 m/pix"
     assert a.origin == (-1.533525, -2.227791, 0.0)
@@ -845,3 +849,16 @@ def test_non_contiguous_and_grey_alpha_arrays():
     assert np.array_equal(m.values, a) and m.meta["channels"] == 2
     g = np.array([[1, 2], [3, 4]], np.int8)[:, ::-1]
     assert load_no_warning(g).values.tolist() == [[245, 247], [250, 252]]  # [[4, 3], [2, 1]]
+
+
+def test_a_bare_image_that_is_mostly_unknown_is_a_warning(tmp_path):
+    """An RViz screenshot (free grey 192) loads almost all unknown under map_server's
+    defaults: say so, and how to fix it."""
+    img = np.full((40, 40), 192, np.uint8)
+    img[10:30, 10] = 0
+    write_pgm(tmp_path / "shot.pgm", img)
+    with pytest.warns(MapWarning, match=r"shot.pgm: 98.8% of the cells are unknown.*"
+                      r"--unknown-value N"):
+        m = load_map(tmp_path / "shot.pgm")
+    assert m.known_count == 20
+    load_no_warning(tmp_path / "shot.pgm", unknown_value=205)  # told how to read it: quiet

@@ -86,11 +86,12 @@ class _LowerLevelFormatter(logging.Formatter):
 def set_verbosity(level: int) -> None:
     """Route the ``slamq`` logger to stderr: debug messages at ``level >= 1``."""
     logger = logging.getLogger("slamq")
-    if not any(getattr(h, "slamq_cli", False) for h in logger.handlers):
-        handler = logging.StreamHandler(sys.stderr)
-        handler.setFormatter(_LowerLevelFormatter("slamq: %(levelname)s: %(message)s"))
-        handler.slamq_cli = True  # type: ignore[attr-defined]
-        logger.addHandler(handler)
+    for old in [h for h in logger.handlers if getattr(h, "slamq_cli", False)]:
+        logger.removeHandler(old)  # bound to an earlier sys.stderr
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_LowerLevelFormatter("slamq: %(levelname)s: %(message)s"))
+    handler.slamq_cli = True  # type: ignore[attr-defined]
+    logger.addHandler(handler)
     logger.setLevel(logging.DEBUG if level >= 1 else
                     logging.WARNING if level == 0 else logging.ERROR)
 

@@ -183,9 +183,11 @@ def _load(
         n = None if unknown_value is None else check_unknown_value(
             unknown_value, where, grid=False)
         img = read_image_file(path)
-        return image_map(img, source=where, kind="image", unknown_value=n, resolution=res,
-                          origin=(0.0, 0.0, 0.0) if org is None else org,
-                          warnings_out=warnings_out)
+        grid = image_map(img, source=where, kind="image", unknown_value=n, resolution=res,
+                         origin=(0.0, 0.0, 0.0) if org is None else org,
+                         warnings_out=warnings_out)
+        warnings_out.extend(bare_image_warnings(path, grid, img))
+        return grid
 
     raise MapError(f"<{type(source).__name__}>: cannot load a map from a "
                    f"{type(source).__name__}; expected a path, a numpy array or an OccupancyMap")
@@ -219,3 +221,80 @@ def load_map_bytes(
     for msg in warnings_out:
         warnings.warn(MapWarning(msg), stacklevel=2)
     return result
+
+
+#: A bare image with more unknown cells than this (under the default thresholds) is
+#: probably not a map_server map: a screenshot, or other grey levels.
+MOSTLY_UNKNOWN = 0.9
+
+
+def bare_image_warnings(path: Path, grid: OccupancyMap, img: Image) -> list[str]:
+    """Why the numbers of an image loaded without its YAML may not mean what they seem:
+    a YAML beside it names it, it is mostly unknown under map_server's default
+    thresholds, or it has colour pixels (a screenshot).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "m.pgm").write_bytes(b"P5 2 1 255 " + bytes([192, 192]))
+    >>> _ = (d / "m.yaml").write_text("image: m.pgm\\n")
+    >>> for w in bare_image_warnings(d / "m.pgm", *_grid_and_image(d / "m.pgm")):
+    ...     print(w.split(": ", 1)[1][:58].strip())
+    m.yaml beside it names this image: load the YAML to use it
+    100.0% of the cells are unknown under map_server's default
+    """
+    out = []
+    for yaml_path in _yamls_naming(path):
+        out.append(f"{path}: {yaml_path.name} beside it names this image: load the YAML to "
+                   "use its resolution, origin and thresholds")
+    if grid.meta.get("unknown_rule", "").startswith("thresholds"):
+        share = 1.0 - grid.known_count / grid.values.size
+        if share > MOSTLY_UNKNOWN:
+            out.append(
+                f"{path}: {100 * share:.1f}% of the cells are unknown under map_server's "
+                "default thresholds (a screenshot, or a map saved with other grey levels?); "
+                "pass unknown_value=N (--unknown-value N) or load its YAML")
+    if img.channels >= 3 and _has_colour(path):
+        out.append(f"{path}: has colour pixels, like a screenshot (RViz?) rather than a saved "
+                   "map: its grey levels are not occupancy probabilities")
+    return out
+
+
+def _grid_and_image(path: Path) -> tuple[OccupancyMap, Image]:
+    """For the docstring example: the grid and decoded image of a bare image file."""
+    img = read_image_file(path)
+    return image_map(img, source=str(path), kind="image", unknown_value=None, resolution=None,
+                     origin=(0.0, 0.0, 0.0), warnings_out=[]), img
+
+
+def _yamls_naming(path: Path, limit: int = 64) -> list[Path]:
+    """The map YAMLs in ``path``'s folder (at most ``limit`` looked at) that name it."""
+    from slamq.sources.walk import yaml_image
+
+    try:
+        siblings = sorted(p for p in path.parent.iterdir()
+                          if p.suffix.lower() in YAML_SUFFIXES and p.is_file())[:limit]
+        target = path.resolve()
+    except OSError:
+        return []
+    found = []
+    for y in siblings:
+        img = yaml_image(y)
+        try:
+            if img is not None and img.resolve() == target:
+                found.append(y)
+        except OSError:
+            continue
+    return found
+
+
+def _has_colour(path: Path) -> bool:
+    """True when the colour image at ``path`` has pixels whose channels differ."""
+    import cv2
+    import numpy as np
+
+    arr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if arr is None:
+        return False
+    return bool(np.any(arr[..., 0] != arr[..., 1]) or np.any(arr[..., 1] != arr[..., 2]))
