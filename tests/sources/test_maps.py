@@ -514,13 +514,18 @@ def test_bad_image_bytes(tmp_path, content, reason):
         load_map(p)
 
 
-def test_16bit_png_and_pgm_and_float_tiff_are_refused(tmp_path):
-    p16 = write_png(tmp_path / "deep.png", np.full((3, 3), 40000, np.uint16))
-    with raises_named(p16, "16-bit PNG"):
-        load_map(p16)
+def test_16bit_png_is_scaled_16bit_pgm_and_float_tiff_are_refused(tmp_path):
+    deep = np.array([[0, 128, 129], [32896, 40000, 65535]], np.uint16)
+    p16 = write_png(tmp_path / "deep.png", deep)
+    m = load_map(p16)  # v = (x + 128) // 257, docs/spec.md section 1
+    assert m.values.tolist() == [[0, 0, 1], [128, 156, 255]]
+    assert m.meta["format"] == "PNG (16-bit, scaled)"
     y = write_yaml(tmp_path / "deep.yaml", "deep.png")
-    with raises_named(y, "16-bit"):
-        load_map(y)
+    assert np.array_equal(load_map(y).values, m.values)
+    pgm16 = tmp_path / "deep.pgm"
+    pgm16.write_bytes(b"P5\n2 1\n65535\n" + bytes(4))
+    with raises_named(pgm16, "16-bit PGM", "pnmdepth 255"):
+        load_map(pgm16)
     ok, buf = cv2.imencode(".tiff", np.full((3, 3), 0.5, np.float32))
     assert ok
     tif = tmp_path / "float.tiff"
@@ -727,7 +732,6 @@ EXPECTED_FAILURES = {
     "nanobot/new_maps/crsm.yaml": "not found",  # names crsm.pgm; only crsm_processed.pgm
     "nanobot/new_maps/gmapping.yaml": "not found",
     "nanobot/new_maps/hector.yaml": "not found",
-    "ipa_classic_radish_maps/lab_b.png": "16-bit PNG",
 }
 
 

@@ -90,8 +90,9 @@ def _parse_pnm(data: bytes, name: str) -> Image:
     if maxval == 0 or maxval > 65535:
         raise fail(name, f"bad {kind} header: maxval {maxval} is outside 1..65535")
     if maxval > 255:
-        raise fail(name, f"16-bit {kind} (maxval {maxval}) is not supported; "
-                          "save the map with 8-bit pixels")
+        raise fail(name, f"16-bit {kind} (maxval {maxval}) is not supported; convert it to "
+                          "8 bits ('pnmdepth 255' of netpbm) or to a 16-bit PNG, which slamq "
+                          "scales")
     cells = width * height
     if cells > MAX_CELLS:
         raise fail(name, f"{kind} header claims {width}x{height} = {cells} cells, "
@@ -164,9 +165,7 @@ def _check_png_header(data: bytes, name: str) -> None:
         raise fail(name, "truncated or corrupt PNG: no IHDR header")
     width, height = struct.unpack(">II", data[16:24])
     depth, ctype = data[24], data[25]
-    if depth == 16:
-        raise fail(name, "16-bit PNG is not supported; save the map with 8-bit pixels")
-    if ctype not in _PNG_CHANNELS or depth not in (1, 2, 4, 8):
+    if ctype not in _PNG_CHANNELS or depth not in (1, 2, 4, 8, 16):
         raise fail(name, f"corrupt PNG: bit depth {depth}, colour type {ctype}")
     if width == 0 or height == 0:
         raise fail(name, f"the map has zero cells (PNG header says {width}x{height})")
@@ -215,6 +214,18 @@ def _check_jpeg_header(data: bytes, name: str) -> None:
         raise fail(name, "truncated JPEG: the file ends before its EOI marker")
 
 
+def scale_16_bit(arr: np.ndarray) -> np.ndarray:
+    """16-bit samples to 8 bits, ``v = round(x * 255 / 65535) = (x + 128) // 257`` (exact
+    integers; no sample lies half-way), docs/spec.md section 1.
+
+    Examples
+    --------
+    >>> scale_16_bit(np.array([0, 128, 129, 32896, 65535], np.uint16)).tolist()
+    [0, 0, 1, 128, 255]
+    """
+    return ((arr.astype(np.uint32) + 128) // 257).astype(np.uint8)
+
+
 def split_channels(arr: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray | None, int]:
     """(grey, alpha, channels) of a uint8 image array: colour channels averaged (rint)."""
     if arr.ndim == 2:
@@ -256,9 +267,12 @@ def decode_image(data: bytes, name: str) -> Image:
         if fmt == "PNG":
             raise fail(name, "corrupt or truncated PNG: the decoder could not read it")
         raise fail(name, "not a readable image (unknown format, or corrupt data)")
+    if arr.dtype == np.uint16:
+        arr = scale_16_bit(arr)
+        fmt += " (16-bit, scaled)"
     if arr.dtype != np.uint8:
-        raise fail(name, f"{arr.dtype} pixels: 16-bit and float images are not supported; "
-                          "save the map with 8-bit pixels")
+        raise fail(name, f"{arr.dtype} pixels: float images are not supported; save the map "
+                          "with 8-bit (or 16-bit) pixels")
     if arr.size == 0:
         raise fail(name, "the map has zero cells")
     grey, alpha, ch = split_channels(arr, name)
