@@ -11,13 +11,13 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 from slamq.cli.common import (
     EXIT_BAD_INPUT,
     EXIT_OK,
+    Progress,
     add_map_options,
     error_line,
     need_extra,
@@ -77,63 +77,6 @@ def add_parser(subparsers: Any) -> None:
     p.set_defaults(func=_cmd_batch)
 
 
-class _Progress:
-    """A rich progress bar on stderr (maps/s and ETA), or nothing when not a terminal."""
-
-    def __init__(self, enabled: bool) -> None:
-        from rich.console import Console
-
-        self.console = Console(stderr=True)
-        self.bar: Any | None = None
-        self.task: Any = None
-        if enabled and self.console.is_terminal:
-            from rich.progress import (
-                BarColumn,
-                MofNCompleteColumn,
-                Progress,
-                TextColumn,
-                TimeElapsedColumn,
-                TimeRemainingColumn,
-            )
-
-            self.bar = Progress(
-                TextColumn("[bold]slamq batch"),
-                BarColumn(),
-                MofNCompleteColumn(),
-                TextColumn("{task.fields[rate]} maps/s"),
-                TimeElapsedColumn(),
-                TextColumn("ETA"),
-                TimeRemainingColumn(),
-                console=self.console,
-                transient=False,
-            )
-        self.t0 = time.perf_counter()
-
-    def __enter__(self) -> _Progress:
-        if self.bar is not None:
-            self.bar.start()
-            self.task = self.bar.add_task("maps", total=None, rate="-")
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        if self.bar is not None:
-            self.bar.stop()
-
-    def update(self, done: int, total: int) -> None:
-        if self.bar is None:
-            return
-        dt = time.perf_counter() - self.t0
-        rate = f"{done / dt:.1f}" if dt > 0 else "-"
-        self.bar.update(self.task, completed=done, total=total, rate=rate)
-
-    def line(self, text: str) -> None:
-        """One stderr line that does not break the bar."""
-        if self.bar is not None:
-            self.bar.console.print(text, markup=False, highlight=False, soft_wrap=True)
-        else:
-            print(text, file=sys.stderr, flush=True)
-
-
 def _cmd_batch(args: argparse.Namespace) -> int:
     from slamq.batch import discover_runs, evaluate_many
     from slamq.batch.runs import describe_layout
@@ -166,7 +109,7 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     ate_failed = 0
     evaluated = 0
     total = 0
-    with _Progress(not args.no_progress and not args.quiet) as progress:
+    with Progress("slamq batch", "maps", not args.no_progress and not args.quiet) as progress:
 
         def on_progress(done: int, n: int) -> None:
             nonlocal total

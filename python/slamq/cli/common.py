@@ -14,6 +14,7 @@ import importlib
 import logging
 import sys
 import threading
+import time
 from typing import IO, Any
 
 from slamq.errors import SlamqError
@@ -30,12 +31,17 @@ EXTRAS = {
 }
 
 
-def error_line(where: str, exc: BaseException | str) -> None:
-    """Print one clear line for a failed input on stderr."""
+def error_text(where: str, exc: BaseException | str) -> str:
+    """The one line that says an input failed: ``slamq: error: FILE: reason``."""
     msg = " ".join(str(exc).split())
     if where and where not in msg:
         msg = f"{where}: {msg}"
-    print(f"slamq: error: {msg}", file=sys.stderr)
+    return f"slamq: error: {msg}"
+
+
+def error_line(where: str, exc: BaseException | str) -> None:
+    """Print :func:`error_text` on stderr."""
+    print(error_text(where, exc), file=sys.stderr)
 
 
 def need_extra(extra: str, what: str) -> None:
@@ -73,6 +79,67 @@ def add_verbosity_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-q", "--quiet", action="count", default=0,
                         help="say less: no warnings, progress or summary tables (errors and "
                         "results only)")
+
+
+class Progress:
+    """A rich progress bar on stderr (items/s and ETA), or nothing when not a terminal.
+
+    ``label`` heads the bar, ``unit`` names the items (``"maps"``).
+    """
+
+    def __init__(self, label: str, unit: str, enabled: bool) -> None:
+        from rich.console import Console
+
+        self.console = Console(stderr=True)
+        self.unit = unit
+        self.bar: Any | None = None
+        self.task: Any = None
+        if enabled and self.console.is_terminal:
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
+
+            self.bar = Progress(
+                TextColumn(f"[bold]{label}"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                TextColumn("{task.fields[rate]} " + unit + "/s"),
+                TimeElapsedColumn(),
+                TextColumn("ETA"),
+                TimeRemainingColumn(),
+                console=self.console,
+                transient=False,
+            )
+        self.t0 = time.perf_counter()
+
+    def __enter__(self) -> Progress:
+        if self.bar is not None:
+            self.bar.start()
+            self.task = self.bar.add_task(self.unit, total=None, rate="-")
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+
+    def update(self, done: int, total: int) -> None:
+        if self.bar is None:
+            return
+        dt = time.perf_counter() - self.t0
+        rate = f"{done / dt:.1f}" if dt > 0 else "-"
+        self.bar.update(self.task, completed=done, total=total, rate=rate)
+
+    def line(self, text: str) -> None:
+        """One stderr line that does not break the bar."""
+        if self.bar is not None:
+            self.bar.console.print(text, markup=False, highlight=False, soft_wrap=True)
+        else:
+            print(text, file=sys.stderr, flush=True)
 
 
 class _LowerLevelFormatter(logging.Formatter):

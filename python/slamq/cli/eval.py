@@ -12,7 +12,17 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from slamq.cli.common import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_OK, add_map_options, error_line
+from slamq.cli.common import (
+    EXIT_BAD_INPUT,
+    EXIT_ERROR,
+    EXIT_OK,
+    Progress,
+    add_map_options,
+    error_line,
+)
+from slamq.cli.common import (
+    error_text as _error_text,
+)
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -66,20 +76,23 @@ def run(args: argparse.Namespace) -> int:
         error_line(where, reason)
         failed += 1
     results = []
-    for src in sources:
-        try:
-            grid = _load(src, args)
-            q = evaluate(grid, params=params, curve=args.curve, verify=args.verify,
-                         threads=args.threads)
-        except SlamqError as exc:
-            error_line(str(src), exc)
-            failed += 1
-            continue
-        except Exception as exc:  # noqa: BLE001 - a bug on one map must not cost the others
-            error_line(str(src), f"unexpected {type(exc).__name__}: {exc}")
-            unexpected += 1
-            continue
-        results.append(q)
+    with Progress("slamq eval", "maps", len(sources) > 1 and not args.quiet) as progress:
+        for done, src in enumerate(sources, 1):
+            progress.update(done - 1, len(sources))
+            try:
+                grid = _load(src, args)
+                q = evaluate(grid, params=params, curve=args.curve, verify=args.verify,
+                             threads=args.threads)
+            except SlamqError as exc:
+                progress.line(_error_text(str(src), exc))
+                failed += 1
+                continue
+            except Exception as exc:  # noqa: BLE001 - a bug on one map must not cost others
+                progress.line(_error_text(str(src), f"unexpected {type(exc).__name__}: {exc}"))
+                unexpected += 1
+                continue
+            results.append(q)
+        progress.update(len(sources), len(sources))
     to_stdout = "-" in (args.json, args.csv)
     if results and not args.quiet:
         print_table(results, curve=args.curve, file=sys.stderr if to_stdout else sys.stdout)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from slamq.cli.common import EXIT_OK, need_extra
+from slamq.cli.common import EXIT_OK, Progress, need_extra
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -33,9 +33,11 @@ def run(args: argparse.Namespace) -> int:
     need_extra("report", "slamq report")
     from slamq.report import build_report
 
-    index = build_report(
-        args.results, args.out, title=args.title, details=args.details,
-        gifs=not args.no_gifs, trajectories=not args.no_trajectories,
-    )
+    with Progress("slamq report", "pages", not args.quiet) as progress:
+        index = build_report(
+            args.results, args.out, title=args.title, details=args.details,
+            gifs=not args.no_gifs, trajectories=not args.no_trajectories,
+            progress=progress.update,
+        )
     print(f"report written: {index}")
     return EXIT_OK

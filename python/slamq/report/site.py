@@ -10,7 +10,7 @@ import datetime as _dt
 import html
 import math
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -119,6 +119,7 @@ def build_report(
     details: str = "all",
     gifs: bool = True,
     trajectories: bool = True,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Path:
     """Write the evaluation report for a results file and return the path of index.html.
 
@@ -138,6 +139,8 @@ def build_report(
         Animate map building when a run folder holds ``map_0001.pgm``-style snapshots.
     trajectories : bool
         Draw each run's trajectory over its map, coloured by ATE, when it has one.
+    progress : callable, optional
+        ``progress(done, total)`` after each detail page (the slow part).
 
     Returns
     -------
@@ -182,8 +185,10 @@ def build_report(
         rec = ok.loc[i].to_dict()
         slug = f"{i:04d}-{_slug(rec['sequence'])}-{_slug(rec['algorithm'])}-{_slug(rec['run'])}"
         pages[i] = _MapPage(i, rec, slug, page=f"maps/{slug}.html")
-    for mp in pages.values():
+    for done, mp in enumerate(pages.values(), 1):
         _detail_page(mp, out, gifs=gifs, trajectories=trajectories)
+        if progress is not None:
+            progress(done, len(pages))
 
     plots = _plots(ok, out, sequences)
     body = _index_body(title, frame, ok, failed, summary, sequences, rankings, gallery,
