@@ -378,3 +378,15 @@ def test_user_strings_are_escaped_and_never_read_as_mathtext(tmp_path) -> None:
     assert "&lt;script&gt;alert(1)&lt;/script&gt;" in html
     assert "x&quot;y&#x27;z &amp; ü" in html and "boom &lt;b&gt;" in html
     assert (tmp_path / "site" / "img" / "plot_corners.png").stat().st_size > 0
+
+
+def test_tables_are_exported_as_markdown_and_latex(site):
+    _, index = site
+    md = (index.parent / "tables.md").read_text(encoding="utf-8").splitlines()
+    assert md[0].startswith("| sequence | algorithm | runs |")
+    assert len(md) > 2 and all(line.startswith("|") for line in md)
+    tex = (index.parent / "tables.tex").read_text(encoding="utf-8")
+    assert tex.startswith("\\begin{tabular}") and tex.rstrip().endswith("\\end{tabular}")
+    assert "$\\pm$" in tex and "±" not in tex
+    page = index.read_text(encoding="utf-8")
+    assert 'href="tables.md"' in page and "red ring: a counted corner" in page

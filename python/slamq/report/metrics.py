@@ -317,7 +317,21 @@ def format_mean_std(mean: float, std: float) -> str:
     --------
     >>> format_mean_std(0.239, 0.011), format_mean_std(7.0, float("nan"))
     ('0.239 ± 0.011', '7')
+    >>> format_mean_std(0.0241, 3.49e-18)   # rounding noise of equal runs is 0
+    '0.0241 ± 0'
     """
     if std is None or not math.isfinite(std):
         return format_value(mean)
-    return f"{format_value(mean)} ± {format_value(std)}"
+    return f"{format_value(mean)} ± {format_value(clean_std(mean, std))}"
+
+
+def clean_std(mean: float, std: float) -> float:
+    """``std``, or 0 when it is floating-point noise (below 1e-9 of the mean's size).
+
+    Examples
+    --------
+    >>> clean_std(0.0241, 3.49e-18), clean_std(0.0241, 0.002)
+    (0.0, 0.002)
+    """
+    scale = max(abs(mean), 1.0) if math.isfinite(mean) else 1.0
+    return 0.0 if abs(std) <= 1e-9 * scale else std

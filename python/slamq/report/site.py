@@ -22,6 +22,7 @@ from slamq.errors import SlamqError
 from slamq.report.data import ResultsLike, evaluate_map, load_results, params_of, usable
 from slamq.report.metrics import (
     METRICS,
+    REFERENCE_NAMES,
     SequenceRanking,
     format_mean_std,
     format_value,
@@ -195,6 +196,7 @@ def build_report(
                        pages, plots, _mixed_settings(frame))
     index = out / "index.html"
     index.write_text(_page(title, body), encoding="utf-8")
+    write_tables(summary, out)
     summary.reset_index().to_csv(out / "summary.csv", index=False)
     return index
 
@@ -365,6 +367,9 @@ def _building_section(rec: dict, out: Path, mp: _MapPage, params: Any) -> str:
 def _plots(ok: pd.DataFrame, out: Path, sequences: list[str]) -> list[tuple[str, str]]:
     from slamq.report.plots import algorithm_colours, metric_figure
 
+    # a reference (ground-truth) map is shown beside the ranking, never plotted as an
+    # algorithm among the others
+    ok = ok[~ok["algorithm"].astype(str).str.lower().isin(REFERENCE_NAMES)]
     if ok.empty:
         return []
     colours = algorithm_colours(ok["algorithm"].astype(str))
@@ -433,7 +438,8 @@ def _index_body(
         "<footer>Metrics: Filatov, Filatov, Krinkin, Chen, Molodan, <i>2D SLAM Quality "
         "Evaluation Methods</i>, arXiv:1708.02354, as pinned down by slamq's spec (docs/spec.md). "
         "Means and sample standard deviations (n&minus;1) over runs; "
-        "<a href=\"summary.csv\">summary.csv</a> holds them unrounded.</footer>")
+        "<a href=\"summary.csv\">summary.csv</a> holds them unrounded; the tables as "
+        "<a href=\"tables.md\">Markdown</a> and <a href=\"tables.tex\">LaTeX</a>.</footer>")
     return "".join(parts)
 
 
@@ -499,7 +505,12 @@ def _sequence_section(
         f"<table class=\"ranking\" data-sequence=\"{_e(seq)}\"><tr><th>rank</th>"
         f"<th>algorithm</th><th>runs</th>{head}<th>mean rank</th></tr>"
         + "".join(rows) + "</table>")
-    parts.append("<h3>Maps: best and worst run per algorithm</h3><div class=\"gallery\">")
+    parts.append(
+        "<h3>Maps: best and worst run per algorithm</h3>"
+        "<p class=\"legend\"><span style=\"color:#f00\">&#9711;</span> red ring: a counted "
+        "corner (docs/spec.md section 3); coloured fill: one enclosed free region counted "
+        "at the unknown value where the count peaks (section 4); grey: unknown cells; "
+        "black: occupied; white: free.</p><div class=\"gallery\">")
     for alg in ranking.order + ranking.references:
         picks = gallery.get((seq, alg), [])
         figs = []
@@ -543,3 +554,57 @@ def _runs_table(sub: pd.DataFrame, pages: dict[int, _MapPage], metrics: Iterable
         rows.append(f"<tr><td>{_e(r['algorithm'])}</td><td>{link}</td>{cells}</tr>")
     return (f"<details><summary>All {len(sub)} runs</summary><table class=\"runs\"><tr>"
             f"<th>algorithm</th><th>run</th>{head}</tr>{''.join(rows)}</table></details>")
+
+
+def write_tables(summary: pd.DataFrame, out: Path) -> tuple[Path, Path]:
+    """The per-sequence table of mean ± std as Markdown (``tables.md``) and LaTeX
+    (``tables.tex``) for papers and READMEs.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, pandas as pd
+    >>> s = pd.DataFrame({"sequence": ["office"], "algorithm": ["gmapping"], "n": [3],
+    ...                   "corners_mean": [12.0], "corners_std": [2.0], "corners_n": [3]}
+    ...                  ).set_index(["sequence", "algorithm"])
+    >>> md, tex = write_tables(s, pathlib.Path(tempfile.mkdtemp()))
+    >>> print(md.read_text().splitlines()[2])
+    | office | gmapping | 3 | – | – | 12 ± 2 | – |
+    """
+    heads = [m.heading for m in METRICS]
+    md = ["| sequence | algorithm | runs | " + " | ".join(heads) + " |",
+          "|---|---|---:|" + "---:|" * len(heads)]
+    tex = [r"\begin{tabular}{ll r" + "r" * len(heads) + "}", r"\hline",
+           "sequence & algorithm & runs & " + " & ".join(_tex(h) for h in heads) + r" \\",
+           r"\hline"]
+    for (seq, alg), row in summary.iterrows():
+        cells = []
+        for m in METRICS:
+            if f"{m.key}_mean" in row and int(row.get(f"{m.key}_n", 0) or 0) > 0:
+                cells.append(format_mean_std(row[f"{m.key}_mean"], row[f"{m.key}_std"]))
+            else:
+                cells.append("–")
+        n = int(row["n"])
+        md.append(f"| {seq} | {alg} | {n} | " + " | ".join(cells) + " |")
+        tex.append(f"{_tex(seq)} & {_tex(alg)} & {n} & "
+                   + " & ".join(_tex(c).replace("±", r"$\pm$") for c in cells) + r" \\")
+    tex += [r"\hline", r"\end{tabular}"]
+    md_path, tex_path = out / "tables.md", out / "tables.tex"
+    md_path.write_text("\n".join(md) + "\n", encoding="utf-8")
+    tex_path.write_text("\n".join(tex) + "\n", encoding="utf-8")
+    return md_path, tex_path
+
+
+def _tex(text: str) -> str:
+    """``text`` with LaTeX's special characters escaped (one pass, so that an escape is
+    never escaped again).
+
+    Examples
+    --------
+    >>> _tex("slam_toolbox {v2} 50% & more – \\\\")
+    'slam\\\\_toolbox \\\\{v2\\\\} 50\\\\% \\\\& more -- \\\\textbackslash{}'
+    """
+    return re.sub(r"[\\&%$#_{}–]", lambda m: _TEX[m.group(0)], str(text))
+
+
+_TEX = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
+        "_": r"\_", "{": r"\{", "}": r"\}", "–": "--"}

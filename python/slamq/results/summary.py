@@ -150,11 +150,17 @@ _SHOWN = (
 
 
 def _pm(mean: float, std: float, fmt: str) -> str:
+    """``mean ± std`` in ``fmt``; whole numbers without decimals, float noise as 0."""
     if mean is None or (isinstance(mean, float) and math.isnan(mean)):
         return "-"
-    text = fmt.format(mean)
+
+    def one(x: float) -> str:
+        return str(int(x)) if float(x).is_integer() and abs(x) < 1e15 else fmt.format(x)
+
+    text = one(mean)
     if std is not None and not (isinstance(std, float) and math.isnan(std)):
-        text += " ± " + fmt.format(std)
+        noise = abs(std) <= 1e-9 * max(abs(mean), 1.0)
+        text += " ± " + ("0" if noise else one(std))
     return text
 
 
