@@ -210,7 +210,10 @@ def test_overlay_colours_every_counted_enclosed_area():
     rgb = ov.image.astype(int)
     coloured = (rgb[:, :, 0] != rgb[:, :, 1]) | (rgb[:, :, 1] != rgb[:, :, 2])
     red = np.all(ov.image == np.array(CORNER_RGB, np.uint8), axis=2)
-    inside = ov.labels > 0
+    # the image is the map cropped to its known cells (offset: its top-left cell)
+    (r0, c0), (h, w) = ov.offset, ov.image.shape[:2]
+    inside = ov.labels[r0:r0 + h, c0:c0 + w] > 0
+    assert inside.sum() == (ov.labels > 0).sum()  # no counted cell is cropped away
     # every counted cell is coloured, nothing else is (but the rings)
     assert coloured[inside].all()
     assert not (coloured & ~inside & ~red).any()
@@ -313,7 +316,7 @@ def test_detail_page_has_overlay_curve_trajectory_and_gif(site):
     assert {"curve", "build"} <= kinds
     for s in srcs:
         assert (out / s).stat().st_size > 0
-    assert "traj" in kinds, page
+    assert "traj" in kinds and "time" in kinds, page  # the map overlay and ATE over time
 
 
 def test_cli_report(tmp_path, site):

@@ -38,7 +38,8 @@ class Overlay:
     Attributes
     ----------
     image : numpy.ndarray
-        ``(H*scale, W*scale, 3)`` uint8 RGB, north up.
+        ``(h*scale, w*scale, 3)`` uint8 RGB, north up: the map cropped to its known cells
+        (and a margin of :data:`CROP_MARGIN` cells), starting at cell ``offset``.
     scale : int
         Pixels per map cell.
     corners : numpy.ndarray
@@ -47,6 +48,8 @@ class Overlay:
         ``(H, W)`` int32: 0 = not counted, 1..n = the coloured enclosed regions.
     unknown_value : int
         The unknown value ``u`` the regions were taken at.
+    offset : tuple of int
+        ``(row, col)`` of the map cell at the image's top-left corner.
     """
 
     image: np.ndarray
@@ -54,6 +57,7 @@ class Overlay:
     corners: np.ndarray
     labels: np.ndarray
     unknown_value: int
+    offset: tuple[int, int] = (0, 0)
 
     @property
     def n_corners(self) -> int:
@@ -89,6 +93,31 @@ def render_base(grid: OccupancyMap) -> np.ndarray:
     from slamq.report.animation import render_map
 
     return np.ascontiguousarray(render_map(grid), dtype=np.uint8)
+
+
+#: Cells of unknown canvas kept around the known area when a map is drawn.
+CROP_MARGIN = 4
+
+
+def known_box(grid: OccupancyMap, margin: int = CROP_MARGIN) -> tuple[int, int, int, int]:
+    """``(r0, r1, c0, c1)``: the rows and columns holding known cells, widened by
+    ``margin`` (the whole map when nothing is known).
+
+    Examples
+    --------
+    >>> import numpy as np, slamq
+    >>> img = np.full((20, 30), 205, np.uint8)
+    >>> img[5:8, 10:12] = 254
+    >>> known_box(slamq.OccupancyMap(img, img == 205), margin=2)
+    (3, 10, 8, 14)
+    """
+    known = ~grid.unknown
+    rows, cols = np.flatnonzero(known.any(axis=1)), np.flatnonzero(known.any(axis=0))
+    h, w = grid.shape
+    if not len(rows):
+        return 0, h, 0, w
+    return (max(0, int(rows[0]) - margin), min(h, int(rows[-1]) + 1 + margin),
+            max(0, int(cols[0]) - margin), min(w, int(cols[-1]) + 1 + margin))
 
 
 def _scale_for(shape: tuple[int, int], target: int) -> int:
@@ -146,11 +175,12 @@ def draw_overlay(
         lut[1:] = palette[(np.arange(n) % len(palette))]
         mask = labels > 0
         base[mask] = (1 - alpha) * base[mask] + alpha * lut[labels[mask]]
-    rgb = np.clip(np.rint(base), 0, 255).astype(np.uint8)
+    r0, r1, c0, c1 = known_box(grid)
+    rgb = np.clip(np.rint(base[r0:r1, c0:c1]), 0, 255).astype(np.uint8)
     # keep exact pure red for the rings only
     red = (rgb[:, :, 0] == 255) & (rgb[:, :, 1] == 0) & (rgb[:, :, 2] == 0)
     rgb[red] = (254, 0, 0)
-    scale = _scale_for(grid.shape, target_size)
+    scale = _scale_for(rgb.shape[:2], target_size)
     if scale > 1:
         rgb = np.repeat(np.repeat(rgb, scale, axis=0), scale, axis=1)
     img = Image.fromarray(rgb)
@@ -159,10 +189,10 @@ def draw_overlay(
     radius = max(3.0, size / 110.0)
     width = max(1, int(round(radius / 3)))
     for row, col in corners:
-        x, y = (col + 0.5) * scale, (row + 0.5) * scale
+        x, y = (col - c0 + 0.5) * scale, (row - r0 + 0.5) * scale
         draw.ellipse((x - radius, y - radius, x + radius, y + radius),
                      outline=CORNER_RGB, width=width)
     return Overlay(
         image=np.asarray(img), scale=scale, corners=corners, labels=labels,
-        unknown_value=int(unknown_value),
+        unknown_value=int(unknown_value), offset=(r0, c0),
     )

@@ -251,8 +251,13 @@ def trajectory_figure(
     path: Path,
     *,
     title: str = "",
+    gt_rows: np.ndarray | None = None,
+    gt_cols: np.ndarray | None = None,
+    box: tuple[int, int, int, int] | None = None,
 ) -> None:
-    """The estimated trajectory over its map (cells), each pose coloured by its ATE (m).
+    """The estimated trajectory over its map (cells), each pose coloured by its ATE (m), and
+    the ground truth (already in the map's frame) as a dashed line when given; ``box``
+    ``(r0, r1, c0, c1)`` crops the view (to the known cells), widened to the paths.
 
     Examples
     --------
@@ -264,14 +269,58 @@ def trajectory_figure(
     True
     """
     h, w = base_rgb.shape[:2]
+    if box is not None:
+        rr = [r for r in (rows, gt_rows) if r is not None and len(r)]
+        cc = [c for c in (cols, gt_cols) if c is not None and len(c)]
+        r0 = int(min([box[0], *(np.floor(r.min()) - 2 for r in rr)]))
+        r1 = int(max([box[1], *(np.ceil(r.max()) + 3 for r in rr)]))
+        c0 = int(min([box[2], *(np.floor(c.min()) - 2 for c in cc)]))
+        c1 = int(max([box[3], *(np.ceil(c.max()) + 3 for c in cc)]))
+        h, w = max(1, r1 - r0), max(1, c1 - c0)
     scale = 7.0 / max(h, w)
     fig, ax = plt.subplots(figsize=(max(3.0, w * scale + 1.4), max(3.0, h * scale)))
     ax.imshow(base_rgb, interpolation="nearest")
+    if gt_rows is not None and gt_cols is not None:
+        ax.plot(gt_cols, gt_rows, color="#d62728", linewidth=0.9, linestyle="--",
+                label="ground truth (aligned)")
+        ax.legend(loc="lower right", fontsize=7)
     ax.plot(cols, rows, color="black", linewidth=0.6, alpha=0.5)
     sc = ax.scatter(cols, rows, c=errors, cmap="viridis", s=9, zorder=3)
     fig.colorbar(sc, ax=ax, label="ATE of the pose (m)", shrink=0.8)
+    if box is not None:
+        ax.set_xlim(c0 - 0.5, c1 - 0.5)
+        ax.set_ylim(r1 - 0.5, r0 - 0.5)
     ax.set_xticks([])
     ax.set_yticks([])
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=_DPI)
+    plt.close(fig)
+
+
+def error_time_figure(seconds: np.ndarray, errors: np.ndarray, path: Path, *,
+                      title: str = "", unit: str = "m") -> None:
+    """Per-pose error over time since the first pose, with its mean and RMSE, as evo plots.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "e.png"
+    >>> error_time_figure(np.arange(5.0), np.array([.1, .2, .1, .3, .2]), p)
+    >>> p.stat().st_size > 0
+    True
+    """
+    fig, ax = plt.subplots(figsize=(6.4, 2.6))
+    ax.plot(seconds, errors, color="#1f77b4", linewidth=0.9, label="error")
+    if len(errors):
+        ax.axhline(float(np.mean(errors)), color="#2ca02c", linestyle="--", linewidth=0.8,
+                   label="mean")
+        ax.axhline(float(np.sqrt(np.mean(np.square(errors)))), color="#d62728",
+                   linestyle=":", linewidth=0.9, label="RMSE")
+    ax.set_xlabel("time since the first pose (s)")
+    ax.set_ylabel(f"error ({unit})")
+    ax.legend(fontsize=7, loc="upper left")
     if title:
         ax.set_title(title, fontsize=9)
     fig.tight_layout()

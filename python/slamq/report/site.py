@@ -324,15 +324,19 @@ def _fmt_cell(x: Any) -> str:
 def _trajectory_section(rec: dict, grid: Any, out: Path, mp: _MapPage) -> str:
     if not usable(rec.get("trajectory")):
         return ""
-    from slamq.report.trajectory import draw_trajectory
+    from slamq.report.trajectory import draw_trajectory, time_plot_path
 
     png = f"img/{mp.slug}_traj.png"
     try:
         caption = draw_trajectory(rec, grid, out / png)
     except Exception as exc:  # noqa: BLE001 - a bad trajectory is a note, never a crash
         return f"<h2>Trajectory</h2><p class=\"warn\">not drawn: {_e(exc)}</p>"
+    over_time = time_plot_path(Path(png))
+    time_img = (f"<p><img src=\"../{over_time.as_posix()}\" alt=\"ATE over time\"></p>"
+                if (out / over_time).is_file() else "")
     return (f"<h2>Trajectory over the map</h2><p>{_e(caption)}</p>"
-            f"<p class=\"big\"><img src=\"../{png}\" alt=\"trajectory coloured by ATE\"></p>")
+            f"<p class=\"big\"><img src=\"../{png}\" alt=\"trajectory coloured by ATE\"></p>"
+            + time_img)
 
 
 def _building_section(rec: dict, out: Path, mp: _MapPage, params: Any) -> str:

@@ -96,7 +96,7 @@ def draw_trajectory(record: dict, grid: OccupancyMap, path: Path) -> str:
     TrajectoryError
         The trajectory cannot be read or placed on the map.
     """
-    from slamq.report.overlays import render_base
+    from slamq.report.overlays import known_box, render_base
     from slamq.report.plots import trajectory_figure
 
     traj = str(record["trajectory"])
@@ -109,7 +109,7 @@ def draw_trajectory(record: dict, grid: OccupancyMap, path: Path) -> str:
         est = load_trajectory(traj, unsorted=unsorted)
         rows, cols = world_to_cells(grid, est.positions[:, :2])
         trajectory_figure(base, rows, cols, np.zeros(len(rows)), path,
-                          title=Path(traj).name)
+                          title=Path(traj).name, box=known_box(grid))
         return f"{Path(traj).name}: {len(rows)} poses (no ground truth, so no ATE colours)."
     from slamq.metrics.ate import ate
     from slamq.sources.trajectories import load_pair
@@ -119,7 +119,28 @@ def draw_trajectory(record: dict, grid: OccupancyMap, path: Path) -> str:
     errors = np.asarray(res.errors, float)
     idx = _per_pose(est, ref, errors, max_dt)
     rows, cols = world_to_cells(grid, est.positions[idx, :2])
-    trajectory_figure(base, rows, cols, errors, path, title=Path(traj).name)
+    # the ground truth brought into the map's frame: the inverse of the ATE alignment
+    gt_rows, gt_cols = world_to_cells(grid, _unalign(res.alignment, ref.positions)[:, :2])
+    trajectory_figure(base, rows, cols, errors, path, title=Path(traj).name,
+                      gt_rows=gt_rows, gt_cols=gt_cols, box=known_box(grid))
+    from slamq.report.plots import error_time_figure
+
+    error_time_figure(res.timestamps - res.timestamps[0], errors, time_plot_path(path),
+                      title=f"ATE over time (align {align})")
     return (f"{Path(traj).name} against {Path(str(gt)).name}: {len(errors)} poses, "
-            f"ATE RMSE {float(res.rmse):.3g} m (max {float(res.max):.3g} m); the colour is "
-            "each pose's error after alignment.")
+            f"ATE RMSE {float(res.rmse):.3g} m (max {float(res.max):.3g} m), align {align}; "
+            "the colour is each pose's error after alignment, the dashed line the ground "
+            "truth in the map's frame.")
+
+
+def time_plot_path(path: Path) -> Path:
+    """Where :func:`draw_trajectory` puts the error-over-time plot beside ``path``."""
+    return path.with_name(path.stem + "_time.png")
+
+
+def _unalign(alignment: Any, positions: np.ndarray) -> np.ndarray:
+    """``positions`` through the inverse of ``alignment`` (``scale * R p + t``)."""
+    if alignment.kind == "none":
+        return positions
+    p = (positions - alignment.translation) @ alignment.rotation
+    return p / alignment.scale
