@@ -40,6 +40,7 @@ __version__ = "0.1.0"
 _LAZY = {
     "discover_runs": "slamq.batch.runs",
     "evaluate_many": "slamq.batch.engine",
+    "run": "slamq.run",
     "read_results": "slamq.results.files",
     "summarize": "slamq.results.summary",
     "read_bag_maps": "slamq.sources.bag_maps",
@@ -77,6 +78,7 @@ __all__ = [
     "discover_runs",
     "evaluate",
     "evaluate_many",
+    "run",
     "load_map",
     "load_trajectory",
     "read_bag_maps",

@@ -34,6 +34,7 @@ COMMANDS: tuple[str, ...] = (
     "slamq.cli.report",
     "slamq.cli.trajectory",
     "slamq.cli.timeline",
+    "slamq.cli.run",
 )
 
 

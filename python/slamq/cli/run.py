@@ -1,0 +1,54 @@
+"""``slamq run CONFIG``: run SLAM programs from a config file, then score and report them."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from slamq.cli.common import EXIT_OK
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Register ``slamq run``."""
+    p = subparsers.add_parser(
+        "run", help="run SLAM algorithms x sequences x iterations x parameters, then score",
+        description="Run every (algorithm, parameter variant, sequence, iteration) of a YAML "
+        "config, each in its own process group with a timeout; collect maps, trajectories "
+        "and snapshots; score them with the batch engine; write runs.csv, results.jsonl, "
+        "summary.csv (mean ± std over iterations, failure rate), GIFs and the report. "
+        "Finished runs are skipped when run again.",
+    )
+    p.add_argument("config", help="run config (YAML), e.g. examples/mrpt.yaml")
+    p.add_argument("--retry-failed", action="store_true",
+                   help="run again the finished runs whose outcome was not ok")
+    p.add_argument("--dry-run", action="store_true",
+                   help="print the planned runs and their commands; run nothing")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the config; print one line per run and where the results are."""
+    from slamq.run import runner
+
+    def progress(row: dict) -> None:
+        print(f"{row['outcome']:<12} {row['algorithm']} {row['sequence']} #{row['iteration']}"
+              f"  {row.get('wall', '-')} s  {row.get('reason', '')}", file=sys.stderr)
+
+    result = runner.run(args.config, retry_failed=args.retry_failed, dry_run=args.dry_run,
+                        progress=progress)
+    if args.dry_run:
+        for row in result["rows"]:
+            cmd = row.get("command")
+            print(f"{row['outcome']:<10} {row['algorithm']} {row['sequence']} "
+                  f"#{row['iteration']}: {cmd}")
+        return EXIT_OK
+    counts: dict[str, int] = {}
+    for row in result["rows"]:
+        counts[row["outcome"]] = counts.get(row["outcome"], 0) + 1
+    print("runs: " + ", ".join(f"{n} {k}" for k, n in sorted(counts.items())))
+    if result["summary"] is not None:
+        print(f"summary: {result['results'].parent / 'summary.csv'}")
+    print(f"results: {result['results']}")
+    if result["report"] is not None:
+        print(f"report written: {result['report']}")
+    return EXIT_OK

@@ -1,0 +1,199 @@
+"""Child processes of the runner: each in its own session, stopped as a whole group.
+
+:func:`start` launches a command in a new session (so its process group id is its pid and
+the terminal's Ctrl-C does not reach it directly); :func:`stop_group` sends SIGINT, then
+SIGTERM, then SIGKILL to the whole group, each after a grace period, until no process of
+the group is left; :func:`wait` waits for the leader with a deadline and an optional stop
+event, then stops the group, so no orphan of a run survives it. Wall time comes from a
+monotonic clock; CPU time and peak RSS from ``os.wait4`` (the leader and the descendants
+it waited for).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+__all__ = ["Child", "Exit", "start", "wait", "stop_group", "group_alive"]
+
+#: Poll interval while waiting (seconds).
+POLL = 0.02
+
+
+@dataclass
+class Exit:
+    """How a child ended.
+
+    Attributes
+    ----------
+    returncode : int or None
+        Exit status; ``-N`` when killed by signal N (like :mod:`subprocess`).
+    timed_out, interrupted : bool
+        Stopped by the runner because of the deadline, or of Ctrl-C / a stop request.
+    wall, user_cpu, sys_cpu : float
+        Seconds.
+    max_rss_kb : int
+        Peak resident set size (kB) of the leader or the largest descendant it waited for.
+    stopped_with : str or None
+        The last signal the runner needed (``"SIGINT"``, ``"SIGTERM"``, ``"SIGKILL"``).
+    """
+
+    returncode: int | None
+    timed_out: bool = False
+    interrupted: bool = False
+    wall: float = 0.0
+    user_cpu: float = 0.0
+    sys_cpu: float = 0.0
+    max_rss_kb: int = 0
+    stopped_with: str | None = None
+
+
+@dataclass
+class Child:
+    """A started command: its Popen, start time and rusage once reaped."""
+
+    popen: subprocess.Popen
+    started: float
+    rusage: Any = None
+    status: int | None = None
+
+    @property
+    def pid(self) -> int:
+        return self.popen.pid
+
+    def poll(self) -> int | None:
+        """Reap the leader if it has ended (keeps its rusage); its return code or None."""
+        if self.status is not None:
+            return self.status
+        try:
+            pid, status, ru = os.wait4(self.pid, os.WNOHANG)
+        except ChildProcessError:
+            self.status = self.popen.returncode if self.popen.returncode is not None else -1
+            return self.status
+        if pid == 0:
+            return None
+        self.rusage = ru
+        self.status = os.waitstatus_to_exitcode(status)
+        self.popen.returncode = self.status
+        return self.status
+
+
+def start(
+    argv: list[str] | str,
+    *,
+    cwd: Path,
+    env: dict[str, str],
+    stdout: IO[bytes] | int,
+    stderr: IO[bytes] | int,
+    shell: bool = False,
+) -> Child:
+    """Start a command in a new session (its own process group), stdin from /dev/null.
+
+    Raises
+    ------
+    OSError
+        The program cannot be started (not found, not executable, no resources).
+
+    Examples
+    --------
+    >>> import pathlib, os, subprocess
+    >>> c = start(["true"], cwd=pathlib.Path("."), env=dict(os.environ),
+    ...           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    >>> wait(c, timeout=10).returncode
+    0
+    """
+    popen = subprocess.Popen(
+        argv, cwd=str(cwd), env=env, stdin=subprocess.DEVNULL, stdout=stdout,
+        stderr=stderr, shell=shell, start_new_session=True,
+    )
+    return Child(popen, time.monotonic())
+
+
+def group_alive(pgid: int) -> bool:
+    """Whether any process (zombies included) is left in process group ``pgid``."""
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _signal_group(pgid: int, sig: int) -> None:
+    try:
+        os.killpg(pgid, sig)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def stop_group(child: Child, grace: tuple[float, float] = (5.0, 5.0)) -> str | None:
+    """Stop the child's whole process group: SIGINT, SIGTERM after ``grace[0]`` s, SIGKILL
+    after ``grace[1]`` s more. Returns the last signal sent (None if the group was gone).
+
+    The leader is reaped here; members reparented elsewhere are waited for until they are
+    gone (a zombie no one reaps is given up on after the SIGKILL grace).
+    """
+    pgid = child.pid
+    last = None
+    for sig, wait_s in ((signal.SIGINT, grace[0]), (signal.SIGTERM, grace[1]),
+                        (signal.SIGKILL, max(grace[1], 2.0))):
+        child.poll()
+        if not group_alive(pgid):
+            return last
+        _signal_group(pgid, sig)
+        last = signal.Signals(sig).name
+        end = time.monotonic() + wait_s
+        while time.monotonic() < end:
+            child.poll()
+            if not group_alive(pgid):
+                return last
+            time.sleep(POLL)
+    child.poll()
+    return last
+
+
+def wait(
+    child: Child,
+    *,
+    timeout: float | None,
+    stop: threading.Event | None = None,
+    grace: tuple[float, float] = (5.0, 5.0),
+) -> Exit:
+    """Wait for the leader until ``timeout`` seconds after its start or ``stop`` is set,
+    then stop the rest of its group (always: a finished leader may leave children)."""
+    deadline = None if timeout is None else child.started + timeout
+    timed_out = interrupted = False
+    stopped_with = None
+    while child.poll() is None:
+        if stop is not None and stop.is_set():
+            interrupted = True
+        elif deadline is not None and time.monotonic() >= deadline:
+            timed_out = True
+        if timed_out or interrupted:
+            stopped_with = stop_group(child, grace)
+            break
+        time.sleep(POLL)
+    wall = time.monotonic() - child.started
+    leftover = stop_group(child, grace)  # orphans of a finished leader
+    stopped_with = stopped_with or leftover
+    if child.status is None:  # should not happen: stop_group reaps the leader
+        child.popen.wait()
+        child.status = child.popen.returncode
+    ru = child.rusage
+    return Exit(
+        returncode=child.status,
+        timed_out=timed_out,
+        interrupted=interrupted,
+        wall=wall,
+        user_cpu=float(ru.ru_utime) if ru else 0.0,
+        sys_cpu=float(ru.ru_stime) if ru else 0.0,
+        max_rss_kb=int(ru.ru_maxrss) if ru else 0,
+        stopped_with=stopped_with,
+    )

@@ -1,0 +1,595 @@
+"""Run SLAM programs over sequences x iterations x parameter variants, then score them.
+
+Each run gets ``<output>/<algorithm>/<variant>/<sequence>/<iteration>/`` holding
+``command.txt``, ``env.json``, ``stdout.log``, ``stderr.log``, the program's own folder
+``out/``, the collected ``map.yaml`` (+ image), ``trajectory.tum``, ``snapshots/map_NNNN.yaml``
+and ``building.gif``, and ``run.json`` (outcome, exit status, timings, peak RSS, run key),
+written atomically last. Outcomes: ``ok``, ``timeout``, ``crash`` (non-zero exit or killed),
+``no_output`` (a configured map/trajectory missing or unreadable), ``degenerate`` (no
+occupied cell, or fewer than ``min_poses`` poses), ``infrastructure`` (could not start /
+a ROS step never became ready, after ``retries``).
+
+Resume: a run whose ``run.json`` holds the same run key (hash of algorithm, resolved
+command, rendered config file, params, input content hash, iteration) is not run again;
+``retry_failed=True`` reruns the ones that did not end ``ok``.
+
+ROS recipes start their steps in order, each in its own session, waiting for each step's
+readiness (a file under ``out/``, a topic listed by ``topic_command``, or a delay); the run
+ends when the ``wait`` step ends, then after ``quiet_period`` seconds the other steps are
+stopped (SIGINT, SIGTERM, SIGKILL), last started first. Each parallel slot has its own
+``ROS_DOMAIN_ID`` (``ros_domain_base + slot``) and ``ROS_MASTER_URI`` port.
+"""
+
+from __future__ import annotations
+
+import glob
+import hashlib
+import json
+import os
+import queue
+import re
+import shlex
+import shutil
+import subprocess
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from slamq.errors import ParamError, SlamqError
+from slamq.run import process
+from slamq.run.config import Algorithm, Output, RunConfig, Sequence, load_config, render
+
+__all__ = ["RunSpec", "plan", "execute", "run", "run_key"]
+
+OUTCOMES = ("ok", "timeout", "crash", "no_output", "degenerate", "infrastructure")
+
+
+@dataclass
+class RunSpec:
+    """One planned run."""
+
+    algorithm: Algorithm
+    variant: str
+    params: dict[str, Any]
+    sequence: Sequence
+    iteration: int
+    folder: Path
+
+    @property
+    def label(self) -> str:
+        """The algorithm name used in results: ``name`` or ``name[variant]``."""
+        return self.algorithm.name if self.variant == "default" else \
+            f"{self.algorithm.name}[{self.variant}]"
+
+
+_HASHES: dict[str, str] = {}
+
+
+def input_hash(path: Path) -> str:
+    """SHA-1 of a file's bytes or of a folder's files (relative names and bytes)."""
+    key = str(path)
+    if key in _HASHES:
+        return _HASHES[key]
+    h = hashlib.sha1(usedforsecurity=False)
+    files = [path] if path.is_file() else sorted(p for p in path.rglob("*") if p.is_file())
+    if not path.exists():
+        raise ParamError(f"{path}: sequence input does not exist")
+    for f in files:
+        h.update(str(f.relative_to(path) if f != path else f.name).encode() + b"\0")
+        with open(f, "rb") as fh:
+            for chunk in iter(lambda fh=fh: fh.read(1 << 20), b""):
+                h.update(chunk)
+    _HASHES[key] = h.hexdigest()
+    return _HASHES[key]
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._=,+-]+", "_", text) or "_"
+
+
+def plan(config: RunConfig) -> list[RunSpec]:
+    """Every run of a configuration, in a stable order (iteration outermost, so parallel
+    slots spread over algorithms)."""
+    specs = []
+    for it in range(1, config.iterations + 1):
+        for algo in config.algorithms:
+            for variant, params in algo.variants():
+                for seq in config.sequences:
+                    folder = (config.output / _slug(algo.name) / _slug(variant)
+                              / _slug(seq.name) / str(it))
+                    specs.append(RunSpec(algo, variant, params, seq, it, folder))
+    return specs
+
+
+def _values(spec: RunSpec, slot: int, config: RunConfig) -> dict[str, Any]:
+    out = spec.folder / "out"
+    v: dict[str, Any] = {
+        "sequence": spec.sequence.name, "input": str(spec.sequence.input), "out": str(out),
+        "iteration": spec.iteration, "seed": spec.iteration, "slot": slot,
+        "config": str(spec.folder / ("config" + (spec.algorithm.config_template.suffix
+                                                 if spec.algorithm.config_template else ""))),
+        "ros_domain_id": config.ros_domain_base + slot,
+        "ros_master_port": config.ros_master_base + slot,
+    }
+    v.update({f"param.{k}": val for k, val in spec.params.items()})
+    return v
+
+
+def _render_cmd(cmd: list[str] | str, values: dict[str, Any], where: str) -> list[str] | str:
+    if isinstance(cmd, str):
+        return render(cmd, values, where)
+    return [render(c, values, where) for c in cmd]
+
+
+def render_config_file(algo: Algorithm, values: dict[str, Any]) -> str | None:
+    """The text of the algorithm's config file for one run (template + overrides).
+
+    Overrides are ``SECTION.key`` for ini files (the key's line in that section is replaced;
+    a missing key is appended to its section) and dotted paths for YAML files.
+    """
+    if algo.config_template is None:
+        return None
+    where = f"algorithms.{algo.name}.config_template"
+    try:
+        text = algo.config_template.read_text()
+    except OSError as exc:
+        raise ParamError(f"{algo.config_template}: cannot read {where} "
+                         f"({exc.strerror or exc})") from exc
+    over = {k: render(str(v), values, f"algorithms.{algo.name}.config_overrides.{k}")
+            for k, v in algo.config_overrides.items()}
+    if algo.config_template.suffix.lower() in (".yaml", ".yml"):
+        import yaml
+
+        doc = yaml.safe_load(text) or {}
+        for k, v in over.items():
+            node = doc
+            parts = k.split(".")
+            for p in parts[:-1]:
+                node = node.setdefault(p, {})
+            node[parts[-1]] = yaml.safe_load(v) if v != "" else v
+        return yaml.safe_dump(doc, sort_keys=False)
+    return _ini_override(text, over, algo.config_template)
+
+
+def _ini_override(text: str, over: dict[str, str], where: Path) -> str:
+    pending: dict[str, dict[str, str]] = {}
+    for k, v in over.items():
+        if "." not in k:
+            raise ParamError(f"{where}: ini override {k!r} must be SECTION.key")
+        sec, key = k.rsplit(".", 1)
+        pending.setdefault(sec, {})[key] = v
+    lines = text.splitlines()
+    out: list[str] = []
+    section = None
+
+    def flush(sec: str | None) -> None:
+        for key, v in pending.pop(sec, {}).items() if sec is not None else []:
+            out.append(f"{key}={v}")
+
+    for line in lines:
+        m = re.match(r"\s*\[(.+?)\]", line)
+        if m:
+            flush(section)
+            section = m.group(1)
+        else:
+            km = re.match(r"\s*([A-Za-z0-9_.\-]+)\s*=", line)
+            if km and section in pending and km.group(1) in pending[section]:
+                line = f"{km.group(1)}={pending[section].pop(km.group(1))}"
+        out.append(line)
+    flush(section)
+    for sec, keys in pending.items():
+        out.append(f"[{sec}]")
+        out.extend(f"{k}={v}" for k, v in keys.items())
+    return "\n".join(out) + "\n"
+
+
+def run_key(spec: RunSpec, config: RunConfig) -> tuple[str, dict[str, Any]]:
+    """The run key and the resolved pieces it hashes (slot-independent)."""
+    values = _values(spec, 0, config)
+    algo = spec.algorithm
+    cmd: Any = (_render_cmd(algo.command, values, f"algorithms.{algo.name}.command")
+                if algo.command is not None else
+                [[s.name, _render_cmd(s.command, values, s.name)] for s in algo.recipe])
+    cfg = render_config_file(algo, values)
+    pieces = {"algorithm": algo.name, "command": cmd, "config": cfg,
+              "params": {k: str(v) for k, v in spec.params.items()},
+              "input": input_hash(spec.sequence.input), "iteration": spec.iteration}
+    blob = json.dumps(pieces, sort_keys=True, default=str).encode()
+    return hashlib.sha256(blob).hexdigest()[:32], pieces
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def _glob(out: Path, pattern: str) -> list[Path]:
+    return sorted(Path(p) for p in glob.glob(str(out / pattern), recursive=True)
+                  if Path(p).is_file() and not p.endswith("_limits.txt"))
+
+
+def _collect_map(o: Output, src: Path, dest_yaml: Path) -> Path:
+    """Make ``dest_yaml`` (map_server YAML) for an output file; returns the map to score."""
+    from slamq.sources.maps import load_map
+
+    if o.format == "mrpt":
+        from slamq.sources.mrpt import write_mrpt_yaml
+
+        return write_mrpt_yaml(src, dest_yaml)
+    load_map(src)  # readable (yaml / image / bag): scored in place
+    return src
+
+
+def _collect(spec: RunSpec, config: RunConfig) -> tuple[str, str, dict[str, Any]]:
+    """Collect a finished run's outputs; ``(outcome, reason, files)``."""
+    from slamq.sources.maps import load_map
+
+    algo, folder = spec.algorithm, spec.folder
+    out = folder / "out"
+    files: dict[str, Any] = {}
+    if algo.map is not None:
+        found = _glob(out, algo.map.path)
+        if not found:
+            return "no_output", f"no map matching {algo.map.path}", files
+        try:
+            m = _collect_map(algo.map, found[-1], folder / "map.yaml")
+            grid = load_map(m)
+        except (SlamqError, OSError) as exc:
+            return "no_output", f"map unreadable: {exc}", files
+        files["map"] = str(m)
+        known = ~grid.unknown
+        if not known.any():
+            return "degenerate", "the map has no known cell", files
+        if not (grid.values[known] < 128).any():
+            return "degenerate", "the map has no dark (occupied) cell", files
+    if algo.trajectory is not None:
+        found = _glob(out, algo.trajectory.path)
+        if not found:
+            return "no_output", f"no trajectory matching {algo.trajectory.path}", files
+        try:
+            if algo.trajectory.format == "mrpt":
+                from slamq.sources.mrpt import read_mrpt_path
+
+                traj = read_mrpt_path(found[-1])
+            else:
+                from slamq.sources.trajectories import load_trajectory
+
+                fmt = None if algo.trajectory.format == "auto" else algo.trajectory.format
+                traj = load_trajectory(found[-1], format=fmt, topic=algo.trajectory.topic)
+            traj.write_tum(folder / "trajectory.tum")
+        except (SlamqError, OSError) as exc:
+            return "no_output", f"trajectory unreadable: {exc}", files
+        files["trajectory"] = str(folder / "trajectory.tum")
+        if len(traj) < config.min_poses:
+            return "degenerate", f"{len(traj)} poses (< {config.min_poses})", files
+    if algo.snapshots is not None:
+        snaps = []
+        for i, src in enumerate(_glob(out, algo.snapshots.path), 1):
+            try:
+                snaps.append(str(_collect_map(algo.snapshots, src,
+                                              folder / "snapshots" / f"map_{i:04d}.yaml")))
+            except (SlamqError, OSError):
+                continue
+        files["snapshots"] = len(snaps)
+    return "ok", "", files
+
+
+class _Stop:
+    """Shared stop flag and the children alive now (for Ctrl-C)."""
+
+    def __init__(self) -> None:
+        self.event = threading.Event()
+
+
+def _env(spec: RunSpec, values: dict[str, Any]) -> dict[str, str]:
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(values["ros_domain_id"])
+    env["ROS_MASTER_URI"] = f"http://localhost:{values['ros_master_port']}"
+    for k, v in spec.algorithm.env.items():
+        env[k] = render(v, values, f"algorithms.{spec.algorithm.name}.env.{k}")
+    return env
+
+
+class _NotReady(Exception):
+    pass
+
+
+def _ready(step_ready: dict[str, Any], out: Path, env: dict[str, str], algo: Algorithm,
+           child: process.Child, deadline: float, stop: threading.Event) -> None:
+    kind, value = next(iter(step_ready.items()))
+    if kind == "delay":
+        end = time.monotonic() + float(value)
+        while time.monotonic() < end and not stop.is_set():
+            time.sleep(process.POLL)
+        return
+    while time.monotonic() < deadline and not stop.is_set():
+        if child.poll() is not None:
+            raise _NotReady(f"exited ({child.status}) before it was ready")
+        if kind == "file" and _glob(out, str(value)):
+            return
+        if kind == "topic":
+            try:
+                listed = subprocess.run(algo.topic_command, env=env, capture_output=True,
+                                        timeout=10, text=True, stdin=subprocess.DEVNULL).stdout
+            except (OSError, subprocess.TimeoutExpired):
+                listed = ""
+            if str(value) in listed.split():
+                return
+        time.sleep(0.1 if kind == "file" else 0.5)
+    if not stop.is_set():
+        raise _NotReady(f"not ready ({kind} {value}) within the startup timeout")
+
+
+def _execute_one(spec: RunSpec, key: str, slot: int, config: RunConfig,
+                 stop: threading.Event) -> dict[str, Any] | None:
+    folder = spec.folder
+    if folder.exists():
+        shutil.rmtree(folder)
+    out = folder / "out"
+    out.mkdir(parents=True)
+    values = _values(spec, slot, config)
+    algo = spec.algorithm
+    cfg = render_config_file(algo, values)
+    if cfg is not None:
+        Path(values["config"]).write_text(cfg)
+    env = _env(spec, values)
+    (folder / "env.json").write_text(json.dumps(
+        {k: env[k] for k in sorted(env)}, indent=1))
+    steps = ([(algo.name, algo.command, None, True)] if algo.command is not None else
+             [(s.name, s.command, s.ready, s.wait) for s in algo.recipe])
+    lines = []
+    started: list[tuple[str, process.Child, bool, Any, Any]] = []
+    record: dict[str, Any] = {}
+    outcome, reason = "ok", ""
+    exit_: process.Exit | None = None
+    t0 = time.monotonic()
+    try:
+        for name, cmd, ready, is_main in steps:
+            argv = _render_cmd(cmd, values, f"algorithms.{algo.name}.command")
+            shell = isinstance(argv, str)
+            lines.append(argv if shell else shlex.join(argv))
+            (folder / "command.txt").write_text("\n".join(lines) + "\n")
+            suffix = "" if algo.command is not None else f".{_slug(name)}"
+            so = open(folder / f"stdout{suffix}.log", "wb")
+            se = open(folder / f"stderr{suffix}.log", "wb")
+            try:
+                child = process.start(argv, cwd=out, env=env, stdout=so, stderr=se, shell=shell)
+            except OSError as exc:
+                so.close()
+                se.close()
+                raise _NotReady(f"{name}: cannot start ({exc.strerror or exc})") from exc
+            started.append((name, child, is_main, so, se))
+            if ready:
+                _ready(ready, out, env, algo, child,
+                       time.monotonic() + config.startup_timeout, stop)
+        main = next(c for c in started if c[2])[1]
+        remaining = None if config.timeout is None else config.timeout - (time.monotonic() - t0)
+        # the main step: its own deadline is what is left of the run's hard cap
+        main.started = time.monotonic()
+        exit_ = process.wait(main, timeout=None if remaining is None else max(remaining, 0),
+                             stop=stop, grace=config.grace)
+        if len(started) > 1 and algo.quiet_period and not stop.is_set():
+            end = time.monotonic() + algo.quiet_period
+            while time.monotonic() < end and not stop.is_set():
+                time.sleep(process.POLL)
+        for name, child, is_main, _, _ in reversed(started):
+            if not is_main:
+                early = child.poll()
+                process.stop_group(child, config.grace)
+                if early not in (None, 0) and outcome == "ok":
+                    outcome, reason = "crash", f"{name} exited with {early}"
+    except _NotReady as exc:
+        for _, child, _, _, _ in reversed(started):
+            process.stop_group(child, config.grace)
+        if stop.is_set():
+            return None
+        outcome, reason = "infrastructure", str(exc)
+    finally:
+        for _, _, _, so, se in started:
+            so.close()
+            se.close()
+    if stop.is_set() or (exit_ is not None and exit_.interrupted):
+        return None  # interrupted: no run.json, so a resume runs it again
+    if exit_ is not None:
+        record.update(returncode=exit_.returncode, wall=round(exit_.wall, 3),
+                      user_cpu=exit_.user_cpu, sys_cpu=exit_.sys_cpu,
+                      max_rss_kb=exit_.max_rss_kb, stopped_with=exit_.stopped_with)
+        if exit_.timed_out:
+            outcome, reason = "timeout", f"still running after {config.timeout} s"
+        elif exit_.returncode != 0:
+            outcome, reason = "crash", f"exit status {exit_.returncode}"
+    if outcome == "ok":
+        outcome, reason, files = _collect(spec, config)
+        record.update(files)
+    elif outcome in ("timeout", "crash"):
+        _, _, files = _collect(spec, config)  # keep what a failed run left, for a look
+        record.update({k: v for k, v in files.items() if k == "snapshots"})
+    return {**record, "outcome": outcome, "reason": reason}
+
+
+def _row(spec: RunSpec, key: str, result: dict[str, Any], attempts: int) -> dict[str, Any]:
+    return {
+        "algorithm": spec.label, "program": spec.algorithm.name, "variant": spec.variant,
+        "params": {k: v for k, v in spec.params.items()}, "sequence": spec.sequence.name,
+        "iteration": spec.iteration, "folder": str(spec.folder), "key": key,
+        "attempts": attempts, **result,
+    }
+
+
+def execute(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
+            progress: Any = None) -> list[dict[str, Any]]:
+    """Run (or skip, when finished before) every planned run; returns one row per run.
+
+    Ctrl-C (KeyboardInterrupt in the calling thread) stops every running group (SIGINT,
+    SIGTERM, SIGKILL) and is raised again; interrupted runs leave no ``run.json``.
+    """
+    config = load_config(config)
+    specs = plan(config)
+    keyed = [(s, *run_key(s, config)) for s in specs]
+    rows: list[dict[str, Any] | None] = [None] * len(keyed)
+    todo = []
+    for i, (spec, key, _pieces) in enumerate(keyed):
+        done = spec.folder / "run.json"
+        old = None
+        if done.is_file():
+            try:
+                old = json.loads(done.read_text())
+            except (OSError, ValueError):
+                old = None
+        if old and old.get("key") == key and (old.get("outcome") == "ok" or not retry_failed):
+            rows[i] = {**old, "skipped": True}
+        else:
+            todo.append(i)
+    if dry_run:
+        return [{**_row(s, k, {"outcome": "planned"}, 0), "command": p["command"]}
+                if rows[i] is None else rows[i]
+                for i, (s, k, p) in enumerate(keyed)]
+    stop = threading.Event()
+    slots: queue.Queue[int] = queue.Queue()
+    for n in range(config.parallel):
+        slots.put(n)
+
+    def work(i: int) -> None:
+        spec, key, pieces = keyed[i]
+        slot = slots.get()
+        try:
+            attempts = 0
+            while True:
+                attempts += 1
+                result = _execute_one(spec, key, slot, config, stop)
+                if result is None:
+                    return
+                if result["outcome"] != "infrastructure" or attempts > config.retries:
+                    break
+            row = _row(spec, key, result, attempts)
+            row["command"] = pieces["command"]
+            _write_atomic(spec.folder / "run.json", json.dumps(row, indent=1, default=str))
+            rows[i] = row
+            if progress is not None:
+                progress(row)
+        finally:
+            slots.put(slot)
+
+    pool = ThreadPoolExecutor(max_workers=config.parallel, thread_name_prefix="slamq-run")
+    futures = [pool.submit(work, i) for i in todo]
+    try:
+        for f in futures:
+            while not f.done():
+                time.sleep(0.05)
+            f.result()
+    except KeyboardInterrupt:
+        stop.set()
+        for f in futures:
+            f.cancel()
+        pool.shutdown(wait=True)
+        raise
+    pool.shutdown(wait=True)
+    return [r for r in rows if r is not None]
+
+
+def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Score the runs with the batch engine, summarise, write GIFs and the report."""
+    import pandas as pd
+
+    from slamq.batch import Run, evaluate_many
+    from slamq.results import summarize
+
+    seqs = {s.name: s for s in config.sequences}
+    runs = []
+    for r in rows:
+        if r.get("outcome") not in ("ok", "degenerate") or not r.get("map"):
+            continue
+        seq = seqs.get(r["sequence"])
+        runs.append(Run(r["map"], r["algorithm"], r["sequence"], str(r["iteration"]),
+                        trajectory=r.get("trajectory"),
+                        groundtruth=seq.groundtruth if seq else None))
+    out = config.output
+    results_path = out / "results.jsonl"
+    records = list(evaluate_many(runs, out=results_path, **config.evaluate)) if runs else []
+    table = pd.DataFrame(rows)
+    table.drop(columns=[c for c in ("command", "skipped") if c in table], errors="ignore") \
+        .to_csv(out / "runs.csv", index=False)
+    summary = None
+    if results_path.exists():
+        summary = summarize(results_path)
+        counts = table.groupby(["algorithm", "sequence"])["outcome"].agg(
+            runs="size", ok=lambda s: int((s == "ok").sum()))
+        counts["failure_rate"] = 1 - counts["ok"] / counts["runs"]
+        summary = summary.merge(counts.reset_index(), on=["algorithm", "sequence"], how="outer")
+        summary.to_csv(out / "summary.csv", index=False)
+    gifs = _gifs(rows)
+    report = None
+    if config.report and results_path.exists():
+        from slamq.report import build_report
+
+        report = build_report(results_path, out / "report", title="slamq run report")
+    return {"results": results_path, "records": len(records), "summary": summary,
+            "gifs": gifs, "report": report}
+
+
+def _gifs(rows: list[dict[str, Any]]) -> list[Path]:
+    """A ``building.gif`` per run from its collected snapshots (the report's renderer)."""
+    from slamq.report.animation import render_frames, write_gif
+    from slamq.report.frames import find_snapshots
+    from slamq.sources.maps import load_map
+
+    made = []
+    for r in rows:
+        folder = Path(r["folder"])
+        gif = folder / "building.gif"
+        snaps = find_snapshots(folder)
+        if not snaps:
+            continue
+        if gif.exists() and gif.stat().st_mtime >= (folder / "run.json").stat().st_mtime:
+            made.append(gif)
+            continue
+        try:
+            maps = [load_map(p) for p in snaps]
+            made.append(write_gif(render_frames(maps, max_size=400), gif))
+        except (SlamqError, OSError):
+            continue
+    return made
+
+
+def run(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
+        progress: Any = None) -> dict[str, Any]:
+    """Run a configuration end to end: the runs, the scores, the summary, GIFs, the report.
+
+    Parameters
+    ----------
+    config : path, dict or RunConfig
+        See :mod:`slamq.run.config`.
+    retry_failed : bool
+        Run again the finished runs whose outcome was not ``ok``.
+    dry_run : bool
+        Only plan: the rows say ``planned`` (or the stored outcome) with their commands.
+
+    Returns
+    -------
+    dict
+        ``rows`` (one per run), ``results`` (the batch results file), ``summary``
+        (DataFrame: mean ± std per algorithm[variant] and sequence, plus ``runs``, ``ok``,
+        ``failure_rate``), ``gifs``, ``report`` (index.html or None).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp()); _ = (d / "in.txt").write_text("x")
+    >>> r = run({"base_dir": str(d), "output": "o", "sequences": {"s": "in.txt"},
+    ...          "algorithms": {"echo": {"command": ["echo", "{input}"]}}}, dry_run=True)
+    >>> [row["outcome"] for row in r["rows"]]
+    ['planned']
+    """
+    cfg = load_config(config)
+    rows = execute(cfg, retry_failed=retry_failed, dry_run=dry_run, progress=progress)
+    if dry_run:
+        return {"rows": rows, "results": None, "summary": None, "gifs": [], "report": None}
+    cfg.output.mkdir(parents=True, exist_ok=True)
+    return {"rows": rows, **score(cfg, rows)}
