@@ -1,0 +1,201 @@
+"""The runner with ordinary commands: outcomes, timeouts, Ctrl-C, resume, ROS-style recipes."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from slamq.run import runner
+
+PY = sys.executable
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # a zombie is not alive for our purpose
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
+    except OSError:
+        return False
+
+
+def _config(tmp_path: Path, algorithms: dict, **extra) -> dict:
+    (tmp_path / "in.txt").write_text("input\n")
+    return {"base_dir": str(tmp_path), "output": "out", "sequences": {"seq": "in.txt"},
+            "algorithms": algorithms, "report": False, "grace": [0.5, 0.5], **extra}
+
+
+def test_timeout_of_a_command_that_ignores_sigint_kills_the_group(tmp_path: Path) -> None:
+    # the shell ignores SIGINT and leaves a background child: both must be gone afterwards
+    cmd = "trap '' INT; sleep 60 & echo $! > {out}/child.pid; echo $$ > {out}/sh.pid; wait"
+    cfg = _config(tmp_path, {"stubborn": {"command": cmd}}, timeout=1.0)
+    t0 = time.monotonic()
+    rows = runner.execute(cfg)
+    assert time.monotonic() - t0 < 10
+    (row,) = rows
+    assert row["outcome"] == "timeout"
+    assert row["stopped_with"] in ("SIGTERM", "SIGKILL")
+    out = Path(row["folder"]) / "out"
+    for name in ("child.pid", "sh.pid"):
+        assert not _alive(int((out / name).read_text())), name
+    stored = json.loads((Path(row["folder"]) / "run.json").read_text())
+    assert stored["outcome"] == "timeout" and stored["wall"] >= 1.0
+
+
+def test_crash_and_missing_output_are_result_rows(tmp_path: Path) -> None:
+    cfg = _config(tmp_path, {
+        "crasher": {"command": ["sh", "-c", "echo boom >&2; exit 3"],
+                    "outputs": {"map": {"path": "*.pgm", "format": "image"}}},
+        "silent": {"command": ["true"], "outputs": {"map": {"path": "*.pgm", "format": "image"}}},
+    })
+    rows = {r["algorithm"]: r for r in runner.execute(cfg)}
+    assert rows["crasher"]["outcome"] == "crash" and rows["crasher"]["returncode"] == 3
+    assert "boom" in (Path(rows["crasher"]["folder"]) / "stderr.log").read_text()
+    assert rows["silent"]["outcome"] == "no_output"
+    assert "no map" in rows["silent"]["reason"]
+    assert rows["silent"]["user_cpu"] >= 0 and rows["silent"]["max_rss_kb"] > 0
+
+
+def test_ok_run_is_scored_and_resumed_and_retry_failed(tmp_path: Path) -> None:
+    # a "SLAM" that writes a map image; params sweep; counts its own invocations
+    script = tmp_path / "slam.py"
+    script.write_text(
+        "import sys, numpy as np, cv2, pathlib\n"
+        "out = pathlib.Path(sys.argv[1]); n = int(sys.argv[2])\n"
+        "with open(pathlib.Path(sys.argv[3]), 'a') as f: f.write('x')\n"
+        "img = np.full((40, 40), 254, np.uint8); img[5:5 + n, 5:35] = 0\n"
+        "cv2.imwrite(str(out / 'map.pgm'), img)\n"
+        "(out / 'traj.txt').write_text('0 0 0 0 0 0 0 1\\n1 1 0 0 0 0 0 1\\n2 2 0 0 0 0 0 1\\n')\n")
+    counter = tmp_path / "count"
+    cfg = _config(tmp_path, {"fake": {
+        "command": [PY, str(script), "{out}", "{param.n}", str(counter)],
+        "params": {"n": [2, 4]},
+        "outputs": {"map": {"path": "map.pgm", "format": "image"},
+                    "trajectory": {"path": "traj.txt", "format": "tum"}}}},
+        iterations=2, parallel=2)
+    result = runner.run(cfg)
+    assert [r["outcome"] for r in result["rows"]] == ["ok"] * 4
+    assert counter.read_text() == "x" * 4
+    summary = result["summary"]
+    assert set(summary["algorithm"]) == {"fake[n=2]", "fake[n=4]"}
+    assert (summary["n"] == 2).all() and (summary["failure_rate"] == 0).all()
+    assert (tmp_path / "out" / "runs.csv").exists() and (tmp_path / "out" / "summary.csv").exists()
+    again = runner.execute(cfg)
+    assert counter.read_text() == "x" * 4 and all(r.get("skipped") for r in again)
+    # a failed run is kept unless --retry-failed
+    one = Path(result["rows"][0]["folder"]) / "run.json"
+    rec = json.loads(one.read_text()); rec["outcome"] = "crash"; one.write_text(json.dumps(rec))
+    runner.execute(cfg)
+    assert counter.read_text() == "x" * 4
+    runner.execute(cfg, retry_failed=True)
+    assert counter.read_text() == "x" * 5
+
+
+def _cli(args: list[str], **kw) -> subprocess.Popen:
+    return subprocess.Popen([PY, "-m", "slamq", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kw)
+
+
+def _yaml(tmp_path: Path, cfg: dict) -> Path:
+    import yaml
+
+    cfg = dict(cfg)
+    cfg.pop("base_dir")
+    p = tmp_path / "run.yaml"
+    p.write_text(yaml.safe_dump(cfg))
+    return p
+
+
+def _wait_for(path: Path, seconds: float = 20) -> None:
+    end = time.monotonic() + seconds
+    while not (path.exists() and path.read_text().strip()):
+        assert time.monotonic() < end, f"{path} never appeared"
+        time.sleep(0.05)
+
+
+def test_ctrl_c_of_slamq_run_stops_every_group(tmp_path: Path) -> None:
+    cfg = _config(tmp_path, {"sleeper": {
+        "command": "sleep 60 & echo $! > {out}/child.pid; wait"}}, parallel=1)
+    proc = _cli(["run", str(_yaml(tmp_path, cfg))])
+    pid_file = tmp_path / "out" / "sleeper" / "default" / "seq" / "1" / "out" / "child.pid"
+    _wait_for(pid_file)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=20)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err
+    assert not _alive(int(pid_file.read_text()))
+    assert not (pid_file.parent.parent / "run.json").exists()
+
+
+def test_resume_after_sigkill(tmp_path: Path) -> None:
+    counter = tmp_path / "count"
+    cfg = _config(tmp_path, {
+        "fast": {"command": f"echo x >> {counter}"},
+        "slow": {"command": "sleep 60 & echo $! > {out}/child.pid; wait"}}, parallel=1)
+    proc = _cli(["run", str(_yaml(tmp_path, cfg))])
+    pid_file = tmp_path / "out" / "slow" / "default" / "seq" / "1" / "out" / "child.pid"
+    _wait_for(pid_file)
+    proc.kill()
+    proc.wait(timeout=10)
+    # the runner died without cleaning: its runs are in their own sessions; stop them here
+    child = int(pid_file.read_text())
+    if _alive(child):
+        os.killpg(os.getpgid(child), signal.SIGKILL)
+    fast = tmp_path / "out" / "fast" / "default" / "seq" / "1" / "run.json"
+    assert json.loads(fast.read_text())["outcome"] == "ok"
+    assert not (pid_file.parent.parent / "run.json").exists()
+    cfg["algorithms"]["slow"]["command"] = "true"
+    rows = runner.execute(cfg)
+    assert counter.read_text() == "x\n"  # fast was not run again
+    assert {r["algorithm"]: r["outcome"] for r in rows} == {"fast": "ok", "slow": "ok"}
+
+
+def test_recipe_steps_in_order_with_readiness_and_per_slot_env(tmp_path: Path) -> None:
+    recipe = [
+        {"name": "slam", "command": "echo $ROS_DOMAIN_ID > {out}/domain; sleep 0.3; "
+                                    "touch {out}/ready.flag; trap 'echo stopped > {out}/slam.end;"
+                                    " exit 0' INT; while true; do sleep 0.05; done",
+         "ready": {"file": "ready.flag"}},
+        {"name": "record", "command": "trap 'exit 0' INT; echo rec > {out}/rec; "
+                                      "while true; do sleep 0.05; done",
+         "ready": {"delay": 0.2}},
+        {"name": "play", "command": "test -f {out}/rec && echo played > {out}/played",
+         "wait": True},
+    ]
+    cfg = _config(tmp_path, {"ros": {"recipe": recipe, "quiet_period": 0.2}},
+                  ros_domain_base=40, parallel=1)
+    (row,) = runner.execute(cfg)
+    out = Path(row["folder"]) / "out"
+    assert row["outcome"] == "ok", row
+    assert (out / "played").read_text().strip() == "played"
+    assert (out / "slam.end").read_text().strip() == "stopped"  # SIGINT first, not SIGKILL
+    assert (out / "domain").read_text().strip() == "40"
+
+
+def test_recipe_never_ready_is_an_infrastructure_failure_retried(tmp_path: Path) -> None:
+    counter = tmp_path / "count"
+    recipe = [{"name": "slam", "command": f"echo x >> {counter}; sleep 30",
+               "ready": {"file": "never"}},
+              {"name": "play", "command": "true"}]
+    cfg = _config(tmp_path, {"ros": {"recipe": recipe}}, startup_timeout=0.5, retries=1)
+    (row,) = runner.execute(cfg)
+    assert row["outcome"] == "infrastructure" and row["attempts"] == 2
+    assert counter.read_text() == "x\nx\n"
+
+
+def test_bad_config_names_the_file(tmp_path: Path) -> None:
+    p = tmp_path / "bad.yaml"
+    p.write_text("sequences: {s: in.txt}\nalgorithms: {a: {command: [x], bogus: 1}}\n")
+    proc = _cli(["run", str(p)])
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 2 and "bad.yaml" in err and "bogus" in err
