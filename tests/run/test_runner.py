@@ -10,8 +10,6 @@ import sys
 import time
 from pathlib import Path
 
-import pytest
-
 from slamq.run import runner
 
 PY = sys.executable
@@ -94,7 +92,9 @@ def test_ok_run_is_scored_and_resumed_and_retry_failed(tmp_path: Path) -> None:
     assert counter.read_text() == "x" * 4 and all(r.get("skipped") for r in again)
     # a failed run is kept unless --retry-failed
     one = Path(result["rows"][0]["folder"]) / "run.json"
-    rec = json.loads(one.read_text()); rec["outcome"] = "crash"; one.write_text(json.dumps(rec))
+    rec = json.loads(one.read_text())
+    rec["outcome"] = "crash"
+    one.write_text(json.dumps(rec))
     runner.execute(cfg)
     assert counter.read_text() == "x" * 4
     runner.execute(cfg, retry_failed=True)

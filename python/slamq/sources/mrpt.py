@@ -8,7 +8,8 @@
   default thresholds, so :func:`load_mrpt_grid` reads it as one and
   :func:`write_mrpt_yaml` writes the map_server YAML that makes any slamq tool read it.
 * Pose logs: ``log_estimated_path.txt`` / ``log_odometry_path.txt`` rows
-  ``index x y z yaw pitch roll t`` (:func:`read_mrpt_path`).
+  ``index x y z yaw pitch roll t`` (``rbpf-slam``) or ``index x y yaw`` (``icp-slam``,
+  no timestamps: the step index is used as the time) (:func:`read_mrpt_path`).
 """
 
 from __future__ import annotations
@@ -167,10 +168,13 @@ def load_mrpt_grid(png: PathLike, limits: PathLike | None = None) -> OccupancyMa
 
 
 def read_mrpt_path(path: PathLike) -> Trajectory:
-    """Read an MRPT pose log (``index x y z yaw pitch roll t`` rows) as a 2D trajectory.
+    """Read an MRPT pose log as a 2D trajectory.
 
-    Comment lines (``%``, ``#``) are skipped, and so are rows whose time is 0: MRPT prints
-    its invalid timestamp as 0 (``rbpf-slam`` ends its log with such a row).
+    Rows are ``index x y z yaw pitch roll t`` (``rbpf-slam``) or ``index x y yaw``
+    (``icp-slam``, which logs no time: the step index is used as the time in seconds, so
+    such a log has no common clock with a ground truth). Comment lines (``%``, ``#``)
+    are skipped, and so are 8-column rows whose time is 0: MRPT prints its invalid
+    timestamp as 0 (``rbpf-slam`` ends its log with such a row).
 
     Examples
     --------
@@ -180,6 +184,9 @@ def read_mrpt_path(path: PathLike) -> Trajectory:
     >>> t = read_mrpt_path(p)
     >>> len(t), t.positions[-1].tolist()
     (2, [1.5, 0.5, 0.0])
+    >>> _ = p.write_text("0 0 0 0\\n1 0.5 0 0.1\\n")
+    >>> read_mrpt_path(p).timestamps.tolist()
+    [0.0, 1.0]
     """
     p = Path(path)
     rows: list[list[float]] = []
@@ -187,20 +194,32 @@ def read_mrpt_path(path: PathLike) -> Trajectory:
         lines = p.read_text(errors="replace").splitlines()
     except OSError as exc:
         raise TrajectoryError(f"{p}: cannot read MRPT pose log ({exc.strerror or exc})") from exc
+    width = 0
     for n, line in enumerate(lines, 1):
         s = line.strip()
         if not s or s[0] in "%#":
             continue
         parts = s.split()
-        if len(parts) < 8:
+        if len(parts) not in (4, 8) or (width and len(parts) != width):
             raise TrajectoryError(f"{p}:{n}: MRPT pose log rows need 8 columns "
-                                  f"(index x y z yaw pitch roll t), found {len(parts)}")
+                                  f"(index x y z yaw pitch roll t) or 4 (index x y yaw), "
+                                  f"found {len(parts)}")
+        width = len(parts)
         try:
-            rows.append([float(x) for x in parts[:8]])
+            values = [float(x) for x in parts]
         except ValueError:
             raise TrajectoryError(f"{p}:{n}: not a number in {s!r}") from None
+        if width == 4:  # icp-slam: index x y yaw; the step index stands for the time
+            i, x, y, yaw = values
+            values = [i, x, y, 0.0, yaw, 0.0, 0.0, i]
+        rows.append(values)
     a = np.asarray(rows).reshape(-1, 8)
-    a = a[a[:, 7] != 0.0]
+    if width == 8:
+        a = a[a[:, 7] != 0.0]  # MRPT's invalid timestamp
+    return _traj(a, p)
+
+
+def _traj(a: np.ndarray, p: Path) -> Trajectory:
     if not len(a):
         raise TrajectoryError(f"{p}: MRPT pose log has no timestamped poses")
     if not np.all(np.isfinite(a[:, [1, 2, 4, 7]])):
