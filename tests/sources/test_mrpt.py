@@ -1,0 +1,78 @@
+"""MRPT output readers on files written here (no MRPT needed)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import slamq
+from slamq.errors import MapError, TrajectoryError
+from slamq.sources.mrpt import load_mrpt_grid, read_limits, read_mrpt_path, write_mrpt_yaml
+
+
+def _grid(d: Path, limits: str = "% Grid limits\n-2.0 2.0 -1.0 1.0\n") -> Path:
+    img = np.full((20, 40), 128, np.uint8)  # unknown
+    img[:10, :] = 255  # top half free
+    img[0, :] = 0  # top row occupied (y_max side)
+    png = d / "finalMap_mrpt__maps__COccupancyGridMap2D_00.png"
+    cv2.imwrite(str(png), img)
+    (d / "finalMap_mrpt__maps__COccupancyGridMap2D_00_limits.txt").write_text(limits)
+    return png
+
+
+def test_grid_geometry_and_cells(tmp_path: Path) -> None:
+    m = load_mrpt_grid(_grid(tmp_path))
+    assert m.shape == (20, 40)
+    assert m.resolution == pytest.approx(0.1)
+    assert m.origin == pytest.approx((-2.0, -1.0, 0.0))
+    assert int(m.unknown.sum()) == 400
+    assert int((m.values[0] == 0).sum()) == 40  # the occupied row stays the top row
+    # the YAML written for the batch reads back to the same cells
+    y = slamq.load_map(write_mrpt_yaml(_grid(tmp_path), tmp_path / "run" / "map.yaml"))
+    assert np.array_equal(y.values, m.values) and np.array_equal(y.unknown, m.unknown)
+    assert y.origin == pytest.approx(m.origin)
+
+
+@pytest.mark.parametrize("limits, reason", [
+    ("1 2 3\n", "4 numbers"), ("0 -1 0 1\n", "empty"), ("a b c d\n", "not a number"),
+    ("0 4 0 1\n", "m/cell"),  # 0.1 m/cell across, 0.05 down
+])
+def test_bad_limits_name_the_file(tmp_path: Path, limits: str, reason: str) -> None:
+    with pytest.raises(MapError, match=reason) as info:
+        load_mrpt_grid(_grid(tmp_path, limits))
+    assert "_limits.txt" in str(info.value) or ".png" in str(info.value)
+
+
+def test_missing_limits(tmp_path: Path) -> None:
+    png = _grid(tmp_path)
+    png.with_name(png.stem + "_limits.txt").unlink()
+    with pytest.raises(MapError, match="limits"):
+        read_limits(png.with_name(png.stem + "_limits.txt"))
+    with pytest.raises(MapError, match="_limits.txt"):
+        load_mrpt_grid(png)
+
+
+def test_rbpf_and_icp_pose_logs(tmp_path: Path) -> None:
+    p = tmp_path / "log_estimated_path.txt"
+    p.write_text("0 0 0 0 0 -0 0 100.0\n1 1 2 0 0.5 -0 0 100.2\n2 1.5 2 0 0.6 0 0 0.000000\n")
+    t = read_mrpt_path(p)
+    assert t.timestamps.tolist() == [100.0, 100.2]  # the final t=0 row is MRPT's invalid time
+    assert t.positions[1, :2].tolist() == [1.0, 2.0]
+    p.write_text("0 0 0 0\n1 0.5 0.1 0.2\n2 1 0.2 0.3\n")
+    t = read_mrpt_path(p)
+    assert t.timestamps.tolist() == [0.0, 1.0, 2.0] and t.positions[2, 0] == 1.0
+
+
+@pytest.mark.parametrize("text, reason", [
+    ("", "no timestamped poses"), ("0 1 2\n", "columns"), ("0 0 0 0\n1 0 0 0 0 0 0 1\n", "columns"),
+    ("0 x 0 0\n", "not a number"), ("0 nan 0 0 0 0 0 1\n", "non-finite"),
+])
+def test_bad_pose_logs(tmp_path: Path, text: str, reason: str) -> None:
+    p = tmp_path / "log_estimated_path.txt"
+    p.write_text(text)
+    with pytest.raises(TrajectoryError, match=reason) as info:
+        read_mrpt_path(p)
+    assert str(p) in str(info.value)
