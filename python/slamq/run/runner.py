@@ -223,7 +223,7 @@ def _collect_map(o: Output, src: Path, dest_yaml: Path) -> Path:
         from slamq.sources.mrpt import write_mrpt_yaml
 
         return write_mrpt_yaml(src, dest_yaml)
-    load_map(src)  # readable (yaml / image / bag): scored in place
+    load_map(src, topic=o.topic) if o.format == "bag" else load_map(src)  # readable?
     return src
 
 
