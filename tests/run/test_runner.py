@@ -10,6 +10,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from slamq.run import runner
 
 PY = sys.executable
@@ -73,7 +75,9 @@ def test_ok_run_is_scored_and_resumed_and_retry_failed(tmp_path: Path) -> None:
         "with open(pathlib.Path(sys.argv[3]), 'a') as f: f.write('x')\n"
         "img = np.full((40, 40), 254, np.uint8); img[5:5 + n, 5:35] = 0\n"
         "cv2.imwrite(str(out / 'map.pgm'), img)\n"
-        "(out / 'traj.txt').write_text('0 0 0 0 0 0 0 1\\n1 1 0 0 0 0 0 1\\n2 2 0 0 0 0 0 1\\n')\n")
+        "(out / 'traj.txt').write_text(''.join(f'{i} {i + 0.1 * n} 0 0 0 0 0 1\\n' "
+        "for i in range(5)))\n")
+    (tmp_path / "gt.txt").write_text("".join(f"{i} {i} 0 0 0 0 0 1\n" for i in range(5)))
     counter = tmp_path / "count"
     cfg = _config(tmp_path, {"fake": {
         "command": [PY, str(script), "{out}", "{param.n}", str(counter)],
@@ -81,12 +85,15 @@ def test_ok_run_is_scored_and_resumed_and_retry_failed(tmp_path: Path) -> None:
         "outputs": {"map": {"path": "map.pgm", "format": "image"},
                     "trajectory": {"path": "traj.txt", "format": "tum"}}}},
         iterations=2, parallel=2)
+    cfg["sequences"] = {"seq": {"input": "in.txt", "groundtruth": "gt.txt"}}
     result = runner.run(cfg)
     assert [r["outcome"] for r in result["rows"]] == ["ok"] * 4
     assert counter.read_text() == "x" * 4
     summary = result["summary"]
     assert set(summary["algorithm"]) == {"fake[n=2]", "fake[n=4]"}
     assert (summary["n"] == 2).all() and (summary["failure_rate"] == 0).all()
+    # ATE against the sequence's ground truth (se2 alignment removes a constant offset)
+    assert summary["ate_rmse_mean"].tolist() == pytest.approx([0.0, 0.0], abs=1e-9)
     assert (tmp_path / "out" / "runs.csv").exists() and (tmp_path / "out" / "summary.csv").exists()
     again = runner.execute(cfg)
     assert counter.read_text() == "x" * 4 and all(r.get("skipped") for r in again)
@@ -199,3 +206,22 @@ def test_bad_config_names_the_file(tmp_path: Path) -> None:
     proc = _cli(["run", str(p)])
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 2 and "bad.yaml" in err and "bogus" in err
+
+
+def test_a_finished_run_leaves_no_background_child(tmp_path: Path) -> None:
+    cfg = _config(tmp_path, {"leaky": {
+        "command": "trap '' INT; sleep 60 & echo $! > {out}/child.pid; exit 0"}})
+    (row,) = runner.execute(cfg)
+    assert row["outcome"] == "ok" and row["stopped_with"] in ("SIGTERM", "SIGKILL")
+    assert not _alive(int((Path(row["folder"]) / "out" / "child.pid").read_text()))
+
+
+def test_dry_run_plans_without_running(tmp_path: Path) -> None:
+    counter = tmp_path / "count"
+    cfg = _config(tmp_path, {"a": {"command": ["sh", "-c", f"echo x >> {counter}", "{param.n}"],
+                                   "params": {"n": [1, 2]}}}, iterations=2)
+    proc = _cli(["run", str(_yaml(tmp_path, cfg)), "--dry-run"])
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    assert out.count("planned") == 4 and "a[n=2]" in out
+    assert not counter.exists() and not (tmp_path / "out").exists()
