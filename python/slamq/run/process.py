@@ -133,29 +133,36 @@ def _signal_group(pgid: int, sig: int) -> None:
         pass
 
 
-def stop_group(child: Child, grace: tuple[float, float] = (5.0, 5.0)) -> str | None:
-    """Stop the child's whole process group: SIGINT, SIGTERM after ``grace[0]`` s, SIGKILL
-    after ``grace[1]`` s more. Returns the last signal sent (None if the group was gone).
+def stop_group(child: Child | int, grace: tuple[float, float] = (5.0, 5.0)) -> str | None:
+    """Stop a whole process group: SIGINT, SIGTERM after ``grace[0]`` s, SIGKILL after
+    ``grace[1]`` s more. Returns the last signal sent (None if the group was gone).
 
-    The leader is reaped here; members reparented elsewhere are waited for until they are
-    gone (a zombie no one reaps is given up on after the SIGKILL grace).
+    ``child`` is a :class:`Child` (its leader is reaped here) or a bare process group id
+    (a group this process did not start: only signalled). Members reparented elsewhere are
+    waited for until they are gone (a zombie no one reaps is given up on after the SIGKILL
+    grace).
     """
-    pgid = child.pid
+    pgid = child if isinstance(child, int) else child.pid
+
+    def reap() -> None:
+        if not isinstance(child, int):
+            child.poll()
+
     last = None
     for sig, wait_s in ((signal.SIGINT, grace[0]), (signal.SIGTERM, grace[1]),
                         (signal.SIGKILL, max(grace[1], 2.0))):
-        child.poll()
+        reap()
         if not group_alive(pgid):
             return last
         _signal_group(pgid, sig)
         last = signal.Signals(sig).name
         end = time.monotonic() + wait_s
         while time.monotonic() < end:
-            child.poll()
+            reap()
             if not group_alive(pgid):
                 return last
             time.sleep(POLL)
-    child.poll()
+    reap()
     return last
 
 

@@ -327,10 +327,31 @@ def _ready(step_ready: dict[str, Any], out: Path, env: dict[str, str], algo: Alg
         raise _NotReady(f"not ready ({kind} {value}) within the startup timeout")
 
 
+def _stop_leftovers(folder: Path, config: RunConfig) -> None:
+    """Stop the process groups an earlier, killed runner left in this run folder.
+
+    A group is stopped only while its leader still works in this run's ``out`` folder
+    (``/proc/PID/cwd``), so a reused process id is never signalled.
+    """
+    groups = folder / "groups.txt"
+    if not groups.is_file() or (folder / "run.json").exists():
+        return
+    out = (folder / "out").resolve()
+    for line in groups.read_text().split():
+        try:
+            pid = int(line)
+            cwd = Path(os.readlink(f"/proc/{pid}/cwd")).resolve()
+        except (ValueError, OSError):
+            continue
+        if cwd == out:
+            process.stop_group(pid, config.grace)
+
+
 def _execute_one(spec: RunSpec, key: str, slot: int, config: RunConfig,
                  stop: threading.Event) -> dict[str, Any] | None:
     folder = spec.folder
     if folder.exists():
+        _stop_leftovers(folder, config)
         shutil.rmtree(folder)
     out = folder / "out"
     out.mkdir(parents=True)
@@ -366,6 +387,8 @@ def _execute_one(spec: RunSpec, key: str, slot: int, config: RunConfig,
                 se.close()
                 raise _NotReady(f"{name}: cannot start ({exc.strerror or exc})") from exc
             started.append((name, child, is_main, so, se))
+            with open(folder / "groups.txt", "a") as f:
+                f.write(f"{child.pid}\n")
             if ready:
                 _ready(ready, out, env, algo, child,
                        time.monotonic() + config.startup_timeout, stop)
