@@ -7,7 +7,8 @@ evaluation.
 
 Data flows one way through the subpackages, and nothing imports upward:
 :mod:`slamq.sources` (readers) -> :mod:`slamq.models` (plain data) -> :mod:`slamq.metrics`
--> :mod:`slamq.results` -> :mod:`slamq.batch` -> :mod:`slamq.report` -> :mod:`slamq.cli`.
+-> :mod:`slamq.results` -> :mod:`slamq.batch` -> :mod:`slamq.report` -> :mod:`slamq.run`
+-> :mod:`slamq.cli`.
 Heavy parts (batch, bags, pbstream) are imported on first use.
 
 >>> import numpy as np, slamq
