@@ -3,6 +3,7 @@ SPEC section 1 defines it. Plain data: the readers that build it live in :mod:`s
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -65,8 +66,23 @@ class OccupancyMap:
             )
         if values.size == 0:
             raise MapError(f"{self.source}: the map has zero cells")
-        if self.resolution is not None and not (float(self.resolution) > 0.0):
-            raise MapError(f"{self.source}: resolution must be > 0, got {self.resolution}")
+        if self.resolution is not None:
+            res = _finite(self.resolution, "resolution", self.source)
+            if not res > 0.0:
+                raise MapError(f"{self.source}: resolution must be > 0, got {res}")
+            object.__setattr__(self, "resolution", res)
+        origin = self.origin
+        if isinstance(origin, (str, bytes)) or not hasattr(origin, "__len__") or len(
+                origin) != 3:
+            raise MapError(f"{self.source}: origin must be (x, y, yaw), got "
+                           f"{str(origin)[:80]!r}")
+        object.__setattr__(self, "origin", tuple(
+            _finite(x, "origin", self.source) for x in origin))
+        if unknown.dtype == np.bool_:
+            # a bool array's bytes may be other than 0/1 (uint8.view(bool)); the core reads
+            # them as bytes, so normalise: one pass over the mask, no copy when clean
+            if unknown.size and unknown.view(np.uint8).max() > 1:
+                unknown = unknown.view(np.uint8) != 0
         object.__setattr__(self, "values", np.ascontiguousarray(values))
         object.__setattr__(self, "unknown", np.ascontiguousarray(unknown, dtype=bool))
 
@@ -85,3 +101,14 @@ class OccupancyMap:
     def known_count(self) -> int:
         """Number of known cells."""
         return int(self.unknown.size - np.count_nonzero(self.unknown))
+
+
+def _finite(value: Any, what: str, source: str) -> float:
+    """``value`` as a finite float, or a MapError naming the map."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise MapError(f"{source}: {what} must be a number, got {str(value)[:80]!r}") from None
+    if not math.isfinite(number):
+        raise MapError(f"{source}: {what} must be finite, got {number}")
+    return number

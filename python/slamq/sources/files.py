@@ -49,13 +49,13 @@ def fail(where: Any, reason: str) -> MapError:
 
 def as_float(value: Any, what: str, where: Any) -> float:
     if isinstance(value, bool) or value is None:
-        raise fail(where, f"{what} must be a number, got {value!r}")
+        raise fail(where, f"{what} must be a number, got {short_repr(value)}")
     try:
         out = float(value)
     except (TypeError, ValueError):
-        raise fail(where, f"{what} must be a number, got {value!r}") from None
+        raise fail(where, f"{what} must be a number, got {short_repr(value)}") from None
     if not math.isfinite(out):
-        raise fail(where, f"{what} must be finite, got {value!r}")
+        raise fail(where, f"{what} must be finite, got {short_repr(value)}")
     return out
 
 
@@ -64,16 +64,16 @@ def check_resolution(value: Any, where: Any) -> float | None:
         return None
     res = as_float(value, "resolution", where)
     if not res > 0.0:
-        raise fail(where, f"resolution must be > 0, got {value!r}")
+        raise fail(where, f"resolution must be > 0, got {short_repr(value)}")
     return res
 
 
 def check_origin(value: Any, where: Any) -> tuple[float, float, float]:
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
-        raise fail(where, f"origin must be [x, y, yaw], got {value!r}")
+        raise fail(where, f"origin must be [x, y, yaw], got {short_repr(value)}")
     items = list(value)
     if len(items) not in (2, 3):
-        raise fail(where, f"origin must be [x, y, yaw], got {value!r}")
+        raise fail(where, f"origin must be [x, y, yaw], got {short_repr(value)}")
     nums = [as_float(x, "origin", where) for x in items]
     if len(nums) == 2:
         nums.append(0.0)
@@ -85,7 +85,7 @@ def check_unknown_value(value: Any, where: Any, *, grid: bool) -> int:
 
     lo = -128 if grid else 0
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ParamError(f"{where}: unknown_value must be an integer, got {value!r}")
+        raise ParamError(f"{where}: unknown_value must be an integer, got {short_repr(value)}")
     n = int(value)
     if not lo <= n <= 255:
         raise ParamError(f"{where}: unknown_value must be in {lo}..255, got {n}")
@@ -100,7 +100,7 @@ def stat_path(path: Path) -> os.stat_result:
         broken = path.is_symlink()
         raise fail(path, "broken symbolic link" if broken else "no such file or directory"
                     ) from None
-    except (OSError, RuntimeError) as exc:
+    except (OSError, RuntimeError, ValueError) as exc:  # ValueError: a NUL byte in the path
         reason = getattr(exc, "strerror", None) or one_line(exc)
         raise fail(path, f"cannot read: {reason}") from None
 
@@ -151,3 +151,47 @@ def resolve_image(yaml_path: Path, image: str) -> tuple[Path, bool]:
     if ref.is_file():
         return ref, False
     return yaml_path.parent / ref.name, True
+
+
+def short_repr(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters: error messages never print a huge
+    rejected value (a YAML field can hold megabytes).
+
+    Examples
+    --------
+    >>> short_repr("x" * 200)[-15:], len(short_repr("x" * 200))
+    ('... (202 chars)', 95)
+    """
+    text = repr(value) if not isinstance(value, (list, dict)) or len(value) < 1000 else (
+        f"<{type(value).__name__} of {len(value)} items>")
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text)} chars)"
+
+
+def load_yaml_safely(raw: bytes, where: Any) -> Any:
+    """Parse a map YAML with a safe loader, refusing anchors and aliases: a few hundred
+    bytes of nested aliases ("billion laughs") would expand to gigabytes, and a map YAML
+    has no use for them.
+
+    Examples
+    --------
+    >>> load_yaml_safely(b"image: m.pgm\\nresolution: 0.05\\n", "m.yaml")
+    {'image': 'm.pgm', 'resolution': 0.05}
+    >>> load_yaml_safely(b"a: &x [1]\\nb: *x\\n", "m.yaml")
+    Traceback (most recent call last):
+    ...
+    slamq.errors.MapError: m.yaml: YAML aliases (*x) are not allowed in a map YAML
+    """
+    import yaml
+
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    try:
+        for event in yaml.parse(raw, Loader=loader):  # events only: nothing is expanded
+            if isinstance(event, yaml.AliasEvent):
+                raise fail(where, f"YAML aliases (*{event.anchor}) are not allowed in a map YAML")
+        return yaml.load(raw, Loader=loader)  # noqa: S506 - a safe loader
+    except yaml.YAMLError as exc:
+        raise fail(where, f"unparsable YAML: {one_line(exc)[:200]}") from None
+    except UnicodeDecodeError:
+        raise fail(where, "unparsable YAML: not UTF-8 text") from None

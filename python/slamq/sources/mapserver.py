@@ -18,9 +18,10 @@ from slamq.sources.files import (
     check_resolution,
     check_unknown_value,
     fail,
-    one_line,
+    load_yaml_safely,
     read_regular_file,
     resolve_image,
+    short_repr,
 )
 from slamq.sources.images import Image, read_image_file
 from slamq.sources.pixels import (
@@ -75,14 +76,15 @@ def _resolve_image(yaml_path: Path, image: str, warnings_out: list[str]) -> Path
     path, fell_back = resolve_image(yaml_path, image)
     if not fell_back:
         if not os.path.lexists(path):
-            raise fail(yaml_path, f"image {image!r} not found (looked for {path})")
+            raise fail(yaml_path, f"image {short_repr(image)} not found (looked for {path})")
         return path  # a directory, a FIFO or a symlink loop is named when it is read
     if path.is_file():
         warnings_out.append(
-            f"{yaml_path}: image {image!r} does not exist; using {path.name!r} beside the YAML"
+            f"{yaml_path}: image {short_repr(image)} does not exist; using {path.name!r} "
+            "beside the YAML"
         )
         return path
-    raise fail(yaml_path, f"image {image!r} not found (also looked for {path})")
+    raise fail(yaml_path, f"image {short_repr(image)} not found (also looked for {path})")
 
 
 def load_yaml_map(
@@ -93,16 +95,8 @@ def load_yaml_map(
     origin: tuple[float, float, float] | None,
     warnings_out: list[str],
 ) -> OccupancyMap:
-    import yaml
-
     raw = read_regular_file(path, "a map YAML", MAX_YAML_BYTES)
-    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-    try:
-        doc = yaml.load(raw, Loader=loader)  # noqa: S506 - a safe loader
-    except yaml.YAMLError as exc:
-        raise fail(path, f"unparsable YAML: {one_line(exc)}") from None
-    except UnicodeDecodeError:
-        raise fail(path, "unparsable YAML: not UTF-8 text") from None
+    doc = load_yaml_safely(raw, path)
     if isinstance(doc, dict) and "rosbag2_bagfile_information" in doc:
         from slamq.sources.bag_maps import read_last_map
 
@@ -114,11 +108,11 @@ def load_yaml_map(
     if image is None:
         raise fail(path, "the YAML has no 'image' field")
     if not isinstance(image, str) or not image.strip():
-        raise fail(path, f"'image' must be a file name, got {image!r}")
+        raise fail(path, f"'image' must be a file name, got {short_repr(image)}")
 
     mode = doc.get("mode", DEFAULT_MODE)
     if not isinstance(mode, str) or mode.strip().lower() not in MODES:
-        raise fail(path, f"unknown mode {mode!r} (expected trinary, scale or raw)")
+        raise fail(path, f"unknown mode {short_repr(mode)} (expected trinary, scale or raw)")
     mode = mode.strip().lower()
     neg = doc.get("negate", 0)
     if isinstance(neg, bool):
@@ -126,7 +120,7 @@ def load_yaml_map(
     elif isinstance(neg, (int, float)) and neg in (0, 1):
         negate = bool(neg)
     else:
-        raise fail(path, f"negate must be 0, 1, true or false, got {neg!r}")
+        raise fail(path, f"negate must be 0, 1, true or false, got {short_repr(neg)}")
     occ = as_float(doc.get("occupied_thresh", DEFAULT_OCCUPIED_THRESH),
                     "occupied_thresh", path)
     free = as_float(doc.get("free_thresh", DEFAULT_FREE_THRESH), "free_thresh", path)
@@ -157,7 +151,7 @@ def load_yaml_map(
         unknown_value, path, grid=mode == "raw")
     image_path = _resolve_image(path, image, warnings_out)
     if image_path.suffix.lower() in YAML_SUFFIXES:
-        raise fail(path, f"image {image!r} is a YAML file, not an image")
+        raise fail(path, f"image {short_repr(image)} is a YAML file, not an image")
     try:
         img = read_image_file(image_path)
     except MapError as exc:

@@ -8,6 +8,7 @@ million TUM lines), else by :func:`numpy.loadtxt` (several times slower, same nu
 from __future__ import annotations
 
 import re
+import stat
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Union
@@ -543,6 +544,7 @@ def load_trajectory(
         return _read_bag(path, topic)
     if path.is_dir():
         raise TrajectoryError(f"{path}: is a folder, not a trajectory file or bag")
+    _check_regular(path)
     if columns is not None and format in (None, "csv"):
         return read_table(path, columns, unsorted=unsorted, by_index=by_index)
     if format is None:
@@ -634,3 +636,23 @@ def paired_columns(path: Path) -> tuple[str, str] | None:
         if est in cols:
             return est[:-1], "gt_"
     return None
+
+
+#: A trajectory file larger than this is refused before it is read (about 40 M TUM poses).
+MAX_TRAJECTORY_BYTES = 4 << 30
+
+
+def _check_regular(path: Path) -> None:
+    """A FIFO would block the reader for ever and /dev/zero never ends: only regular files
+    of at most :data:`MAX_TRAJECTORY_BYTES` are read, as the map loader does."""
+    try:
+        st = path.stat()
+    except (OSError, ValueError) as exc:
+        raise TrajectoryError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}"
+                              ) from None
+    if not stat.S_ISREG(st.st_mode):
+        raise TrajectoryError(f"{path}: not a regular file (a FIFO, device or socket), not a "
+                              "trajectory file")
+    if st.st_size > MAX_TRAJECTORY_BYTES:
+        raise TrajectoryError(f"{path}: {st.st_size} bytes is too large for a trajectory file "
+                              f"(limit {MAX_TRAJECTORY_BYTES})")

@@ -34,6 +34,7 @@ from slamq.sources.files import (
     YAML_SUFFIXES,
     PathLike,
     is_bag,
+    load_yaml_safely,
     resolve_image,
     stat_path,
 )
@@ -50,7 +51,6 @@ UNREADABLE = object()
 def read_yaml(path: Path) -> Any:
     """The parsed YAML of a file met while searching; None when it is too large to be a
     map YAML; :data:`UNREADABLE` when it is not a regular file or does not parse."""
-    import yaml
 
     try:
         st = path.stat()
@@ -58,9 +58,8 @@ def read_yaml(path: Path) -> Any:
             return UNREADABLE
         if st.st_size > MAX_YAML_BYTES:
             return None
-        loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-        return yaml.load(path.read_bytes(), Loader=loader)  # noqa: S506 - a safe loader
-    except (OSError, yaml.YAMLError, UnicodeDecodeError):
+        return load_yaml_safely(path.read_bytes(), path)
+    except (OSError, MapError):
         return UNREADABLE
 
 

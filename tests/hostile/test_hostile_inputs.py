@@ -1,0 +1,115 @@
+"""Hostile inputs, built by each test itself (no committed bombs): the loader and the CLI
+answer with one clear error naming the file, in bounded time and memory, never a hang."""
+
+from __future__ import annotations
+
+import os
+import resource
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import slamq_env
+
+import slamq
+from slamq.errors import MapError, ParamError, TrajectoryError
+
+#: The address-space limit of the subprocess tests: enough for Python, numpy and OpenCV,
+#: far below what the hostile files would make a naive reader allocate.
+LIMIT_BYTES = 2 << 30
+
+
+def _limited() -> None:  # runs in the child before exec
+    resource.setrlimit(resource.RLIMIT_AS, (LIMIT_BYTES, LIMIT_BYTES))
+
+
+def _slamq(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    """The real CLI under an address-space limit and a timeout."""
+    return subprocess.run([sys.executable, "-m", "slamq", *args], capture_output=True,
+                          text=True, env=slamq_env(), timeout=timeout, preexec_fn=_limited)
+
+
+def _billion_laughs(levels: int = 12, width: int = 10) -> str:
+    lines = ['a0: &a0 ["lol"]']
+    for i in range(1, levels):
+        lines.append(f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * width) + "]")
+    return "\n".join(lines) + f"\nimage: m.pgm\nresolution: *a{levels - 1}\n"
+
+
+def test_a_yaml_alias_bomb_is_refused_at_once(tmp_path: Path) -> None:
+    bomb = tmp_path / "bomb.yaml"
+    bomb.write_text(_billion_laughs())  # ~600 bytes; 10^11 strings when expanded
+    assert bomb.stat().st_size < 1000
+    (tmp_path / "m.pgm").write_bytes(b"P5 1 1 255 " + bytes([254]))
+    with pytest.raises(MapError, match=r"bomb.yaml: YAML aliases \(\*a0\) are not allowed"):
+        slamq.load_map(bomb)
+    proc = _slamq("eval", str(bomb), timeout=30)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1 and "bomb.yaml" in lines[0]
+    # found in a folder, it is a map whose loading says why; the good map is still scored
+    good = tmp_path / "good.pgm"
+    good.write_bytes(b"P5 2 2 255\n" + bytes([0, 254, 254, 254]))
+    proc = _slamq("eval", str(tmp_path), "--json", str(tmp_path / "r.json"), timeout=30)
+    assert proc.returncode == 2 and "bomb.yaml: YAML aliases" in proc.stderr
+    assert "good.pgm" in (tmp_path / "r.json").read_text()
+
+
+def test_a_rejected_value_is_never_printed_whole(tmp_path: Path) -> None:
+    (tmp_path / "m.pgm").write_bytes(b"P5 1 1 255 " + bytes([254]))
+    y = tmp_path / "long.yaml"
+    y.write_text("image: m.pgm\nmode: " + "x" * 200_000 + "\n")
+    with pytest.raises(MapError) as err:
+        slamq.load_map(y)
+    assert len(str(err.value)) < 300 and "200002 chars" in str(err.value)
+
+
+def test_special_files_as_trajectories_never_block(tmp_path: Path) -> None:
+    fifo = tmp_path / "traj.txt"
+    os.mkfifo(fifo)  # opening it for reading would block until a writer comes
+    with pytest.raises(TrajectoryError, match="traj.txt: not a regular file"):
+        slamq.load_trajectory(fifo)
+    with pytest.raises(TrajectoryError, match="/dev/zero: not a regular file"):
+        slamq.load_trajectory("/dev/zero")
+    gt = tmp_path / "gt.txt"
+    gt.write_text("0 0 0 0 0 0 0 1\n1 1 0 0 0 0 0 1\n")
+    proc = _slamq("ate", str(gt), str(fifo), timeout=30)
+    assert proc.returncode == 2 and "not a regular file" in proc.stderr
+
+
+def test_a_bool_mask_whose_bytes_are_not_0_or_1_is_normalised() -> None:
+    values = np.full((4, 4), 254, np.uint8)
+    raw = np.zeros((4, 4), np.uint8)
+    raw[0, :2] = 255  # uint8.view(bool) holding 255: undefined behaviour in a &[bool]
+    grid = slamq.OccupancyMap(values, raw.view(bool))
+    assert grid.unknown.view(np.uint8).max() == 1
+    q = slamq.evaluate(grid)
+    assert (q.known, q.unknown) == (14, 2)
+
+
+@pytest.mark.parametrize("kwargs, reason", [
+    ({"resolution": float("inf")}, "resolution must be finite"),
+    ({"resolution": "x"}, "resolution must be a number"),
+    ({"origin": "garbage"}, "origin must be"),
+    ({"origin": (0.0, float("nan"), 0.0)}, "origin must be finite"),
+])
+def test_occupancy_map_metadata_is_checked(kwargs: dict, reason: str) -> None:
+    with pytest.raises(MapError, match=reason):
+        slamq.OccupancyMap(np.zeros((2, 2), np.uint8), np.zeros((2, 2), bool), **kwargs)
+
+
+def test_a_nul_byte_in_a_path_is_a_map_error() -> None:
+    with pytest.raises(MapError, match="cannot read"):
+        slamq.load_map("map\0.yaml")
+
+
+@pytest.mark.parametrize("threads", [2**63, 2**64, 10**6])
+def test_absurd_thread_counts_are_parameter_errors(threads: int) -> None:
+    with pytest.raises(ParamError, match="threads must be at most"):
+        slamq.evaluate(np.zeros((3, 3), np.uint8), threads=threads)
+
+
+def test_a_huge_parameter_is_a_parameter_error() -> None:
+    with pytest.raises(ParamError, match="log_threshold must be finite"):
+        slamq.evaluate(np.zeros((3, 3), np.uint8), log_threshold=10**400)
