@@ -25,10 +25,12 @@ def _limited() -> None:  # runs in the child before exec
     resource.setrlimit(resource.RLIMIT_AS, (LIMIT_BYTES, LIMIT_BYTES))
 
 
-def _slamq(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
-    """The real CLI under an address-space limit and a timeout."""
+def _slamq(*args: str, timeout: float = 60, limit: bool = True) -> subprocess.CompletedProcess:
+    """The real CLI under an address-space limit (unless ``limit`` is False: pyarrow's
+    allocator reserves more address space than the limit) and a timeout."""
     return subprocess.run([sys.executable, "-m", "slamq", *args], capture_output=True,
-                          text=True, env=slamq_env(), timeout=timeout, preexec_fn=_limited)
+                          text=True, env=slamq_env(), timeout=timeout,
+                          preexec_fn=_limited if limit else None)
 
 
 def _billion_laughs(levels: int = 12, width: int = 10) -> str:
@@ -113,3 +115,47 @@ def test_absurd_thread_counts_are_parameter_errors(threads: int) -> None:
 def test_a_huge_parameter_is_a_parameter_error() -> None:
     with pytest.raises(ParamError, match="log_threshold must be finite"):
         slamq.evaluate(np.zeros((3, 3), np.uint8), log_threshold=10**400)
+
+
+def _maps(folder: Path, n: int) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(0)
+    for i in range(n):
+        img = np.full((120, 120), 254, np.uint8)
+        img[rng.random((120, 120)) < 0.05] = 0
+        (folder / f"map{i}x.pgm").write_bytes(b"P5 120 120 255\n" + img.tobytes())
+    return folder
+
+
+@pytest.mark.parametrize("suffix", [".jsonl", ".parquet"])
+def test_a_second_writer_of_a_results_file_is_refused_naming_the_first(
+        tmp_path: Path, suffix: str) -> None:
+    from slamq.results import ResultsFile, read_results
+
+    maps = _maps(tmp_path / "maps", 12)
+    out = tmp_path / f"r{suffix}"
+    with ResultsFile(out):  # this process writes the file ...
+        proc = _slamq("batch", str(maps), "--out", str(out), "-q", limit=False)  # ... not this
+        assert proc.returncode == 2, proc.stderr
+        assert f"pid {os.getpid()}" in proc.stderr and "another slamq process" in proc.stderr
+    proc = _slamq("batch", str(maps), "--out", str(out), "-q", limit=False)
+    assert proc.returncode == 0, proc.stderr
+    assert len(read_results(out)) == 12
+
+
+def test_two_batches_racing_on_one_file_lose_no_row(tmp_path: Path) -> None:
+    from slamq.results import read_results
+
+    maps = _maps(tmp_path / "maps", 60)
+    out = tmp_path / "r.parquet"
+    cmd = [sys.executable, "-m", "slamq", "batch", str(maps), "--out", str(out), "-q",
+           "--threads", "1"]
+    procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              env=slamq_env()) for _ in range(2)]
+    codes = sorted(p.wait(timeout=120) for p in procs)
+    errs = [p.stderr.read() for p in procs]
+    assert codes in ([0, 0], [0, 2]), errs  # the second waits its turn or is refused
+    if codes == [0, 2]:
+        assert any("another slamq process" in e for e in errs)
+    df = read_results(out)
+    assert len(df) == 60 and df["error"].isna().all()
