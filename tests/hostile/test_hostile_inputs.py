@@ -159,3 +159,30 @@ def test_two_batches_racing_on_one_file_lose_no_row(tmp_path: Path) -> None:
         assert any("another slamq process" in e for e in errs)
     df = read_results(out)
     assert len(df) == 60 and df["error"].isna().all()
+
+
+def test_a_tampered_results_file_is_named_with_the_bad_column(tmp_path: Path) -> None:
+    bad = tmp_path / "r.jsonl"
+    bad.write_text('{"map": "a.pgm", "algorithm": "x", "sequence": "s", "run": "0", '
+                   '"corners": "abc", "error": null}\n')
+    proc = _slamq("summary", str(bad), limit=False)
+    assert proc.returncode == 2
+    assert "r.jsonl: not a slamq results file: column 'corners'" in proc.stderr
+
+
+def test_summary_csv_cells_never_run_as_spreadsheet_formulas(tmp_path: Path) -> None:
+    folder = tmp_path / "=cmd|' -C calc'!A0"  # a folder name anyone can choose
+    folder.mkdir()
+    (folder / "m.pgm").write_bytes(b"P5 2 2 255\n" + bytes([0, 254, 254, 254]))
+    q = slamq.evaluate(folder / "m.pgm")
+    rec = {"map": str(folder / "m.pgm"), "algorithm": "@SUM(1)", "sequence": folder.name,
+           "run": "0", "corners": q.corners, "error": None}
+    import json
+
+    (tmp_path / "r.json").write_text(json.dumps([rec]))
+    out = tmp_path / "s.csv"
+    proc = _slamq("summary", str(tmp_path / "r.json"), "--csv", str(out), limit=False)
+    assert proc.returncode == 0, proc.stderr
+    text = out.read_text()
+    assert "'@SUM(1)" in text and "'=cmd" in text
+    assert not any(line.startswith(("=", "@", "+", "-")) for line in text.splitlines())

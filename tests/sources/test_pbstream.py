@@ -262,3 +262,14 @@ def test_wire_round_trip_is_exact(tmp_path_factory, nodes, tid):
     assert ticks.tolist() == [n[1] for n in nodes]
     assert pos.tolist() == [list(n[2]) for n in nodes]
     assert rot.tolist() == [[n[3][3], n[3][0], n[3][1], n[3][2]] for n in nodes]
+
+
+@pytest.mark.parametrize("ticks", [-(2**63), -1, 2**63 - 1])
+def test_node_times_outside_universal_time_are_refused(tmp_path, ticks):
+    """A tick count near INT64_MIN used to wrap to a plausible positive Unix time."""
+    nodes = [node(0, unix_ticks(1.0), (0, 0, 0), yaw_xyzw(0.0)),
+             node(1, ticks % 2**64, (1, 0, 0), yaw_xyzw(0.0))]  # varints are unsigned
+    p = write(tmp_path, stream(f_varint(1, 2), f_msg(1, pose_graph([trajectory(0, nodes)]))))
+    with pytest.raises(TrajectoryError, match="map.pbstream: trajectory 0: node time .* is "
+                                              "not a universal time"):
+        read_pbstream_trajectory(p)

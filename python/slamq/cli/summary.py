@@ -27,6 +27,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Print the summary table; optionally write it as CSV / JSON."""
     from slamq.results import read_results, summarize, summary_table
+    from slamq.results.summary import spreadsheet_safe
 
     summary = summarize(read_results(args.results), ddof=args.ddof)
     if summary.empty:
@@ -34,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     stdout_console().print(summary_table(summary, title=str(args.results)))
     if args.csv:
-        summary.to_csv(args.csv, index=False)
+        spreadsheet_safe(summary).to_csv(args.csv, index=False)
     if args.json:
         summary.to_json(args.json, orient="records", indent=1)
     return EXIT_OK

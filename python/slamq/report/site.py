@@ -29,6 +29,7 @@ from slamq.report.metrics import (
     rank_sequence,
     summarize,
 )
+from slamq.results.summary import spreadsheet_safe
 
 __all__ = ["build_report"]
 
@@ -197,7 +198,7 @@ def build_report(
     index = out / "index.html"
     index.write_text(_page(title, body), encoding="utf-8")
     write_tables(summary, out)
-    summary.reset_index().to_csv(out / "summary.csv", index=False)
+    spreadsheet_safe(summary.reset_index()).to_csv(out / "summary.csv", index=False)
     return index
 
 

@@ -142,10 +142,19 @@ def _jsonl_tables(path: Path, batch: int = 8192) -> Iterator[Any]:
     for rec in _iter_jsonl(path):
         rows.append(rec)
         if len(rows) >= batch:
-            yield _arrow_table(rows)
+            yield _typed_table(rows, path)
             rows = []
     if rows:
-        yield _arrow_table(rows)
+        yield _typed_table(rows, path)
+
+
+def _typed_table(rows: list[dict[str, Any]], path: Path) -> Any:
+    """:func:`_arrow_table`, or a MapError naming the file and the column whose values
+    are not of its type (a tampered or foreign file)."""
+    try:
+        return _arrow_table(rows)
+    except _ColumnError as exc:
+        raise MapError(f"{path}: not a slamq results file: {exc}") from None
 
 
 def _parquet_table(path: Path, columns: list[str] | None = None) -> Any:
@@ -233,28 +242,42 @@ def _ordered_columns(records: list[dict[str, Any]]) -> list[str]:
     return [c for c in cols if c in present or c in RUN_COLUMNS]
 
 
+class _ColumnError(ValueError):
+    """A column whose values are not of its type."""
+
+
 def _arrow_table(records: list[dict[str, Any]]) -> Any:
     import pyarrow as pa
 
     cols = _ordered_columns(records)
     arrays = []
     for name in cols:
-        values = [json_value(rec.get(name)) for rec in records]
-        if name in _STR_COLUMNS:
-            typ: Any = pa.string()
-            values = [None if v is None else str(v) for v in values]
-        elif name in _INT_COLUMNS:
-            typ = pa.int64()
-            values = [None if v is None else int(v) for v in values]
-        elif name == "curve":
-            typ = pa.list_(pa.int32())
-        elif name.startswith(("param_", "ate_")) or name in QUALITY_COLUMNS or name == "seconds":
-            typ = pa.float64()
-            values = [None if v is None else float(v) for v in values]
-        else:
-            typ = None
-        arrays.append(pa.array(values, type=typ))
+        try:
+            arrays.append(_arrow_column(name, [json_value(r.get(name)) for r in records]))
+        except (TypeError, ValueError, OverflowError, pa.ArrowException) as exc:
+            raise _ColumnError(f"column {name!r}: {' '.join(str(exc).split())[:120]}"
+                               ) from None
     return pa.Table.from_arrays(arrays, names=cols)
+
+
+def _arrow_column(name: str, values: list[Any]) -> Any:
+    """One typed Arrow column of a results table."""
+    import pyarrow as pa
+
+    if name in _STR_COLUMNS:
+        typ: Any = pa.string()
+        values = [None if v is None else str(v) for v in values]
+    elif name in _INT_COLUMNS:
+        typ = pa.int64()
+        values = [None if v is None else int(v) for v in values]
+    elif name == "curve":
+        typ = pa.list_(pa.int32())
+    elif name.startswith(("param_", "ate_")) or name in QUALITY_COLUMNS or name == "seconds":
+        typ = pa.float64()
+        values = [None if v is None else float(v) for v in values]
+    else:
+        typ = None
+    return pa.array(values, type=typ)
 
 
 def read_results(path: PathLike) -> Any:

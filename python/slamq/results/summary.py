@@ -19,7 +19,7 @@ from typing import Any
 from slamq.errors import ParamError
 from slamq.results.columns import settings_difference
 
-__all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "summary_table"]
+__all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "spreadsheet_safe", "summary_table"]
 
 #: Map metrics summarised (every numeric MapQuality output).
 SUMMARY_METRICS = (
@@ -185,3 +185,28 @@ def summary_table(summary: Any, *, title: str = "") -> Any:
             cells.append(str(int(row["failed"])))
         table.add_row(*cells)
     return table
+
+
+def spreadsheet_safe(frame: Any) -> Any:
+    """``frame`` with text cells that a spreadsheet would run as a formula (starting with
+    ``=``, ``+``, ``-``, ``@``, a tab or a carriage return) prefixed with ``'``: algorithm
+    and sequence names come from folder names, which anyone can choose.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> spreadsheet_safe(pd.DataFrame({"algorithm": ["=HYPERLINK(1)", "gmapping"], "n": [1, 2]})
+    ...                  )["algorithm"].tolist()
+    ["'=HYPERLINK(1)", 'gmapping']
+    """
+    import pandas as pd
+
+    out = frame.copy()
+    for col in out.columns:
+        if out[col].dtype == object or pd.api.types.is_string_dtype(out[col]):
+            out[col] = [f"'{v}" if isinstance(v, str) and v[:1] in _FORMULA_STARTS else v
+                        for v in out[col]]
+    return out
+
+
+_FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")

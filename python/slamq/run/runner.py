@@ -523,6 +523,7 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
 
     from slamq.batch import Run, evaluate_many
     from slamq.results import summarize
+    from slamq.results.summary import spreadsheet_safe
 
     seqs = {s.name: s for s in config.sequences}
     runs = []
@@ -546,7 +547,7 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
             runs="size", ok=lambda s: int((s == "ok").sum()))
         counts["failure_rate"] = 1 - counts["ok"] / counts["runs"]
         summary = summary.merge(counts.reset_index(), on=["algorithm", "sequence"], how="outer")
-        summary.to_csv(out / "summary.csv", index=False)
+        spreadsheet_safe(summary).to_csv(out / "summary.csv", index=False)
     gifs = _gifs(rows)
     report = None
     if config.report and results_path.exists():

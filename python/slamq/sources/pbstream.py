@@ -57,6 +57,9 @@ __all__ = [
 PBSTREAM_MAGIC = 0x7B1D1F7B5BF501DB
 #: Universal ticks (100 ns since 0001-01-01) at the Unix epoch.
 UTS_EPOCH_OFFSET_TICKS = 719162 * 24 * 60 * 60 * 10_000_000
+#: Universal ticks at the end of year 9999: later (or negative) times are corrupt data
+#: (near INT64_MIN they wrapped to plausible positive times).
+_MAX_TICKS = 3652059 * 24 * 60 * 60 * 10_000_000
 
 _VARINT, _I64, _LEN, _I32 = 0, 1, 2, 5
 
@@ -269,6 +272,10 @@ def _to_trajectory(
     _, ticks, pos, rot = poses
     if len(ticks) == 0:
         raise TrajectoryError(f"{p}: trajectory {tid} has no nodes")
+    if ticks.min() < 0 or ticks.max() > _MAX_TICKS:
+        bad = int(ticks.min()) if ticks.min() < 0 else int(ticks.max())
+        raise TrajectoryError(f"{p}: trajectory {tid}: node time {bad} is not a universal "
+                              "time (100 ns ticks since year 1, up to year 9999)")
     order = np.argsort(ticks, kind="stable")
     # exact integer offset first, then one division: Unix seconds
     seconds = (ticks[order] - UTS_EPOCH_OFFSET_TICKS).astype(np.float64) / 1e7
