@@ -186,3 +186,65 @@ def test_summary_csv_cells_never_run_as_spreadsheet_formulas(tmp_path: Path) -> 
     text = out.read_text()
     assert "'@SUM(1)" in text and "'=cmd" in text
     assert not any(line.startswith(("=", "@", "+", "-")) for line in text.splitlines())
+
+
+def _tiff_header(w: int, h: int) -> bytes:
+    import struct
+
+    entries = [(256, 4, 1, w), (257, 4, 1, h), (258, 3, 1, 8), (259, 3, 1, 8)]
+    ifd = struct.pack("<H", len(entries)) + b"".join(
+        struct.pack("<HHII", *e) for e in entries) + struct.pack("<I", 0)
+    return b"II*\x00" + struct.pack("<I", 8) + ifd + bytes(64)
+
+
+@pytest.mark.parametrize("name, data", [
+    ("bomb.webp", b"RIFF" + (28).to_bytes(4, "little") + b"WEBPVP8X" + bytes(8)
+     + (16383).to_bytes(3, "little") + (16383).to_bytes(3, "little") + bytes(6)),
+    ("bomb.gif", b"GIF89a" + (16384).to_bytes(2, "little") + (16384).to_bytes(2, "little")
+     + bytes(30)),
+    ("bomb.bmp", b"BM" + bytes(16) + (20000).to_bytes(4, "little", signed=True)
+     + (-20000).to_bytes(4, "little", signed=True) + bytes(40)),
+    ("bomb.tiff", _tiff_header(20000, 20000)),
+])
+def test_image_headers_claiming_huge_maps_are_refused_before_decoding(
+        tmp_path: Path, name: str, data: bytes) -> None:
+    p = tmp_path / name
+    p.write_bytes(data)
+    assert p.stat().st_size < 200
+    with pytest.raises(MapError, match=rf"{name}: corrupt \w+ or a decompression bomb"):
+        slamq.load_map(p)
+    if p.suffix != ".gif":  # slamq eval takes no .gif (report animations are GIFs)
+        proc = _slamq("eval", str(p), timeout=30)  # under the address-space limit
+        assert proc.returncode == 2 and "decompression bomb" in proc.stderr
+
+
+@pytest.mark.parametrize("ext", [".webp", ".bmp", ".tiff", ".png"])
+def test_real_images_of_those_formats_still_load(tmp_path: Path, ext: str) -> None:
+    import cv2
+
+    img = np.full((37, 53), 254, np.uint8)
+    img[5:30, 10] = 0
+    params = [cv2.IMWRITE_WEBP_QUALITY, 101] if ext == ".webp" else []  # 101: lossless
+    ok, buf = cv2.imencode(ext, img, params)
+    assert ok
+    p = tmp_path / f"m{ext}"
+    p.write_bytes(buf.tobytes())
+    from slamq.sources.images import header_size
+
+    size = header_size(p.read_bytes())
+    assert size is None or size[1:] == (53, 37)
+    assert np.array_equal(slamq.load_map(p).values, img)
+
+
+def test_a_pbstream_record_that_inflates_past_the_budget_is_refused(tmp_path: Path) -> None:
+    import gzip
+    import struct
+
+    from slamq.sources.pbstream import MAX_RECORD_BYTES, PBSTREAM_MAGIC
+
+    bomb = gzip.compress(bytes(MAX_RECORD_BYTES + 1024), compresslevel=9)  # ~260 KB
+    p = tmp_path / "bomb.pbstream"
+    p.write_bytes(struct.pack("<Q", PBSTREAM_MAGIC) + struct.pack("<Q", len(bomb)) + bomb)
+    assert p.stat().st_size < 1 << 20
+    with pytest.raises(TrajectoryError, match="bomb.pbstream: a pbstream record inflates past"):
+        slamq.load_trajectory(p)

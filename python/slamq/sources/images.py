@@ -226,6 +226,87 @@ def scale_16_bit(arr: np.ndarray) -> np.ndarray:
     return ((arr.astype(np.uint32) + 128) // 257).astype(np.uint8)
 
 
+#: For the formats whose size slamq reads from the header (GIF, BMP, WebP, TIFF): a header
+#: claiming more cells than this many per byte of file is corrupt or a decompression bomb
+#: (a real map compresses far less; a 36-byte WebP claimed 16384 x 16384).
+MAX_CELLS_PER_BYTE = 4096
+
+
+def header_size(data: bytes) -> tuple[str, int, int] | None:
+    """``(format, width, height)`` from the header of a GIF, BMP, WebP or TIFF image, or
+    None for another format (or a header too short to say).
+
+    Examples
+    --------
+    >>> header_size(b"GIF89a" + (640).to_bytes(2, "little") + (480).to_bytes(2, "little"))
+    ('GIF', 640, 480)
+    >>> header_size(b"P5 1 1 255 x") is None
+    True
+    """
+    if data[:6] in (b"GIF87a", b"GIF89a") and len(data) >= 10:
+        w, h = struct.unpack("<HH", data[6:10])
+        return "GIF", w, h
+    if data[:2] == b"BM" and len(data) >= 26:
+        w, h = struct.unpack("<ii", data[18:26])
+        return "BMP", abs(w), abs(h)
+    if data[:4] == b"RIFF" and data[8:12] == b"WEBP" and len(data) >= 30:
+        chunk = data[12:16]
+        if chunk == b"VP8X":
+            w = 1 + int.from_bytes(data[24:27], "little")
+            h = 1 + int.from_bytes(data[27:30], "little")
+            return "WebP", w, h
+        if chunk == b"VP8L":
+            bits = int.from_bytes(data[21:25], "little")
+            return "WebP", 1 + (bits & 0x3FFF), 1 + ((bits >> 14) & 0x3FFF)
+        if chunk == b"VP8 ":
+            w, h = struct.unpack("<HH", data[26:30])
+            return "WebP", w & 0x3FFF, h & 0x3FFF
+        return None
+    if data[:4] in (b"II*\x00", b"MM\x00*") and len(data) >= 8:
+        return _tiff_size(data)
+    return None
+
+
+def _tiff_size(data: bytes) -> tuple[str, int, int] | None:
+    """Width and height of a TIFF's first image (tags 256 and 257 of its first IFD)."""
+    end = "<" if data[:2] == b"II" else ">"
+    (ifd,) = struct.unpack(end + "I", data[4:8])
+    if ifd + 2 > len(data):
+        return None
+    (n,) = struct.unpack(end + "H", data[ifd:ifd + 2])
+    dims: dict[int, int] = {}
+    for k in range(min(n, 512)):
+        at = ifd + 2 + 12 * k
+        if at + 12 > len(data):
+            break
+        tag, typ = struct.unpack(end + "HH", data[at:at + 4])
+        if tag in (256, 257):
+            fmt = end + ("H" if typ == 3 else "I")
+            (dims[tag],) = struct.unpack(fmt, data[at + 8:at + 8 + struct.calcsize(fmt)])
+    if 256 in dims and 257 in dims:
+        return "TIFF", dims[256], dims[257]
+    return None
+
+
+def _check_other_header(data: bytes, name: str) -> str:
+    """Refuse a GIF, BMP, WebP or TIFF whose header claims more cells than the limits allow,
+    before OpenCV allocates them; return the format's name."""
+    found = header_size(data)
+    if found is None:
+        return "image"
+    fmt, w, h = found
+    cells = w * h
+    if cells == 0:
+        raise fail(name, f"the map has zero cells ({fmt} header says {w}x{h})")
+    if cells > MAX_CELLS:
+        raise fail(name, f"{fmt} header claims {w}x{h} = {cells} cells, more than the limit "
+                          f"of {MAX_CELLS}")
+    if cells > MAX_CELLS_PER_BYTE * len(data) + (1 << 20):
+        raise fail(name, f"corrupt {fmt} or a decompression bomb: the header claims {w}x{h} "
+                          f"({cells} cells) from a file of {len(data)} bytes")
+    return fmt
+
+
 def split_channels(arr: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray | None, int]:
     """(grey, alpha, channels) of a uint8 image array: colour channels averaged (rint)."""
     if arr.ndim == 2:
@@ -257,6 +338,8 @@ def decode_image(data: bytes, name: str) -> Image:
     elif data[:3] == b"\xff\xd8\xff":
         _check_jpeg_header(data, name)
         fmt = "JPEG"
+    else:
+        fmt = _check_other_header(data, name)
     import cv2
 
     try:

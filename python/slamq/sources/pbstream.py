@@ -31,7 +31,6 @@ the wire, so a missing field reads as 0 (a missing rotation as the identity).
 
 from __future__ import annotations
 
-import gzip
 import os
 import struct
 import zlib
@@ -193,10 +192,27 @@ def _records(f: BinaryIO, path: Path) -> Iterator[bytes]:
                 f"{path}: truncated pbstream (record of {size} bytes, {max(left, 0)} left)"
             )
         data = f.read(size)
-        try:
-            yield gzip.decompress(data)
-        except (OSError, EOFError, zlib.error) as exc:
-            raise TrajectoryError(f"{path}: corrupt pbstream record (gzip: {exc})") from None
+        yield _gunzip(data, path)
+
+
+#: Largest decompressed pbstream record (a PoseGraph of ~2 M nodes); past it a record is a
+#: decompression bomb or corrupt (a 1 MB file could inflate to 1 GiB).
+MAX_RECORD_BYTES = 256 << 20
+
+
+def _gunzip(data: bytes, path: Path) -> bytes:
+    """One gzip member, refused past :data:`MAX_RECORD_BYTES` before inflating further."""
+    inflater = zlib.decompressobj(wbits=16 + zlib.MAX_WBITS)
+    try:
+        out = inflater.decompress(data, MAX_RECORD_BYTES + 1)
+        if len(out) > MAX_RECORD_BYTES:
+            raise TrajectoryError(f"{path}: a pbstream record inflates past "
+                                  f"{MAX_RECORD_BYTES} bytes (corrupt, or a decompression bomb)")
+        if not inflater.eof:
+            raise TrajectoryError(f"{path}: corrupt pbstream record (gzip: truncated)")
+    except zlib.error as exc:
+        raise TrajectoryError(f"{path}: corrupt pbstream record (gzip: {exc})") from None
+    return out
 
 
 def _pose_graph(path: Path) -> memoryview:
