@@ -248,3 +248,22 @@ def test_a_pbstream_record_that_inflates_past_the_budget_is_refused(tmp_path: Pa
     assert p.stat().st_size < 1 << 20
     with pytest.raises(TrajectoryError, match="bomb.pbstream: a pbstream record inflates past"):
         slamq.load_trajectory(p)
+
+
+@pytest.mark.parametrize("fmt", ["ros1", "sqlite3", "mcap"])
+def test_a_bad_first_map_does_not_hide_a_good_last_one(tmp_path: Path, fmt: str) -> None:
+    from _bagdata import BagWriter, bag_path, room_grid
+
+    from slamq.errors import BagError
+    from slamq.sources.bag_maps import read_bag_maps, read_last_map
+
+    grid_type = "nav_msgs/msg/OccupancyGrid"
+    bag = bag_path(tmp_path, fmt)
+    with BagWriter(bag, fmt) as w:
+        bad = w.grid(1.0, room_grid(size=10))
+        bad.info.width = 999  # width*height no longer matches the data
+        w.write("/map", grid_type, bad)
+        w.write("/map", grid_type, w.grid(2.0, room_grid(size=20)))
+    assert read_last_map(bag).shape == (28, 28)
+    with pytest.raises(BagError, match=r"/map message 0: .*holds \d+ cells"):
+        list(read_bag_maps(bag))

@@ -24,7 +24,7 @@ from slamq.sources.bagfile import (
     quat_yaw,
     topic_types,
 )
-from slamq.sources.files import PathLike
+from slamq.sources.files import MAX_CELLS, PathLike
 from slamq.sources.grids import from_occupancy_grid
 
 __all__ = ["read_bag_maps", "read_last_map"]
@@ -44,6 +44,9 @@ class _Grid:
     def from_msg(cls, msg: Any, bag_ns: int, path: PathLike, topic: str) -> _Grid:
         info = msg.info
         width, height = int(info.width), int(info.height)
+        if width * height > MAX_CELLS:
+            raise BagError(f"{path}: {topic} message claims {width}x{height} cells, more "
+                           f"than the limit of {MAX_CELLS}")
         data = np.asarray(msg.data).astype(np.int8, copy=False).reshape(-1)
         if data.size != width * height:
             raise BagError(
@@ -108,9 +111,18 @@ class _Grid:
         return dataclasses.replace(m, meta=meta)
 
 
-def _decode_grid(reader: Any, bag: PathLike, topic: str, item: tuple[Any, int, Any]) -> _Grid:
-    conn, ns, raw = item
-    return _Grid.from_msg(bag_deserialize(reader, bag, conn, raw), ns, bag, topic)
+def _decode_grid(
+    reader: Any, bag: PathLike, topic: str, item: tuple[Any, int, Any, int]
+) -> _Grid:
+    """Decode one full map message; errors name the message's index on the topic."""
+    conn, ns, raw, number = item
+    try:
+        return _Grid.from_msg(bag_deserialize(reader, bag, conn, raw), ns, bag, topic)
+    except (BagError, MapError) as exc:
+        text = str(exc)
+        prefix = f"{bag}: "
+        rest = text[len(prefix):] if text.startswith(prefix) else text
+        raise BagError(f"{bag}: {topic} message {number}: {rest}") from None
 
 
 def read_bag_maps(
@@ -120,6 +132,7 @@ def read_bag_maps(
     *,
     updates: bool | str = True,
     include_last: bool = False,
+    last_only: bool = False,
 ) -> Iterator[tuple[float, OccupancyMap]]:
     """Yield ``(timestamp_seconds, OccupancyMap)`` for the maps of a bag, in bag order.
 
@@ -138,6 +151,10 @@ def read_bag_maps(
         skipped, and so are patches that do not fit the map (with a ``MapWarning``).
     include_last : bool, default False
         Also yield the last map when ``every`` skipped it.
+    last_only : bool, default False
+        Yield only the last map (with the patches after it); no other message is decoded,
+        so a bad earlier map does not hide a good last one. Its ``index`` counts the full
+        maps before it and the patches applied to it.
 
     Yields
     ------
@@ -179,11 +196,21 @@ def read_bag_maps(
                 conns = conns + bag_connections(reader, bag, update_topic, (UPDATE_TYPE,))
         index = -1
         grid: _Grid | None = None  # decoded state (needed when updates arrive)
-        pending: tuple[Any, int, Any] | None = None  # last full map, not decoded yet
+        pending: tuple[Any, int, Any, int] | None = None  # last full map, not decoded yet
         last_yielded = -1
+        maps_seen = 0  # full map messages so far: the number errors name
+        patches: list[tuple[Any, int, Any]] = []  # last_only: the patches after `pending`
         for conn, ns, raw in bag_messages(reader, bag, conns):
+            if last_only:  # decode nothing until the last full map is known
+                if conn.topic == topic:
+                    pending, patches = (conn, ns, raw, maps_seen), []
+                    maps_seen += 1
+                elif pending is not None:
+                    patches.append((conn, ns, raw))
+                continue
             if conn.topic == topic:
-                pending, grid = (conn, ns, raw), None
+                pending, grid = (conn, ns, raw, maps_seen), None
+                maps_seen += 1
             else:
                 if pending is None and grid is None:
                     continue
@@ -194,7 +221,7 @@ def read_bag_maps(
                 if not grid.apply(bag_deserialize(reader, bag, conn, raw), ns, bag, conn.topic):
                     continue
             index += 1
-            if index % every == 0:
+            if not last_only and index % every == 0:
                 if grid is None:
                     assert pending is not None
                     current = _decode_grid(reader, bag, topic, pending)
@@ -202,9 +229,19 @@ def read_bag_maps(
                     current = grid
                 last_yielded = index
                 yield current.stamp, current.to_map(bag, topic, index)
+        if last_only:
+            if pending is None:
+                raise BagError(f"{bag}: topic {topic} has no messages")
+            grid = _decode_grid(reader, bag, topic, pending)
+            index = pending[3]
+            for conn, ns, raw in patches:
+                if grid.apply(bag_deserialize(reader, bag, conn, raw), ns, bag, conn.topic):
+                    index += 1
+            yield grid.stamp, grid.to_map(bag, topic, index)
+            return
         if index < 0:
             raise BagError(f"{bag}: topic {topic} has no messages")
-        if include_last and last_yielded != index:
+        if (include_last or last_only) and last_yielded != index:
             if grid is None:
                 assert pending is not None
                 grid = _decode_grid(reader, bag, topic, pending)
@@ -227,8 +264,7 @@ def read_last_map(bag: PathLike, topic: str = "/map") -> OccupancyMap:
     slamq.errors.BagError: missing.mcap: no such file or folder
     """
     last = None
-    # every=huge: only map 0 is decoded on the way; include_last decodes the final one.
-    for _, m in read_bag_maps(bag, topic, every=2**62, include_last=True):
+    for _, m in read_bag_maps(bag, topic, last_only=True):
         last = m
-    assert last is not None
+    assert last is not None  # read_bag_maps raises when the topic has no messages
     return last
