@@ -267,3 +267,83 @@ def test_a_bad_first_map_does_not_hide_a_good_last_one(tmp_path: Path, fmt: str)
     assert read_last_map(bag).shape == (28, 28)
     with pytest.raises(BagError, match=r"/map message 0: .*holds \d+ cells"):
         list(read_bag_maps(bag))
+
+
+# ---------------------------------------------------------------------------------------
+# Class 5: a map's hash and its numbers come from the same bytes
+# ---------------------------------------------------------------------------------------
+
+
+def _pgm(corner_squares: int) -> bytes:
+    img = np.full((60, 60), 254, np.uint8)
+    for k in range(corner_squares):
+        img[5 + 12 * (k // 4): 9 + 12 * (k // 4), 5 + 12 * (k % 4): 9 + 12 * (k % 4)] = 0
+    return b"P5 60 60 255\n" + img.tobytes()
+
+
+def test_a_map_replaced_while_a_batch_reads_it_never_pairs_one_hash_with_other_numbers(
+        tmp_path: Path) -> None:
+    import hashlib
+    import threading
+
+    from slamq.batch.records import EvalOptions, evaluate_run
+    from slamq.batch.runs import Run
+
+    a, b = _pgm(1), _pgm(12)
+    yml = (b"image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\n"
+           b"occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    expected = {}
+    for data in (a, b):
+        h = hashlib.sha1(len(yml).to_bytes(8, "little") + yml
+                         + len(data).to_bytes(8, "little") + data, usedforsecurity=False)
+        expected[h.hexdigest()] = slamq.evaluate(np.frombuffer(data[13:], np.uint8)
+                                                 .reshape(60, 60)).corners
+    assert len(set(expected.values())) == 2
+    (tmp_path / "m.yaml").write_bytes(yml)
+    target = tmp_path / "m.pgm"
+    target.write_bytes(a)
+    stop = threading.Event()
+
+    def swap() -> None:  # replaces the image atomically, back and forth, as fast as it can
+        i = 0
+        while not stop.is_set():
+            tmp = tmp_path / f"tmp{i % 2}.pgm"
+            tmp.write_bytes(b if i % 2 else a)
+            os.replace(tmp, target)
+            i += 1
+
+    writer = threading.Thread(target=swap)
+    writer.start()
+    try:
+        recs = [evaluate_run(Run(tmp_path / "m.yaml", "x", "s"), EvalOptions())
+                for _ in range(300)]
+    finally:
+        stop.set()
+        writer.join()
+    scored = [r for r in recs if r["error"] is None]
+    assert len(scored) > 100, [r["error"] for r in recs[:5]]
+    for r in scored:  # the numbers of the bytes that were hashed, every time
+        assert expected[r["hash"]] == r["corners"], r
+    assert {r["corners"] for r in scored} == set(expected.values())  # both were seen
+    for r in recs:
+        assert r["error"] is None or "m." in r["error"], r["error"]
+
+
+def test_a_huge_image_is_refused_before_it_is_hashed(tmp_path: Path) -> None:
+    import time
+
+    big = tmp_path / "big.pgm"
+    with big.open("wb") as fh:  # 12 GiB, sparse: nothing is written but the header
+        fh.write(b"P5 100000 100000 255\n")
+        fh.truncate(12 << 30)
+    (tmp_path / "big.yaml").write_text("image: big.pgm\nresolution: 0.05\n")
+    t0 = time.perf_counter()
+    proc = _slamq("batch", str(tmp_path / "big.yaml"), "--out", str(tmp_path / "r.jsonl"),
+                  "-q", limit=False)
+    elapsed = time.perf_counter() - t0
+    assert elapsed < 20, elapsed  # hashing 12 GiB took 32 s
+    from slamq.results import read_results
+
+    rec = read_results(tmp_path / "r.jsonl").iloc[0]
+    assert "big.pgm" in rec["error"] and "too large for an image" in rec["error"]
+    assert proc.returncode != 0 or rec["error"]

@@ -16,9 +16,18 @@ from pathlib import Path
 from typing import Any
 
 from slamq.batch.runs import Run
-from slamq.errors import ParamError, SlamqError
+from slamq.errors import MapError, ParamError, SlamqError
 from slamq.params import Params
 from slamq.results.columns import ATE_STATS, columns
+from slamq.sources.files import (
+    MAX_IMAGE_BYTES,
+    MAX_YAML_BYTES,
+    YAML_SUFFIXES,
+    is_bag,
+    load_yaml_safely,
+    read_once,
+    read_regular_file,
+)
 from slamq.sources.trajectories import load_pair
 from slamq.sources.walk import yaml_image
 
@@ -55,7 +64,11 @@ def content_hash(path: os.PathLike[str] | str) -> str:
     """Hex SHA-1 of a map's bytes: the YAML (if any) and its image, each length-prefixed.
 
     SHA-1 here is a fast content fingerprint (hardware accelerated, about 2 GB/s), not a
-    security measure. A file that cannot be read raises ``OSError``.
+    security measure. A map YAML and its image are read through
+    :func:`slamq.sources.files.read_regular_file`, so their size budgets are checked before
+    a byte is hashed, and inside :func:`~slamq.sources.files.read_once` the loader decodes
+    the very bytes hashed here. Bag files are hashed in chunks. A file that cannot be read
+    raises ``OSError`` or :class:`~slamq.errors.MapError`.
 
     Examples
     --------
@@ -65,10 +78,30 @@ def content_hash(path: os.PathLike[str] | str) -> str:
     >>> content_hash(d / "a.pgm") == content_hash(d / "a.pgm"), len(content_hash(d / "a.pgm"))
     (True, 40)
     """
+    path = Path(path)
     h = hashlib.sha1(usedforsecurity=False)
-    for f in map_files(path):
-        _hash_file(h, f)
+    if path.is_dir() or is_bag(path):
+        for f in map_files(path):
+            _hash_file(h, f)
+        return h.hexdigest()
+    if path.suffix.lower() in YAML_SUFFIXES:
+        raw = read_regular_file(path, "a map YAML", MAX_YAML_BYTES)
+        _hash_bytes(h, raw)
+        try:
+            doc = load_yaml_safely(raw, path)
+        except MapError:
+            return h.hexdigest()  # the loader names the file and the reason
+        img = yaml_image(path, doc)
+        if img is None:
+            return h.hexdigest()
+        path = img
+    _hash_bytes(h, read_regular_file(path, "an image", MAX_IMAGE_BYTES))
     return h.hexdigest()
+
+
+def _hash_bytes(h: Any, data: bytes) -> None:
+    h.update(len(data).to_bytes(8, "little"))
+    h.update(data)
 
 
 def _hash_file(h: Any, path: Path) -> None:
@@ -85,6 +118,15 @@ def _hash_file(h: Any, path: Path) -> None:
             h.update(chunk)
     if seen != size:
         raise OSError(f"{path}: changed while being read")
+
+
+def _signature(path: Path) -> list[tuple[int, int, int, int]] | None:
+    """(device, inode, size, mtime) of every file of a bag; None when one cannot be read."""
+    try:
+        return [(st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+                for st in (os.stat(f) for f in map_files(path))]
+    except (OSError, ValueError):
+        return None
 
 
 class EvalOptions:
@@ -220,15 +262,19 @@ def evaluate_run(
     )
     rec.update({f"param_{k}": v for k, v in options.params.to_dict().items()})
     where = str(run.map)
-    try:
-        digest: str | None = content_hash(run.map)
-    except OSError:
-        digest = None  # unreadable: the loader below names the file and the reason
-    rec["hash"] = digest
-    if digest is not None and done is not None:
-        if options.expected_fingerprint(run, digest) == done:
-            return None
-    if rec["error"] is None:
+    # One read: the map's files are hashed and decoded from the same bytes (read_once), and
+    # a bag, read twice, must look the same (inode, size, mtime) before and after.
+    twice = Path(run.map).is_dir() or is_bag(run.map)  # rosbags reads a bag itself
+    with read_once():
+        before = _signature(run.map) if twice else None
+        try:
+            digest: str | None = content_hash(run.map)
+        except (OSError, MapError):
+            digest = None  # unreadable: the loader below names the file and the reason
+        rec["hash"] = digest
+        if digest is not None and done is not None:
+            if options.expected_fingerprint(run, digest) == done:
+                return None
         try:
             from slamq.metrics.evaluate import evaluate
 
@@ -243,6 +289,8 @@ def evaluate_run(
             rec.update(d)
         except Exception as exc:  # noqa: BLE001 - a bad map is a row, never a crash
             rec["error"] = _message(where, exc)
+    if twice and rec["error"] is None and _signature(run.map) != before:
+        rec["error"] = f"{where}: changed while being read; not scored (run the batch again)"
     if rec["error"] is None and run.trajectory is not None and run.groundtruth is not None:
         rec.update(_ate_fields(run, options))
     rec["seconds"] = time.perf_counter() - t0

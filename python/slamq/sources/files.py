@@ -3,9 +3,12 @@ on a FIFO, never read more than the budget), and the checks of map metadata valu
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import os
 import stat
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, Union
 
@@ -105,8 +108,56 @@ def stat_path(path: Path) -> os.stat_result:
         raise fail(path, f"cannot read: {reason}") from None
 
 
+#: The files read so far inside :func:`read_once` (None outside it).
+_READ_ONCE: contextvars.ContextVar[dict[str, bytes] | None] = contextvars.ContextVar(
+    "slamq_read_once", default=None)
+
+
+@contextlib.contextmanager
+def read_once() -> Iterator[dict[str, bytes]]:
+    """Inside this block :func:`read_regular_file` reads each file from disk once: a second
+    read of the same path gets the bytes of the first. The batch hashes a map's files and
+    then decodes them from the same bytes, so a file replaced in between can never pair one
+    file's hash with another's numbers.
+
+    Yields the files read, path -> bytes, in the order they were first read.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.pgm"
+    >>> _ = p.write_bytes(b"P5 1 1 255 \\x00")
+    >>> with read_once() as reads:
+    ...     first = read_regular_file(p, "an image", 100)
+    ...     _ = p.write_bytes(b"P5 1 1 255 \\xff")  # replaced between the two reads
+    ...     read_regular_file(p, "an image", 100) == first, list(reads) == [str(p)]
+    (True, True)
+    """
+    outer = _READ_ONCE.get()
+    reads: dict[str, bytes] = {} if outer is None else outer
+    token = _READ_ONCE.set(reads)
+    try:
+        yield reads
+    finally:
+        _READ_ONCE.reset(token)
+
+
 def read_regular_file(path: Path, what: str, limit: int) -> bytes:
-    """The bytes of a regular file of at most ``limit`` bytes (never blocks on a FIFO)."""
+    """The bytes of a regular file of at most ``limit`` bytes (never blocks on a FIFO);
+    inside :func:`read_once`, the bytes of its first read."""
+    reads = _READ_ONCE.get()
+    if reads is not None:
+        key = os.fspath(path)
+        if key in reads:
+            if len(reads[key]) > limit:
+                raise fail(path, f"{len(reads[key])} bytes is too large for {what}")
+            return reads[key]
+        reads[key] = data = _read_regular_file(path, what, limit)
+        return data
+    return _read_regular_file(path, what, limit)
+
+
+def _read_regular_file(path: Path, what: str, limit: int) -> bytes:
     st = stat_path(path)
     if stat.S_ISDIR(st.st_mode):
         raise fail(path, f"is a directory, not {what}")
