@@ -38,3 +38,7 @@ def otsu_table(
     values: npt.NDArray[np.uint8], unknown: npt.NDArray[np.bool_]
 ) -> list[int]: ...
 def default_params() -> dict[str, float | int]: ...
+
+#: Peak working memory of one evaluation, bytes per cell (reserved before it starts;
+#: ``MemoryError`` when it cannot be).
+WORK_BYTES_PER_CELL: int

@@ -13,6 +13,7 @@ __all__ = [
     "ConformanceError",
     "TrajectoryError",
     "BagError",
+    "OutOfMemoryError",
     "MapWarning",
 ]
 
@@ -43,6 +44,17 @@ class TrajectoryError(SlamqError, ValueError):
 
 class BagError(MapError):
     """A ROS bag could not be read, or lacks the requested topic."""
+
+
+class OutOfMemoryError(SlamqError, MemoryError):
+    """A map's evaluation needs more memory than the process may have (a memory limit such
+    as ``ulimit -v``, or a map too large for the machine).
+
+    The message names the map. The Rust core reserves an evaluation's peak working memory
+    (:data:`slamq.metrics.evaluate.WORK_BYTES_PER_CELL` per cell) before it allocates
+    anything, so the failure is this error instead of an abort; in a batch it is one failed
+    row.
+    """
 
 
 class MapWarning(UserWarning):

@@ -1,11 +1,13 @@
 //! The pyo3 bindings (`slamq._core`), and nothing else: argument checks, zero-copy views of
 //! the numpy buffers, the GIL released around compute, panics turned into Python errors.
 
-use crate::evaluate::{evaluate as evaluate_grid, evaluate_many as evaluate_grids, Quality};
+use crate::evaluate::{
+    evaluate as evaluate_grid, evaluate_many as evaluate_grids, OutOfMemory, Quality,
+};
 use crate::grid::Grid;
 use crate::params::{CornerParams, EnclosedParams, Params};
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyMemoryError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::cell::RefCell;
@@ -190,7 +192,17 @@ fn evaluate(
 ) -> PyResult<RawQuality> {
     let p = params.checked()?;
     let g = grid(&values, &unknown)?;
-    Ok(compute(py, threads, || evaluate_grid(&g, &p))?.into())
+    let q = compute(py, threads, || evaluate_grid(&g, &p))?;
+    Ok(q.map_err(|e| memory_error(&e, None))?.into())
+}
+
+/// A `MemoryError` for a map whose working memory cannot be had (`index` in a list);
+/// `slamq.metrics.evaluate` re-raises it as `slamq.OutOfMemoryError` naming the map.
+fn memory_error(e: &OutOfMemory, index: Option<usize>) -> PyErr {
+    match index {
+        Some(i) => PyMemoryError::new_err(format!("map {i}: {e}")),
+        None => PyMemoryError::new_err(e.to_string()),
+    }
 }
 
 /// evaluate_many(maps, params, threads=0) -> list[RawQuality]: like `evaluate` for a list
@@ -209,7 +221,13 @@ fn evaluate_many<'py>(
         .map(|(v, u)| grid(v, u))
         .collect::<PyResult<Vec<_>>>()?;
     let qs = compute(py, threads, || evaluate_grids(&grids, &p))?;
-    Ok(qs.into_iter().map(RawQuality::from).collect())
+    qs.into_iter()
+        .enumerate()
+        .map(|(i, q)| {
+            q.map(RawQuality::from)
+                .map_err(|e| memory_error(&e, Some(i)))
+        })
+        .collect()
 }
 
 /// default_params() -> dict: the core's own defaults (rust/src/params.rs), for the test that
@@ -246,6 +264,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(evaluate_many, m)?)?;
     m.add_function(wrap_pyfunction!(otsu_table, m)?)?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
+    m.add("WORK_BYTES_PER_CELL", crate::evaluate::WORK_BYTES_PER_CELL)?;
     m.add_class::<RawQuality>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

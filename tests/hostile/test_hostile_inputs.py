@@ -347,3 +347,56 @@ def test_a_huge_image_is_refused_before_it_is_hashed(tmp_path: Path) -> None:
     rec = read_results(tmp_path / "r.jsonl").iloc[0]
     assert "big.pgm" in rec["error"] and "too large for an image" in rec["error"]
     assert proc.returncode != 0 or rec["error"]
+
+
+# ---------------------------------------------------------------------------------------
+# Class 3: the core's working memory cannot be had -> one error, never an abort
+# ---------------------------------------------------------------------------------------
+
+
+def test_a_map_too_large_for_the_memory_limit_is_one_failed_row_not_an_abort(
+        tmp_path: Path) -> None:
+    import cv2
+
+    from slamq.results import read_results
+
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    big = np.full((11000, 11000), 254, np.uint8)  # 121 Mcells: loads in the limit, but the
+    big[100:200] = 0                                # core's 1.9 GB working set does not fit
+    cv2.imwrite(str(maps / "big.png"), big)
+    del big
+    for i in range(3):
+        cv2.imwrite(str(maps / f"good{i}.png"), np.pad(np.zeros((20, 20), np.uint8), 40,
+                                                       constant_values=254))
+    out = tmp_path / "r.jsonl"
+    proc = _slamq("batch", str(maps), "--out", str(out), "-q", "--threads", "2")
+    assert proc.returncode in (0, 2) and proc.returncode >= 0, proc.stderr  # no SIGABRT
+    df = read_results(out).set_index("algorithm")
+    assert len(df) == 4
+    assert df.loc[["good0", "good1", "good2"], "error"].isna().all()
+    assert df.loc[["good0", "good1", "good2"], "corners"].tolist() == [8, 8, 8]
+    err = df.loc["big", "error"]
+    assert "big.png" in err and "cannot reserve" in err and "11000 x 11000" in err, err
+
+
+def test_an_evaluation_beyond_the_memory_limit_raises_out_of_memory_error() -> None:
+    code = (
+        "import numpy as np, slamq\n"
+        "img = np.full((11000, 11000), 254, np.uint8)\n"
+        "try:\n"
+        "    slamq.evaluate(img)\n"
+        "except slamq.OutOfMemoryError as exc:\n"
+        "    assert isinstance(exc, MemoryError) and isinstance(exc, slamq.SlamqError)\n"
+        "    print('caught:', exc)\n"
+        "print(slamq.evaluate(img[:100, :100]).known)\n"  # the process goes on
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=slamq_env(), timeout=120, preexec_fn=_limited)
+    assert proc.returncode == 0, proc.stderr
+    assert "caught: <array>: cannot reserve 1847 MiB" in proc.stdout
+    assert proc.stdout.splitlines()[-1] == "10000"
+    import slamq._core as core
+    from slamq.metrics.evaluate import WORK_BYTES_PER_CELL
+
+    assert core.WORK_BYTES_PER_CELL == WORK_BYTES_PER_CELL

@@ -14,12 +14,17 @@ import os
 from dataclasses import replace
 from typing import Any, Union
 
-from slamq.errors import ConformanceError
+from slamq.errors import ConformanceError, OutOfMemoryError, SlamqError
 from slamq.models import MapQuality, OccupancyMap
 from slamq.params import Params, check_threads, params_doc
 from slamq.sources import load_map
 
-__all__ = ["MapSource", "evaluate"]
+__all__ = ["MapSource", "WORK_BYTES_PER_CELL", "evaluate"]
+
+#: Peak working memory of one evaluation, in bytes per cell; the core reserves it before it
+#: starts and raises :class:`~slamq.OutOfMemoryError` when it cannot (equal to
+#: ``slamq._core.WORK_BYTES_PER_CELL``, from rust/src/evaluate.rs).
+WORK_BYTES_PER_CELL = 16
 
 #: What :func:`evaluate` accepts: a path, an :class:`OccupancyMap`, or a numpy image array.
 MapSource = Union[str, os.PathLike, OccupancyMap, Any]
@@ -75,8 +80,21 @@ def evaluate(
 
     params = Params.resolve(params, metric_params)
     n_threads = check_threads(threads)
-    grid = load_map(source, unknown_value=unknown_value)
-    raw = _core.evaluate(grid.values, grid.unknown, params, n_threads)
+    where = source if isinstance(source, (str, os.PathLike)) else getattr(
+        source, "source", "<array>")
+    try:
+        grid = load_map(source, unknown_value=unknown_value)
+    except MemoryError as exc:
+        if isinstance(exc, SlamqError):
+            raise
+        raise OutOfMemoryError(f"{os.fspath(where)}: out of memory while loading the map"
+                               ) from None
+    try:
+        raw = _core.evaluate(grid.values, grid.unknown, params, n_threads)
+    except MemoryError as exc:
+        h, w = grid.shape
+        raise OutOfMemoryError(f"{grid.source}: {exc} of a {h} x {w} map (up to "
+                               f"{WORK_BYTES_PER_CELL} bytes per cell)") from None
     result = MapQuality.from_counts(
         source=grid.source,
         shape=grid.shape,
