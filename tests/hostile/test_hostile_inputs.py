@@ -400,3 +400,46 @@ def test_an_evaluation_beyond_the_memory_limit_raises_out_of_memory_error() -> N
     from slamq.metrics.evaluate import WORK_BYTES_PER_CELL
 
     assert core.WORK_BYTES_PER_CELL == WORK_BYTES_PER_CELL
+
+
+# ---------------------------------------------------------------------------------------
+# Class 1: ASCII PNM samples are checked before numbers are made
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("size_kb", [100, 300])
+def test_an_ascii_pgm_of_long_tokens_is_refused_in_bounded_memory(
+        tmp_path: Path, size_kb: int) -> None:
+    # one 50 KB sample among short ones: an array of fixed-width byte strings of every
+    # sample made the 100 KB file allocate > 1 GB, the 300 KB one raised numpy MemoryError
+    n = size_kb * 1024 // 4
+    body = b"1 " * (n - 1) + b"9" * (size_kb * 1024 // 2)
+    bomb = tmp_path / "bomb.pgm"
+    bomb.write_bytes(f"P2\n{n} 1\n255\n".encode() + body + b"\n")
+    script = ("import resource, slamq\n"
+              "try:\n"
+              f"    slamq.load_map({str(bomb)!r})\n"
+              "except slamq.MapError as exc:\n"
+              "    print(exc)\n"
+              "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=slamq_env(), timeout=60, preexec_fn=_limited)
+    assert proc.returncode == 0, proc.stderr
+    msg, peak_kb = proc.stdout.splitlines()
+    assert msg == f"{bomb}: bad ASCII PGM: a sample is not a decimal number in 0..maxval"
+    assert int(peak_kb) < 400 * 1024  # the interpreter, numpy and OpenCV take ~150 MB
+
+
+def test_an_ascii_pgm_still_loads(tmp_path: Path) -> None:
+    p = tmp_path / "a.pgm"
+    p.write_bytes(b"P2\n# CREATOR: map_saver.cpp 0.050 m/pix\n3 2\n255\n0 205 254\n"
+                  b"254\t254 # a comment\n\n0\n")
+    m = slamq.load_map(p)
+    assert m.values.tolist() == [[0, 205, 254], [254, 254, 0]]
+    assert m.resolution == 0.05
+    with pytest.raises(MapError, match="only 5 samples"):
+        p.write_bytes(b"P2 3 2 255 0 205 254 254 254")
+        slamq.load_map(p)
+    with pytest.raises(MapError, match="not a decimal number"):
+        p.write_bytes(b"P2 3 2 255 0 205 254 254 254 -1")
+        slamq.load_map(p)

@@ -41,6 +41,12 @@ class Image:
     format: str = ""
 
 
+#: Byte classes of an ASCII PNM's samples: 1 a digit, 2 whitespace, 0 anything else.
+_ASCII_CLASS = np.zeros(256, np.uint8)
+_ASCII_CLASS[list(b"0123456789")] = 1
+_ASCII_CLASS[list(b" \t\n\v\f\r")] = 2
+
+
 def _skip_space_and_comments(data: bytes, pos: int, comments: list[bytes]) -> int:
     n = len(data)
     while pos < n:
@@ -119,20 +125,29 @@ def _parse_pnm(data: bytes, name: str) -> Image:
                               f"({cells} cells) but only {len(rest)} bytes follow")
         if b"#" in rest:
             rest = re.sub(rb"#[^\n]*", b" ", rest)
-        tokens = rest.split(None, need)[:need]
-        if len(tokens) < need:
+        # Checked before numbers are made, in O(1) bytes per byte of the file: only digits
+        # and whitespace, and enough samples (numpy's parser fills a short read with junk).
+        kind_of = _ASCII_CLASS[np.frombuffer(rest, np.uint8)]
+        if not kind_of.all():
+            raise fail(name, f"bad ASCII {kind}: a sample is not a decimal number "
+                              "in 0..maxval")
+        digit = kind_of == 1
+        samples = int(np.count_nonzero(digit[1:] & ~digit[:-1])) + int(digit[0])
+        del kind_of, digit
+        if samples < need:
             raise fail(name, f"truncated {kind}: header says {width}x{height} "
                               f"({cells} cells, {need} samples) but the file holds "
-                              f"only {len(tokens)} samples")
-        try:
-            wide = np.array(tokens, dtype=np.bytes_).astype(np.int64)
-        except (ValueError, OverflowError):
-            raise fail(name, f"bad ASCII {kind}: a sample is not a decimal number "
-                              "in 0..maxval") from None
+                              f"only {samples} samples")
+        # a long run of digits saturates at 2**63 - 1 and fails the maxval check below
+        wide = np.fromstring(rest, dtype=np.int64, sep=" ", count=need)
         if wide.min() < 0:
             raise fail(name, f"bad ASCII {kind}: negative sample")
-        if wide.max() > maxval:
-            raise fail(name, f"bad {kind}: sample {int(wide.max())} exceeds maxval {maxval}")
+        top = int(wide.max())
+        if top > 65535:  # e.g. a run of digits that saturated the parser
+            raise fail(name, f"bad ASCII {kind}: a sample is not a decimal number "
+                              "in 0..maxval")
+        if top > maxval:
+            raise fail(name, f"bad {kind}: sample {top} exceeds maxval {maxval}")
         arr = wide.astype(np.uint8)
     if not ascii_ and maxval < 255:
         top = int(arr.max())
