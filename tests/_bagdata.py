@@ -45,15 +45,22 @@ def _store(fmt: str) -> Any:
 class BagWriter:
     """A bag of one format, with helpers building the messages slamq reads."""
 
-    def __init__(self, path: Path, fmt: str):
+    def __init__(self, path: Path, fmt: str, compressed: bool = False):
+        """``compressed``: bz2 chunks (ROS1), zstd chunks (MCAP)."""
         self.fmt = fmt
         self.store = _store(fmt)
         self.T = self.store.types
         if fmt == "ros1":
             self.writer: Any = Writer1(path)
+            if compressed:
+                self.writer.set_compression(Writer1.CompressionFormat.BZ2)
         else:
             plugin = StoragePlugin.SQLITE3 if fmt == "sqlite3" else StoragePlugin.MCAP
             self.writer = Writer2(path, version=9, storage_plugin=plugin)
+            if compressed:
+                from rosbags.rosbag2 import CompressionFormat, CompressionMode
+
+                self.writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         self.conns: dict[str, Any] = {}
 
     def __enter__(self) -> BagWriter:

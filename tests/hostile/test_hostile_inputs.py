@@ -443,3 +443,82 @@ def test_an_ascii_pgm_still_loads(tmp_path: Path) -> None:
     with pytest.raises(MapError, match="not a decimal number"):
         p.write_bytes(b"P2 3 2 255 0 205 254 254 254 -1")
         slamq.load_map(p)
+
+
+# ---------------------------------------------------------------------------------------
+# Class 1: compressed bag chunks are inflated as a bounded stream first
+# ---------------------------------------------------------------------------------------
+
+
+def _bomb_bag(folder: Path, fmt: str, inflated: int) -> Path:
+    """A real bag (rosbags' writer) with one map, whose compressed chunk has ``inflated``
+    bytes of zeros appended as further bz2 streams / zstd frames, which bz2 and zstd inflate
+    as part of the chunk: a few KB on disk."""
+    import bz2
+
+    from _bagdata import BagWriter, bag_path, room_grid
+    from rosbags.rosbag2.storage_mcap import zstd
+
+    bag = bag_path(folder, fmt)
+    with BagWriter(bag, fmt, compressed=True) as w:
+        if fmt == "ros1":
+            owner, extra = w.writer, bz2.compress(bytes(1 << 20), 9) * (inflated >> 20)
+        else:
+            owner, extra = w.writer.storage, zstd.compress(bytes(1 << 20)) * (inflated >> 20)
+        real = owner.compressor
+        owner.compressor = lambda data: real(data) + extra
+        w.write("/map", "nav_msgs/msg/OccupancyGrid", w.grid(1.0, room_grid(size=20)))
+    return bag
+
+
+@pytest.mark.parametrize("fmt", ["ros1", "mcap"])
+def test_a_compressed_bag_chunk_bomb_is_refused_in_bounded_memory(
+        tmp_path: Path, fmt: str) -> None:
+    bomb = _bomb_bag(tmp_path, fmt, 3000 << 20)  # 3 GB of zeros in a 150 KB file
+    size = sum(f.stat().st_size for f in ([bomb] if bomb.is_file() else bomb.rglob("*")))
+    assert size < 300_000
+    script = ("import resource, slamq\n"
+              "try:\n"
+              f"    slamq.load_map({str(bomb)!r})\n"
+              "except slamq.BagError as exc:\n"
+              "    print(exc)\n"
+              "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=slamq_env(), timeout=120, preexec_fn=_limited)
+    assert proc.returncode == 0, proc.stderr
+    msg, peak_kb = proc.stdout.splitlines()
+    kind = "ROS1" if fmt == "ros1" else "MCAP"
+    assert f": {kind} chunk at byte " in msg and "inflates to more than" in msg, msg
+    assert "(corrupt, or a decompression bomb)" in msg and str(bomb) in msg
+    assert int(peak_kb) < 400 * 1024
+
+
+def test_a_chunk_declaring_more_than_the_budget_is_refused_before_inflating(
+        tmp_path: Path) -> None:
+    import struct
+
+    from slamq.errors import BagError
+    from slamq.sources.bagchunks import MAX_CHUNK_BYTES
+
+    def field(k: bytes, v: bytes) -> bytes:
+        return struct.pack("<I", len(k) + 1 + len(v)) + k + b"=" + v
+
+    hdr = (field(b"op", b"\x05") + field(b"compression", b"bz2")
+           + field(b"size", struct.pack("<I", 4_000_000_000)))
+    bag = tmp_path / "claims.bag"
+    bag.write_bytes(b"#ROSBAG V2.0\n" + struct.pack("<I", len(hdr)) + hdr
+                    + struct.pack("<I", 4) + b"BZh9")
+    with pytest.raises(BagError, match=f"declares 4000000000 bytes, more than the limit of "
+                                       f"{MAX_CHUNK_BYTES}"):
+        slamq.load_map(bag)
+
+
+@pytest.mark.parametrize("fmt", ["ros1", "mcap"])
+def test_compressed_bags_still_load(tmp_path: Path, fmt: str) -> None:
+    from _bagdata import BagWriter, bag_path, room_grid
+
+    bag = bag_path(tmp_path, fmt)
+    with BagWriter(bag, fmt, compressed=True) as w:
+        for t in range(3):
+            w.write("/map", "nav_msgs/msg/OccupancyGrid", w.grid(1.0 + t, room_grid(size=60)))
+    assert slamq.load_map(bag).shape == (68, 68)

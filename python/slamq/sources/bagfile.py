@@ -85,6 +85,9 @@ def open_bag(bag: PathLike) -> Iterator[Any]:
         raise BagError(f"{path}: no such file or folder")
     if path.is_dir() and not (path / "metadata.yaml").is_file():
         raise BagError(f"{path}: folder is not a ROS2 bag (no metadata.yaml)")
+    from slamq.sources.bagchunks import check_compressed_chunks
+
+    check_compressed_chunks(path)  # before rosbags inflates a chunk whole
     try:
         reader = AnyReader([path], default_typestore=_default_typestore())
         reader.open()
