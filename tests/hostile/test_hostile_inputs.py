@@ -522,3 +522,34 @@ def test_compressed_bags_still_load(tmp_path: Path, fmt: str) -> None:
         for t in range(3):
             w.write("/map", "nav_msgs/msg/OccupancyGrid", w.grid(1.0 + t, room_grid(size=60)))
     assert slamq.load_map(bag).shape == (68, 68)
+
+
+# ---------------------------------------------------------------------------------------
+# Class 10: a results file that cannot be written is named
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("suffix", [".jsonl", ".parquet"])
+def test_a_full_disk_names_the_results_file(tmp_path: Path, suffix: str) -> None:
+    import signal
+
+    maps = _maps(tmp_path / "maps", 40)
+    out = tmp_path / f"r{suffix}"
+
+    def small_files() -> None:  # writes past 16 KB fail with EFBIG, as ENOSPC would
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (16 << 10, 16 << 10))
+
+    proc = subprocess.run([sys.executable, "-m", "slamq", "batch", str(maps), "--out",
+                           str(out), "-q", "--chunk-size", "4"], capture_output=True,
+                          text=True, env=slamq_env(), timeout=120, preexec_fn=small_files)
+    assert proc.returncode == 2, proc.stderr
+    line = proc.stderr.strip().splitlines()[-1]  # (Parquet: the journal, or the compaction)
+    named = [p for p in (out, Path(f"{out}.journal.jsonl"))
+             if f"{p}: cannot write results: File too large" in line]
+    assert named, proc.stderr
+    assert "Traceback" not in proc.stderr
+    from slamq.results import read_results
+
+    if suffix == ".jsonl":  # the rows written before the failure are kept
+        assert 0 < len(read_results(out)) < 40

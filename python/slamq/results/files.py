@@ -28,7 +28,7 @@ from typing import IO, Any
 from slamq.errors import MapError, ParamError, SlamqError
 from slamq.models import MapQuality
 from slamq.results.columns import ATE_COLUMNS, KEY, QUALITY_COLUMNS, RUN_COLUMNS, json_value
-from slamq.sources.files import PathLike
+from slamq.sources.files import PathLike, one_line
 
 __all__ = [
     "ResultsFile",
@@ -509,6 +509,12 @@ def _lock(path: Path) -> Any:
     return fh
 
 
+def _write_error(path: Path, exc: OSError) -> SlamqError:
+    reason = exc.strerror or one_line(exc)
+    return SlamqError(f"{path}: cannot write results: {reason}; the rows written before "
+                      "stay, and rerunning the batch resumes after them")
+
+
 class ResultsFile:
     """A results file being written by a batch (see the module docstring).
 
@@ -578,18 +584,21 @@ class ResultsFile:
             lines.append(_dumps(rec))
         if not lines:
             return
-        if self._fh is None:
-            self._fh = open(self._append_to, "a", encoding="utf-8")
-        self._fh.write("".join(lines))
-        self._fh.flush()
-        os.fsync(self._fh.fileno())
+        try:
+            if self._fh is None:
+                self._fh = open(self._append_to, "a", encoding="utf-8")
+            self._fh.write("".join(lines))
+            self._fh.flush()
+            os.fsync(self._fh.fileno())
+        except OSError as exc:  # a full disk, a quota, a file size limit
+            raise _write_error(self._append_to, exc) from None
 
     def close(self) -> None:
         """Finish: rewrite without superseded rows (JSONL) / compact into Parquet."""
-        if self._fh is not None:
-            self._fh.close()
-            self._fh = None
         try:
+            if self._fh is not None:
+                fh, self._fh = self._fh, None
+                fh.close()
             if self.format == "jsonl":
                 if self._superseded:
                     _rewrite_jsonl_dedup(self.path)
@@ -598,6 +607,8 @@ class ResultsFile:
                 return
             if self._append_to.exists() or not self.path.exists() or self._superseded:
                 _compact_parquet(self.path, self._append_to, self.row_group)
+        except OSError as exc:
+            raise _write_error(self.path, exc) from None
         finally:
             if self._lock is not None:
                 self._lock.close()  # releases the flock
