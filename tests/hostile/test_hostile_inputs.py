@@ -33,6 +33,22 @@ def _slamq(*args: str, timeout: float = 60, limit: bool = True) -> subprocess.Co
                           preexec_fn=_limited if limit else None)
 
 
+def _load_limited(path: Path, error: str) -> tuple[str, int]:
+    """``slamq.load_map(path)`` in a child under the address-space limit: the message of
+    the ``slamq.<error>`` it raised, and the child's peak RSS in KiB."""
+    script = ("import resource, slamq\n"
+              "try:\n"
+              f"    slamq.load_map({str(path)!r})\n"
+              f"except slamq.{error} as exc:\n"
+              "    print(exc)\n"
+              "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=slamq_env(), timeout=120, preexec_fn=_limited)
+    assert proc.returncode == 0, proc.stderr
+    msg, peak_kb = proc.stdout.splitlines()
+    return msg, int(peak_kb)
+
+
 def _billion_laughs(levels: int = 12, width: int = 10) -> str:
     lines = ['a0: &a0 ["lol"]']
     for i in range(1, levels):
@@ -416,16 +432,7 @@ def test_an_ascii_pgm_of_long_tokens_is_refused_in_bounded_memory(
     body = b"1 " * (n - 1) + b"9" * (size_kb * 1024 // 2)
     bomb = tmp_path / "bomb.pgm"
     bomb.write_bytes(f"P2\n{n} 1\n255\n".encode() + body + b"\n")
-    script = ("import resource, slamq\n"
-              "try:\n"
-              f"    slamq.load_map({str(bomb)!r})\n"
-              "except slamq.MapError as exc:\n"
-              "    print(exc)\n"
-              "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
-    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          env=slamq_env(), timeout=60, preexec_fn=_limited)
-    assert proc.returncode == 0, proc.stderr
-    msg, peak_kb = proc.stdout.splitlines()
+    msg, peak_kb = _load_limited(bomb, "MapError")
     assert msg == f"{bomb}: bad ASCII PGM: a sample is not a decimal number in 0..maxval"
     assert int(peak_kb) < 400 * 1024  # the interpreter, numpy and OpenCV take ~150 MB
 
@@ -477,16 +484,7 @@ def test_a_compressed_bag_chunk_bomb_is_refused_in_bounded_memory(
     bomb = _bomb_bag(tmp_path, fmt, 3000 << 20)  # 3 GB of zeros in a 150 KB file
     size = sum(f.stat().st_size for f in ([bomb] if bomb.is_file() else bomb.rglob("*")))
     assert size < 300_000
-    script = ("import resource, slamq\n"
-              "try:\n"
-              f"    slamq.load_map({str(bomb)!r})\n"
-              "except slamq.BagError as exc:\n"
-              "    print(exc)\n"
-              "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
-    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          env=slamq_env(), timeout=120, preexec_fn=_limited)
-    assert proc.returncode == 0, proc.stderr
-    msg, peak_kb = proc.stdout.splitlines()
+    msg, peak_kb = _load_limited(bomb, "BagError")
     kind = "ROS1" if fmt == "ros1" else "MCAP"
     assert f": {kind} chunk at byte " in msg and "inflates to more than" in msg, msg
     assert "(corrupt, or a decompression bomb)" in msg and str(bomb) in msg
