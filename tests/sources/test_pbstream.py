@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
-import gzip
 import math
 import struct
 
 import numpy as np
 import pytest
+from _pbencode import (  # the encoder, shared with the map tests
+    f_msg,
+    f_varint,
+    node,
+    pose_graph,
+    rigid3d,
+    stream,
+    trajectory,
+    unix_ticks,
+    yaw_xyzw,
+)
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -19,74 +29,6 @@ from slamq.sources.pbstream import (
     read_pbstream_trajectories,
     read_pbstream_trajectory,
 )
-
-# --- a minimal protobuf encoder (independent of the decoder under test)
-
-
-def varint(n: int) -> bytes:
-    n &= (1 << 64) - 1  # negatives as 10-byte two's complement, as protobuf does
-    out = bytearray()
-    while True:
-        b = n & 0x7F
-        n >>= 7
-        if n:
-            out.append(b | 0x80)
-        else:
-            out.append(b)
-            return bytes(out)
-
-
-def f_varint(number: int, value: int) -> bytes:
-    return varint(number << 3) + varint(value)
-
-
-def f_double(number: int, value: float) -> bytes:
-    return varint(number << 3 | 1) + struct.pack("<d", value)
-
-
-def f_msg(number: int, payload: bytes) -> bytes:
-    return varint(number << 3 | 2) + varint(len(payload)) + payload
-
-
-def rigid3d(t, q_xyzw, *, skip_zero=True) -> bytes:
-    vec = b"".join(f_double(i + 1, v) for i, v in enumerate(t) if v or not skip_zero)
-    quat = b"".join(f_double(i + 1, v) for i, v in enumerate(q_xyzw) if v or not skip_zero)
-    return f_msg(1, vec) + f_msg(2, quat)
-
-
-def node(index: int, ticks: int, t, q_xyzw) -> bytes:
-    # field order shuffled on purpose: decoders must not depend on it
-    return f_msg(5, rigid3d(t, q_xyzw)) + f_varint(1, ticks) + (
-        f_varint(7, index) if index else b""
-    )
-
-
-def trajectory(tid, nodes) -> bytes:
-    head = f_varint(3, tid) if tid else b""  # proto3: a zero id is left off
-    return head + b"".join(f_msg(1, n) for n in nodes)
-
-
-def pose_graph(trajectories) -> bytes:
-    junk_constraint = f_msg(2, f_msg(1, f_varint(1, 0) + f_varint(2, 3)) + f_double(6, 1e5))
-    landmark = f_msg(5, f_msg(1, b"lm") + f_msg(2, rigid3d((1, 2, 3), (0, 0, 0, 1))))
-    return junk_constraint + b"".join(f_msg(4, t) for t in trajectories) + landmark
-
-
-def stream(*records: bytes) -> bytes:
-    out = struct.pack("<Q", PBSTREAM_MAGIC)
-    for r in records:
-        z = gzip.compress(r)
-        out += struct.pack("<Q", len(z)) + z
-    return out
-
-
-def unix_ticks(seconds: float) -> int:
-    return UTS_EPOCH_OFFSET_TICKS + int(round(seconds * 1e7))
-
-
-def yaw_xyzw(yaw):
-    return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
-
 
 NODES0 = [
     # (index, unix seconds, translation, rotation xyzw)
