@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from slamq.run import runner
@@ -224,3 +225,25 @@ def test_dry_run_plans_without_running(tmp_path: Path) -> None:
     assert proc.returncode == 0, err
     assert out.count("planned") == 4 and "a[n=2]" in out
     assert not counter.exists() and not (tmp_path / "out").exists()
+
+
+def test_a_cartographer_pbstream_output_is_rasterised_and_scored(tmp_path: Path) -> None:
+    # a "Cartographer" writing a pbstream with one 2D submap (the encoder of the tests)
+    from _pbencode import graph, grid2d, submap, write
+
+    cells = np.full((30, 40), 32767, np.int64)  # free, p = 0.1
+    cells[10:12, 5:35] = 1  # a wall, p = 0.9
+    folder = tmp_path / "stream"
+    folder.mkdir()
+    made = write(folder, graph({0: (0, 0, 0)}),
+                 submap(0, 0, (0, 0, 0), grid2d(cells, (3.0, 2.0), (0, 0, 39, 29))))
+    cfg = _config(tmp_path, {"cartographer": {
+        "command": ["cp", str(made), "{out}/map.pbstream"],
+        "outputs": {"map": {"path": "map.pbstream", "format": "pbstream"}}}})
+    result = runner.run(cfg)
+    assert [r["outcome"] for r in result["rows"]] == ["ok"], result["rows"]
+    from slamq.results import read_results
+
+    rec = read_results(tmp_path / "out" / "results.jsonl").iloc[0]
+    assert rec["error"] is None or rec["error"] != rec["error"]  # None or NaN
+    assert rec["known"] == 30 * 40 and rec["occupied"] == 2 * 30

@@ -47,7 +47,7 @@ from slamq.errors import ParamError
 __all__ = ["RunConfig", "Algorithm", "Sequence", "Output", "Step", "load_config", "render"]
 
 _PLACEHOLDER = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z0-9_\-]+)?)\}")
-MAP_FORMATS = ("mrpt", "yaml", "image", "bag")
+MAP_FORMATS = ("mrpt", "yaml", "image", "bag", "pbstream")
 TRAJECTORY_FORMATS = ("mrpt", "tum", "kitti", "euroc", "csv", "auto", "bag", "pbstream")
 
 

@@ -79,6 +79,8 @@ def load_map(
           when there is one.
         * a ROS bag (``.bag``, ``.mcap``, ``.db3``, or a folder holding ``metadata.yaml``):
           the last map on ``/map``, via ``slamq.sources.bag_maps.read_last_map``.
+        * a Cartographer ``.pbstream``: its 2D submaps rasterised, via
+          ``slamq.sources.pbstream_map.read_pbstream_map``.
         * a uint8 image array (``HxW``, ``HxWx3``, ``HxWx4``): the image defaults.
         * an int8 nav_msgs/OccupancyGrid array (row 0 = bottom): see
           :func:`from_occupancy_grid`.
@@ -176,6 +178,10 @@ def _load(
         stat_path(path)  # missing, a broken link or a symlink loop: say which
         if is_bag(path):
             return reapply(_load_bag(path, topic), unknown_value, res, org)
+        if path.suffix.lower() == ".pbstream":
+            from slamq.sources.pbstream_map import read_pbstream_map
+
+            return reapply(read_pbstream_map(path), unknown_value, res, org)
         if path.is_dir():
             raise fail(where, "is a directory (not a ROS 2 bag); use "
                                "slamq.sources.discover_maps to find the maps in a folder")
