@@ -247,3 +247,30 @@ def test_a_cartographer_pbstream_output_is_rasterised_and_scored(tmp_path: Path)
     rec = read_results(tmp_path / "out" / "results.jsonl").iloc[0]
     assert rec["error"] is None or rec["error"] != rec["error"]  # None or NaN
     assert rec["known"] == 30 * 40 and rec["occupied"] == 2 * 30
+    # collected as a map_server map (mode raw) that loads back to the rasterised grid
+    assert rec["map"].endswith("map.yaml")
+    from slamq import load_map
+
+    a, b = load_map(rec["map"]), load_map(folder / "map.pbstream")
+    assert (a.values == b.values).all() and (a.unknown == b.unknown).all()
+    assert a.origin == b.origin and a.resolution == b.resolution
+
+
+def test_a_bag_map_output_on_its_own_topic_is_collected_and_scored(tmp_path: Path) -> None:
+    from _bagdata import BagWriter, room_grid
+
+    made = tmp_path / "made.bag"
+    with BagWriter(made, "ros1") as w:  # the map on a topic that is not /map
+        w.write("/slam/map", "nav_msgs/msg/OccupancyGrid", w.grid(1.0, room_grid(size=30)))
+    cfg = _config(tmp_path, {"slam": {
+        "command": ["cp", str(made), "{out}/rec.bag"],
+        "outputs": {"map": {"path": "rec.bag", "format": "bag", "topic": "/slam/map"}}}})
+    result = runner.run(cfg)
+    assert [r["outcome"] for r in result["rows"]] == ["ok"], result["rows"]
+    from slamq import load_map
+    from slamq.results import read_results
+
+    rec = read_results(tmp_path / "out" / "results.jsonl").iloc[0]
+    assert not isinstance(rec["error"], str), rec["error"]
+    expected = load_map(made, topic="/slam/map")
+    assert rec["known"] == expected.known_count and rec["map"].endswith("map.yaml")

@@ -223,7 +223,12 @@ def _collect_map(o: Output, src: Path, dest_yaml: Path) -> Path:
         from slamq.sources.mrpt import write_mrpt_yaml
 
         return write_mrpt_yaml(src, dest_yaml)
-    load_map(src, topic=o.topic) if o.format == "bag" else load_map(src)  # readable?
+    if o.format in ("bag", "pbstream"):  # the map drawn, saved as a map_server map: scored,
+        from slamq.sources.mapserver import write_raw_map  # shown and reloaded like others
+
+        return write_raw_map(load_map(src, topic=o.topic) if o.format == "bag"
+                             else load_map(src), dest_yaml)
+    load_map(src)  # readable?
     return src
 
 

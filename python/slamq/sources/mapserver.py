@@ -211,3 +211,47 @@ def reapply(
         m.source,
         meta,
     )
+
+
+#: v of each OccupancyGrid value g = 0..100 (docs/spec.md section 1), and back.
+_GRID_V = np.rint(255 * (100 - np.arange(101)) / 100).astype(np.int64)
+_V_GRID = np.full(256, -1, np.int64)
+_V_GRID[_GRID_V] = np.arange(101)
+
+
+def write_raw_map(grid: OccupancyMap, yaml_path: str | os.PathLike[str]) -> Path:
+    """Save a map that came from OccupancyGrid data (a bag, a pbstream) as map_server
+    ``mode: raw`` (a PGM of the grid values 0..100, 255 unknown, and its YAML), which loads
+    back to the same values, unknown cells, resolution and origin.
+
+    Raises :class:`~slamq.errors.MapError` for a map holding a known value that no
+    OccupancyGrid value gives (e.g. a scanned image): raw mode cannot hold it.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile, numpy as np, slamq
+    >>> from slamq.sources import from_occupancy_grid
+    >>> m = from_occupancy_grid(np.array([[0, 100], [-1, 37]], np.int8), resolution=0.05,
+    ...                         origin=(1.0, -2.0, 0.0))
+    >>> p = write_raw_map(m, pathlib.Path(tempfile.mkdtemp()) / "map.yaml")
+    >>> back = slamq.load_map(p)
+    >>> (back.values == m.values).all(), (back.unknown == m.unknown).all(), back.origin
+    (np.True_, np.True_, (1.0, -2.0, 0.0))
+    """
+    import yaml
+
+    out = Path(yaml_path)
+    g = _V_GRID[grid.values.astype(np.int64)]
+    if (g[~grid.unknown] < 0).any():
+        raise MapError(f"{grid.source}: a known cell value is no OccupancyGrid value; "
+                       "mode raw cannot hold this map")
+    pixels = np.where(grid.unknown, 255, g).astype(np.uint8)
+    pgm = out.with_suffix(".pgm")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    h, w = pixels.shape
+    pgm.write_bytes(f"P5\n{w} {h}\n255\n".encode() + pixels.tobytes())
+    doc = {"image": pgm.name, "mode": "raw", "resolution": float(grid.resolution or 0.05),
+           "origin": [float(v) for v in grid.origin], "negate": 0,
+           "occupied_thresh": 0.65, "free_thresh": 0.196}
+    out.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return out
