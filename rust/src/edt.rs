@@ -59,25 +59,6 @@ pub(crate) fn filled<T: Clone>(n: usize, value: T) -> Result<Vec<T>, EdtError> {
     Ok(v)
 }
 
-/// The distance transform of a mask: for every cell, the squared distance (cells^2) to the
-/// nearest set cell and that cell's row-major index ([`NONE`] / `u32::MAX` distance when
-/// the mask has no set cell).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Edt {
-    pub height: usize,
-    pub width: usize,
-    pub sqdist: Vec<u32>,
-    pub nearest: Vec<u32>,
-}
-
-impl Edt {
-    /// Squared distance of cell `(r, c)`.
-    #[inline]
-    pub fn at(&self, r: usize, c: usize) -> u32 {
-        self.sqdist[r * self.width + c]
-    }
-}
-
 /// Check the shape and the size limits.
 fn check(height: usize, width: usize, len: usize) -> Result<(), EdtError> {
     if height == 0 || width == 0 || height.checked_mul(width) != Some(len) {
@@ -93,69 +74,143 @@ fn check(height: usize, width: usize, len: usize) -> Result<(), EdtError> {
     Ok(())
 }
 
-/// The exact Euclidean distance transform of `mask` (row-major, `height x width`, `true` =
-/// set), the row pass parallel over row bands.
-pub fn edt(mask: &[bool], height: usize, width: usize) -> Result<Edt, EdtError> {
-    check(height, width, mask.len())?;
-    let cells = mask.len();
-    // column pass: the row of the nearest set cell in the same column (NONE if none)
-    let mut near_row = filled(cells, NONE)?;
-    column_pass(mask, &mut near_row, height, width);
-    let mut sqdist = filled(cells, u32::MAX)?;
-    let mut nearest = filled(cells, NONE)?;
-    let band = BAND_ROWS * width;
-    sqdist
-        .par_chunks_mut(band)
-        .zip(nearest.par_chunks_mut(band))
-        .zip(near_row.par_chunks(band))
-        .enumerate()
-        .for_each(|(b, ((d, n), nr))| {
-            let mut env = Envelope::new(width);
-            for (k, ((drow, nrow), rrow)) in d
-                .chunks_mut(width)
-                .zip(n.chunks_mut(width))
-                .zip(nr.chunks(width))
-                .enumerate()
-            {
-                env.row(b * BAND_ROWS + k, rrow, drow, nrow, width);
-            }
-        });
-    Ok(Edt {
-        height,
-        width,
-        sqdist,
-        nearest,
-    })
+/// What the row pass writes for every cell.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Out {
+    /// The squared distance to the nearest set cell (`u32::MAX`: none).
+    Distance,
+    /// The row-major index of the nearest set cell ([`NONE`]: none).
+    Nearest,
 }
 
-/// For each cell, the row of the nearest set cell in its column: a downward then an upward
-/// sweep over whole rows (each step is a vectorisable loop over the columns; this pass is
-/// memory bound and cheap next to the row pass, so it stays on one thread). Ties between
-/// the set cell above and the one below go to the one above.
-fn column_pass(mask: &[bool], near_row: &mut [u32], height: usize, width: usize) {
-    for r in 0..height {
-        let (done, rest) = near_row.split_at_mut(r * width);
-        let out = &mut rest[..width];
-        let m = &mask[r * width..(r + 1) * width];
-        if r == 0 {
-            for (o, &b) in out.iter_mut().zip(m) {
-                *o = if b { 0 } else { NONE };
+/// The nearest set cell of every cell of a `height x width` grid whose set cells are those
+/// `set(index)` says (row-major indices; [`NONE`] everywhere when no cell is set).
+pub fn nearest<F>(set: F, height: usize, width: usize) -> Result<Vec<u32>, EdtError>
+where
+    F: Fn(usize) -> bool + Sync,
+{
+    transform(&set, height, width, Out::Nearest, None)
+}
+
+/// The squared distance (cells^2) of every cell to the nearest set cell (`u32::MAX` when
+/// no cell is set).
+pub fn distances<F>(set: F, height: usize, width: usize) -> Result<Vec<u32>, EdtError>
+where
+    F: Fn(usize) -> bool + Sync,
+{
+    transform(&set, height, width, Out::Distance, None)
+}
+
+/// [`distances`] at the cells where `query` is true (`u32::MAX` elsewhere): rows without a
+/// query cell skip the row pass, and the others evaluate the envelope at the query cells
+/// only.
+pub fn distances_at<F>(
+    set: F,
+    height: usize,
+    width: usize,
+    query: &[bool],
+) -> Result<Vec<u32>, EdtError>
+where
+    F: Fn(usize) -> bool + Sync,
+{
+    transform(&set, height, width, Out::Distance, Some(query))
+}
+
+/// The squared distance between cells `a` and `b` (row-major indices) of a `width`-wide
+/// grid.
+#[inline]
+pub fn sqdist_between(a: usize, b: usize, width: usize) -> u32 {
+    let (ra, ca) = (a / width, a % width);
+    let (rb, cb) = (b / width, b % width);
+    let (dr, dc) = (ra.abs_diff(rb) as u64, ca.abs_diff(cb) as u64);
+    (dr * dr + dc * dc) as u32
+}
+
+fn transform<F>(
+    set: &F,
+    height: usize,
+    width: usize,
+    out: Out,
+    query: Option<&[bool]>,
+) -> Result<Vec<u32>, EdtError>
+where
+    F: Fn(usize) -> bool + Sync,
+{
+    let cells = height.saturating_mul(width);
+    check(height, width, cells)?;
+    if let Some(q) = query {
+        if q.len() != cells {
+            return Err(EdtError::Shape {
+                height,
+                width,
+                len: q.len(),
+            });
+        }
+    }
+    // column pass: the row of the nearest set cell in the same column (NONE if none); the
+    // row pass then overwrites each row in place, from a copy of it
+    let mut buf = column_pass(set, height, width)?;
+    let band = BAND_ROWS * width;
+    let rows = |b: usize, chunk: &mut [u32], qb: Option<&[bool]>| {
+        let mut env = Envelope::new(width);
+        let mut near_row = vec![NONE; width];
+        for (k, row) in chunk.chunks_mut(width).enumerate() {
+            near_row.copy_from_slice(row);
+            let r = b * BAND_ROWS + k;
+            match qb {
+                Some(qb) => env.row_at(r, &near_row, row, &qb[k * width..(k + 1) * width]),
+                None => env.row(r, &near_row, row, out),
             }
-        } else {
-            let prev = &done[(r - 1) * width..];
-            for ((o, &b), &p) in out.iter_mut().zip(m).zip(prev) {
-                *o = if b { r as u32 } else { p };
+        }
+    };
+    match query {
+        Some(q) => buf
+            .par_chunks_mut(band)
+            .zip(q.par_chunks(band))
+            .enumerate()
+            .for_each(|(b, (chunk, qb))| rows(b, chunk, Some(qb))),
+        None => buf
+            .par_chunks_mut(band)
+            .enumerate()
+            .for_each(|(b, chunk)| rows(b, chunk, None)),
+    }
+    Ok(buf)
+}
+
+/// For each cell, the row of the nearest set cell in its column: a downward sweep that
+/// copies the row above and marks the set cells, then an upward sweep (each step a
+/// vectorisable loop over the columns; this pass is memory bound and cheap next to the row
+/// pass, so it stays on one thread). Ties between the set cell above and the one below go
+/// to the one above.
+fn column_pass<F>(set: &F, height: usize, width: usize) -> Result<Vec<u32>, EdtError>
+where
+    F: Fn(usize) -> bool,
+{
+    let cells = height * width;
+    let mut near: Vec<u32> = Vec::new();
+    near.try_reserve_exact(cells).map_err(|_| EdtError::Alloc {
+        bytes: cells.saturating_mul(4),
+    })?;
+    near.resize(width, NONE);
+    for r in 0..height {
+        let base = r * width;
+        if r > 0 {
+            near.extend_from_within(base - width..base);
+        }
+        let r32 = r as u32;
+        for (c, o) in near[base..base + width].iter_mut().enumerate() {
+            if set(base + c) {
+                *o = r32;
             }
         }
     }
     let mut below = vec![NONE; width];
     for r in (0..height).rev() {
-        let out = &mut near_row[r * width..(r + 1) * width];
-        let m = &mask[r * width..(r + 1) * width];
+        let out = &mut near[r * width..(r + 1) * width];
         let r32 = r as u32;
-        for ((o, &b), low) in out.iter_mut().zip(m).zip(below.iter_mut()) {
-            if b {
-                *low = r32;
+        for (o, low) in out.iter_mut().zip(below.iter_mut()) {
+            if *o == r32 {
+                *low = r32; // a set cell (the downward sweep marked it with its own row)
             }
             // `*o` (at or above r) is NONE or <= r; `*low` (at or below r) is NONE or >= r
             if *low != NONE && (*o == NONE || *low - r32 < r32 - *o) {
@@ -163,70 +218,237 @@ fn column_pass(mask: &[bool], near_row: &mut [u32], height: usize, width: usize)
             }
         }
     }
+    Ok(near)
 }
 
-/// Work space of the lower envelope of one row's parabolas.
+/// Work space of the lower envelope of one row's parabolas `y = (x - v)^2 + f(v)`, kept
+/// as `g(v) = f(v) + v^2` so that every comparison is exact integer arithmetic (no
+/// division: the intersections are compared by cross-multiplying; the products stay below
+/// 2^50 for grids whose diagonal is under 65536 cells).
 struct Envelope {
-    /// Columns of the parabolas in the envelope.
-    v: Vec<usize>,
-    /// Boundaries between them (`z[k]`..`z[k+1]` is parabola `k`'s range).
-    z: Vec<f64>,
-    /// Squared column distance `f(q)` of every column (u64: no overflow in `f + q^2`).
-    f: Vec<u64>,
+    /// Columns of the parabolas in the envelope, left to right.
+    v: Vec<i64>,
+    /// Their `g(v)`.
+    g: Vec<i64>,
 }
 
 impl Envelope {
     fn new(width: usize) -> Self {
         Envelope {
             v: vec![0; width],
-            z: vec![0.0; width + 1],
-            f: vec![0; width],
+            g: vec![0; width],
         }
     }
 
-    /// One row: `near_row[c]` is the row of the nearest set cell in column `c`.
-    fn row(&mut self, r: usize, near_row: &[u32], d: &mut [u32], n: &mut [u32], width: usize) {
-        let mut k: isize = -1;
-        for q in 0..width {
-            if near_row[q] == NONE {
+    /// One row: `near_row[c]` is the row of the nearest set cell in column `c`. Writes the
+    /// squared distances or the nearest cells (`out`) to `d`.
+    fn row(&mut self, r: usize, near_row: &[u32], d: &mut [u32], out: Out) {
+        let width = near_row.len();
+        let k = self.build(r, near_row);
+        let (v, g) = (&self.v[..width], &self.g[..width]);
+        if k == 0 {
+            d.fill(u32::MAX); // no set cell in the whole grid (u32::MAX is also NONE)
+            return;
+        }
+        // parabola j is the lowest from the previous one's end to the last column before
+        // its intersection with parabola j + 1 (ties: the left one, as in the sweep)
+        let w = width as i64;
+        let mut start = 0i64;
+        for j in 0..k {
+            let end = if j + 1 < k {
+                // intersection x = dg / dv with dg = g[j+1] - g[j], dv = 2 (v[j+1] - v[j]);
+                // the last column q with q <= x, i.e. the largest q with q dv <= dg: a
+                // float division (exact operands below 2^53) corrected by one exact step
+                let (dg, dv) = (g[j + 1] - g[j], 2 * (v[j + 1] - v[j]));
+                let x = dg as f64 / dv as f64;
+                let mut e = x as i64 - ((x < (x as i64) as f64) as i64);
+                if (e + 1) * dv <= dg {
+                    e += 1;
+                } else if e * dv > dg {
+                    e -= 1;
+                }
+                e.min(w - 1)
+            } else {
+                w - 1
+            };
+            if end < start {
                 continue;
             }
-            let dr = (r as i64 - near_row[q] as i64).unsigned_abs();
-            self.f[q] = dr * dr;
-            let fq = (self.f[q] + (q * q) as u64) as f64;
-            let mut s = f64::NEG_INFINITY;
-            while k >= 0 {
-                let p = self.v[k as usize];
-                let fp = (self.f[p] + (p * p) as u64) as f64;
-                s = (fq - fp) / (2.0 * (q - p) as f64);
-                if s <= self.z[k as usize] {
-                    k -= 1;
-                } else {
-                    break;
+            let (p, gp) = (v[j], g[j]);
+            let (s, e) = (start as usize, end as usize + 1);
+            match out {
+                // (q - p)^2 + f(p) = g(p) - 2 q p + q^2; fits u32: checked against the
+                // diagonal
+                Out::Distance => {
+                    for (q, dq) in (start..).zip(d[s..e].iter_mut()) {
+                        *dq = (gp - 2 * q * p + q * q) as u32;
+                    }
+                }
+                Out::Nearest => {
+                    d[s..e].fill((near_row[p as usize] as usize * width + p as usize) as u32)
                 }
             }
-            if k < 0 {
-                s = f64::NEG_INFINITY;
+            start = end + 1;
+            if start >= w {
+                break;
             }
-            k += 1;
-            self.v[k as usize] = q;
-            self.z[k as usize] = s;
-            self.z[k as usize + 1] = f64::INFINITY;
         }
-        if k < 0 {
-            return; // no set cell in the whole grid: d and n keep their "none" fill
+    }
+
+    /// One row's squared distances at the `query` columns only (others: `u32::MAX`).
+    fn row_at(&mut self, r: usize, near_row: &[u32], d: &mut [u32], query: &[bool]) {
+        d.fill(u32::MAX);
+        if !query.iter().any(|&b| b) {
+            return;
         }
+        let k = self.build(r, near_row);
+        if k == 0 {
+            return;
+        }
+        let (v, g) = (&self.v, &self.g);
         let mut j = 0usize;
-        for q in 0..width {
-            while self.z[j + 1] < q as f64 {
+        for (q, (dq, _)) in d.iter_mut().zip(query).enumerate().filter(|(_, (_, &b))| b) {
+            let q = q as i64;
+            // move right while the next parabola is lower at q (their intersection < q)
+            while j + 1 < k && g[j + 1] - g[j] < 2 * q * (v[j + 1] - v[j]) {
                 j += 1;
             }
-            let p = self.v[j];
-            let dq = q.abs_diff(p) as u64;
-            // fits u32: checked against the diagonal in `check`
-            d[q] = (dq * dq + self.f[p]) as u32;
-            n[q] = (near_row[p] as usize * width + p) as u32;
+            *dq = (g[j] - 2 * q * v[j] + q * q) as u32;
         }
+    }
+
+    /// The lower envelope of row `r`'s parabolas; returns how many it holds (in `v`, `g`).
+    fn build(&mut self, r: usize, near_row: &[u32]) -> usize {
+        let (v, g) = (&mut self.v[..near_row.len()], &mut self.g[..near_row.len()]);
+        let r = r as i64;
+        let mut k = 0usize;
+        // the last two parabolas of the envelope, kept in registers: (av, ag) below the top
+        // (bv, bg); valid when k >= 2 and k >= 1
+        let (mut av, mut ag, mut bv, mut bg) = (0i64, 0i64, 0i64, 0i64);
+        for (q, &nr) in near_row.iter().enumerate() {
+            if nr == NONE {
+                continue;
+            }
+            let q = q as i64;
+            let dr = r - nr as i64;
+            let gq = dr * dr + q * q;
+            // drop the last parabola while the new one hides it: the intersection of the
+            // last two is at or right of the intersection of the last one with the new one
+            while k >= 2 && (gq - bg) * (bv - av) <= (bg - ag) * (q - bv) {
+                k -= 1;
+                (bv, bg) = (av, ag);
+                if k >= 2 {
+                    (av, ag) = (v[k - 2], g[k - 2]);
+                }
+            }
+            v[k] = q;
+            g[k] = gq;
+            k += 1;
+            (av, ag, bv, bg) = (bv, bg, q, gq);
+        }
+        k
+    }
+}
+
+/// Columns scanned outward from a query before the row's envelope is built instead.
+const SCAN: usize = 48;
+
+/// Point queries of the distance transform: the column pass of a mask, kept, answers "which
+/// set cell is nearest to cell (r, c)" by scanning the columns of row `r` outward from `c`
+/// (column `q` at `k` columns offers `k^2 + f(q)`; the scan stops once `k^2` reaches the
+/// best offer, which is exact), and after [`SCAN`] columns falls back to the row's lower
+/// envelope. Queries near set cells (the usual case: walls near walls) cost a few steps
+/// instead of a transform of the whole grid.
+pub struct Columns {
+    pub height: usize,
+    pub width: usize,
+    near: Vec<u32>,
+}
+
+/// Per-caller work space of [`Columns::query`] (the fallback's envelope).
+pub struct Scratch(Envelope);
+
+impl Columns {
+    /// The column pass of the mask whose set cells are those `set(index)` says.
+    pub fn new<F>(set: F, height: usize, width: usize) -> Result<Self, EdtError>
+    where
+        F: Fn(usize) -> bool,
+    {
+        let cells = height.saturating_mul(width);
+        check(height, width, cells)?;
+        Ok(Columns {
+            height,
+            width,
+            near: column_pass(&set, height, width)?,
+        })
+    }
+
+    /// Work space for [`Columns::query`]; one per thread.
+    pub fn scratch(&self) -> Scratch {
+        Scratch(Envelope::new(self.width))
+    }
+
+    /// The nearest set cell of cell `(r, c)` (row-major index) and the squared distance to
+    /// it, or None when no cell is set. Ties: the first offer found (the cell's own column,
+    /// then nearer columns, left before right).
+    pub fn query(&self, r: usize, c: usize, scratch: &mut Scratch) -> Option<(u32, u32)> {
+        let w = self.width;
+        let row = &self.near[r * w..(r + 1) * w];
+        let ri = r as i64;
+        let f = |q: usize| -> Option<u64> {
+            let n = row[q];
+            (n != NONE).then(|| {
+                let d = (ri - n as i64).unsigned_abs();
+                d * d
+            })
+        };
+        let (mut best, mut arg) = (u64::MAX, usize::MAX);
+        if let Some(v) = f(c) {
+            (best, arg) = (v, c);
+        }
+        let mut k = 1usize;
+        loop {
+            let k2 = (k * k) as u64;
+            if k2 >= best || (k > c && c + k >= w) {
+                break;
+            }
+            if k > SCAN {
+                // far from every set cell of this row's columns: the envelope
+                let env = &mut scratch.0;
+                let n = env.build(r, row);
+                if n == 0 {
+                    return None;
+                }
+                let ci = c as i64;
+                let mut j = 0usize;
+                while j + 1 < n && env.g[j + 1] - env.g[j] < 2 * ci * (env.v[j + 1] - env.v[j]) {
+                    j += 1;
+                }
+                let p = env.v[j];
+                let d = (env.g[j] - 2 * ci * p + ci * ci) as u32;
+                return Some(((row[p as usize] as usize * w + p as usize) as u32, d));
+            }
+            if k <= c {
+                if let Some(v) = f(c - k) {
+                    if k2 + v < best {
+                        (best, arg) = (k2 + v, c - k);
+                    }
+                }
+            }
+            if c + k < w {
+                if let Some(v) = f(c + k) {
+                    if k2 + v < best {
+                        (best, arg) = (k2 + v, c + k);
+                    }
+                }
+            }
+            k += 1;
+        }
+        if arg == usize::MAX {
+            return None;
+        }
+        // fits u32: checked against the diagonal
+        Some(((row[arg] as usize * w + arg) as u32, best as u32))
     }
 }
 
@@ -265,18 +487,23 @@ mod tests {
     }
 
     fn check_against_brute(mask: &[bool], h: usize, w: usize) {
-        let e = edt(mask, h, w).unwrap();
-        assert_eq!(e.sqdist, brute_force(mask, h, w), "{h}x{w}");
+        let brute = brute_force(mask, h, w);
+        let d = distances(|i| mask[i], h, w).unwrap();
+        assert_eq!(d, brute, "{h}x{w}");
+        let n = nearest(|i| mask[i], h, w).unwrap();
         for i in 0..mask.len() {
-            if e.nearest[i] == NONE {
+            if n[i] == NONE {
                 assert!(!mask.iter().any(|&b| b));
+                assert_eq!(d[i], u32::MAX);
                 continue;
             }
-            let n = e.nearest[i] as usize;
-            assert!(mask[n], "nearest of {i} is not set");
-            let (r, c) = ((i / w) as i64, (i % w) as i64);
-            let (a, b) = ((n / w) as i64, (n % w) as i64);
-            assert_eq!(((r - a).pow(2) + (c - b).pow(2)) as u32, e.sqdist[i]);
+            assert!(mask[n[i] as usize], "nearest of {i} is not set");
+            assert_eq!(sqdist_between(i, n[i] as usize, w), d[i]);
+        }
+        let query: Vec<bool> = (0..mask.len()).map(|i| (i * 7919) % 3 == 0).collect();
+        let at = distances_at(|i| mask[i], h, w, &query).unwrap();
+        for i in 0..mask.len() {
+            assert_eq!(at[i], if query[i] { d[i] } else { u32::MAX });
         }
     }
 
@@ -285,7 +512,7 @@ mod tests {
         let mut next = rng(7);
         for case in 0..300 {
             let h = 1 + (next() % 40) as usize;
-            let w = 1 + (next() % 300) as usize; // crosses a strip boundary sometimes
+            let w = 1 + (next() % 300) as usize;
             let density = [1u64, 3, 20, 50, 97][case % 5];
             let mask: Vec<bool> = (0..h * w).map(|_| next() % 100 < density).collect();
             check_against_brute(&mask, h, w);
@@ -295,14 +522,19 @@ mod tests {
     #[test]
     fn single_cell_and_empty() {
         let mut mask = vec![false; 7 * 5];
-        let e = edt(&mask, 7, 5).unwrap();
-        assert!(e.sqdist.iter().all(|&d| d == u32::MAX));
-        assert!(e.nearest.iter().all(|&n| n == NONE));
+        assert!(distances(|i| mask[i], 7, 5)
+            .unwrap()
+            .iter()
+            .all(|&d| d == u32::MAX));
+        assert!(nearest(|i| mask[i], 7, 5)
+            .unwrap()
+            .iter()
+            .all(|&n| n == NONE));
         mask[2 * 5 + 3] = true;
         check_against_brute(&mask, 7, 5);
-        let e = edt(&mask, 7, 5).unwrap();
-        assert_eq!(e.at(0, 0), 4 + 9);
-        assert_eq!(e.at(6, 4), 16 + 1);
+        let d = distances(|i| mask[i], 7, 5).unwrap();
+        assert_eq!(d[0], 4 + 9);
+        assert_eq!(d[6 * 5 + 4], 16 + 1);
     }
 
     #[test]
@@ -323,16 +555,55 @@ mod tests {
                 .num_threads(t)
                 .build()
                 .unwrap()
-                .install(|| edt(&mask, h, w).unwrap())
+                .install(|| {
+                    (
+                        nearest(|i| mask[i], h, w).unwrap(),
+                        distances(|i| mask[i], h, w).unwrap(),
+                    )
+                })
         };
         let one = run(1);
         assert_eq!(one, run(3));
-        assert_eq!(one.sqdist, brute_force(&mask, h, w));
+        assert_eq!(one.1, brute_force(&mask, h, w));
+    }
+
+    #[test]
+    fn point_queries_equal_the_transform() {
+        let mut next = rng(5);
+        for case in 0..120 {
+            let h = 1 + (next() % 60) as usize;
+            let w = 1 + (next() % 200) as usize;
+            let density = [0u64, 1, 5, 30][case % 4];
+            let mask: Vec<bool> = (0..h * w).map(|_| next() % 1000 < density * 10).collect();
+            let d = brute_force(&mask, h, w);
+            let cols = Columns::new(|i| mask[i], h, w).unwrap();
+            let mut scratch = cols.scratch();
+            for i in 0..h * w {
+                match cols.query(i / w, i % w, &mut scratch) {
+                    None => assert_eq!(d[i], u32::MAX),
+                    Some((n, sq)) => {
+                        assert_eq!(sq, d[i], "{h}x{w} cell {i}");
+                        assert!(mask[n as usize]);
+                        assert_eq!(sqdist_between(i, n as usize, w), sq);
+                    }
+                }
+            }
+        }
     }
 
     #[test]
     fn refuses_bad_shapes() {
-        assert!(matches!(edt(&[true; 6], 2, 2), Err(EdtError::Shape { .. })));
-        assert!(matches!(edt(&[], 0, 0), Err(EdtError::Shape { .. })));
+        assert!(matches!(
+            distances(|_| true, 0, 3),
+            Err(EdtError::Shape { .. })
+        ));
+        assert!(matches!(
+            distances_at(|_| true, 2, 2, &[true; 3]),
+            Err(EdtError::Shape { .. })
+        ));
+        assert!(matches!(
+            distances(|_| true, 70_000, 70_000),
+            Err(EdtError::TooLarge { .. })
+        ));
     }
 }

@@ -11,15 +11,20 @@
 //! Deterministic: correspondences are computed per point in fixed chunks; the trimmed set is
 //! chosen by (distance, point index), a total order; sums run in point order.
 
-use crate::edt::{Edt, NONE};
-use crate::se2::{wrap, Frame, Se2};
+use crate::edt::{Columns, Scratch};
+use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 
 /// Points per parallel chunk (fixed, so the work split does not depend on the thread count).
 const CHUNK: usize = 4096;
-/// Stop when an iteration moves the estimate less than this (radians; cells of the target).
-const EPS_ANGLE: f64 = 1e-7;
-const EPS_SHIFT: f64 = 1e-5;
+/// Stop when a step moves no point by more than this many target cells.
+const EPS_MOVE: f64 = 0.05;
+/// The ICP uses at most this many points: an even subsample (every k-th in row-major order)
+/// of larger sets; its first, coarse stage at most [`COARSE_POINTS`], until a step moves
+/// no point by more than [`EPS_COARSE`] cells.
+pub const MAX_POINTS: usize = 8192;
+pub const COARSE_POINTS: usize = 2048;
+const EPS_COARSE: f64 = 0.5;
 /// Half-size of the window (cells) whose occupied cells are fitted with a line.
 const LINE_WINDOW: isize = 2;
 /// A window is a line when its smaller spread is below this share of the larger one.
@@ -54,19 +59,25 @@ struct Local {
 /// the local line of every occupied cell.
 pub struct Target<'a> {
     frame: Frame,
-    edt: &'a Edt,
+    to_cell: Affine,
+    to_world: Affine,
+    /// Nearest-occupied-cell queries.
+    columns: &'a Columns,
     /// Occupied cells (row-major indices, ascending) and their local shapes.
     cells: Vec<u32>,
+    /// `cells[row_start[r]..row_start[r + 1]]` are the occupied cells of row `r`.
+    row_start: Vec<u32>,
     local: Vec<Local>,
 }
 
 impl<'a> Target<'a> {
-    /// Build the target from the ground truth's frame and distance transform (occupied
-    /// cells are those at distance 0).
-    pub fn new(frame: Frame, edt: &'a Edt) -> Self {
+    /// Build the target from the ground truth's frame, its nearest-occupied-cell queries,
+    /// and the occupied cells.
+    pub fn new(frame: Frame, columns: &'a Columns, occupied: &[bool]) -> Self {
         let (h, w) = (frame.height as isize, frame.width as isize);
-        let cells: Vec<u32> = (0..edt.sqdist.len())
-            .filter(|&i| edt.sqdist[i] == 0)
+        let to_world = frame.cell_to_world();
+        let cells: Vec<u32> = (0..occupied.len())
+            .filter(|&i| occupied[i])
             .map(|i| i as u32)
             .collect();
         let local = cells
@@ -78,7 +89,7 @@ impl<'a> Target<'a> {
                         (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
                     for r in (r0 - LINE_WINDOW).max(0)..=(r0 + LINE_WINDOW).min(h - 1) {
                         for c in (c0 - LINE_WINDOW).max(0)..=(c0 + LINE_WINDOW).min(w - 1) {
-                            if edt.sqdist[(r * w + c) as usize] == 0 {
+                            if occupied[(r * w + c) as usize] {
                                 // window coordinates relative to the centre cell, in cells
                                 let (x, y) = ((c - c0) as f64, (r - r0) as f64);
                                 n += 1.0;
@@ -96,7 +107,7 @@ impl<'a> Target<'a> {
                     let half = 0.5 * (a + d);
                     let root = (0.25 * (a - d) * (a - d) + b * b).sqrt();
                     let (big, small) = (half + root, half - root);
-                    let centre = frame.centre(r0 as usize, c0 as usize);
+                    let centre = to_world.apply(r0 as f64, c0 as f64);
                     // the centroid in world coordinates: the centre cell plus the offset
                     let (ux, uy) = unit_steps(&frame);
                     let cx = centre.0 + mx * ux.0 + my * uy.0;
@@ -130,9 +141,19 @@ impl<'a> Target<'a> {
                 })
             })
             .collect();
+        let mut row_start = vec![0u32; frame.height + 1];
+        for &i in &cells {
+            row_start[i as usize / frame.width + 1] += 1;
+        }
+        for r in 0..frame.height {
+            row_start[r + 1] += row_start[r];
+        }
         Target {
+            row_start,
             frame,
-            edt,
+            to_cell: frame.world_to_cell_affine(),
+            to_world,
+            columns,
             cells,
             local,
         }
@@ -142,23 +163,22 @@ impl<'a> Target<'a> {
     /// holding the point (clamped onto the grid for points outside it): its position in
     /// `cells` and its centre.
     #[inline]
-    fn nearest(&self, x: f64, y: f64) -> Option<(usize, (f64, f64))> {
-        let (r, c) = self.frame.world_to_cell(x, y);
-        let h = self.frame.height as f64 - 1.0;
-        let w = self.frame.width as f64 - 1.0;
-        let r = r.floor().clamp(0.0, h) as usize;
-        let c = c.floor().clamp(0.0, w) as usize;
-        let n = self.edt.nearest[r * self.frame.width + c];
-        if n == NONE {
-            return None;
-        }
-        let k = self.cells.binary_search(&n).ok()?;
+    fn nearest(&self, x: f64, y: f64, scratch: &mut Scratch) -> Option<(usize, (f64, f64))> {
+        let (r, c) = self.to_cell.apply(x, y);
+        let h = self.frame.height as i64 - 1;
+        let w = self.frame.width as i64 - 1;
+        let r = floor_i64(r).clamp(0, h) as usize;
+        let c = floor_i64(c).clamp(0, w) as usize;
+        let (n, _) = self.columns.query(r, c, scratch)?;
+        let row = n as usize / self.frame.width;
+        let (a, b) = (
+            self.row_start[row] as usize,
+            self.row_start[row + 1] as usize,
+        );
+        let k = a + self.cells[a..b].binary_search(&n).ok()?;
         let n = n as usize;
-        Some((
-            k,
-            self.frame
-                .centre(n / self.frame.width, n % self.frame.width),
-        ))
+        let w = self.frame.width;
+        Some((k, self.to_world.apply((n / w) as f64, (n % w) as f64)))
     }
 
     /// World centroid of the occupied cells (None when there is none).
@@ -169,7 +189,9 @@ impl<'a> Target<'a> {
         let w = self.frame.width;
         let (mut sx, mut sy) = (0.0, 0.0);
         for &i in &self.cells {
-            let (x, y) = self.frame.centre(i as usize / w, i as usize % w);
+            let (x, y) = self
+                .to_world
+                .apply((i as usize / w) as f64, (i as usize % w) as f64);
             sx += x;
             sy += y;
         }
@@ -190,12 +212,14 @@ type Pair = (f64, usize, (f64, f64));
 
 /// The correspondence of every point at `t`.
 fn correspondences(points: &[(f64, f64)], target: &Target, t: &Se2, out: &mut [Pair]) {
+    let t = t.affine();
     out.par_chunks_mut(CHUNK)
         .zip(points.par_chunks(CHUNK))
         .for_each(|(o, p)| {
+            let mut scratch = target.columns.scratch();
             for (slot, &(x, y)) in o.iter_mut().zip(p) {
                 let q = t.apply(x, y);
-                *slot = match target.nearest(q.0, q.1) {
+                *slot = match target.nearest(q.0, q.1, &mut scratch) {
                     Some((k, g)) => ((q.0 - g.0).powi(2) + (q.1 - g.1).powi(2), k, q),
                     None => (f64::INFINITY, usize::MAX, q),
                 };
@@ -203,20 +227,29 @@ fn correspondences(points: &[(f64, f64)], target: &Target, t: &Se2, out: &mut [P
         });
 }
 
-/// The indices of the `keep` smallest distances, ordered by (distance, index).
-fn trimmed(res: &[Pair], keep: usize, order: &mut Vec<u32>) {
+/// The indices, ascending, of the `keep` smallest distances (ties at the threshold: the
+/// lowest indices). `scratch` holds a copy of the distances for the selection.
+fn trimmed(res: &[Pair], keep: usize, order: &mut Vec<u32>, scratch: &mut Vec<f64>) {
     order.clear();
-    order.extend(0..res.len() as u32);
-    if keep < order.len() {
-        order.select_nth_unstable_by(keep, |&a, &b| {
-            res[a as usize]
-                .0
-                .total_cmp(&res[b as usize].0)
-                .then(a.cmp(&b))
-        });
-        order.truncate(keep);
+    if keep >= res.len() {
+        order.extend(0..res.len() as u32);
+        return;
     }
-    order.sort_unstable();
+    scratch.clear();
+    scratch.extend(res.iter().map(|p| p.0));
+    let (_, &mut thr, _) = scratch.select_nth_unstable_by(keep - 1, |a, b| a.total_cmp(b));
+    let below = res.iter().filter(|p| p.0.total_cmp(&thr).is_lt()).count();
+    let mut ties = keep - below;
+    for (i, p) in res.iter().enumerate() {
+        match p.0.total_cmp(&thr) {
+            std::cmp::Ordering::Less => order.push(i as u32),
+            std::cmp::Ordering::Equal if ties > 0 => {
+                ties -= 1;
+                order.push(i as u32);
+            }
+            _ => {}
+        }
+    }
 }
 
 /// One Gauss-Newton step of the kept pairs: the small motion `(dtheta about (ox, oy), dx,
@@ -299,8 +332,9 @@ fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
 /// Each iteration pairs every point (moved by the current motion) with the target's nearest
 /// occupied cell, drops the `trim` share farthest from their cell, and takes one
 /// Gauss-Newton step of the point-to-line / point-to-point residuals of the kept pairs. It
-/// stops when a step moves by less than 1e-7 rad and 1e-5 target cells, or after
-/// `max_iterations`. None when there is no point or the target has no occupied cell.
+/// runs on an even subsample of at most [`COARSE_POINTS`] points until a step moves no
+/// point by more than half a target cell, then on at most [`MAX_POINTS`] points until a step
+/// moves none by more than 0.05 cells, `max_iterations` in all. None when there is no point or the target has no occupied cell.
 pub fn icp(
     points: &[(f64, f64)],
     target: &Target,
@@ -311,15 +345,66 @@ pub fn icp(
     if points.is_empty() || target.cells.is_empty() {
         return None;
     }
+    // coarse to fine: a small subsample until steps are under half a cell, then the full
+    // (sub)sample to the final tolerance
+    let coarse = run(
+        &subsample(points, COARSE_POINTS),
+        target,
+        start,
+        trim,
+        max_iterations,
+        EPS_COARSE,
+    )?;
+    let left = max_iterations.saturating_sub(coarse.iterations);
+    let fine = run(
+        &subsample(points, MAX_POINTS),
+        target,
+        coarse.transform,
+        trim,
+        left,
+        EPS_MOVE,
+    )?;
+    Some(IcpResult {
+        iterations: coarse.iterations + fine.iterations,
+        ..fine
+    })
+}
+
+/// An even subsample (every k-th point) of at most `n` points.
+fn subsample(points: &[(f64, f64)], n: usize) -> Vec<(f64, f64)> {
+    let stride = points.len().div_ceil(n).max(1);
+    points.iter().step_by(stride).copied().collect()
+}
+
+/// The ICP loop on `points`, until a step moves no point by more than `eps_cells`.
+fn run(
+    points: &[(f64, f64)],
+    target: &Target,
+    start: Se2,
+    trim: f64,
+    max_iterations: usize,
+    eps_cells: f64,
+) -> Option<IcpResult> {
     let keep = (((1.0 - trim) * points.len() as f64).ceil() as usize).clamp(1, points.len());
     let mut res: Vec<Pair> = vec![(0.0, 0, (0.0, 0.0)); points.len()];
     let mut order = Vec::with_capacity(points.len());
     let mut t = start;
     let mut iterations = 0;
-    let shift_eps = EPS_SHIFT * target.frame.resolution;
+    let eps = eps_cells * target.frame.resolution;
+    // the largest distance of a point from the points' centroid: a turn of a radians about
+    // the centroid moves no point by more than a * radius
+    let n = points.len() as f64;
+    let (cx, cy) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), p| (a + p.0 / n, b + p.1 / n));
+    let radius = points
+        .iter()
+        .map(|p| (p.0 - cx).hypot(p.1 - cy))
+        .fold(0.0, f64::max);
+    let mut scratch = Vec::with_capacity(points.len());
     loop {
         correspondences(points, target, &t, &mut res);
-        trimmed(&res, keep, &mut order);
+        trimmed(&res, keep, &mut order, &mut scratch);
         let rms = (order.iter().map(|&i| res[i as usize].0).sum::<f64>() / keep as f64).sqrt();
         let done = |t: Se2, iterations: usize| IcpResult {
             transform: t,
@@ -334,11 +419,12 @@ pub fn icp(
             return Some(done(t, iterations));
         };
         iterations += 1;
-        let converged = turn < EPS_ANGLE && shift < shift_eps;
+        // `shift` is measured at the kept points' centroid, within `radius` of every point
+        let converged = turn * radius + shift < eps;
         t = delta.compose(&t);
         if converged {
             correspondences(points, target, &t, &mut res);
-            trimmed(&res, keep, &mut order);
+            trimmed(&res, keep, &mut order, &mut scratch);
             let rms = (order.iter().map(|&i| res[i as usize].0).sum::<f64>() / keep as f64).sqrt();
             return Some(IcpResult {
                 transform: t,

@@ -24,6 +24,15 @@ impl Se2 {
         (c * x - s * y + self.tx, s * x + c * y + self.ty)
     }
 
+    /// The motion as a matrix and a translation (sine and cosine computed once).
+    pub fn affine(&self) -> Affine {
+        let (s, c) = self.theta.sin_cos();
+        Affine {
+            m: [[c, -s], [s, c]],
+            t: [self.tx, self.ty],
+        }
+    }
+
     /// The inverse motion.
     pub fn inverse(&self) -> Se2 {
         let (s, c) = self.theta.sin_cos();
@@ -43,6 +52,63 @@ impl Se2 {
             ty,
         }
     }
+}
+
+/// A planar affine map `p -> m p + t`, for the hot loops (no trigonometry per point).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Affine {
+    pub m: [[f64; 2]; 2],
+    pub t: [f64; 2],
+}
+
+impl Affine {
+    /// Apply to a point.
+    #[inline]
+    pub fn apply(&self, x: f64, y: f64) -> (f64, f64) {
+        (
+            self.m[0][0] * x + self.m[0][1] * y + self.t[0],
+            self.m[1][0] * x + self.m[1][1] * y + self.t[1],
+        )
+    }
+
+    /// `self` after `first`.
+    pub fn after(&self, first: &Affine) -> Affine {
+        let (a, b) = (&self.m, &first.m);
+        let mut m = [[0.0; 2]; 2];
+        for i in 0..2 {
+            for j in 0..2 {
+                m[i][j] = a[i][0] * b[0][j] + a[i][1] * b[1][j];
+            }
+        }
+        let (tx, ty) = self.apply(first.t[0], first.t[1]);
+        Affine { m, t: [tx, ty] }
+    }
+
+    /// The inverse map (None when singular).
+    pub fn inverse(&self) -> Option<Affine> {
+        let m = &self.m;
+        let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let inv = [
+            [m[1][1] / det, -m[0][1] / det],
+            [-m[1][0] / det, m[0][0] / det],
+        ];
+        let t = [
+            -(inv[0][0] * self.t[0] + inv[0][1] * self.t[1]),
+            -(inv[1][0] * self.t[0] + inv[1][1] * self.t[1]),
+        ];
+        Some(Affine { m: inv, t })
+    }
+}
+
+/// `floor(x)` as an integer, inline (`f64::floor` is a libm call on baseline x86-64).
+/// Saturates far outside the i64 range, NaN gives 0; callers check bounds.
+#[inline]
+pub fn floor_i64(x: f64) -> i64 {
+    let i = x as i64;
+    i - ((x < i as f64) as i64)
 }
 
 /// An angle wrapped to (-pi, pi].
@@ -77,20 +143,37 @@ impl Frame {
         self.origin.apply(x, y)
     }
 
-    /// The affine map from `(row, col)` (as floats) to world: `world = a * (row, col) + b`,
-    /// as `[[a00, a01], [a10, a11]]` and `b`.
-    pub fn cell_to_world(&self) -> ([[f64; 2]; 2], [f64; 2]) {
+    /// The affine map from `(row, col)` (as floats) to world: cell centres at integers.
+    pub fn cell_to_world(&self) -> Affine {
         let (s, c) = self.origin.theta.sin_cos();
         let r = self.resolution;
         // map frame: x = (col + 0.5) r, y = (height - row - 0.5) r
         let (mx0, my0) = (0.5 * r, (self.height as f64 - 0.5) * r);
-        let b = [
+        let t = [
             c * mx0 - s * my0 + self.origin.tx,
             s * mx0 + c * my0 + self.origin.ty,
         ];
         // d/d row: (0, -r) rotated; d/d col: (r, 0) rotated
-        let a = [[s * r, c * r], [-c * r, s * r]];
-        (a, b)
+        Affine {
+            m: [[s * r, c * r], [-c * r, s * r]],
+            t,
+        }
+    }
+
+    /// The affine map from world to the fractional `(row, col)` position whose `floor` is
+    /// the cell holding the point (the inverse of [`Frame::cell_to_world`], shifted by half
+    /// a cell).
+    pub fn world_to_cell_affine(&self) -> Affine {
+        let (s, c) = self.origin.theta.sin_cos();
+        let r = self.resolution;
+        // map frame (mx, my) = R^T (p - o); row = height - my / r, col = mx / r
+        let (ox, oy) = (self.origin.tx, self.origin.ty);
+        let mx = [c / r, s / r, -(c * ox + s * oy) / r];
+        let my = [-s / r, c / r, -(-s * ox + c * oy) / r];
+        Affine {
+            m: [[-my[0], -my[1]], [mx[0], mx[1]]],
+            t: [self.height as f64 - my[2], mx[2]],
+        }
     }
 
     /// The (fractional) `(row, col)` position of a world point: the inverse of
@@ -204,12 +287,12 @@ mod tests {
         };
         let (x, y) = f.centre(3, 7);
         assert_eq!(f.cell_of(x, y), Some((3, 7)));
-        let (a, b) = f.cell_to_world();
-        let (wx, wy) = (
-            a[0][0] * 3.0 + a[0][1] * 7.0 + b[0],
-            a[1][0] * 3.0 + a[1][1] * 7.0 + b[1],
-        );
+        let (wx, wy) = f.cell_to_world().apply(3.0, 7.0);
         assert!((wx - x).abs() < 1e-12 && (wy - y).abs() < 1e-12);
+        let (r, c) = f.world_to_cell_affine().apply(x, y);
+        assert!((r - 3.5).abs() < 1e-9 && (c - 7.5).abs() < 1e-9);
+        let back = f.cell_to_world().inverse().unwrap().apply(x, y);
+        assert!((back.0 - 3.0).abs() < 1e-9 && (back.1 - 7.0).abs() < 1e-9);
         assert_eq!(f.cell_of(-100.0, 0.0), None);
         assert!((wrap(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
     }
