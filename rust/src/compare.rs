@@ -168,12 +168,13 @@ fn align(
     gt: &Placed,
     g_columns: &Columns,
     g_mask: &[bool],
+    g_list: &[u32],
     params: &CompareParams,
 ) -> (Se2, f64, usize, usize) {
     if params.align == Align::Origin {
         return (Se2::IDENTITY, f64::NAN, 0, 0);
     }
-    let target = Target::new(gt.frame, g_columns, g_mask);
+    let target = Target::new(gt.frame, g_columns, g_mask, g_list);
     let start = match params.align {
         Align::Origin => Se2::IDENTITY,
         Align::Icp => Se2::IDENTITY,
@@ -420,7 +421,7 @@ pub fn compare(
     let g_columns = Columns::new(|i| g_mask[i], h, w)?;
     let points = occupied_points(estimate, &occ)?;
     let (transform, icp_rms, icp_iterations, icp_inliers) =
-        align(&points, ground_truth, &g_columns, &g_mask, params);
+        align(&points, ground_truth, &g_columns, &g_mask, &g_list, params);
     let res = resample(estimate, ground_truth, &g_mask, &transform, &occ, &points)?;
     drop(points);
     let mut cells = res.cells;

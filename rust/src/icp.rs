@@ -14,6 +14,7 @@
 use crate::edt::{Columns, Scratch};
 use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
+use std::sync::OnceLock;
 
 /// Points per parallel chunk (fixed, so the work split does not depend on the thread count).
 const CHUNK: usize = 4096;
@@ -63,86 +64,22 @@ pub struct Target<'a> {
     to_world: Affine,
     /// Nearest-occupied-cell queries.
     columns: &'a Columns,
-    /// Occupied cells (row-major indices, ascending) and their local shapes.
-    cells: Vec<u32>,
+    /// Which cells are occupied.
+    occupied: &'a [bool],
+    /// Occupied cells (row-major indices, ascending) and their local shapes (fitted on
+    /// first use: the ICP looks at a fraction of them).
+    cells: &'a [u32],
     /// `cells[row_start[r]..row_start[r + 1]]` are the occupied cells of row `r`.
     row_start: Vec<u32>,
-    local: Vec<Local>,
+    local: Vec<OnceLock<Local>>,
 }
 
 impl<'a> Target<'a> {
     /// Build the target from the ground truth's frame, its nearest-occupied-cell queries,
     /// and the occupied cells.
-    pub fn new(frame: Frame, columns: &'a Columns, occupied: &[bool]) -> Self {
-        let (h, w) = (frame.height as isize, frame.width as isize);
-        let to_world = frame.cell_to_world();
-        let cells: Vec<u32> = (0..occupied.len())
-            .filter(|&i| occupied[i])
-            .map(|i| i as u32)
-            .collect();
-        let local = cells
-            .par_chunks(CHUNK)
-            .flat_map_iter(|chunk| {
-                chunk.iter().map(|&i| {
-                    let (r0, c0) = ((i as isize) / w, (i as isize) % w);
-                    let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) =
-                        (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-                    for r in (r0 - LINE_WINDOW).max(0)..=(r0 + LINE_WINDOW).min(h - 1) {
-                        for c in (c0 - LINE_WINDOW).max(0)..=(c0 + LINE_WINDOW).min(w - 1) {
-                            if occupied[(r * w + c) as usize] {
-                                // window coordinates relative to the centre cell, in cells
-                                let (x, y) = ((c - c0) as f64, (r - r0) as f64);
-                                n += 1.0;
-                                sx += x;
-                                sy += y;
-                                sxx += x * x;
-                                sxy += x * y;
-                                syy += y * y;
-                            }
-                        }
-                    }
-                    let (mx, my) = (sx / n, sy / n);
-                    let (a, b, d) = (sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my);
-                    // eigenvalues of [[a, b], [b, d]]
-                    let half = 0.5 * (a + d);
-                    let root = (0.25 * (a - d) * (a - d) + b * b).sqrt();
-                    let (big, small) = (half + root, half - root);
-                    let centre = to_world.apply(r0 as f64, c0 as f64);
-                    // the centroid in world coordinates: the centre cell plus the offset
-                    let (ux, uy) = unit_steps(&frame);
-                    let cx = centre.0 + mx * ux.0 + my * uy.0;
-                    let cy = centre.1 + mx * ux.1 + my * uy.1;
-                    if n >= 3.0 && big > 0.0 && small <= LINE_RATIO * big {
-                        // normal: the eigenvector of the small eigenvalue, in (x=col, y=row)
-                        let (ex, ey) = if b.abs() > 1e-12 {
-                            (small - d, b)
-                        } else if a <= d {
-                            (1.0, 0.0)
-                        } else {
-                            (0.0, 1.0)
-                        };
-                        let wx = ex * ux.0 + ey * uy.0;
-                        let wy = ex * ux.1 + ey * uy.1;
-                        let norm = wx.hypot(wy);
-                        Local {
-                            cx,
-                            cy,
-                            nx: wx / norm,
-                            ny: wy / norm,
-                        }
-                    } else {
-                        Local {
-                            cx: centre.0,
-                            cy: centre.1,
-                            nx: 0.0,
-                            ny: 0.0,
-                        }
-                    }
-                })
-            })
-            .collect();
+    pub fn new(frame: Frame, columns: &'a Columns, occupied: &'a [bool], cells: &'a [u32]) -> Self {
         let mut row_start = vec![0u32; frame.height + 1];
-        for &i in &cells {
+        for &i in cells {
             row_start[i as usize / frame.width + 1] += 1;
         }
         for r in 0..frame.height {
@@ -152,10 +89,75 @@ impl<'a> Target<'a> {
             row_start,
             frame,
             to_cell: frame.world_to_cell_affine(),
-            to_world,
+            to_world: frame.cell_to_world(),
             columns,
+            occupied,
+            local: (0..cells.len()).map(|_| OnceLock::new()).collect(),
             cells,
-            local,
+        }
+    }
+
+    /// The local shape around occupied cell `cells[k]`, fitted when first asked for.
+    fn local(&self, k: usize) -> Local {
+        *self.local[k].get_or_init(|| self.fit(self.cells[k]))
+    }
+
+    /// Fit a line to the occupied cells of the window around cell `i`.
+    fn fit(&self, i: u32) -> Local {
+        let frame = &self.frame;
+        let (h, w) = (frame.height as isize, frame.width as isize);
+        let (r0, c0) = ((i as isize) / w, (i as isize) % w);
+        let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for r in (r0 - LINE_WINDOW).max(0)..=(r0 + LINE_WINDOW).min(h - 1) {
+            for c in (c0 - LINE_WINDOW).max(0)..=(c0 + LINE_WINDOW).min(w - 1) {
+                if self.occupied[(r * w + c) as usize] {
+                    // window coordinates relative to the centre cell, in cells
+                    let (x, y) = ((c - c0) as f64, (r - r0) as f64);
+                    n += 1.0;
+                    sx += x;
+                    sy += y;
+                    sxx += x * x;
+                    sxy += x * y;
+                    syy += y * y;
+                }
+            }
+        }
+        let (mx, my) = (sx / n, sy / n);
+        let (a, b, d) = (sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my);
+        // eigenvalues of [[a, b], [b, d]]
+        let half = 0.5 * (a + d);
+        let root = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+        let (big, small) = (half + root, half - root);
+        let centre = self.to_world.apply(r0 as f64, c0 as f64);
+        // the centroid in world coordinates: the centre cell plus the offset
+        let (ux, uy) = unit_steps(&self.to_world);
+        let cx = centre.0 + mx * ux.0 + my * uy.0;
+        let cy = centre.1 + mx * ux.1 + my * uy.1;
+        if n >= 3.0 && big > 0.0 && small <= LINE_RATIO * big {
+            // normal: the eigenvector of the small eigenvalue, in (x=col, y=row)
+            let (ex, ey) = if b.abs() > 1e-12 {
+                (small - d, b)
+            } else if a <= d {
+                (1.0, 0.0)
+            } else {
+                (0.0, 1.0)
+            };
+            let wx = ex * ux.0 + ey * uy.0;
+            let wy = ex * ux.1 + ey * uy.1;
+            let norm = wx.hypot(wy);
+            Local {
+                cx,
+                cy,
+                nx: wx / norm,
+                ny: wy / norm,
+            }
+        } else {
+            Local {
+                cx: centre.0,
+                cy: centre.1,
+                nx: 0.0,
+                ny: 0.0,
+            }
         }
     }
 
@@ -188,7 +190,7 @@ impl<'a> Target<'a> {
         }
         let w = self.frame.width;
         let (mut sx, mut sy) = (0.0, 0.0);
-        for &i in &self.cells {
+        for &i in self.cells {
             let (x, y) = self
                 .to_world
                 .apply((i as usize / w) as f64, (i as usize % w) as f64);
@@ -201,9 +203,9 @@ impl<'a> Target<'a> {
 }
 
 /// World displacement of one column step and of one row step.
-fn unit_steps(frame: &Frame) -> ((f64, f64), (f64, f64)) {
-    let (o, c, r) = (frame.centre(0, 0), frame.centre(0, 1), frame.centre(1, 0));
-    ((c.0 - o.0, c.1 - o.1), (r.0 - o.0, r.1 - o.1))
+fn unit_steps(to_world: &Affine) -> ((f64, f64), (f64, f64)) {
+    let m = &to_world.m;
+    ((m[0][1], m[1][1]), (m[0][0], m[1][0]))
 }
 
 /// One correspondence: squared distance to the target cell's centre, the target's position
@@ -275,7 +277,7 @@ fn step(res: &[Pair], order: &[u32], target: &Target) -> Option<(Se2, f64, f64)>
     };
     for &i in order {
         let (_, k, q) = res[i as usize];
-        let l = target.local[k];
+        let l = target.local(k);
         let (px, py) = (q.0 - ox, q.1 - oy);
         // d q / d theta = (-py, px)
         if l.nx != 0.0 || l.ny != 0.0 {
