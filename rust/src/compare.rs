@@ -170,20 +170,22 @@ fn align(
     g_mask: &[bool],
     g_list: &[u32],
     params: &CompareParams,
-) -> (Se2, f64, usize, usize) {
+) -> Result<(Se2, f64, usize, usize), CompareError> {
     if params.align == Align::Origin {
-        return (Se2::IDENTITY, f64::NAN, 0, 0);
+        return Ok((Se2::IDENTITY, f64::NAN, 0, 0));
     }
-    let target = Target::new(gt.frame, g_columns, g_mask, g_list);
+    let target = Target::new(gt.frame, g_columns, g_mask, g_list)?;
     let start = match params.align {
         Align::Origin => Se2::IDENTITY,
         Align::Icp => Se2::IDENTITY,
         Align::Search => search(points, &target, params.trim),
     };
-    match icp(points, &target, start, params.trim, params.max_iterations) {
-        Some(r) => (r.transform, r.rms, r.iterations, r.inliers),
-        None => (start, f64::NAN, 0, 0),
-    }
+    Ok(
+        match icp(points, &target, start, params.trim, params.max_iterations) {
+            Some(r) => (r.transform, r.rms, r.iterations, r.inliers),
+            None => (start, f64::NAN, 0, 0),
+        },
+    )
 }
 
 /// Affine map from a ground-truth cell `(row, col)` to the fractional cell position in the
@@ -240,7 +242,7 @@ fn resample(
         .zip(g_mask.par_chunks(band).zip(gu.par_chunks(band)))
         .enumerate()
         .map(|(b, (chunk, (gm, un)))| {
-            let mut list = Vec::new();
+            let mut list = band_list(chunk.len())?;
             let (mut free, mut covered) = (0u64, 0u64);
             for (k, row) in chunk.chunks_mut(w).enumerate() {
                 let r = b * BAND_ROWS + k;
@@ -271,16 +273,23 @@ fn resample(
                     ec = ec.saturating_add(sc);
                 }
             }
-            (list, free, covered)
+            Ok((list, free, covered))
         })
-        .collect();
+        .collect::<Result<_, EdtError>>()?;
     let (mut free, mut covered) = (0u64, 0u64);
-    let mut e_list = Vec::new();
+    let mut lists = Vec::with_capacity(parts.len());
     for (list, f, c) in parts {
-        e_list.extend(list);
+        lists.push(list);
         free += f;
         covered += c;
     }
+    let mut e_list = concat(lists)?;
+    // room for the cells only the estimate's points mark
+    e_list
+        .try_reserve(points.len())
+        .map_err(|_| EdtError::Alloc {
+            bytes: points.len().saturating_mul(4),
+        })?;
     let mut outside = 0u64;
     let to_cell = gt.world_to_cell_affine().after(&t.affine());
     for &(x, y) in points {
@@ -307,6 +316,26 @@ fn resample(
         free,
         covered,
     })
+}
+
+/// An empty cell list with room for a whole band of `cells` (so that filling it never
+/// allocates again), or [`EdtError::Alloc`].
+fn band_list(cells: usize) -> Result<Vec<u32>, EdtError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(cells).map_err(|_| EdtError::Alloc {
+        bytes: cells.saturating_mul(4),
+    })?;
+    Ok(v)
+}
+
+/// The lists one after the other, in one buffer allocated fallibly.
+fn concat(parts: Vec<Vec<u32>>) -> Result<Vec<u32>, EdtError> {
+    let n = parts.iter().map(Vec::len).sum();
+    let mut out = band_list(n)?;
+    for p in parts {
+        out.extend(p);
+    }
+    Ok(out)
 }
 
 /// Per-chunk partial sums of one side (E or G), summed in chunk order.
@@ -405,23 +434,22 @@ pub fn compare(
         .zip(gt.unknown.par_chunks(band))
         .enumerate()
         .map(|(b, ((m, v), u))| {
-            let mut list = Vec::new();
+            let mut list = band_list(m.len())?;
             for (i, ((m, v), u)) in m.iter_mut().zip(v).zip(u).enumerate() {
                 *m = !*u && occ[*v as usize];
                 if *m {
                     list.push((b * band + i) as u32);
                 }
             }
-            list
+            Ok(list)
         })
-        .collect();
-    let g_list = g_parts.concat();
-    drop(g_parts);
+        .collect::<Result<_, EdtError>>()?;
+    let g_list = concat(g_parts)?;
     // nearest-cell queries of G (ICP correspondences, d(e, G))
     let g_columns = Columns::new(|i| g_mask[i], h, w)?;
     let points = occupied_points(estimate, &occ)?;
     let (transform, icp_rms, icp_iterations, icp_inliers) =
-        align(&points, ground_truth, &g_columns, &g_mask, &g_list, params);
+        align(&points, ground_truth, &g_columns, &g_mask, &g_list, params)?;
     let res = resample(estimate, ground_truth, &g_mask, &transform, &occ, &points)?;
     drop(points);
     let mut cells = res.cells;

@@ -11,7 +11,7 @@
 //! Deterministic: correspondences are computed per point in fixed chunks; the trimmed set is
 //! chosen by (distance, point index), a total order; sums run in point order.
 
-use crate::edt::{Columns, Scratch};
+use crate::edt::{Columns, EdtError, Scratch};
 use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 use std::sync::OnceLock;
@@ -77,7 +77,12 @@ pub struct Target<'a> {
 impl<'a> Target<'a> {
     /// Build the target from the ground truth's frame, its nearest-occupied-cell queries,
     /// and the occupied cells.
-    pub fn new(frame: Frame, columns: &'a Columns, occupied: &'a [bool], cells: &'a [u32]) -> Self {
+    pub fn new(
+        frame: Frame,
+        columns: &'a Columns,
+        occupied: &'a [bool],
+        cells: &'a [u32],
+    ) -> Result<Self, EdtError> {
         let mut row_start = vec![0u32; frame.height + 1];
         for &i in cells {
             row_start[i as usize / frame.width + 1] += 1;
@@ -85,16 +90,25 @@ impl<'a> Target<'a> {
         for r in 0..frame.height {
             row_start[r + 1] += row_start[r];
         }
-        Target {
+        let mut local = Vec::new();
+        local
+            .try_reserve_exact(cells.len())
+            .map_err(|_| EdtError::Alloc {
+                bytes: cells
+                    .len()
+                    .saturating_mul(std::mem::size_of::<OnceLock<Local>>()),
+            })?;
+        local.resize_with(cells.len(), OnceLock::new);
+        Ok(Target {
             row_start,
             frame,
             to_cell: frame.world_to_cell_affine(),
             to_world: frame.cell_to_world(),
             columns,
             occupied,
-            local: (0..cells.len()).map(|_| OnceLock::new()).collect(),
+            local,
             cells,
-        }
+        })
     }
 
     /// The local shape around occupied cell `cells[k]`, fitted when first asked for.
