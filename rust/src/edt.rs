@@ -3,10 +3,17 @@
 //! column, two sweeps) then, per row, Felzenszwalb & Huttenlocher's lower envelope of
 //! parabolas (Theory of Computing 8, 2012).
 //!
+//! Two ways to use it: the whole transform ([`nearest`], [`distances`], [`distances_at`]),
+//! or point queries ([`Columns`]: the column pass kept, each query scanning its row outward
+//! from the cell until no nearer set cell can exist, with the row's envelope as the fallback
+//! for far queries). `compare.rs` uses the queries: it needs distances at wall cells and at
+//! the ICP's points only.
+//!
 //! Squared distances are integers (cells^2), so the result is exact. The row pass runs over
 //! fixed bands of rows in parallel, each row on its own: the result is the same for any
 //! number of threads. Among equidistant set cells the nearest one reported is
-//! the one the envelope keeps (deterministic, not necessarily the lowest index).
+//! the one the envelope (or the scan) finds first (deterministic, not necessarily the lowest
+//! index).
 
 use crate::grid::BAND_ROWS;
 use rayon::prelude::*;
