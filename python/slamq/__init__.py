@@ -31,8 +31,8 @@ from slamq.errors import (
     SlamqError,
     TrajectoryError,
 )
-from slamq.metrics import ate, ate_runs, evaluate, rpe
-from slamq.models import MapQuality, OccupancyMap, Trajectory
+from slamq.metrics import ate, ate_runs, compare, evaluate, rpe
+from slamq.models import MapComparison, MapQuality, OccupancyMap, Trajectory
 from slamq.params import Params
 from slamq.sources import load_map, load_trajectory
 
@@ -66,6 +66,7 @@ def __getattr__(name: str) -> Any:
 __all__ = [
     "BagError",
     "ConformanceError",
+    "MapComparison",
     "MapError",
     "MapQuality",
     "MapWarning",
@@ -78,6 +79,7 @@ __all__ = [
     "TrajectoryError",
     "ate",
     "ate_runs",
+    "compare",
     "discover_runs",
     "evaluate",
     "evaluate_many",

@@ -13,6 +13,10 @@
 //! - [`corners`]: SPEC section 3.
 //! - [`enclosed`]: SPEC section 4, the sweep over unknown values.
 //! - [`evaluate`]: all three metrics of one map, and of many maps in parallel.
+//! - [`edt`]: exact Euclidean distance transform with nearest cells (SPEC section 7).
+//! - [`se2`]: planar rigid motions, map frames, the closed-form rigid fit.
+//! - [`icp`]: trimmed SE(2) ICP onto a distance transform, and the coarse rotation search.
+//! - [`compare`]: a map against a ground-truth map, SPEC section 7.
 //! - `python` (feature `python`): the pyo3 bindings, and nothing else.
 
 // Stencil loops index several rows at offsets from one column index; iterator chains would
@@ -20,15 +24,19 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod border;
+pub mod compare;
 pub mod corners;
+pub mod edt;
 pub mod enclosed;
 pub mod evaluate;
 pub mod filter;
 pub mod grid;
+pub mod icp;
 pub mod label;
 pub mod otsu;
 pub mod params;
 pub mod proportion;
+pub mod se2;
 
 #[cfg(feature = "python")]
 mod python;

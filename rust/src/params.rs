@@ -54,3 +54,66 @@ pub struct Params {
     /// SPEC section 4.
     pub enclosed: EnclosedParams,
 }
+
+/// How the estimate is aligned with the ground truth before comparing (SPEC section 7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Align {
+    /// The frames the map files give (resolution, origin), nothing more.
+    Origin,
+    /// Those frames, refined by trimmed ICP on the occupied cells.
+    Icp,
+    /// A coarse search over rotations (and centroid translation) first, then ICP: for maps
+    /// saved in an arbitrary frame.
+    Search,
+}
+
+impl Align {
+    /// The name the API uses.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Align::Origin => "origin",
+            Align::Icp => "icp",
+            Align::Search => "search",
+        }
+    }
+
+    /// Parse a name of [`Align::name`].
+    pub fn from_name(name: &str) -> Option<Align> {
+        match name {
+            "origin" => Some(Align::Origin),
+            "icp" => Some(Align::Icp),
+            "search" => Some(Align::Search),
+            _ => None,
+        }
+    }
+}
+
+/// Parameters of the ground-truth map comparison (SPEC section 7).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CompareParams {
+    /// A cell matches when the other map has an occupied cell within this distance, in
+    /// cells of the ground truth's grid.
+    pub tolerance: f64,
+    /// Occupied: a known cell whose occupancy probability `(255 - v) / 255` is above this.
+    pub occupied_threshold: f64,
+    pub align: Align,
+    /// Distances above this (in cells of the ground truth's grid) count as this much.
+    pub max_distance: Option<f64>,
+    /// Share of the ICP's correspondences dropped (the worst) at every iteration.
+    pub trim: f64,
+    /// At most this many ICP iterations.
+    pub max_iterations: usize,
+}
+
+impl Default for CompareParams {
+    fn default() -> Self {
+        CompareParams {
+            tolerance: 2.0,
+            occupied_threshold: 0.5,
+            align: Align::Icp,
+            max_distance: None,
+            trim: 0.2,
+            max_iterations: 100,
+        }
+    }
+}

@@ -139,9 +139,23 @@ def test_summarize_uses_sample_std_and_skips_nan():
 
 
 def test_every_metric_is_lower_is_better_and_log_where_the_paper_uses_it():
-    assert {m.key: m.log for m in METRICS} == {
+    paper = [m for m in METRICS if not m.key.startswith("gt_")]
+    assert {m.key: m.log for m in paper} == {
         "ate_rmse": True, "occupied_fraction": False, "corners": True, "enclosed_areas": True}
-    assert all("paper" in m.why for m in METRICS)
+    assert all("paper" in m.why and not m.higher for m in paper)
+    # the ground-truth comparison (docs/spec.md section 7): F1 is the one higher-is-better
+    gt = {m.key: (m.higher, m.log) for m in METRICS if m.key.startswith("gt_")}
+    assert gt == {"gt_f1": (True, False), "gt_chamfer": (False, True)}
+    assert all("section 7" in m.why for m in METRICS if m.key.startswith("gt_"))
+
+
+def test_gt_f1_ranks_the_highest_first_and_the_reference_is_not_ranked():
+    df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b", "ground_truth"],
+                       "gt_f1": [0.9, 0.99, np.nan], "gt_chamfer": [0.05, 0.01, np.nan]})
+    r = rank_sequence(summarize(df), "s")
+    assert r.order == ["b", "a"] and r.references == ["ground_truth"]
+    assert r.best["gt_f1"] == ["b"] and r.best["gt_chamfer"] == ["b"]
+    assert r.ranks["gt_f1"] == {"a": 2.0, "b": 1.0}
 
 
 def test_ranking_and_disagreement():
@@ -393,3 +407,22 @@ def test_tables_are_exported_as_markdown_and_latex(site):
     assert "$\\pm$" in tex and "±" not in tex
     page = index.read_text(encoding="utf-8")
     assert 'href="tables.md"' in page and "red ring: a counted corner" in page
+
+
+def test_ground_truth_columns_ranked_and_overlay_on_detail_pages(tmp_path):
+    """A batch with a ground-truth map: GT F1 and GT chamfer in the ranked table (the
+    reference shown as "ref."), the aligned overlay on every compared map's detail page."""
+    import slamq
+
+    data = Path(__file__).resolve().parent.parent / "data" / "slam_comparison_tools"
+    recs = list(slamq.evaluate_many(data, threads=2))
+    index = build_report(recs, tmp_path / "site", gifs=False)
+    html = index.read_text()
+    assert "GT F1" in html and "GT chamfer (m)" in html and ">ref.<" in html
+    table = (tmp_path / "site" / "tables.md").read_text()
+    assert "GT F1" in table
+    pages = sorted((tmp_path / "site" / "maps").glob("*.html"))
+    with_overlay = [p for p in pages if "_gt.png" in p.read_text()]
+    assert len(with_overlay) == 5 and not any("ground_truth" in p.name for p in with_overlay)
+    img = cv2.imread(str(tmp_path / "site" / "img" / (with_overlay[0].stem + "_gt.png")))
+    assert img is not None and img.shape[2] == 3

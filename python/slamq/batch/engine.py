@@ -64,6 +64,9 @@ def evaluate_many(
     ate_align: str = "se2",
     ate_max_dt: float = 0.01,
     ate_unsorted: str = "error",
+    gt_align: str = "icp",
+    gt_tolerance: float | None = None,
+    gt_max_distance: float | None = None,
     **params: Any,
 ) -> Iterator[dict[str, Any]]:
     """Evaluate many maps; yield one record per map, in input order.
@@ -96,6 +99,11 @@ def evaluate_many(
         Trajectory error options (SPEC section 6; ``ate_unsorted`` as ``unsorted`` of
         :func:`slamq.load_trajectory`), used for runs with a trajectory and a
         ground truth. A trajectory that cannot be scored sets ``ate_error``, not ``error``.
+    gt_align, gt_tolerance, gt_max_distance
+        ``align``, ``tolerance`` (metres) and ``max_distance`` (metres) of
+        :func:`slamq.compare` for runs whose sequence has a ground-truth map (``gt_map``,
+        see :func:`slamq.discover_runs`): they get the ``gt_*`` columns. A ground truth
+        that cannot be compared sets ``gt_error``, not ``error``.
     **params
         Keywords of :func:`slamq.evaluate`: metric parameters, ``unknown_value``,
         ``curve``, ``verify``.
@@ -105,7 +113,8 @@ def evaluate_many(
     dict
         The record of one map: ``map, algorithm, sequence, run, trajectory, groundtruth,
         hash, unknown_value, error, seconds``, every ``MapQuality.to_dict()`` key
-        (``curve`` only when asked for) and ``ate_*`` (None without trajectory).
+        (``curve`` only when asked for), ``ate_*`` (None without trajectory) and ``gt_*``
+        (None without a ground-truth map).
         A map that cannot be read or evaluated gives a record whose ``error`` is
         ``"file: reason"``; the batch goes on.
 
@@ -127,7 +136,8 @@ def evaluate_many(
     [('a', 100), ('b', 100)]
     """
     options = EvalOptions(
-        params, ate_align=ate_align, ate_max_dt=ate_max_dt, ate_unsorted=ate_unsorted
+        params, ate_align=ate_align, ate_max_dt=ate_max_dt, ate_unsorted=ate_unsorted,
+        gt_align=gt_align, gt_tolerance=gt_tolerance, gt_max_distance=gt_max_distance,
     )
     if threads is not None:
         _positive("threads", threads)

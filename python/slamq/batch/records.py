@@ -15,8 +15,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from slamq.batch.runs import Run
+from slamq.batch.runs import Run, is_reference
 from slamq.errors import MapError, ParamError, SlamqError
+from slamq.models.comparison import COMPARISON_FIGURES
 from slamq.params import Params
 from slamq.results.columns import ATE_STATS, columns
 from slamq.sources.files import (
@@ -144,13 +145,17 @@ class EvalOptions:
     ate_unsorted : {"error", "last", "sort"}
         What to do with a trajectory whose timestamps go backwards (a restarted log):
         record an ``ate_error`` (default), keep the rows after the last restart, or sort.
+    gt_align, gt_tolerance, gt_max_distance
+        ``align``, ``tolerance`` and ``max_distance`` of :func:`slamq.compare`, for runs
+        with a ground-truth map (``gt_*`` columns).
     """
 
     _EVAL_KEYS = frozenset({"unknown_value", "curve", "verify"})
 
     def __init__(
         self, params: dict[str, Any] | None = None, *, ate_align: str = "se2",
-        ate_max_dt: float = 0.01, ate_unsorted: str = "error",
+        ate_max_dt: float = 0.01, ate_unsorted: str = "error", gt_align: str = "icp",
+        gt_tolerance: float | None = None, gt_max_distance: float | None = None,
     ) -> None:
         params = dict(params or {})
         extra = {k: params.pop(k) for k in list(params) if k in self._EVAL_KEYS}
@@ -169,6 +174,19 @@ class EvalOptions:
                 f"ate_unsorted must be 'error', 'last' or 'sort', not {ate_unsorted!r}"
             )
         self.ate_unsorted = ate_unsorted
+        from slamq.metrics.compare import ALIGN_MODES
+
+        if gt_align not in ALIGN_MODES:
+            raise ParamError(f"gt_align must be one of {', '.join(ALIGN_MODES)}, "
+                             f"got {gt_align!r}")
+        for name, value in (("gt_tolerance", gt_tolerance),
+                            ("gt_max_distance", gt_max_distance)):
+            if value is not None and (isinstance(value, bool) or not isinstance(
+                    value, (int, float)) or not value > 0):
+                raise ParamError(f"{name} must be a positive number, got {value!r}")
+        self.gt_align = gt_align
+        self.gt_tolerance = gt_tolerance
+        self.gt_max_distance = gt_max_distance
         #: ``threads`` of each ``slamq.evaluate`` call: one core per map, the maps in
         #: parallel (each calling thread gets its own 1-thread pool in the core).
         self.core_threads: int | None = 1
@@ -192,6 +210,7 @@ class EvalOptions:
                 "unknown_value": self.unknown_value,
                 "curve": self.curve,
                 "ate": [self.ate_align, self.ate_max_dt, self.ate_unsorted],
+                "gt": [self.gt_align, self.gt_tolerance, self.gt_max_distance],
             },
             sort_keys=True,
             separators=(",", ":"),
@@ -207,13 +226,13 @@ class EvalOptions:
                 record.get("config"),
                 record.get("trajectory") or None,
                 record.get("groundtruth") or None,
-            ]
+            ] + ([record["gt_map"]] if record.get("gt_map") else [])
         )
 
     def expected_fingerprint(self, run: Run, digest: str | None) -> str:
         return self.fingerprint(
             {"hash": digest, "config": self.config, "trajectory": _str(run.trajectory),
-             "groundtruth": _str(run.groundtruth)}
+             "groundtruth": _str(run.groundtruth), "gt_map": _str(_gt_map(run))}
         )
 
 
@@ -259,6 +278,7 @@ def evaluate_run(
         map=str(run.map), algorithm=run.algorithm, sequence=run.sequence, run=run.run,
         trajectory=_str(run.trajectory), groundtruth=_str(run.groundtruth),
         unknown_value=options.unknown_value, config=options.config,
+        gt_map=_str(_gt_map(run)),
     )
     rec.update({f"param_{k}": v for k, v in options.params.to_dict().items()})
     where = str(run.map)
@@ -289,6 +309,8 @@ def evaluate_run(
             rec.update(d)
         except Exception as exc:  # noqa: BLE001 - a bad map is a row, never a crash
             rec["error"] = _message(where, exc)
+        if rec["error"] is None and _gt_map(run) is not None:  # the same bytes again
+            rec.update(_gt_fields(run, options))
     if twice and rec["error"] is None and _signature(run.map) != before:
         rec["error"] = f"{where}: changed while being read; not scored (run the batch again)"
     if rec["error"] is None and run.trajectory is not None and run.groundtruth is not None:
@@ -310,3 +332,23 @@ def _ate_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
     out: dict[str, Any] = {f"ate_{s}": float(getattr(res, s)) for s in ATE_STATS if s != "n"}
     out["ate_n"] = int(res.n)
     return out
+
+
+def _gt_map(run: Run) -> Path | None:
+    """The ground-truth map to compare the run with (never for a reference run)."""
+    return None if is_reference(run.algorithm) else run.gt_map
+
+
+def _gt_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
+    """``gt_*``: the run's map against its sequence's ground-truth map (SPEC section 7)."""
+    from slamq.metrics.compare import compare
+
+    gt = _gt_map(run)
+    assert gt is not None
+    try:
+        c = compare(str(run.map), str(gt), align=options.gt_align,
+                    tolerance=options.gt_tolerance, max_distance=options.gt_max_distance,
+                    threads=options.core_threads, unknown_value=options.unknown_value)
+    except Exception as exc:  # noqa: BLE001 - a bad ground truth is a field, never a crash
+        return {"gt_error": _message(str(gt), exc)}
+    return {f"gt_{f}": getattr(c, f) for f in COMPARISON_FIGURES}

@@ -32,9 +32,16 @@ followed once.
   ``<sequence>_gt*``, searched in the run folder, then the sequence folder, then the root.
   A CSV trajectory whose header has both ``gt_x`` and an estimate column (``slam_x``,
   ``est_x``) is its own ground truth (a paired pose log).
+* **Ground-truth map** of a sequence (docs/spec.md section 7): the map of its reference
+  run, i.e. a map whose algorithm is one of :data:`REFERENCE_ALGORITHMS` (a
+  ``<sequence>_ground_truth`` map anywhere under the root, or a ``ground_truth*.yaml`` /
+  ``gt_map.yaml`` in the sequence folder, which the flat layout names ``ground_truth`` /
+  ``gt``). Every other run of the sequence gets it as ``gt_map`` (the first by path when
+  there are several); the reference run itself gets none and is never ranked.
 * **Manifest** (``.csv``): columns ``algorithm, sequence, run, map, trajectory,
-  groundtruth`` (only ``map`` required; others may be blank), paths relative to the
-  manifest's folder, ``#`` lines are comments, spaces after commas are ignored.
+  groundtruth, gt_map`` (only ``map`` required; others may be blank), paths relative to
+  the manifest's folder, ``#`` lines are comments, spaces after commas are ignored. A
+  ``gt_map`` cell sets that run's ground-truth map (it wins over a reference run).
 """
 
 from __future__ import annotations
@@ -52,15 +59,40 @@ from slamq.sources.files import PathLike
 from slamq.sources.trajectories import paired_columns
 from slamq.sources.walk import walk_folders
 
-__all__ = ["Run", "describe_layout", "discover_runs", "read_manifest", "TRAJECTORY_SUFFIXES"]
+__all__ = [
+    "REFERENCE_ALGORITHMS",
+    "Run",
+    "describe_layout",
+    "discover_runs",
+    "is_reference",
+    "read_manifest",
+    "TRAJECTORY_SUFFIXES",
+]
 
 TRAJECTORY_SUFFIXES = frozenset({".txt", ".csv", ".tum", ".kitti"})
 #: The algorithm name given to ground-truth maps found in a flat layout.
 GROUND_TRUTH = "ground_truth"
-MANIFEST_COLUMNS = ("algorithm", "sequence", "run", "map", "trajectory", "groundtruth")
+MANIFEST_COLUMNS = ("algorithm", "sequence", "run", "map", "trajectory", "groundtruth",
+                    "gt_map")
+#: "Algorithms" that are reference maps of their sequence (ground truth): their map is the
+#: other runs' ``gt_map``; shown in reports, never ranked.
+REFERENCE_ALGORITHMS = frozenset({"ground_truth", "groundtruth", "gt", "reference"})
+
+
+def is_reference(algorithm: str) -> bool:
+    """Whether runs of ``algorithm`` are reference (ground-truth) maps.
+
+    Examples
+    --------
+    >>> is_reference("Ground_Truth"), is_reference("gmapping")
+    (True, False)
+    """
+    return str(algorithm).lower() in REFERENCE_ALGORITHMS
 
 _GT_NAME = re.compile(r"^(ground[_-]?truth|gt)([_\-.].*)?$", re.IGNORECASE)
 _TRAJ_HINT = re.compile(r"traj|pose|odom|est", re.IGNORECASE)
+#: A map file that is the ground truth of the sequence folder holding it.
+_SEQUENCE_GT_MAP = re.compile(r"^(ground[_-]?truth.*|gt_map|gt)$", re.IGNORECASE)
 
 
 
@@ -77,6 +109,8 @@ class Run:
     trajectory, groundtruth : pathlib.Path or None
         The estimated trajectory and the sequence's ground truth, when known (the same
         file for a paired pose log).
+    gt_map : pathlib.Path or None
+        The sequence's ground-truth map, when known (not part of the key).
 
     Examples
     --------
@@ -94,10 +128,11 @@ class Run:
     #: How the run was found: "runs" (``<algorithm>/<sequence>/<run>/`` folders), "flat",
     #: "manifest", "file" (named directly), or "" (built by hand). Not part of the key.
     layout: str = field(default="", compare=False)
+    gt_map: Path | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "map", Path(self.map))
-        for name in ("trajectory", "groundtruth"):
+        for name in ("trajectory", "groundtruth", "gt_map"):
             value = getattr(self, name)
             if value is not None and not isinstance(value, Path):
                 object.__setattr__(self, name, Path(value))
@@ -174,7 +209,20 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
             if run.key not in seen:
                 seen.add(run.key)
                 out.append(run)
-    return out
+    return _with_ground_truth_maps(out)
+
+
+def _with_ground_truth_maps(runs: list[Run]) -> list[Run]:
+    """Every non-reference run without a ``gt_map`` gets its sequence's reference map."""
+    import dataclasses
+
+    refs: dict[str, Path] = {}
+    for r in sorted((r for r in runs if is_reference(r.algorithm)), key=lambda r: str(r.map)):
+        refs.setdefault(r.sequence, r.map)
+    if not refs:
+        return runs
+    return [r if r.gt_map is not None or is_reference(r.algorithm) or r.sequence not in refs
+            else dataclasses.replace(r, gt_map=refs[r.sequence]) for r in runs]
 
 
 # --------------------------------------------------------------------------- manifest
@@ -184,7 +232,8 @@ def read_manifest(path: PathLike) -> list[Run]:
     """Read a manifest CSV: one run per row, paths relative to the manifest's folder.
 
     Columns (header row required, any order, case-insensitive): ``map`` (required),
-    ``algorithm``, ``sequence``, ``run``, ``trajectory``, ``groundtruth``. Blank
+    ``algorithm``, ``sequence``, ``run``, ``trajectory``, ``groundtruth``, ``gt_map`` (the
+    sequence's ground-truth map). Blank
     algorithm defaults to the flat-layout name of the map, blank sequence to the map's
     folder name, blank run to ``"0"``; blank trajectory/groundtruth mean none. Lines
     starting with ``#`` are comments. A map file that does not exist is kept: the batch
@@ -235,7 +284,9 @@ def read_manifest(path: PathLike) -> list[Run]:
         run_id = cells.get("run") or "0"
         traj = _resolve(base, cells["trajectory"]) if cells.get("trajectory") else None
         gt = _resolve(base, cells["groundtruth"]) if cells.get("groundtruth") else None
-        run = Run(map_path, algorithm, sequence, run_id, traj, gt, layout="manifest")
+        gt_map = _resolve(base, cells["gt_map"]) if cells.get("gt_map") else None
+        run = Run(map_path, algorithm, sequence, run_id, traj, gt, layout="manifest",
+                  gt_map=gt_map)
         if run.key in seen:
             raise MapError(
                 f"{path}: line {lineno}: run {algorithm}/{sequence}/{run_id} with map "
@@ -313,6 +364,9 @@ def _discover_folder(root: Path) -> list[Run]:
             gt_seq = _ground_truth_map(m.stem)
             if gt_seq is not None:
                 runs.append(Run(m, GROUND_TRUTH, gt_seq, "0", layout="flat"))
+                continue
+            if _SEQUENCE_GT_MAP.match(m.stem):  # ground_truth*.yaml, gt_map.yaml
+                runs.append(Run(m, GROUND_TRUTH, folder_seq, "0", layout="flat"))
                 continue
             traj, gt = _flat_trajectories(here, algorithm, algos, folder_seq, root)
             runs.append(Run(m, algorithm, folder_seq, run_id, traj, gt, layout="flat"))

@@ -1,9 +1,10 @@
 """The ``slamq`` command line: one module per command.
 
-``slamq eval`` (:mod:`slamq.cli.eval`), ``batch`` (:mod:`~slamq.cli.batch`), ``summary``
-(:mod:`~slamq.cli.summary`), ``report`` (:mod:`~slamq.cli.report`), ``ate`` / ``rpe``
-(:mod:`~slamq.cli.trajectory`), ``timeline`` (:mod:`~slamq.cli.timeline`). Each module has
-``add_parser(subparsers)``; commands call library functions, never :func:`main`. This module
+``slamq eval`` (:mod:`slamq.cli.eval`), ``compare`` (:mod:`~slamq.cli.compare`), ``batch``
+(:mod:`~slamq.cli.batch`), ``summary`` (:mod:`~slamq.cli.summary`), ``report``
+(:mod:`~slamq.cli.report`), ``ate`` / ``rpe`` (:mod:`~slamq.cli.trajectory`), ``timeline``
+(:mod:`~slamq.cli.timeline`). Each module has ``add_parser(subparsers)``; commands call
+library functions, never :func:`main`. This module
 is the one place that turns errors into exit codes: 0 success, 2 bad input (one stderr line
 names the file and the reason), 1 anything unexpected, 130 Ctrl-C; and the one warning
 digest (:class:`slamq.cli.common.WarningDigest`).
@@ -29,6 +30,7 @@ from slamq.cli.common import (
 #: The command modules, in ``--help`` order.
 COMMANDS: tuple[str, ...] = (
     "slamq.cli.eval",
+    "slamq.cli.compare",
     "slamq.cli.batch",
     "slamq.cli.summary",
     "slamq.cli.report",

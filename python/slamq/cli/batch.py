@@ -37,7 +37,10 @@ def add_parser(subparsers: Any) -> None:
             "records to a results file as chunks finish. Layouts: <algorithm>/<sequence>/"
             "<run>/ folders holding one map (and optionally a trajectory), or flat "
             "<sequence>/<algorithm>_map.yaml folders; a manifest CSV has the columns "
-            "algorithm, sequence, run, map, trajectory, groundtruth (paths relative to it). "
+            "algorithm, sequence, run, map, trajectory, groundtruth, gt_map (paths relative "
+            "to it). A sequence's ground-truth map (<sequence>_ground_truth, "
+            "ground_truth*.yaml or gt_map.yaml in the sequence folder, or the gt_map column) "
+            "adds gt_* columns (slamq compare) to every other run of the sequence. "
             "Rerunning the same command skips maps already in the results file."
         ),
     )
@@ -67,6 +70,14 @@ def add_parser(subparsers: Any) -> None:
                    help="trajectories whose timestamps go backwards (restarted logs): "
                    "report an ATE error (default), keep the rows after the last restart, "
                    "or sort them")
+    p.add_argument("--gt-align", default="icp", choices=("icp", "origin", "search"),
+                   help="alignment of each map with its sequence's ground-truth map "
+                   "(slamq compare --align; default %(default)s)")
+    p.add_argument("--gt-tolerance", type=float, default=None, metavar="M",
+                   help="matching distance for gt_precision / gt_recall, metres (default: 2 "
+                   "cells of the ground truth)")
+    p.add_argument("--gt-max-distance", type=float, default=None, metavar="M",
+                   help="count distances to the ground truth above M metres as M")
     p.add_argument("--report", metavar="DIR", default=None,
                    help="then write the HTML report of the results to DIR (slamq report)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -121,7 +132,8 @@ def _cmd_batch(args: argparse.Namespace) -> int:
                 runs, threads=args.threads, executor=executor,
                 chunk_size=args.chunk_size, out=out, progress=on_progress,
                 ate_align=args.align, ate_max_dt=args.max_dt, ate_unsorted=args.unsorted,
-                **params,
+                gt_align=args.gt_align, gt_tolerance=args.gt_tolerance,
+                gt_max_distance=args.gt_max_distance, **params,
             )
             for rec in records:
                 evaluated += 1
@@ -162,11 +174,16 @@ def _print_runs(runs: list) -> None:
     from slamq.results.table import short_names
 
     names = short_names([str(r.map) for r in runs])
-    rows = [("algorithm", "sequence", "run", "layout", "map", "trajectory", "groundtruth")]
+    from slamq.batch.runs import is_reference
+
+    rows = [("algorithm", "sequence", "run", "layout", "map", "trajectory", "groundtruth",
+             "gt_map")]
     for r in runs:
         rows.append((r.algorithm, r.sequence, r.run, r.layout, names[str(r.map)],
                      r.trajectory.name if r.trajectory else "-",
-                     r.groundtruth.name if r.groundtruth else "-"))
+                     r.groundtruth.name if r.groundtruth else "-",
+                     "(reference)" if is_reference(r.algorithm) else
+                     r.gt_map.name if r.gt_map else "-"))
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:
         print("  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip())

@@ -2,6 +2,8 @@
 
 - :func:`evaluate` (:mod:`slamq.metrics.evaluate`): the three map metrics of
   docs/spec.md sections 2-4, computed by the Rust core.
+- :func:`compare` (:mod:`slamq.metrics.compare`): a map against a ground-truth map,
+  docs/spec.md section 7, computed by the Rust core.
 - :mod:`slamq.metrics.reference`: the same numbers, literally, with OpenCV (the definition).
 - :func:`ate`, :func:`rpe`, :func:`ate_runs` (:mod:`slamq.metrics.ate`): trajectory error
   (docs/spec.md section 6) on :class:`~slamq.models.Trajectory` objects, with association
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 from slamq.metrics.align import ALIGNMENTS, Alignment, estimate_alignment, umeyama
 from slamq.metrics.ate import ErrorResult, RunsResult, ate, ate_runs, rpe
+from slamq.metrics.compare import compare
 from slamq.metrics.evaluate import evaluate
 from slamq.metrics.sync import associate, matching_indices
 
@@ -22,6 +25,7 @@ __all__ = [
     "RunsResult",
     "associate",
     "ate",
+    "compare",
     "ate_runs",
     "estimate_alignment",
     "evaluate",

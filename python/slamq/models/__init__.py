@@ -3,12 +3,14 @@
 - :class:`OccupancyMap`: an occupancy grid held image-style (SPEC section 1).
 - :class:`Trajectory`: timestamped poses (SPEC section 6).
 - :class:`MapQuality`: the three map metrics of one map (SPEC sections 2-4).
+- :class:`MapComparison`: a map scored against a ground-truth map (SPEC section 7).
 """
 
 from __future__ import annotations
 
+from slamq.models.comparison import MapComparison
 from slamq.models.occupancy import OccupancyMap
 from slamq.models.quality import MapQuality
 from slamq.models.trajectory import Trajectory
 
-__all__ = ["MapQuality", "OccupancyMap", "Trajectory"]
+__all__ = ["MapComparison", "MapQuality", "OccupancyMap", "Trajectory"]

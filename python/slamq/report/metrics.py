@@ -1,6 +1,6 @@
 """What the report ranks, in which direction, and how numbers are summarised and printed.
 
-Every metric is "lower is better", as the paper argues (Filatov et al., arXiv 1708.02354):
+The paper's metrics are "lower is better", as it argues (Filatov et al., arXiv 1708.02354):
 
 - ATE RMSE, section IV: "a lower value of RMSE means that the corresponding SLAM algorithm
   provide better results"; plotted on a logarithmic axis (the paper's RMSE figure).
@@ -11,6 +11,10 @@ Every metric is "lower is better", as the paper argues (Filatov et al., arXiv 17
   and have fewer artifacts"; logarithmic axis (the paper's corner figure).
 - enclosed areas, section III.C: "the more of these there are, the lower the quality of the
   map"; logarithmic axis (the paper's enclosed-area figure).
+
+With a ground-truth map (docs/spec.md section 7) two more are ranked: ``gt_f1`` (higher is
+better: the share of walls within the tolerance, both ways) and ``gt_chamfer`` (lower is
+better: the mean distance between the two maps' walls, metres).
 
 The paper also warns that the three map metrics only compare maps of similar coverage: an
 incomplete map has few occupied cells, corners and enclosed areas. The report therefore
@@ -28,6 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+
+from slamq.batch.runs import REFERENCE_ALGORITHMS
 
 __all__ = [
     "METRICS",
@@ -56,6 +62,8 @@ class Metric:
         Plot on a logarithmic axis (where the paper does).
     why : str
         The paper's argument for the direction, with its section.
+    higher : bool
+        Higher is better (default: lower is better).
     """
 
     key: str
@@ -63,6 +71,12 @@ class Metric:
     unit: str
     log: bool
     why: str
+    higher: bool = False
+
+    @property
+    def direction(self) -> str:
+        """``"higher is better"`` or ``"lower is better"``."""
+        return "higher is better" if self.higher else "lower is better"
 
     @property
     def heading(self) -> str:
@@ -70,7 +84,7 @@ class Metric:
         return f"{self.label} ({self.unit})" if self.unit else self.label
 
 
-#: The ranked metrics, in table order. All are "lower is better".
+#: The ranked metrics, in table order ("lower is better" unless ``higher``).
 METRICS: tuple[Metric, ...] = (
     Metric(
         "ate_rmse", "ATE RMSE", "m", True,
@@ -90,6 +104,17 @@ METRICS: tuple[Metric, ...] = (
         "enclosed_areas", "enclosed areas", "", True,
         "paper III.C: the more enclosed areas (superposed rooms, failed loop closure), the "
         "lower the quality of the map",
+    ),
+    Metric(
+        "gt_f1", "GT F1", "", False,
+        "docs/spec.md section 7: the harmonic mean of the shares of estimated walls near a "
+        "ground-truth wall and of ground-truth walls near an estimated one, after "
+        "alignment", higher=True,
+    ),
+    Metric(
+        "gt_chamfer", "GT chamfer", "m", True,
+        "docs/spec.md section 7: the mean distance from each map's walls to the other's "
+        "(missing walls and ghost walls), after alignment",
     ),
 )
 
@@ -155,7 +180,7 @@ class SequenceRanking:
     ranks : dict
         ``ranks[metric_key][algorithm]`` = rank on that metric (ties share the mean rank).
     best : dict
-        ``best[metric_key]`` = the algorithms with the lowest mean on that metric.
+        ``best[metric_key]`` = the algorithms with the best mean on that metric.
     metrics : list of Metric
         The metrics that had values on this sequence.
     disagree : list of Metric
@@ -217,15 +242,16 @@ def _join(parts: list[str]) -> str:
 
 #: "Algorithms" that are reference maps (e.g. a ground-truth map beside the SLAM maps, as
 #: ``slamq batch`` names ``<sequence>_ground_truth`` files): shown, never ranked.
-REFERENCE_NAMES = frozenset({"ground_truth", "groundtruth", "gt", "reference"})
+REFERENCE_NAMES = REFERENCE_ALGORITHMS
 
 
 def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
     """Rank the algorithms of one sequence: mean rank over the metrics, lower is better.
 
-    On each metric with values, algorithms are ranked by their mean over runs (1 = lowest
-    = best; ties share the average rank; an algorithm without a value on a metric is not
-    ranked on it, and the ranks of those that have it are stretched to span 1..N).
+    On each metric with values, algorithms are ranked by their mean over runs (1 = best:
+    the lowest, or the highest for a ``higher`` metric; ties share the average rank; an
+    algorithm without a value on a metric is not ranked on it, and the ranks of those that
+    have it are stretched to span 1..N).
     Reference maps (:data:`REFERENCE_NAMES`) are left out of the ranking.
     The overall score is the mean of an algorithm's ranks; ties are broken
     by the ATE RMSE rank, then by name. A metric "disagrees" when its best algorithm(s) do
@@ -266,14 +292,14 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
         if means.empty:
             continue
         used.append(m)
-        r = means.rank(method="average", ascending=True)
+        r = means.rank(method="average", ascending=not m.higher)
         # stretch to 1..N when only some of the N algorithms have this metric (e.g. ATE),
         # so that lacking a metric neither helps nor hurts
         if 1 < len(means) < len(algorithms):
             r = 1 + (r - 1) * (len(algorithms) - 1) / (len(means) - 1)
         ranks[m.key] = {str(a): float(v) for a, v in r.items()}
-        low = means.min()
-        best[m.key] = sorted(str(a) for a, v in means.items() if v == low)
+        top = means.max() if m.higher else means.min()
+        best[m.key] = sorted(str(a) for a, v in means.items() if v == top)
     score: dict[str, float] = {}
     for a in algorithms:
         mine = [ranks[m.key][a] for m in used if a in ranks[m.key]]

@@ -153,7 +153,7 @@ def metric_figure(
         ax.grid(axis="y", alpha=0.3, which="both")
         if i % cols == 0:
             ax.set_ylabel(metric.heading + (" (log)" if metric.log else ""))
-    fig.suptitle(f"{metric.heading} per run — lower is better", fontsize=11)
+    fig.suptitle(f"{metric.heading} per run — {metric.direction}", fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=_DPI)
     plt.close(fig)

@@ -223,7 +223,7 @@ def _run_scores(group: pd.DataFrame) -> pd.Series:
         if m.key in group:
             v = pd.to_numeric(group[m.key], errors="coerce")
             if v.notna().any():
-                ranks.append(v.rank(method="average"))
+                ranks.append(v.rank(method="average", ascending=not m.higher))
     if not ranks:
         return pd.Series(0.0, index=group.index)
     return pd.concat(ranks, axis=1).mean(axis=1, skipna=True).fillna(math.inf)
@@ -283,6 +283,7 @@ def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool) -> 
             "<h2>Enclosed areas over the unknown value</h2><p>The sweep of SPEC section 4 "
             "(paper III.C): unknown cells take every value u; the metric is the maximum.</p>"
             f"<p><img src=\"../{curve_png}\" alt=\"enclosed-area curve\"></p>")
+        sections.append(_ground_truth_section(rec, out, mp))
         if trajectories:
             sections.append(_trajectory_section(rec, grid, out, mp))
         if gifs:
@@ -307,11 +308,13 @@ def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool) -> 
 
 _DETAIL_KEYS = (
     "ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n",
+    "gt_precision", "gt_recall", "gt_f1", "gt_iou", "gt_ne", "gt_reverse", "gt_chamfer",
+    "gt_coverage", "gt_dx", "gt_dy", "gt_dyaw", "gt_icp_rms", "gt_truncated", "gt_outside",
     "occupied_fraction", "corners", "enclosed_areas", "enclosed_unknown_value",
     "proportion", "threshold", "occupied", "free", "unknown", "known", "total",
     "height", "width", "seconds",
 )
-_FILE_KEYS = ("map", "trajectory", "groundtruth", "ate_error", "hash")
+_FILE_KEYS = ("map", "trajectory", "groundtruth", "gt_map", "ate_error", "gt_error", "hash")
 
 
 def _fmt_cell(x: Any) -> str:
@@ -320,6 +323,48 @@ def _fmt_cell(x: Any) -> str:
     if isinstance(x, (float, np.floating)):
         return f"{float(x):.6g}"
     return str(x)
+
+
+def _ground_truth_section(rec: dict, out: Path, mp: _MapPage) -> str:
+    """The map aligned over its sequence's ground-truth map (docs/spec.md section 7)."""
+    if not usable(rec.get("gt_map")) or usable(rec.get("gt_error")):
+        return ""
+    from slamq.metrics.compare import compare
+    from slamq.report.comparison import COMPARISON_COLOURS, write_comparison_png
+
+    cfg = _gt_config(rec.get("config"))
+    try:
+        c = compare(rec["map"], rec["gt_map"], align=cfg[0], tolerance=cfg[1],
+                    max_distance=cfg[2], cells=True)
+    except (SlamqError, OSError, ValueError) as exc:
+        mp.notes.append(f"ground-truth overlay not drawn: {exc}")
+        return ""
+    png = f"img/{mp.slug}_gt.png"
+    write_comparison_png(out / png, c)
+    swatch = "".join(
+        f"<span><i class=\"swatch\" style=\"background:rgb{COMPARISON_COLOURS[k]}\"></i> "
+        f"{label}</span>" for k, label in (
+            ("matched", "walls both maps have"), ("missing", "ground-truth walls the map "
+                                                  "lacks"), ("ghost", "walls only the map has")))
+    return (
+        "<h2>Against the ground-truth map</h2><p>The map aligned (" + _e(c.align) +
+        f": dx {c.dx:+.3f} m, dy {c.dy:+.3f} m, dyaw {c.dyaw:+.2f}&deg;) and resampled onto "
+        f"the ground truth's grid; a wall matches within {c.tolerance:.3g} m. F1 "
+        f"{c.f1:.3f}, chamfer {c.chamfer:.3f} m (docs/spec.md section 7).</p>"
+        f"<p class=\"legend\">{swatch}</p>"
+        f"<p class=\"big\"><a href=\"../{png}\"><img src=\"../{png}\" "
+        "alt=\"map over the ground truth\"></a></p>")
+
+
+def _gt_config(config: Any) -> tuple[str, float | None, float | None]:
+    """``(align, tolerance, max_distance)`` of the record's comparison settings."""
+    import json
+
+    try:
+        gt = json.loads(config)["gt"]
+        return str(gt[0]), gt[1], gt[2]
+    except (TypeError, ValueError, KeyError, IndexError):
+        return "icp", None, None
 
 
 def _trajectory_section(rec: dict, grid: Any, out: Path, mp: _MapPage) -> str:
@@ -450,17 +495,17 @@ def _index_body(
 
 def _how_to_read() -> str:
     items = "".join(
-        f"<li><b>{_e(m.heading)}</b>: lower is better &mdash; {_e(m.why)}.</li>" for m in METRICS)
+        f"<li><b>{_e(m.heading)}</b>: {m.direction} &mdash; {_e(m.why)}.</li>" for m in METRICS)
     return (
         "<details id=\"how\"><summary>How to read this page</summary><ul>" + items +
         "<li><b>Ranking</b>: on each metric the algorithms are ranked by their mean over runs "
-        "(1 = lowest; ties share the rank; when only some algorithms have a metric, such as "
-        "ATE, their ranks are stretched to 1..N); an algorithm's score is its mean rank over the "
-        "metrics it has; ties go to the better ATE RMSE. &#9733; marks the best value per "
-        "column. A metric <i>disagrees</i> when its best algorithm is not the overall "
-        "winner.</li><li>The map metrics compare maps of one sequence with similar coverage "
-        "(paper III.A, III.B): a map that covers much less ground looks good on all three. "
-        "Such maps are flagged.</li>"
+        "(1 = best: the lowest, or the highest for GT F1; ties share the rank; when only some "
+        "algorithms have a metric, such as ATE, their ranks are stretched to 1..N); an "
+        "algorithm's score is its mean rank over the metrics it has; ties go to the better ATE "
+        "RMSE. &#9733; marks the best value per column. A metric <i>disagrees</i> when its best"
+        " algorithm is not the overall winner.</li><li>The map metrics compare maps of one "
+        "sequence with similar coverage (paper III.A, III.B): a map that covers much less "
+        "ground looks good on all three. Such maps are flagged.</li>"
         "<li>Gallery: the best and the worst run of each algorithm (by mean rank among its "
         "runs). Red rings: the counted corners; coloured: the counted enclosed areas. Click "
         "a map for its detail page.</li></ul></details>")
@@ -575,7 +620,11 @@ def write_tables(summary: pd.DataFrame, out: Path) -> tuple[Path, Path]:
     >>> print(md.read_text().splitlines()[2])
     | office | gmapping | 3 | – | – | 12 ± 2 | – |
     """
-    heads = [m.heading for m in METRICS]
+    # the ground-truth columns only when some map had a ground truth
+    metrics = [m for m in METRICS if not m.key.startswith("gt_")
+               or int(pd.to_numeric(summary.get(f"{m.key}_n", pd.Series(dtype=float)),
+                                    errors="coerce").fillna(0).sum()) > 0]
+    heads = [m.heading for m in metrics]
     md = ["| sequence | algorithm | runs | " + " | ".join(heads) + " |",
           "|---|---|---:|" + "---:|" * len(heads)]
     tex = [r"\begin{tabular}{ll r" + "r" * len(heads) + "}", r"\hline",
@@ -583,7 +632,7 @@ def write_tables(summary: pd.DataFrame, out: Path) -> tuple[Path, Path]:
            r"\hline"]
     for (seq, alg), row in summary.iterrows():
         cells = []
-        for m in METRICS:
+        for m in metrics:
             if f"{m.key}_mean" in row and int(row.get(f"{m.key}_n", 0) or 0) > 0:
                 cells.append(format_mean_std(row[f"{m.key}_mean"], row[f"{m.key}_std"]))
             else:

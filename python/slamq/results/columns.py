@@ -2,7 +2,8 @@
 
 A record is one map of a batch (or of ``slamq eval``): where it belongs (:data:`RUN_COLUMNS`),
 its metrics (:data:`QUALITY_COLUMNS`, the keys of ``MapQuality.to_dict()`` with the
-parameters as ``param_*``), and its trajectory error (:data:`ATE_COLUMNS`).
+parameters as ``param_*``), its trajectory error (:data:`ATE_COLUMNS`), and its comparison
+with the sequence's ground-truth map (:data:`GT_COLUMNS`).
 """
 
 from __future__ import annotations
@@ -15,11 +16,13 @@ from dataclasses import fields
 from typing import Any
 
 from slamq.models import MapQuality
+from slamq.models.comparison import COMPARISON_FIGURES
 from slamq.params import PARAM_NAMES
 
 __all__ = [
     "ATE_COLUMNS",
     "ATE_STATS",
+    "GT_COLUMNS",
     "KEY",
     "QUALITY_COLUMNS",
     "RUN_COLUMNS",
@@ -43,6 +46,8 @@ QUALITY_COLUMNS = tuple(
 ATE_STATS = ("rmse", "mean", "median", "std", "min", "max", "n")
 #: Trajectory error against ground truth (SPEC section 6), when both are known.
 ATE_COLUMNS = tuple(f"ate_{s}" for s in ATE_STATS) + ("ate_error",)
+#: The map against its sequence's ground-truth map (SPEC section 7), when there is one.
+GT_COLUMNS = ("gt_map",) + tuple(f"gt_{f}" for f in COMPARISON_FIGURES) + ("gt_error",)
 
 
 def columns(curve: bool = False) -> tuple[str, ...]:
@@ -51,11 +56,11 @@ def columns(curve: bool = False) -> tuple[str, ...]:
     Examples
     --------
     >>> cols = columns()
-    >>> cols[:3], "corners" in cols, "curve" in cols, "ate_rmse" in cols
-    (('map', 'algorithm', 'sequence'), True, False, True)
+    >>> cols[:3], "corners" in cols, "curve" in cols, "ate_rmse" in cols, "gt_f1" in cols
+    (('map', 'algorithm', 'sequence'), True, False, True, True)
     """
     q = QUALITY_COLUMNS if curve else tuple(c for c in QUALITY_COLUMNS if c != "curve")
-    return RUN_COLUMNS + q + ATE_COLUMNS
+    return RUN_COLUMNS + q + ATE_COLUMNS + GT_COLUMNS
 
 
 def json_value(value: Any) -> Any:

@@ -27,7 +27,14 @@ from typing import IO, Any
 
 from slamq.errors import MapError, ParamError, SlamqError
 from slamq.models import MapQuality
-from slamq.results.columns import ATE_COLUMNS, KEY, QUALITY_COLUMNS, RUN_COLUMNS, json_value
+from slamq.results.columns import (
+    ATE_COLUMNS,
+    GT_COLUMNS,
+    KEY,
+    QUALITY_COLUMNS,
+    RUN_COLUMNS,
+    json_value,
+)
 from slamq.sources.files import PathLike, one_line
 
 __all__ = [
@@ -40,23 +47,24 @@ __all__ = [
 ]
 
 #: Besides the key, what resuming reads back from a results file.
-_RESUME_COLUMNS = ("hash", "config", "trajectory", "groundtruth", "error")
+_RESUME_COLUMNS = ("hash", "config", "trajectory", "groundtruth", "gt_map", "error")
 _JSONL = (".jsonl", ".ndjson")
 _PARQUET = (".parquet", ".pq")
 
 _INT_COLUMNS = {
     "unknown_value", "height", "width", "total", "known", "unknown", "occupied", "free",
     "corners", "enclosed_areas", "enclosed_unknown_value", "param_min_dot_area",
-    "param_sweep_step", "param_min_area", "ate_n",
+    "param_sweep_step", "param_min_area", "ate_n", "gt_truncated", "gt_outside",
 }
 #: Float columns that are NaN when a map has no known cell (null in JSON).
 _FLOAT_COLUMNS = {"occupied_fraction", "proportion", "threshold", "seconds",
                   "param_log_threshold", "param_harris_k", "param_harris_quality"} | {
-    f"ate_{s}" for s in ("rmse", "mean", "median", "std", "min", "max")}
+    f"ate_{s}" for s in ("rmse", "mean", "median", "std", "min", "max")} | {
+    c for c in GT_COLUMNS if c not in ("gt_map", "gt_error", "gt_truncated", "gt_outside")}
 _STR_COLUMNS = {
     "map", "algorithm", "sequence", "run", "trajectory", "groundtruth", "hash", "config",
     "error",
-    "source", "ate_error",
+    "source", "ate_error", "gt_map", "gt_error",
 }
 
 
@@ -233,7 +241,7 @@ def read_records(path: PathLike) -> list[dict[str, Any]]:
 
 def _ordered_columns(records: list[dict[str, Any]]) -> list[str]:
     cols: dict[str, None] = {}
-    for name in RUN_COLUMNS + QUALITY_COLUMNS + ATE_COLUMNS:
+    for name in RUN_COLUMNS + QUALITY_COLUMNS + ATE_COLUMNS + GT_COLUMNS:
         cols[name] = None
     for rec in records:
         for name in rec:
@@ -272,7 +280,8 @@ def _arrow_column(name: str, values: list[Any]) -> Any:
         values = [None if v is None else int(v) for v in values]
     elif name == "curve":
         typ = pa.list_(pa.int32())
-    elif name.startswith(("param_", "ate_")) or name in QUALITY_COLUMNS or name == "seconds":
+    elif (name.startswith(("param_", "ate_", "gt_")) or name in QUALITY_COLUMNS
+          or name == "seconds"):
         typ = pa.float64()
         values = [None if v is None else float(v) for v in values]
     else:

@@ -19,7 +19,8 @@ from typing import Any
 from slamq.errors import ParamError
 from slamq.results.columns import settings_difference
 
-__all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "spreadsheet_safe", "summary_table"]
+__all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "GT_METRICS", "spreadsheet_safe",
+           "summary_table"]
 
 #: Map metrics summarised (every numeric MapQuality output).
 SUMMARY_METRICS = (
@@ -28,6 +29,9 @@ SUMMARY_METRICS = (
 )
 #: Trajectory error columns summarised when the results have any.
 ATE_METRICS = ("ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n")
+#: Ground-truth map comparison columns (SPEC section 7) summarised when any run has them.
+GT_METRICS = ("gt_precision", "gt_recall", "gt_f1", "gt_iou", "gt_ne", "gt_reverse",
+              "gt_chamfer", "gt_coverage")
 
 
 def _frame(results: Any) -> Any:
@@ -67,7 +71,8 @@ def summarize(
         ``n`` (runs without error), ``failed`` (runs with an error, left out of the
         statistics), then ``<metric>_mean`` and ``<metric>_std`` for every metric in
         :data:`SUMMARY_METRICS`, and for the ``ate_*`` columns when any run has a
-        trajectory error (``ate_runs`` counts the runs that have one), and ``<metric>_n``,
+        trajectory error (``ate_runs`` counts the runs that have one), for the ``gt_*``
+        figures of :data:`GT_METRICS` when any run has a ground-truth map, and ``<metric>_n``,
         the number of runs where the metric is a number: a metric's mean and std are over
         those runs (a map with no known cell has NaN ratios), so they may cover fewer than
         ``n`` runs.
@@ -114,6 +119,8 @@ def summarize(
     metrics = [m for m in SUMMARY_METRICS if m in df.columns]
     if has_ate:
         metrics += [m for m in ATE_METRICS if m in df.columns]
+    if "gt_f1" in df.columns and df.loc[~failed_mask, "gt_f1"].notna().any():
+        metrics += [m for m in GT_METRICS if m in df.columns]
     rows = []
     keys = df[["algorithm", "sequence"]].astype(str)
     for (alg, seq), idx in keys.groupby(["algorithm", "sequence"], sort=True).groups.items():

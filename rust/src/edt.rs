@@ -1,0 +1,658 @@
+//! Exact Euclidean distance transform of a binary grid, with the nearest set cell of every
+//! cell (SPEC section 7): a column pass (distance to the nearest set cell in the same
+//! column, two sweeps) then, per row, Felzenszwalb & Huttenlocher's lower envelope of
+//! parabolas (Theory of Computing 8, 2012).
+//!
+//! Two ways to use it: the whole transform ([`nearest`], [`distances`], [`distances_at`]),
+//! or point queries ([`Columns`]: the column pass kept, each query scanning its row outward
+//! from the cell until no nearer set cell can exist, with the row's envelope as the fallback
+//! for far queries). `compare.rs` uses the queries: it needs distances at wall cells and at
+//! the ICP's points only.
+//!
+//! Squared distances are integers (cells^2), so the result is exact. The row pass runs over
+//! fixed bands of rows in parallel, each row on its own: the result is the same for any
+//! number of threads. Among equidistant set cells the nearest one reported is
+//! the one the envelope (or the scan) finds first (deterministic, not necessarily the lowest
+//! index).
+
+use crate::grid::BAND_ROWS;
+use rayon::prelude::*;
+use std::cell::RefCell;
+use std::fmt;
+
+/// "No set cell": the nearest index of every cell when the mask has no set cell.
+pub const NONE: u32 = u32::MAX;
+
+/// Why a distance transform could not be computed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum EdtError {
+    /// `mask.len() != height * width`, or an empty grid.
+    Shape {
+        height: usize,
+        width: usize,
+        len: usize,
+    },
+    /// The squared diagonal does not fit the u32 distances (diagonal over 65535 cells), or
+    /// the grid has more cells than a u32 index.
+    TooLarge { height: usize, width: usize },
+    /// A buffer could not be allocated.
+    Alloc { bytes: usize },
+}
+
+impl fmt::Display for EdtError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            EdtError::Shape { height, width, len } => {
+                write!(f, "mask holds {len} cells, not {height} x {width}")
+            }
+            EdtError::TooLarge { height, width } => write!(
+                f,
+                "a {height} x {width} grid is too large for the distance transform \
+                 (diagonal at most 65535 cells)"
+            ),
+            EdtError::Alloc { bytes } => write!(f, "cannot allocate {bytes} bytes"),
+        }
+    }
+}
+
+impl std::error::Error for EdtError {}
+
+/// A zero-filled vector of `n` elements, or [`EdtError::Alloc`].
+pub(crate) fn filled<T: Clone>(n: usize, value: T) -> Result<Vec<T>, EdtError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| EdtError::Alloc {
+        bytes: n.saturating_mul(std::mem::size_of::<T>()),
+    })?;
+    v.resize(n, value);
+    Ok(v)
+}
+
+/// Check the shape and the size limits.
+fn check(height: usize, width: usize, len: usize) -> Result<(), EdtError> {
+    if height == 0 || width == 0 || height.checked_mul(width) != Some(len) {
+        return Err(EdtError::Shape { height, width, len });
+    }
+    let (h, w) = ((height - 1) as u64, (width - 1) as u64);
+    let diag = h
+        .checked_mul(h)
+        .and_then(|a| w.checked_mul(w).and_then(|b| a.checked_add(b)));
+    if len >= NONE as usize || diag.is_none_or(|d| d >= u32::MAX as u64) {
+        return Err(EdtError::TooLarge { height, width });
+    }
+    Ok(())
+}
+
+/// What the row pass writes for every cell.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Out {
+    /// The squared distance to the nearest set cell (`u32::MAX`: none).
+    Distance,
+    /// The row-major index of the nearest set cell ([`NONE`]: none).
+    Nearest,
+}
+
+/// The nearest set cell of every cell of a `height x width` grid whose set cells are those
+/// `set(index)` says (row-major indices; [`NONE`] everywhere when no cell is set).
+pub fn nearest<F>(set: F, height: usize, width: usize) -> Result<Vec<u32>, EdtError>
+where
+    F: Fn(usize) -> bool + Sync,
+{
+    transform(&set, height, width, Out::Nearest, None)
+}
+
+/// The squared distance (cells^2) of every cell to the nearest set cell (`u32::MAX` when
+/// no cell is set).
+pub fn distances<F>(set: F, height: usize, width: usize) -> Result<Vec<u32>, EdtError>
+where
+    F: Fn(usize) -> bool + Sync,
+{
+    transform(&set, height, width, Out::Distance, None)
+}
+
+/// [`distances`] at the cells where `query` is true (`u32::MAX` elsewhere): rows without a
+/// query cell skip the row pass, and the others evaluate the envelope at the query cells
+/// only.
+pub fn distances_at<F>(
+    set: F,
+    height: usize,
+    width: usize,
+    query: &[bool],
+) -> Result<Vec<u32>, EdtError>
+where
+    F: Fn(usize) -> bool + Sync,
+{
+    transform(&set, height, width, Out::Distance, Some(query))
+}
+
+/// The squared distance between cells `a` and `b` (row-major indices) of a `width`-wide
+/// grid.
+#[inline]
+pub fn sqdist_between(a: usize, b: usize, width: usize) -> u32 {
+    let (ra, ca) = (a / width, a % width);
+    let (rb, cb) = (b / width, b % width);
+    let (dr, dc) = (ra.abs_diff(rb) as u64, ca.abs_diff(cb) as u64);
+    (dr * dr + dc * dc) as u32
+}
+
+fn transform<F>(
+    set: &F,
+    height: usize,
+    width: usize,
+    out: Out,
+    query: Option<&[bool]>,
+) -> Result<Vec<u32>, EdtError>
+where
+    F: Fn(usize) -> bool + Sync,
+{
+    let cells = height.saturating_mul(width);
+    check(height, width, cells)?;
+    if let Some(q) = query {
+        if q.len() != cells {
+            return Err(EdtError::Shape {
+                height,
+                width,
+                len: q.len(),
+            });
+        }
+    }
+    // column pass: the row of the nearest set cell in the same column (NONE if none); the
+    // row pass then overwrites each row in place, from a copy of it
+    let mut buf = column_pass(set, height, width)?;
+    let band = BAND_ROWS * width;
+    let rows = |b: usize, chunk: &mut [u32], qb: Option<&[bool]>| {
+        let mut env = Envelope::new(width);
+        let mut near_row = vec![NONE; width];
+        for (k, row) in chunk.chunks_mut(width).enumerate() {
+            near_row.copy_from_slice(row);
+            let r = b * BAND_ROWS + k;
+            match qb {
+                Some(qb) => env.row_at(r, &near_row, row, &qb[k * width..(k + 1) * width]),
+                None => env.row(r, &near_row, row, out),
+            }
+        }
+    };
+    match query {
+        Some(q) => buf
+            .par_chunks_mut(band)
+            .zip(q.par_chunks(band))
+            .enumerate()
+            .for_each(|(b, (chunk, qb))| rows(b, chunk, Some(qb))),
+        None => buf
+            .par_chunks_mut(band)
+            .enumerate()
+            .for_each(|(b, chunk)| rows(b, chunk, None)),
+    }
+    Ok(buf)
+}
+
+/// For each cell, the row of the nearest set cell in its column: a downward sweep that
+/// copies the row above and marks the set cells, then an upward sweep (each step a
+/// vectorisable loop over the columns; this pass is memory bound and cheap next to the row
+/// pass, so it stays on one thread). Ties between the set cell above and the one below go
+/// to the one above.
+fn column_pass<F>(set: &F, height: usize, width: usize) -> Result<Vec<u32>, EdtError>
+where
+    F: Fn(usize) -> bool,
+{
+    let cells = height * width;
+    let mut near = take_buffer(cells)?;
+    near.resize(width, NONE);
+    for r in 0..height {
+        let base = r * width;
+        if r > 0 {
+            near.extend_from_within(base - width..base);
+        }
+        let r32 = r as u32;
+        for (c, o) in near[base..base + width].iter_mut().enumerate() {
+            if set(base + c) {
+                *o = r32;
+            }
+        }
+    }
+    let mut below = vec![NONE; width];
+    for r in (0..height).rev() {
+        let out = &mut near[r * width..(r + 1) * width];
+        let r32 = r as u32;
+        for (o, low) in out.iter_mut().zip(below.iter_mut()) {
+            if *o == r32 {
+                *low = r32; // a set cell (the downward sweep marked it with its own row)
+            }
+            // `*o` (at or above r) is NONE or <= r; `*low` (at or below r) is NONE or >= r
+            if *low != NONE && (*o == NONE || *low - r32 < r32 - *o) {
+                *o = *low;
+            }
+        }
+    }
+    Ok(near)
+}
+
+/// Work space of the lower envelope of one row's parabolas `y = (x - v)^2 + f(v)`, kept
+/// as `g(v) = f(v) + v^2` so that every comparison is exact integer arithmetic (no
+/// division: the intersections are compared by cross-multiplying; the products stay below
+/// 2^50 for grids whose diagonal is under 65536 cells).
+struct Envelope {
+    /// Columns of the parabolas in the envelope, left to right.
+    v: Vec<i64>,
+    /// Their `g(v)`.
+    g: Vec<i64>,
+}
+
+impl Envelope {
+    fn new(width: usize) -> Self {
+        Envelope {
+            v: vec![0; width],
+            g: vec![0; width],
+        }
+    }
+
+    /// One row: `near_row[c]` is the row of the nearest set cell in column `c`. Writes the
+    /// squared distances or the nearest cells (`out`) to `d`.
+    fn row(&mut self, r: usize, near_row: &[u32], d: &mut [u32], out: Out) {
+        let width = near_row.len();
+        let k = self.build(r, near_row);
+        let (v, g) = (&self.v[..width], &self.g[..width]);
+        if k == 0 {
+            d.fill(u32::MAX); // no set cell in the whole grid (u32::MAX is also NONE)
+            return;
+        }
+        // parabola j is the lowest from the previous one's end to the last column before
+        // its intersection with parabola j + 1 (ties: the left one, as in the sweep)
+        let w = width as i64;
+        let mut start = 0i64;
+        for j in 0..k {
+            let end = if j + 1 < k {
+                // intersection x = dg / dv with dg = g[j+1] - g[j], dv = 2 (v[j+1] - v[j]);
+                // the last column q with q <= x, i.e. the largest q with q dv <= dg: a
+                // float division (exact operands below 2^53) corrected by one exact step
+                let (dg, dv) = (g[j + 1] - g[j], 2 * (v[j + 1] - v[j]));
+                let x = dg as f64 / dv as f64;
+                let mut e = x as i64 - ((x < (x as i64) as f64) as i64);
+                if (e + 1) * dv <= dg {
+                    e += 1;
+                } else if e * dv > dg {
+                    e -= 1;
+                }
+                e.min(w - 1)
+            } else {
+                w - 1
+            };
+            if end < start {
+                continue;
+            }
+            let (p, gp) = (v[j], g[j]);
+            let (s, e) = (start as usize, end as usize + 1);
+            match out {
+                // (q - p)^2 + f(p) = g(p) - 2 q p + q^2; fits u32: checked against the
+                // diagonal
+                Out::Distance => {
+                    for (q, dq) in (start..).zip(d[s..e].iter_mut()) {
+                        *dq = (gp - 2 * q * p + q * q) as u32;
+                    }
+                }
+                Out::Nearest => {
+                    d[s..e].fill((near_row[p as usize] as usize * width + p as usize) as u32)
+                }
+            }
+            start = end + 1;
+            if start >= w {
+                break;
+            }
+        }
+    }
+
+    /// One row's squared distances at the `query` columns only (others: `u32::MAX`).
+    fn row_at(&mut self, r: usize, near_row: &[u32], d: &mut [u32], query: &[bool]) {
+        d.fill(u32::MAX);
+        if !query.iter().any(|&b| b) {
+            return;
+        }
+        let k = self.build(r, near_row);
+        if k == 0 {
+            return;
+        }
+        let (v, g) = (&self.v, &self.g);
+        let mut j = 0usize;
+        for (q, (dq, _)) in d.iter_mut().zip(query).enumerate().filter(|(_, (_, &b))| b) {
+            let q = q as i64;
+            // move right while the next parabola is lower at q (their intersection < q)
+            while j + 1 < k && g[j + 1] - g[j] < 2 * q * (v[j + 1] - v[j]) {
+                j += 1;
+            }
+            *dq = (g[j] - 2 * q * v[j] + q * q) as u32;
+        }
+    }
+
+    /// The lower envelope of row `r`'s parabolas; returns how many it holds (in `v`, `g`).
+    fn build(&mut self, r: usize, near_row: &[u32]) -> usize {
+        let (v, g) = (&mut self.v[..near_row.len()], &mut self.g[..near_row.len()]);
+        let r = r as i64;
+        let mut k = 0usize;
+        // the last two parabolas of the envelope, kept in registers: (av, ag) below the top
+        // (bv, bg); valid when k >= 2 and k >= 1
+        let (mut av, mut ag, mut bv, mut bg) = (0i64, 0i64, 0i64, 0i64);
+        for (q, &nr) in near_row.iter().enumerate() {
+            if nr == NONE {
+                continue;
+            }
+            let q = q as i64;
+            let dr = r - nr as i64;
+            let gq = dr * dr + q * q;
+            // drop the last parabola while the new one hides it: the intersection of the
+            // last two is at or right of the intersection of the last one with the new one
+            while k >= 2 && (gq - bg) * (bv - av) <= (bg - ag) * (q - bv) {
+                k -= 1;
+                (bv, bg) = (av, ag);
+                if k >= 2 {
+                    (av, ag) = (v[k - 2], g[k - 2]);
+                }
+            }
+            v[k] = q;
+            g[k] = gq;
+            k += 1;
+            (av, ag, bv, bg) = (bv, bg, q, gq);
+        }
+        k
+    }
+}
+
+thread_local! {
+    /// Column-pass buffers kept between calls on this thread (at most [`SPARE_COUNT`], of
+    /// at most [`SPARE_MAX`] cells each): a fresh buffer of megabytes costs one page fault
+    /// per 4 KiB when first written, which is a fifth of a comparison's time.
+    static SPARE: RefCell<Vec<Vec<u32>>> = const { RefCell::new(Vec::new()) };
+}
+const SPARE_COUNT: usize = 2;
+const SPARE_MAX: usize = 1 << 24;
+
+/// An empty buffer with room for `cells` values: a spare one when it is large enough.
+fn take_buffer(cells: usize) -> Result<Vec<u32>, EdtError> {
+    let spare = SPARE.with(|s| {
+        let mut s = s.borrow_mut();
+        let i = s.iter().position(|v| v.capacity() >= cells)?;
+        Some(s.swap_remove(i))
+    });
+    let mut v = spare.unwrap_or_default();
+    v.clear();
+    v.try_reserve_exact(cells).map_err(|_| EdtError::Alloc {
+        bytes: cells.saturating_mul(4),
+    })?;
+    Ok(v)
+}
+
+/// Keep `v` for a later [`take_buffer`] on this thread, if there is room.
+fn give_back(v: Vec<u32>) {
+    if v.capacity() == 0 || v.capacity() > SPARE_MAX {
+        return;
+    }
+    // a thread being torn down has no spares any more: the buffer is simply freed
+    let _ = SPARE.try_with(|s| {
+        let mut s = s.borrow_mut();
+        if s.len() < SPARE_COUNT {
+            s.push(v);
+        }
+    });
+}
+
+/// Columns scanned outward from a query before the row's envelope is built instead.
+const SCAN: usize = 48;
+
+/// Point queries of the distance transform: the column pass of a mask, kept, answers "which
+/// set cell is nearest to cell (r, c)" by scanning the columns of row `r` outward from `c`
+/// (column `q` at `k` columns offers `k^2 + f(q)`; the scan stops once `k^2` reaches the
+/// best offer, which is exact), and after [`SCAN`] columns falls back to the row's lower
+/// envelope. Queries near set cells (the usual case: walls near walls) cost a few steps
+/// instead of a transform of the whole grid.
+pub struct Columns {
+    pub height: usize,
+    pub width: usize,
+    near: Vec<u32>,
+}
+
+impl Drop for Columns {
+    fn drop(&mut self) {
+        give_back(std::mem::take(&mut self.near));
+    }
+}
+
+/// Per-caller work space of [`Columns::query`] (the fallback's envelope).
+pub struct Scratch(Envelope);
+
+impl Columns {
+    /// The column pass of the mask whose set cells are those `set(index)` says.
+    pub fn new<F>(set: F, height: usize, width: usize) -> Result<Self, EdtError>
+    where
+        F: Fn(usize) -> bool,
+    {
+        let cells = height.saturating_mul(width);
+        check(height, width, cells)?;
+        Ok(Columns {
+            height,
+            width,
+            near: column_pass(&set, height, width)?,
+        })
+    }
+
+    /// Work space for [`Columns::query`]; one per thread.
+    pub fn scratch(&self) -> Scratch {
+        Scratch(Envelope::new(self.width))
+    }
+
+    /// The nearest set cell of cell `(r, c)` (row-major index) and the squared distance to
+    /// it, or None when no cell is set. Ties: the first offer found (the cell's own column,
+    /// then nearer columns, left before right).
+    pub fn query(&self, r: usize, c: usize, scratch: &mut Scratch) -> Option<(u32, u32)> {
+        let w = self.width;
+        let row = &self.near[r * w..(r + 1) * w];
+        let ri = r as i64;
+        let f = |q: usize| -> Option<u64> {
+            let n = row[q];
+            (n != NONE).then(|| {
+                let d = (ri - n as i64).unsigned_abs();
+                d * d
+            })
+        };
+        let (mut best, mut arg) = (u64::MAX, usize::MAX);
+        if let Some(v) = f(c) {
+            (best, arg) = (v, c);
+        }
+        let mut k = 1usize;
+        loop {
+            let k2 = (k * k) as u64;
+            if k2 >= best || (k > c && c + k >= w) {
+                break;
+            }
+            if k > SCAN {
+                // far from every set cell of this row's columns: the envelope
+                let env = &mut scratch.0;
+                let n = env.build(r, row);
+                if n == 0 {
+                    return None;
+                }
+                let ci = c as i64;
+                let mut j = 0usize;
+                while j + 1 < n && env.g[j + 1] - env.g[j] < 2 * ci * (env.v[j + 1] - env.v[j]) {
+                    j += 1;
+                }
+                let p = env.v[j];
+                let d = (env.g[j] - 2 * ci * p + ci * ci) as u32;
+                return Some(((row[p as usize] as usize * w + p as usize) as u32, d));
+            }
+            if k <= c {
+                if let Some(v) = f(c - k) {
+                    if k2 + v < best {
+                        (best, arg) = (k2 + v, c - k);
+                    }
+                }
+            }
+            if c + k < w {
+                if let Some(v) = f(c + k) {
+                    if k2 + v < best {
+                        (best, arg) = (k2 + v, c + k);
+                    }
+                }
+            }
+            k += 1;
+        }
+        if arg == usize::MAX {
+            return None;
+        }
+        // fits u32: checked against the diagonal
+        Some(((row[arg] as usize * w + arg) as u32, best as u32))
+    }
+}
+
+/// The squared distance transform by brute force (every cell against every set cell), for
+/// tests: O(cells x set cells).
+pub fn brute_force(mask: &[bool], height: usize, width: usize) -> Vec<u32> {
+    let set: Vec<(i64, i64)> = (0..mask.len())
+        .filter(|&i| mask[i])
+        .map(|i| ((i / width) as i64, (i % width) as i64))
+        .collect();
+    let _ = height;
+    (0..mask.len())
+        .map(|i| {
+            let (r, c) = ((i / width) as i64, (i % width) as i64);
+            set.iter()
+                .map(|&(a, b)| ((r - a) * (r - a) + (c - b) * (c - b)) as u32)
+                .min()
+                .unwrap_or(u32::MAX)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator (xorshift), so tests need no crate.
+    fn rng(seed: u64) -> impl FnMut() -> u64 {
+        let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            s
+        }
+    }
+
+    fn check_against_brute(mask: &[bool], h: usize, w: usize) {
+        let brute = brute_force(mask, h, w);
+        let d = distances(|i| mask[i], h, w).unwrap();
+        assert_eq!(d, brute, "{h}x{w}");
+        let n = nearest(|i| mask[i], h, w).unwrap();
+        for i in 0..mask.len() {
+            if n[i] == NONE {
+                assert!(!mask.iter().any(|&b| b));
+                assert_eq!(d[i], u32::MAX);
+                continue;
+            }
+            assert!(mask[n[i] as usize], "nearest of {i} is not set");
+            assert_eq!(sqdist_between(i, n[i] as usize, w), d[i]);
+        }
+        let query: Vec<bool> = (0..mask.len()).map(|i| (i * 7919) % 3 == 0).collect();
+        let at = distances_at(|i| mask[i], h, w, &query).unwrap();
+        for i in 0..mask.len() {
+            assert_eq!(at[i], if query[i] { d[i] } else { u32::MAX });
+        }
+    }
+
+    #[test]
+    fn equals_brute_force_on_random_masks() {
+        let mut next = rng(7);
+        for case in 0..300 {
+            let h = 1 + (next() % 40) as usize;
+            let w = 1 + (next() % 300) as usize;
+            let density = [1u64, 3, 20, 50, 97][case % 5];
+            let mask: Vec<bool> = (0..h * w).map(|_| next() % 100 < density).collect();
+            check_against_brute(&mask, h, w);
+        }
+    }
+
+    #[test]
+    fn single_cell_and_empty() {
+        let mut mask = vec![false; 7 * 5];
+        assert!(distances(|i| mask[i], 7, 5)
+            .unwrap()
+            .iter()
+            .all(|&d| d == u32::MAX));
+        assert!(nearest(|i| mask[i], 7, 5)
+            .unwrap()
+            .iter()
+            .all(|&n| n == NONE));
+        mask[2 * 5 + 3] = true;
+        check_against_brute(&mask, 7, 5);
+        let d = distances(|i| mask[i], 7, 5).unwrap();
+        assert_eq!(d[0], 4 + 9);
+        assert_eq!(d[6 * 5 + 4], 16 + 1);
+    }
+
+    #[test]
+    fn tall_masks_cross_row_bands() {
+        let mut next = rng(11);
+        let (h, w) = (150, 9);
+        let mask: Vec<bool> = (0..h * w).map(|_| next() % 100 < 2).collect();
+        check_against_brute(&mask, h, w);
+    }
+
+    #[test]
+    fn same_result_for_any_thread_count() {
+        let mut next = rng(3);
+        let (h, w) = (300, 700);
+        let mask: Vec<bool> = (0..h * w).map(|_| next() % 100 < 1).collect();
+        let run = |t: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+                .install(|| {
+                    (
+                        nearest(|i| mask[i], h, w).unwrap(),
+                        distances(|i| mask[i], h, w).unwrap(),
+                    )
+                })
+        };
+        let one = run(1);
+        assert_eq!(one, run(3));
+        assert_eq!(one.1, brute_force(&mask, h, w));
+    }
+
+    #[test]
+    fn point_queries_equal_the_transform() {
+        let mut next = rng(5);
+        for case in 0..120 {
+            let h = 1 + (next() % 60) as usize;
+            let w = 1 + (next() % 200) as usize;
+            let density = [0u64, 1, 5, 30][case % 4];
+            let mask: Vec<bool> = (0..h * w).map(|_| next() % 1000 < density * 10).collect();
+            let d = brute_force(&mask, h, w);
+            let cols = Columns::new(|i| mask[i], h, w).unwrap();
+            let mut scratch = cols.scratch();
+            for i in 0..h * w {
+                match cols.query(i / w, i % w, &mut scratch) {
+                    None => assert_eq!(d[i], u32::MAX),
+                    Some((n, sq)) => {
+                        assert_eq!(sq, d[i], "{h}x{w} cell {i}");
+                        assert!(mask[n as usize]);
+                        assert_eq!(sqdist_between(i, n as usize, w), sq);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn refuses_bad_shapes() {
+        assert!(matches!(
+            distances(|_| true, 0, 3),
+            Err(EdtError::Shape { .. })
+        ));
+        assert!(matches!(
+            distances_at(|_| true, 2, 2, &[true; 3]),
+            Err(EdtError::Shape { .. })
+        ));
+        assert!(matches!(
+            distances(|_| true, 70_000, 70_000),
+            Err(EdtError::TooLarge { .. })
+        ));
+    }
+}

@@ -1,0 +1,503 @@
+//! Trimmed SE(2) ICP of a map's occupied cells onto a ground truth whose distance transform
+//! gives every cell's nearest occupied cell (SPEC section 7), and the coarse rotation search
+//! that starts it for maps saved in an arbitrary frame.
+//!
+//! Each point is paired with the nearest occupied target cell (the distance transform's
+//! label of the cell the point falls in). Where the target's occupied cells around that
+//! cell form a line (a wall), the pair's residual is the distance to that line
+//! (point-to-line, which lets walls slide along each other and reaches sub-cell accuracy);
+//! elsewhere (corners, clutter) it is the distance to the cell's centre (point-to-point).
+//!
+//! Deterministic: correspondences are computed per point in fixed chunks; the trimmed set is
+//! chosen by (distance, point index), a total order; sums run in point order.
+
+use crate::edt::{Columns, EdtError, Scratch};
+use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
+use rayon::prelude::*;
+use std::sync::OnceLock;
+
+/// Points per parallel chunk (fixed, so the work split does not depend on the thread count).
+const CHUNK: usize = 4096;
+/// Stop when a step moves no point by more than this many target cells.
+const EPS_MOVE: f64 = 0.05;
+/// The ICP uses at most this many points: an even subsample (every k-th in row-major order)
+/// of larger sets; its first, coarse stage at most [`COARSE_POINTS`], until a step moves
+/// no point by more than [`EPS_COARSE`] cells.
+pub const MAX_POINTS: usize = 8192;
+pub const COARSE_POINTS: usize = 2048;
+const EPS_COARSE: f64 = 0.5;
+/// Half-size of the window (cells) whose occupied cells are fitted with a line.
+const LINE_WINDOW: isize = 2;
+/// A window is a line when its smaller spread is below this share of the larger one.
+const LINE_RATIO: f64 = 0.1;
+
+/// What the ICP found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IcpResult {
+    /// The motion of the estimate's world frame onto the ground truth's.
+    pub transform: Se2,
+    /// Root mean square distance (metres) from the kept (inlier) points, at `transform`, to
+    /// the centre of their nearest occupied target cell.
+    pub rms: f64,
+    /// Iterations run.
+    pub iterations: usize,
+    /// Pairs kept at the last iteration.
+    pub inliers: usize,
+}
+
+/// The local shape of the target around one occupied cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Local {
+    /// Centroid of the occupied cells of the window (world).
+    cx: f64,
+    cy: f64,
+    /// Unit normal of their line; (0, 0) when they do not form a line.
+    nx: f64,
+    ny: f64,
+}
+
+/// The target: the ground truth's frame, the distance transform of its occupied cells, and
+/// the local line of every occupied cell.
+pub struct Target<'a> {
+    frame: Frame,
+    to_cell: Affine,
+    to_world: Affine,
+    /// Nearest-occupied-cell queries.
+    columns: &'a Columns,
+    /// Which cells are occupied.
+    occupied: &'a [bool],
+    /// Occupied cells (row-major indices, ascending) and their local shapes (fitted on
+    /// first use: the ICP looks at a fraction of them).
+    cells: &'a [u32],
+    /// `cells[row_start[r]..row_start[r + 1]]` are the occupied cells of row `r`.
+    row_start: Vec<u32>,
+    local: Vec<OnceLock<Local>>,
+}
+
+impl<'a> Target<'a> {
+    /// Build the target from the ground truth's frame, its nearest-occupied-cell queries,
+    /// and the occupied cells.
+    pub fn new(
+        frame: Frame,
+        columns: &'a Columns,
+        occupied: &'a [bool],
+        cells: &'a [u32],
+    ) -> Result<Self, EdtError> {
+        let mut row_start = vec![0u32; frame.height + 1];
+        for &i in cells {
+            row_start[i as usize / frame.width + 1] += 1;
+        }
+        for r in 0..frame.height {
+            row_start[r + 1] += row_start[r];
+        }
+        let mut local = Vec::new();
+        local
+            .try_reserve_exact(cells.len())
+            .map_err(|_| EdtError::Alloc {
+                bytes: cells
+                    .len()
+                    .saturating_mul(std::mem::size_of::<OnceLock<Local>>()),
+            })?;
+        local.resize_with(cells.len(), OnceLock::new);
+        Ok(Target {
+            row_start,
+            frame,
+            to_cell: frame.world_to_cell_affine(),
+            to_world: frame.cell_to_world(),
+            columns,
+            occupied,
+            local,
+            cells,
+        })
+    }
+
+    /// The local shape around occupied cell `cells[k]`, fitted when first asked for.
+    fn local(&self, k: usize) -> Local {
+        *self.local[k].get_or_init(|| self.fit(self.cells[k]))
+    }
+
+    /// Fit a line to the occupied cells of the window around cell `i`.
+    fn fit(&self, i: u32) -> Local {
+        let frame = &self.frame;
+        let (h, w) = (frame.height as isize, frame.width as isize);
+        let (r0, c0) = ((i as isize) / w, (i as isize) % w);
+        let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for r in (r0 - LINE_WINDOW).max(0)..=(r0 + LINE_WINDOW).min(h - 1) {
+            for c in (c0 - LINE_WINDOW).max(0)..=(c0 + LINE_WINDOW).min(w - 1) {
+                if self.occupied[(r * w + c) as usize] {
+                    // window coordinates relative to the centre cell, in cells
+                    let (x, y) = ((c - c0) as f64, (r - r0) as f64);
+                    n += 1.0;
+                    sx += x;
+                    sy += y;
+                    sxx += x * x;
+                    sxy += x * y;
+                    syy += y * y;
+                }
+            }
+        }
+        let (mx, my) = (sx / n, sy / n);
+        let (a, b, d) = (sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my);
+        // eigenvalues of [[a, b], [b, d]]
+        let half = 0.5 * (a + d);
+        let root = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+        let (big, small) = (half + root, half - root);
+        let centre = self.to_world.apply(r0 as f64, c0 as f64);
+        // the centroid in world coordinates: the centre cell plus the offset
+        let (ux, uy) = unit_steps(&self.to_world);
+        let cx = centre.0 + mx * ux.0 + my * uy.0;
+        let cy = centre.1 + mx * ux.1 + my * uy.1;
+        if n >= 3.0 && big > 0.0 && small <= LINE_RATIO * big {
+            // normal: the eigenvector of the small eigenvalue, in (x=col, y=row)
+            let (ex, ey) = if b.abs() > 1e-12 {
+                (small - d, b)
+            } else if a <= d {
+                (1.0, 0.0)
+            } else {
+                (0.0, 1.0)
+            };
+            let wx = ex * ux.0 + ey * uy.0;
+            let wy = ex * ux.1 + ey * uy.1;
+            let norm = wx.hypot(wy);
+            Local {
+                cx,
+                cy,
+                nx: wx / norm,
+                ny: wy / norm,
+            }
+        } else {
+            Local {
+                cx: centre.0,
+                cy: centre.1,
+                nx: 0.0,
+                ny: 0.0,
+            }
+        }
+    }
+
+    /// The occupied target cell nearest to world point `(x, y)`, found through the cell
+    /// holding the point (clamped onto the grid for points outside it): its position in
+    /// `cells` and its centre.
+    #[inline]
+    fn nearest(&self, x: f64, y: f64, scratch: &mut Scratch) -> Option<(usize, (f64, f64))> {
+        let (r, c) = self.to_cell.apply(x, y);
+        let h = self.frame.height as i64 - 1;
+        let w = self.frame.width as i64 - 1;
+        let r = floor_i64(r).clamp(0, h) as usize;
+        let c = floor_i64(c).clamp(0, w) as usize;
+        let (n, _) = self.columns.query(r, c, scratch)?;
+        let row = n as usize / self.frame.width;
+        let (a, b) = (
+            self.row_start[row] as usize,
+            self.row_start[row + 1] as usize,
+        );
+        let k = a + self.cells[a..b].binary_search(&n).ok()?;
+        let n = n as usize;
+        let w = self.frame.width;
+        Some((k, self.to_world.apply((n / w) as f64, (n % w) as f64)))
+    }
+
+    /// World centroid of the occupied cells (None when there is none).
+    pub fn centroid(&self) -> Option<(f64, f64)> {
+        if self.cells.is_empty() {
+            return None;
+        }
+        let w = self.frame.width;
+        let (mut sx, mut sy) = (0.0, 0.0);
+        for &i in self.cells {
+            let (x, y) = self
+                .to_world
+                .apply((i as usize / w) as f64, (i as usize % w) as f64);
+            sx += x;
+            sy += y;
+        }
+        let n = self.cells.len() as f64;
+        Some((sx / n, sy / n))
+    }
+}
+
+/// World displacement of one column step and of one row step.
+fn unit_steps(to_world: &Affine) -> ((f64, f64), (f64, f64)) {
+    let m = &to_world.m;
+    ((m[0][1], m[1][1]), (m[0][0], m[1][0]))
+}
+
+/// One correspondence: squared distance to the target cell's centre, the target's position
+/// in `Target::cells` (`usize::MAX`: none), and the moved point.
+type Pair = (f64, usize, (f64, f64));
+
+/// The correspondence of every point at `t`.
+fn correspondences(points: &[(f64, f64)], target: &Target, t: &Se2, out: &mut [Pair]) {
+    let t = t.affine();
+    out.par_chunks_mut(CHUNK)
+        .zip(points.par_chunks(CHUNK))
+        .for_each(|(o, p)| {
+            let mut scratch = target.columns.scratch();
+            for (slot, &(x, y)) in o.iter_mut().zip(p) {
+                let q = t.apply(x, y);
+                *slot = match target.nearest(q.0, q.1, &mut scratch) {
+                    Some((k, g)) => ((q.0 - g.0).powi(2) + (q.1 - g.1).powi(2), k, q),
+                    None => (f64::INFINITY, usize::MAX, q),
+                };
+            }
+        });
+}
+
+/// The indices, ascending, of the `keep` smallest distances (ties at the threshold: the
+/// lowest indices). `scratch` holds a copy of the distances for the selection.
+fn trimmed(res: &[Pair], keep: usize, order: &mut Vec<u32>, scratch: &mut Vec<f64>) {
+    order.clear();
+    if keep >= res.len() {
+        order.extend(0..res.len() as u32);
+        return;
+    }
+    scratch.clear();
+    scratch.extend(res.iter().map(|p| p.0));
+    let (_, &mut thr, _) = scratch.select_nth_unstable_by(keep - 1, |a, b| a.total_cmp(b));
+    let below = res.iter().filter(|p| p.0.total_cmp(&thr).is_lt()).count();
+    let mut ties = keep - below;
+    for (i, p) in res.iter().enumerate() {
+        match p.0.total_cmp(&thr) {
+            std::cmp::Ordering::Less => order.push(i as u32),
+            std::cmp::Ordering::Equal if ties > 0 => {
+                ties -= 1;
+                order.push(i as u32);
+            }
+            _ => {}
+        }
+    }
+}
+
+/// One Gauss-Newton step of the kept pairs: the small motion `(dtheta about (ox, oy), dx,
+/// dy)` minimising the point-to-line and point-to-point residuals, as an [`Se2`], and the
+/// size of the step (radians, and metres of the kept points' centroid).
+fn step(res: &[Pair], order: &[u32], target: &Target) -> Option<(Se2, f64, f64)> {
+    let n = order.len() as f64;
+    let (ox, oy) = order.iter().fold((0.0, 0.0), |(a, b), &i| {
+        let q = res[i as usize].2;
+        (a + q.0, b + q.1)
+    });
+    let (ox, oy) = (ox / n, oy / n);
+    // normal equations J^T J x = -J^T r, x = (dtheta, dx, dy)
+    let mut a = [[0.0f64; 3]; 3];
+    let mut g = [0.0f64; 3];
+    let mut add = |j: [f64; 3], r: f64| {
+        for u in 0..3 {
+            for v in 0..3 {
+                a[u][v] += j[u] * j[v];
+            }
+            g[u] -= j[u] * r;
+        }
+    };
+    for &i in order {
+        let (_, k, q) = res[i as usize];
+        let l = target.local(k);
+        let (px, py) = (q.0 - ox, q.1 - oy);
+        // d q / d theta = (-py, px)
+        if l.nx != 0.0 || l.ny != 0.0 {
+            let r = l.nx * (q.0 - l.cx) + l.ny * (q.1 - l.cy);
+            add([l.nx * -py + l.ny * px, l.nx, l.ny], r);
+        } else {
+            add([-py, 1.0, 0.0], q.0 - l.cx);
+            add([px, 0.0, 1.0], q.1 - l.cy);
+        }
+    }
+    let x = solve3(a, g)?;
+    let (s, c) = x[0].sin_cos();
+    // q -> R (q - o) + o + d
+    let motion = Se2 {
+        theta: x[0],
+        tx: ox + x[1] - (c * ox - s * oy),
+        ty: oy + x[2] - (s * ox + c * oy),
+    };
+    Some((motion, x[0].abs(), x[1].hypot(x[2])))
+}
+
+/// Solve a 3x3 symmetric system by Gaussian elimination with partial pivoting; None when
+/// singular.
+fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> Option<[f64; 3]> {
+    let scale = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    if scale == 0.0 {
+        return None;
+    }
+    for col in 0..3 {
+        let p = (col..3).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
+        if a[p][col].abs() <= 1e-12 * scale {
+            return None;
+        }
+        a.swap(col, p);
+        b.swap(col, p);
+        for row in col + 1..3 {
+            let f = a[row][col] / a[col][col];
+            for k in col..3 {
+                a[row][k] -= f * a[col][k];
+            }
+            b[row] -= f * b[col];
+        }
+    }
+    let mut x = [0.0; 3];
+    for row in (0..3).rev() {
+        let s: f64 = (row + 1..3).map(|k| a[row][k] * x[k]).sum();
+        x[row] = (b[row] - s) / a[row][row];
+    }
+    Some(x)
+}
+
+/// Trimmed ICP of `points` (world coordinates) onto `target`, from `start`.
+///
+/// Each iteration pairs every point (moved by the current motion) with the target's nearest
+/// occupied cell, drops the `trim` share farthest from their cell, and takes one
+/// Gauss-Newton step of the point-to-line / point-to-point residuals of the kept pairs. It
+/// runs on an even subsample of at most [`COARSE_POINTS`] points until a step moves no
+/// point by more than half a target cell, then on at most [`MAX_POINTS`] points until a step
+/// moves none by more than 0.05 cells, `max_iterations` in all. None when there is no point or the target has no occupied cell.
+pub fn icp(
+    points: &[(f64, f64)],
+    target: &Target,
+    start: Se2,
+    trim: f64,
+    max_iterations: usize,
+) -> Option<IcpResult> {
+    if points.is_empty() || target.cells.is_empty() {
+        return None;
+    }
+    // coarse to fine: a small subsample until steps are under half a cell, then the full
+    // (sub)sample to the final tolerance
+    let coarse = run(
+        &subsample(points, COARSE_POINTS),
+        target,
+        start,
+        trim,
+        max_iterations,
+        EPS_COARSE,
+    )?;
+    let left = max_iterations.saturating_sub(coarse.iterations);
+    let fine = run(
+        &subsample(points, MAX_POINTS),
+        target,
+        coarse.transform,
+        trim,
+        left,
+        EPS_MOVE,
+    )?;
+    Some(IcpResult {
+        iterations: coarse.iterations + fine.iterations,
+        ..fine
+    })
+}
+
+/// An even subsample (every k-th point) of at most `n` points.
+fn subsample(points: &[(f64, f64)], n: usize) -> Vec<(f64, f64)> {
+    let stride = points.len().div_ceil(n).max(1);
+    points.iter().step_by(stride).copied().collect()
+}
+
+/// The ICP loop on `points`, until a step moves no point by more than `eps_cells`.
+fn run(
+    points: &[(f64, f64)],
+    target: &Target,
+    start: Se2,
+    trim: f64,
+    max_iterations: usize,
+    eps_cells: f64,
+) -> Option<IcpResult> {
+    let keep = (((1.0 - trim) * points.len() as f64).ceil() as usize).clamp(1, points.len());
+    let mut res: Vec<Pair> = vec![(0.0, 0, (0.0, 0.0)); points.len()];
+    let mut order = Vec::with_capacity(points.len());
+    let mut t = start;
+    let mut iterations = 0;
+    let eps = eps_cells * target.frame.resolution;
+    // the largest distance of a point from the points' centroid: a turn of a radians about
+    // the centroid moves no point by more than a * radius
+    let n = points.len() as f64;
+    let (cx, cy) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), p| (a + p.0 / n, b + p.1 / n));
+    let radius = points
+        .iter()
+        .map(|p| (p.0 - cx).hypot(p.1 - cy))
+        .fold(0.0, f64::max);
+    let mut scratch = Vec::with_capacity(points.len());
+    loop {
+        correspondences(points, target, &t, &mut res);
+        trimmed(&res, keep, &mut order, &mut scratch);
+        let rms = (order.iter().map(|&i| res[i as usize].0).sum::<f64>() / keep as f64).sqrt();
+        let done = |t: Se2, iterations: usize| IcpResult {
+            transform: t,
+            rms,
+            iterations,
+            inliers: keep,
+        };
+        if iterations >= max_iterations {
+            return Some(done(t, iterations));
+        }
+        let Some((delta, turn, shift)) = step(&res, &order, target) else {
+            return Some(done(t, iterations));
+        };
+        iterations += 1;
+        // `shift` is measured at the kept points' centroid, within `radius` of every point
+        let converged = turn * radius + shift < eps;
+        t = delta.compose(&t);
+        if converged {
+            correspondences(points, target, &t, &mut res);
+            trimmed(&res, keep, &mut order, &mut scratch);
+            let rms = (order.iter().map(|&i| res[i as usize].0).sum::<f64>() / keep as f64).sqrt();
+            return Some(IcpResult {
+                transform: t,
+                rms,
+                iterations,
+                inliers: keep,
+            });
+        }
+    }
+}
+
+/// Rotations tried by the coarse search, degrees apart.
+pub const SEARCH_STEP_DEG: f64 = 10.0;
+/// Points used by each trial of the coarse search (an even subsample).
+const SEARCH_POINTS: usize = 2000;
+/// ICP iterations of each trial.
+const SEARCH_ITERATIONS: usize = 20;
+
+/// Coarse search: for every rotation in steps of [`SEARCH_STEP_DEG`] about the points'
+/// centroid, moved onto the target's occupied centroid, a short trimmed ICP on a subsample;
+/// the start with the lowest trimmed RMS (first one on ties) is returned.
+pub fn search(points: &[(f64, f64)], target: &Target, trim: f64) -> Se2 {
+    if points.is_empty() {
+        return Se2::IDENTITY;
+    }
+    let stride = points.len().div_ceil(SEARCH_POINTS).max(1);
+    let sample: Vec<(f64, f64)> = points.iter().step_by(stride).copied().collect();
+    let n = points.len() as f64;
+    let target_centroid = match target.centroid() {
+        Some(c) => c,
+        None => return Se2::IDENTITY,
+    };
+    let cx = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let cy = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let steps = (360.0 / SEARCH_STEP_DEG).round() as usize;
+    let trials: Vec<(f64, Se2)> = (0..steps)
+        .into_par_iter()
+        .map(|k| {
+            let theta = wrap((k as f64 * SEARCH_STEP_DEG).to_radians());
+            let (s, c) = theta.sin_cos();
+            // rotate about (cx, cy), then move (cx, cy) onto the target centroid
+            let start = Se2 {
+                theta,
+                tx: target_centroid.0 - (c * cx - s * cy),
+                ty: target_centroid.1 - (s * cx + c * cy),
+            };
+            match icp(&sample, target, start, trim, SEARCH_ITERATIONS) {
+                Some(r) => (r.rms, r.transform),
+                None => (f64::INFINITY, start),
+            }
+        })
+        .collect();
+    let mut best = (f64::INFINITY, Se2::IDENTITY);
+    for (rms, t) in trials {
+        if rms < best.0 {
+            best = (rms, t);
+        }
+    }
+    best.1
+}
