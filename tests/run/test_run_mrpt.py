@@ -168,3 +168,9 @@ def test_a_simulated_sequence_with_ground_truth_is_run_and_scored(
     assert recs["ate_rmse"].nunique() == 1 and recs["corners"].nunique() == 1
     summary = result["summary"].set_index("algorithm")
     assert summary.loc["icp-slam", "ate_rmse_mean"] == pytest.approx(recs["ate_rmse"].iloc[0])
+    # and the map against the ground-truth map the scans were simulated in
+    assert recs["gt_error"].isna().all(), recs["gt_error"].tolist()
+    for col in ("gt_f1", "gt_iou", "gt_ne", "gt_reverse", "gt_coverage"):
+        assert recs[col].notna().all(), col
+    assert (recs["gt_f1"] > 0).all() and (recs["gt_f1"] <= 1).all()
+    assert recs["gt_f1"].nunique() == 1

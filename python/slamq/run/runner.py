@@ -538,7 +538,8 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
         seq = seqs.get(r["sequence"])
         runs.append(Run(r["map"], r["algorithm"], r["sequence"], str(r["iteration"]),
                         trajectory=r.get("trajectory"),
-                        groundtruth=seq.groundtruth if seq else None))
+                        groundtruth=seq.groundtruth if seq else None,
+                        gt_map=seq.groundtruth_map if seq else None))
     out = config.output
     results_path = out / "results.jsonl"
     records = list(evaluate_many(runs, out=results_path, **config.evaluate)) if runs else []
