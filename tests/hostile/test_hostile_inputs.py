@@ -551,3 +551,24 @@ def test_a_full_disk_names_the_results_file(tmp_path: Path, suffix: str) -> None
 
     if suffix == ".jsonl":  # the rows written before the failure are kept
         assert 0 < len(read_results(out)) < 40
+
+
+def test_pbstream_submaps_far_apart_are_painted_in_bounded_memory(tmp_path: Path) -> None:
+    # two 6 x 5-cell submaps 1 km apart span 10^8 cells at 0.1 m: the map itself needs about
+    # 4 bytes per cell; painting each submap over the whole span needed 40
+    from _pbencode import FREE, graph, grid2d, submap, write
+
+    cells = np.full((6, 5), FREE, np.int64)
+    p = write(tmp_path, graph({0: (0, 0, 0), 1: (1000, 1000, 0)}),
+              submap(0, 0, (0, 0, 0), grid2d(cells, (2.0, 1.0), (0, 0, 4, 5))),
+              submap(0, 1, (0, 0, 0), grid2d(cells, (2.0, 1.0), (0, 0, 4, 5))))
+    script = ("import resource, slamq\n"
+              f"m = slamq.load_map({str(p)!r})\n"
+              "print(m.shape, m.known_count)\n"
+              "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=slamq_env(), timeout=120, preexec_fn=_limited)
+    assert proc.returncode == 0, proc.stderr
+    shape, peak_kb = proc.stdout.splitlines()
+    assert shape == "(10015, 10016) 60"  # 1000.5 x 1000.6 m, 5 cells of padding each side
+    assert int(peak_kb) < 1536 * 1024

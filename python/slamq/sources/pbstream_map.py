@@ -279,15 +279,18 @@ def _slice_points(s: _Submap, t: tuple[float, float, float], wx: np.ndarray,
     return row, col, inside
 
 
+def _corners(s: _Submap, t: tuple[float, float, float]) -> np.ndarray:
+    """World (x, y) of the four corners of a placed texture."""
+    h, w = s.texture.shape[:2]
+    c, sn = math.cos(t[2]), math.sin(t[2])
+    return np.array([(t[0] + c * a - sn * b, t[1] + sn * a + c * b)
+                     for a, b in ((0, 0), (-h * s.resolution, 0), (0, -w * s.resolution),
+                                  (-h * s.resolution, -w * s.resolution))])
+
+
 def _paint(placed: list, res: float, where: str) -> OccupancyMap:
-    corners = []
-    for s, t in placed:
-        h, w = s.texture.shape[:2]
-        c, sn = math.cos(t[2]), math.sin(t[2])
-        for a, b in ((0, 0), (-h * s.resolution, 0), (0, -w * s.resolution),
-                     (-h * s.resolution, -w * s.resolution)):
-            corners.append((t[0] + c * a - sn * b, t[1] + sn * a + c * b))
-    xy = np.array(corners)
+    corners = [_corners(s, t) for s, t in placed]
+    xy = np.concatenate(corners)
     eps = 1e-6  # corners on a cell boundary stay there despite 1.4 / 0.1 = 13.999...
     x_min = math.floor(xy[:, 0].min() / res + eps) - _PADDING
     y_min = math.floor(xy[:, 1].min() / res + eps) - _PADDING
@@ -296,22 +299,26 @@ def _paint(placed: list, res: float, where: str) -> OccupancyMap:
     if width * height > MAX_CELLS:
         raise MapError(f"{where}: the submaps span {width} x {height} cells, more than "
                        f"the limit of {MAX_CELLS}")
-    # output cell centres, row 0 at the bottom (OccupancyGrid order)
-    wx = (x_min + np.arange(width) + 0.5) * res
-    wy = (y_min + np.arange(height) + 0.5) * res
-    gx, gy = np.meshgrid(wx, wy)
-    intensity = np.full((height, width), 128, np.int64)
-    observed = np.zeros((height, width), np.int64)
-    for s, t in placed:
+    # two bytes per output cell; each submap touches only the cells of its own bounding
+    # box (submaps far apart must not cost their whole span per submap). Row 0 = bottom.
+    intensity = np.full((height, width), 128, np.uint8)
+    observed = np.zeros((height, width), np.uint8)
+    for (s, t), box in zip(placed, corners):
+        c0 = max(math.floor(box[:, 0].min() / res) - x_min - 1, 0)
+        c1 = min(math.ceil(box[:, 0].max() / res) - x_min + 1, width)
+        r0 = max(math.floor(box[:, 1].min() / res) - y_min - 1, 0)
+        r1 = min(math.ceil(box[:, 1].max() / res) - y_min + 1, height)
+        gx, gy = np.meshgrid((x_min + np.arange(c0, c1) + 0.5) * res,
+                             (y_min + np.arange(r0, r1) + 0.5) * res)
         row, col, inside = _slice_points(s, t, gx, gy)
         tex = s.texture[np.where(inside, row, 0), np.where(inside, col, 0)]
-        src_i = np.where(inside, tex[..., 0], 0)
-        src_a = np.where(inside, tex[..., 1], 0)
-        src_o = np.where(inside, tex[..., 2], 0)
-        intensity = np.minimum(255, src_i + _mul_un8(intensity, 255 - src_a))
-        observed = np.minimum(255, src_o + _mul_un8(observed, 255 - src_a))
-    grid = np.where(observed == 0, -1,
-                    np.floor((1.0 - intensity / 255.0) * 100.0 + 0.5)).astype(np.int8)
+        src_i, src_a, src_o = (np.where(inside, tex[..., k], 0) for k in range(3))
+        win = (slice(r0, r1), slice(c0, c1))
+        intensity[win] = np.minimum(255, src_i + _mul_un8(intensity[win], 255 - src_a))
+        observed[win] = np.minimum(255, src_o + _mul_un8(observed[win], 255 - src_a))
+    grid = np.full((height, width), -1, np.int8)
+    seen = observed > 0
+    grid[seen] = np.floor((1.0 - intensity[seen] / 255.0) * 100.0 + 0.5).astype(np.int8)
     m = from_occupancy_grid(grid, resolution=res, origin=(x_min * res, y_min * res, 0.0),
                             source=where)
     m.meta.update(kind="pbstream", submaps=len(placed))
@@ -320,5 +327,5 @@ def _paint(placed: list, res: float, where: str) -> OccupancyMap:
 
 def _mul_un8(x: np.ndarray, a: np.ndarray) -> np.ndarray:
     """``x * a / 255`` rounded as pixman's ``MUL_UN8`` does."""
-    t = x * a + 128
+    t = x.astype(np.int64) * a + 128
     return (t + (t >> 8)) >> 8
