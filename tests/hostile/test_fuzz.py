@@ -1,8 +1,9 @@
 """A bounded fuzz job over the parsers of untrusted files: map YAML, PNM images, Cartographer
-pbstreams and text trajectories. Each test mutates valid inputs built here (byte flips,
-insertions, deletions, truncations, random fields) and asserts that the reader either
-succeeds or raises its own slamq error (MapError, TrajectoryError), never anything else.
-Hypothesis bounds each one by ``max_examples``; a run takes about half a minute."""
+pbstreams (trajectories and submap maps) and text trajectories. Each test mutates valid
+inputs built here (byte flips, insertions, deletions, truncations, random fields) and
+asserts that the reader either succeeds or raises its own slamq error (MapError,
+TrajectoryError), never anything else. Hypothesis bounds each one by ``max_examples``; a
+run takes about ten seconds."""
 
 from __future__ import annotations
 
@@ -141,3 +142,30 @@ _PBSTREAM = _pbstream_seed()
 @given(data=st.data())
 def test_fuzz_pbstream(data: st.DataObject) -> None:
     _load_trajectory_bytes("m.pbstream", data.draw(mutated(_PBSTREAM)))
+
+
+def _submap_stream() -> bytes:
+    import gzip
+    import struct
+
+    from _pbencode import FREE, OCC, graph, grid2d, submap
+
+    from slamq.sources.pbstream import PBSTREAM_MAGIC
+
+    cells = np.full((6, 5), FREE, np.int64)
+    cells[3, 1] = OCC
+    out = struct.pack("<Q", PBSTREAM_MAGIC)
+    for record in (b"\x08\x02", graph({0: (0, 0, 0)}),
+                   submap(0, 0, (0, 0, 0), grid2d(cells, (2.0, 1.0), (0, 0, 4, 5)))):
+        z = gzip.compress(record)
+        out += struct.pack("<Q", len(z)) + z
+    return out
+
+
+_SUBMAPS = _submap_stream()
+
+
+@FUZZ
+@given(data=mutated(_SUBMAPS))
+def test_fuzz_pbstream_map(data: bytes) -> None:
+    _load_map_bytes("m.pbstream", data)
