@@ -557,9 +557,8 @@ mod tests {
         }
     }
 
-    #[test]
-    fn recovers_a_known_motion() {
-        // the ground truth's frame is moved: the estimate must follow it back
+    /// The building compared with itself, its ground-truth copy's frame moved by `moved`.
+    fn compare_moved(moved: Se2, params: &CompareParams) -> Comparison {
         let (h, w) = (120, 160);
         let (v, u) = map(h, w, building, |_, _| true);
         let g = Grid::new(&v, &u, h, w).unwrap();
@@ -567,58 +566,50 @@ mod tests {
             grid: g,
             frame: frame(h, w, 0.05, Se2::IDENTITY),
         };
+        let gt = Placed {
+            grid: g,
+            frame: frame(h, w, 0.05, moved),
+        };
+        compare(&est, &gt, params, false).unwrap()
+    }
+
+    #[test]
+    fn recovers_a_known_motion() {
+        // the ground truth's frame is moved: the estimate must follow it back
         let moved = Se2 {
             theta: 3f64.to_radians(),
             tx: 0.3,
             ty: -0.2,
         };
-        let gt = Placed {
-            grid: g,
-            frame: frame(h, w, 0.05, moved),
-        };
-        let c = compare(&est, &gt, &CompareParams::default(), false).unwrap();
+        let c = compare_moved(moved, &CompareParams::default());
         let t = c.transform;
         assert!((t.theta - moved.theta).abs() < 0.5f64.to_radians(), "{t:?}");
         assert!(
             (t.tx - moved.tx).abs() < 0.05 && (t.ty - moved.ty).abs() < 0.05,
             "{t:?}"
         );
-        let o = compare(
-            &est,
-            &gt,
+        let o = compare_moved(
+            moved,
             &CompareParams {
                 align: Align::Origin,
                 ..Default::default()
             },
-            false,
-        )
-        .unwrap();
+        );
         assert!(c.sum_reverse < o.sum_reverse / 4.0);
     }
 
     #[test]
     fn search_finds_a_large_rotation() {
-        let (h, w) = (120, 160);
-        let (v, u) = map(h, w, building, |_, _| true);
-        let g = Grid::new(&v, &u, h, w).unwrap();
-        let est = Placed {
-            grid: g,
-            frame: frame(h, w, 0.05, Se2::IDENTITY),
-        };
         let moved = Se2 {
             theta: 97f64.to_radians(),
             tx: 5.0,
             ty: 1.0,
         };
-        let gt = Placed {
-            grid: g,
-            frame: frame(h, w, 0.05, moved),
-        };
         let p = CompareParams {
             align: Align::Search,
             ..Default::default()
         };
-        let c = compare(&est, &gt, &p, false).unwrap();
+        let c = compare_moved(moved, &p);
         assert!((c.transform.theta - moved.theta).abs() < 0.5f64.to_radians());
         assert_eq!(c.estimate_matched, c.estimate_occupied);
     }

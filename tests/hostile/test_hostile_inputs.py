@@ -33,19 +33,25 @@ def _slamq(*args: str, timeout: float = 60, limit: bool = True) -> subprocess.Co
                           preexec_fn=_limited if limit else None)
 
 
+def _run_limited(script: str) -> list[str]:
+    """A Python ``script`` in a child under the address-space limit and a timeout; the
+    lines it printed, the last of which must be its peak RSS (KiB)."""
+    proc = subprocess.run([sys.executable, "-c", script + "\nimport resource\n"
+                           "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n"],
+                          capture_output=True, text=True, env=slamq_env(), timeout=120,
+                          preexec_fn=_limited)
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout.splitlines()
+
+
 def _load_limited(path: Path, error: str) -> tuple[str, int]:
     """``slamq.load_map(path)`` in a child under the address-space limit: the message of
     the ``slamq.<error>`` it raised, and the child's peak RSS in KiB."""
-    script = ("import resource, slamq\n"
-              "try:\n"
-              f"    slamq.load_map({str(path)!r})\n"
-              f"except slamq.{error} as exc:\n"
-              "    print(exc)\n"
-              "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
-    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          env=slamq_env(), timeout=120, preexec_fn=_limited)
-    assert proc.returncode == 0, proc.stderr
-    msg, peak_kb = proc.stdout.splitlines()
+    msg, peak_kb = _run_limited("import slamq\n"
+                                "try:\n"
+                                f"    slamq.load_map({str(path)!r})\n"
+                                f"except slamq.{error} as exc:\n"
+                                "    print(exc)\n")
     return msg, int(peak_kb)
 
 
@@ -562,13 +568,7 @@ def test_pbstream_submaps_far_apart_are_painted_in_bounded_memory(tmp_path: Path
     p = write(tmp_path, graph({0: (0, 0, 0), 1: (1000, 1000, 0)}),
               submap(0, 0, (0, 0, 0), grid2d(cells, (2.0, 1.0), (0, 0, 4, 5))),
               submap(0, 1, (0, 0, 0), grid2d(cells, (2.0, 1.0), (0, 0, 4, 5))))
-    script = ("import resource, slamq\n"
-              f"m = slamq.load_map({str(p)!r})\n"
-              "print(m.shape, m.known_count)\n"
-              "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n")
-    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          env=slamq_env(), timeout=120, preexec_fn=_limited)
-    assert proc.returncode == 0, proc.stderr
-    shape, peak_kb = proc.stdout.splitlines()
+    shape, peak_kb = _run_limited(f"import slamq\nm = slamq.load_map({str(p)!r})\n"
+                                  "print(m.shape, m.known_count)")
     assert shape == "(10015, 10016) 60"  # 1000.5 x 1000.6 m, 5 cells of padding each side
     assert int(peak_kb) < 1536 * 1024

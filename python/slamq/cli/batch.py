@@ -18,6 +18,7 @@ from slamq.cli.common import (
     EXIT_BAD_INPUT,
     EXIT_OK,
     Progress,
+    add_compare_options,
     add_map_options,
     error_line,
     need_extra,
@@ -70,14 +71,7 @@ def add_parser(subparsers: Any) -> None:
                    help="trajectories whose timestamps go backwards (restarted logs): "
                    "report an ATE error (default), keep the rows after the last restart, "
                    "or sort them")
-    p.add_argument("--gt-align", default="icp", choices=("icp", "origin", "search"),
-                   help="alignment of each map with its sequence's ground-truth map "
-                   "(slamq compare --align; default %(default)s)")
-    p.add_argument("--gt-tolerance", type=float, default=None, metavar="M",
-                   help="matching distance for gt_precision / gt_recall, metres (default: 2 "
-                   "cells of the ground truth)")
-    p.add_argument("--gt-max-distance", type=float, default=None, metavar="M",
-                   help="count distances to the ground truth above M metres as M")
+    add_compare_options(p, "gt-")  # each map against its sequence's ground-truth map
     p.add_argument("--report", metavar="DIR", default=None,
                    help="then write the HTML report of the results to DIR (slamq report)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

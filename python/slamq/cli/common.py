@@ -44,6 +44,17 @@ def error_line(where: str, exc: BaseException | str) -> None:
     print(error_text(where, exc), file=sys.stderr)
 
 
+def exit_code(found: int, failed: int, unexpected: int, paths: Any) -> int:
+    """The exit code of a command over many inputs: 1 on an unexpected error, 2 when some
+    input failed or none was found (said on stderr), else 0."""
+    if unexpected:
+        return EXIT_ERROR
+    if not found and not failed:
+        error_line("", "no map found in " + ", ".join(map(str, paths)))
+        return EXIT_BAD_INPUT
+    return EXIT_BAD_INPUT if failed else EXIT_OK
+
+
 def need_extra(extra: str, what: str) -> None:
     """Raise a :class:`SlamqError` with the install command when ``extra`` is missing.
 
@@ -68,8 +79,39 @@ def add_map_options(parser: argparse.ArgumentParser) -> None:
     from slamq.params import add_param_options
 
     add_param_options(parser)
+    add_unknown_value_option(parser)
+
+
+def add_unknown_value_option(parser: argparse.ArgumentParser) -> None:
+    """``--unknown-value`` (eval, batch, timeline through :func:`add_map_options`; compare)."""
     parser.add_argument("--unknown-value", type=int, default=None,
                         help="treat pixels equal to this value as unknown, and nothing else")
+
+
+def add_table_output_options(parser: argparse.ArgumentParser) -> None:
+    """``--json FILE`` / ``--csv FILE`` ('-': standard output) and ``--topic`` for maps in
+    bags: the options of the commands that print one table row per map (eval, compare)."""
+    for flag, kind in (("--json", "JSON"), ("--csv", "CSV")):
+        parser.add_argument(flag, metavar="FILE",
+                            help=f"write the results as {kind} ('-': to standard output, and "
+                            "the table to standard error)")
+    parser.add_argument("--topic", default=None,
+                        help="for bags: the nav_msgs/OccupancyGrid topic (default /map)")
+
+
+def add_compare_options(parser: argparse.ArgumentParser, prefix: str = "") -> None:
+    """``--align``, ``--tolerance``, ``--max-distance`` of the ground-truth map comparison
+    (docs/spec.md section 7); ``prefix`` ``"gt-"`` gives batch's ``--gt-align`` etc."""
+    parser.add_argument(f"--{prefix}align", choices=("icp", "origin", "search"), default="icp",
+                        help="alignment with the ground-truth map: icp (default), the files' "
+                        "frames refined by trimmed ICP; origin, the frames only; search, a "
+                        "coarse rotation search first, for maps saved in an arbitrary frame")
+    parser.add_argument(f"--{prefix}tolerance", type=float, default=None, metavar="M",
+                        help="matching distance for precision/recall, metres (default: 2 "
+                        "cells of the ground truth)")
+    parser.add_argument(f"--{prefix}max-distance", type=float, default=None, metavar="M",
+                        help="count distances to the ground truth above M metres as M "
+                        "(bounds NE for partial maps)")
 
 
 def add_verbosity_options(parser: argparse.ArgumentParser) -> None:

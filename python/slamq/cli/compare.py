@@ -15,7 +15,13 @@ import sys
 from pathlib import Path
 from typing import IO, Any
 
-from slamq.cli.common import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_OK, error_line
+from slamq.cli.common import (
+    add_compare_options,
+    add_table_output_options,
+    add_unknown_value_option,
+    error_line,
+    exit_code,
+)
 from slamq.cli.common import error_text as _error_text
 
 #: The table's columns: (key, heading, format).
@@ -42,30 +48,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("paths", nargs="+", help="estimated maps (YAML, images, bags) or folders")
     p.add_argument("--gt", required=True, metavar="GT",
                    help="the ground-truth map (YAML + image, image, or bag)")
-    p.add_argument("--align", choices=("icp", "origin", "search"), default="icp",
-                   help="icp (default): the files' frames refined by trimmed ICP; origin: "
-                   "the frames only; search: a coarse rotation search first, for maps saved "
-                   "in an arbitrary frame")
-    p.add_argument("--tolerance", type=float, default=None, metavar="M",
-                   help="matching distance for precision/recall, metres (default: 2 cells of "
-                   "the ground truth)")
-    p.add_argument("--max-distance", type=float, default=None, metavar="M",
-                   help="count distances above M metres as M (bounds NE for partial maps)")
+    add_compare_options(p)
     p.add_argument("--occupied-threshold", type=float, default=0.5, metavar="P",
                    help="occupied: occupancy probability above P (default 0.5: values < 128)")
-    p.add_argument("--json", metavar="FILE",
-                   help="write the results as JSON ('-': standard output, the table to "
-                   "standard error)")
-    p.add_argument("--csv", metavar="FILE",
-                   help="write the results as CSV ('-': standard output, the table to "
-                   "standard error)")
+    add_table_output_options(p)
     p.add_argument("--overlay", metavar="DIR",
                    help="write one PNG per map: the aligned estimate over the ground truth, "
                    "matched walls green, missing walls red, ghost walls blue")
-    p.add_argument("--topic", default=None,
-                   help="for bags: the nav_msgs/OccupancyGrid topic (default /map)")
-    p.add_argument("--unknown-value", type=int, default=None,
-                   help="treat pixels equal to this value as unknown, and nothing else")
+    add_unknown_value_option(p)
     p.add_argument("--threads", type=int, default=None, help="cap on worker threads")
     p.set_defaults(func=run)
 
@@ -123,12 +113,7 @@ def run(args: argparse.Namespace) -> int:
         _write(args.json, lambda fh: json.dump(_clean(rows), fh, indent=1))
     if args.csv:
         _write(args.csv, lambda fh: _csv(fh, rows))
-    if unexpected:
-        return EXIT_ERROR
-    if not results and not failed:
-        error_line("", "no map found in " + ", ".join(map(str, args.paths)))
-        return EXIT_BAD_INPUT
-    return EXIT_BAD_INPUT if failed else EXIT_OK
+    return exit_code(len(results), failed, unexpected, args.paths)
 
 
 def _png_name(src: Path, gt: Path, taken: set[str]) -> str:

@@ -13,12 +13,11 @@ from pathlib import Path
 from typing import Any
 
 from slamq.cli.common import (
-    EXIT_BAD_INPUT,
-    EXIT_ERROR,
-    EXIT_OK,
     Progress,
     add_map_options,
+    add_table_output_options,
     error_line,
+    exit_code,
 )
 from slamq.cli.common import (
     error_text as _error_text,
@@ -37,14 +36,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("paths", nargs="+",
                    help="map files or folders; '-' reads one map image (PGM, PNG, ...) "
                    "from standard input")
-    p.add_argument("--json", metavar="FILE",
-                   help="write the results as JSON ('-': to standard output, and the table "
-                   "to standard error)")
-    p.add_argument("--csv", metavar="FILE",
-                   help="write the results as CSV ('-': to standard output, and the table "
-                   "to standard error)")
-    p.add_argument("--topic", default=None,
-                   help="for bags: the nav_msgs/OccupancyGrid topic (default /map)")
+    add_table_output_options(p)
     p.add_argument("--curve", action="store_true",
                    help="keep the enclosed-area curve over the unknown value")
     p.add_argument("--verify", action="store_true",
@@ -100,12 +92,7 @@ def run(args: argparse.Namespace) -> int:
         write_json(sys.stdout if args.json == "-" else args.json, results)
     if args.csv:
         write_csv(sys.stdout if args.csv == "-" else args.csv, results)
-    if unexpected:
-        return EXIT_ERROR
-    if not results and not failed:
-        error_line("", "no map found in " + ", ".join(map(str, args.paths)))
-        return EXIT_BAD_INPUT
-    return EXIT_BAD_INPUT if failed else EXIT_OK
+    return exit_code(len(results), failed, unexpected, args.paths)
 
 
 #: Stands for standard input among the sources.
