@@ -312,9 +312,16 @@ def test_site_has_tables_gallery_plots_and_details(site):
     # gallery: best and worst of each of 3 algorithms x 2 sequences
     assert len(re.findall(r'<a class="detail" href="maps/[^"]+\.html">', html)) == 12
     assert "missing.yaml: no such file" in html                          # failed map listed
-    # the verdict names the winner of each sequence
+    # the verdict names the winner of each sequence (only one algorithm has trajectories:
+    # no ground truth to rank by, so corners decide, with low confidence), and
+    # verdict.json says the same
+    verdicts = {v["sequence"]: v for v in json.loads((out / "verdict.json").read_text())}
     for seq in ("office", "lab"):
-        assert re.search(rf'#seq-{seq}">{seq}</a>: <b>good</b> ranks best', html)
+        assert re.search(rf'#seq-{seq}">{seq}</a>: <b>good</b> is best by corners', html)
+        assert verdicts[seq]["best"] == "good" and verdicts[seq]["basis"] == ["corners"]
+        assert verdicts[seq]["confidence"].startswith("low")
+        assert set(verdicts[seq]) == {"sequence", "best", "ranking", "basis", "confidence",
+                                      "warnings"}
     # the first-listed table cell equals the results file
     m = re.search(r'data-sequence="lab".*?data-metric="corners" data-mean="([^"]+)"', html)
     lab_good = [r["corners"] for r in ok if r["sequence"] == "lab" and r["algorithm"] == "good"]

@@ -29,6 +29,7 @@ from slamq.report.metrics import (
     rank_sequence,
     summarize,
 )
+from slamq.report.verdict import verdict_sentence, write_verdicts
 from slamq.results.summary import spreadsheet_safe
 
 __all__ = ["build_report"]
@@ -174,6 +175,7 @@ def build_report(
     summary = summarize(ok)
     sequences = sorted(ok["sequence"].unique()) if len(ok) else []
     rankings = {s: rank_sequence(summary, s) for s in sequences}
+    verdicts = {v["sequence"]: v for v in write_verdicts(summary, sequences, out)}
 
     pages: dict[int, _MapPage] = {}
     gallery: dict[tuple[str, str], list[int]] = {}
@@ -193,8 +195,8 @@ def build_report(
             progress(done, len(pages))
 
     plots = _plots(ok, out, sequences)
-    body = _index_body(title, frame, ok, failed, summary, sequences, rankings, gallery,
-                       pages, plots, _mixed_settings(frame))
+    body = _index_body(title, frame, ok, failed, summary, sequences, rankings, verdicts,
+                       gallery, pages, plots, _mixed_settings(frame))
     index = out / "index.html"
     index.write_text(_page(title, body), encoding="utf-8")
     write_tables(summary, out)
@@ -441,6 +443,7 @@ def _index_body(
     summary: pd.DataFrame,
     sequences: list[str],
     rankings: dict[str, SequenceRanking],
+    verdicts: dict[str, dict[str, Any]],
     gallery: dict[tuple[str, str], list[int]],
     pages: dict[int, _MapPage],
     plots: list[tuple[str, str]],
@@ -455,17 +458,20 @@ def _index_body(
         f"{len(sequences)} sequences, {n_alg} algorithms. Generated "
         f"{_dt.datetime.now().strftime('%Y-%m-%d %H:%M')} by slamq {__version__}.</p>",
         warning,
-        "<section class=\"verdict\" id=\"verdict\"><b>In one sentence per sequence</b><ul>",
+        "<section class=\"verdict\" id=\"verdict\"><b>In one sentence per sequence</b> "
+        "(also in <a href=\"verdict.json\">verdict.json</a>; the tables below rank every "
+        "metric, for reference)<ul>",
     ]
     for s in sequences:
-        r = rankings[s]
-        sent = _e(r.sentence())
+        v = verdicts[s]
+        sent = _e(verdict_sentence(v))
         head = _e(f"{s}:")
         if sent.startswith(head):
             sent = sent[len(head):]
-        if r.winner and len(r.order) > 1:
-            sent = sent.replace(_e(r.winner), f"<b>{_e(r.winner)}</b>", 1)
-        parts.append(f"<li><a href=\"#seq-{_slug(s)}\">{_e(s)}</a>:{sent}</li>")
+        if v["best"]:
+            sent = sent.replace(_e(v["best"]), f"<b>{_e(v['best'])}</b>", 1)
+        notes = "".join(f"<br><small>{_e(w)}</small>" for w in v["warnings"])
+        parts.append(f"<li><a href=\"#seq-{_slug(s)}\">{_e(s)}</a>:{sent}{notes}</li>")
     if not sequences:
         parts.append("<li>No map was evaluated successfully.</li>")
     parts.append("</ul></section>")

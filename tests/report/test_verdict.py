@@ -1,0 +1,104 @@
+"""The report's verdict (slamq.report.verdict): ground truth first, corners alone without it,
+partial and reference maps never named best; and the issue's test on real data."""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import slamq
+from slamq.report.metrics import summarize
+from slamq.report.verdict import sequence_verdict, verdict_sentence
+
+
+def verdict(**columns) -> dict:
+    df = pd.DataFrame({"sequence": "s", **columns})
+    return sequence_verdict(summarize(df), "s")
+
+
+def test_trajectory_error_decides_over_the_map_metrics() -> None:
+    v = verdict(algorithm=["a", "b", "c"], corners=[900, 10, 50],
+                occupied_fraction=[0.9, 0.01, 0.1], ate_rmse=[0.03, 4.0, 0.5])
+    assert v["best"] == "a" and v["ranking"] == ["a", "c", "b"] and v["basis"] == ["ate_rmse"]
+    assert v["confidence"].startswith("high")
+
+
+def test_the_ground_truth_map_decides_without_trajectories() -> None:
+    v = verdict(algorithm=["a", "b", "c"], corners=[10, 300, 40],
+                gt_f1=[0.2, 0.99, 0.99], gt_chamfer=[1.0, 0.05, 0.02])
+    # b and c tie on F1: the smaller chamfer distance goes first
+    assert v["ranking"] == ["c", "b", "a"] and v["basis"] == ["gt_f1", "gt_chamfer"]
+
+
+def test_without_ground_truth_corners_alone_and_a_partial_map_is_never_best() -> None:
+    v = verdict(algorithm=["half", "good", "noisy", "ground_truth"],
+                corners=[5, 100, 400, 60], enclosed_areas=[0, 90, 1, 0],
+                occupied_fraction=[0.01, 0.2, 0.05, 0.1], known=[400, 1000, 990, 1000])
+    assert v["best"] == "good" and v["ranking"] == ["good", "noisy", "half"]
+    assert v["basis"] == ["corners"] and v["confidence"].startswith("low")
+    assert any("half's map knows 40%" in w for w in v["warnings"])
+    assert "ground_truth" not in v["ranking"]  # a reference map is never ranked
+
+
+def test_close_corner_counts_are_no_clear_winner() -> None:
+    v = verdict(algorithm=["a", "b"], corners=[100, 110])
+    assert "no clear winner: a and b are within 25%" in v["confidence"]
+    assert verdict_sentence(v).startswith("s: a is best by corners (of 2; confidence low")
+
+
+def test_an_algorithm_without_the_basis_is_not_ranked() -> None:
+    v = verdict(algorithm=["a", "b", "c"], corners=[1, 2, 3], ate_rmse=[0.5, 0.1, math.nan])
+    assert v["ranking"] == ["b", "a"] and "not ranked, no ate_rmse: c" in v["warnings"]
+
+
+def test_nothing_to_rank() -> None:
+    v = verdict(algorithm=["ground_truth"], corners=[3])
+    assert v["best"] is None and v["ranking"] == []
+    assert verdict_sentence(v).startswith("s: no algorithm is named best")
+
+
+def test_on_slam_comparison_tools_the_verdict_never_names_a_broken_map(shared_data) -> None:
+    """The issue's test: with trajectories and ground-truth maps the verdict names an
+    algorithm in the ATE top two of each world; with maps only, never a map whose ATE is
+    more than 10 times the best."""
+    maps = shared_data / "maps" / "slam_comparison_tools"
+    logs = shared_data / "trajectories" / "slam_comparison_tools"
+    rows = []
+    for world in ("abstract", "office", "warehouse"):
+        gt_map = maps / "ground_truths" / f"{world}_ground_truth.yaml"
+        for y in sorted((maps / "test_results" / world).glob("*_map.yaml")):
+            alg = y.name[: -len("_map.yaml")]
+            q = slamq.evaluate(y)
+            with open(logs / world / f"{alg}_pose_log.csv") as fh:
+                e = np.array([[float(r[k]) for k in ("slam_x", "slam_y", "gt_x", "gt_y")]
+                              for r in csv.DictReader(fh)])
+            c = slamq.compare(y, gt_map)
+            rows.append({"sequence": world, "algorithm": alg, "corners": q.corners,
+                         "occupied_fraction": q.occupied_fraction,
+                         "enclosed_areas": q.enclosed_areas, "known": q.known,
+                         "ate_rmse": float(np.sqrt(np.mean(np.sum(
+                             (e[:, :2] - e[:, 2:]) ** 2, axis=1)))),
+                         "gt_f1": c.f1, "gt_chamfer": c.chamfer})
+    df = pd.DataFrame(rows)
+    for world, part in df.groupby("sequence"):
+        ate = part.set_index("algorithm")["ate_rmse"]
+        top2 = set(ate.nsmallest(2).index)
+        full = sequence_verdict(summarize(part), world)
+        assert full["best"] in top2, (world, full)
+        gt_only = sequence_verdict(summarize(part.drop(columns="ate_rmse")), world)
+        assert gt_only["best"] in top2, (world, gt_only)
+        maps_only = sequence_verdict(
+            summarize(part.drop(columns=["ate_rmse", "gt_f1", "gt_chamfer"])), world)
+        assert maps_only["best"] is not None
+        assert ate[maps_only["best"]] <= 10 * ate.min(), (world, maps_only, ate.to_dict())
+        assert "cartographer" not in (full["best"], gt_only["best"], maps_only["best"])
+
+
+@pytest.mark.parametrize("key", ["proportion", "occupied_fraction", "enclosed_areas"])
+def test_the_metrics_without_measured_validity_never_decide(key: str) -> None:
+    v = verdict(algorithm=["a", "b"], corners=[10, 500], **{key: [100.0, 0.0]})
+    assert v["best"] == "a" and v["basis"] == ["corners"]
