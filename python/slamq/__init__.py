@@ -45,6 +45,7 @@ _LAZY = {
     "run": "slamq.run",
     "read_results": "slamq.results.files",
     "summarize": "slamq.results.summary",
+    "validate": "slamq.results.validity",
     "read_bag_maps": "slamq.sources.bag_maps",
     "read_last_map": "slamq.sources.bag_maps",
     "read_bag_trajectory": "slamq.sources.bag_poses",
@@ -93,4 +94,5 @@ __all__ = [
     "read_results",
     "rpe",
     "summarize",
+    "validate",
 ]

@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from slamq.errors import MapError
+from slamq.results.columns import REFERENCE_ALGORITHMS
 from slamq.sources.files import PathLike
 from slamq.sources.trajectories import paired_columns
 from slamq.sources.walk import walk_folders
@@ -74,10 +75,6 @@ TRAJECTORY_SUFFIXES = frozenset({".txt", ".csv", ".tum", ".kitti"})
 GROUND_TRUTH = "ground_truth"
 MANIFEST_COLUMNS = ("algorithm", "sequence", "run", "map", "trajectory", "groundtruth",
                     "gt_map")
-#: "Algorithms" that are reference maps of their sequence (ground truth): their map is the
-#: other runs' ``gt_map``; shown in reports, never ranked.
-REFERENCE_ALGORITHMS = frozenset({"ground_truth", "groundtruth", "gt", "reference"})
-
 
 def is_reference(algorithm: str) -> bool:
     """Whether runs of ``algorithm`` are reference (ground-truth) maps.

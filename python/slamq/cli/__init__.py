@@ -33,6 +33,7 @@ COMMANDS: tuple[str, ...] = (
     "slamq.cli.compare",
     "slamq.cli.batch",
     "slamq.cli.summary",
+    "slamq.cli.validate",
     "slamq.cli.report",
     "slamq.cli.trajectory",
     "slamq.cli.timeline",

@@ -475,6 +475,7 @@ def _index_body(
     if not sequences:
         parts.append("<li>No map was evaluated successfully.</li>")
     parts.append("</ul></section>")
+    parts.append(_validity_section(ok))
     parts.append(_how_to_read())
     for s in sequences:
         parts.append(_sequence_section(s, ok, summary, rankings[s], gallery, pages))
@@ -497,6 +498,33 @@ def _index_body(
         "<a href=\"summary.csv\">summary.csv</a> holds them unrounded; the tables as "
         "<a href=\"tables.md\">Markdown</a> and <a href=\"tables.tex\">LaTeX</a>.</footer>")
     return "".join(parts)
+
+
+def _validity_section(ok: pd.DataFrame) -> str:
+    """How well each no-reference metric agreed with this report's own ground truth
+    (slamq.results.validity, pooled over its sequences); empty without ground truth."""
+    from slamq.results.validity import validate
+
+    try:
+        table = validate(ok, permutations=1000)
+    except (ValueError, KeyError):
+        return ""
+    pooled = table[table["sequence"] == "(pooled)"]
+    if pooled.empty:
+        return ""
+    rows = "".join(
+        f"<tr><td>{_e(r.metric)}</td><td>{_e(r.truth)}</td><td>{r.n}</td>"
+        f"<td>{r.agreement:+.2f}</td><td>{r.concordance:.2f}</td>"
+        f"<td>{'–' if r.p_value != r.p_value else f'{r.p_value:.3f}'}</td></tr>"
+        for r in pooled.itertuples())
+    return (
+        "<section id=\"validity\"><h2>Measured validity on these results</h2>"
+        "<p>How well each map metric orders the maps as the ground truth does, pooled over "
+        "the sequences with ground truth (agreement: Spearman, +1 = the same order; "
+        "concordance: share of map pairs in the same order, 0.5 = chance; p: permutation "
+        "test). The verdict above uses only the ground truth, or corners without it.</p>"
+        "<table class=\"validity\"><tr><th>metric</th><th>ground truth</th><th>maps</th>"
+        f"<th>agreement</th><th>concordance</th><th>p</th></tr>{rows}</table></section>")
 
 
 def _how_to_read() -> str:

@@ -2,9 +2,10 @@
 sure that is — written to ``verdict.json`` and said in the report's first box.
 
 The paper's map metrics are computed exactly as it defines them, but measured against
-ground truth on slam_comparison_tools (3 worlds x 5 algorithms) their rank agreement with
-the trajectory error differs widely (README, "What the numbers mean"): corners 0.70,
-occupied fraction 0.47 and proportion 0.53 (chance), enclosed areas 0.23 (inverted). The
+ground truth on slam_comparison_tools (3 worlds x 5 algorithms; :mod:`slamq.results.validity`)
+their pairwise concordance with the trajectory error differs widely (README, "What the
+numbers mean"): corners 0.73, occupied fraction and proportion 0.50 (chance), enclosed areas
+0.27 (inverted). The
 ground-truth map figures agree far better (Spearman with ATE, pooled: GT F1 -0.86, GT
 chamfer +0.90). So the verdict ranks by, in this order:
 

@@ -1,0 +1,158 @@
+"""Measured validity: how well each no-reference map metric agrees with ground truth.
+
+For the sequences of a results file that have ground truth (``ate_rmse`` from trajectories,
+``gt_chamfer`` / ``gt_f1`` from a ground-truth map), :func:`validate` ranks the maps of each
+sequence by a metric and by the ground-truth figure and reports, per sequence and pooled:
+
+- ``agreement``: Spearman's rank correlation, signed so that +1 means "the metric orders the
+  maps as the ground truth does" (the paper's metrics and ATE/chamfer are lower-is-better;
+  F1 is higher-is-better, so its sign is flipped);
+- ``concordance``: the share of map pairs (within one sequence; pairs tied on either side
+  left out) that the metric and the ground truth order the same way (0.5 = chance);
+- ``p_value``: a permutation test of the agreement (the ground truth shuffled within each
+  sequence; two-sided, ``(1 + hits) / (1 + permutations)``).
+
+The pooled agreement is the mean of the per-sequence agreements weighted by their map
+counts; its permutation test shuffles within every sequence at once. Sequences with fewer
+than 3 scored maps are left out.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["METRICS", "TRUTHS", "validate"]
+
+#: The no-reference metrics whose validity is measured (all lower-is-better).
+METRICS = ("corners", "occupied_fraction", "proportion", "enclosed_areas")
+#: Ground-truth figures and whether higher is better.
+TRUTHS = {"ate_rmse": False, "gt_chamfer": False, "gt_f1": True}
+#: A sequence needs this many scored maps to count.
+MIN_MAPS = 3
+
+
+def _ranks(x: np.ndarray) -> np.ndarray:
+    return pd.Series(x).rank(method="average").to_numpy()
+
+
+def _spearman(a: np.ndarray, b: np.ndarray) -> float:
+    ra, rb = _ranks(a), _ranks(b)
+    ra, rb = ra - ra.mean(), rb - rb.mean()
+    den = float(np.sqrt((ra * ra).sum() * (rb * rb).sum()))
+    return float((ra * rb).sum() / den) if den > 0 else float("nan")
+
+
+def _concordance(a: np.ndarray, b: np.ndarray) -> tuple[int, int]:
+    da = np.sign(a[:, None] - a[None, :])
+    db = np.sign(b[:, None] - b[None, :])
+    upper = np.triu(np.ones_like(da, dtype=bool), 1)
+    counted = upper & (da != 0) & (db != 0)
+    return int((counted & (da == db)).sum()), int(counted.sum())
+
+
+def validate(results: Any, *, truths: tuple[str, ...] | None = None,
+             permutations: int = 2000, seed: int = 0) -> pd.DataFrame:
+    """Rank agreement of each no-reference metric with each ground-truth figure.
+
+    Parameters
+    ----------
+    results : path or pandas.DataFrame
+        A results file (``slamq batch``, ``slamq eval``) or its records; rows with an
+        ``error`` are left out, and reference maps (algorithm ``ground_truth``...) too.
+    truths : tuple of str, optional
+        Ground-truth columns to use (default: those of :data:`TRUTHS` present).
+    permutations : int, default 2000
+        Shuffles for the p-value (0: no p-value).
+    seed : int, default 0
+        Seed of the shuffles (results are reproducible).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (metric, truth, sequence) and one ``sequence="(pooled)"`` row per
+        (metric, truth): ``n`` maps, ``agreement``, ``concordance``, ``pairs``, ``p_value``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> df = pd.DataFrame({"sequence": "s", "algorithm": list("abcd"),
+    ...                    "corners": [10, 20, 30, 40], "ate_rmse": [0.1, 0.3, 0.2, 0.9]})
+    >>> row = validate(df, permutations=0).iloc[0]
+    >>> row["metric"], row["truth"], row["sequence"], int(row["n"]), float(row["agreement"])
+    ('corners', 'ate_rmse', 's', 4, 0.8)
+    >>> round(float(row["concordance"]), 4)  # 5 of the 6 pairs in the same order
+    0.8333
+    """
+    from slamq.results.columns import REFERENCE_ALGORITHMS
+    from slamq.results.files import read_results
+
+    df = results if isinstance(results, pd.DataFrame) else read_results(results)
+    if "error" in df:
+        df = df[df["error"].isna() | (df["error"].astype(str) == "")]
+    if "algorithm" in df:
+        df = df[~df["algorithm"].astype(str).str.lower().isin(REFERENCE_ALGORITHMS)]
+    if truths is None:
+        truths = tuple(t for t in TRUTHS if t in df)
+    rng = np.random.default_rng(seed)
+    rows = []
+    for truth in truths:
+        sign = -1.0 if TRUTHS.get(truth, False) else 1.0
+        for metric in METRICS:
+            if metric not in df or truth not in df:
+                continue
+            groups = []
+            for seq, part in df.groupby("sequence", sort=True):
+                a = pd.to_numeric(part[metric], errors="coerce").to_numpy(dtype=float)
+                b = pd.to_numeric(part[truth], errors="coerce").to_numpy(dtype=float)
+                keep = np.isfinite(a) & np.isfinite(b)
+                if keep.sum() >= MIN_MAPS:
+                    groups.append((str(seq), a[keep], sign * b[keep]))
+            if not groups:
+                continue
+            stats = []
+            for seq, a, b in groups:
+                rho = _spearman(a, b)
+                same, pairs = _concordance(a, b)
+                p = _p_value([(a, b)], rng, permutations)
+                rows.append({"metric": metric, "truth": truth, "sequence": seq,
+                             "n": len(a), "agreement": rho,
+                             "concordance": same / pairs if pairs else float("nan"),
+                             "pairs": pairs, "p_value": p})
+                stats.append((rho, same, pairs, len(a)))
+            n = sum(s[3] for s in stats)
+            pooled = _pooled([(a, b) for _, a, b in groups])
+            same = sum(s[1] for s in stats)
+            pairs = sum(s[2] for s in stats)
+            rows.append({"metric": metric, "truth": truth, "sequence": "(pooled)", "n": n,
+                         "agreement": pooled,
+                         "concordance": same / pairs if pairs else float("nan"),
+                         "pairs": pairs,
+                         "p_value": _p_value([(a, b) for _, a, b in groups], rng,
+                                             permutations)})
+    return pd.DataFrame(rows, columns=["metric", "truth", "sequence", "n", "agreement",
+                                       "concordance", "pairs", "p_value"])
+
+
+def _pooled(groups: list[tuple[np.ndarray, np.ndarray]]) -> float:
+    rhos = [(_spearman(a, b), len(a)) for a, b in groups]
+    rhos = [(r, n) for r, n in rhos if np.isfinite(r)]
+    if not rhos:
+        return float("nan")
+    return float(sum(r * n for r, n in rhos) / sum(n for _, n in rhos))
+
+
+def _p_value(groups: list[tuple[np.ndarray, np.ndarray]], rng: np.random.Generator,
+             permutations: int) -> float:
+    if permutations <= 0:
+        return float("nan")
+    observed = abs(_pooled(groups))
+    if not np.isfinite(observed):
+        return float("nan")
+    hits = 0
+    for _ in range(permutations):
+        shuffled = [(a, rng.permutation(b)) for a, b in groups]
+        hits += abs(_pooled(shuffled)) >= observed - 1e-12
+    return (1 + hits) / (1 + permutations)

@@ -1,0 +1,105 @@
+"""Measured validity (slamq.results.validity, slamq validate): hand-made rankings with known
+answers, the CLI, and the figures on slam_comparison_tools."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import slamq_env
+
+import slamq
+from slamq.results.validity import validate
+
+
+def records(metric: list, truth: list, truth_col: str = "ate_rmse", seq: str = "s"
+            ) -> pd.DataFrame:
+    return pd.DataFrame({"sequence": seq, "algorithm": [f"a{i}" for i in range(len(metric))],
+                         "corners": metric, truth_col: truth, "error": None})
+
+
+def test_the_same_order_agrees_fully_and_the_reverse_order_not_at_all() -> None:
+    same = validate(records([1, 2, 3, 4, 5], [0.1, 0.2, 0.3, 0.4, 0.5]), permutations=0)
+    row = same[same["sequence"] == "s"].iloc[0]
+    assert row["agreement"] == 1.0 and row["concordance"] == 1.0 and row["pairs"] == 10
+    rev = validate(records([5, 4, 3, 2, 1], [0.1, 0.2, 0.3, 0.4, 0.5]), permutations=0)
+    assert rev.iloc[0]["agreement"] == -1.0 and rev.iloc[0]["concordance"] == 0.0
+
+
+def test_a_higher_is_better_truth_is_flipped() -> None:
+    # F1 is higher-is-better: the map with the fewest corners has the highest F1 -> agree
+    v = validate(records([1, 2, 3, 4], [0.99, 0.9, 0.5, 0.1], "gt_f1"), permutations=0)
+    assert v.iloc[0]["agreement"] == 1.0
+
+
+def test_pooling_weights_sequences_and_reference_and_failed_rows_are_left_out() -> None:
+    df = pd.concat([records([1, 2, 3], [1, 2, 3], seq="x"),
+                    records([1, 2, 3, 4, 5, 6], [6, 5, 4, 3, 2, 1], seq="y"),
+                    pd.DataFrame({"sequence": ["x", "x"], "algorithm": ["ground_truth", "b"],
+                                  "corners": [0, 99], "ate_rmse": [0.0, 0.0],
+                                  "error": [None, "b.yaml: broken"]})])
+    v = validate(df, permutations=0).set_index("sequence")
+    assert v.loc["x", "n"] == 3 and v.loc["y", "n"] == 6
+    assert v.loc["(pooled)", "agreement"] == pytest.approx((3 * 1 - 6 * 1) / 9)
+    assert v.loc["(pooled)", "pairs"] == 3 + 15
+
+
+def test_the_permutation_p_value_separates_signal_from_noise() -> None:
+    rng = np.random.default_rng(1)
+    truth = np.arange(12, dtype=float)
+    strong = validate(records(list(truth), list(truth)), permutations=500)
+    noise = validate(records(list(rng.permutation(truth)), list(truth)), permutations=500)
+    assert strong.iloc[0]["p_value"] < 0.01
+    assert noise.iloc[0]["p_value"] > 0.05
+    shuffled = records(list(rng.permutation(truth)), list(truth))
+    assert validate(shuffled, permutations=200, seed=3).equals(
+        validate(shuffled, permutations=200, seed=3))  # reproducible by seed
+
+
+def test_cli_prints_the_pooled_table_and_writes_every_row(tmp_path) -> None:
+    res = tmp_path / "r.csv"
+    records([1, 2, 3, 4], [0.1, 0.3, 0.2, 0.9]).to_csv(res, index=False)
+    out = tmp_path / "v.json"
+    proc = subprocess.run([sys.executable, "-m", "slamq", "validate", str(res), "--json",
+                           str(out), "--permutations", "100"], capture_output=True,
+                          text=True, env=slamq_env(), timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "(pooled)" in proc.stdout and "+0.80" in proc.stdout
+    rows = json.loads(out.read_text())
+    assert {r["sequence"] for r in rows} == {"s", "(pooled)"}
+    empty = tmp_path / "e.csv"
+    pd.DataFrame({"sequence": ["s"], "algorithm": ["a"], "corners": [1]}).to_csv(empty)
+    proc = subprocess.run([sys.executable, "-m", "slamq", "validate", str(empty)],
+                          capture_output=True, text=True, env=slamq_env(), timeout=60)
+    assert proc.returncode == 2 and "no sequence with ground truth" in proc.stderr
+
+
+def test_on_slam_comparison_tools_corners_agree_and_enclosed_areas_are_inverted(
+        shared_data) -> None:
+    """The issue's measurement, reproduced: pooled concordance with ATE, 3 worlds x 5."""
+    import csv
+
+    maps = shared_data / "maps" / "slam_comparison_tools" / "test_results"
+    logs = shared_data / "trajectories" / "slam_comparison_tools"
+    rows = []
+    for world in ("abstract", "office", "warehouse"):
+        for y in sorted((maps / world).glob("*_map.yaml")):
+            alg = y.name[: -len("_map.yaml")]
+            with open(logs / world / f"{alg}_pose_log.csv") as fh:
+                e = np.array([[float(r[k]) for k in ("slam_x", "slam_y", "gt_x", "gt_y")]
+                              for r in csv.DictReader(fh)])
+            d = slamq.evaluate(y).to_dict()
+            d.update(sequence=world, algorithm=alg, error=None, ate_rmse=float(
+                np.sqrt(np.mean(np.sum((e[:, :2] - e[:, 2:]) ** 2, axis=1)))))
+            rows.append(d)
+    v = validate(pd.DataFrame(rows), permutations=1000)
+    pooled = v[v["sequence"] == "(pooled)"].set_index("metric")
+    assert pooled.loc["corners", "concordance"] == pytest.approx(0.733, abs=0.01)
+    assert pooled.loc["corners", "p_value"] < 0.05
+    assert pooled.loc["occupied_fraction", "concordance"] == pytest.approx(0.5, abs=0.01)
+    assert pooled.loc["proportion", "concordance"] == pytest.approx(0.5, abs=0.01)
+    assert pooled.loc["enclosed_areas", "concordance"] == pytest.approx(0.267, abs=0.01)
