@@ -102,3 +102,22 @@ def test_on_slam_comparison_tools_the_verdict_never_names_a_broken_map(shared_da
 def test_the_metrics_without_measured_validity_never_decide(key: str) -> None:
     v = verdict(algorithm=["a", "b"], corners=[10, 500], **{key: [100.0, 0.0]})
     assert v["best"] == "a" and v["basis"] == ["corners"]
+
+
+def test_completeness_is_judged_by_area_and_corners_need_one_resolution() -> None:
+    # b knows 300 cells of 0.1 m (3 m^2), a 1000 cells of 0.05 m (2.5 m^2): neither is
+    # partial by area, though b has 30% of a's cells
+    v = verdict(algorithm=["a", "b"], corners=[10, 20], known=[1000, 300],
+                resolution=[0.05, 0.1], known_area_m2=[2.5, 3.0])
+    assert not any("partial" in w for w in v["warnings"])
+    # ... but corners counted at two resolutions are not comparable: nobody is named
+    assert v["best"] is None and v["confidence"].startswith("none")
+    assert "differ in resolution" in " ".join(v["warnings"])
+
+
+def test_known_area_is_in_every_result() -> None:
+    m = slamq.OccupancyMap(np.full((10, 20), 254, np.uint8), np.zeros((10, 20), bool),
+                           resolution=0.05)
+    q = slamq.evaluate(m)
+    assert q.resolution == 0.05 and q.known_area_m2 == pytest.approx(200 * 0.0025)
+    assert math.isnan(slamq.evaluate(np.full((3, 3), 254, np.uint8)).known_area_m2)

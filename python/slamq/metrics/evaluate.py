@@ -105,6 +105,7 @@ def evaluate(
         curve=raw.curve,
         params=params,
         keep_curve=curve or verify,
+        resolution=grid.resolution,
     )
     if verify:
         from slamq.metrics import reference

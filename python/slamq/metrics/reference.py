@@ -615,6 +615,7 @@ def evaluate(
         curve=enclosed_curve(grid, params),
         params=params,
         keep_curve=curve,
+        resolution=grid.resolution,
     )
 
 

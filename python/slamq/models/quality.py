@@ -37,6 +37,11 @@ class MapQuality:
         Largest number of enclosed free regions over the unknown-value sweep, SPEC section 4.
     enclosed_unknown_value : int
         The smallest unknown value ``u`` reaching ``enclosed_areas``.
+    resolution : float or None
+        Metres per cell of the map (None when it has none, e.g. a bare array).
+    known_area_m2 : float
+        ``known * resolution**2``, the explored area (NaN without a resolution): maps of one
+        place saved at different resolutions compare on it, not on ``known``.
     curve : tuple of int or None
         ``count_u`` for every ``u`` in ``params.sweep_values`` (when asked for).
     params : Params
@@ -68,6 +73,8 @@ class MapQuality:
     corners: int
     enclosed_areas: int
     enclosed_unknown_value: int
+    resolution: float | None = None
+    known_area_m2: float = math.nan
     curve: tuple[int, ...] | None = None
     params: Params = field(default_factory=Params)
 
@@ -84,6 +91,7 @@ class MapQuality:
         curve: Sequence[int],
         params: Params,
         keep_curve: bool,
+        resolution: float | None = None,
     ) -> MapQuality:
         """Build the result from the integers both implementations produce.
 
@@ -118,6 +126,8 @@ class MapQuality:
             corners=int(corners),
             enclosed_areas=best,
             enclosed_unknown_value=int(best_u),
+            resolution=None if resolution is None else float(resolution),
+            known_area_m2=nan if resolution is None else known * float(resolution) ** 2,
             curve=counts if keep_curve else None,
             params=params,
         )

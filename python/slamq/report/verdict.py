@@ -16,11 +16,12 @@ chamfer +0.90). So the verdict ranks by, in this order:
    25% of the best.
 
 Occupied fraction, proportion and enclosed areas never decide. A reference map (a ground
-truth beside the runs) is never ranked. A map knowing less than 80% of the cells of the
-sequence's most complete map is never named best (a half-explored map scores "best" on
-every paper metric); it is ranked after the complete ones and named in the warnings. An
-algorithm without the basis figure is not ranked (rows scored on different figures are
-never mixed).
+truth beside the runs) is never ranked. A map knowing less than 80% of the area of the
+sequence's most complete map (``known_area_m2``; known cells when a map has no resolution)
+is never named best (a half-explored map scores "best" on every paper metric); it is ranked
+after the complete ones and named in the warnings. The maps ranked by corners must share
+one resolution. An algorithm without the basis figure is not ranked (rows scored on
+different figures are never mixed).
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ from slamq.batch.runs import REFERENCE_ALGORITHMS
 
 __all__ = ["COMPLETE_SHARE", "CLEAR_MARGIN", "sequence_verdict", "write_verdicts"]
 
-#: A map knowing fewer cells than this share of the sequence's most complete map is partial.
+#: A map knowing less area than this share of the sequence's most complete map is partial.
 COMPLETE_SHARE = 0.8
 #: Corners: a runner-up within this relative margin of the best means no clear winner.
 CLEAR_MARGIN = 0.25
@@ -94,13 +95,14 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
     refs = [a for a in block.index if str(a).lower() in REFERENCE_ALGORITHMS]
     block = block.drop(index=refs)
     warnings: list[str] = []
-    known = _means(block, "known")
+    area = _means(block, "known_area_m2")  # comparable across resolutions; else cells
+    known = area if len(area) == len(block) else _means(block, "known")
     partial: set[str] = set()
     if len(known) > 1 and known.max() > 0:
         share = known / known.max()
         partial = {str(a) for a, s in share.items() if s < COMPLETE_SHARE}
         for a in sorted(partial):
-            warnings.append(f"{a}'s map knows {100 * share[a]:.0f}% of the cells of the most "
+            warnings.append(f"{a}'s map knows {100 * share[a]:.0f}% of the area of the most "
                             "complete map: a partial map, never named best")
     for key, higher, tie, tie_higher, confidence in _BASES:
         means = _means(block, key)

@@ -26,6 +26,7 @@ __all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "GT_METRICS", "spreads
 SUMMARY_METRICS = (
     "occupied_fraction", "proportion", "threshold", "corners", "enclosed_areas",
     "enclosed_unknown_value", "occupied", "free", "unknown", "known", "total",
+    "known_area_m2", "resolution",
 )
 #: Trajectory error columns summarised when the results have any.
 ATE_METRICS = ("ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n")
