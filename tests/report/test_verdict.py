@@ -121,3 +121,27 @@ def test_known_area_is_in_every_result() -> None:
     q = slamq.evaluate(m)
     assert q.resolution == 0.05 and q.known_area_m2 == pytest.approx(200 * 0.0025)
     assert math.isnan(slamq.evaluate(np.full((3, 3), 254, np.uint8)).known_area_m2)
+
+
+def test_eval_and_summarize_warn_when_maps_differ_in_resolution(tmp_path) -> None:
+    import subprocess
+    import sys
+
+    from conftest import slamq_env
+
+    img = np.full((20, 20), 254, np.uint8)
+    img[5:15, 5:15] = 0
+    for name, res in (("fine", 0.05), ("coarse", 0.1)):
+        (tmp_path / f"{name}.pgm").write_bytes(b"P5 20 20 255\n" + img.tobytes())
+        (tmp_path / f"{name}.yaml").write_text(f"image: {name}.pgm\nresolution: {res}\n"
+                                               "origin: [0, 0, 0]\n")
+    proc = subprocess.run([sys.executable, "-m", "slamq", "eval", str(tmp_path / "fine.yaml"),
+                           str(tmp_path / "coarse.yaml")], capture_output=True, text=True,
+                          env=slamq_env(), timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert ("slamq: warning: the maps have different resolutions (0.05, 0.1 m): their "
+            "corners, enclosed areas and cell counts are not comparable") in proc.stderr
+    df = pd.DataFrame([slamq.evaluate(tmp_path / f"{n}.yaml").to_dict() | {"sequence": "s",
+                       "algorithm": n} for n in ("fine", "coarse")])
+    with pytest.warns(UserWarning, match="s: the maps have different resolutions"):
+        slamq.summarize(df)

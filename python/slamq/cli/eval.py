@@ -88,6 +88,14 @@ def run(args: argparse.Namespace) -> int:
     to_stdout = "-" in (args.json, args.csv)
     if results and not args.quiet:
         print_table(results, curve=args.curve, file=sys.stderr if to_stdout else sys.stdout)
+    if len(results) > 1:
+        import pandas as pd
+
+        from slamq.results.summary import resolution_warnings
+
+        for msg in resolution_warnings(pd.DataFrame({"resolution": [q.resolution
+                                                                     for q in results]})):
+            print(f"slamq: warning: {msg.split(': ', 1)[1]}", file=sys.stderr)
     if args.json:
         write_json(sys.stdout if args.json == "-" else args.json, results)
     if args.csv:

@@ -47,6 +47,35 @@ def _frame(results: Any) -> Any:
     return pd.DataFrame(list(results))
 
 
+def resolution_warnings(records: Any) -> list[str]:
+    """One sentence per sequence whose maps have different resolutions: their corners and
+    enclosed areas are not comparable (a map saved on a 2x finer grid counts about twice the
+    corners), nor their cell counts.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> for w in resolution_warnings(pd.DataFrame({"sequence": "s", "resolution": [0.05, 0.1]})):
+    ...     print(w[:52])
+    s: the maps have different resolutions (0.05, 0.1 m)
+    """
+    import pandas as pd
+
+    if "resolution" not in records.columns:
+        return []
+    seqs = records["sequence"] if "sequence" in records.columns else pd.Series(
+        "all maps", index=records.index)
+    out = []
+    for seq, part in records.groupby(seqs.astype(str), sort=True):
+        values = pd.to_numeric(part["resolution"], errors="coerce").dropna()
+        res = sorted({float(f"{float(r):.6g}") for r in values})  # 0.07 saved as 0.0700001
+        if len(res) > 1:
+            out.append(f"{seq}: the maps have different resolutions "
+                       f"({', '.join(f'{r:g}' for r in res)} m): their corners, enclosed "
+                       "areas and cell counts are not comparable")
+    return out
+
+
 def summarize(
     results: Any | str | os.PathLike[str] | Iterable[dict[str, Any]], *, ddof: int = 1,
     check_settings: bool = True,
@@ -116,6 +145,9 @@ def summarize(
         df = df.assign(sequence="all maps")
     err = df["error"] if "error" in df.columns else pd.Series([None] * len(df), index=df.index)
     failed_mask = err.notna() & (err.astype(object) != "")
+    if check_settings:
+        for msg in resolution_warnings(df[~failed_mask]):
+            warnings.warn(msg, UserWarning, stacklevel=2)
     has_ate = "ate_rmse" in df.columns and df.loc[~failed_mask, "ate_rmse"].notna().any()
     metrics = [m for m in SUMMARY_METRICS if m in df.columns]
     if has_ate:
