@@ -86,6 +86,31 @@ def f_packed(number: int, values) -> bytes:
     return f_msg(number, b"".join(varint(int(v)) for v in values))
 
 
+# --- trajectories: two of them, the second with one node
+
+NODES0 = [
+    # (index, unix seconds, translation, rotation xyzw)
+    (0, 1_600_000_000.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)),
+    (1, 1_600_000_000.1, (0.25, -1.5, 0.0), yaw_xyzw(0.3)),
+    (2, 1_600_000_000.2, (1.125, -2.0, 0.0625), yaw_xyzw(-2.9)),
+    (5, 1_600_000_000.7, (-3.0, 4.0, 0.0), (0.1, -0.2, 0.3, math.sqrt(1 - 0.14))),
+]
+NODES1 = [(0, 1_600_000_100.0, (9.0, 9.0, 0.0), yaw_xyzw(1.0))]
+
+
+def encoded_nodes(spec):
+    return [node(i, unix_ticks(s), t, q) for i, s, t, q in spec]
+
+
+def full_stream(version=2) -> bytes:
+    header = f_varint(1, version)
+    graph = pose_graph([trajectory(0, encoded_nodes(NODES0)), trajectory(1, encoded_nodes(NODES1))])
+    options = f_msg(2, f_msg(1, b"\x0a\x00"))  # AllTrajectoryBuilderOptions: ignored
+    submap = f_msg(3, b"\x0a\x04\x08\x00\x10\x00" + b"\x12\x00")
+    return stream(header, f_msg(1, graph), options, submap)
+
+
+
 # --- submaps (Cartographer's SerializedData.submap and PoseGraph submap poses)
 
 RES = 0.1  # metres per cell of the submaps written here

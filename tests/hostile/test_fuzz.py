@@ -12,6 +12,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _pbencode import FREE, OCC, f_varint, full_stream, graph, grid2d, stream, submap
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -123,19 +124,7 @@ def test_fuzz_kitti_trajectory(data: bytes) -> None:
     _load_trajectory_bytes("t.kitti", data)
 
 
-def _pbstream_seed() -> bytes:
-    """A valid stream from the independent encoder of tests/sources/test_pbstream.py."""
-    import importlib.util
-
-    path = Path(__file__).parents[1] / "sources" / "test_pbstream.py"
-    spec = importlib.util.spec_from_file_location("_pbstream_encoder", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.full_stream()
-
-
-_PBSTREAM = _pbstream_seed()
+_PBSTREAM = full_stream()  # the independent encoder of tests/_pbencode.py
 
 
 @FUZZ
@@ -145,21 +134,10 @@ def test_fuzz_pbstream(data: st.DataObject) -> None:
 
 
 def _submap_stream() -> bytes:
-    import gzip
-    import struct
-
-    from _pbencode import FREE, OCC, graph, grid2d, submap
-
-    from slamq.sources.pbstream import PBSTREAM_MAGIC
-
     cells = np.full((6, 5), FREE, np.int64)
     cells[3, 1] = OCC
-    out = struct.pack("<Q", PBSTREAM_MAGIC)
-    for record in (b"\x08\x02", graph({0: (0, 0, 0)}),
-                   submap(0, 0, (0, 0, 0), grid2d(cells, (2.0, 1.0), (0, 0, 4, 5)))):
-        z = gzip.compress(record)
-        out += struct.pack("<Q", len(z)) + z
-    return out
+    return stream(f_varint(1, 2), graph({0: (0, 0, 0)}),
+                  submap(0, 0, (0, 0, 0), grid2d(cells, (2.0, 1.0), (0, 0, 4, 5))))
 
 
 _SUBMAPS = _submap_stream()

@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from slamq.batch.runs import REFERENCE_ALGORITHMS
+from slamq.results.summary import distinct_resolutions
 
 __all__ = ["COMPLETE_SHARE", "CLEAR_MARGIN", "sequence_verdict", "write_verdicts"]
 
@@ -133,7 +134,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
                     confidence += (f"; no clear winner: {complete[0]} and {complete[1]} are "
                                    f"within {int(CLEAR_MARGIN * 100)}% ({first:g} and "
                                    f"{second:g} corners)")
-            if "resolution_mean" in block and block["resolution_mean"].nunique() > 1:
+            if len(distinct_resolutions(block.get("resolution_mean", []))) > 1:
                 warnings.append("the maps differ in resolution: corners are not comparable")
                 best, confidence = None, "none: the maps are not comparable"
         return {"sequence": str(sequence), "best": best, "ranking": ranking,

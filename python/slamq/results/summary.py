@@ -47,6 +47,21 @@ def _frame(results: Any) -> Any:
     return pd.DataFrame(list(results))
 
 
+def distinct_resolutions(values: Any) -> list[float]:
+    """The different resolutions among ``values`` (metres per cell; missing ones ignored),
+    to 6 significant digits: a map saved at 0.0700001 m has the resolution of one at 0.07.
+
+    Examples
+    --------
+    >>> distinct_resolutions([0.07, 0.0700000001, None, 0.05])
+    [0.05, 0.07]
+    """
+    import pandas as pd
+
+    numbers = pd.to_numeric(pd.Series(list(values), dtype=object), errors="coerce").dropna()
+    return sorted({float(f"{float(r):.6g}") for r in numbers})
+
+
 def resolution_warnings(records: Any) -> list[str]:
     """One sentence per sequence whose maps have different resolutions: their corners and
     enclosed areas are not comparable (a map saved on a 2x finer grid counts about twice the
@@ -67,8 +82,7 @@ def resolution_warnings(records: Any) -> list[str]:
         "all maps", index=records.index)
     out = []
     for seq, part in records.groupby(seqs.astype(str), sort=True):
-        values = pd.to_numeric(part["resolution"], errors="coerce").dropna()
-        res = sorted({float(f"{float(r):.6g}") for r in values})  # 0.07 saved as 0.0700001
+        res = distinct_resolutions(part["resolution"])
         if len(res) > 1:
             out.append(f"{seq}: the maps have different resolutions "
                        f"({', '.join(f'{r:g}' for r in res)} m): their corners, enclosed "
