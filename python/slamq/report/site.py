@@ -583,6 +583,11 @@ def _sequence_section(
         f"<h2 id=\"seq-{_slug(seq)}\">{_e(seq)}</h2>",
         f"<p>{_e(ranking.sentence())}</p>",
     ]
+    from slamq.results.summary import comparability_warnings
+
+    mine = ok[ok["sequence"].astype(str) == str(seq)] if "sequence" in ok.columns else ok
+    for msg in comparability_warnings(mine):
+        parts.append(f"<p class=\"warn comparability\">{_e(msg.split(': ', 1)[-1])}</p>")
     for alg in ranking.partial:
         parts.append(
             f"<p class=\"warn\">{_e(alg)}'s maps know "
