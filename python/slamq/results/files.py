@@ -204,7 +204,7 @@ def _iter_jsonl(path: Path) -> Iterator[dict[str, Any]]:
             yield rec
 
 
-def _jsonl_tables(path: Path, batch: int = 8192) -> Iterator[Any]:
+def _jsonl_tables(path: Path, batch: int = 1024) -> Iterator[Any]:
     """A JSON Lines file as Arrow tables of at most ``batch`` rows (bounded memory)."""
     rows: list[dict[str, Any]] = []
     for rec in _iter_jsonl(path):
@@ -237,7 +237,7 @@ def _parquet_table(path: Path, columns: list[str] | None = None) -> Any:
         raise MapError(f"{path}: not a readable Parquet file: {exc}") from exc
 
 
-def _parquet_rows(path: Path, columns: list[str], batch: int = 4096) -> Iterator[dict[str, Any]]:
+def _parquet_rows(path: Path, columns: list[str], batch: int = 1024) -> Iterator[dict[str, Any]]:
     """The rows of a Parquet file (those of ``columns`` it has), a batch at a time."""
     import pyarrow.parquet as pq
 
@@ -542,14 +542,55 @@ def _rewrite_jsonl_dedup(path: Path) -> None:
 
 
 def _compact_parquet(path: Path, journal: Path, row_group: int) -> None:
-    """Parquet file + journal -> a new Parquet file (atomic rename), then drop the journal."""
+    """Parquet file + journal -> a new Parquet file (atomic rename), then drop the journal.
+
+    Streamed: a first pass takes the 128-bit key digest of every row (16 bytes each) and
+    the columns of every part, the second writes the rows no later row supersedes, a row
+    group at a time; memory does not hold the table.
+    """
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
-    tables = [_parquet_table(path)] if path.exists() else []
-    tables += list(_jsonl_tables(journal))
-    table = _dedup_table(_concat(tables))
+    row_group = max(1, row_group)
+    schemas = []
+    if path.exists():
+        try:
+            schemas.append(pq.read_schema(path))
+        except Exception as exc:  # noqa: BLE001 - pyarrow raises several types
+            raise MapError(f"{path}: not a readable Parquet file: {exc}") from exc
+    schemas += [t.schema for t in _jsonl_tables(journal)]
+    schema = _unify(schemas) if schemas else _arrow_table([]).schema
+
+    def rows() -> Iterator[dict[str, Any]]:
+        if path.exists():
+            yield from _parquet_rows(path, list(KEY))
+        yield from _iter_jsonl(journal)
+
+    keep = _last_of_each(_key_digests128(rows()))
+
+    def parts() -> Iterator[Any]:
+        if path.exists():
+            for b in pq.ParquetFile(path).iter_batches(batch_size=row_group):
+                yield pa.Table.from_batches([b])
+        yield from _jsonl_tables(journal)
+
     tmp = path.with_name(path.name + ".tmp")
-    pq.write_table(table, tmp, row_group_size=max(1, row_group))
+    start = 0
+    pending: list[Any] = []
+    with pq.ParquetWriter(tmp, schema) as writer:
+        for table in parts():
+            n = table.num_rows
+            mask = keep[start : start + n]
+            start += n
+            if not mask.all():
+                table = table.filter(pa.array(mask))
+            pending.append(_conform(table, schema))
+            if sum(t.num_rows for t in pending) >= row_group:
+                writer.write_table(pa.concat_tables(pending), row_group_size=row_group)
+                pending = []
+        if pending or start == 0:
+            writer.write_table(pa.concat_tables(pending) if pending else schema.empty_table(),
+                               row_group_size=row_group)
     with open(tmp, "rb") as fh:
         os.fsync(fh.fileno())
     os.replace(tmp, path)
@@ -558,6 +599,32 @@ def _compact_parquet(path: Path, journal: Path, row_group: int) -> None:
         journal.unlink()
     except FileNotFoundError:
         pass
+
+
+def _unify(schemas: list[Any]) -> Any:
+    """One schema for the parts of a results file (a column all null in one part takes
+    the other parts' type)."""
+    import pyarrow as pa
+
+    try:
+        return pa.unify_schemas(schemas, promote_options="permissive")
+    except TypeError:  # pyarrow < 14
+        return pa.unify_schemas(schemas)
+
+
+def _conform(table: Any, schema: Any) -> Any:
+    """``table`` with the columns of ``schema``, in its order and types (nulls for the
+    columns it lacks)."""
+    import pyarrow as pa
+
+    arrays = []
+    for field in schema:
+        if field.name in table.column_names:
+            col = table.column(field.name)
+            arrays.append(col if col.type == field.type else col.cast(field.type))
+        else:
+            arrays.append(pa.nulls(table.num_rows, field.type))
+    return pa.Table.from_arrays(arrays, schema=schema)
 
 
 def _dumps(rec: dict[str, Any]) -> str:
