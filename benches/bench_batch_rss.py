@@ -1,7 +1,7 @@
 """Peak RSS of ``slamq batch`` against the number of maps (issue 11, item 10): flat?
 
-Writes N tiny maps (20 x 20 PGM, flat layout ``seq<k>/<algorithm>_map_<run>.pgm``, 500 per
-sequence folder) for each N, runs the real CLI ``slamq batch DIR --out results.<fmt>`` in
+Writes N tiny maps (20 x 20 PGM; flat layout ``seq<k>/<algorithm>_map_<run>.pgm``, 500 per
+sequence folder, or ``--layout runs``: a folder per map) for each N, runs the real CLI ``slamq batch DIR --out results.<fmt>`` in
 a fresh subprocess per measurement, and reads the child's peak RSS from ``os.wait4``.
 Each size is run twice: a fresh batch, then a resume (every map already in the file).
 
@@ -25,19 +25,26 @@ PER_FOLDER = 500
 ALGOS = ("gmapping", "hector", "karto", "cartographer", "toolbox")
 
 
-def make_maps(root: Path, n: int) -> None:
-    """``n`` 20 x 20 maps: a 10 x 10 obstacle in free space, its position varying."""
+def make_maps(root: Path, n: int, layout: str = "flat") -> None:
+    """``n`` 20 x 20 maps: a 10 x 10 obstacle in free space, its position varying.
+
+    ``layout``: "flat" (``seq<k>/<algorithm>_map_<run>.pgm``, 500 per folder) or "runs"
+    (``<algorithm>/seq<k>/<run>/map.pgm``, a folder per map).
+    """
     import numpy as np
 
     for i in range(n):
-        seq = root / f"seq{i // PER_FOLDER:03d}"
-        seq.mkdir(exist_ok=True)
         j = i % PER_FOLDER
         algo, run = ALGOS[j // 100], j % 100  # <= 2 digits: not a numbered snapshot
         img = np.full((20, 20), 254, np.uint8)
         r = i % 8
         img[2 + r : 12 + r, 5:15] = 0
-        (seq / f"{algo}_map_{run}.pgm").write_bytes(b"P5 20 20 255\n" + img.tobytes())
+        if layout == "runs":
+            path = root / algo / f"seq{i // PER_FOLDER:03d}" / str(run) / "map.pgm"
+        else:
+            path = root / f"seq{i // PER_FOLDER:03d}" / f"{algo}_map_{run}.pgm"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(b"P5 20 20 255\n" + img.tobytes())
 
 
 def peak_rss(args: list[str]) -> tuple[float, float, int]:
@@ -58,13 +65,14 @@ def main() -> None:
     ap.add_argument("--maps", type=int, nargs="+", default=[2000, 8000])
     ap.add_argument("--formats", nargs="+", default=["jsonl", "parquet"])
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--layout", choices=("flat", "runs"), default="flat")
     a = ap.parse_args()
     rows: dict[tuple[str, str, int], float] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for n in a.maps:
             root = Path(tmp) / f"maps{n}"
             root.mkdir()
-            make_maps(root, n)
+            make_maps(root, n, a.layout)
             for fmt in a.formats:
                 out = Path(tmp) / f"r{n}.{fmt}"
                 for phase in ("fresh", "resume"):
