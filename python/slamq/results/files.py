@@ -763,7 +763,7 @@ class ResultsFile:
             self._superseded = True
             return
         self._new.add(digest)
-        if len(self._new) >= 4096:  # merge: 8 bytes per key, amortized O(log n) per row
+        if len(self._new) >= 1024:  # merge: 8 bytes per key afterwards
             self._known = np.union1d(self._known, np.fromiter(self._new, dtype=np.int64))
             self._new.clear()
 
