@@ -1,8 +1,9 @@
 """Peak RSS of ``slamq batch`` against the number of maps (issue 11, item 10): flat?
 
 Writes N tiny maps (20 x 20 PGM; flat layout ``seq<k>/<algorithm>_map_<run>.pgm``, 500 per
-sequence folder, or ``--layout runs``: a folder per map) for each N, runs the real CLI ``slamq batch DIR --out results.<fmt>`` in
-a fresh subprocess per measurement, and reads the child's peak RSS from ``os.wait4``.
+sequence folder, or ``--layout runs``: a folder per map) for each N, runs the real CLI
+``slamq batch DIR --out results.<fmt>`` in a fresh subprocess per measurement, and reads
+the child's peak RSS from ``os.wait4``.
 Each size is run twice: a fresh batch, then a resume (every map already in the file).
 
     PYTHONPATH=python python benches/bench_batch_rss.py                  # 2,000 and 8,000

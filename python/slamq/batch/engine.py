@@ -14,7 +14,10 @@ How it runs
   worker, and results stream back with ``as_completed``; at most two chunks per worker
   thread are in flight, and records are put back in input order before they are written.
 
-Results are written to ``out`` one chunk at a time (see :mod:`slamq.batch.results`).
+The runs come from a :class:`~slamq.batch.runs.Discovery`: counted by a first walk of the
+sources, then found again as they are evaluated, so no list of every run is held. Results
+are written to ``out`` one chunk at a time (see :class:`slamq.results.ResultsFile`); what
+resuming skips is kept as 64-bit digests (16 bytes per stored row).
 """
 
 from __future__ import annotations
