@@ -18,6 +18,9 @@ import numpy as np
 import pytest
 from conftest import slamq_env
 
+pytestmark = pytest.mark.skipif(not Path("/proc/self/status").exists(),
+                                reason="peak RSS read from /proc/self/status (Linux)")
+
 #: Maps of the small and the large batch. The small batch is past the fixed-size buffers
 #: (1,024-row Arrow batches and Parquet row groups, 1,024 unmerged key digests, the maps in
 #: flight, allocator pools), which fill by 1,000 - 3,000 maps.
@@ -50,13 +53,17 @@ def _tiny_maps(root: Path, n: int) -> Path:
 
 
 def _batch_peak_kb(src: Path, out: Path, limit: bool) -> int:
-    """Run ``slamq batch SRC --out OUT`` in a fresh Python; its peak RSS in KiB."""
+    """Run ``slamq batch SRC --out OUT`` in a fresh Python; its peak RSS in KiB.
+
+    The child reads ``VmHWM`` of its own address space: ``getrusage``'s ``ru_maxrss`` keeps
+    the high-water mark across fork and exec, so a child of a large pytest process would
+    report the parent's size."""
     script = (
-        "import resource, sys\n"
         "from slamq.cli import main\n"
         f"code = main(['batch', {str(src)!r}, '--out', {str(out)!r}, '-q', '--no-progress',"
         " '--threads', '2'])\n"
-        "print(code, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n"
+        "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM:')]\n"
+        "print(code, hwm[0].split()[1])\n"
     )
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                           env=slamq_env(), timeout=120, preexec_fn=_limited if limit else None)
