@@ -517,6 +517,48 @@ def test_a_chunk_declaring_more_than_the_budget_is_refused_before_inflating(
         slamq.load_map(bag)
 
 
+def _zstd_rosbag2(folder: Path, mode: str) -> Path:
+    """A real ROS 2 sqlite3 bag (rosbags' writer) with one 20 x 20 map, compressed by
+    rosbag2's ``message`` or ``file`` zstd mode."""
+    from _bagdata import BagWriter, bag_path, room_grid
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode
+
+    bag = bag_path(folder, "sqlite3")
+    w = BagWriter(bag, "sqlite3")
+    w.writer.set_compression(CompressionMode[mode.upper()], CompressionFormat.ZSTD)
+    with w:
+        w.write("/map", "nav_msgs/msg/OccupancyGrid", w.grid(1.0, room_grid(size=20)))
+    return bag
+
+
+def test_a_zstd_rosbag2_message_bomb_is_refused_in_bounded_memory(tmp_path: Path) -> None:
+    import sqlite3
+
+    from rosbags.rosbag2.storage_mcap import zstd
+
+    bag = _zstd_rosbag2(tmp_path, "message")
+    assert "compression_mode: message" in (bag / "metadata.yaml").read_text()
+    (db,) = bag.glob("*.db3")
+    extra = zstd.compress(bytes(1 << 20)) * 1100  # 1.1 GiB of zeros as further frames
+    con = sqlite3.connect(db)
+    with con:
+        ((row_id, data),) = con.execute("SELECT id, data FROM messages").fetchall()
+        con.execute("UPDATE messages SET data = ? WHERE id = ?", (data + extra, row_id))
+    con.close()
+    assert sum(f.stat().st_size for f in bag.iterdir()) < 300_000
+    msg, peak_kb = _load_limited(bag, "BagError")
+    assert msg.startswith(f"{db}: message 1 (zstd) inflates to more than "), msg
+    assert "(corrupt, or a decompression bomb)" in msg
+    assert int(peak_kb) < 400 * 1024
+
+
+@pytest.mark.parametrize("mode", ["message", "file"])
+def test_zstd_rosbag2_bags_still_load(tmp_path: Path, mode: str) -> None:
+    bag = _zstd_rosbag2(tmp_path, mode)
+    assert f"compression_mode: {mode}" in (bag / "metadata.yaml").read_text()
+    assert slamq.load_map(bag).shape == (28, 28)
+
+
 @pytest.mark.parametrize("fmt", ["ros1", "mcap"])
 def test_compressed_bags_still_load(tmp_path: Path, fmt: str) -> None:
     from _bagdata import BagWriter, bag_path, room_grid
