@@ -35,9 +35,11 @@ def _slamq(*args: str, timeout: float = 60, limit: bool = True) -> subprocess.Co
 
 def _run_limited(script: str) -> list[str]:
     """A Python ``script`` in a child under the address-space limit and a timeout; the
-    lines it printed, the last of which must be its peak RSS (KiB)."""
-    proc = subprocess.run([sys.executable, "-c", script + "\nimport resource\n"
-                           "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n"],
+    lines it printed, the last of which is its peak RSS (KiB): ``VmHWM`` of its own address
+    space (``ru_maxrss`` would keep the high-water mark of the pytest process it was
+    forked from, across exec)."""
+    proc = subprocess.run([sys.executable, "-c", script + "\nprint([line.split()[1] for line in "
+                           "open('/proc/self/status') if line.startswith('VmHWM:')][0])\n"],
                           capture_output=True, text=True, env=slamq_env(), timeout=120,
                           preexec_fn=_limited)
     assert proc.returncode == 0, proc.stderr
