@@ -31,7 +31,7 @@ from slamq.errors import (
     SlamqError,
     TrajectoryError,
 )
-from slamq.metrics import ate, ate_runs, compare, evaluate, rpe
+from slamq.metrics import ate, ate_runs, compare, consensus, evaluate, rpe
 from slamq.models import MapComparison, MapQuality, OccupancyMap, Trajectory
 from slamq.params import Params
 from slamq.sources import load_map, load_trajectory
@@ -81,6 +81,7 @@ __all__ = [
     "ate",
     "ate_runs",
     "compare",
+    "consensus",
     "discover_runs",
     "evaluate",
     "evaluate_many",
