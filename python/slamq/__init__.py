@@ -7,8 +7,8 @@ evaluation.
 
 Data flows one way through the subpackages, and nothing imports upward:
 :mod:`slamq.sources` (readers) -> :mod:`slamq.models` (plain data) -> :mod:`slamq.metrics`
--> :mod:`slamq.results` -> :mod:`slamq.batch` -> :mod:`slamq.report` -> :mod:`slamq.run`
--> :mod:`slamq.cli`.
+-> :mod:`slamq.results` -> :mod:`slamq.synth` -> :mod:`slamq.batch` -> :mod:`slamq.report`
+-> :mod:`slamq.run` -> :mod:`slamq.cli`.
 Heavy parts (batch, bags, pbstream) are imported on first use.
 
 >>> import numpy as np, slamq
@@ -45,6 +45,7 @@ _LAZY = {
     "run": "slamq.run",
     "read_results": "slamq.results.files",
     "summarize": "slamq.results.summary",
+    "synth": "slamq.synth",
     "validate": "slamq.results.validity",
     "read_bag_maps": "slamq.sources.bag_maps",
     "read_last_map": "slamq.sources.bag_maps",
@@ -95,5 +96,6 @@ __all__ = [
     "read_results",
     "rpe",
     "summarize",
+    "synth",
     "validate",
 ]
