@@ -550,7 +550,7 @@ def test_a_full_disk_names_the_results_file(tmp_path: Path, suffix: str) -> None
     assert proc.returncode == 2, proc.stderr
     line = proc.stderr.strip().splitlines()[-1]  # (Parquet: the journal, or the compaction)
     named = [p for p in (out, Path(f"{out}.journal.jsonl"))
-             if f"{p}: cannot write results: File too large" in line]
+             if f"{p}: cannot write results:" in line and "File too large" in line]
     assert named, proc.stderr
     assert "Traceback" not in proc.stderr
     from slamq.results import read_results

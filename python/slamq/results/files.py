@@ -53,18 +53,20 @@ _PARQUET = (".parquet", ".pq")
 
 _INT_COLUMNS = {
     "unknown_value", "height", "width", "total", "known", "unknown", "occupied", "free",
-    "corners", "enclosed_areas", "enclosed_unknown_value", "param_min_dot_area",
+    "corners", "corners_canonical", "enclosed_areas", "enclosed_unknown_value",
+    "param_min_dot_area",
     "param_sweep_step", "param_min_area", "ate_n", "gt_truncated", "gt_outside",
 }
 #: Float columns that are NaN when a map has no known cell (null in JSON).
 _FLOAT_COLUMNS = {"occupied_fraction", "proportion", "threshold", "seconds",
-                  "param_log_threshold", "param_harris_k", "param_harris_quality"} | {
+                  "param_log_threshold", "param_harris_k", "param_harris_quality",
+                  "param_canonical_resolution", "wall_angle", "known_box_m2"} | {
     f"ate_{s}" for s in ("rmse", "mean", "median", "std", "min", "max")} | {
     c for c in GT_COLUMNS if c not in ("gt_map", "gt_error", "gt_truncated", "gt_outside")}
 _STR_COLUMNS = {
     "map", "algorithm", "sequence", "run", "trajectory", "groundtruth", "hash", "config",
     "error",
-    "source", "ate_error", "gt_map", "gt_error",
+    "source", "ate_error", "gt_map", "gt_error", "saver", "flags",
 }
 
 
