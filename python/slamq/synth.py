@@ -505,14 +505,14 @@ def markdown(table: pd.DataFrame, scores: pd.DataFrame, command: str) -> str:
                 cells.append("n/a" if not np.isfinite(row[m]) else f"{100 * row[m]:+.0f}%")
         lines.append(f"| {kind} | {s:g} | " + " | ".join(cells) + " |")
     rot = scores[scores["degradation"] == "rotation"]
-    if len(rot) and "corners" in rot:
+    for metric in (m for m in metrics if m.startswith("corners") and m in rot):
         sev = sorted(set(rot["severity"]) - {0.0})
-        lines += ["", "Corners of each plan under rotation (relative to the plan):", "",
+        lines += ["", f"{metric} of each plan under rotation (relative to the plan):", "",
                   "| plan | " + " | ".join(f"{s:g} deg" for s in sev) + " |",
                   "|---|" + "---|" * len(sev)]
         for plan, part in rot.groupby("plan", sort=False):
-            base = float(part.loc[part["severity"] == 0, "corners"].iloc[0])
-            vals = [float(part.loc[part["severity"] == s, "corners"].iloc[0]) for s in sev]
+            base = float(part.loc[part["severity"] == 0, metric].iloc[0])
+            vals = [float(part.loc[part["severity"] == s, metric].iloc[0]) for s in sev]
             lines.append(f"| `{plan}` ({base:g}) | " + " | ".join(
                 f"{100 * (v / base - 1):+.0f}%" if base else "n/a" for v in vals) + " |")
     return "\n".join(lines) + "\n"
