@@ -55,7 +55,8 @@ def _concordance(a: np.ndarray, b: np.ndarray) -> tuple[int, int]:
 
 
 def validate(results: Any, *, truths: tuple[str, ...] | None = None,
-             permutations: int = 2000, seed: int = 0) -> pd.DataFrame:
+             permutations: int = 2000, seed: int = 0,
+             metrics: tuple[str, ...] | None = None) -> pd.DataFrame:
     """Rank agreement of each no-reference metric with each ground-truth figure.
 
     Parameters
@@ -69,6 +70,8 @@ def validate(results: Any, *, truths: tuple[str, ...] | None = None,
         Shuffles for the p-value (0: no p-value).
     seed : int, default 0
         Seed of the shuffles (results are reproducible).
+    metrics : tuple of str, optional
+        Lower-is-better columns to measure (default: :data:`METRICS`).
 
     Returns
     -------
@@ -101,7 +104,7 @@ def validate(results: Any, *, truths: tuple[str, ...] | None = None,
     rows = []
     for truth in truths:
         sign = -1.0 if TRUTHS.get(truth, False) else 1.0
-        for metric in METRICS:
+        for metric in METRICS if metrics is None else metrics:
             if metric not in df or truth not in df:
                 continue
             groups = []
