@@ -31,6 +31,19 @@ METRICS = ("corners", "corners_canonical", "occupied_fraction", "proportion",
            "enclosed_areas")
 #: Ground-truth figures and whether higher is better.
 TRUTHS = {"ate_rmse": False, "gt_chamfer": False, "gt_f1": True}
+#: Measured once and shipped (README "What the numbers mean", docs/validity.md): each
+#: metric's pooled pairwise concordance (0.5 = chance) with ATE on slam_comparison_tools
+#: (3 worlds x 5 algorithms) and with the damage's severity in the synthetic study of
+#: :mod:`slamq.synth` (drift, wall doubling, rotation, where the ideal is no change, and
+#: specks). The report prints it beside the figures of its own results.
+SHIPPED_CONCORDANCE = {
+    # metric: (vs ATE, drift, doubling, rotation, specks)
+    "corners": (0.73, 1.00, 0.90, 0.95, 0.98),
+    "corners_canonical": (0.67, 0.97, 0.86, 0.72, 0.98),
+    "occupied_fraction": (0.50, 0.03, 0.77, 0.05, 1.00),
+    "proportion": (0.50, 0.00, 0.80, 0.00, 1.00),
+    "enclosed_areas": (0.27, 0.20, 0.63, 0.07, 0.42),
+}
 #: A sequence needs this many scored maps to count.
 MIN_MAPS = 3
 
