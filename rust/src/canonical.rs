@@ -250,11 +250,11 @@ pub fn canonical_map(
                         let yi = py.max(0.0).min(h1) as usize;
                         *a = base + yi * stride + xi;
                     }
+                    // branch-free: known and unknown cells alternate unpredictably
                     for ((t, k), &a) in total.iter_mut().zip(count.iter_mut()).zip(&at) {
-                        if !grid.unknown[a] {
-                            *t += grid.values[a] as u32;
-                            *k += 1;
-                        }
+                        let known = u32::from(!grid.unknown[a]);
+                        *t += u32::from(grid.values[a]) * known;
+                        *k += known;
                     }
                 }
             }
