@@ -37,3 +37,25 @@ def slamq_env(base: dict[str, str] | None = None) -> dict[str, str]:
     rest = [env["PYTHONPATH"]] if env.get("PYTHONPATH") else []
     env["PYTHONPATH"] = os.pathsep.join([root, *rest])
     return env
+
+
+def comparison_tools_runs(shared: Path) -> list[tuple[str, str, Path, float]]:
+    """The 15 runs of slam_comparison_tools in ../shared/data: ``(world, algorithm, map
+    YAML, ATE RMSE)``, the ATE computed from the run's pose log (SLAM and ground-truth
+    positions side by side, no alignment, as the repository reports it)."""
+    import csv
+
+    import numpy as np
+
+    maps = shared / "maps" / "slam_comparison_tools" / "test_results"
+    logs = shared / "trajectories" / "slam_comparison_tools"
+    out = []
+    for world in ("abstract", "office", "warehouse"):
+        for y in sorted((maps / world).glob("*_map.yaml")):
+            alg = y.name[: -len("_map.yaml")]
+            with open(logs / world / f"{alg}_pose_log.csv") as fh:
+                e = np.array([[float(r[k]) for k in ("slam_x", "slam_y", "gt_x", "gt_y")]
+                              for r in csv.DictReader(fh)])
+            ate = float(np.sqrt(np.mean(np.sum((e[:, :2] - e[:, 2:]) ** 2, axis=1))))
+            out.append((world, alg, y, ate))
+    return out

@@ -4,11 +4,10 @@ the three worlds that docs/validity.md reports."""
 
 from __future__ import annotations
 
-import csv
-
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import comparison_tools_runs
 
 import slamq
 from slamq.results.validity import validate
@@ -72,22 +71,18 @@ def test_on_the_office_world_the_broken_cartographer_map_scores_worst(test_data)
 def test_measured_on_slam_comparison_tools_it_does_not_clearly_beat_corners(
         shared_data) -> None:
     """The figures of docs/validity.md: consensus F1 loss vs ATE, ground truth withheld."""
-    maps = shared_data / "maps" / "slam_comparison_tools" / "test_results"
-    logs = shared_data / "trajectories" / "slam_comparison_tools"
+    runs = comparison_tools_runs(shared_data)
     rows = []
     for world in ("abstract", "office", "warehouse"):
-        ys = {y.name[: -len("_map.yaml")]: y for y in sorted((maps / world).glob("*_map.yaml"))}
+        ys = {alg: y for w, alg, y, _ in runs if w == world}
         c = slamq.consensus(ys)
-        for alg, y in ys.items():
-            with open(logs / world / f"{alg}_pose_log.csv") as fh:
-                e = np.array([[float(r[k]) for k in ("slam_x", "slam_y", "gt_x", "gt_y")]
-                              for r in csv.DictReader(fh)])
+        for w, alg, y, ate in runs:
+            if w != world:
+                continue
             rows.append({"sequence": world, "algorithm": alg,
                          "corners": slamq.evaluate(y).corners,
                          "consensus_f1_loss": 1 - c.scores[alg].f1,
-                         "consensus_chamfer": c.scores[alg].chamfer,
-                         "ate_rmse": float(np.sqrt(np.mean(np.sum(
-                             (e[:, :2] - e[:, 2:]) ** 2, axis=1))))})
+                         "consensus_chamfer": c.scores[alg].chamfer, "ate_rmse": ate})
     df = pd.DataFrame(rows)
     v = validate(df, permutations=1000, metrics=("corners", "consensus_f1_loss",
                                                  "consensus_chamfer"))

@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import slamq_env
+from conftest import comparison_tools_runs, slamq_env
 
 import slamq
 from slamq.results.validity import validate
@@ -81,21 +81,11 @@ def test_cli_prints_the_pooled_table_and_writes_every_row(tmp_path) -> None:
 def test_on_slam_comparison_tools_corners_agree_and_enclosed_areas_are_inverted(
         shared_data) -> None:
     """The issue's measurement, reproduced: pooled concordance with ATE, 3 worlds x 5."""
-    import csv
-
-    maps = shared_data / "maps" / "slam_comparison_tools" / "test_results"
-    logs = shared_data / "trajectories" / "slam_comparison_tools"
     rows = []
-    for world in ("abstract", "office", "warehouse"):
-        for y in sorted((maps / world).glob("*_map.yaml")):
-            alg = y.name[: -len("_map.yaml")]
-            with open(logs / world / f"{alg}_pose_log.csv") as fh:
-                e = np.array([[float(r[k]) for k in ("slam_x", "slam_y", "gt_x", "gt_y")]
-                              for r in csv.DictReader(fh)])
-            d = slamq.evaluate(y).to_dict()
-            d.update(sequence=world, algorithm=alg, error=None, ate_rmse=float(
-                np.sqrt(np.mean(np.sum((e[:, :2] - e[:, 2:]) ** 2, axis=1)))))
-            rows.append(d)
+    for world, alg, y, ate in comparison_tools_runs(shared_data):
+        d = slamq.evaluate(y).to_dict()
+        d.update(sequence=world, algorithm=alg, error=None, ate_rmse=ate)
+        rows.append(d)
     v = validate(pd.DataFrame(rows), permutations=1000)
     pooled = v[v["sequence"] == "(pooled)"].set_index("metric")
     assert pooled.loc["corners", "concordance"] == pytest.approx(0.733, abs=0.01)

@@ -3,12 +3,12 @@ partial and reference maps never named best; and the issue's test on real data."
 
 from __future__ import annotations
 
-import csv
 import math
 
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import comparison_tools_runs
 
 import slamq
 from slamq.report.metrics import summarize
@@ -66,25 +66,17 @@ def test_on_slam_comparison_tools_the_verdict_never_names_a_broken_map(shared_da
     algorithm in the ATE top two of each world; with maps only, never a map whose ATE is
     more than 10 times the best."""
     maps = shared_data / "maps" / "slam_comparison_tools"
-    logs = shared_data / "trajectories" / "slam_comparison_tools"
     rows = []
-    for world in ("abstract", "office", "warehouse"):
+    for world, alg, y, ate in comparison_tools_runs(shared_data):
         gt_map = maps / "ground_truths" / f"{world}_ground_truth.yaml"
-        for y in sorted((maps / "test_results" / world).glob("*_map.yaml")):
-            alg = y.name[: -len("_map.yaml")]
-            q = slamq.evaluate(y)
-            with open(logs / world / f"{alg}_pose_log.csv") as fh:
-                e = np.array([[float(r[k]) for k in ("slam_x", "slam_y", "gt_x", "gt_y")]
-                              for r in csv.DictReader(fh)])
-            c = slamq.compare(y, gt_map)
-            rows.append({"sequence": world, "algorithm": alg, "corners": q.corners,
-                         "corners_canonical": q.corners_canonical,
-                         "wall_angle": q.wall_angle,
-                         "occupied_fraction": q.occupied_fraction,
-                         "enclosed_areas": q.enclosed_areas, "known": q.known,
-                         "ate_rmse": float(np.sqrt(np.mean(np.sum(
-                             (e[:, :2] - e[:, 2:]) ** 2, axis=1)))),
-                         "gt_f1": c.f1, "gt_chamfer": c.chamfer})
+        q = slamq.evaluate(y)
+        c = slamq.compare(y, gt_map)
+        rows.append({"sequence": world, "algorithm": alg, "corners": q.corners,
+                     "corners_canonical": q.corners_canonical,
+                     "wall_angle": q.wall_angle,
+                     "occupied_fraction": q.occupied_fraction,
+                     "enclosed_areas": q.enclosed_areas, "known": q.known,
+                     "ate_rmse": ate, "gt_f1": c.f1, "gt_chamfer": c.chamfer})
     df = pd.DataFrame(rows)
     for world, part in df.groupby("sequence"):
         ate = part.set_index("algorithm")["ate_rmse"]
