@@ -97,111 +97,114 @@ pub fn response(a: i64, b: i64, c: i64, k: f64) -> f64 {
     ((a * c - b * b) as f64) - k * ((s * s) as f64)
 }
 
-/// How far (in columns, each side) a set mask cell can make the Harris sums non-zero:
-/// `A, B, C` at column `x` read mask columns `x-2 ..= x+1` (reflect-101 included).
-const REACH: usize = 3;
-
-/// Harris sums over the parts of one output row where they can be non-zero.
-struct HarrisRow<'a> {
-    mask: &'a [u8],
-    runs: &'a RowRuns,
-    height: usize,
-    width: usize,
-    spans: Vec<(usize, usize)>,
-    // scratch, indexed from the start of the current span's gather window
-    p: Vec<i16>,
-    d: Vec<i16>,
-    prod: [[Vec<i16>; 3]; 2],
+/// Horizontal pair sums of one mask row's Sobel products: `h[x] = P[reflect(x-1)] + P[x]` for
+/// `P` in `Ix^2`, `Ix Iy`, `Iy^2`, so that the 2x2 box sum of output row `r` is the pair row
+/// of `reflect(r-1)` plus the pair row of `r`. Full-width buffers, zero outside `[lo, hi)`.
+#[derive(Default)]
+struct PairRow {
+    xx: Vec<i16>,
+    xy: Vec<i16>,
+    yy: Vec<i16>,
+    lo: usize,
+    hi: usize,
 }
 
-impl<'a> HarrisRow<'a> {
-    fn new(mask: &'a [u8], runs: &'a RowRuns, height: usize, width: usize) -> Self {
-        HarrisRow {
-            mask,
-            runs,
-            height,
-            width,
-            spans: Vec::new(),
-            p: Default::default(),
-            d: Default::default(),
-            prod: Default::default(),
+/// Scratch of one band's Harris pass.
+#[derive(Default)]
+struct Scratch {
+    p: Vec<i16>,
+    d: Vec<i16>,
+    xx: Vec<i16>,
+    xy: Vec<i16>,
+    yy: Vec<i16>,
+}
+
+impl PairRow {
+    fn new(width: usize) -> Self {
+        PairRow {
+            xx: vec![0; width],
+            xy: vec![0; width],
+            yy: vec![0; width],
+            lo: 0,
+            hi: 0,
         }
     }
 
-    /// Column intervals `[a, b)` of row `r` outside which `A = B = C = 0`: the set runs of
-    /// mask rows `r-2 ..= r+1` (reflect-mapped), widened by [`REACH`] and merged.
-    fn find_spans(&mut self, r: usize) {
-        let (h, w) = (self.height, self.width);
-        self.spans.clear();
-        let mut rows = [0usize; 4];
-        for (k, dr) in (-2isize..=1).enumerate() {
-            rows[k] = reflect101(r as isize + dr, h);
+    /// Compute the pair row of mask row `y`: products only where mask rows `y-1 ..= y+1`
+    /// (reflect-mapped) have set cells within one column, from the bounding interval of
+    /// their runs (no per-run spans, no sorting).
+    fn compute(
+        &mut self,
+        mask: &[u8],
+        runs: &RowRuns,
+        (h, w): (usize, usize),
+        y: usize,
+        s: &mut Scratch,
+    ) {
+        // clear what the previous row left
+        let (olo, ohi) = (self.lo, self.hi);
+        self.xx[olo..ohi].fill(0);
+        self.xy[olo..ohi].fill(0);
+        self.yy[olo..ohi].fill(0);
+        self.lo = 0;
+        self.hi = 0;
+        let rows = [
+            reflect101(y as isize - 1, h),
+            y,
+            reflect101(y as isize + 1, h),
+        ];
+        let (mut first, mut last) = (usize::MAX, 0usize);
+        for &k in &rows {
+            let rr = runs.row(k);
+            if let (Some(a), Some(b)) = (rr.first(), rr.last()) {
+                first = first.min(a.start as usize);
+                last = last.max(b.end as usize);
+            }
         }
-        rows.sort_unstable();
-        let mut prev_row = usize::MAX;
-        for &rr in &rows {
-            if rr == prev_row {
-                continue;
-            }
-            prev_row = rr;
-            for run in self.runs.row(rr) {
-                let a = (run.start as usize).saturating_sub(REACH);
-                let b = (run.end as usize + REACH).min(w);
-                self.spans.push((a, b));
-            }
+        if first == usize::MAX {
+            return;
         }
-        self.spans.sort_unstable();
-        let mut merged: Vec<(usize, usize)> = Vec::with_capacity(self.spans.len());
-        for &(a, b) in &self.spans {
-            match merged.last_mut() {
-                Some(last) if a <= last.1 => last.1 = last.1.max(b),
-                _ => merged.push((a, b)),
-            }
-        }
-        self.spans = merged;
-    }
-
-    /// Call `visit(x, A, B, C)` for every column of row `r` where the sums are not all zero.
-    fn for_each(&mut self, r: usize, mut visit: impl FnMut(usize, i32, i32, i32)) {
-        self.find_spans(r);
-        let (h, w) = (self.height, self.width);
-        let m_row = |k: usize| &self.mask[k * w..(k + 1) * w];
-        // product rows: reflect(r-1) (box row above) and r
-        let yys = [reflect101(r as isize - 1, h), r];
-        let spans = std::mem::take(&mut self.spans);
-        for &(a, b) in &spans {
-            // product columns needed: reflect(x-1) and x for x in [a, b)
-            let lo = a.saturating_sub(1);
-            let hi = if a == 0 { b.max(2.min(w)) } else { b };
-            for (slot, &yy) in yys.iter().enumerate() {
-                let [xx, xy, yy2] = &mut self.prod[slot];
-                sobel_products(
-                    m_row(reflect101(yy as isize - 1, h)),
-                    m_row(yy),
-                    m_row(reflect101(yy as isize + 1, h)),
-                    (lo, hi),
-                    &mut self.p,
-                    &mut self.d,
-                    xx,
-                    xy,
-                    yy2,
-                );
-            }
-            let [pxx, pxy, pyy] = &self.prod[0];
-            let [cxx, cxy, cyy] = &self.prod[1];
-            for x in a..b {
-                let l = reflect101(x as isize - 1, w) - lo;
-                let i = x - lo;
-                let av = (pxx[l] + pxx[i] + cxx[l] + cxx[i]) as i32;
-                let cv = (pyy[l] + pyy[i] + cyy[l] + cyy[i]) as i32;
-                if av == 0 && cv == 0 {
-                    continue; // then B = 0 too (B^2 <= A*C), and R = 0
+        // products can be non-zero on [first - 1, last + 1); the pair sums one column further
+        // right, and at column 0 (which reads column 1)
+        let plo = first.saturating_sub(1);
+        let phi = (last + 1).min(w);
+        let hlo = if plo <= 1 { 0 } else { plo };
+        let hhi = (phi + 1).min(w);
+        // products on columns [pl, ph): every column the pair sums of [hlo, hhi) read
+        let pl = hlo.saturating_sub(1);
+        let ph = if hlo == 0 { hhi.max(2.min(w)) } else { hhi };
+        let m_row = |k: usize| &mask[k * w..(k + 1) * w];
+        sobel_products(
+            m_row(rows[0]),
+            m_row(rows[1]),
+            m_row(rows[2]),
+            (pl, ph),
+            &mut s.p,
+            &mut s.d,
+            &mut s.xx,
+            &mut s.xy,
+            &mut s.yy,
+        );
+        for (out, prod) in [
+            (&mut self.xx, &s.xx),
+            (&mut self.xy, &s.xy),
+            (&mut self.yy, &s.yy),
+        ] {
+            // column x >= 1: P[x - 1] + P[x] (product index q is column pl + q)
+            let from = hlo.max(1);
+            if from < hhi {
+                let dst = &mut out[from..hhi];
+                let src = &prod[from - 1 - pl..hhi - pl];
+                for (o, pair) in dst.iter_mut().zip(src.windows(2)) {
+                    *o = pair[0] + pair[1];
                 }
-                let bv = (pxy[l] + pxy[i] + cxy[l] + cxy[i]) as i32;
-                visit(x, av, bv, cv);
+            }
+            if hlo == 0 {
+                out[0] = prod[reflect101(-1, w) - pl] + prod[0];
             }
         }
-        self.spans = spans;
+        self.lo = hlo;
+        self.hi = hhi;
     }
 }
 
@@ -227,19 +230,44 @@ pub fn corner_runs(
     let found: Vec<BandResponses> = bands(h)
         .into_par_iter()
         .map(|(r0, r1)| {
-            let mut rows = HarrisRow::new(mask, runs, h, w);
+            let mut prev = PairRow::new(w);
+            let mut cur = PairRow::new(w);
+            let mut scratch = Scratch::default();
+            prev.compute(
+                mask,
+                runs,
+                (h, w),
+                reflect101(r0 as isize - 1, h),
+                &mut scratch,
+            );
             let mut best = f64::NEG_INFINITY;
             let mut positive = Vec::new();
             for r in r0..r1 {
-                rows.for_each(r, |x, a, b, c| {
-                    let resp = response(a as i64, b as i64, c as i64, k);
+                cur.compute(mask, runs, (h, w), r, &mut scratch);
+                // the union of the two rows' non-zero intervals (an empty one counts for nothing)
+                let (lo, hi) = if prev.lo >= prev.hi {
+                    (cur.lo, cur.hi)
+                } else if cur.lo >= cur.hi {
+                    (prev.lo, prev.hi)
+                } else {
+                    (prev.lo.min(cur.lo), prev.hi.max(cur.hi))
+                };
+                for x in lo..hi {
+                    let av = prev.xx[x] as i32 + cur.xx[x] as i32;
+                    let cv = prev.yy[x] as i32 + cur.yy[x] as i32;
+                    if av == 0 && cv == 0 {
+                        continue; // then B = 0 too (B^2 <= A*C), and R = 0
+                    }
+                    let bv = prev.xy[x] as i32 + cur.xy[x] as i32;
+                    let resp = response(av as i64, bv as i64, cv as i64, k);
                     if resp > best {
                         best = resp;
                     }
                     if resp > 0.0 {
                         positive.push((r, x, resp));
                     }
-                });
+                }
+                std::mem::swap(&mut prev, &mut cur);
             }
             (best, positive)
         })
@@ -316,6 +344,81 @@ mod tests {
         let (v, u) = square_map(40, 12, 28);
         let g = Grid::new(&v, &u, 40, 40).unwrap();
         assert_eq!(count_corners(&g, &CornerParams::default()), 8);
+    }
+
+    /// Steps 6-7 literally, cell by cell with reflect-101 everywhere: the corner mask.
+    fn naive_corner_mask(mask: &[u8], h: usize, w: usize, p: &CornerParams) -> Vec<u8> {
+        let m = |r: isize, c: isize| mask[reflect101(r, h) * w + reflect101(c, w)] as i64;
+        let prod = |r: isize, c: isize| {
+            let ix = (m(r - 1, c + 1) + 2 * m(r, c + 1) + m(r + 1, c + 1))
+                - (m(r - 1, c - 1) + 2 * m(r, c - 1) + m(r + 1, c - 1));
+            let iy = (m(r + 1, c - 1) + 2 * m(r + 1, c) + m(r + 1, c + 1))
+                - (m(r - 1, c - 1) + 2 * m(r - 1, c) + m(r - 1, c + 1));
+            (ix * ix, ix * iy, iy * iy)
+        };
+        let mut resp = vec![0.0f64; h * w];
+        for r in 0..h {
+            for c in 0..w {
+                let (mut a, mut b, mut cc) = (0, 0, 0);
+                for rr in [reflect101(r as isize - 1, h), r] {
+                    for c2 in [reflect101(c as isize - 1, w), c] {
+                        let (x, y, z) = prod(rr as isize, c2 as isize);
+                        a += x;
+                        b += y;
+                        cc += z;
+                    }
+                }
+                resp[r * w + c] = response(a, b, cc, p.harris_k);
+            }
+        }
+        let best = resp.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        resp.iter()
+            .map(|&x| (best > 0.0 && x > p.harris_quality * best) as u8)
+            .collect()
+    }
+
+    #[test]
+    fn corner_runs_equal_the_literal_harris_on_random_masks() {
+        let mut s = 12345u64;
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1);
+            (s >> 33) as usize
+        };
+        let p = CornerParams::default();
+        for trial in 0..300 {
+            let h = 1 + next() % 23;
+            let w = 1 + next() % 23;
+            let density = next() % 100;
+            let mut mask: Vec<u8> = (0..h * w).map(|_| (next() % 100 < density) as u8).collect();
+            if trial % 3 == 0 {
+                // empty rows and columns, so that the intervals matter
+                for r in 0..h {
+                    if next() % 3 == 0 {
+                        mask[r * w..(r + 1) * w].fill(0);
+                    }
+                }
+            }
+            let runs = RowRuns::of(
+                &MaskRows {
+                    mask: &mask,
+                    width: w,
+                },
+                h,
+                w,
+            );
+            let got = corner_runs(&mask, &runs, h, w, &p);
+            let mut cm = vec![0u8; h * w];
+            for r in 0..h {
+                for run in got.row(r) {
+                    cm[r * w + run.start as usize..r * w + run.end as usize].fill(1);
+                }
+            }
+            assert_eq!(
+                cm,
+                naive_corner_mask(&mask, h, w, &p),
+                "trial {trial}: {h}x{w}"
+            );
+        }
     }
 
     #[test]
