@@ -208,8 +208,9 @@ impl PairRow {
     }
 }
 
-/// One band's largest response and its cells with `R > 0`, as `(row, column, R)` in order.
-type BandResponses = (f64, Vec<(usize, usize, f64)>);
+/// One band's largest response, its cells with `R > 0` as `(column, R)` in row-major order,
+/// and where each of its rows starts in that list (one more entry than rows).
+type BandResponses = (f64, Vec<(u32, f64)>, Vec<usize>);
 
 /// Steps 6-7: the corner mask of a dot-free structure mask (given with its runs), as runs.
 ///
@@ -233,6 +234,7 @@ pub fn corner_runs(
             let mut prev = PairRow::new(w);
             let mut cur = PairRow::new(w);
             let mut scratch = Scratch::default();
+            let (mut sa, mut sc): (Vec<i16>, Vec<i16>) = (Vec::new(), Vec::new());
             prev.compute(
                 mask,
                 runs,
@@ -241,7 +243,8 @@ pub fn corner_runs(
                 &mut scratch,
             );
             let mut best = f64::NEG_INFINITY;
-            let mut positive = Vec::new();
+            let mut positive: Vec<(u32, f64)> = Vec::new();
+            let mut starts = Vec::with_capacity(r1 - r0 + 1);
             for r in r0..r1 {
                 cur.compute(mask, runs, (h, w), r, &mut scratch);
                 // the union of the two rows' non-zero intervals (an empty one counts for nothing)
@@ -252,29 +255,48 @@ pub fn corner_runs(
                 } else {
                     (prev.lo.min(cur.lo), prev.hi.max(cur.hi))
                 };
-                for x in lo..hi {
-                    let av = prev.xx[x] as i32 + cur.xx[x] as i32;
-                    let cv = prev.yy[x] as i32 + cur.yy[x] as i32;
-                    if av == 0 && cv == 0 {
-                        continue; // then B = 0 too (B^2 <= A*C), and R = 0
+                // A and C over the interval in one vectorised pass; blocks of 8 cells where
+                // both are zero (then B = 0 too, as B^2 <= A*C, and R = 0) are skipped whole
+                let n = hi - lo;
+                sa.resize(n, 0);
+                sc.resize(n, 0);
+                for ((o, &p), &c) in sa.iter_mut().zip(&prev.xx[lo..hi]).zip(&cur.xx[lo..hi]) {
+                    *o = p + c;
+                }
+                for ((q, &p), &c) in sc.iter_mut().zip(&prev.yy[lo..hi]).zip(&cur.yy[lo..hi]) {
+                    *q = p + c;
+                }
+                starts.push(positive.len());
+                for (blk, (a8, c8)) in sa.chunks(8).zip(sc.chunks(8)).enumerate() {
+                    if a8.iter().zip(c8).fold(0i16, |acc, (&a, &c)| acc | a | c) == 0 {
+                        continue;
                     }
-                    let bv = prev.xy[x] as i32 + cur.xy[x] as i32;
-                    let resp = response(av as i64, bv as i64, cv as i64, k);
-                    if resp > best {
-                        best = resp;
+                    // branch-free within a block: a cell with A = C = 0 has B = 0 and R = 0,
+                    // which changes neither a positive maximum nor the cells with R > 0
+                    let x0 = lo + blk * 8;
+                    let mut len = positive.len();
+                    positive.resize(len + a8.len(), (0, 0.0));
+                    for (j, (&av, &cv)) in a8.iter().zip(c8).enumerate() {
+                        let x = x0 + j;
+                        let bv = prev.xy[x] as i64 + cur.xy[x] as i64;
+                        let resp = response(av as i64, bv, cv as i64, k);
+                        if resp > best {
+                            best = resp;
+                        }
+                        positive[len] = (x as u32, resp);
+                        len += (resp > 0.0) as usize;
                     }
-                    if resp > 0.0 {
-                        positive.push((r, x, resp));
-                    }
+                    positive.truncate(len);
                 }
                 std::mem::swap(&mut prev, &mut cur);
             }
-            (best, positive)
+            starts.push(positive.len());
+            (best, positive, starts)
         })
         .collect();
     let best = found
         .iter()
-        .map(|(b, _)| *b)
+        .map(|(b, _, _)| *b)
         .fold(f64::NEG_INFINITY, f64::max);
     let threshold = if best > 0.0 {
         params.harris_quality * best
@@ -284,25 +306,23 @@ pub fn corner_runs(
     let parts = found
         .into_par_iter()
         .zip(bands(h))
-        .map(|((_, positive), (r0, r1))| {
+        .map(|((_, positive, pos_start), (r0, r1))| {
             let mut out: Vec<Run> = Vec::new();
             let mut starts = Vec::with_capacity(r1 - r0);
-            let mut cells = positive
-                .into_iter()
-                .filter(|&(_, _, resp)| resp > threshold)
-                .peekable();
-            for r in r0..r1 {
+            for i in 0..r1 - r0 {
                 starts.push(out.len());
                 let row_first = out.len();
-                while let Some(&(_, x, _)) = cells.peek().filter(|c| c.0 == r) {
-                    cells.next();
+                for &(x, resp) in &positive[pos_start[i]..pos_start[i + 1]] {
+                    if resp <= threshold || resp.is_nan() {
+                        continue;
+                    }
                     let n = out.len();
-                    if n > row_first && out[n - 1].end as usize == x {
+                    if n > row_first && out[n - 1].end == x {
                         out[n - 1].end += 1; // the cell right of the row's last run
                     } else {
                         out.push(Run {
-                            start: x as u32,
-                            end: x as u32 + 1,
+                            start: x,
+                            end: x + 1,
                         });
                     }
                 }

@@ -94,38 +94,44 @@ pub fn sobel_products(
     yy: &mut Vec<i16>,
 ) {
     let w = mid.len();
+    let n = hi - lo;
     // vertical smoothing (p) and difference (d) on columns lo-1 ..= hi, reflect-mapped
-    p.clear();
-    d.clear();
+    p.resize(n + 2, 0);
+    d.resize(n + 2, 0);
     if lo >= 1 && hi < w {
-        // interior: no index mapping
+        // interior: no index mapping (zipped slices, so the loop vectorises)
         let cols = lo - 1..hi + 1;
-        for ((&u, &m), &dn) in up[cols.clone()]
-            .iter()
-            .zip(&mid[cols.clone()])
-            .zip(&down[cols])
-        {
-            p.push(u as i16 + 2 * m as i16 + dn as i16);
-            d.push(dn as i16 - u as i16);
+        for ((pp, dd), ((&u, &m), &dn)) in p.iter_mut().zip(d.iter_mut()).zip(
+            up[cols.clone()]
+                .iter()
+                .zip(&mid[cols.clone()])
+                .zip(&down[cols]),
+        ) {
+            *pp = u as i16 + 2 * m as i16 + dn as i16;
+            *dd = dn as i16 - u as i16;
         }
     } else {
-        for c in lo as isize - 1..hi as isize + 1 {
+        for (q, c) in (lo as isize - 1..hi as isize + 1).enumerate() {
             let cc = reflect101(c, w);
-            p.push(up[cc] as i16 + 2 * mid[cc] as i16 + down[cc] as i16);
-            d.push(down[cc] as i16 - up[cc] as i16);
+            p[q] = up[cc] as i16 + 2 * mid[cc] as i16 + down[cc] as i16;
+            d[q] = down[cc] as i16 - up[cc] as i16;
         }
     }
-    let n = hi - lo;
     xx.resize(n, 0);
     xy.resize(n, 0);
     yy.resize(n, 0);
-    for q in 0..n {
-        // column lo + q has its left and right neighbours at p/d indices q and q + 2
-        let ix = p[q + 2] - p[q];
-        let iy = d[q] + 2 * d[q + 1] + d[q + 2];
-        xx[q] = ix * ix;
-        xy[q] = ix * iy;
-        yy[q] = iy * iy;
+    // column lo + q has its left and right neighbours at p/d indices q and q + 2
+    for (((x2, xy2), y2), (pw, dw)) in xx
+        .iter_mut()
+        .zip(xy.iter_mut())
+        .zip(yy.iter_mut())
+        .zip(p.windows(3).zip(d.windows(3)))
+    {
+        let ix = pw[2] - pw[0];
+        let iy = dw[0] + 2 * dw[1] + dw[2];
+        *x2 = ix * ix;
+        *xy2 = ix * iy;
+        *y2 = iy * iy;
     }
 }
 
