@@ -4,13 +4,15 @@
 //! Everything up to the Harris response is exact integer arithmetic; the response is one
 //! float64 formula, `R = (A*C - B*B) - k*(A + C)^2`, evaluated as `slamq.reference` does.
 //! Work is done in fixed row bands in parallel; the one full-size intermediate is the 0/1
-//! structure mask (one byte per cell). Dot removal hands the mask's surviving runs on; the
-//! Harris sums (with their 2x2 box sum, fused here) are computed once, only on column spans
-//! next to set structure cells, keeping the cells with `R > 0` and their response, so the
-//! relative threshold needs no second pass; the corner blobs are counted from runs.
+//! structure mask (one byte per cell). Dot removal hands the mask's surviving runs on. The
+//! Harris sums of a cell depend only on the 4x4 mask window around it, so they are tabulated
+//! once per process for all 65,536 windows (by class of equal sums); a row's window codes
+//! are built from four mask rows, only over the columns next to set structure cells, and
+//! the cells with `R > 0` are kept with their response, so the relative threshold needs no
+//! second pass; the corner blobs are counted from runs.
 
 use crate::border::reflect101;
-use crate::filter::{blur_row, laplacian_mask_row, sobel_products, structure_row};
+use crate::filter::{blur_row, laplacian_mask_row, structure_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
 use crate::label::{Components, MaskRows, RowRuns, Run};
 use crate::params::CornerParams;
@@ -97,114 +99,116 @@ pub fn response(a: i64, b: i64, c: i64, k: f64) -> f64 {
     ((a * c - b * b) as f64) - k * ((s * s) as f64)
 }
 
-/// Horizontal pair sums of one mask row's Sobel products: `h[x] = P[reflect(x-1)] + P[x]` for
-/// `P` in `Ix^2`, `Ix Iy`, `Iy^2`, so that the 2x2 box sum of output row `r` is the pair row
-/// of `reflect(r-1)` plus the pair row of `r`. Full-width buffers, zero outside `[lo, hi)`.
-#[derive(Default)]
-struct PairRow {
-    xx: Vec<i16>,
-    xy: Vec<i16>,
-    yy: Vec<i16>,
-    lo: usize,
-    hi: usize,
-}
-
-/// Scratch of one band's Harris pass.
-#[derive(Default)]
-struct Scratch {
-    p: Vec<i16>,
-    d: Vec<i16>,
-    xx: Vec<i16>,
-    xy: Vec<i16>,
-    yy: Vec<i16>,
-}
-
-impl PairRow {
-    fn new(width: usize) -> Self {
-        PairRow {
-            xx: vec![0; width],
-            xy: vec![0; width],
-            yy: vec![0; width],
-            lo: 0,
-            hi: 0,
+/// The Harris sums `(A, B, C)` of one cell from its 4 x 4 mask window, for the cells whose
+/// reflect-mapped window is consistent (every cell but those of row 0 and column 0, see
+/// [`window_code`]): window rows are mask rows `r-2 ..= r+1`, columns `x-2 ..= x+1`, and
+/// bit `4 * j + i` of the code is the mask at window row `i`, column `j`.
+fn sums_of_code(code: u16) -> (i64, i64, i64) {
+    let m: [[i64; 4]; 4] =
+        std::array::from_fn(|i| std::array::from_fn(|j| ((code >> (4 * j + i)) & 1) as i64));
+    let (mut a, mut b, mut c) = (0, 0, 0);
+    // products at window rows {1, 2} (mask rows r-1, r) and columns {1, 2} (x-1, x)
+    for y in 1..3 {
+        for x in 1..3 {
+            let ix = (m[y - 1][x + 1] + 2 * m[y][x + 1] + m[y + 1][x + 1])
+                - (m[y - 1][x - 1] + 2 * m[y][x - 1] + m[y + 1][x - 1]);
+            let iy = (m[y + 1][x - 1] + 2 * m[y + 1][x] + m[y + 1][x + 1])
+                - (m[y - 1][x - 1] + 2 * m[y - 1][x] + m[y - 1][x + 1]);
+            a += ix * ix;
+            b += ix * iy;
+            c += iy * iy;
         }
     }
+    (a, b, c)
+}
 
-    /// Compute the pair row of mask row `y`: products only where mask rows `y-1 ..= y+1`
-    /// (reflect-mapped) have set cells within one column, from the bounding interval of
-    /// their runs (no per-run spans, no sorting).
-    fn compute(
-        &mut self,
-        mask: &[u8],
-        runs: &RowRuns,
-        (h, w): (usize, usize),
-        y: usize,
-        s: &mut Scratch,
-    ) {
-        // clear what the previous row left
-        let (olo, ohi) = (self.lo, self.hi);
-        self.xx[olo..ohi].fill(0);
-        self.xy[olo..ohi].fill(0);
-        self.yy[olo..ohi].fill(0);
-        self.lo = 0;
-        self.hi = 0;
-        let rows = [
-            reflect101(y as isize - 1, h),
-            y,
-            reflect101(y as isize + 1, h),
-        ];
-        let (mut first, mut last) = (usize::MAX, 0usize);
-        for &k in &rows {
-            let rr = runs.row(k);
-            if let (Some(a), Some(b)) = (rr.first(), rr.last()) {
-                first = first.min(a.start as usize);
-                last = last.max(b.end as usize);
-            }
-        }
-        if first == usize::MAX {
-            return;
-        }
-        // products can be non-zero on [first - 1, last + 1); the pair sums one column further
-        // right, and at column 0 (which reads column 1)
-        let plo = first.saturating_sub(1);
-        let phi = (last + 1).min(w);
-        let hlo = if plo <= 1 { 0 } else { plo };
-        let hhi = (phi + 1).min(w);
-        // products on columns [pl, ph): every column the pair sums of [hlo, hhi) read
-        let pl = hlo.saturating_sub(1);
-        let ph = if hlo == 0 { hhi.max(2.min(w)) } else { hhi };
-        let m_row = |k: usize| &mask[k * w..(k + 1) * w];
-        sobel_products(
-            m_row(rows[0]),
-            m_row(rows[1]),
-            m_row(rows[2]),
-            (pl, ph),
-            &mut s.p,
-            &mut s.d,
-            &mut s.xx,
-            &mut s.xy,
-            &mut s.yy,
-        );
-        for (out, prod) in [
-            (&mut self.xx, &s.xx),
-            (&mut self.xy, &s.xy),
-            (&mut self.yy, &s.yy),
-        ] {
-            // column x >= 1: P[x - 1] + P[x] (product index q is column pl + q)
-            let from = hlo.max(1);
-            if from < hhi {
-                let dst = &mut out[from..hhi];
-                let src = &prod[from - 1 - pl..hhi - pl];
-                for (o, pair) in dst.iter_mut().zip(src.windows(2)) {
-                    *o = pair[0] + pair[1];
+/// Every 4 x 4 window's class (its distinct `(A, B, C)`), built once per process: 128 KiB.
+struct WindowClasses {
+    class: Vec<u16>,
+    sums: Vec<(i64, i64, i64)>,
+}
+
+fn window_classes() -> &'static WindowClasses {
+    static TABLE: std::sync::OnceLock<WindowClasses> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        // |Ix|, |Iy| <= 4, so 0 <= A, C <= 64 and |B| <= 64: a dense index of (A, B, C)
+        const SIDE: usize = 65;
+        let key =
+            |(a, b, c): (i64, i64, i64)| (a as usize * 129 + (b + 64) as usize) * SIDE + c as usize;
+        let mut index = vec![u16::MAX; SIDE * 129 * SIDE];
+        let mut sums = Vec::new();
+        let class = (0..=u16::MAX)
+            .map(|code| {
+                let abc = sums_of_code(code);
+                let slot = &mut index[key(abc)];
+                if *slot == u16::MAX {
+                    *slot = sums.len() as u16;
+                    sums.push(abc);
                 }
-            }
-            if hlo == 0 {
-                out[0] = prod[reflect101(-1, w) - pl] + prod[0];
-            }
+                *slot
+            })
+            .collect();
+        WindowClasses { class, sums }
+    })
+}
+
+/// The sums of one cell computed from the mask directly with reflect-101 everywhere (SPEC
+/// section 3 step 6), for row 0 and column 0, where the box's row (column) above is
+/// `reflect(-1) = 1`, below (right of) the cell, and the 4 x 4 window does not apply.
+fn sums_direct(mask: &[u8], (h, w): (usize, usize), r: usize, x: usize) -> (i64, i64, i64) {
+    let m = |rr: isize, cc: isize| mask[reflect101(rr, h) * w + reflect101(cc, w)] as i64;
+    let (mut a, mut b, mut c) = (0, 0, 0);
+    for y in [reflect101(r as isize - 1, h), r] {
+        for xx in [reflect101(x as isize - 1, w), x] {
+            let (y, xx) = (y as isize, xx as isize);
+            let ix = (m(y - 1, xx + 1) + 2 * m(y, xx + 1) + m(y + 1, xx + 1))
+                - (m(y - 1, xx - 1) + 2 * m(y, xx - 1) + m(y + 1, xx - 1));
+            let iy = (m(y + 1, xx - 1) + 2 * m(y + 1, xx) + m(y + 1, xx + 1))
+                - (m(y - 1, xx - 1) + 2 * m(y - 1, xx) + m(y - 1, xx + 1));
+            a += ix * ix;
+            b += ix * iy;
+            c += iy * iy;
         }
-        self.lo = hlo;
-        self.hi = hhi;
+    }
+    (a, b, c)
+}
+
+/// Column nibbles of output row `r` (>= 1): bit `i` of `nib[c]` is the mask at row
+/// `reflect(r - 2 + i)`, column `c`. The window code of column `x` (>= 1) is then
+/// `nib[reflect(x-2)] | nib[x-1] << 4 | nib[x] << 8 | nib[reflect(x+1)] << 12`: for `r, x >= 1`
+/// the reflect-mapped window holds exactly the mask cells the Sobel products of the box read
+/// (row 0 and column 0 reflect their box onto the far side, so they are computed directly).
+fn window_nibbles(
+    mask: &[u8],
+    (h, w): (usize, usize),
+    r: usize,
+    lo: usize,
+    hi: usize,
+    nib: &mut [u8],
+) {
+    let rows: [&[u8]; 4] = std::array::from_fn(|i| {
+        let k = reflect101(r as isize - 2 + i as isize, h);
+        &mask[k * w..(k + 1) * w]
+    });
+    for ((((n, &a), &b), &c), &d) in nib[lo..hi]
+        .iter_mut()
+        .zip(&rows[0][lo..hi])
+        .zip(&rows[1][lo..hi])
+        .zip(&rows[2][lo..hi])
+        .zip(&rows[3][lo..hi])
+    {
+        *n = a | (b << 1) | (c << 2) | (d << 3);
+    }
+}
+
+/// Keep one directly computed cell's response: the running maximum, and the cell if R > 0.
+#[inline]
+fn visit(best: &mut f64, positive: &mut Vec<(u32, f64)>, x: usize, resp: f64) {
+    if resp > *best {
+        *best = resp;
+    }
+    if resp > 0.0 {
+        positive.push((x as u32, resp));
     }
 }
 
@@ -227,68 +231,116 @@ pub fn corner_runs(
 ) -> RowRuns {
     let (h, w) = (height, width);
     let k = params.harris_k;
+    let table = window_classes();
+    // the response of every window class, exactly `response(A, B, C, k)`; a class with
+    // A = C = 0 (so B = 0) is passed over like an empty window (-inf: never the maximum,
+    // never positive)
+    let resp_of: Vec<f64> = table
+        .sums
+        .iter()
+        .map(|&(a, b, c)| {
+            if a == 0 && c == 0 {
+                f64::NEG_INFINITY
+            } else {
+                response(a, b, c, k)
+            }
+        })
+        .collect();
     // per band, in row-major order: the cells with R > 0 as (row, column, R)
     let found: Vec<BandResponses> = bands(h)
         .into_par_iter()
         .map(|(r0, r1)| {
-            let mut prev = PairRow::new(w);
-            let mut cur = PairRow::new(w);
-            let mut scratch = Scratch::default();
-            let (mut sa, mut sc): (Vec<i16>, Vec<i16>) = (Vec::new(), Vec::new());
-            prev.compute(
-                mask,
-                runs,
-                (h, w),
-                reflect101(r0 as isize - 1, h),
-                &mut scratch,
-            );
             let mut best = f64::NEG_INFINITY;
             let mut positive: Vec<(u32, f64)> = Vec::new();
             let mut starts = Vec::with_capacity(r1 - r0 + 1);
+            let mut nib = vec![0u8; w];
+            // one row's candidates before compaction (each cell written, kept if R > 0)
+            let mut row_buf = vec![(0u32, 0.0f64); w];
             for r in r0..r1 {
-                cur.compute(mask, runs, (h, w), r, &mut scratch);
-                // the union of the two rows' non-zero intervals (an empty one counts for nothing)
-                let (lo, hi) = if prev.lo >= prev.hi {
-                    (cur.lo, cur.hi)
-                } else if cur.lo >= cur.hi {
-                    (prev.lo, prev.hi)
-                } else {
-                    (prev.lo.min(cur.lo), prev.hi.max(cur.hi))
-                };
-                // A and C over the interval in one vectorised pass; blocks of 8 cells where
-                // both are zero (then B = 0 too, as B^2 <= A*C, and R = 0) are skipped whole
-                let n = hi - lo;
-                sa.resize(n, 0);
-                sc.resize(n, 0);
-                for ((o, &p), &c) in sa.iter_mut().zip(&prev.xx[lo..hi]).zip(&cur.xx[lo..hi]) {
-                    *o = p + c;
-                }
-                for ((q, &p), &c) in sc.iter_mut().zip(&prev.yy[lo..hi]).zip(&cur.yy[lo..hi]) {
-                    *q = p + c;
-                }
                 starts.push(positive.len());
-                for (blk, (a8, c8)) in sa.chunks(8).zip(sc.chunks(8)).enumerate() {
-                    if a8.iter().zip(c8).fold(0i16, |acc, (&a, &c)| acc | a | c) == 0 {
-                        continue;
+                // columns whose window can hold a set cell: the bounding interval of the runs
+                // of mask rows r-2 ..= r+1, widened by the window's reach
+                let (mut first, mut last) = (usize::MAX, 0usize);
+                for i in 0..4 {
+                    let rr = runs.row(reflect101(r as isize - 2 + i, h));
+                    if let (Some(a), Some(b)) = (rr.first(), rr.last()) {
+                        first = first.min(a.start as usize);
+                        last = last.max(b.end as usize);
                     }
-                    // branch-free within a block: a cell with A = C = 0 has B = 0 and R = 0,
-                    // which changes neither a positive maximum nor the cells with R > 0
-                    let x0 = lo + blk * 8;
-                    let mut len = positive.len();
-                    positive.resize(len + a8.len(), (0, 0.0));
-                    for (j, (&av, &cv)) in a8.iter().zip(c8).enumerate() {
-                        let x = x0 + j;
-                        let bv = prev.xy[x] as i64 + cur.xy[x] as i64;
-                        let resp = response(av as i64, bv, cv as i64, k);
-                        if resp > best {
-                            best = resp;
-                        }
-                        positive[len] = (x as u32, resp);
-                        len += (resp > 0.0) as usize;
-                    }
-                    positive.truncate(len);
                 }
-                std::mem::swap(&mut prev, &mut cur);
+                if first == usize::MAX {
+                    continue; // A = B = C = 0 on the whole row
+                }
+                if r == 0 {
+                    // the sums can be non-zero on columns [first - 2, last + 2) only
+                    for x in first.saturating_sub(2)..(last + 2).min(w) {
+                        let (a, b, c) = sums_direct(mask, (h, w), 0, x);
+                        if a != 0 || c != 0 {
+                            visit(&mut best, &mut positive, x, response(a, b, c, k));
+                        }
+                    }
+                    continue;
+                }
+                if first <= 2 {
+                    // column 0 reads mask columns 0 ..= 2 only
+                    let (a, b, c) = sums_direct(mask, (h, w), r, 0);
+                    if a != 0 || c != 0 {
+                        visit(&mut best, &mut positive, 0, response(a, b, c, k));
+                    }
+                }
+                if w == 1 {
+                    continue;
+                }
+                // window columns x-2 ..= x+1 hold a set cell only for x in [first-1, last+2)
+                let xlo = first.saturating_sub(1).max(1);
+                let xhi = (last + 2).min(w);
+                if xlo >= xhi {
+                    continue;
+                }
+                // nibbles of columns reflect(xlo-2) ..= reflect(xhi), all within [nlo, nhi)
+                let nlo = xlo.saturating_sub(2);
+                let nhi = (xhi + 1).min(w);
+                window_nibbles(mask, (h, w), r, nlo, nhi, &mut nib);
+                let nb = |c: isize| nib[reflect101(c, w)] as u16;
+                let mut code =
+                    nb(xlo as isize - 2) | nb(xlo as isize - 1) << 4 | nb(xlo as isize) << 8;
+                // columns x + 1 < w read nib[x + 1] as it is; the last column reflects. No
+                // branch per cell: an empty window (code 0) is a class of response -inf, and
+                // every cell is written to the end of `positive`, kept only when R > 0
+                let inner_hi = xhi.min(w - 1);
+                let mut len = 0;
+                let mut x = xlo;
+                while x < inner_hi {
+                    if code == 0 && x + 8 <= inner_hi {
+                        // eight empty columns ahead: the code stays 0 across them
+                        let mut word = [0u8; 8];
+                        word.copy_from_slice(&nib[x + 1..x + 9]);
+                        if u64::from_ne_bytes(word) == 0 {
+                            x += 8;
+                            continue;
+                        }
+                    }
+                    code = (code & 0x0fff) | (nib[x + 1] as u16) << 12;
+                    let resp = resp_of[table.class[code as usize] as usize];
+                    best = if resp > best { resp } else { best };
+                    row_buf[len] = (x as u32, resp);
+                    len += (resp > 0.0) as usize;
+                    code >>= 4;
+                    x += 1;
+                }
+                positive.extend_from_slice(&row_buf[..len]);
+                if xhi == w && inner_hi < w {
+                    let x = w - 1;
+                    code = (code & 0x0fff) | nb(x as isize + 1) << 12;
+                    if code != 0 {
+                        visit(
+                            &mut best,
+                            &mut positive,
+                            x,
+                            resp_of[table.class[code as usize] as usize],
+                        );
+                    }
+                }
             }
             starts.push(positive.len());
             (best, positive, starts)

@@ -227,11 +227,29 @@ fn incremental(
     fill[lowest..top].copy_from_slice(&start[lowest + 1..top + 1]);
     let mut order = vec![0u32; start[lowest]];
     if lowest < top {
-        for (i, (&v, &u)) in grid.values.iter().zip(grid.unknown).enumerate() {
-            let v = v as usize;
-            if !u && (lowest..top).contains(&v) {
-                order[fill[v]] = i as u32;
-                fill[v] += 1;
+        // blocks of 16 cells with no known value in [lowest, top) (most of a map: free space,
+        // walls, canvas) are passed over after one branch-free test
+        let (lo16, span) = (lowest as u16, (top - lowest) as u16);
+        let in_range = |v: u8, u: bool| !u & ((v as u16).wrapping_sub(lo16) < span);
+        for (blk, (vs, us)) in grid
+            .values
+            .chunks(16)
+            .zip(grid.unknown.chunks(16))
+            .enumerate()
+        {
+            if !vs
+                .iter()
+                .zip(us)
+                .fold(false, |a, (&v, &u)| a | in_range(v, u))
+            {
+                continue;
+            }
+            for (j, (&v, &u)) in vs.iter().zip(us).enumerate() {
+                if in_range(v, u) {
+                    let v = v as usize;
+                    order[fill[v]] = (blk * 16 + j) as u32;
+                    fill[v] += 1;
+                }
             }
         }
     }

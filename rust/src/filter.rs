@@ -1,6 +1,6 @@
 //! Exact integer filters for the corner metric (SPEC section 3), row at a time so that the
 //! callers can stream row bands without full-size intermediates. Every border is reflect-101.
-//! (The 2x2 box sum of the Sobel products is fused into the Harris step in `corners`.)
+//! (The Sobel products and their 2x2 box sum are tabulated per 4x4 mask window in `corners`.)
 
 use crate::border::reflect101;
 
@@ -74,64 +74,6 @@ pub fn laplacian_mask_row(up: &[u16], mid: &[u16], down: &[u16], t: i32, out: &m
         let l = reflect101(x as isize - 1, w);
         let r = reflect101(x as isize + 1, w);
         out[x] = (lap(x, l, r) > t) as u8;
-    }
-}
-
-/// Sobel derivative products of one row of a 0/1 mask, on columns `lo..hi`: `xx = Ix^2`,
-/// `xy = Ix Iy`, `yy = Iy^2` (index `q` is column `lo + q`), with `Ix`, `Iy` OpenCV's 3x3
-/// Sobel (`dx = right - left`, `dy = down - up`) and reflect-101 columns. `up`, `mid`, `down`
-/// are the full mask rows above, at and below (already reflect-mapped); `p`, `d` are scratch.
-#[allow(clippy::too_many_arguments)]
-pub fn sobel_products(
-    up: &[u8],
-    mid: &[u8],
-    down: &[u8],
-    (lo, hi): (usize, usize),
-    p: &mut Vec<i16>,
-    d: &mut Vec<i16>,
-    xx: &mut Vec<i16>,
-    xy: &mut Vec<i16>,
-    yy: &mut Vec<i16>,
-) {
-    let w = mid.len();
-    let n = hi - lo;
-    // vertical smoothing (p) and difference (d) on columns lo-1 ..= hi, reflect-mapped
-    p.resize(n + 2, 0);
-    d.resize(n + 2, 0);
-    if lo >= 1 && hi < w {
-        // interior: no index mapping (zipped slices, so the loop vectorises)
-        let cols = lo - 1..hi + 1;
-        for ((pp, dd), ((&u, &m), &dn)) in p.iter_mut().zip(d.iter_mut()).zip(
-            up[cols.clone()]
-                .iter()
-                .zip(&mid[cols.clone()])
-                .zip(&down[cols]),
-        ) {
-            *pp = u as i16 + 2 * m as i16 + dn as i16;
-            *dd = dn as i16 - u as i16;
-        }
-    } else {
-        for (q, c) in (lo as isize - 1..hi as isize + 1).enumerate() {
-            let cc = reflect101(c, w);
-            p[q] = up[cc] as i16 + 2 * mid[cc] as i16 + down[cc] as i16;
-            d[q] = down[cc] as i16 - up[cc] as i16;
-        }
-    }
-    xx.resize(n, 0);
-    xy.resize(n, 0);
-    yy.resize(n, 0);
-    // column lo + q has its left and right neighbours at p/d indices q and q + 2
-    for (((x2, xy2), y2), (pw, dw)) in xx
-        .iter_mut()
-        .zip(xy.iter_mut())
-        .zip(yy.iter_mut())
-        .zip(p.windows(3).zip(d.windows(3)))
-    {
-        let ix = pw[2] - pw[0];
-        let iy = dw[0] + 2 * dw[1] + dw[2];
-        *x2 = ix * ix;
-        *xy2 = ix * iy;
-        *y2 = iy * iy;
     }
 }
 
