@@ -6,7 +6,7 @@
 //! over RUNS of each stage's time, in ms per million cells, and checks that the stages
 //! together give what `evaluate` gives.
 
-use slamq::corners::{corner_runs, drop_dots, structure_mask};
+use slamq::corners::{corner_runs, drop_dots_runs, structure_mask_runs};
 use slamq::enclosed::{binarisations, count_binarisation, sweep};
 use slamq::evaluate::evaluate;
 use slamq::grid::Grid;
@@ -47,8 +47,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     pool.install(|| {
         let names = [
             "histogram",
-            "structure mask (blur + Laplacian + threshold)",
-            "dot removal (label mask, clear small)",
+            "structure mask (blur + Laplacian + threshold + runs)",
+            "dot removal (label the runs, clear small)",
             "Harris (sums, response, corner runs)",
             "corner blobs (label corner runs)",
             "Otsu table (256 thresholds)",
@@ -62,9 +62,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut q = None;
         for _ in 0..runs {
             let hist = time(&mut t[0], || grid.histogram());
-            let mut mask = time(&mut t[1], || structure_mask(&grid, p.corners.log_threshold));
+            let (mut mask, runs) = time(&mut t[1], || {
+                structure_mask_runs(&grid, p.corners.log_threshold)
+            });
             let rr = time(&mut t[2], || {
-                drop_dots(&mut mask, h, w, p.corners.min_dot_area)
+                drop_dots_runs(&mut mask, runs, h, w, p.corners.min_dot_area)
             });
             let cr = time(&mut t[3], || corner_runs(&mask, &rr, h, w, &p.corners));
             corners = time(&mut t[4], || {

@@ -14,7 +14,7 @@
 use crate::border::reflect101;
 use crate::filter::{blur_row, laplacian_mask_row, structure_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
-use crate::label::{Components, MaskRows, RowRuns, Run};
+use crate::label::{push_runs, Components, MaskRows, RowRuns, Run};
 use crate::params::CornerParams;
 use rayon::prelude::*;
 
@@ -30,14 +30,22 @@ fn integer_threshold(threshold: f64) -> Option<i32> {
 
 /// Steps 1-4: the LoG structure mask (0/1 per cell).
 pub fn structure_mask(grid: &Grid, log_threshold: f64) -> Vec<u8> {
+    structure_mask_runs(grid, log_threshold).0
+}
+
+/// Steps 1-4: the LoG structure mask (0/1 per cell) and its runs, each row's runs found
+/// right after the row is written (while it is in cache) instead of by a second scan.
+pub fn structure_mask_runs(grid: &Grid, log_threshold: f64) -> (Vec<u8>, RowRuns) {
     let (h, w) = (grid.height, grid.width);
     let mut mask = vec![0u8; h * w];
     let Some(t) = integer_threshold(log_threshold * 255.0 * 256.0) else {
-        return mask;
+        let runs = RowRuns::concat(vec![(Vec::new(), vec![0; h])]);
+        return (mask, runs);
     };
-    mask.par_chunks_mut(BAND_ROWS * w)
+    let parts: Vec<(Vec<Run>, Vec<usize>)> = mask
+        .par_chunks_mut(BAND_ROWS * w)
         .zip(bands(h))
-        .for_each(|(out, (r0, r1))| {
+        .map(|(out, (r0, r1))| {
             // S rows needed: r0-3 ..= r1+2, reflect-mapped; those all fall in [base, end)
             let base = (r0 as isize - 3).max(0) as usize;
             let end = (r1 + 3).min(h);
@@ -67,17 +75,23 @@ pub fn structure_mask(grid: &Grid, log_threshold: f64) -> Vec<u8> {
                 g_rows.push(g);
                 g_any.push(nonzero);
             }
+            let mut runs = Vec::new();
+            let mut starts = Vec::with_capacity(r1 - r0);
             for r in r0..r1 {
                 let i = r - r0 + 1;
                 let row_out = &mut out[(r - r0) * w..(r - r0 + 1) * w];
+                starts.push(runs.len());
                 if !(g_any[i - 1] || g_any[i] || g_any[i + 1]) {
                     row_out.fill((0 > t) as u8); // L = 0 everywhere on this row
-                    continue;
+                } else {
+                    laplacian_mask_row(&g_rows[i - 1], &g_rows[i], &g_rows[i + 1], t, row_out);
                 }
-                laplacian_mask_row(&g_rows[i - 1], &g_rows[i], &g_rows[i + 1], t, row_out);
+                push_runs(row_out, &mut runs);
             }
-        });
-    mask
+            (runs, starts)
+        })
+        .collect();
+    (mask, RowRuns::concat(parts))
 }
 
 /// Step 5: remove 8-connected mask components with fewer than `min_dot_area` cells; returns
@@ -88,6 +102,22 @@ pub fn drop_dots(mask: &mut [u8], height: usize, width: usize, min_dot_area: u32
         return RowRuns::of(&rows, height, width);
     }
     let comps = Components::label(&rows, height, width);
+    comps.clear_small(mask, min_dot_area);
+    comps.runs_of_large(min_dot_area)
+}
+
+/// [`drop_dots`] given the mask's runs (from [`structure_mask_runs`]), which it consumes.
+pub fn drop_dots_runs(
+    mask: &mut [u8],
+    runs: RowRuns,
+    height: usize,
+    width: usize,
+    min_dot_area: u32,
+) -> RowRuns {
+    if min_dot_area <= 1 {
+        return runs;
+    }
+    let comps = Components::from_runs(runs.runs, runs.row_start, height, width);
     comps.clear_small(mask, min_dot_area);
     comps.runs_of_large(min_dot_area)
 }
@@ -388,8 +418,8 @@ pub fn corner_runs(
 /// Steps 1-8: the number of corners of a map.
 pub fn count_corners(grid: &Grid, params: &CornerParams) -> usize {
     let (h, w) = (grid.height, grid.width);
-    let mut mask = structure_mask(grid, params.log_threshold);
-    let runs = drop_dots(&mut mask, h, w, params.min_dot_area);
+    let (mut mask, runs) = structure_mask_runs(grid, params.log_threshold);
+    let runs = drop_dots_runs(&mut mask, runs, h, w, params.min_dot_area);
     let corners = corner_runs(&mask, &runs, h, w, params);
     drop((mask, runs));
     Components::from_runs(corners.runs, corners.row_start, h, w).count()
@@ -490,6 +520,35 @@ mod tests {
                 naive_corner_mask(&mask, h, w, &p),
                 "trial {trial}: {h}x{w}"
             );
+        }
+    }
+
+    #[test]
+    fn fused_mask_runs_equal_a_scan_of_the_mask() {
+        let mut st = 5u64;
+        for (h, w) in [(1, 1), (3, 7), (70, 33), (130, 20)] {
+            let v: Vec<u8> = (0..h * w)
+                .map(|_| {
+                    st = st.wrapping_mul(6364136223846793005).wrapping_add(3);
+                    [0u8, 128, 254, 254, 254][(st >> 40) as usize % 5]
+                })
+                .collect();
+            let u: Vec<bool> = v.iter().map(|&x| x == 128).collect();
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            let (mask, runs) = structure_mask_runs(&g, 0.1);
+            let scan = RowRuns::of(
+                &MaskRows {
+                    mask: &mask,
+                    width: w,
+                },
+                h,
+                w,
+            );
+            assert_eq!((&runs.runs, &runs.row_start), (&scan.runs, &scan.row_start));
+            let (mut m1, mut m2) = (mask.clone(), mask);
+            let a = drop_dots(&mut m1, h, w, 5);
+            let b = drop_dots_runs(&mut m2, scan, h, w, 5);
+            assert_eq!((m1, a.runs, a.row_start), (m2, b.runs, b.row_start));
         }
     }
 
