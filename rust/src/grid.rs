@@ -137,8 +137,9 @@ impl<'a> Grid<'a> {
                         continue;
                     }
                     for k in 0..8 {
-                        // unknown cells are counted in bin 0 and removed below
-                        h[k & 3][if u[k] { 0 } else { v[k] as usize }] += 1;
+                        // unknown cells are counted in bin 0 (v masked to 0, no branch) and
+                        // removed below
+                        h[k & 3][(v[k] & (u[k] as u8).wrapping_sub(1)) as usize] += 1;
                     }
                     binned += n_unknown as u64;
                 }
