@@ -10,7 +10,7 @@ from slamq.params import Params
 __version__: str
 
 class RawQuality:
-    """The integers of one evaluation (SPEC sections 2-4)."""
+    """The integers of one evaluation (SPEC sections 2-4, and 3a)."""
 
     @property
     def known(self) -> int: ...
@@ -20,6 +20,10 @@ class RawQuality:
     def sum_darkness(self) -> int: ...
     @property
     def corners(self) -> int: ...
+    @property
+    def wall_angle(self) -> float: ...
+    @property
+    def corners_canonical(self) -> int | None: ...
     @property
     def curve(self) -> list[int]: ...
 
@@ -71,9 +75,10 @@ def evaluate(
     unknown: npt.NDArray[np.bool_],
     params: Params,
     threads: int = 0,
+    resolution: float | None = None,
 ) -> RawQuality: ...
 def evaluate_many(
-    maps: list[tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_]]],
+    maps: list[tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_], float | None]],
     params: Params,
     threads: int = 0,
 ) -> list[RawQuality]: ...

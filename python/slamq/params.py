@@ -75,6 +75,11 @@ class Params:
         0.01, 0.0, 1.0, "fraction of max R",
         "corner mask: Harris response above harris_quality * max R",
     )
+    canonical_resolution: float = _param(
+        0.05, 0.0, None, "m",
+        "corners_canonical: the map is turned to its dominant wall direction and resampled "
+        "to this resolution before its corners are counted; 0 skips corners_canonical",
+    )
     # --- enclosed areas (spec section 4)
     sweep_step: int = _param(
         1, 1, 256, "grey levels",

@@ -1,5 +1,6 @@
-//! All three metrics of one map (SPEC sections 2-4), and of many maps in parallel.
+//! All three metrics of one map (SPEC sections 2-4, and 3a), and of many maps in parallel.
 
+use crate::canonical::canonical_corners;
 use crate::corners::count_corners;
 use crate::enclosed::sweep;
 use crate::grid::Grid;
@@ -8,13 +9,30 @@ use crate::proportion::{occupancy, Occupancy};
 use rayon::prelude::*;
 
 /// The integers of one evaluation; ratios are formed by the caller from these.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub struct Quality {
     pub occupancy: Occupancy,
     pub corners: usize,
+    /// SPEC 3a: the dominant wall angle (radians, NaN when skipped) and `corners_canonical`
+    /// (`None` when skipped or too large).
+    pub wall_angle: f64,
+    pub corners_canonical: Option<usize>,
     /// `count_u` for every swept `u`.
     pub curve: Vec<usize>,
 }
+
+// NaN never equals itself; two results are equal when their angles are bit-identical.
+impl PartialEq for Quality {
+    fn eq(&self, other: &Self) -> bool {
+        self.occupancy == other.occupancy
+            && self.corners == other.corners
+            && self.wall_angle.to_bits() == other.wall_angle.to_bits()
+            && self.corners_canonical == other.corners_canonical
+            && self.curve == other.curve
+    }
+}
+
+impl Eq for Quality {}
 
 /// Bytes of working memory per cell that one evaluation may hold at its peak: the sweep's
 /// forest (4) and value order (4), or the corner step's mask (1), and the runs of a
@@ -51,23 +69,42 @@ pub fn reserve_working_set(cells: usize) -> Result<(), OutOfMemory> {
         .map_err(|_| OutOfMemory { bytes })
 }
 
-/// Evaluate one map, or say that its working memory cannot be had.
-pub fn evaluate(grid: &Grid, params: &Params) -> Result<Quality, OutOfMemory> {
+/// Evaluate one map of `resolution` metres per cell (`None`: not known), or say that its
+/// working memory cannot be had.
+pub fn evaluate(
+    grid: &Grid,
+    resolution: Option<f64>,
+    params: &Params,
+) -> Result<Quality, OutOfMemory> {
     reserve_working_set(grid.height * grid.width)?;
     let hist = grid.histogram();
     let occupancy = occupancy(&hist);
     let corners = count_corners(grid, &params.corners);
     let curve = sweep(grid, &hist, &params.enclosed);
+    let (wall_angle, corners_canonical) = if params.corners.canonical_resolution > 0.0 {
+        let c = canonical_corners(grid, resolution, &params.corners)?;
+        (c.angle, c.corners)
+    } else {
+        (f64::NAN, None)
+    };
     Ok(Quality {
         occupancy,
         corners,
+        wall_angle,
+        corners_canonical,
         curve,
     })
 }
 
 /// Evaluate many maps in parallel (each map's own passes are parallel too); results in order.
-pub fn evaluate_many(grids: &[Grid], params: &Params) -> Vec<Result<Quality, OutOfMemory>> {
-    grids.par_iter().map(|g| evaluate(g, params)).collect()
+pub fn evaluate_many(
+    grids: &[(Grid, Option<f64>)],
+    params: &Params,
+) -> Vec<Result<Quality, OutOfMemory>> {
+    grids
+        .par_iter()
+        .map(|(g, res)| evaluate(g, *res, params))
+        .collect()
 }
 
 #[cfg(test)]

@@ -11,6 +11,8 @@
 //! - [`params`]: every metric parameter and its default.
 //! - [`proportion`]: SPEC section 2.
 //! - [`corners`]: SPEC section 3.
+//! - [`canonical`]: SPEC section 3a, corners of the map turned to its walls' direction and
+//!   resampled to a reference resolution.
 //! - [`enclosed`]: SPEC section 4, the sweep over unknown values.
 //! - [`evaluate`]: all three metrics of one map, and of many maps in parallel.
 //! - [`edt`]: exact Euclidean distance transform with nearest cells (SPEC section 7).
@@ -24,6 +26,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod border;
+pub mod canonical;
 pub mod compare;
 pub mod corners;
 pub mod edt;

@@ -94,6 +94,7 @@ struct PyParams {
     min_dot_area: i64,
     harris_k: f64,
     harris_quality: f64,
+    canonical_resolution: f64,
     sweep_step: i64,
     min_area: i64,
 }
@@ -113,6 +114,12 @@ impl PyParams {
         if !(0.0..=1.0).contains(&self.harris_quality) {
             return Err(bad("harris_quality", self.harris_quality.to_string()));
         }
+        if !(self.canonical_resolution.is_finite() && self.canonical_resolution >= 0.0) {
+            return Err(bad(
+                "canonical_resolution",
+                self.canonical_resolution.to_string(),
+            ));
+        }
         if !(1..=256).contains(&self.sweep_step) {
             return Err(bad("sweep_step", self.sweep_step.to_string()));
         }
@@ -128,6 +135,7 @@ impl PyParams {
                 min_dot_area: in_i32("min_dot_area", self.min_dot_area)?,
                 harris_k: self.harris_k,
                 harris_quality: self.harris_quality,
+                canonical_resolution: self.canonical_resolution,
             },
             enclosed: EnclosedParams {
                 sweep_step: self.sweep_step as usize,
@@ -140,7 +148,6 @@ impl PyParams {
 /// The integers of one evaluation (SPEC sections 2-4); `slamq.MapQuality.from_counts`
 /// forms the ratios from them.
 #[pyclass(frozen, get_all, eq, module = "slamq._core")]
-#[derive(PartialEq)]
 struct RawQuality {
     /// Known cells.
     known: u64,
@@ -150,8 +157,23 @@ struct RawQuality {
     sum_darkness: u64,
     /// Corner count (SPEC 3).
     corners: usize,
+    /// Dominant wall angle, radians in (-pi/4, pi/4] (SPEC 3a; NaN when skipped).
+    wall_angle: f64,
+    /// Corner count of the canonical map (SPEC 3a; None when skipped or too large).
+    corners_canonical: Option<usize>,
     /// `count_u` for every swept `u` (SPEC 4).
     curve: Vec<usize>,
+}
+
+// NaN angles (canonical step skipped) compare equal bit for bit.
+impl PartialEq for RawQuality {
+    fn eq(&self, o: &Self) -> bool {
+        (self.known, self.occupied, self.sum_darkness, self.corners)
+            == (o.known, o.occupied, o.sum_darkness, o.corners)
+            && self.wall_angle.to_bits() == o.wall_angle.to_bits()
+            && self.corners_canonical == o.corners_canonical
+            && self.curve == o.curve
+    }
 }
 
 impl From<Quality> for RawQuality {
@@ -161,6 +183,8 @@ impl From<Quality> for RawQuality {
             occupied: q.occupancy.occupied,
             sum_darkness: q.occupancy.sum_darkness,
             corners: q.corners,
+            wall_angle: q.wall_angle,
+            corners_canonical: q.corners_canonical,
             curve: q.curve,
         }
     }
@@ -170,32 +194,47 @@ impl From<Quality> for RawQuality {
 impl RawQuality {
     fn __repr__(&self) -> String {
         format!(
-            "RawQuality(known={}, occupied={}, sum_darkness={}, corners={}, curve=[{} values])",
+            "RawQuality(known={}, occupied={}, sum_darkness={}, corners={}, \
+             corners_canonical={:?}, wall_angle={}, curve=[{} values])",
             self.known,
             self.occupied,
             self.sum_darkness,
             self.corners,
+            self.corners_canonical,
+            self.wall_angle,
             self.curve.len()
         )
     }
 }
 
-/// evaluate(values, unknown, params, threads=0) -> RawQuality
+/// A map resolution for SPEC 3a: `None`, or a positive finite number of metres per cell.
+fn checked_resolution(resolution: Option<f64>) -> PyResult<Option<f64>> {
+    match resolution {
+        Some(r) if !(r.is_finite() && r > 0.0) => Err(PyValueError::new_err(format!(
+            "resolution must be a positive number, got {r}"
+        ))),
+        r => Ok(r),
+    }
+}
+
+/// evaluate(values, unknown, params, threads=0, resolution=None) -> RawQuality
 ///
-/// The integers of SPEC sections 2-4 for one map. `params`: a `slamq.Params`; `threads` = 0
-/// uses every core.
+/// The integers of SPEC sections 2-4 (and 3a) for one map. `params`: a `slamq.Params`;
+/// `threads` = 0 uses every core; `resolution`: metres per cell, for `corners_canonical`.
 #[pyfunction]
-#[pyo3(signature = (values, unknown, params, threads=0))]
+#[pyo3(signature = (values, unknown, params, threads=0, resolution=None))]
 fn evaluate(
     py: Python<'_>,
     values: PyReadonlyArray2<'_, u8>,
     unknown: PyReadonlyArray2<'_, bool>,
     params: PyParams,
     threads: usize,
+    resolution: Option<f64>,
 ) -> PyResult<RawQuality> {
     let p = params.checked()?;
     let g = grid(&values, &unknown)?;
-    let q = compute(py, threads, || evaluate_grid(&g, &p))?;
+    let res = checked_resolution(resolution)?;
+    let q = compute(py, threads, || evaluate_grid(&g, res, &p))?;
     Ok(q.map_err(|e| memory_error(&e, None))?.into())
 }
 
@@ -209,19 +248,23 @@ fn memory_error(e: &OutOfMemory, index: Option<usize>) -> PyErr {
 }
 
 /// evaluate_many(maps, params, threads=0) -> list[RawQuality]: like `evaluate` for a list
-/// of `(values, unknown)` pairs, the maps in parallel.
+/// of `(values, unknown, resolution)` triples, the maps in parallel.
 #[pyfunction]
 #[pyo3(signature = (maps, params, threads=0))]
 fn evaluate_many<'py>(
     py: Python<'py>,
-    maps: Vec<(PyReadonlyArray2<'py, u8>, PyReadonlyArray2<'py, bool>)>,
+    maps: Vec<(
+        PyReadonlyArray2<'py, u8>,
+        PyReadonlyArray2<'py, bool>,
+        Option<f64>,
+    )>,
     params: PyParams,
     threads: usize,
 ) -> PyResult<Vec<RawQuality>> {
     let p = params.checked()?;
     let grids = maps
         .iter()
-        .map(|(v, u)| grid(v, u))
+        .map(|(v, u, r)| Ok((grid(v, u)?, checked_resolution(*r)?)))
         .collect::<PyResult<Vec<_>>>()?;
     let qs = compute(py, threads, || evaluate_grids(&grids, &p))?;
     qs.into_iter()
@@ -243,6 +286,7 @@ fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("min_dot_area", p.corners.min_dot_area)?;
     d.set_item("harris_k", p.corners.harris_k)?;
     d.set_item("harris_quality", p.corners.harris_quality)?;
+    d.set_item("canonical_resolution", p.corners.canonical_resolution)?;
     d.set_item("sweep_step", p.enclosed.sweep_step)?;
     d.set_item("min_area", p.enclosed.min_area)?;
     Ok(d)

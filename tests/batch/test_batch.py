@@ -686,3 +686,27 @@ def test_dry_run_prints_the_runs_and_warns_about_a_suspicious_layout(
     assert cli_main(["batch", str(tmp_path), "--out", str(out), "--no-progress"]) == 0
     err = capsys.readouterr().err
     assert "slamq batch: 2 runs" in err and "slamq: warning: algorithm 'tfm'" in err
+
+
+def test_discovery_streams_the_runs_discover_runs_lists(test_data: Path, tmp_path: Path) -> None:
+    """Discovery (what a batch uses, without a list of every run) finds the same runs in the
+    same order as discover_runs, with each sequence's ground-truth map even when the
+    reference map comes after the runs, and says the same layout lines; a run named twice
+    is kept once."""
+    from slamq.batch.runs import Discovery, describe_layout
+
+    sct = test_data / "slam_comparison_tools"
+    m = tmp_path / "lab" / "cartographer_map.pgm"
+    m.parent.mkdir()
+    m.write_bytes(b"P5 2 2 255\n" + bytes([0, 205, 254, 254]))
+    sources = [sct / "test_results", sct / "ground_truths", m, sct, m]
+    listed = discover_runs(sources)
+    found = Discovery(sources)
+    assert list(found) == listed and list(found) == listed  # iterable again
+    assert [r.gt_map for r in found] == [r.gt_map for r in listed]
+    assert len(found) == len(listed) == len({r.key for r in listed})
+    office = [r for r in listed if r.sequence == "office" and r.algorithm != "ground_truth"]
+    assert office and all(r.gt_map is not None and "ground_truth" in r.gt_map.name
+                          for r in office)
+    assert found.layout_lines() == describe_layout(listed)
+    assert found.layout_lines()[0].startswith(f"{len(listed)} runs: ")

@@ -35,9 +35,11 @@ def _slamq(*args: str, timeout: float = 60, limit: bool = True) -> subprocess.Co
 
 def _run_limited(script: str) -> list[str]:
     """A Python ``script`` in a child under the address-space limit and a timeout; the
-    lines it printed, the last of which must be its peak RSS (KiB)."""
-    proc = subprocess.run([sys.executable, "-c", script + "\nimport resource\n"
-                           "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)\n"],
+    lines it printed, the last of which is its peak RSS (KiB): ``VmHWM`` of its own address
+    space (``ru_maxrss`` would keep the high-water mark of the pytest process it was
+    forked from, across exec)."""
+    proc = subprocess.run([sys.executable, "-c", script + "\nprint([line.split()[1] for line in "
+                           "open('/proc/self/status') if line.startswith('VmHWM:')][0])\n"],
                           capture_output=True, text=True, env=slamq_env(), timeout=120,
                           preexec_fn=_limited)
     assert proc.returncode == 0, proc.stderr
@@ -517,6 +519,48 @@ def test_a_chunk_declaring_more_than_the_budget_is_refused_before_inflating(
         slamq.load_map(bag)
 
 
+def _zstd_rosbag2(folder: Path, mode: str) -> Path:
+    """A real ROS 2 sqlite3 bag (rosbags' writer) with one 20 x 20 map, compressed by
+    rosbag2's ``message`` or ``file`` zstd mode."""
+    from _bagdata import BagWriter, bag_path, room_grid
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode
+
+    bag = bag_path(folder, "sqlite3")
+    w = BagWriter(bag, "sqlite3")
+    w.writer.set_compression(CompressionMode[mode.upper()], CompressionFormat.ZSTD)
+    with w:
+        w.write("/map", "nav_msgs/msg/OccupancyGrid", w.grid(1.0, room_grid(size=20)))
+    return bag
+
+
+def test_a_zstd_rosbag2_message_bomb_is_refused_in_bounded_memory(tmp_path: Path) -> None:
+    import sqlite3
+
+    from rosbags.rosbag2.storage_mcap import zstd
+
+    bag = _zstd_rosbag2(tmp_path, "message")
+    assert "compression_mode: message" in (bag / "metadata.yaml").read_text()
+    (db,) = bag.glob("*.db3")
+    extra = zstd.compress(bytes(1 << 20)) * 1100  # 1.1 GiB of zeros as further frames
+    con = sqlite3.connect(db)
+    with con:
+        ((row_id, data),) = con.execute("SELECT id, data FROM messages").fetchall()
+        con.execute("UPDATE messages SET data = ? WHERE id = ?", (data + extra, row_id))
+    con.close()
+    assert sum(f.stat().st_size for f in bag.iterdir()) < 300_000
+    msg, peak_kb = _load_limited(bag, "BagError")
+    assert msg.startswith(f"{db}: message 1 (zstd) inflates to more than "), msg
+    assert "(corrupt, or a decompression bomb)" in msg
+    assert int(peak_kb) < 400 * 1024
+
+
+@pytest.mark.parametrize("mode", ["message", "file"])
+def test_zstd_rosbag2_bags_still_load(tmp_path: Path, mode: str) -> None:
+    bag = _zstd_rosbag2(tmp_path, mode)
+    assert f"compression_mode: {mode}" in (bag / "metadata.yaml").read_text()
+    assert slamq.load_map(bag).shape == (28, 28)
+
+
 @pytest.mark.parametrize("fmt", ["ros1", "mcap"])
 def test_compressed_bags_still_load(tmp_path: Path, fmt: str) -> None:
     from _bagdata import BagWriter, bag_path, room_grid
@@ -550,7 +594,7 @@ def test_a_full_disk_names_the_results_file(tmp_path: Path, suffix: str) -> None
     assert proc.returncode == 2, proc.stderr
     line = proc.stderr.strip().splitlines()[-1]  # (Parquet: the journal, or the compaction)
     named = [p for p in (out, Path(f"{out}.journal.jsonl"))
-             if f"{p}: cannot write results: File too large" in line]
+             if f"{p}: cannot write results:" in line and "File too large" in line]
     assert named, proc.stderr
     assert "Traceback" not in proc.stderr
     from slamq.results import read_results

@@ -92,8 +92,9 @@ def test_thread_counts_and_concurrent_callers_agree() -> None:
 def test_evaluate_many_matches_one_by_one() -> None:
     maps = [_room(30 + i, 40 + 2 * i) for i in range(5)]
     p = slamq.Params(sweep_step=5)
-    many = _core.evaluate_many(maps, p, threads=2)
-    assert many == [_core.evaluate(v, u, p) for v, u in maps]
+    many = _core.evaluate_many([(v, u, 0.05) for v, u in maps], p, threads=2)
+    assert many == [_core.evaluate(v, u, p, resolution=0.05) for v, u in maps]
+    assert many != _core.evaluate_many([(v, u, 0.01) for v, u in maps], p)  # canonical
 
 
 def test_the_buffers_are_not_copied_or_changed() -> None:

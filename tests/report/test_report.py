@@ -309,6 +309,9 @@ def test_site_has_tables_gallery_plots_and_details(site):
     for key in ("occupied_fraction", "corners", "enclosed_areas", "ate_rmse"):
         assert (out / "img" / f"plot_{key}.png").is_file()
     assert html.count('class="ranking"') == 2
+    # each algorithm's known area relative to the most complete map of its sequence
+    assert html.count('data-metric="known_share"') == 6 and ">known area</th>" in html
+    assert re.search(r'data-metric="known_share">\d+%</td>', html)
     # gallery: best and worst of each of 3 algorithms x 2 sequences
     assert len(re.findall(r'<a class="detail" href="maps/[^"]+\.html">', html)) == 12
     assert "missing.yaml: no such file" in html                          # failed map listed

@@ -78,6 +78,8 @@ def test_on_slam_comparison_tools_the_verdict_never_names_a_broken_map(shared_da
                               for r in csv.DictReader(fh)])
             c = slamq.compare(y, gt_map)
             rows.append({"sequence": world, "algorithm": alg, "corners": q.corners,
+                         "corners_canonical": q.corners_canonical,
+                         "wall_angle": q.wall_angle,
                          "occupied_fraction": q.occupied_fraction,
                          "enclosed_areas": q.enclosed_areas, "known": q.known,
                          "ate_rmse": float(np.sqrt(np.mean(np.sum(
@@ -96,6 +98,13 @@ def test_on_slam_comparison_tools_the_verdict_never_names_a_broken_map(shared_da
         assert maps_only["best"] is not None
         assert ate[maps_only["best"]] <= 10 * ate.min(), (world, maps_only, ate.to_dict())
         assert "cartographer" not in (full["best"], gt_only["best"], maps_only["best"])
+        # the broken maps are turned (cartographer 2-8 degrees): with the wall angles known
+        # the maps-only verdict ranks by corners_canonical, and still names a good map
+        assert maps_only["basis"] == ["corners_canonical"], maps_only
+        assert "differ in orientation" in " ".join(maps_only["warnings"])
+        plain = sequence_verdict(summarize(part.drop(columns=[
+            "ate_rmse", "gt_f1", "gt_chamfer", "wall_angle"])), world)
+        assert plain["basis"] == ["corners"]
 
 
 @pytest.mark.parametrize("key", ["proportion", "occupied_fraction", "enclosed_areas"])
@@ -145,3 +154,17 @@ def test_eval_and_summarize_warn_when_maps_differ_in_resolution(tmp_path) -> Non
                        "algorithm": n} for n in ("fine", "coarse")])
     with pytest.warns(UserWarning, match="s: the maps have different resolutions"):
         slamq.summarize(df)
+
+
+def test_turned_maps_are_ranked_by_canonical_corners_or_not_at_all() -> None:
+    v = verdict(algorithm=["a", "b", "c"], corners=[100, 30, 200],
+                corners_canonical=[90, 150, 160], wall_angle=[0.1, 6.0, 0.3])
+    assert v["basis"] == ["corners_canonical"] and v["best"] == "a"
+    assert any("differ in orientation" in w for w in v["warnings"])
+    # without the canonical count (an older results file) nobody is named
+    old = verdict(algorithm=["a", "b"], corners=[100, 30], wall_angle=[0.1, 6.0])
+    assert old["best"] is None and old["basis"] == ["corners"]
+    # within a degree modulo 90 the maps are comparable: plain corners decide
+    same = verdict(algorithm=["a", "b"], corners=[100, 30], corners_canonical=[10, 90],
+                   wall_angle=[44.8, -44.9])
+    assert same["basis"] == ["corners"] and same["best"] == "b"

@@ -344,3 +344,18 @@ def test_evo_style_tf_id(tmp_path):
             w.write("/tf", tfm, w.T[tfm](transforms=[_tf(w, t, "odom", "base_link", xyz, yaw)]))
     _check(read_bag_trajectory(bag, "/tf:odom.base_link"))
     _check(read_bag_trajectory(bag))  # the only moving pair
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_an_undecodable_map_message_is_named_in_one_short_line(tmp_path, fmt):
+    # a decoder's own message can quote the whole raw message; slamq's never does
+    bag = bag_path(tmp_path, fmt)
+    with BagWriter(bag, fmt) as w:
+        w.write("/map", "nav_msgs/msg/OccupancyGrid", w.grid(1.0, room_grid()))
+        conn = w.conns["/map"]
+        w.writer.write(conn, int(2e9), bytes(range(256)) * 400)  # 100 KB of garbage
+    with pytest.raises(BagError) as info:
+        slamq.load_map(bag)
+    text = str(info.value)
+    assert "message 1" in text and str(bag.name) in text
+    assert len(text) < 600 and "\n" not in text, text[:300]

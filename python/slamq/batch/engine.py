@@ -14,24 +14,28 @@ How it runs
   worker, and results stream back with ``as_completed``; at most two chunks per worker
   thread are in flight, and records are put back in input order before they are written.
 
-Results are written to ``out`` one chunk at a time (see :mod:`slamq.batch.results`).
+The runs come from a :class:`~slamq.batch.runs.Discovery`: counted by a first walk of the
+sources, then found again as they are evaluated, so no list of every run is held. Results
+are written to ``out`` one chunk at a time (see :class:`slamq.results.ResultsFile`); what
+resuming skips is kept as 64-bit digests (16 bytes per stored row).
 """
 
 from __future__ import annotations
 
+import itertools
 import os
 import uuid
 import warnings
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from typing import Any, Callable
 
 from slamq.batch.records import EvalOptions, evaluate_run
-from slamq.batch.runs import Run, discover_runs
+from slamq.batch.runs import Discovery, Run
 from slamq.errors import ParamError
 from slamq.results.columns import settings_difference
-from slamq.results.files import ResultsFile, results_format
+from slamq.results.files import ResultsFile, digest64, key_digest, results_format
 
 __all__ = ["evaluate_many", "evaluate_chunk"]
 
@@ -73,9 +77,11 @@ def evaluate_many(
 
     Parameters
     ----------
-    sources : path, Run, or an iterable of them
+    sources : path, Run, an iterable of them, or a :class:`slamq.batch.runs.Discovery`
         Folders, manifest CSV files, map files or :class:`Run` objects; see
-        :func:`slamq.discover_runs`.
+        :func:`slamq.discover_runs`. They are walked twice (to count the runs and find
+        each sequence's ground-truth map, then to evaluate them as they are found), so
+        memory does not grow with the number of maps.
     threads : int, optional
         Worker threads (local), or threads per chunk inside each Dask worker. Default: the
         CPUs available (local); the worker's CPUs divided by its Dask threads (Dask).
@@ -144,7 +150,7 @@ def evaluate_many(
     chunk = DEFAULT_CHUNK_SIZE if chunk_size is None else _positive("chunk_size", chunk_size)
     if out is not None:
         results_format(out)  # a bad suffix fails now, not after discovery
-    runs = discover_runs(sources)
+    runs = sources if isinstance(sources, Discovery) else Discovery(sources)
     backend = _backend(executor)
     return _stream(runs, options, backend, threads, chunk, out, progress)
 
@@ -166,8 +172,32 @@ def _backend(executor: Any) -> tuple[str, Any]:
     raise ParamError(f"unsupported executor {executor!r}")
 
 
+class _Done:
+    """The stored, error-free runs of a results file: sorted 64-bit key digests and the
+    64-bit digests of their fingerprints (16 bytes per stored row, no Python object)."""
+
+    def __init__(self, keys: Any = None, fingerprints: Any = None) -> None:
+        import numpy as np
+
+        keys = np.asarray([] if keys is None else keys, dtype=np.int64)
+        fingerprints = np.asarray([] if fingerprints is None else fingerprints,
+                                  dtype=np.int64)
+        order = np.argsort(keys, kind="stable")
+        self.keys, self.fingerprints = keys[order], fingerprints[order]
+
+    def get(self, key: tuple[str, str, str, str]) -> int | None:
+        """The fingerprint digest stored for ``key``, or None."""
+        import numpy as np
+
+        d = key_digest(key)
+        i = int(np.searchsorted(self.keys, d))
+        if i < len(self.keys) and int(self.keys[i]) == d:
+            return int(self.fingerprints[i])
+        return None
+
+
 def _stream(
-    runs: list[Run],
+    runs: Discovery,
     options: EvalOptions,
     backend: tuple[str, Any],
     threads: int | None,
@@ -176,15 +206,9 @@ def _stream(
     progress: ProgressFn | None,
 ) -> Iterator[dict[str, Any]]:
     store = ResultsFile(out) if out is not None else None
-    done: dict[tuple[str, str, str, str], str] = {}
+    done = _Done()
     if store is not None:
-        other = 0  # stored records computed with other settings
-        for key, rec in store.done():
-            if rec.get("error") in (None, ""):
-                done[key] = options.fingerprint(rec)
-            other += rec.get("config") not in (None, "", options.config)
-        if other:
-            _warn_other_settings(store, runs, options, other)
+        done = _stored_done(store, runs, options)
     total = len(runs)
     finished = 0
     if progress is not None:
@@ -217,33 +241,64 @@ def _stream(
             store.close()
 
 
+def _stored_done(store: ResultsFile, runs: Discovery, options: EvalOptions) -> _Done:
+    """What resuming skips (see :class:`_Done`), read from ``store`` in one streaming
+    pass; warns when some stored records were computed with other settings."""
+    import numpy as np
+
+    keys: list[Any] = []  # int64 arrays of up to 65536 digests: 16 bytes per stored row
+    fps: list[Any] = []
+    k: list[int] = []
+    f: list[int] = []
+    configs: set[Any] = {options.config}
+    other_keys: list[int] = []  # stored records computed with other settings
+    for key, rec in store.done():
+        config = rec.get("config")
+        if rec.get("error") in (None, ""):
+            k.append(key_digest(key))
+            f.append(digest64(options.fingerprint(rec)))
+            if len(k) >= 65536:
+                keys.append(np.array(k, dtype=np.int64))
+                fps.append(np.array(f, dtype=np.int64))
+                k, f = [], []
+        if config not in (None, "", options.config):
+            configs.add(config)
+            other_keys.append(key_digest(key))
+    keys.append(np.array(k, dtype=np.int64))
+    fps.append(np.array(f, dtype=np.int64))
+    result = _Done(np.concatenate(keys), np.concatenate(fps))
+    if other_keys:
+        _warn_other_settings(store, runs, options, other_keys, configs)
+    return result
+
+
 def _warn_other_settings(
-    store: ResultsFile, runs: list[Run], options: EvalOptions, other: int
+    store: ResultsFile, runs: Iterable[Run], options: EvalOptions, other_keys: list[int],
+    configs: set[Any],
 ) -> None:
     """Say that a results file holds records made with other settings, and whether the
     file will mix settings once this batch is done (records of maps not in this batch)."""
-    keys = {r.key for r in runs}
-    configs = [rec.get("config") for _, rec in store.done()] + [options.config]
-    stay = sum(
-        1 for key, rec in store.done()
-        if key not in keys and rec.get("config") not in (None, "", options.config)
-    )
+    import numpy as np
+
+    batch = np.fromiter((key_digest(r.key) for r in runs), dtype=np.int64)
+    stay = int((~np.isin(np.asarray(other_keys, dtype=np.int64), batch)).sum())
     text = (
-        f"{store.path}: {other} stored record(s) were computed with other settings "
-        f"({settings_difference(configs) or 'unknown'}); this batch evaluates its maps again"
+        f"{store.path}: {len(other_keys)} stored record(s) were computed with other "
+        f"settings ({settings_difference(sorted(configs, key=str)) or 'unknown'}); this "
+        "batch evaluates its maps again"
     )
     if stay:
         text += (
             f", but {stay} record(s) of maps outside this batch keep theirs, so the file "
             "will mix settings (use another results file)"
         )
-    warnings.warn(text, UserWarning, stacklevel=4)
+    warnings.warn(text, UserWarning, stacklevel=5)
 
 
 def _run_local(
-    runs: list[Run],
+    runs: Iterable[Run],
     options: EvalOptions,
-    done: dict[tuple[str, str, str, str], str],
+    done: _Done,
     executor: Executor | None,
     threads: int | None,
     chunk: int,
@@ -271,7 +326,7 @@ def _run_local(
 
 
 def evaluate_chunk(
-    runs: list[Run], options: EvalOptions, done: list[str | None], threads: int | None
+    runs: list[Run], options: EvalOptions, done: list[int | str | None], threads: int | None
 ) -> list[dict[str, Any] | None]:
     """Evaluate a chunk of runs with a local thread pool (what a Dask task runs)."""
     if threads is None:
@@ -291,9 +346,9 @@ def evaluate_chunk(
 
 
 def _run_dask(
-    runs: list[Run],
+    runs: Iterable[Run],
     options: EvalOptions,
-    done: dict[tuple[str, str, str, str], str],
+    done: _Done,
     target: Any,
     threads: int | None,
     chunk: int,
@@ -317,7 +372,8 @@ def _run_dask(
     else:
         client = target
     try:
-        chunks = [runs[i : i + chunk] for i in range(0, len(runs), chunk)]
+        found = iter(runs)
+        parts = iter(lambda: list(itertools.islice(found, chunk)), [])
         batch_id = uuid.uuid4().hex[:12]
         worker_threads = sum(client.nthreads().values()) or 1
         window = max(2, 2 * worker_threads)
@@ -327,19 +383,25 @@ def _run_dask(
         next_submit = 0
         next_yield = 0
 
-        def submit(i: int) -> None:
-            part = chunks[i]
+        def submit() -> bool:
+            """Send the next chunk (read from the discovery only now); False at the end."""
+            nonlocal next_submit
+            part = next(parts, None)
+            if part is None:
+                return False
             fut = client.submit(
                 evaluate_chunk, part, options, [done.get(r.key) for r in part], threads,
-                pure=False, key=f"slamq-batch-{batch_id}-{i}",
+                pure=False, key=f"slamq-batch-{batch_id}-{next_submit}",
             )
-            futures[fut] = i
+            futures[fut] = next_submit
             ac.add(fut)
-
-        while next_submit < len(chunks) and next_submit - next_yield < window:
-            submit(next_submit)
             next_submit += 1
-        while next_yield < len(chunks):
+            return True
+
+        more = True
+        while more and next_submit - next_yield < window:
+            more = submit()
+        while next_yield < next_submit:
             fut = next(ac)
             i = futures.pop(fut)
             results[i] = fut.result()
@@ -347,9 +409,8 @@ def _run_dask(
             while next_yield in results:
                 yield from results.pop(next_yield)
                 next_yield += 1
-                if next_submit < len(chunks) and next_submit - next_yield < window:
-                    submit(next_submit)
-                    next_submit += 1
+                if more and next_submit - next_yield < window:
+                    more = submit()
     finally:
         if own_client:
             cluster = getattr(client, "cluster", None)

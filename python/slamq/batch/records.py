@@ -20,6 +20,7 @@ from slamq.errors import MapError, ParamError, SlamqError
 from slamq.models.comparison import COMPARISON_FIGURES
 from slamq.params import Params
 from slamq.results.columns import ATE_STATS, columns
+from slamq.results.files import digest64
 from slamq.sources.files import (
     MAX_IMAGE_BYTES,
     MAX_YAML_BYTES,
@@ -249,7 +250,7 @@ def _message(where: str, exc: BaseException) -> str:
 
 
 def evaluate_run(
-    run: Run, options: EvalOptions, done: str | None = None
+    run: Run, options: EvalOptions, done: int | str | None = None
 ) -> dict[str, Any] | None:
     """Evaluate one run and return its record, or None when ``done`` says it is current.
 
@@ -257,9 +258,10 @@ def evaluate_run(
     ----------
     run : Run
     options : EvalOptions
-    done : str, optional
-        The fingerprint of a stored, error-free record of this run (resume). When the
-        map's content hash gives the same fingerprint, nothing is evaluated.
+    done : int or str, optional
+        The fingerprint of a stored, error-free record of this run (resume), or its
+        :func:`slamq.results.files.digest64` (what a batch keeps). When the map's content
+        hash gives the same fingerprint, nothing is evaluated.
 
     Returns
     -------
@@ -293,7 +295,8 @@ def evaluate_run(
             digest = None  # unreadable: the loader below names the file and the reason
         rec["hash"] = digest
         if digest is not None and done is not None:
-            if options.expected_fingerprint(run, digest) == done:
+            expected = options.expected_fingerprint(run, digest)
+            if expected == done or (isinstance(done, int) and digest64(expected) == done):
                 return None
         try:
             from slamq.metrics.evaluate import evaluate

@@ -47,10 +47,12 @@ followed once.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import functools
+import hashlib
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -62,6 +64,7 @@ from slamq.sources.walk import walk_folders
 
 __all__ = [
     "REFERENCE_ALGORITHMS",
+    "Discovery",
     "Run",
     "describe_layout",
     "discover_runs",
@@ -148,7 +151,7 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
     Parameters
     ----------
     sources : path, Run, or an iterable of them
-        A folder (searched recursively with the layout rules of :mod:`slamq.batch.discover`),
+        A folder (searched recursively with the layout rules of :mod:`slamq.batch.runs`),
         a manifest ``.csv``, a map file (YAML, image, or a ROS bag file or ROS 2 bag folder,
         whose last ``/map`` is evaluated; sequence = the folder's name), or a ready
         :class:`Run`.
@@ -159,7 +162,8 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
         Folder contents sorted by path; the order of ``sources`` and of manifest rows is
         kept. A run listed twice (same algorithm, sequence, run and map) is kept once.
         Paths are absolute (not resolved: symbolic links keep their names), except those
-        of a ready :class:`Run`.
+        of a ready :class:`Run`. (:class:`Discovery` gives the same runs without holding
+        them all in memory.)
 
     Raises
     ------
@@ -177,49 +181,126 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
     >>> [(r.algorithm, r.sequence, r.run, r.trajectory.name) for r in discover_runs(root)]
     [('gmapping', 'office', 'run 1', 'trajectory.txt')]
     """
-    if isinstance(sources, (str, os.PathLike, Run)):
-        sources = [sources]
-    for cache in _CACHES:  # the caches live for one discovery only
-        cache.cache_clear()
-    out: list[Run] = []
-    seen: set[tuple[str, str, str, str]] = set()
-    for src in sources:
-        if isinstance(src, Run):
-            found = [src]
-        else:
-            # absolute: the results file must not depend on where the batch was started
-            # (resume from another folder, a report built elsewhere)
-            path = Path(os.path.abspath(os.path.expanduser(os.fspath(src))))
-            if path.is_dir() and (path / "metadata.yaml").is_file():
-                found = [_single_map(path)]  # a ROS 2 bag: its last /map
-            elif path.is_dir():
-                found = _discover_folder(path)
-            elif path.is_file() and path.suffix.lower() == ".csv":
-                found = read_manifest(path)
-            elif path.is_file():
-                found = [_single_map(path)]
-            elif not path.exists():
-                raise MapError(f"{path}: no such file or folder")
-            else:
-                raise MapError(f"{path}: not a file or folder")
-        for run in found:
-            if run.key not in seen:
-                seen.add(run.key)
-                out.append(run)
-    return _with_ground_truth_maps(out)
-
-
-def _with_ground_truth_maps(runs: list[Run]) -> list[Run]:
-    """Every non-reference run without a ``gt_map`` gets its sequence's reference map."""
-    import dataclasses
-
+    runs = list(_iter_runs(_source_list(sources)))
     refs: dict[str, Path] = {}
-    for r in sorted((r for r in runs if is_reference(r.algorithm)), key=lambda r: str(r.map)):
-        refs.setdefault(r.sequence, r.map)
-    if not refs:
-        return runs
-    return [r if r.gt_map is not None or is_reference(r.algorithm) or r.sequence not in refs
-            else dataclasses.replace(r, gt_map=refs[r.sequence]) for r in runs]
+    for r in runs:
+        _add_reference(refs, r)
+    return [_with_ground_truth_map(r, refs) for r in runs]
+
+
+class Discovery:
+    """The runs of a batch, found lazily: what :func:`discover_runs` finds, in the same
+    order, without a list of every run in memory.
+
+    Making it walks the sources once (raising for a missing source or a bad manifest, as
+    :func:`discover_runs` does) and keeps only a summary: the number of runs, the layout
+    counts, the algorithm and sequence names and each sequence's ground-truth map, i.e.
+    memory in the number of algorithms and sequences, not of maps. Each iteration walks
+    the sources again and yields the runs one by one (folders are listed again, so a map
+    added in between is found; ``len()`` is the count of the first walk). A manifest's
+    rows are read whole; when several sources are given, a run found twice is recognised
+    by a 16-byte digest of its key (about 0.1 KB per run while iterating).
+
+    Parameters
+    ----------
+    sources : path, Run, or an iterable of them
+        As for :func:`discover_runs` (a one-shot iterator is read into a list first).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> root = pathlib.Path(tempfile.mkdtemp()) / "office"
+    >>> root.mkdir()
+    >>> for name in ("gmapping_map", "hector_map", "office_ground_truth"):
+    ...     _ = (root / f"{name}.pgm").write_bytes(b"P5 1 1 255 \\xfe")
+    >>> found = Discovery(root)
+    >>> len(found), [(r.algorithm, r.gt_map and r.gt_map.name) for r in found]
+    (3, [('gmapping', 'office_ground_truth.pgm'), ('hector', 'office_ground_truth.pgm'), \
+('ground_truth', None)])
+    >>> found.layout_lines()
+    ['3 runs: 3 algorithm(s) x 1 sequence(s); layout: 3 in flat <sequence>/<algorithm>_map files']
+    """
+
+    def __init__(self, sources: PathLike | Run | Iterable[PathLike | Run]) -> None:
+        self._sources = _source_list(sources)
+        self._summary = _LayoutSummary()
+        self._refs: dict[str, Path] = {}
+        for run in _iter_runs(self._sources):
+            self._summary.add(run)
+            _add_reference(self._refs, run)
+
+    def __len__(self) -> int:
+        return self._summary.n
+
+    def __iter__(self) -> Iterator[Run]:
+        for run in _iter_runs(self._sources):
+            yield _with_ground_truth_map(run, self._refs)
+
+    def layout_lines(self) -> list[str]:
+        """What :func:`describe_layout` says of these runs."""
+        return self._summary.lines()
+
+
+def _source_list(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[PathLike | Run]:
+    if isinstance(sources, (str, os.PathLike, Run)):
+        return [sources]
+    return list(sources)
+
+
+def _iter_runs(sources: list[PathLike | Run]) -> Iterator[Run]:
+    """The runs of ``sources`` in order, each key once, without ground-truth maps."""
+    for cache in _CACHES:  # the caches live for one pass only
+        cache.cache_clear()
+    # One folder, manifest or file never gives a key twice (each folder is walked once,
+    # read_manifest refuses a repeated row); across sources, a compact digest per key.
+    seen: set[bytes] | None = set() if len(sources) > 1 else None
+    try:
+        for src in sources:
+            for run in _source_runs(src):
+                if seen is not None:
+                    d = hashlib.blake2b("\0".join(run.key).encode("utf-8", "surrogatepass"),
+                                        digest_size=16).digest()
+                    if d in seen:
+                        continue
+                    seen.add(d)
+                yield run
+    finally:
+        for cache in _CACHES:
+            cache.cache_clear()
+
+
+def _source_runs(src: PathLike | Run) -> Iterable[Run]:
+    if isinstance(src, Run):
+        return [src]
+    # absolute: the results file must not depend on where the batch was started
+    # (resume from another folder, a report built elsewhere)
+    path = Path(os.path.abspath(os.path.expanduser(os.fspath(src))))
+    if path.is_dir() and (path / "metadata.yaml").is_file():
+        return [_single_map(path)]  # a ROS 2 bag: its last /map
+    if path.is_dir():
+        return _discover_folder(path)
+    if path.is_file() and path.suffix.lower() == ".csv":
+        return read_manifest(path)
+    if path.is_file():
+        return [_single_map(path)]
+    if not path.exists():
+        raise MapError(f"{path}: no such file or folder")
+    raise MapError(f"{path}: not a file or folder")
+
+
+def _add_reference(refs: dict[str, Path], run: Run) -> None:
+    """Note ``run`` if it is the first (by path) reference run of its sequence."""
+    if is_reference(run.algorithm):
+        have = refs.get(run.sequence)
+        if have is None or str(run.map) < str(have):
+            refs[run.sequence] = run.map
+
+
+def _with_ground_truth_map(run: Run, refs: dict[str, Path]) -> Run:
+    """A non-reference run without a ``gt_map`` gets its sequence's reference map."""
+    if run.gt_map is not None or is_reference(run.algorithm) or run.sequence not in refs:
+        return run
+    return dataclasses.replace(run, gt_map=refs[run.sequence])
 
 
 # --------------------------------------------------------------------------- manifest
@@ -332,15 +413,7 @@ def _flat_names(stem: str) -> tuple[str, str]:
     return stem, "0"
 
 
-@functools.lru_cache(maxsize=4096)
-def _files(folder: Path) -> list[Path]:
-    """The files directly in ``folder``, sorted. Cached while one :func:`discover_runs` call
-    runs (every map of a flat folder looks at the same folders); cleared at each call."""
-    return sorted(p for p in folder.iterdir() if p.is_file())
-
-
-def _discover_folder(root: Path) -> list[Run]:
-    runs: list[Run] = []
+def _discover_folder(root: Path) -> Iterator[Run]:
     root_name = root.resolve().name
     for here, files, maps in walk_folders(root):
         if not maps:
@@ -352,7 +425,7 @@ def _discover_folder(root: Path) -> list[Run]:
             gt = _find_groundtruth([here, here.parent], sequence, root)
             if gt is None and traj is not None and _is_paired_log(traj):
                 gt = traj
-            runs.append(Run(maps[0], algorithm, sequence, run_id, traj, gt, layout="runs"))
+            yield Run(maps[0], algorithm, sequence, run_id, traj, gt, layout="runs")
             continue
         folder_seq = here.name if rel else root_name
         names_here = [_flat_names(m.stem) for m in maps]
@@ -360,14 +433,13 @@ def _discover_folder(root: Path) -> list[Run]:
         for m, (algorithm, run_id) in zip(maps, names_here):
             gt_seq = _ground_truth_map(m.stem)
             if gt_seq is not None:
-                runs.append(Run(m, GROUND_TRUTH, gt_seq, "0", layout="flat"))
+                yield Run(m, GROUND_TRUTH, gt_seq, "0", layout="flat")
                 continue
             if _SEQUENCE_GT_MAP.match(m.stem):  # ground_truth*.yaml, gt_map.yaml
-                runs.append(Run(m, GROUND_TRUTH, folder_seq, "0", layout="flat"))
+                yield Run(m, GROUND_TRUTH, folder_seq, "0", layout="flat")
                 continue
             traj, gt = _flat_trajectories(here, algorithm, algos, folder_seq, root)
-            runs.append(Run(m, algorithm, folder_seq, run_id, traj, gt, layout="flat"))
-    return runs
+            yield Run(m, algorithm, folder_seq, run_id, traj, gt, layout="flat")
 
 
 def _trajectory_files(files: Iterable[Path]) -> list[Path]:
@@ -406,17 +478,24 @@ def _find_groundtruth(
     return None
 
 
-@functools.lru_cache(maxsize=4096)
+@functools.lru_cache(maxsize=256)
 def _folder_trajectories(folder: Path) -> list[Path]:
-    """The trajectory files directly in ``folder`` ([] when it cannot be listed); cached
-    like :func:`_files`, so that the maps of one flat folder do not filter it each."""
+    """The trajectory files directly in ``folder``, sorted ([] when it cannot be listed).
+
+    Cached while one pass of a discovery runs (the maps of a flat folder all look at the
+    same folders), for the 256 folders used last: only trajectory names are kept, not the
+    folder's listing (a folder of 10,000 maps would otherwise stay in memory)."""
     try:
-        return _trajectory_files(_files(folder))
+        with os.scandir(folder) as it:
+            names = [e.name for e in it
+                     if os.path.splitext(e.name)[1].lower() in TRAJECTORY_SUFFIXES
+                     and e.is_file()]
     except OSError:
         return []
+    return sorted(folder / n for n in names)
 
 
-@functools.lru_cache(maxsize=4096)
+@functools.lru_cache(maxsize=256)
 def _groundtruth_in(folder: Path, sequence: str, need_prefix: bool) -> Path | None:
     gts = [p for p in _folder_trajectories(folder) if _is_gt_name(p, sequence)]
     if need_prefix:
@@ -429,7 +508,7 @@ def _is_paired_log(path: Path) -> bool:
     return cols is not None
 
 
-@functools.lru_cache(maxsize=4096)
+@functools.lru_cache(maxsize=256)
 def _mirror_folders(folder: Path, sequence: str) -> tuple[Path, ...]:
     """``trajectories/<group>/.../<sequence>`` folders of a map folder ``.../<group>/...``.
 
@@ -441,7 +520,7 @@ def _mirror_folders(folder: Path, sequence: str) -> tuple[Path, ...]:
     return tuple(Path(p) for p in _mirror_cached(str(folder.resolve()), sequence))
 
 
-@functools.lru_cache(maxsize=1024)
+@functools.lru_cache(maxsize=256)
 def _mirror_cached(folder: str, sequence: str) -> tuple[str, ...]:
     parts = Path(folder).parts
     for i in range(len(parts) - 1, 0, -1):
@@ -483,7 +562,7 @@ def _flat_trajectories(
     return traj, gt
 
 
-@functools.lru_cache(maxsize=4096)
+@functools.lru_cache(maxsize=256)
 def _owned_trajectories(folder: Path, algos: frozenset[str]) -> dict[str, list[Path]]:
     """The trajectory files of ``folder`` by the algorithm they belong to (one pass over
     the folder for all its maps, so discovery stays linear in the number of maps)."""
@@ -513,15 +592,17 @@ def _owner(stem: str, algos: frozenset[str]) -> str | None:
 
 
 _CACHES = (
-    _files, _folder_trajectories, _groundtruth_in, _owned_trajectories, _mirror_folders,
+    _folder_trajectories, _groundtruth_in, _owned_trajectories, _mirror_folders,
     _mirror_cached,
 )
 
 
-def describe_layout(runs: list[Run]) -> list[str]:
+def describe_layout(runs: Iterable[Run]) -> list[str]:
     """Lines saying how a batch's runs were found, and warnings for layouts that look
     guessed wrongly: an (algorithm, sequence) of run folders whose maps have different file
     names is probably algorithms mistaken for runs.
+
+    ``runs`` is read once and not kept (memory in the number of algorithms and sequences).
 
     Examples
     --------
@@ -533,27 +614,54 @@ def describe_layout(runs: list[Run]) -> list[str]:
     differently (default.yaml, hector.yaml); are they algorithms rather than runs? Check
     with --dry-run, or use a manifest CSV
     """
-    from collections import Counter, defaultdict
+    summary = _LayoutSummary()
+    for r in runs:
+        summary.add(r)
+    return summary.lines()
 
-    names = {"runs": "in <algorithm>/<sequence>/<run>/ folders",
+
+class _LayoutSummary:
+    """What :func:`describe_layout` says, gathered one run at a time: counts, names, and
+    per (algorithm, sequence) of run folders its first 4 run ids and 5 smallest map names."""
+
+    NAMES = {"runs": "in <algorithm>/<sequence>/<run>/ folders",
              "flat": "in flat <sequence>/<algorithm>_map files", "manifest": "from manifests",
              "file": "named directly", "": "given as Run objects"}
-    counts = Counter(r.layout for r in runs)
-    algos = {r.algorithm for r in runs}
-    seqs = {r.sequence for r in runs}
-    layout = ", ".join(f"{n} {names.get(k, k)}" for k, n in counts.most_common())
-    lines = [f"{len(runs)} runs: {len(algos)} algorithm(s) x {len(seqs)} sequence(s); "
-             f"layout: {layout}"]
-    groups: dict[tuple[str, str], list[Run]] = defaultdict(list)
-    for r in runs:
-        if r.layout == "runs":
-            groups[(r.algorithm, r.sequence)].append(r)
-    for (alg, seq), members in sorted(groups.items()):
-        stems = sorted({m.map.name for m in members})
-        if len(stems) > 1:
-            ids = ", ".join(repr(m.run) for m in members[:4])
-            lines.append(
-                f"warning: algorithm {alg!r}, sequence {seq!r}: its runs ({ids}) hold maps "
-                f"named differently ({', '.join(stems[:4])}); are they algorithms rather "
-                "than runs? Check with --dry-run, or use a manifest CSV")
-    return lines
+
+    def __init__(self) -> None:
+        from collections import Counter
+
+        self.n = 0
+        self.layouts: Counter[str] = Counter()
+        self.algos: set[str] = set()
+        self.seqs: set[str] = set()
+        self.groups: dict[tuple[str, str], tuple[list[str], list[str]]] = {}
+
+    def add(self, r: Run) -> None:
+        self.n += 1
+        self.layouts[r.layout] += 1
+        self.algos.add(r.algorithm)
+        self.seqs.add(r.sequence)
+        if r.layout != "runs":
+            return
+        ids, names = self.groups.setdefault((r.algorithm, r.sequence), ([], []))
+        if len(ids) < 4:
+            ids.append(r.run)
+        name = r.map.name
+        if name not in names and (len(names) < 5 or name < names[-1]):
+            names.append(name)
+            names.sort()
+            del names[5:]
+
+    def lines(self) -> list[str]:
+        layout = ", ".join(f"{n} {self.NAMES.get(k, k)}" for k, n in self.layouts.most_common())
+        lines = [f"{self.n} runs: {len(self.algos)} algorithm(s) x {len(self.seqs)} "
+                 f"sequence(s); layout: {layout}"]
+        for (alg, seq), (ids, names) in sorted(self.groups.items()):
+            if len(names) > 1:
+                lines.append(
+                    f"warning: algorithm {alg!r}, sequence {seq!r}: its runs "
+                    f"({', '.join(map(repr, ids))}) hold maps named differently "
+                    f"({', '.join(names[:4])}); are they algorithms rather than runs? Check "
+                    "with --dry-run, or use a manifest CSV")
+        return lines

@@ -83,22 +83,27 @@ def add_parser(subparsers: Any) -> None:
 
 
 def _cmd_batch(args: argparse.Namespace) -> int:
-    from slamq.batch import discover_runs, evaluate_many
-    from slamq.batch.runs import describe_layout
+    from slamq.batch import evaluate_many
+    from slamq.batch.runs import Discovery, describe_layout
     from slamq.errors import SlamqError
     from slamq.params import params_from_args
     from slamq.results import read_results, summarize, summary_table
 
     if args.report:
         need_extra("report", "slamq batch --report")
-    runs = discover_runs(args.sources)
-    if args.dry_run:
-        _print_runs(runs)
-        for line in describe_layout(runs):
+    if args.dry_run:  # lists every run: the one mode that holds them all
+        from slamq.batch import discover_runs
+
+        found = discover_runs(args.sources)
+        _print_runs(found)
+        for line in describe_layout(found):
             print(line)
-        return EXIT_OK if runs else EXIT_BAD_INPUT
+        return EXIT_OK if found else EXIT_BAD_INPUT
+    # counted and summarised by a first walk, evaluated as a second walk finds them: no
+    # list of every run in memory
+    runs = Discovery(args.sources)
     if not args.quiet:
-        for line in describe_layout(runs):
+        for line in runs.layout_lines():
             print(f"slamq batch: {line}" if not line.startswith("warning:")
                   else f"slamq: {line}", file=sys.stderr)
 
@@ -114,12 +119,13 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     ate_failed = 0
     evaluated = 0
     total = 0
+    seen = 0  # maps evaluated or skipped
     with Progress("slamq batch", "maps", not args.no_progress and not args.quiet) as progress:
 
         def on_progress(done: int, n: int) -> None:
-            nonlocal total
-            total = n
-            progress.update(done, n)
+            nonlocal total, seen
+            total, seen = n, done
+            progress.update(done, max(n, done))
 
         try:
             records = evaluate_many(
@@ -145,13 +151,13 @@ def _cmd_batch(args: argparse.Namespace) -> int:
                 f"slamq batch: interrupted after {evaluated} map(s); every finished chunk is "
                 f"in {out}: run the same command again to resume")
             raise
-    skipped = total - evaluated
+    skipped = seen - evaluated
     print(
         f"slamq batch: {evaluated} map(s) evaluated, {skipped} already in {out}, "
         f"{failed} failed, {ate_failed} without ATE; results in {out}",
         file=sys.stderr,
     )
-    if total == 0:
+    if total == 0 and seen == 0:
         error_line("", "no map found in " + ", ".join(map(str, args.sources)))
         return EXIT_BAD_INPUT
     if not args.quiet:  # -q/--quiet: every command has it

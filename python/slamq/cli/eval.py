@@ -91,10 +91,9 @@ def run(args: argparse.Namespace) -> int:
     if len(results) > 1:
         import pandas as pd
 
-        from slamq.results.summary import resolution_warnings
+        from slamq.results.summary import comparability_warnings
 
-        for msg in resolution_warnings(pd.DataFrame({"resolution": [q.resolution
-                                                                     for q in results]})):
+        for msg in comparability_warnings(pd.DataFrame([q.to_dict() for q in results])):
             print(f"slamq: warning: {msg.split(': ', 1)[1]}", file=sys.stderr)
     if args.json:
         write_json(sys.stdout if args.json == "-" else args.json, results)

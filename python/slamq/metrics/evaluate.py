@@ -16,6 +16,7 @@ from typing import Any, Union
 
 from slamq.errors import ConformanceError, OutOfMemoryError, SlamqError
 from slamq.models import MapQuality, OccupancyMap
+from slamq.models.quality import map_facts
 from slamq.params import Params, check_threads, params_doc
 from slamq.sources import load_map
 
@@ -90,7 +91,7 @@ def evaluate(
         raise OutOfMemoryError(f"{os.fspath(where)}: out of memory while loading the map"
                                ) from None
     try:
-        raw = _core.evaluate(grid.values, grid.unknown, params, n_threads)
+        raw = _core.evaluate(grid.values, grid.unknown, params, n_threads, grid.resolution)
     except MemoryError as exc:
         h, w = grid.shape
         raise OutOfMemoryError(f"{grid.source}: {exc} of a {h} x {w} map (up to "
@@ -106,6 +107,9 @@ def evaluate(
         params=params,
         keep_curve=curve or verify,
         resolution=grid.resolution,
+        corners_canonical=raw.corners_canonical,
+        wall_angle=raw.wall_angle,
+        facts=map_facts(grid),
     )
     if verify:
         from slamq.metrics import reference

@@ -37,6 +37,7 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Iterator
 from typing import Any, NamedTuple
 
@@ -44,11 +45,14 @@ import cv2
 import numpy as np
 
 from slamq.models import MapQuality, OccupancyMap
+from slamq.models.quality import map_facts
 from slamq.params import Params, params_doc
 from slamq.sources import load_map
 
 __all__ = [
     "OccupancyCounts",
+    "canonical_corner_count",
+    "canonical_map",
     "corner_count",
     "corner_mask",
     "corner_points",
@@ -60,6 +64,7 @@ __all__ = [
     "gaussian",
     "harris_response",
     "ipp_disabled",
+    "known_bounds",
     "laplacian",
     "log_response",
     "occupancy_counts",
@@ -68,6 +73,7 @@ __all__ = [
     "otsu_threshold_spec",
     "structure_image",
     "structure_mask",
+    "wall_angle",
 ]
 
 #: OpenCV's 5-tap Gaussian kernel for ksize 5, sigma 0 (``getGaussianKernel(5, 0) * 16``).
@@ -338,6 +344,171 @@ def corner_count(grid: OccupancyMap, params: Params | None = None) -> int:
         corner_mask(grid, params).astype(np.uint8), connectivity=8, ltype=cv2.CV_32S
     )
     return int(n) - 1
+
+
+# ---------------------------------------------------------------------------------------
+# SPEC section 3a: the canonical corner count
+# ---------------------------------------------------------------------------------------
+
+
+def known_bounds(grid: OccupancyMap) -> tuple[int, int, int, int] | None:
+    """Rows ``r0:r1`` and columns ``c0:c1`` of the known cells' bounding box, or None.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import OccupancyMap
+    >>> unknown = np.ones((5, 6), bool)
+    >>> unknown[1:3, 2:5] = False
+    >>> known_bounds(OccupancyMap(np.zeros((5, 6), np.uint8), unknown))
+    (1, 3, 2, 5)
+    """
+    rows = np.flatnonzero((~grid.unknown).any(axis=1))
+    if rows.size == 0:
+        return None
+    cols = np.flatnonzero((~grid.unknown).any(axis=0))
+    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+
+
+def _crop(grid: OccupancyMap) -> OccupancyMap | None:
+    b = known_bounds(grid)
+    if b is None:
+        return None
+    r0, r1, c0, c1 = b
+    return OccupancyMap(np.ascontiguousarray(grid.values[r0:r1, c0:c1]),
+                        np.ascontiguousarray(grid.unknown[r0:r1, c0:c1]),
+                        resolution=grid.resolution, source=grid.source)
+
+
+def wall_angle(grid: OccupancyMap) -> float:
+    """Dominant wall direction modulo 90 degrees, in radians in (-pi/4, pi/4] (SPEC 3a.2).
+
+    On the known cells' bounding box: the structure image's 9x9 binomial sum
+    (``[1 8 28 56 70 56 28 8 1]``, two 5x5 blurs in one; reflect-101) taken at every second
+    row and column (``D``, integers), the 3x3 Sobel derivatives ``gx, gy`` of ``D``
+    (reflect-101), and per cell with ``g = gx + i gy != 0`` the term ``g**4 / |g|**3``
+    (weight ``|g|``, angle ``4 phi``) rounded half to even to integers and summed exactly;
+    the angle is
+    ``atan2(sum Im, sum Re) / 4``. An image-style angle: positive turns +x towards +y (rows
+    down). A map with no known cell or no gradient has angle 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import OccupancyMap
+    >>> img = np.full((40, 40), 254, np.uint8)
+    >>> img[10, 5:35] = 0
+    >>> img[5:35, 20] = 0                          # axis-aligned walls
+    >>> abs(wall_angle(OccupancyMap(img, np.zeros_like(img, bool)))) < 1e-9
+    True
+    """
+    crop = _crop(grid)
+    if crop is None:
+        return 0.0
+    b9 = np.array([1.0, 8.0, 28.0, 56.0, 70.0, 56.0, 28.0, 8.0, 1.0])
+    g2 = cv2.sepFilter2D(structure_image(crop), cv2.CV_64F, b9, b9, borderType=_BORDER)
+    g2 = np.ascontiguousarray(g2[::2, ::2])
+    x = cv2.Sobel(g2, cv2.CV_64F, 1, 0, ksize=3, borderType=_BORDER)
+    y = cv2.Sobel(g2, cv2.CV_64F, 0, 1, ksize=3, borderType=_BORDER)
+    r2 = x * x + y * y
+    keep = r2 > 0
+    x, y, r2 = x[keep], y[keep], r2[keep]
+    a = x * x - y * y
+    b = 2.0 * (x * y)
+    w = r2 * np.sqrt(r2)
+    re = np.rint((a * a - b * b) / w).astype(np.int64)
+    im = np.rint((2.0 * (a * b)) / w).astype(np.int64)
+    sre, sim = int(re.sum()), int(im.sum())
+    if sre == 0 and sim == 0:
+        return 0.0
+    return math.atan2(float(sim), float(sre)) / 4.0
+
+
+#: Canonical maps larger than this are not built (``corners_canonical`` is None).
+MAX_CANONICAL_CELLS = 1 << 30
+
+
+def canonical_map(grid: OccupancyMap, params: Params | None = None) -> OccupancyMap | None:
+    """The map turned to its dominant wall direction and resampled (SPEC 3a.3).
+
+    The known cells' bounding box (``h x w`` cells of resolution ``res``) is turned by
+    ``-theta`` (:func:`wall_angle`) about its centre cell ``(h // 2, w // 2)`` and sampled
+    on a grid of ``canonical_resolution`` metres (``f = canonical_resolution / res`` input cells per
+    output cell; ``f = 1`` when the map has no resolution). The output is ``W x H`` with
+    ``W = 2 (ceil((|cos| w + |sin| h) / 2f) + 2)``, ``H`` likewise, centred on the box.
+    Each output cell takes ``n x n`` samples (``n = max(2, ceil(f))``) at the centres of
+    its ``n x n`` sub-cells, each sample the input cell under it (nearest; beyond the box's
+    edge, the edge cell: a fully known map gets no artificial frontier); the cell is the
+    mean of the known samples rounded half up, ``(2 sum + k) // 2k``, or unknown when fewer
+    than half the samples are known. None when the result would exceed
+    ``MAX_CANONICAL_CELLS`` cells; a map without known cells is returned as it is.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import OccupancyMap
+    >>> img = np.full((30, 30), 254, np.uint8)
+    >>> img[8, 4:26] = 0
+    >>> c = canonical_map(OccupancyMap(img, np.zeros_like(img, bool), resolution=0.05))
+    >>> c.shape, c.resolution          # 30 x 30 cells and 2 of margin on each side
+    ((34, 34), 0.05)
+    """
+    params = _params(params)
+    crop = _crop(grid)
+    if crop is None:
+        return grid
+    h, w = crop.shape
+    res = crop.resolution
+    f = params.canonical_resolution / res if res is not None else 1.0
+    theta = wall_angle(crop)
+    c, s = math.cos(theta), math.sin(theta)
+    half_w = (abs(c) * w + abs(s) * h) / (2.0 * f)
+    half_h = (abs(s) * w + abs(c) * h) / (2.0 * f)
+    if not (math.isfinite(half_w) and math.isfinite(half_h)):
+        return None
+    big_w = 2 * (math.ceil(half_w) + 2)
+    big_h = 2 * (math.ceil(half_h) + 2)
+    if big_w * big_h > MAX_CANONICAL_CELLS:
+        return None
+    n = max(2, math.ceil(f))
+    jj = (np.arange(big_w, dtype=np.float64) - big_w // 2)[None, :]
+    ii = (np.arange(big_h, dtype=np.float64) - big_h // 2)[:, None]
+    total = np.zeros((big_h, big_w), np.int64)
+    count = np.zeros((big_h, big_w), np.int64)
+    values = crop.values.astype(np.int64)
+    for k in range(n):
+        qy = (ii + (k + 0.5) / n) * f
+        for m in range(n):
+            qx = (jj + (m + 0.5) / n) * f
+            px = (c * qx - s * qy) + float(w // 2)
+            py = (s * qx + c * qy) + float(h // 2)
+            xi = np.clip(np.floor(px), 0, w - 1).astype(np.int64)
+            yi = np.clip(np.floor(py), 0, h - 1).astype(np.int64)
+            known = ~crop.unknown[yi, xi]
+            total += np.where(known, values[yi, xi], 0)
+            count += known
+    unknown = 2 * count < n * n
+    mean = (2 * total + count) // np.maximum(2 * count, 1)
+    out = np.where(unknown, 0, mean).astype(np.uint8)
+    new_res = params.canonical_resolution if res is not None else None
+    return OccupancyMap(out, unknown, resolution=new_res, source=grid.source)
+
+
+def canonical_corner_count(grid: OccupancyMap, params: Params | None = None) -> int | None:
+    """``corners_canonical``: SPEC-3 corners of :func:`canonical_map` (SPEC 3a.4), or None
+    when the canonical map would be too large.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import OccupancyMap
+    >>> img = np.full((40, 40), 254, np.uint8)
+    >>> img[10:30, 10:30] = 0        # an upright square obstacle: as many as ``corners``
+    >>> canonical_corner_count(OccupancyMap(img, np.zeros_like(img, bool), resolution=0.05))
+    8
+    """
+    canonical = canonical_map(grid, params)
+    return None if canonical is None else corner_count(canonical, params)
 
 
 # ---------------------------------------------------------------------------------------
@@ -616,6 +787,10 @@ def evaluate(
         params=params,
         keep_curve=curve,
         resolution=grid.resolution,
+        corners_canonical=(canonical_corner_count(grid, params)
+                           if params.canonical_resolution > 0 else None),
+        wall_angle=wall_angle(grid) if params.canonical_resolution > 0 else math.nan,
+        facts=map_facts(grid),
     )
 
 

@@ -10,7 +10,54 @@ from typing import Any
 
 from slamq.params import Params
 
-__all__ = ["MapQuality"]
+__all__ = ["MapQuality", "map_facts"]
+
+
+def map_facts(grid: Any) -> dict[str, Any]:
+    """What a map's numbers depend on besides the place: its saver and canvas, for the
+    comparability checks (``saver``, ``flags``, ``known_box_m2`` of :class:`MapQuality`).
+
+    ``saver`` is ``mode/levels/unknown shade``: the YAML mode (or how the map was loaded),
+    ``trinary`` when the known cells hold at most 3 grey levels else ``graded``, and the
+    most common pixel value of the unknown cells (``-`` when none). ``flags`` joins the
+    loader's flags (``yaml_beside``: a bare image whose YAML is beside it; ``screenshot``;
+    ``mostly_unknown``) with ``;``. ``known_box_m2`` is the area of the known cells'
+    bounding box (NaN without a resolution).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import load_map
+    >>> m = load_map(np.array([[0, 205], [254, 254]], np.uint8))
+    >>> f = map_facts(m)
+    >>> f["saver"], f["flags"]
+    ('trinary/trinary/unknown 205', '')
+    """
+    import numpy as np
+
+    values = np.asarray(grid.values)
+    unknown = np.asarray(grid.unknown, bool)
+    meta = getattr(grid, "meta", {}) or {}
+    levels = np.unique(values[~unknown]).size
+    pixels = meta.get("pixels")
+    if not isinstance(pixels, np.ndarray) or pixels.shape != values.shape:
+        pixels = values
+    shade = "-"
+    if unknown.any():
+        counts = np.bincount(pixels[unknown].ravel().astype(np.int64), minlength=1)
+        shade = str(int(counts.argmax()))
+    mode = meta.get("mode") or meta.get("kind") or "array"
+    rows = np.flatnonzero((~unknown).any(axis=1))
+    box = nan = math.nan
+    if rows.size and grid.resolution is not None:
+        cols = np.flatnonzero((~unknown).any(axis=0))
+        cells = (rows[-1] - rows[0] + 1) * (cols[-1] - cols[0] + 1)
+        box = float(cells) * float(grid.resolution) ** 2
+    return {
+        "saver": f"{mode}/{'graded' if levels > 3 else 'trinary'}/unknown {shade}",
+        "flags": ";".join(meta.get("flags", [])),
+        "known_box_m2": box if rows.size else nan,
+    }
 
 
 @dataclass(frozen=True)
@@ -42,6 +89,17 @@ class MapQuality:
     known_area_m2 : float
         ``known * resolution**2``, the explored area (NaN without a resolution): maps of one
         place saved at different resolutions compare on it, not on ``known``.
+    corners_canonical : int or None
+        SPEC section 3a: the corner count of the map turned to its dominant wall direction
+        and resampled to ``params.canonical_resolution`` (None when that is 0, or when the
+        canonical map would exceed 2**30 cells). Compare maps of different orientation or
+        resolution on this, not on ``corners``.
+    wall_angle : float
+        The dominant wall direction modulo 90 degrees, in degrees in (-45, 45] (image axes:
+        positive turns +x towards +y, rows down); NaN when ``canonical_resolution`` is 0.
+    saver, flags, known_box_m2 : str, str, float
+        How the map was saved and loaded, and the area of its known cells' bounding box:
+        see :func:`map_facts`. Maps ranked together should agree on these.
     curve : tuple of int or None
         ``count_u`` for every ``u`` in ``params.sweep_values`` (when asked for).
     params : Params
@@ -75,6 +133,11 @@ class MapQuality:
     enclosed_unknown_value: int
     resolution: float | None = None
     known_area_m2: float = math.nan
+    corners_canonical: int | None = None
+    wall_angle: float = math.nan
+    saver: str = ""
+    flags: str = ""
+    known_box_m2: float = math.nan
     curve: tuple[int, ...] | None = None
     params: Params = field(default_factory=Params)
 
@@ -92,10 +155,14 @@ class MapQuality:
         params: Params,
         keep_curve: bool,
         resolution: float | None = None,
+        corners_canonical: int | None = None,
+        wall_angle: float = math.nan,
+        facts: dict[str, Any] | None = None,
     ) -> MapQuality:
         """Build the result from the integers both implementations produce.
 
-        ``curve`` holds ``count_u`` for every ``u`` in ``params.sweep_values``.
+        ``curve`` holds ``count_u`` for every ``u`` in ``params.sweep_values``;
+        ``wall_angle`` is in radians (the field holds degrees).
         """
         height, width = int(shape[0]), int(shape[1])
         total = height * width
@@ -128,6 +195,9 @@ class MapQuality:
             enclosed_unknown_value=int(best_u),
             resolution=None if resolution is None else float(resolution),
             known_area_m2=nan if resolution is None else known * float(resolution) ** 2,
+            corners_canonical=None if corners_canonical is None else int(corners_canonical),
+            wall_angle=math.degrees(float(wall_angle)),
+            **(facts or {}),
             curve=counts if keep_curve else None,
             params=params,
         )
@@ -162,12 +232,13 @@ class MapQuality:
         diffs = []
         for name in (
             "height", "width", "total", "known", "unknown", "occupied", "free",
-            "corners", "enclosed_areas", "enclosed_unknown_value", "curve",
+            "corners", "corners_canonical", "enclosed_areas", "enclosed_unknown_value",
+            "curve",
         ):
             a, b = getattr(self, name), getattr(other, name)
             if a != b and not (name == "curve" and (a is None or b is None)):
                 diffs.append(f"{name}: {a!r} != {b!r}")
-        for name in ("occupied_fraction", "proportion", "threshold"):
+        for name in ("occupied_fraction", "proportion", "threshold", "wall_angle"):
             a, b = getattr(self, name), getattr(other, name)
             if math.isnan(a) and math.isnan(b):
                 continue

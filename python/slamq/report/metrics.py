@@ -118,8 +118,9 @@ METRICS: tuple[Metric, ...] = (
     ),
 )
 
-#: A map whose known-cell count is below this fraction of the sequence median is "partial".
-PARTIAL_COVERAGE = 0.5
+#: A map knowing less area than this share of the sequence's most complete map is partial
+#: (the verdict uses the same rule).
+COMPLETE_SHARE = 0.8
 
 
 def summarize(ok: pd.DataFrame) -> pd.DataFrame:
@@ -186,7 +187,10 @@ class SequenceRanking:
     disagree : list of Metric
         Metrics whose best algorithm is not the overall winner.
     partial : list of str
-        Algorithms whose maps know fewer than half the median known cells (paper III.A).
+        Algorithms whose maps know less than 80% of the area of the sequence's most complete
+        map (``known_area_m2``; known cells when a map has no resolution; paper III.A).
+    coverage : dict
+        ``coverage[algorithm]`` = its mean known area relative to the most complete map's.
     references : list of str
         Reference maps in the sequence (an "algorithm" named ground_truth, groundtruth, gt
         or reference): shown beside the ranking, never ranked.
@@ -201,6 +205,7 @@ class SequenceRanking:
     disagree: list[Metric]
     partial: list[str]
     references: list[str] = field(default_factory=list)
+    coverage: dict[str, float] = field(default_factory=dict)
 
     @property
     def winner(self) -> str | None:
@@ -308,15 +313,34 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
     order = sorted(algorithms, key=lambda a: (score[a], ate.get(a, math.inf), a))
     winner = order[0] if order else None
     disagree = [m for m in used if winner is not None and winner not in best[m.key]]
-    known = pd.to_numeric(block.get("known_mean", pd.Series(dtype=float)), errors="coerce")
-    partial: list[str] = []
-    if len(known.dropna()) > 1:
-        median = float(np.median(known.dropna()))
-        partial = sorted(str(a) for a, v in known.items() if v < PARTIAL_COVERAGE * median)
+    coverage = known_share(block.loc[[a for a in block.index if str(a) in algorithms]])
+    partial = sorted(a for a, v in coverage.items() if v < COMPLETE_SHARE)
     return SequenceRanking(
         sequence=str(sequence), order=order, score=score, ranks=ranks, best=best,
         metrics=used, disagree=disagree, partial=partial, references=references,
+        coverage=coverage,
     )
+
+
+def known_share(block: pd.DataFrame) -> dict[str, float]:
+    """Each algorithm's mean known area relative to the most complete map of the block
+    (``known_area_m2_mean``, or ``known_mean`` when some map has no resolution); empty when
+    fewer than two algorithms have it.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> known_share(pd.DataFrame({"known_area_m2_mean": [50.0, 100.0]}, index=["a", "b"]))
+    {'a': 0.5, 'b': 1.0}
+    """
+    def col(name: str) -> pd.Series:
+        return pd.to_numeric(block.get(name, pd.Series(dtype=float)), errors="coerce")
+
+    area = col("known_area_m2_mean").dropna()
+    known = area if len(area) == len(block) else col("known_mean").dropna()
+    if len(known) < 2 or known.max() <= 0:
+        return {}
+    return {str(a): float(v / known.max()) for a, v in known.items()}
 
 
 def format_value(x: float) -> str:

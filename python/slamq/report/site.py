@@ -553,6 +553,8 @@ def _sequence_section(
     block = summary.xs(seq, level="sequence")
     metrics = ranking.metrics
     head = "".join(f"<th>{_e(m.heading)}</th>" for m in metrics)
+    head += "<th title=\"mean known area relative to the most complete map of the sequence\">"
+    head += "known area</th>"
     rows = []
     for place, alg in enumerate(ranking.order + ranking.references, start=1):
         ranked = alg in ranking.score
@@ -566,6 +568,10 @@ def _sequence_section(
                 f"<td class=\"num{_BEST if best else ''}\" data-metric=\"{m.key}\" "
                 f"data-mean=\"{float(mean)!r}\" data-std=\"{float(std)!r}\" data-n=\"{n}\">"
                 f"{_e(format_mean_std(mean, std))}</td>")
+        cov = ranking.coverage.get(str(alg))
+        cells.append(
+            f"<td class=\"num{' warn' if alg in ranking.partial else ''}\" "
+            f"data-metric=\"known_share\">{'–' if cov is None else f'{100 * cov:.0f}%'}</td>")
         rank = str(place) if ranked else "ref."
         score = format_value(ranking.score[alg]) if ranked else "reference map, not ranked"
         rows.append(
@@ -577,11 +583,17 @@ def _sequence_section(
         f"<h2 id=\"seq-{_slug(seq)}\">{_e(seq)}</h2>",
         f"<p>{_e(ranking.sentence())}</p>",
     ]
+    from slamq.results.summary import comparability_warnings
+
+    mine = ok[ok["sequence"].astype(str) == str(seq)] if "sequence" in ok.columns else ok
+    for msg in comparability_warnings(mine):
+        parts.append(f"<p class=\"warn comparability\">{_e(msg.split(': ', 1)[-1])}</p>")
     for alg in ranking.partial:
         parts.append(
-            f"<p class=\"warn\">{_e(alg)}'s maps know fewer than half as many cells as the "
-            "median map of this sequence: a partial map scores well on every map metric "
-            "(paper III.A), so compare it with care.</p>")
+            f"<p class=\"warn\">{_e(alg)}'s maps know "
+            f"{100 * ranking.coverage.get(alg, 0.0):.0f}% of the area of the most complete map "
+            "of this sequence (under 80%): a partial map scores well on every map metric "
+            "(paper III.A), so compare it with care; it is never named best.</p>")
     parts.append(
         f"<table class=\"ranking\" data-sequence=\"{_e(seq)}\"><tr><th>rank</th>"
         f"<th>algorithm</th><th>runs</th>{head}<th>mean rank</th></tr>"
@@ -626,6 +638,8 @@ def _num(x: Any) -> float:
 def _runs_table(sub: pd.DataFrame, pages: dict[int, _MapPage], metrics: Iterable) -> str:
     metrics = list(metrics)
     head = "".join(f"<th>{_e(m.heading)}</th>" for m in metrics)
+    head += "<th title=\"mean known area relative to the most complete map of the sequence\">"
+    head += "known area</th>"
     rows = []
     for i, r in sub.sort_values(["algorithm", "run"], key=lambda s: s.astype(str)).iterrows():
         mp = pages.get(i)

@@ -13,14 +13,16 @@ chamfer +0.90). So the verdict ranks by, in this order:
 2. else the GT F1 against the sequence's ground-truth map (ties: GT chamfer);
 3. else corners alone, which separate broken maps from good ones but do not order good
    maps — said as the confidence, and as "no clear winner" when the runner-up is within
-   25% of the best.
+   25% of the best. When the maps differ in resolution or orientation (wall angles more
+   than 1 degree apart modulo 90), ``corners_canonical`` (SPEC 3a: corners of each map
+   turned to its walls' direction and resampled to one resolution) replaces corners.
 
 Occupied fraction, proportion and enclosed areas never decide. A reference map (a ground
 truth beside the runs) is never ranked. A map knowing less than 80% of the area of the
 sequence's most complete map (``known_area_m2``; known cells when a map has no resolution)
 is never named best (a half-explored map scores "best" on every paper metric); it is ranked
-after the complete ones and named in the warnings. The maps ranked by corners must share
-one resolution. An algorithm without the basis figure is not ranked (rows scored on
+after the complete ones and named in the warnings. The maps ranked by plain corners share
+one resolution and orientation. An algorithm without the basis figure is not ranked (rows scored on
 different figures are never mixed).
 """
 
@@ -35,12 +37,11 @@ import numpy as np
 import pandas as pd
 
 from slamq.batch.runs import REFERENCE_ALGORITHMS
-from slamq.results.summary import distinct_resolutions
+from slamq.report.metrics import COMPLETE_SHARE, known_share
+from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_resolutions
 
 __all__ = ["COMPLETE_SHARE", "CLEAR_MARGIN", "sequence_verdict", "write_verdicts"]
 
-#: A map knowing less area than this share of the sequence's most complete map is partial.
-COMPLETE_SHARE = 0.8
 #: Corners: a runner-up within this relative margin of the best means no clear winner.
 CLEAR_MARGIN = 0.25
 
@@ -96,18 +97,25 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
     refs = [a for a in block.index if str(a).lower() in REFERENCE_ALGORITHMS]
     block = block.drop(index=refs)
     warnings: list[str] = []
-    area = _means(block, "known_area_m2")  # comparable across resolutions; else cells
-    known = area if len(area) == len(block) else _means(block, "known")
-    partial: set[str] = set()
-    if len(known) > 1 and known.max() > 0:
-        share = known / known.max()
-        partial = {str(a) for a, s in share.items() if s < COMPLETE_SHARE}
+    share = known_share(block)  # by area: comparable across resolutions; else cells
+    partial = {a for a, s in share.items() if s < COMPLETE_SHARE}
+    if partial:
         for a in sorted(partial):
             warnings.append(f"{a}'s map knows {100 * share[a]:.0f}% of the area of the most "
                             "complete map: a partial map, never named best")
+    res_differ = len(distinct_resolutions(block.get("resolution_mean", []))) > 1
+    turned = angle_spread(block.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG
     for key, higher, tie, tie_higher, confidence in _BASES:
+        if key == "corners" and (res_differ or turned) and len(
+                _means(block, "corners_canonical")):
+            key = "corners_canonical"
+            warnings.append("the maps differ in " + (
+                "resolution" if res_differ and not turned else "orientation" if turned
+                and not res_differ else "resolution and orientation") + ": ranked by "
+                "corners_canonical (each map turned to its walls and resampled to one "
+                "resolution) instead of corners")
         means = _means(block, key)
-        if len(means) < 2 and not (key == "corners" and len(means) == 1):
+        if len(means) < 2 and not (key.startswith("corners") and len(means) == 1):
             continue
         ties = _means(block, tie) if tie else pd.Series(dtype=float)
 
@@ -123,7 +131,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
         if unranked:
             warnings.append(f"not ranked, no {key}: {', '.join(unranked)}")
         best = ranking[0] if ranking and ranking[0] not in partial else None
-        if key == "corners":
+        if key.startswith("corners"):
             warnings.append("no ground truth: occupied fraction, proportion and enclosed "
                             "areas do not decide (on slam_comparison_tools their rank "
                             "agreement with the trajectory error was at chance or inverted)")
@@ -134,8 +142,9 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
                     confidence += (f"; no clear winner: {complete[0]} and {complete[1]} are "
                                    f"within {int(CLEAR_MARGIN * 100)}% ({first:g} and "
                                    f"{second:g} corners)")
-            if len(distinct_resolutions(block.get("resolution_mean", []))) > 1:
-                warnings.append("the maps differ in resolution: corners are not comparable")
+            if key == "corners" and (res_differ or turned):
+                warnings.append("the maps differ in resolution or orientation: corners are "
+                                "not comparable")
                 best, confidence = None, "none: the maps are not comparable"
         return {"sequence": str(sequence), "best": best, "ranking": ranking,
                 "basis": [key] + ([tie] if tie and len(ties) else []),
@@ -153,7 +162,8 @@ def verdict_sentence(v: dict[str, Any]) -> str:
     ...                   "basis": ["ate_rmse"], "confidence": "high: ...", "warnings": []})
     's: a is best by ATE RMSE (of 2; confidence high: ...).'
     """
-    names = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners"}
+    names = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
+             "corners_canonical": "canonical corners"}
     if v["best"] is None:
         why = "; ".join(v["warnings"][:1]) or v["confidence"]
         return f"{v['sequence']}: no algorithm is named best ({why})."

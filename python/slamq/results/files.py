@@ -18,6 +18,8 @@ record wins. Both files are rewritten without the superseded rows at the end of 
 from __future__ import annotations
 
 import csv
+import hashlib
+import itertools
 import json
 import math
 import os
@@ -39,6 +41,8 @@ from slamq.sources.files import PathLike, one_line
 
 __all__ = [
     "ResultsFile",
+    "digest64",
+    "key_digest",
     "read_records",
     "read_results",
     "results_format",
@@ -53,18 +57,20 @@ _PARQUET = (".parquet", ".pq")
 
 _INT_COLUMNS = {
     "unknown_value", "height", "width", "total", "known", "unknown", "occupied", "free",
-    "corners", "enclosed_areas", "enclosed_unknown_value", "param_min_dot_area",
+    "corners", "corners_canonical", "enclosed_areas", "enclosed_unknown_value",
+    "param_min_dot_area",
     "param_sweep_step", "param_min_area", "ate_n", "gt_truncated", "gt_outside",
 }
 #: Float columns that are NaN when a map has no known cell (null in JSON).
 _FLOAT_COLUMNS = {"occupied_fraction", "proportion", "threshold", "seconds",
-                  "param_log_threshold", "param_harris_k", "param_harris_quality"} | {
+                  "param_log_threshold", "param_harris_k", "param_harris_quality",
+                  "param_canonical_resolution", "wall_angle", "known_box_m2"} | {
     f"ate_{s}" for s in ("rmse", "mean", "median", "std", "min", "max")} | {
     c for c in GT_COLUMNS if c not in ("gt_map", "gt_error", "gt_truncated", "gt_outside")}
 _STR_COLUMNS = {
     "map", "algorithm", "sequence", "run", "trajectory", "groundtruth", "hash", "config",
     "error",
-    "source", "ate_error", "gt_map", "gt_error",
+    "source", "ate_error", "gt_map", "gt_error", "saver", "flags",
 }
 
 
@@ -95,6 +101,62 @@ def journal_path(path: PathLike) -> Path:
 
 def _key(rec: dict[str, Any]) -> tuple[str, str, str, str]:
     return tuple(str(rec.get(k)) for k in KEY)  # type: ignore[return-value]
+
+
+def digest64(text: str) -> int:
+    """A 64-bit digest of ``text`` (BLAKE2b, signed so that it fits an ``int64`` array).
+
+    What a batch keeps per row instead of the row's key strings (resume, deduplication):
+    8 bytes in a numpy array.
+
+    Examples
+    --------
+    >>> digest64("a") == digest64("a") != digest64("b"), -2**63 <= digest64("a") < 2**63
+    (True, True)
+    """
+    raw = hashlib.blake2b(text.encode("utf-8", "surrogatepass"), digest_size=8).digest()
+    return int.from_bytes(raw, "little", signed=True)
+
+
+def key_digest(key: Sequence[str]) -> int:
+    """:func:`digest64` of a record key ``(algorithm, sequence, run, map)``.
+
+    Examples
+    --------
+    >>> key_digest(("a", "s", "0", "m.pgm")) == key_digest(["a", "s", "0", "m.pgm"])
+    True
+    """
+    return digest64("\0".join(key))
+
+
+def _key_digests128(records: Iterable[dict[str, Any]]) -> Any:
+    """The 128-bit digests of the records' keys, in order, as an ``(n, 2)`` int64 array
+    (what deciding which rows to drop relies on: a collision would lose a row)."""
+    import numpy as np
+
+    raw = b"".join(
+        hashlib.blake2b("\0".join(_key(r)).encode("utf-8", "surrogatepass"),
+                        digest_size=16).digest()
+        for r in records)
+    return np.frombuffer(raw, dtype="<i8").reshape(-1, 2).astype(np.int64)
+
+
+def _last_of_each(digests: Any) -> Any:
+    """A boolean mask: True at the last row of each distinct digest (``(n,)`` or ``(n, k)``
+    int64 array), False at the rows a later row supersedes."""
+    import numpy as np
+
+    n = len(digests)
+    keep = np.zeros(n, dtype=bool)
+    if n == 0:
+        return keep
+    d = digests.reshape(n, -1)
+    order = np.lexsort(d.T[::-1])  # stable: equal digests stay in file order
+    s = d[order]
+    last = np.ones(n, dtype=bool)
+    last[:-1] = (s[1:] != s[:-1]).any(axis=1)
+    keep[order[last]] = True
+    return keep
 
 
 def _cut_torn_tail(path: Path) -> None:
@@ -144,7 +206,7 @@ def _iter_jsonl(path: Path) -> Iterator[dict[str, Any]]:
             yield rec
 
 
-def _jsonl_tables(path: Path, batch: int = 8192) -> Iterator[Any]:
+def _jsonl_tables(path: Path, batch: int = 1024) -> Iterator[Any]:
     """A JSON Lines file as Arrow tables of at most ``batch`` rows (bounded memory)."""
     rows: list[dict[str, Any]] = []
     for rec in _iter_jsonl(path):
@@ -174,6 +236,22 @@ def _parquet_table(path: Path, columns: list[str] | None = None) -> Any:
             columns = [c for c in columns if c in have]
         return pq.read_table(path, columns=columns)
     except Exception as exc:  # noqa: BLE001 - pyarrow raises several types
+        raise MapError(f"{path}: not a readable Parquet file: {exc}") from exc
+
+
+def _parquet_rows(path: Path, columns: list[str], batch: int = 1024) -> Iterator[dict[str, Any]]:
+    """The rows of a Parquet file (those of ``columns`` it has), a batch at a time."""
+    import pyarrow.parquet as pq
+
+    try:
+        pf = pq.ParquetFile(path)
+        have = set(pf.schema_arrow.names)
+        batches = pf.iter_batches(batch_size=batch, columns=[c for c in columns if c in have])
+        for b in batches:
+            yield from b.to_pylist()
+    except Exception as exc:  # noqa: BLE001 - pyarrow raises several types
+        if isinstance(exc, SlamqError):
+            raise
         raise MapError(f"{path}: not a readable Parquet file: {exc}") from exc
 
 
@@ -451,14 +529,13 @@ def _fsync_dir(path: Path) -> None:
 
 
 def _rewrite_jsonl_dedup(path: Path) -> None:
-    """Rewrite a JSON Lines file without superseded rows (two streaming passes)."""
-    last: dict[tuple[str, str, str, str], int] = {}
-    for i, rec in enumerate(_iter_jsonl(path)):
-        last[_key(rec)] = i
+    """Rewrite a JSON Lines file without superseded rows (two streaming passes; 16 bytes
+    of memory per row, a 128-bit digest of its key)."""
+    keep = _last_of_each(_key_digests128(_iter_jsonl(path)))
     tmp = path.with_name(path.name + ".tmp")
     with open(tmp, "w", encoding="utf-8") as fh:
-        for i, rec in enumerate(_iter_jsonl(path)):
-            if last[_key(rec)] == i:
+        for i, rec in enumerate(itertools.islice(_iter_jsonl(path), len(keep))):
+            if keep[i]:
                 fh.write(_dumps(rec))
         fh.flush()
         os.fsync(fh.fileno())
@@ -467,14 +544,55 @@ def _rewrite_jsonl_dedup(path: Path) -> None:
 
 
 def _compact_parquet(path: Path, journal: Path, row_group: int) -> None:
-    """Parquet file + journal -> a new Parquet file (atomic rename), then drop the journal."""
+    """Parquet file + journal -> a new Parquet file (atomic rename), then drop the journal.
+
+    Streamed: a first pass takes the 128-bit key digest of every row (16 bytes each) and
+    the columns of every part, the second writes the rows no later row supersedes, a row
+    group at a time; memory does not hold the table.
+    """
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
-    tables = [_parquet_table(path)] if path.exists() else []
-    tables += list(_jsonl_tables(journal))
-    table = _dedup_table(_concat(tables))
+    row_group = max(1, row_group)
+    schemas = []
+    if path.exists():
+        try:
+            schemas.append(pq.read_schema(path))
+        except Exception as exc:  # noqa: BLE001 - pyarrow raises several types
+            raise MapError(f"{path}: not a readable Parquet file: {exc}") from exc
+    schemas += [t.schema for t in _jsonl_tables(journal)]
+    schema = _unify(schemas) if schemas else _arrow_table([]).schema
+
+    def rows() -> Iterator[dict[str, Any]]:
+        if path.exists():
+            yield from _parquet_rows(path, list(KEY))
+        yield from _iter_jsonl(journal)
+
+    keep = _last_of_each(_key_digests128(rows()))
+
+    def parts() -> Iterator[Any]:
+        if path.exists():
+            for b in pq.ParquetFile(path).iter_batches(batch_size=row_group):
+                yield pa.Table.from_batches([b])
+        yield from _jsonl_tables(journal)
+
     tmp = path.with_name(path.name + ".tmp")
-    pq.write_table(table, tmp, row_group_size=max(1, row_group))
+    start = 0
+    pending: list[Any] = []
+    with pq.ParquetWriter(tmp, schema) as writer:
+        for table in parts():
+            n = table.num_rows
+            mask = keep[start : start + n]
+            start += n
+            if not mask.all():
+                table = table.filter(pa.array(mask))
+            pending.append(_conform(table, schema))
+            if sum(t.num_rows for t in pending) >= row_group:
+                writer.write_table(pa.concat_tables(pending), row_group_size=row_group)
+                pending = []
+        if pending or start == 0:
+            writer.write_table(pa.concat_tables(pending) if pending else schema.empty_table(),
+                               row_group_size=row_group)
     with open(tmp, "rb") as fh:
         os.fsync(fh.fileno())
     os.replace(tmp, path)
@@ -483,6 +601,32 @@ def _compact_parquet(path: Path, journal: Path, row_group: int) -> None:
         journal.unlink()
     except FileNotFoundError:
         pass
+
+
+def _unify(schemas: list[Any]) -> Any:
+    """One schema for the parts of a results file (a column all null in one part takes
+    the other parts' type)."""
+    import pyarrow as pa
+
+    try:
+        return pa.unify_schemas(schemas, promote_options="permissive")
+    except TypeError:  # pyarrow < 14
+        return pa.unify_schemas(schemas)
+
+
+def _conform(table: Any, schema: Any) -> Any:
+    """``table`` with the columns of ``schema``, in its order and types (nulls for the
+    columns it lacks)."""
+    import pyarrow as pa
+
+    arrays = []
+    for field in schema:
+        if field.name in table.column_names:
+            col = table.column(field.name)
+            arrays.append(col if col.type == field.type else col.cast(field.type))
+        else:
+            arrays.append(pa.nulls(table.num_rows, field.type))
+    return pa.Table.from_arrays(arrays, schema=schema)
 
 
 def _dumps(rec: dict[str, Any]) -> str:
@@ -559,37 +703,47 @@ class ResultsFile:
         self._lock = _lock(self.path)  # one writer at a time, or rows are lost
         self._append_to = self.path if self.format == "jsonl" else journal_path(self.path)
         _cut_torn_tail(self._append_to)
-        self._stored: dict[tuple[str, str, str, str], dict[str, Any]] = {}
-        self._superseded = False
-        for rec in self._stored_records():
-            k = _key(rec)
-            self._superseded = self._superseded or k in self._stored
-            self._stored[k] = rec
-        self._keys = set(self._stored)
+        import numpy as np
+
+        # What resuming needs, without a Python object per row: the 64-bit key digests of
+        # the stored rows (8 bytes each; a collision only costs a re-evaluation or a
+        # needless rewrite, never a row: the rewrite compares 128-bit digests).
+        digests = np.fromiter((key_digest(_key(r)) for r in self._stored_records(KEY)),
+                              dtype=np.int64)
+        self._count = len(digests)  # rows stored when the file was opened
+        self._last = _last_of_each(digests)
+        #: sorted distinct key digests of the stored rows and of the rows merged since
+        self._known = np.unique(digests)
+        self._superseded = len(self._known) < self._count
+        self._new: set[int] = set()  # digests appended since the last merge into _known
         self._fh: Any | None = None
 
-    def _stored_records(self) -> Iterator[dict[str, Any]]:
+    def _stored_records(self, columns: Sequence[str]) -> Iterator[dict[str, Any]]:
+        """The stored rows (``columns`` of each), streamed in file order: the Parquet file
+        a row group at a time, then the append file."""
         if self.format == "parquet" and self.path.exists():
-            yield from _parquet_table(self.path, list(KEY + _RESUME_COLUMNS)).to_pylist()
+            yield from _parquet_rows(self.path, list(columns))
         for rec in _iter_jsonl(self._append_to):
-            yield {k: rec.get(k) for k in KEY + _RESUME_COLUMNS}
+            yield {k: rec.get(k) for k in columns}
 
     def done(self) -> Iterator[tuple[tuple[str, str, str, str], dict[str, Any]]]:
-        """``(key, record)`` of every stored run; the record holds the key columns and
-        ``hash, config, trajectory, groundtruth, error``."""
-        yield from self._stored.items()
+        """``(key, record)`` of every stored run (its last row), read from the file again
+        as it is iterated; the record holds the key columns and ``hash, config,
+        trajectory, groundtruth, gt_map, error``."""
+        rows = itertools.islice(self._stored_records(KEY + _RESUME_COLUMNS), self._count)
+        for rec, last in zip(rows, self._last):
+            if last:
+                yield _key(rec), rec
 
     def __len__(self) -> int:
-        return len(self._stored)
+        return int(self._last.sum())
 
     def append(self, records: Iterable[dict[str, Any]]) -> None:
         """Append one finished chunk and make it durable (flush + fsync)."""
         lines = []
         for rec in records:
-            k = _key(rec)
-            if k in self._keys:
-                self._superseded = True
-            self._keys.add(k)
+            if not self._superseded:  # once it is, the file is deduplicated at the end
+                self._note(key_digest(_key(rec)))
             lines.append(_dumps(rec))
         if not lines:
             return
@@ -601,6 +755,19 @@ class ResultsFile:
             os.fsync(self._fh.fileno())
         except OSError as exc:  # a full disk, a quota, a file size limit
             raise _write_error(self._append_to, exc) from None
+
+    def _note(self, digest: int) -> None:
+        """Note an appended key: superseded if it was stored or appended before."""
+        import numpy as np
+
+        i = int(np.searchsorted(self._known, digest))
+        if digest in self._new or (i < len(self._known) and int(self._known[i]) == digest):
+            self._superseded = True
+            return
+        self._new.add(digest)
+        if len(self._new) >= 1024:  # merge: 8 bytes per key afterwards
+            self._known = np.union1d(self._known, np.fromiter(self._new, dtype=np.int64))
+            self._new.clear()
 
     def close(self) -> None:
         """Finish: rewrite without superseded rows (JSONL) / compact into Parquet."""

@@ -20,14 +20,25 @@ from slamq.errors import ParamError
 from slamq.results.columns import settings_difference
 
 __all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "GT_METRICS", "spreadsheet_safe",
-           "summary_table"]
+           "summary_table", "comparability_warnings", "resolution_warnings", "angle_spread",
+           "ANGLE_TOLERANCE_DEG"]
 
 #: Map metrics summarised (every numeric MapQuality output).
 SUMMARY_METRICS = (
-    "occupied_fraction", "proportion", "threshold", "corners", "enclosed_areas",
-    "enclosed_unknown_value", "occupied", "free", "unknown", "known", "total",
-    "known_area_m2", "resolution",
+    "occupied_fraction", "proportion", "threshold", "corners", "corners_canonical",
+    "enclosed_areas", "enclosed_unknown_value", "occupied", "free", "unknown", "known",
+    "total", "known_area_m2", "known_box_m2", "resolution", "wall_angle",
 )
+#: Maps ranked together whose wall angles (modulo 90 degrees) differ by more than this are
+#: turned differently: their corners are not comparable.
+ANGLE_TOLERANCE_DEG = 1.0
+#: What each loader flag means, for the warnings.
+FLAG_MEANING = {
+    "yaml_beside": "a bare image whose YAML is beside it (loaded without its thresholds, "
+                   "resolution and origin)",
+    "screenshot": "a screenshot (colour pixels), not a saved map",
+    "mostly_unknown": "mostly unknown under map_server's default thresholds",
+}
 #: Trajectory error columns summarised when the results have any.
 ATE_METRICS = ("ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n")
 #: Ground-truth map comparison columns (SPEC section 7) summarised when any run has them.
@@ -87,6 +98,81 @@ def resolution_warnings(records: Any) -> list[str]:
             out.append(f"{seq}: the maps have different resolutions "
                        f"({', '.join(f'{r:g}' for r in res)} m): their corners, enclosed "
                        "areas and cell counts are not comparable")
+    return out
+
+
+def angle_spread(angles: Any) -> float:
+    """The largest difference between two wall angles, modulo 90 degrees (NaN ignored).
+
+    Examples
+    --------
+    >>> angle_spread([44.0, -44.5, float("nan")]), angle_spread([1.0])
+    (1.5, 0.0)
+    """
+    import numpy as np
+
+    a = np.asarray([x for x in angles if isinstance(x, (int, float)) and math.isfinite(x)],
+                   float)
+    if a.size < 2:
+        return 0.0
+    d = (a[:, None] - a[None, :] + 45.0) % 90.0 - 45.0
+    return float(np.abs(d).max())
+
+
+def comparability_warnings(records: Any) -> list[str]:
+    """One sentence per problem that makes the maps of a sequence not comparable, naming the
+    metrics it affects: different resolutions (:func:`resolution_warnings`), wall angles
+    that differ by more than 1 degree modulo 90 (corners; use ``corners_canonical``),
+    different savers (occupied fraction, enclosed areas), canvases (proportion), and maps
+    the loader flagged (a bare image with a YAML beside it, a screenshot). Reference maps
+    (``ground_truth`` and the like) are left out.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> df = pd.DataFrame({"sequence": "s", "map": ["a.yaml", "b.yaml"],
+    ...                    "wall_angle": [0.2, 5.1]})
+    >>> for w in comparability_warnings(df):
+    ...     print(w[:60])
+    s: the maps are turned differently (wall angles 0.2, 5.1 deg
+    """
+    import pandas as pd
+
+    from slamq.results.columns import REFERENCE_ALGORITHMS
+
+    if "algorithm" in records.columns:
+        records = records[~records["algorithm"].astype(str).str.lower().isin(
+            REFERENCE_ALGORITHMS)]
+    out = resolution_warnings(records)
+    seqs = records["sequence"] if "sequence" in records.columns else pd.Series(
+        "all maps", index=records.index)
+    for seq, part in records.groupby(seqs.astype(str), sort=True):
+        if "wall_angle" in part.columns:
+            angles = pd.to_numeric(part["wall_angle"], errors="coerce").dropna()
+            if angle_spread(angles) > ANGLE_TOLERANCE_DEG:
+                shown = ", ".join(f"{a:.1f}" for a in sorted(set(angles.round(1))))
+                out.append(f"{seq}: the maps are turned differently (wall angles {shown} deg "
+                           "modulo 90): their corners are not comparable; compare "
+                           "corners_canonical")
+        if "saver" in part.columns:
+            savers = sorted({str(x) for x in part["saver"] if isinstance(x, str) and x})
+            if len(savers) > 1:
+                out.append(f"{seq}: the maps were saved differently ({'; '.join(savers)}): "
+                           "their occupied fractions and enclosed areas are not comparable")
+        if {"unknown", "known"} <= set(part.columns):
+            k = pd.to_numeric(part["known"], errors="coerce")
+            u = pd.to_numeric(part["unknown"], errors="coerce")
+            ratio = (u / k.where(k > 0)).dropna()
+            if len(ratio) > 1 and ratio.max() > 2 * max(ratio.min(), 0.05):
+                out.append(f"{seq}: the maps have different canvases (unknown cells per "
+                           f"known cell {ratio.min():.2f} to {ratio.max():.2f}): their "
+                           "proportions are not comparable")
+        if "flags" in part.columns:
+            for name, flags in zip(part.get("map", part.index), part["flags"], strict=False):
+                for flag in (str(flags).split(";") if isinstance(flags, str) else []):
+                    if flag in FLAG_MEANING:
+                        out.append(f"{seq}: {Path(str(name)).name} is {FLAG_MEANING[flag]}: "
+                                   "its numbers are not comparable with the others'")
     return out
 
 
@@ -160,7 +246,7 @@ def summarize(
     err = df["error"] if "error" in df.columns else pd.Series([None] * len(df), index=df.index)
     failed_mask = err.notna() & (err.astype(object) != "")
     if check_settings:
-        for msg in resolution_warnings(df[~failed_mask]):
+        for msg in comparability_warnings(df[~failed_mask]):
             warnings.warn(msg, UserWarning, stacklevel=2)
     has_ate = "ate_rmse" in df.columns and df.loc[~failed_mask, "ate_rmse"].notna().any()
     metrics = [m for m in SUMMARY_METRICS if m in df.columns]

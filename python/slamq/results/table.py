@@ -24,6 +24,7 @@ _COLUMNS = (
     ("occupied_fraction", "occupied_fraction", ">"),
     ("proportion", "proportion", ">"),
     ("corners", "corners", ">"),
+    ("canonical", "corners_canonical", ">"),
     ("enclosed_areas", "enclosed_areas", ">"),
     ("peak_at_u", "enclosed_unknown_value", ">"),
 )
@@ -32,7 +33,9 @@ _COLUMNS = (
 LEGEND = (
     "lower is better for occupied_fraction, corners and enclosed_areas (paper III); "
     "peak_at_u: the unknown value at which enclosed_areas peaks; proportion = occupied / "
-    "(free + unknown) depends on the canvas"
+    "(free + unknown) depends on the canvas; canonical: corners of the map turned to its walls' "
+    "direction and resampled to 0.05 m (compare maps of different orientation or resolution "
+    "on it)"
 )
 
 
@@ -40,6 +43,8 @@ def _cell(q: MapQuality, key: str | None, names: dict[str, str]) -> str:
     if key is None:
         return f"{q.height}x{q.width}"
     value = getattr(q, key)
+    if value is None:
+        return "-"
     if isinstance(value, float):
         return "nan" if math.isnan(value) else f"{value:.4f}"
     if key == "source":

@@ -27,7 +27,8 @@ import pandas as pd
 __all__ = ["METRICS", "TRUTHS", "validate"]
 
 #: The no-reference metrics whose validity is measured (all lower-is-better).
-METRICS = ("corners", "occupied_fraction", "proportion", "enclosed_areas")
+METRICS = ("corners", "corners_canonical", "occupied_fraction", "proportion",
+           "enclosed_areas")
 #: Ground-truth figures and whether higher is better.
 TRUTHS = {"ate_rmse": False, "gt_chamfer": False, "gt_f1": True}
 #: A sequence needs this many scored maps to count.

@@ -8,7 +8,12 @@ the data of uncompressed chunks), refuses a chunk that declares more than
 refusing it as soon as it exceeds what it declared. Peak memory is about 2 MiB whatever the
 chunk claims; a compressed bag is inflated twice (once here, once by ``rosbags``).
 
-ROS 2 sqlite3 bags with per-message or per-file zstd compression are not checked.
+ROS 2 bags compressed by rosbag2 (``compression_format: zstd`` in ``metadata.yaml``) are
+checked the same way: in ``message`` mode every message of every storage file is inflated as
+a stream and may inflate to at most :data:`MAX_CHUNK_BYTES` (rosbags inflates each one
+whole); in ``file`` mode ``rosbags`` inflates each storage file to a temporary folder when
+the bag is opened, so each is first inflated as a stream here and may inflate to at most
+:data:`MAX_FILE_BYTES` and the temporary folder's free space less 1 GiB.
 """
 
 from __future__ import annotations
@@ -22,11 +27,15 @@ from typing import Any, BinaryIO
 from slamq.errors import BagError
 from slamq.sources.files import MAX_CELLS
 
-__all__ = ["MAX_CHUNK_BYTES", "check_compressed_chunks"]
+__all__ = ["MAX_CHUNK_BYTES", "MAX_FILE_BYTES", "check_compressed_chunks"]
 
 #: A chunk may inflate to at most this: one OccupancyGrid of the largest map slamq accepts
 #: (2^30 cells) and 1 MiB of other messages.
 MAX_CHUNK_BYTES = MAX_CELLS + (1 << 20)
+
+#: A file-compressed ROS 2 storage file may inflate to at most this (rosbags writes it to a
+#: temporary folder before reading a message).
+MAX_FILE_BYTES = 64 << 30
 
 _STEP = 1 << 20
 _ROS1_MAGIC = b"#ROSBAG V2.0\n"
@@ -154,8 +163,12 @@ def check_compressed_chunks(bag: Path) -> None:
     """Raise :class:`~slamq.errors.BagError` naming the bag and the chunk when a ROS1 or MCAP
     chunk declares more than :data:`MAX_CHUNK_BYTES` or inflates past what it declares.
 
-    A ROS 2 folder has each of its ``.mcap`` files checked. Anything else (a truncated or
-    corrupt bag, a sqlite3 bag) passes unchanged, for ``rosbags`` to judge.
+    A ROS 2 folder has each of its ``.mcap`` files checked, and, when its ``metadata.yaml``
+    says rosbag2 compressed it with zstd, every message (``message`` mode, at most
+    :data:`MAX_CHUNK_BYTES` each) or every storage file (``file`` mode, at most
+    :data:`MAX_FILE_BYTES` and the temporary folder's free space less 1 GiB). Anything else
+    (a truncated or corrupt bag, an uncompressed sqlite3 bag) passes unchanged, for
+    ``rosbags`` to judge.
 
     Examples
     --------
@@ -172,6 +185,8 @@ def check_compressed_chunks(bag: Path) -> None:
     ...
     slamq.errors.BagError: /.../bomb.bag: ROS1 chunk at byte 13 (bz2) inflates to more than 10 ...
     """
+    if bag.is_dir():
+        _check_rosbag2_compression(bag)
     paths = sorted(bag.glob("*.mcap")) if bag.is_dir() else [bag]
     for p in paths:
         try:
@@ -188,3 +203,69 @@ def check_compressed_chunks(bag: Path) -> None:
                     _check_mcap(p, fh, size)
             except (OSError, struct.error):
                 continue  # truncated or unreadable: rosbags names the reason
+
+
+def _check_rosbag2_compression(folder: Path) -> None:
+    """The rosbag2 ``compression_mode`` checks of :func:`check_compressed_chunks`."""
+    import io
+    import shutil
+    import sqlite3
+    import tempfile
+
+    from slamq.sources.files import MAX_YAML_BYTES, load_yaml_safely
+
+    meta = folder / "metadata.yaml"
+    try:
+        if meta.stat().st_size > MAX_YAML_BYTES:
+            return  # rosbags names what is wrong with it
+        doc = load_yaml_safely(meta.read_bytes(), meta)
+        info = doc["rosbag2_bagfile_information"]
+        mode = str(info.get("compression_mode") or "").lower()
+        fmt = str(info.get("compression_format") or "").lower()
+        files = [folder / Path(str(p)).name for p in info.get("relative_file_paths") or []]
+    except Exception:  # noqa: BLE001, S110 - unreadable metadata: rosbags says why
+        return
+    if mode not in ("message", "file") or fmt != "zstd":
+        return  # not compressed, or a format rosbags refuses itself
+    for path in files:
+        if mode == "file":
+            try:
+                free = shutil.disk_usage(tempfile.gettempdir()).free - (1 << 30)
+                size = path.stat().st_size
+                fh = path.open("rb")
+            except OSError:
+                continue  # rosbags names the file and the reason
+            limit = max(0, min(MAX_FILE_BYTES, free))
+            with fh:
+                _inflate_bounded(fh, size, "zstd", limit, _file_bomb(path, limit))
+            continue
+        if not path.is_file():
+            continue
+        try:
+            db = sqlite3.connect(path.absolute().as_uri() + "?mode=ro", uri=True)
+        except sqlite3.Error:
+            continue
+        try:
+            rows = db.execute("SELECT id, data FROM messages")
+            for row_id, data in rows:
+                if not isinstance(data, (bytes, memoryview)):
+                    continue
+                _inflate_bounded(io.BytesIO(data), len(data), "zstd", MAX_CHUNK_BYTES,
+                                 _message_bomb(path, row_id))
+        except sqlite3.Error:
+            pass  # not a rosbag2 database: rosbags names the reason
+        finally:
+            db.close()
+
+
+def _message_bomb(path: Path, row_id: Any) -> Callable[[str], BagError]:
+    return lambda reason: BagError(
+        f"{path}: message {row_id} (zstd) {reason}, the limit for one message (corrupt, or "
+        "a decompression bomb)")
+
+
+def _file_bomb(path: Path, limit: int) -> Callable[[str], BagError]:
+    return lambda reason: BagError(
+        f"{path}: zstd-compressed storage file {reason}: at most {MAX_FILE_BYTES} bytes and "
+        f"the temporary folder's free space less 1 GiB ({limit} bytes) are allowed (corrupt, "
+        "or a decompression bomb)")

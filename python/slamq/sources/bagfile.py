@@ -64,9 +64,18 @@ def _default_typestore() -> Any:
     return store
 
 
-def _reason(exc: BaseException) -> str:
+def _reason(exc: BaseException, limit: int = 160) -> str:
+    """A library exception as one short line: a decoder's message can carry the whole raw
+    message (megabytes of bytes), which an error message never prints.
+
+    Examples
+    --------
+    >>> _reason(ValueError("bad bytes: " + "x" * 500))[-30:]
+    'xxxxxxxxxx... (511 characters)'
+    """
     text = " ".join(str(a) for a in exc.args) if exc.args else type(exc).__name__
-    return text.strip() or type(exc).__name__
+    text = " ".join(text.split()) or type(exc).__name__
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 @contextmanager

@@ -194,7 +194,9 @@ def _load(
         grid = image_map(img, source=where, kind="image", unknown_value=n, resolution=res,
                          origin=(0.0, 0.0, 0.0) if org is None else org,
                          warnings_out=warnings_out)
-        warnings_out.extend(bare_image_warnings(path, grid, img))
+        flagged = bare_image_flags(path, grid, img)
+        grid.meta["flags"] = [flag for flag, _ in flagged]
+        warnings_out.extend(msg for _, msg in flagged)
         return grid
 
     raise MapError(f"<{type(source).__name__}>: cannot load a map from a "
@@ -252,20 +254,37 @@ def bare_image_warnings(path: Path, grid: OccupancyMap, img: Image) -> list[str]
     m.yaml beside it names this image: load the YAML to use it
     100.0% of the cells are unknown under map_server's default
     """
+    return [msg for _, msg in bare_image_flags(path, grid, img)]
+
+
+def bare_image_flags(path: Path, grid: OccupancyMap, img: Image) -> list[tuple[str, str]]:
+    """:func:`bare_image_warnings` with a short flag for each (``yaml_beside``,
+    ``mostly_unknown``, ``screenshot``); the flags go to ``meta["flags"]`` and from there
+    to the record's ``flags`` column.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "m.pgm").write_bytes(b"P5 2 1 255 " + bytes([192, 192]))
+    >>> [f for f, _ in bare_image_flags(d / "m.pgm", *_grid_and_image(d / "m.pgm"))]
+    ['mostly_unknown']
+    """
     out = []
     for yaml_path in _yamls_naming(path):
-        out.append(f"{path}: {yaml_path.name} beside it names this image: load the YAML to "
-                   "use its resolution, origin and thresholds")
+        out.append(("yaml_beside", f"{path}: {yaml_path.name} beside it names this image: "
+                    "load the YAML to use its resolution, origin and thresholds"))
     if grid.meta.get("unknown_rule", "").startswith("thresholds"):
         share = 1.0 - grid.known_count / grid.values.size
         if share > MOSTLY_UNKNOWN:
-            out.append(
+            out.append(("mostly_unknown",
                 f"{path}: {100 * share:.1f}% of the cells are unknown under map_server's "
                 "default thresholds (a screenshot, or a map saved with other grey levels?); "
-                "pass unknown_value=N (--unknown-value N) or load its YAML")
+                "pass unknown_value=N (--unknown-value N) or load its YAML"))
     if img.channels >= 3 and _has_colour(path):
-        out.append(f"{path}: has colour pixels, like a screenshot (RViz?) rather than a saved "
-                   "map: its grey levels are not occupancy probabilities")
+        out.append(("screenshot",
+                    f"{path}: has colour pixels, like a screenshot (RViz?) rather than a "
+                    "saved map: its grey levels are not occupancy probabilities"))
     return out
 
 

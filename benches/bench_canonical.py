@@ -1,0 +1,90 @@
+"""Benchmark: what ``corners_canonical`` (spec section 3a) costs next to ``corners``.
+
+Issue 13 asks that the canonical count stays within 2x the time of ``corners``. For each real
+map of ../shared/data named below (skipped when absent) this times, one thread, map in
+memory, minimum of ``--repeat`` runs:
+
+- ``plain``: ``slamq.evaluate(m, canonical_resolution=0, sweep_step=256)``: occupancy, the
+  corner count and one binarisation of the sweep (an upper bound of the time of corners);
+- ``with canonical``: the same with the default ``canonical_resolution`` (0.05 m);
+
+and prints the canonical step's own time (the difference) and its ratio to ``plain``.
+
+Usage::
+
+    PYTHONPATH=python python benches/bench_canonical.py [--repeat 7]
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import slamq
+
+MAPS = (
+    "base_model_mu_building/mu_gm.yaml",
+    "utexas_gdc_large/3/3.yaml",
+    "utexas_gdc_large/intel_lab/intel.yaml",
+    "awabot_trajectoire4_4/trajectoire4_4_hector_odom.yaml",
+    "awabot_trajectoire4_4/trajectoire4_4_cartographer_1.yaml",
+    "slam_comparison_tools/test_results/warehouse/cartographer_map.yaml",
+    "camel_robot_office/slam_toolbox_map1.yaml",
+)
+
+
+def best(fn, repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--data", type=Path,
+                    default=Path(__file__).resolve().parent.parent.parent / "shared" / "data")
+    args = ap.parse_args()
+    print(f"- machine: {platform.machine()}, Python {platform.python_version()}; one thread; "
+          f"minimum of {args.repeat} runs")
+    print()
+    print("| map | Mcells | canonical Mcells | wall angle | plain ms | with canonical ms "
+          "| canonical step ms | step / plain |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    ratios = []
+    for name in MAPS:
+        path = args.data / "maps" / name
+        if not path.exists():
+            print(f"| {name} | skipped: not found under {args.data} | | | | | | |")
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            m = slamq.load_map(path)
+        from slamq.metrics.reference import canonical_map
+
+        canon = canonical_map(m)
+        plain = best(lambda m=m: slamq.evaluate(m, threads=1, canonical_resolution=0,
+                                                 sweep_step=256), args.repeat)
+        full = best(lambda m=m: slamq.evaluate(m, threads=1, sweep_step=256), args.repeat)
+        q = slamq.evaluate(m, sweep_step=256)
+        step = max(full - plain, 0.0)
+        ratios.append(step / plain)
+        print(f"| {name} | {m.values.size / 1e6:.2f} | "
+              f"{0 if canon is None else canon.values.size / 1e6:.2f} | {q.wall_angle:+.1f} | "
+              f"{plain * 1e3:.1f} | {full * 1e3:.1f} | {step * 1e3:.1f} | "
+              f"{step / plain:.2f} |")
+    if ratios:
+        print(f"\ncanonical step / plain: median {sorted(ratios)[len(ratios) // 2]:.2f}, "
+              f"worst {max(ratios):.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

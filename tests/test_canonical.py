@@ -1,0 +1,237 @@
+"""SPEC section 3a, ``corners_canonical`` and ``wall_angle``: the Rust core equals the
+reference on real and turned maps, for any thread count; and the invariance the issue asks
+for, measured on the real maps of ../shared/data (issue 13, item 2)."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import slamq
+from slamq import OccupancyMap
+from slamq.metrics import reference
+
+FAST = {"sweep_step": 256}  # one sweep value: these tests are about corners
+
+
+def turned(m: OccupancyMap, degrees: float) -> OccupancyMap:
+    """The same map turned about its centre (nearest cell; new cells unknown)."""
+    h, w = m.shape
+    rot = cv2.getRotationMatrix2D((w / 2, h / 2), degrees, 1.0)
+    c, s = abs(math.cos(math.radians(degrees))), abs(math.sin(math.radians(degrees)))
+    big_w, big_h = int(math.ceil(w * c + h * s)), int(math.ceil(w * s + h * c))
+    rot[0, 2] += big_w / 2 - w / 2
+    rot[1, 2] += big_h / 2 - h / 2
+    values = cv2.warpAffine(m.values, rot, (big_w, big_h), flags=cv2.INTER_NEAREST,
+                            borderValue=0)
+    unknown = cv2.warpAffine(m.unknown.astype(np.uint8), rot, (big_w, big_h),
+                             flags=cv2.INTER_NEAREST, borderValue=1).astype(bool)
+    return OccupancyMap(values, unknown, resolution=m.resolution)
+
+
+def finer(m: OccupancyMap) -> OccupancyMap:
+    """The same map on a 2x finer grid (each cell becomes 2 x 2)."""
+    def up(a: np.ndarray) -> np.ndarray:
+        return np.repeat(np.repeat(a, 2, axis=0), 2, axis=1)
+    return OccupancyMap(up(m.values), up(m.unknown), resolution=m.resolution / 2)
+
+
+def coarser(m: OccupancyMap) -> OccupancyMap:
+    """The same map on a 2x coarser grid: each 2 x 2 block becomes its darkest known cell
+    (a wall seen in any part of the cell marks it), unknown when none is known."""
+    h, w = m.shape
+    hh, ww = (h + 1) // 2, (w + 1) // 2
+    v = np.full((2 * hh, 2 * ww), 256, np.int32)
+    v[:h, :w] = np.where(m.unknown, 256, m.values)
+    darkest = v.reshape(hh, 2, ww, 2).min(axis=(1, 3))
+    unknown = darkest == 256
+    return OccupancyMap(np.where(unknown, 0, darkest).astype(np.uint8), unknown,
+                        resolution=m.resolution * 2)
+
+
+def test_rust_equals_reference_on_shipped_and_turned_maps(test_data: Path) -> None:
+    maps = sorted((test_data / "slam_comparison_tools").rglob("*.yaml"))
+    assert maps
+    for path in maps:
+        m = slamq.load_map(path)
+        for variant in (m, turned(m, 7.0), turned(m, -33.0), finer(m), coarser(m)):
+            q = slamq.evaluate(variant, **FAST)
+            assert q.corners_canonical == reference.canonical_corner_count(variant), path
+            assert q.wall_angle == math.degrees(reference.wall_angle(variant)), path
+
+
+def test_rust_equals_reference_on_random_maps_and_any_thread_count() -> None:
+    rng = np.random.default_rng(7)
+    for i in range(30):
+        h, w = rng.integers(1, 60, size=2)
+        values = rng.choice(np.array([0, 100, 205, 254], np.uint8), size=(h, w))
+        unknown = rng.random((h, w)) < rng.random()
+        res = [None, 0.05, 0.025, 0.1, 0.037][i % 5]
+        m = OccupancyMap(values, unknown, resolution=res)
+        one = slamq.evaluate(m, threads=1, **FAST)
+        two = slamq.evaluate(m, threads=2, **FAST)
+        assert (one.corners_canonical, one.wall_angle) == (two.corners_canonical,
+                                                           two.wall_angle)
+        assert one.corners_canonical == reference.canonical_corner_count(m)
+        want = math.degrees(reference.wall_angle(m))
+        assert one.wall_angle == want or (math.isnan(want) and math.isnan(one.wall_angle))
+
+
+def test_axis_aligned_room_keeps_its_corners_and_turning_it_is_found() -> None:
+    img = np.full((120, 160), 254, np.uint8)
+    img[20, 20:140] = img[100, 20:140] = 0
+    img[20:101, 20] = img[20:101, 139] = img[20:60, 80] = 0
+    m = OccupancyMap(img, np.zeros_like(img, bool), resolution=0.05)
+    q = slamq.evaluate(m)
+    assert abs(q.wall_angle) < 0.05
+    assert q.corners_canonical == q.corners
+    for deg in (3.0, 12.0, 30.0):
+        t = turned(OccupancyMap(img, img == 205, resolution=0.05), deg)
+        found = slamq.evaluate(t, **FAST).wall_angle
+        # cv2 turns counter-clockwise on screen: -deg in image axes (rows down)
+        assert abs(((found + deg) + 45) % 90 - 45) < 0.5, (deg, found)
+
+
+def test_skipped_when_canonical_resolution_is_zero_and_too_large_is_null() -> None:
+    img = np.full((30, 30), 254, np.uint8)
+    img[10:20, 10:20] = 0
+    q = slamq.evaluate(img, canonical_resolution=0)
+    assert q.corners_canonical is None and math.isnan(q.wall_angle)
+    assert reference.evaluate(img, canonical_resolution=0, **FAST).corners_canonical is None
+    m = OccupancyMap(img, np.zeros_like(img, bool), resolution=500.0)  # 10^8 x finer
+    q = slamq.evaluate(m, **FAST)
+    assert q.corners_canonical is None and q.corners_canonical == (
+        reference.canonical_corner_count(m))
+    with pytest.raises(slamq.ParamError):
+        slamq.evaluate(img, canonical_resolution=-1)
+
+
+def _corpus(shared_data: Path) -> list[OccupancyMap]:
+    """The real SLAM maps of the corpus: one per distinct content, simulator ground truths
+    left out, at most 1 Mcell (test time), at least 100 canonical corners (a relative
+    change of a handful of corners says nothing)."""
+    out, seen = [], set()
+    for path in sorted((shared_data / "maps").rglob("*.yaml")):
+        if "ground_truth" in path.name:
+            continue
+        try:
+            with _quiet():
+                m = slamq.load_map(path)
+        except slamq.MapError:
+            continue
+        if m.resolution is None or m.values.size > 1_000_000:
+            continue
+        digest = hashlib.sha1(m.values.tobytes() + m.unknown.tobytes()).digest()
+        if digest in seen:
+            continue
+        seen.add(digest)
+        if (slamq.evaluate(m, **FAST).corners_canonical or 0) >= 100:
+            out.append(m)
+    return out
+
+
+def _quiet():  # noqa: ANN202 - a context manager
+    import warnings
+
+    ctx = warnings.catch_warnings()
+    ctx.__enter__()
+    warnings.simplefilter("ignore")
+
+    class _Exit:
+        def __enter__(self) -> None:
+            return None
+
+        def __exit__(self, *exc: object) -> None:
+            ctx.__exit__(*exc)
+    return _Exit()
+
+
+PERTURBATIONS = {
+    "turned 1 deg": lambda m: turned(m, 1.0),
+    "turned 2 deg": lambda m: turned(m, 2.0),
+    "turned 5 deg": lambda m: turned(m, 5.0),
+    "turned 10 deg": lambda m: turned(m, 10.0),
+    "turned 30 deg": lambda m: turned(m, 30.0),
+    "2x finer": finer,
+    "2x coarser": coarser,
+}
+
+
+def test_invariance_on_real_maps(shared_data: Path) -> None:
+    """Issue 13 item 2: under each rotation and on a 2x finer grid the median over the
+    corpus of corners_canonical's relative change stays within 10% of the upright, native
+    value. On a 2x coarser grid it does not: the coarser map has lost the detail (its walls
+    are two reference cells thick), and the median change is about -20% on these maps
+    (asserted within 25%), against -60% for plain corners. Plain corners on the same maps
+    are printed beside it (run with -s to see the table)."""
+    maps = _corpus(shared_data)
+    assert len(maps) >= 20, len(maps)
+    print(f"\n{len(maps)} real maps; relative change, median (median of |change|; worst)")
+    for name, perturb in PERTURBATIONS.items():
+        canon, plain = [], []
+        for m in maps:
+            q0 = slamq.evaluate(m, **FAST)
+            q = slamq.evaluate(perturb(m), **FAST)
+            canon.append(q.corners_canonical / q0.corners_canonical - 1)
+            plain.append(q.corners / q0.corners - 1)
+        c, p = np.array(canon), np.array(plain)
+        print(f"{name:14s} corners_canonical {np.median(c):+.3f} ({np.median(abs(c)):.3f}; "
+              f"{c[np.argmax(abs(c))]:+.2f})   corners {np.median(p):+.3f} "
+              f"({np.median(abs(p)):.3f}; {p[np.argmax(abs(p))]:+.2f})")
+        bound = 0.25 if name == "2x coarser" else 0.10
+        assert abs(np.median(c)) <= bound, (name, np.median(c))
+        assert np.median(abs(c)) <= 0.25, (name, np.median(abs(c)))
+        if name.startswith("2x"):  # where plain corners fail
+            assert abs(np.median(p)) > 0.4 and abs(np.median(p)) > 2 * abs(np.median(c))
+
+
+def test_comparability_warnings_name_the_metrics_affected() -> None:
+    import pandas as pd
+
+    from slamq.results.summary import comparability_warnings
+
+    df = pd.DataFrame({
+        "sequence": "s", "algorithm": ["a", "b", "c", "ground_truth"],
+        "map": ["a.yaml", "b.yaml", "c.pgm", "gt.yaml"],
+        "resolution": [0.05, 0.05, 0.05, 0.1], "wall_angle": [0.2, 0.4, 0.3, 30.0],
+        "saver": ["trinary/trinary/unknown 205"] * 2 + ["trinary/graded/unknown 128"] * 2,
+        "known": [100, 100, 100, 100], "unknown": [100, 120, 900, 0],
+        "flags": ["", "", "yaml_beside", ""]})
+    text = "\n".join(comparability_warnings(df))
+    assert "different resolutions" not in text and "turned" not in text  # reference left out
+    assert "saved differently" in text and "occupied fractions and enclosed areas" in text
+    assert "different canvases" in text and "proportions" in text
+    assert "c.pgm is a bare image whose YAML is beside it" in text
+    df.loc[1, "wall_angle"] = 2.5
+    assert any("turned differently" in w and "corners_canonical" in w
+               for w in comparability_warnings(df))
+
+
+def test_a_bare_image_beside_its_yaml_is_flagged_in_its_record(test_data: Path) -> None:
+    import warnings
+
+    pgm = test_data / "slam_comparison_tools" / "test_results" / "office" / "gmapping_map.pgm"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        q = slamq.evaluate(pgm, **FAST)
+    yq = slamq.evaluate(pgm.with_suffix(".yaml"), **FAST)
+    assert q.flags == "yaml_beside" and yq.flags == ""
+    assert yq.saver == "trinary/trinary/unknown 205"
+    assert yq.known_box_m2 >= yq.known_area_m2 > 0
+
+
+def test_the_report_shows_each_maps_share_of_the_largest_known_area() -> None:
+    import pandas as pd
+
+    from slamq.report.metrics import rank_sequence, summarize
+
+    df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b", "c"],
+                       "corners": [10, 20, 30], "known_area_m2": [100.0, 79.0, 90.0]})
+    r = rank_sequence(summarize(df), "s")
+    assert r.coverage == {"a": 1.0, "b": 0.79, "c": 0.9}
+    assert r.partial == ["b"]
