@@ -17,8 +17,8 @@ from slamq import _core
 PACKAGE = Path(slamq.__file__).parent
 
 #: The layers, bottom first; a module may import its own layer and the layers below it.
-LAYERS = ("errors", "params", "models", "sources", "metrics", "results", "batch", "report",
-          "run", "cli")
+LAYERS = ("errors", "params", "models", "sources", "metrics", "results", "synth", "batch",
+          "report", "run", "cli")
 
 
 def _modules() -> list[str]:

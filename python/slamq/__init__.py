@@ -7,8 +7,8 @@ evaluation.
 
 Data flows one way through the subpackages, and nothing imports upward:
 :mod:`slamq.sources` (readers) -> :mod:`slamq.models` (plain data) -> :mod:`slamq.metrics`
--> :mod:`slamq.results` -> :mod:`slamq.batch` -> :mod:`slamq.report` -> :mod:`slamq.run`
--> :mod:`slamq.cli`.
+-> :mod:`slamq.results` -> :mod:`slamq.synth` -> :mod:`slamq.batch` -> :mod:`slamq.report`
+-> :mod:`slamq.run` -> :mod:`slamq.cli`.
 Heavy parts (batch, bags, pbstream) are imported on first use.
 
 >>> import numpy as np, slamq
@@ -31,7 +31,7 @@ from slamq.errors import (
     SlamqError,
     TrajectoryError,
 )
-from slamq.metrics import ate, ate_runs, compare, evaluate, rpe
+from slamq.metrics import ate, ate_runs, compare, consensus, evaluate, rpe
 from slamq.models import MapComparison, MapQuality, OccupancyMap, Trajectory
 from slamq.params import Params
 from slamq.sources import load_map, load_trajectory
@@ -45,6 +45,7 @@ _LAZY = {
     "run": "slamq.run",
     "read_results": "slamq.results.files",
     "summarize": "slamq.results.summary",
+    "synth": "slamq.synth",
     "validate": "slamq.results.validity",
     "read_bag_maps": "slamq.sources.bag_maps",
     "read_last_map": "slamq.sources.bag_maps",
@@ -81,6 +82,7 @@ __all__ = [
     "ate",
     "ate_runs",
     "compare",
+    "consensus",
     "discover_runs",
     "evaluate",
     "evaluate_many",
@@ -94,5 +96,6 @@ __all__ = [
     "read_results",
     "rpe",
     "summarize",
+    "synth",
     "validate",
 ]

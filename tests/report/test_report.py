@@ -310,8 +310,12 @@ def test_site_has_tables_gallery_plots_and_details(site):
         assert (out / "img" / f"plot_{key}.png").is_file()
     assert html.count('class="ranking"') == 2
     # each algorithm's known area relative to the most complete map of its sequence
-    assert html.count('data-metric="known_share"') == 6 and ">known area</th>" in html
-    assert re.search(r'data-metric="known_share">\d+%</td>', html)
+    # which numbers to trust: the shipped validity table, whatever the results
+    assert 'class="validity shipped"' in html and "<td>corners</td><td>0.73</td>" in html
+    shares = re.findall(r'data-known-share="([^"]*)">(\d+)%</td>', html)
+    assert len(shares) == 6 and ">known area</th>" in html
+    assert all(round(100 * float(v)) == int(t) for v, t in shares)
+    assert max(float(v) for v, _ in shares) == 1.0
     # gallery: best and worst of each of 3 algorithms x 2 sequences
     assert len(re.findall(r'<a class="detail" href="maps/[^"]+\.html">', html)) == 12
     assert "missing.yaml: no such file" in html                          # failed map listed

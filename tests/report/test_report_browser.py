@@ -89,6 +89,10 @@ def test_index_loads_clean_and_matches_results(browser, report):
         "alg: td.closest('tr').dataset.algorithm, metric: td.dataset.metric, "
         "mean: td.dataset.mean, std: td.dataset.std, n: td.dataset.n, text: td.innerText}))")
     assert len(cells) == 2 * 3 * 4                  # sequences x algorithms x metrics
+    shares = page.evaluate(
+        "() => Array.from(document.querySelectorAll('table.ranking td[data-known-share]'))"
+        ".map(td => td.innerText)")
+    assert len(shares) == 2 * 3 and all(t.endswith("%") for t in shares)
     for c in cells:
         vals = [float(r[c["metric"]]) for r in ok if r["sequence"] == c["seq"]
                 and r["algorithm"] == c["alg"] and r.get(c["metric"]) is not None

@@ -105,3 +105,28 @@ def test_on_slam_comparison_tools_corners_agree_and_enclosed_areas_are_inverted(
     assert pooled.loc["enclosed_areas", "concordance"] == pytest.approx(0.267, abs=0.01)
     # the canonical count (issue 13 item 2) keeps most of the signal of corners
     assert pooled.loc["corners_canonical", "concordance"] == pytest.approx(0.667, abs=0.01)
+
+
+def test_the_shipped_figures_are_those_of_the_docs() -> None:
+    """SHIPPED_CONCORDANCE (printed by every report) is docs/validity.md's synthetic table
+    and the README's slam_comparison_tools column."""
+    import re
+    from pathlib import Path
+
+    from slamq.results.validity import SHIPPED_CONCORDANCE
+
+    root = Path(__file__).resolve().parents[2]
+    doc = (root / "docs" / "validity.md").read_text(encoding="utf-8")
+    readme = (root / "README.md").read_text(encoding="utf-8")
+    header = next(line for line in doc.splitlines() if line.startswith("| degradation ("))
+    names = [c.strip() for c in header.strip("|").split("|")]
+    for k, kind in enumerate(("drift", "doubling", "rotation", "specks"), start=1):
+        row = next(line for line in doc.splitlines() if line.startswith(f"| {kind} ("))
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        for metric, values in SHIPPED_CONCORDANCE.items():
+            concordance = float(cells[names.index(metric)].split("/")[1])
+            assert concordance == values[k], (kind, metric)
+    for metric, values in SHIPPED_CONCORDANCE.items():
+        label = metric.replace("_", " ") if metric != "corners_canonical" else metric
+        row = next(line for line in readme.splitlines() if line.startswith(f"| {label} |"))
+        assert re.search(rf"\| {values[0]:.2f}", row), (metric, row)

@@ -4,6 +4,8 @@
   docs/spec.md sections 2-4, computed by the Rust core.
 - :func:`compare` (:mod:`slamq.metrics.compare`): a map against a ground-truth map,
   docs/spec.md section 7, computed by the Rust core.
+- :func:`consensus` (:mod:`slamq.metrics.consensus`, experimental): several maps of one
+  place scored against the consensus of the others, without ground truth.
 - :mod:`slamq.metrics.reference`: the same numbers, literally, with OpenCV (the definition).
 - :func:`ate`, :func:`rpe`, :func:`ate_runs` (:mod:`slamq.metrics.ate`): trajectory error
   (docs/spec.md section 6) on :class:`~slamq.models.Trajectory` objects, with association
@@ -15,6 +17,7 @@ from __future__ import annotations
 from slamq.metrics.align import ALIGNMENTS, Alignment, estimate_alignment, umeyama
 from slamq.metrics.ate import ErrorResult, RunsResult, ate, ate_runs, rpe
 from slamq.metrics.compare import compare
+from slamq.metrics.consensus import Consensus, consensus
 from slamq.metrics.evaluate import evaluate
 from slamq.metrics.sync import associate, matching_indices
 
@@ -26,6 +29,8 @@ __all__ = [
     "associate",
     "ate",
     "compare",
+    "Consensus",
+    "consensus",
     "ate_runs",
     "estimate_alignment",
     "evaluate",

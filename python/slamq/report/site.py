@@ -502,26 +502,41 @@ def _index_body(
 
 def _validity_section(ok: pd.DataFrame) -> str:
     """How well each no-reference metric agreed with this report's own ground truth
-    (slamq.results.validity, pooled over its sequences); empty without ground truth."""
-    from slamq.results.validity import validate
+    (slamq.results.validity, pooled over its sequences), and the figures measured once on
+    slam_comparison_tools and the synthetic study (shipped with slamq)."""
+    from slamq.results.validity import SHIPPED_CONCORDANCE, validate
 
+    shipped = "".join(
+        f"<tr><td>{_e(metric)}</td>" + "".join(f"<td>{v:.2f}</td>" for v in values) + "</tr>"
+        for metric, values in SHIPPED_CONCORDANCE.items())
+    parts = [
+        "<section id=\"validity\"><h2>Which numbers to trust</h2>"
+        "<p>Pairwise concordance of each map metric (0.5 = chance, 1 = always the same "
+        "order), measured once: with the trajectory error on slam_comparison_tools (3 "
+        "worlds x 5 algorithms), and with the damage in slamq's synthetic study (slamq.synth;"
+        " for rotation the ideal is 0.5, no change). The verdict ranks by ground truth when "
+        "there is any, else by corners (corners_canonical when the maps differ in "
+        "resolution or orientation), never by the others.</p>"
+        "<table class=\"validity shipped\"><tr><th>metric</th><th>vs ATE</th>"
+        "<th>drift</th><th>wall doubling</th><th>rotation</th><th>specks</th></tr>"
+        f"{shipped}</table>"]
     table = validate(ok, permutations=1000)
     pooled = table[table["sequence"] == "(pooled)"]
-    if pooled.empty:
-        return ""
-    rows = "".join(
-        f"<tr><td>{_e(r.metric)}</td><td>{_e(r.truth)}</td><td>{r.n}</td>"
-        f"<td>{r.agreement:+.2f}</td><td>{r.concordance:.2f}</td>"
-        f"<td>{'–' if r.p_value != r.p_value else f'{r.p_value:.3f}'}</td></tr>"
-        for r in pooled.itertuples())
-    return (
-        "<section id=\"validity\"><h2>Measured validity on these results</h2>"
-        "<p>How well each map metric orders the maps as the ground truth does, pooled over "
-        "the sequences with ground truth (agreement: Spearman, +1 = the same order; "
-        "concordance: share of map pairs in the same order, 0.5 = chance; p: permutation "
-        "test). The verdict above uses only the ground truth, or corners without it.</p>"
-        "<table class=\"validity\"><tr><th>metric</th><th>ground truth</th><th>maps</th>"
-        f"<th>agreement</th><th>concordance</th><th>p</th></tr>{rows}</table></section>")
+    if not pooled.empty:
+        rows = "".join(
+            f"<tr><td>{_e(r.metric)}</td><td>{_e(r.truth)}</td><td>{r.n}</td>"
+            f"<td>{r.agreement:+.2f}</td><td>{r.concordance:.2f}</td>"
+            f"<td>{'–' if r.p_value != r.p_value else f'{r.p_value:.3f}'}</td></tr>"
+            for r in pooled.itertuples())
+        parts.append(
+            "<h3>Measured on these results</h3>"
+            "<p>How well each map metric orders the maps as the ground truth does, pooled "
+            "over the sequences with ground truth (agreement: Spearman, +1 = the same order;"
+            " concordance: share of map pairs in the same order, 0.5 = chance; p: "
+            "permutation test).</p>"
+            "<table class=\"validity\"><tr><th>metric</th><th>ground truth</th><th>maps"
+            "</th><th>agreement</th><th>concordance</th><th>p</th></tr>" + rows + "</table>")
+    return "".join(parts) + "</section>"
 
 
 def _how_to_read() -> str:
@@ -571,7 +586,8 @@ def _sequence_section(
         cov = ranking.coverage.get(str(alg))
         cells.append(
             f"<td class=\"num{' warn' if alg in ranking.partial else ''}\" "
-            f"data-metric=\"known_share\">{'–' if cov is None else f'{100 * cov:.0f}%'}</td>")
+            f"data-known-share=\"{'' if cov is None else repr(cov)}\">"
+            f"{'–' if cov is None else f'{100 * cov:.0f}%'}</td>")
         rank = str(place) if ranked else "ref."
         score = format_value(ranking.score[alg]) if ranked else "reference map, not ranked"
         rows.append(
