@@ -1,7 +1,11 @@
 """Benchmark: slamq.evaluate vs slamq.reference (literal) vs a best-effort OpenCV pipeline.
 
 Run ``python benches/bench.py`` (``--quick`` skips the two ~64-million-cell maps). Prints one
-table per map and writes benches/RESULTS.md with the machine and the date. Every timing is
+table per map and writes benches/RESULTS.md with the machine and the date. ``--dense`` runs
+only the busy-map cases of issue 15 (1-Mcell crops of the densest parts of real maps, the
+broken hector_odom map among them, and the graded maps), one thread, printed and not written
+unless ``--out`` is given; ``--stages`` adds the Rust per-stage table of each crop
+(``cargo run --release --example stages``). Every timing is
 the minimum of several runs in this one process; ratios compare numbers from the same run.
 The bench asserts that slamq's numbers equal the reference's on every map.
 
@@ -154,6 +158,127 @@ def bench_maps(quick: bool) -> list[slamq.OccupancyMap]:
     return maps
 
 
+# the busy maps of issue 15: 1-Mcell crops of the densest parts of real maps, and graded maps
+
+DENSE_SOURCES = [
+    # (path under maps/, label)
+    ("base_model_mu_building/mu_gm.yaml", "mu_gm interior"),
+    ("awabot_trajectoire4_4/trajectoire4_4_hector_odom.yaml", "awabot hector_odom (broken)"),
+    ("utexas_gdc_large/3/3.yaml", "utexas 3 (graded)"),
+    ("yogik10_slam_maps_eval/map_fastslam.pgm", "yogik10 fastslam"),
+]
+GRADED_SOURCES = [
+    ("utexas_gdc_large/3/3.yaml", "utexas 3, whole map (graded)"),
+    ("awabot_trajectoire4_4/trajectoire4_4_cartographer_1.yaml",
+     "awabot cartographer, whole map (graded, unknown 128)"),
+]
+
+
+def densest_crop(m: slamq.OccupancyMap, side: int = 1000, stride: int = 20) -> slamq.OccupancyMap:
+    """The side x side window (on a stride grid, first on ties) with the most known cells."""
+    h, w = m.values.shape
+    known = np.zeros((h + 1, w + 1), np.int64)
+    known[1:, 1:] = (~m.unknown).cumsum(0).cumsum(1)
+    rs = np.arange(0, max(1, h - side + 1), stride)
+    cs = np.arange(0, max(1, w - side + 1), stride)
+    r1 = np.minimum(rs + side, h)[:, None]
+    c1 = np.minimum(cs + side, w)[None, :]
+    n = known[r1, c1] - known[rs[:, None], c1] - known[r1, cs[None, :]] + known[rs[:, None], cs]
+    i, j = np.unravel_index(int(np.argmax(n)), n.shape)
+    r, c = int(rs[i]), int(cs[j])
+    return slamq.OccupancyMap(np.ascontiguousarray(m.values[r:r + side, c:c + side]),
+                              np.ascontiguousarray(m.unknown[r:r + side, c:c + side]),
+                              source=f"{m.source} crop at ({r}, {c})")
+
+
+def dense_maps() -> list[tuple[str, slamq.OccupancyMap]]:
+    out = []
+    for rel, label in DENSE_SOURCES:
+        path = SHARED / "maps" / rel
+        if not path.exists():
+            print(f"(dense case {label} skipped: {path} not found)", file=sys.stderr)
+            continue
+        out.append((label, densest_crop(slamq.load_map(path))))
+    for rel, label in GRADED_SOURCES:
+        path = SHARED / "maps" / rel
+        if not path.exists():
+            print(f"(graded case {label} skipped: {path} not found)", file=sys.stderr)
+            continue
+        out.append((label, slamq.load_map(path)))
+    return out
+
+
+def stage_table(m: slamq.OccupancyMap, runs: int) -> list[str]:
+    """The Rust per-stage timing of one map (rust/examples/stages.rs), or why not."""
+    import subprocess
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        raw = Path(tmp) / "map.raw"
+        raw.write_bytes(m.values.tobytes() + m.unknown.astype(np.uint8).tobytes())
+        h, w = m.values.shape
+        cmd = ["cargo", "run", "-q", "--release", "--example", "stages", "--",
+               str(raw), str(h), str(w), str(runs)]
+        try:
+            res = subprocess.run(cmd, cwd=HERE.parent, capture_output=True, text=True,
+                                 check=False)
+        except FileNotFoundError:
+            return ["(stage table skipped: cargo not found)"]
+    if res.returncode != 0:
+        return [f"(stage table failed: {res.stderr.strip()[-300:]})"]
+    return res.stdout.strip().splitlines()
+
+
+def run_dense(runs: int, reference_check: bool, stages: bool) -> list[str]:
+    # the three metrics of the issue (and of the OpenCV pipeline): no canonical corners
+    p = Params(canonical_resolution=0)
+    cases = dense_maps()
+    if not cases:
+        return [f"(busy-map cases skipped: corpus not found at {SHARED})"]
+    cv2.setNumThreads(1)
+    rows, lines = [], []
+    for label, m in cases:
+        mc = m.values.size / 1e6
+        t_s, _, q = timed(lambda m=m: slamq.evaluate(m, params=p, threads=1, curve=True),
+                          runs)
+        t_o, _, o = timed(lambda m=m: opencv_pipeline(m, p), max(1, runs // 3))
+        assert (q.occupied, q.corners, q.enclosed_areas) == (
+            o["occupied"], o["corners"], o["enclosed"]), f"{label}: slamq != OpenCV"
+        if reference_check:
+            ref = reference.evaluate(m, curve=True, params=p)
+            diffs = q.differences(ref)
+            assert not diffs, f"{label}: slamq != reference: {diffs}"
+        rows.append((label, m, t_s * 1e3 / mc, t_o * 1e3 / mc, q))
+        if stages:
+            lines += [f"#### stages: {label} ({m.values.shape[0]} x {m.values.shape[1]})", ""]
+            lines += stage_table(m, max(runs, 10)) + [""]
+    check = "OpenCV pipeline and reference" if reference_check else "OpenCV pipeline"
+    table = [
+        "### busy maps (issue 15): one thread, all three metrics, full sweep "
+        "(canonical corners off)",
+        "",
+        f"minimum of {runs} runs (OpenCV: {max(1, runs // 3)}); every result equal to the "
+        f"{check}",
+        "",
+        "| map | shape | known | grey levels | slamq ms/Mcell | OpenCV ms/Mcell | x slamq | "
+        "corners | enclosed |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for label, m, ms, mo, q in rows:
+        levels = len(np.unique(m.values[~m.unknown]))
+        table.append(
+            f"| {label} | {m.values.shape[0]} x {m.values.shape[1]} | "
+            f"{(~m.unknown).mean():.2f} | {levels} | {ms:.2f} | {mo:.1f} | {mo / ms:.1f} | "
+            f"{q.corners} | {q.enclosed_areas} |")
+    crops = [r for r in rows if "whole map" not in r[0]]
+    if crops:
+        ms = [r[2] for r in crops]
+        ratio = [r[3] / r[2] for r in crops]
+        table += ["", f"crops: mean {np.mean(ms):.2f} ms/Mcell, worst {max(ms):.2f} ms/Mcell, "
+                      f"lowest ratio to OpenCV {min(ratio):.1f}x", ""]
+    return table + lines
+
+
 # ---------------------------------------------------------------------------------------------
 # timing
 
@@ -212,8 +337,21 @@ def main() -> int:
     ap.add_argument("--quick", action="store_true", help="skip the ~64-Mcell maps")
     ap.add_argument("--runs", type=int, default=5, help="runs per slamq/OpenCV timing")
     ap.add_argument("--no-reference", action="store_true", help="skip the literal reference")
-    ap.add_argument("--out", default=str(HERE / "RESULTS.md"))
+    ap.add_argument("--out", default=None,
+                    help="where to write the results (default benches/RESULTS.md; with "
+                         "--dense nothing is written unless given)")
+    ap.add_argument("--dense", action="store_true",
+                    help="only the busy-map cases (dense crops, broken map, graded maps)")
+    ap.add_argument("--stages", action="store_true",
+                    help="with the busy maps, the Rust per-stage table of each (needs cargo)")
     args = ap.parse_args()
+    if args.dense:
+        out = run_dense(args.runs, not args.no_reference, args.stages)
+        print("\n".join(out))
+        if args.out:
+            Path(args.out).write_text("\n".join(out) + "\n")
+        return 0
+    args.out = args.out or str(HERE / "RESULTS.md")
     cores = os.cpu_count() or 1
     p = Params()
     lines = [
@@ -275,6 +413,9 @@ def main() -> int:
         table += ["", f"slamq {cores} threads vs 1: {s1 / sn:.2f}x throughput", ""]
         print("\n".join(table), flush=True)
         lines += table
+    dense = run_dense(args.runs, not args.no_reference, args.stages)
+    print("\n".join(dense), flush=True)
+    lines += dense
     Path(args.out).write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")
     return 0

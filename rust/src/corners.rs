@@ -4,15 +4,17 @@
 //! Everything up to the Harris response is exact integer arithmetic; the response is one
 //! float64 formula, `R = (A*C - B*B) - k*(A + C)^2`, evaluated as `slamq.reference` does.
 //! Work is done in fixed row bands in parallel; the one full-size intermediate is the 0/1
-//! structure mask (one byte per cell). Dot removal hands the mask's surviving runs on; the
-//! Harris sums (with their 2x2 box sum, fused here) are computed once, only on column spans
-//! next to set structure cells, keeping the cells with `R > 0` and their response, so the
-//! relative threshold needs no second pass; the corner blobs are counted from runs.
+//! structure mask (one byte per cell). Dot removal hands the mask's surviving runs on. The
+//! Harris sums of a cell depend only on the 4x4 mask window around it, so they are tabulated
+//! once per process for all 65,536 windows (by class of equal sums); a row's window codes
+//! are built from four mask rows, only over the columns next to set structure cells, and
+//! the cells with `R > 0` are kept with their response, so the relative threshold needs no
+//! second pass; the corner blobs are counted from runs.
 
 use crate::border::reflect101;
-use crate::filter::{blur_row, laplacian_mask_row, sobel_products, structure_row};
+use crate::filter::{blur_row, laplacian_mask_row, structure_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
-use crate::label::{Components, MaskRows, RowRuns, Run};
+use crate::label::{push_runs, Components, MaskRows, RowRuns, Run};
 use crate::params::CornerParams;
 use rayon::prelude::*;
 
@@ -28,14 +30,22 @@ fn integer_threshold(threshold: f64) -> Option<i32> {
 
 /// Steps 1-4: the LoG structure mask (0/1 per cell).
 pub fn structure_mask(grid: &Grid, log_threshold: f64) -> Vec<u8> {
+    structure_mask_runs(grid, log_threshold).0
+}
+
+/// Steps 1-4: the LoG structure mask (0/1 per cell) and its runs, each row's runs found
+/// right after the row is written (while it is in cache) instead of by a second scan.
+pub fn structure_mask_runs(grid: &Grid, log_threshold: f64) -> (Vec<u8>, RowRuns) {
     let (h, w) = (grid.height, grid.width);
     let mut mask = vec![0u8; h * w];
     let Some(t) = integer_threshold(log_threshold * 255.0 * 256.0) else {
-        return mask;
+        let runs = RowRuns::concat(vec![(Vec::new(), vec![0; h])]);
+        return (mask, runs);
     };
-    mask.par_chunks_mut(BAND_ROWS * w)
+    let parts: Vec<(Vec<Run>, Vec<usize>)> = mask
+        .par_chunks_mut(BAND_ROWS * w)
         .zip(bands(h))
-        .for_each(|(out, (r0, r1))| {
+        .map(|(out, (r0, r1))| {
             // S rows needed: r0-3 ..= r1+2, reflect-mapped; those all fall in [base, end)
             let base = (r0 as isize - 3).max(0) as usize;
             let end = (r1 + 3).min(h);
@@ -65,17 +75,23 @@ pub fn structure_mask(grid: &Grid, log_threshold: f64) -> Vec<u8> {
                 g_rows.push(g);
                 g_any.push(nonzero);
             }
+            let mut runs = Vec::new();
+            let mut starts = Vec::with_capacity(r1 - r0);
             for r in r0..r1 {
                 let i = r - r0 + 1;
                 let row_out = &mut out[(r - r0) * w..(r - r0 + 1) * w];
+                starts.push(runs.len());
                 if !(g_any[i - 1] || g_any[i] || g_any[i + 1]) {
                     row_out.fill((0 > t) as u8); // L = 0 everywhere on this row
-                    continue;
+                } else {
+                    laplacian_mask_row(&g_rows[i - 1], &g_rows[i], &g_rows[i + 1], t, row_out);
                 }
-                laplacian_mask_row(&g_rows[i - 1], &g_rows[i], &g_rows[i + 1], t, row_out);
+                push_runs(row_out, &mut runs);
             }
-        });
-    mask
+            (runs, starts)
+        })
+        .collect();
+    (mask, RowRuns::concat(parts))
 }
 
 /// Step 5: remove 8-connected mask components with fewer than `min_dot_area` cells; returns
@@ -90,6 +106,22 @@ pub fn drop_dots(mask: &mut [u8], height: usize, width: usize, min_dot_area: u32
     comps.runs_of_large(min_dot_area)
 }
 
+/// [`drop_dots`] given the mask's runs (from [`structure_mask_runs`]), which it consumes.
+pub fn drop_dots_runs(
+    mask: &mut [u8],
+    runs: RowRuns,
+    height: usize,
+    width: usize,
+    min_dot_area: u32,
+) -> RowRuns {
+    if min_dot_area <= 1 {
+        return runs;
+    }
+    let comps = Components::from_runs(runs.runs, runs.row_start, height, width);
+    comps.clear_small(mask, min_dot_area);
+    comps.runs_of_large(min_dot_area)
+}
+
 /// The Harris response of one cell's sums, exactly `(A*C - B*B) - k*(A+C)^2` in float64.
 #[inline]
 pub fn response(a: i64, b: i64, c: i64, k: f64) -> f64 {
@@ -97,116 +129,122 @@ pub fn response(a: i64, b: i64, c: i64, k: f64) -> f64 {
     ((a * c - b * b) as f64) - k * ((s * s) as f64)
 }
 
-/// How far (in columns, each side) a set mask cell can make the Harris sums non-zero:
-/// `A, B, C` at column `x` read mask columns `x-2 ..= x+1` (reflect-101 included).
-const REACH: usize = 3;
-
-/// Harris sums over the parts of one output row where they can be non-zero.
-struct HarrisRow<'a> {
-    mask: &'a [u8],
-    runs: &'a RowRuns,
-    height: usize,
-    width: usize,
-    spans: Vec<(usize, usize)>,
-    // scratch, indexed from the start of the current span's gather window
-    p: Vec<i16>,
-    d: Vec<i16>,
-    prod: [[Vec<i16>; 3]; 2],
+/// The Harris sums `(A, B, C)` of one cell from its 4 x 4 mask window, for the cells whose
+/// reflect-mapped window is consistent (every cell but those of row 0 and column 0, see
+/// [`window_code`]): window rows are mask rows `r-2 ..= r+1`, columns `x-2 ..= x+1`, and
+/// bit `4 * j + i` of the code is the mask at window row `i`, column `j`.
+fn sums_of_code(code: u16) -> (i64, i64, i64) {
+    let m: [[i64; 4]; 4] =
+        std::array::from_fn(|i| std::array::from_fn(|j| ((code >> (4 * j + i)) & 1) as i64));
+    let (mut a, mut b, mut c) = (0, 0, 0);
+    // products at window rows {1, 2} (mask rows r-1, r) and columns {1, 2} (x-1, x)
+    for y in 1..3 {
+        for x in 1..3 {
+            let ix = (m[y - 1][x + 1] + 2 * m[y][x + 1] + m[y + 1][x + 1])
+                - (m[y - 1][x - 1] + 2 * m[y][x - 1] + m[y + 1][x - 1]);
+            let iy = (m[y + 1][x - 1] + 2 * m[y + 1][x] + m[y + 1][x + 1])
+                - (m[y - 1][x - 1] + 2 * m[y - 1][x] + m[y - 1][x + 1]);
+            a += ix * ix;
+            b += ix * iy;
+            c += iy * iy;
+        }
+    }
+    (a, b, c)
 }
 
-impl<'a> HarrisRow<'a> {
-    fn new(mask: &'a [u8], runs: &'a RowRuns, height: usize, width: usize) -> Self {
-        HarrisRow {
-            mask,
-            runs,
-            height,
-            width,
-            spans: Vec::new(),
-            p: Default::default(),
-            d: Default::default(),
-            prod: Default::default(),
-        }
-    }
+/// Every 4 x 4 window's class (its distinct `(A, B, C)`), built once per process: 128 KiB.
+struct WindowClasses {
+    class: Vec<u16>,
+    sums: Vec<(i64, i64, i64)>,
+}
 
-    /// Column intervals `[a, b)` of row `r` outside which `A = B = C = 0`: the set runs of
-    /// mask rows `r-2 ..= r+1` (reflect-mapped), widened by [`REACH`] and merged.
-    fn find_spans(&mut self, r: usize) {
-        let (h, w) = (self.height, self.width);
-        self.spans.clear();
-        let mut rows = [0usize; 4];
-        for (k, dr) in (-2isize..=1).enumerate() {
-            rows[k] = reflect101(r as isize + dr, h);
-        }
-        rows.sort_unstable();
-        let mut prev_row = usize::MAX;
-        for &rr in &rows {
-            if rr == prev_row {
-                continue;
-            }
-            prev_row = rr;
-            for run in self.runs.row(rr) {
-                let a = (run.start as usize).saturating_sub(REACH);
-                let b = (run.end as usize + REACH).min(w);
-                self.spans.push((a, b));
-            }
-        }
-        self.spans.sort_unstable();
-        let mut merged: Vec<(usize, usize)> = Vec::with_capacity(self.spans.len());
-        for &(a, b) in &self.spans {
-            match merged.last_mut() {
-                Some(last) if a <= last.1 => last.1 = last.1.max(b),
-                _ => merged.push((a, b)),
-            }
-        }
-        self.spans = merged;
-    }
-
-    /// Call `visit(x, A, B, C)` for every column of row `r` where the sums are not all zero.
-    fn for_each(&mut self, r: usize, mut visit: impl FnMut(usize, i32, i32, i32)) {
-        self.find_spans(r);
-        let (h, w) = (self.height, self.width);
-        let m_row = |k: usize| &self.mask[k * w..(k + 1) * w];
-        // product rows: reflect(r-1) (box row above) and r
-        let yys = [reflect101(r as isize - 1, h), r];
-        let spans = std::mem::take(&mut self.spans);
-        for &(a, b) in &spans {
-            // product columns needed: reflect(x-1) and x for x in [a, b)
-            let lo = a.saturating_sub(1);
-            let hi = if a == 0 { b.max(2.min(w)) } else { b };
-            for (slot, &yy) in yys.iter().enumerate() {
-                let [xx, xy, yy2] = &mut self.prod[slot];
-                sobel_products(
-                    m_row(reflect101(yy as isize - 1, h)),
-                    m_row(yy),
-                    m_row(reflect101(yy as isize + 1, h)),
-                    (lo, hi),
-                    &mut self.p,
-                    &mut self.d,
-                    xx,
-                    xy,
-                    yy2,
-                );
-            }
-            let [pxx, pxy, pyy] = &self.prod[0];
-            let [cxx, cxy, cyy] = &self.prod[1];
-            for x in a..b {
-                let l = reflect101(x as isize - 1, w) - lo;
-                let i = x - lo;
-                let av = (pxx[l] + pxx[i] + cxx[l] + cxx[i]) as i32;
-                let cv = (pyy[l] + pyy[i] + cyy[l] + cyy[i]) as i32;
-                if av == 0 && cv == 0 {
-                    continue; // then B = 0 too (B^2 <= A*C), and R = 0
+fn window_classes() -> &'static WindowClasses {
+    static TABLE: std::sync::OnceLock<WindowClasses> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        // |Ix|, |Iy| <= 4, so 0 <= A, C <= 64 and |B| <= 64: a dense index of (A, B, C)
+        const SIDE: usize = 65;
+        let key =
+            |(a, b, c): (i64, i64, i64)| (a as usize * 129 + (b + 64) as usize) * SIDE + c as usize;
+        let mut index = vec![u16::MAX; SIDE * 129 * SIDE];
+        let mut sums = Vec::new();
+        let class = (0..=u16::MAX)
+            .map(|code| {
+                let abc = sums_of_code(code);
+                let slot = &mut index[key(abc)];
+                if *slot == u16::MAX {
+                    *slot = sums.len() as u16;
+                    sums.push(abc);
                 }
-                let bv = (pxy[l] + pxy[i] + cxy[l] + cxy[i]) as i32;
-                visit(x, av, bv, cv);
-            }
+                *slot
+            })
+            .collect();
+        WindowClasses { class, sums }
+    })
+}
+
+/// The sums of one cell computed from the mask directly with reflect-101 everywhere (SPEC
+/// section 3 step 6), for row 0 and column 0, where the box's row (column) above is
+/// `reflect(-1) = 1`, below (right of) the cell, and the 4 x 4 window does not apply.
+fn sums_direct(mask: &[u8], (h, w): (usize, usize), r: usize, x: usize) -> (i64, i64, i64) {
+    let m = |rr: isize, cc: isize| mask[reflect101(rr, h) * w + reflect101(cc, w)] as i64;
+    let (mut a, mut b, mut c) = (0, 0, 0);
+    for y in [reflect101(r as isize - 1, h), r] {
+        for xx in [reflect101(x as isize - 1, w), x] {
+            let (y, xx) = (y as isize, xx as isize);
+            let ix = (m(y - 1, xx + 1) + 2 * m(y, xx + 1) + m(y + 1, xx + 1))
+                - (m(y - 1, xx - 1) + 2 * m(y, xx - 1) + m(y + 1, xx - 1));
+            let iy = (m(y + 1, xx - 1) + 2 * m(y + 1, xx) + m(y + 1, xx + 1))
+                - (m(y - 1, xx - 1) + 2 * m(y - 1, xx) + m(y - 1, xx + 1));
+            a += ix * ix;
+            b += ix * iy;
+            c += iy * iy;
         }
-        self.spans = spans;
+    }
+    (a, b, c)
+}
+
+/// Column nibbles of output row `r` (>= 1): bit `i` of `nib[c]` is the mask at row
+/// `reflect(r - 2 + i)`, column `c`. The window code of column `x` (>= 1) is then
+/// `nib[reflect(x-2)] | nib[x-1] << 4 | nib[x] << 8 | nib[reflect(x+1)] << 12`: for `r, x >= 1`
+/// the reflect-mapped window holds exactly the mask cells the Sobel products of the box read
+/// (row 0 and column 0 reflect their box onto the far side, so they are computed directly).
+fn window_nibbles(
+    mask: &[u8],
+    (h, w): (usize, usize),
+    r: usize,
+    lo: usize,
+    hi: usize,
+    nib: &mut [u8],
+) {
+    let rows: [&[u8]; 4] = std::array::from_fn(|i| {
+        let k = reflect101(r as isize - 2 + i as isize, h);
+        &mask[k * w..(k + 1) * w]
+    });
+    for ((((n, &a), &b), &c), &d) in nib[lo..hi]
+        .iter_mut()
+        .zip(&rows[0][lo..hi])
+        .zip(&rows[1][lo..hi])
+        .zip(&rows[2][lo..hi])
+        .zip(&rows[3][lo..hi])
+    {
+        *n = a | (b << 1) | (c << 2) | (d << 3);
     }
 }
 
-/// One band's largest response and its cells with `R > 0`, as `(row, column, R)` in order.
-type BandResponses = (f64, Vec<(usize, usize, f64)>);
+/// Keep one directly computed cell's response: the running maximum, and the cell if R > 0.
+#[inline]
+fn visit(best: &mut f64, positive: &mut Vec<(u32, f64)>, x: usize, resp: f64) {
+    if resp > *best {
+        *best = resp;
+    }
+    if resp > 0.0 {
+        positive.push((x as u32, resp));
+    }
+}
+
+/// One band's largest response, its cells with `R > 0` as `(column, R)` in row-major order,
+/// and where each of its rows starts in that list (one more entry than rows).
+type BandResponses = (f64, Vec<(u32, f64)>, Vec<usize>);
 
 /// Steps 6-7: the corner mask of a dot-free structure mask (given with its runs), as runs.
 ///
@@ -223,30 +261,124 @@ pub fn corner_runs(
 ) -> RowRuns {
     let (h, w) = (height, width);
     let k = params.harris_k;
+    let table = window_classes();
+    // the response of every window class, exactly `response(A, B, C, k)`; a class with
+    // A = C = 0 (so B = 0) is passed over like an empty window (-inf: never the maximum,
+    // never positive)
+    let resp_of: Vec<f64> = table
+        .sums
+        .iter()
+        .map(|&(a, b, c)| {
+            if a == 0 && c == 0 {
+                f64::NEG_INFINITY
+            } else {
+                response(a, b, c, k)
+            }
+        })
+        .collect();
     // per band, in row-major order: the cells with R > 0 as (row, column, R)
     let found: Vec<BandResponses> = bands(h)
         .into_par_iter()
         .map(|(r0, r1)| {
-            let mut rows = HarrisRow::new(mask, runs, h, w);
             let mut best = f64::NEG_INFINITY;
-            let mut positive = Vec::new();
+            let mut positive: Vec<(u32, f64)> = Vec::new();
+            let mut starts = Vec::with_capacity(r1 - r0 + 1);
+            let mut nib = vec![0u8; w];
+            // one row's candidates before compaction (each cell written, kept if R > 0)
+            let mut row_buf = vec![(0u32, 0.0f64); w];
             for r in r0..r1 {
-                rows.for_each(r, |x, a, b, c| {
-                    let resp = response(a as i64, b as i64, c as i64, k);
-                    if resp > best {
-                        best = resp;
+                starts.push(positive.len());
+                // columns whose window can hold a set cell: the bounding interval of the runs
+                // of mask rows r-2 ..= r+1, widened by the window's reach
+                let (mut first, mut last) = (usize::MAX, 0usize);
+                for i in 0..4 {
+                    let rr = runs.row(reflect101(r as isize - 2 + i, h));
+                    if let (Some(a), Some(b)) = (rr.first(), rr.last()) {
+                        first = first.min(a.start as usize);
+                        last = last.max(b.end as usize);
                     }
-                    if resp > 0.0 {
-                        positive.push((r, x, resp));
+                }
+                if first == usize::MAX {
+                    continue; // A = B = C = 0 on the whole row
+                }
+                if r == 0 {
+                    // the sums can be non-zero on columns [first - 2, last + 2) only
+                    for x in first.saturating_sub(2)..(last + 2).min(w) {
+                        let (a, b, c) = sums_direct(mask, (h, w), 0, x);
+                        if a != 0 || c != 0 {
+                            visit(&mut best, &mut positive, x, response(a, b, c, k));
+                        }
                     }
-                });
+                    continue;
+                }
+                if first <= 2 {
+                    // column 0 reads mask columns 0 ..= 2 only
+                    let (a, b, c) = sums_direct(mask, (h, w), r, 0);
+                    if a != 0 || c != 0 {
+                        visit(&mut best, &mut positive, 0, response(a, b, c, k));
+                    }
+                }
+                if w == 1 {
+                    continue;
+                }
+                // window columns x-2 ..= x+1 hold a set cell only for x in [first-1, last+2)
+                let xlo = first.saturating_sub(1).max(1);
+                let xhi = (last + 2).min(w);
+                if xlo >= xhi {
+                    continue;
+                }
+                // nibbles of columns reflect(xlo-2) ..= reflect(xhi), all within [nlo, nhi)
+                let nlo = xlo.saturating_sub(2);
+                let nhi = (xhi + 1).min(w);
+                window_nibbles(mask, (h, w), r, nlo, nhi, &mut nib);
+                let nb = |c: isize| nib[reflect101(c, w)] as u16;
+                let mut code =
+                    nb(xlo as isize - 2) | nb(xlo as isize - 1) << 4 | nb(xlo as isize) << 8;
+                // columns x + 1 < w read nib[x + 1] as it is; the last column reflects. No
+                // branch per cell: an empty window (code 0) is a class of response -inf, and
+                // every cell is written to the end of `positive`, kept only when R > 0
+                let inner_hi = xhi.min(w - 1);
+                let mut len = 0;
+                let mut x = xlo;
+                while x < inner_hi {
+                    if code == 0 && x + 8 <= inner_hi {
+                        // eight empty columns ahead: the code stays 0 across them
+                        let mut word = [0u8; 8];
+                        word.copy_from_slice(&nib[x + 1..x + 9]);
+                        if u64::from_ne_bytes(word) == 0 {
+                            x += 8;
+                            continue;
+                        }
+                    }
+                    code = (code & 0x0fff) | (nib[x + 1] as u16) << 12;
+                    let resp = resp_of[table.class[code as usize] as usize];
+                    best = if resp > best { resp } else { best };
+                    row_buf[len] = (x as u32, resp);
+                    len += (resp > 0.0) as usize;
+                    code >>= 4;
+                    x += 1;
+                }
+                positive.extend_from_slice(&row_buf[..len]);
+                if xhi == w && inner_hi < w {
+                    let x = w - 1;
+                    code = (code & 0x0fff) | nb(x as isize + 1) << 12;
+                    if code != 0 {
+                        visit(
+                            &mut best,
+                            &mut positive,
+                            x,
+                            resp_of[table.class[code as usize] as usize],
+                        );
+                    }
+                }
             }
-            (best, positive)
+            starts.push(positive.len());
+            (best, positive, starts)
         })
         .collect();
     let best = found
         .iter()
-        .map(|(b, _)| *b)
+        .map(|(b, _, _)| *b)
         .fold(f64::NEG_INFINITY, f64::max);
     let threshold = if best > 0.0 {
         params.harris_quality * best
@@ -256,25 +388,23 @@ pub fn corner_runs(
     let parts = found
         .into_par_iter()
         .zip(bands(h))
-        .map(|((_, positive), (r0, r1))| {
+        .map(|((_, positive, pos_start), (r0, r1))| {
             let mut out: Vec<Run> = Vec::new();
             let mut starts = Vec::with_capacity(r1 - r0);
-            let mut cells = positive
-                .into_iter()
-                .filter(|&(_, _, resp)| resp > threshold)
-                .peekable();
-            for r in r0..r1 {
+            for i in 0..r1 - r0 {
                 starts.push(out.len());
                 let row_first = out.len();
-                while let Some(&(_, x, _)) = cells.peek().filter(|c| c.0 == r) {
-                    cells.next();
+                for &(x, resp) in &positive[pos_start[i]..pos_start[i + 1]] {
+                    if resp <= threshold || resp.is_nan() {
+                        continue;
+                    }
                     let n = out.len();
-                    if n > row_first && out[n - 1].end as usize == x {
+                    if n > row_first && out[n - 1].end == x {
                         out[n - 1].end += 1; // the cell right of the row's last run
                     } else {
                         out.push(Run {
-                            start: x as u32,
-                            end: x as u32 + 1,
+                            start: x,
+                            end: x + 1,
                         });
                     }
                 }
@@ -288,8 +418,8 @@ pub fn corner_runs(
 /// Steps 1-8: the number of corners of a map.
 pub fn count_corners(grid: &Grid, params: &CornerParams) -> usize {
     let (h, w) = (grid.height, grid.width);
-    let mut mask = structure_mask(grid, params.log_threshold);
-    let runs = drop_dots(&mut mask, h, w, params.min_dot_area);
+    let (mut mask, runs) = structure_mask_runs(grid, params.log_threshold);
+    let runs = drop_dots_runs(&mut mask, runs, h, w, params.min_dot_area);
     let corners = corner_runs(&mask, &runs, h, w, params);
     drop((mask, runs));
     Components::from_runs(corners.runs, corners.row_start, h, w).count()
@@ -316,6 +446,110 @@ mod tests {
         let (v, u) = square_map(40, 12, 28);
         let g = Grid::new(&v, &u, 40, 40).unwrap();
         assert_eq!(count_corners(&g, &CornerParams::default()), 8);
+    }
+
+    /// Steps 6-7 literally, cell by cell with reflect-101 everywhere: the corner mask.
+    fn naive_corner_mask(mask: &[u8], h: usize, w: usize, p: &CornerParams) -> Vec<u8> {
+        let m = |r: isize, c: isize| mask[reflect101(r, h) * w + reflect101(c, w)] as i64;
+        let prod = |r: isize, c: isize| {
+            let ix = (m(r - 1, c + 1) + 2 * m(r, c + 1) + m(r + 1, c + 1))
+                - (m(r - 1, c - 1) + 2 * m(r, c - 1) + m(r + 1, c - 1));
+            let iy = (m(r + 1, c - 1) + 2 * m(r + 1, c) + m(r + 1, c + 1))
+                - (m(r - 1, c - 1) + 2 * m(r - 1, c) + m(r - 1, c + 1));
+            (ix * ix, ix * iy, iy * iy)
+        };
+        let mut resp = vec![0.0f64; h * w];
+        for r in 0..h {
+            for c in 0..w {
+                let (mut a, mut b, mut cc) = (0, 0, 0);
+                for rr in [reflect101(r as isize - 1, h), r] {
+                    for c2 in [reflect101(c as isize - 1, w), c] {
+                        let (x, y, z) = prod(rr as isize, c2 as isize);
+                        a += x;
+                        b += y;
+                        cc += z;
+                    }
+                }
+                resp[r * w + c] = response(a, b, cc, p.harris_k);
+            }
+        }
+        let best = resp.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        resp.iter()
+            .map(|&x| (best > 0.0 && x > p.harris_quality * best) as u8)
+            .collect()
+    }
+
+    #[test]
+    fn corner_runs_equal_the_literal_harris_on_random_masks() {
+        let mut s = 12345u64;
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1);
+            (s >> 33) as usize
+        };
+        let p = CornerParams::default();
+        for trial in 0..300 {
+            let h = 1 + next() % 23;
+            let w = 1 + next() % 23;
+            let density = next() % 100;
+            let mut mask: Vec<u8> = (0..h * w).map(|_| (next() % 100 < density) as u8).collect();
+            if trial % 3 == 0 {
+                // empty rows and columns, so that the intervals matter
+                for r in 0..h {
+                    if next() % 3 == 0 {
+                        mask[r * w..(r + 1) * w].fill(0);
+                    }
+                }
+            }
+            let runs = RowRuns::of(
+                &MaskRows {
+                    mask: &mask,
+                    width: w,
+                },
+                h,
+                w,
+            );
+            let got = corner_runs(&mask, &runs, h, w, &p);
+            let mut cm = vec![0u8; h * w];
+            for r in 0..h {
+                for run in got.row(r) {
+                    cm[r * w + run.start as usize..r * w + run.end as usize].fill(1);
+                }
+            }
+            assert_eq!(
+                cm,
+                naive_corner_mask(&mask, h, w, &p),
+                "trial {trial}: {h}x{w}"
+            );
+        }
+    }
+
+    #[test]
+    fn fused_mask_runs_equal_a_scan_of_the_mask() {
+        let mut st = 5u64;
+        for (h, w) in [(1, 1), (3, 7), (70, 33), (130, 20)] {
+            let v: Vec<u8> = (0..h * w)
+                .map(|_| {
+                    st = st.wrapping_mul(6364136223846793005).wrapping_add(3);
+                    [0u8, 128, 254, 254, 254][(st >> 40) as usize % 5]
+                })
+                .collect();
+            let u: Vec<bool> = v.iter().map(|&x| x == 128).collect();
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            let (mask, runs) = structure_mask_runs(&g, 0.1);
+            let scan = RowRuns::of(
+                &MaskRows {
+                    mask: &mask,
+                    width: w,
+                },
+                h,
+                w,
+            );
+            assert_eq!((&runs.runs, &runs.row_start), (&scan.runs, &scan.row_start));
+            let (mut m1, mut m2) = (mask.clone(), mask);
+            let a = drop_dots(&mut m1, h, w, 5);
+            let b = drop_dots_runs(&mut m2, scan, h, w, 5);
+            assert_eq!((m1, a.runs, a.row_start), (m2, b.runs, b.row_start));
+        }
     }
 
     #[test]

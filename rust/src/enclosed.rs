@@ -51,8 +51,8 @@ impl RowSource for FreeRows<'_> {
     }
 }
 
-/// `count_u` for every swept `u` (in `(0..256).step_by(sweep_step)` order).
-pub fn sweep(grid: &Grid, hist: &Histogram, params: &EnclosedParams) -> Vec<usize> {
+/// The binarisation of every swept `u` (in `(0..256).step_by(sweep_step)` order).
+fn keys_of(hist: &Histogram, params: &EnclosedParams) -> Vec<Binarisation> {
     let table = threshold_table(hist);
     // cut_of[t]: the smallest present known value above t (256 if none), so that the known
     // free set {v > t} is {v >= cut_of[t]}; equal cuts mean equal binarisations.
@@ -65,7 +65,7 @@ pub fn sweep(grid: &Grid, hist: &Histogram, params: &EnclosedParams) -> Vec<usiz
         }
     }
     let step = params.sweep_step.max(1);
-    let keys: Vec<Binarisation> = (0..256usize)
+    (0..256usize)
         .step_by(step)
         .map(|u| {
             let t = table[u];
@@ -74,7 +74,24 @@ pub fn sweep(grid: &Grid, hist: &Histogram, params: &EnclosedParams) -> Vec<usiz
                 cut: cut_of[t as usize],
             }
         })
-        .collect();
+        .collect()
+}
+
+/// The distinct binarisations of the sweep as `(unknown_free, cut)`: known cells are free iff
+/// `v >= cut`, unknown cells iff `unknown_free` (for per-stage timing and tests).
+pub fn binarisations(hist: &Histogram, params: &EnclosedParams) -> Vec<(bool, u16)> {
+    let set: std::collections::BTreeSet<Binarisation> = keys_of(hist, params).into_iter().collect();
+    set.into_iter().map(|b| (b.unknown_free, b.cut)).collect()
+}
+
+/// `count_u` of one binarisation `(unknown_free, cut)`, labelled directly by runs.
+pub fn count_binarisation(grid: &Grid, (unknown_free, cut): (bool, u16), min_area: u32) -> usize {
+    direct(grid, cut, unknown_free, min_area)
+}
+
+/// `count_u` for every swept `u` (in `(0..256).step_by(sweep_step)` order).
+pub fn sweep(grid: &Grid, hist: &Histogram, params: &EnclosedParams) -> Vec<usize> {
+    let keys = keys_of(hist, params);
     let mut counts: BTreeMap<Binarisation, usize> = keys.iter().map(|k| (*k, 0)).collect();
     for unknown_free in [false, true] {
         let cuts: Vec<u16> = counts
@@ -210,11 +227,29 @@ fn incremental(
     fill[lowest..top].copy_from_slice(&start[lowest + 1..top + 1]);
     let mut order = vec![0u32; start[lowest]];
     if lowest < top {
-        for (i, (&v, &u)) in grid.values.iter().zip(grid.unknown).enumerate() {
-            let v = v as usize;
-            if !u && (lowest..top).contains(&v) {
-                order[fill[v]] = i as u32;
-                fill[v] += 1;
+        // blocks of 16 cells with no known value in [lowest, top) (most of a map: free space,
+        // walls, canvas) are passed over after one branch-free test
+        let (lo16, span) = (lowest as u16, (top - lowest) as u16);
+        let in_range = |v: u8, u: bool| !u & ((v as u16).wrapping_sub(lo16) < span);
+        for (blk, (vs, us)) in grid
+            .values
+            .chunks(16)
+            .zip(grid.unknown.chunks(16))
+            .enumerate()
+        {
+            if !vs
+                .iter()
+                .zip(us)
+                .fold(false, |a, (&v, &u)| a | in_range(v, u))
+            {
+                continue;
+            }
+            for (j, (&v, &u)) in vs.iter().zip(us).enumerate() {
+                if in_range(v, u) {
+                    let v = v as usize;
+                    order[fill[v]] = (blk * 16 + j) as u32;
+                    fill[v] += 1;
+                }
             }
         }
     }

@@ -1,6 +1,6 @@
 //! Exact integer filters for the corner metric (SPEC section 3), row at a time so that the
 //! callers can stream row bands without full-size intermediates. Every border is reflect-101.
-//! (The 2x2 box sum of the Sobel products is fused into the Harris step in `corners`.)
+//! (The Sobel products and their 2x2 box sum are tabulated per 4x4 mask window in `corners`.)
 
 use crate::border::reflect101;
 
@@ -11,7 +11,8 @@ const B: [u16; 5] = [1, 4, 6, 4, 1];
 #[inline]
 pub fn structure_row(values: &[u8], unknown: &[bool], out: &mut [u16]) {
     for ((o, &v), &u) in out.iter_mut().zip(values).zip(unknown) {
-        *o = if u { 0 } else { v as u16 };
+        // branch-free (v masked by 0 or 0xff), so that the loop vectorises
+        *o = (v & (u as u8).wrapping_sub(1)) as u16;
     }
 }
 
@@ -41,8 +42,22 @@ pub fn blur_row<'s>(
     // horizontal taps: interior without index mapping, the two cells at each end with it
     let w = vbuf.len();
     if w >= 5 {
-        for (o, t) in out[2..w - 2].iter_mut().zip(vbuf.windows(5)) {
-            *o = t[0] + 4 * t[1] + 6 * t[2] + 4 * t[3] + t[4];
+        // five shifted slices zipped (not `windows`), so that the loop vectorises
+        let n = w - 4;
+        let (t0, t1, t2, t3, t4) = (
+            &vbuf[..n],
+            &vbuf[1..n + 1],
+            &vbuf[2..n + 2],
+            &vbuf[3..n + 3],
+            &vbuf[4..n + 4],
+        );
+        for (((o, &a), &b), ((&c, &d), &e)) in out[2..w - 2]
+            .iter_mut()
+            .zip(t0)
+            .zip(t1)
+            .zip(t2.iter().zip(t3).zip(t4))
+        {
+            *o = a + 4 * b + 6 * c + 4 * d + e;
         }
     }
     for x in (0..w.min(2)).chain(w.saturating_sub(2).max(2.min(w))..w) {
@@ -61,12 +76,14 @@ pub fn laplacian_mask_row(up: &[u16], mid: &[u16], down: &[u16], t: i32, out: &m
         up[x] as i32 + down[x] as i32 + mid[l] as i32 + mid[r] as i32 - 4 * mid[x] as i32
     };
     if w >= 3 {
+        // shifted slices zipped (not `windows`), so that the loop vectorises
+        let n = w - 2;
         let inner = out[1..w - 1]
             .iter_mut()
-            .zip(mid.windows(3))
-            .zip(up[1..].iter().zip(&down[1..]));
-        for ((o, m), (&u, &d)) in inner {
-            let l = u as i32 + d as i32 + m[0] as i32 + m[2] as i32 - 4 * m[1] as i32;
+            .zip(mid[..n].iter().zip(&mid[1..n + 1]).zip(&mid[2..n + 2]))
+            .zip(up[1..n + 1].iter().zip(&down[1..n + 1]));
+        for ((o, ((&ml, &mc), &mr)), (&u, &d)) in inner {
+            let l = u as i32 + d as i32 + ml as i32 + mr as i32 - 4 * mc as i32;
             *o = (l > t) as u8;
         }
     }
@@ -74,58 +91,6 @@ pub fn laplacian_mask_row(up: &[u16], mid: &[u16], down: &[u16], t: i32, out: &m
         let l = reflect101(x as isize - 1, w);
         let r = reflect101(x as isize + 1, w);
         out[x] = (lap(x, l, r) > t) as u8;
-    }
-}
-
-/// Sobel derivative products of one row of a 0/1 mask, on columns `lo..hi`: `xx = Ix^2`,
-/// `xy = Ix Iy`, `yy = Iy^2` (index `q` is column `lo + q`), with `Ix`, `Iy` OpenCV's 3x3
-/// Sobel (`dx = right - left`, `dy = down - up`) and reflect-101 columns. `up`, `mid`, `down`
-/// are the full mask rows above, at and below (already reflect-mapped); `p`, `d` are scratch.
-#[allow(clippy::too_many_arguments)]
-pub fn sobel_products(
-    up: &[u8],
-    mid: &[u8],
-    down: &[u8],
-    (lo, hi): (usize, usize),
-    p: &mut Vec<i16>,
-    d: &mut Vec<i16>,
-    xx: &mut Vec<i16>,
-    xy: &mut Vec<i16>,
-    yy: &mut Vec<i16>,
-) {
-    let w = mid.len();
-    // vertical smoothing (p) and difference (d) on columns lo-1 ..= hi, reflect-mapped
-    p.clear();
-    d.clear();
-    if lo >= 1 && hi < w {
-        // interior: no index mapping
-        let cols = lo - 1..hi + 1;
-        for ((&u, &m), &dn) in up[cols.clone()]
-            .iter()
-            .zip(&mid[cols.clone()])
-            .zip(&down[cols])
-        {
-            p.push(u as i16 + 2 * m as i16 + dn as i16);
-            d.push(dn as i16 - u as i16);
-        }
-    } else {
-        for c in lo as isize - 1..hi as isize + 1 {
-            let cc = reflect101(c, w);
-            p.push(up[cc] as i16 + 2 * mid[cc] as i16 + down[cc] as i16);
-            d.push(down[cc] as i16 - up[cc] as i16);
-        }
-    }
-    let n = hi - lo;
-    xx.resize(n, 0);
-    xy.resize(n, 0);
-    yy.resize(n, 0);
-    for q in 0..n {
-        // column lo + q has its left and right neighbours at p/d indices q and q + 2
-        let ix = p[q + 2] - p[q];
-        let iy = d[q] + 2 * d[q + 1] + d[q + 2];
-        xx[q] = ix * ix;
-        xy[q] = ix * iy;
-        yy[q] = iy * iy;
     }
 }
 

@@ -118,28 +118,41 @@ impl<'a> Grid<'a> {
             .par_chunks(band)
             .zip(self.unknown.par_chunks(band))
             .map(|(vals, unk)| {
-                // four sub-histograms break the store-to-load dependency on repeated values
+                // four sub-histograms break the store-to-load dependency on repeated values;
+                // blocks of 8 cells that are all unknown, or all known with one value (long
+                // runs of free space and canvas), are counted at once
                 let mut h = [[0u32; 256]; 4];
-                let mut unknown = 0u64;
-                let mut vc = vals.chunks_exact(4);
-                let mut uc = unk.chunks_exact(4);
+                let mut unknown = 0u64; // cells of all-unknown blocks
+                let mut binned = 0u64; // unknown cells counted in bin 0
+                let mut vc = vals.chunks_exact(8);
+                let mut uc = unk.chunks_exact(8);
                 for (v, u) in (&mut vc).zip(&mut uc) {
-                    for k in 0..4 {
-                        // unknown cells are counted in bin 0 of sub-histogram k and removed below
-                        h[k][if u[k] { 0 } else { v[k] as usize }] += 1;
-                        unknown += u[k] as u64;
+                    let n_unknown = u.iter().filter(|&&x| x).count();
+                    if n_unknown == 8 {
+                        unknown += 8;
+                        continue;
                     }
+                    if n_unknown == 0 && v.iter().all(|&x| x == v[0]) {
+                        h[0][v[0] as usize] += 8;
+                        continue;
+                    }
+                    for k in 0..8 {
+                        // unknown cells are counted in bin 0 (v masked to 0, no branch) and
+                        // removed below
+                        h[k & 3][(v[k] & (u[k] as u8).wrapping_sub(1)) as usize] += 1;
+                    }
+                    binned += n_unknown as u64;
                 }
                 for (v, u) in vc.remainder().iter().zip(uc.remainder()) {
                     h[0][if *u { 0 } else { *v as usize }] += 1;
-                    unknown += *u as u64;
+                    binned += *u as u64;
                 }
                 let mut out = [0u64; 256];
                 for (i, o) in out.iter_mut().enumerate() {
                     *o = h.iter().map(|hk| hk[i] as u64).sum();
                 }
-                out[0] -= unknown;
-                (out, unknown)
+                out[0] -= binned;
+                (out, unknown + binned)
             })
             .collect();
         let mut known = [0u64; 256];

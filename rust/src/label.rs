@@ -114,8 +114,10 @@ fn next_set(row: &[u8], mut x: usize) -> usize {
     while x + 8 <= row.len() {
         let mut word = [0u8; 8];
         word.copy_from_slice(&row[x..x + 8]);
-        if u64::from_ne_bytes(word) != 0 {
-            break;
+        let bits = u64::from_le_bytes(word);
+        if bits != 0 {
+            // little-endian: the lowest set byte is the first one
+            return x + (bits.trailing_zeros() / 8) as usize;
         }
         x += 8;
     }
@@ -131,8 +133,9 @@ fn next_clear(row: &[u8], mut x: usize) -> usize {
     while x + 8 <= row.len() {
         let mut word = [0u8; 8];
         word.copy_from_slice(&row[x..x + 8]);
-        if u64::from_ne_bytes(word) != ALL_ONES {
-            break;
+        let bits = u64::from_le_bytes(word) ^ ALL_ONES;
+        if bits != 0 {
+            return x + (bits.trailing_zeros() / 8) as usize;
         }
         x += 8;
     }

@@ -4,8 +4,8 @@
 //! Module map (one idea per file; nothing here knows about Python except `python`):
 //! - [`grid`]: the borrowed map view and its checks, the value histogram, row bands.
 //! - [`border`]: reflect-101 indexing shared by every filter.
-//! - [`filter`]: integer binomial blur + Laplacian, and the Sobel products (their 2x2 box
-//!   sum is fused into the Harris step in [`corners`]).
+//! - [`filter`]: integer binomial blur + Laplacian (the Harris sums are tabulated per 4x4
+//!   mask window in [`corners`]).
 //! - [`label`]: 8-connected labelling of binary images by runs (union-find, parallel bands).
 //! - [`otsu`]: OpenCV-exact Otsu, and the threshold for every unknown value.
 //! - [`params`]: every metric parameter and its default.

@@ -1,0 +1,112 @@
+//! Per-stage timing of one evaluation, on one thread (issue 15).
+//!
+//! `cargo run --release --example stages -- MAP.raw HEIGHT WIDTH [RUNS]` where MAP.raw holds
+//! the values (H x W bytes) followed by the unknown mask (H x W bytes, 0/1), row-major
+//! (benches/bench.py --stages writes such files for its dense crops). Prints the minimum
+//! over RUNS of each stage's time, in ms per million cells, and checks that the stages
+//! together give what `evaluate` gives.
+
+use slamq::corners::{corner_runs, drop_dots_runs, structure_mask_runs};
+use slamq::enclosed::{binarisations, count_binarisation, sweep};
+use slamq::evaluate::evaluate;
+use slamq::grid::Grid;
+use slamq::label::Components;
+use slamq::otsu::threshold_table;
+use slamq::params::Params;
+use std::time::Instant;
+
+fn time<T>(best: &mut f64, f: impl FnOnce() -> T) -> T {
+    let t0 = Instant::now();
+    let out = f();
+    *best = best.min(t0.elapsed().as_secs_f64());
+    out
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 4 {
+        return Err("usage: stages MAP.raw HEIGHT WIDTH [RUNS]".into());
+    }
+    let bytes = std::fs::read(&args[1])?;
+    let (h, w): (usize, usize) = (args[2].parse()?, args[3].parse()?);
+    let runs: usize = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or(20);
+    if bytes.len() != 2 * h * w {
+        return Err(format!(
+            "{} holds {} bytes, expected {}",
+            args[1],
+            bytes.len(),
+            2 * h * w
+        )
+        .into());
+    }
+    let values = &bytes[..h * w];
+    let unknown: Vec<bool> = bytes[h * w..].iter().map(|&b| b != 0).collect();
+    let grid = Grid::new(values, &unknown, h, w)?;
+    let p = Params::default();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    pool.install(|| {
+        let names = [
+            "histogram",
+            "structure mask (blur + Laplacian + threshold + runs)",
+            "dot removal (label the runs, clear small)",
+            "Harris (sums, response, corner runs)",
+            "corner blobs (label corner runs)",
+            "Otsu table (256 thresholds)",
+        ];
+        let mut t = [f64::INFINITY; 6];
+        let mut total = f64::INFINITY;
+        let keys = binarisations(&grid.histogram(), &p.enclosed);
+        let mut tb = vec![f64::INFINITY; keys.len()];
+        let mut tsweep = f64::INFINITY;
+        let (mut corners, mut curve) = (0, Vec::new());
+        let mut q = None;
+        for _ in 0..runs {
+            let hist = time(&mut t[0], || grid.histogram());
+            let (mut mask, runs) = time(&mut t[1], || {
+                structure_mask_runs(&grid, p.corners.log_threshold)
+            });
+            let rr = time(&mut t[2], || {
+                drop_dots_runs(&mut mask, runs, h, w, p.corners.min_dot_area)
+            });
+            let cr = time(&mut t[3], || corner_runs(&mask, &rr, h, w, &p.corners));
+            corners = time(&mut t[4], || {
+                Components::from_runs(cr.runs, cr.row_start, h, w).count()
+            });
+            time(&mut t[5], || threshold_table(&hist));
+            for (k, b) in keys.iter().enumerate() {
+                time(&mut tb[k], || {
+                    count_binarisation(&grid, *b, p.enclosed.min_area)
+                });
+            }
+            curve = time(&mut tsweep, || sweep(&grid, &hist, &p.enclosed));
+            q = Some(time(&mut total, || evaluate(&grid, None, &p)));
+        }
+        let q = q.ok_or("no run")?.map_err(|e| e.to_string())?;
+        assert_eq!((q.corners, &q.curve), (corners, &curve));
+        let mc = (h * w) as f64 / 1e6;
+        let ms = |s: f64| s * 1e3 / mc;
+        println!("| stage | ms/Mcell |\n|---|---:|");
+        for (n, s) in names.iter().zip(t) {
+            println!("| {n} | {:.2} |", ms(s));
+        }
+        for (b, s) in keys.iter().zip(&tb) {
+            println!(
+                "| labelling: known free iff v >= {}, unknown {} | {:.2} |",
+                b.1,
+                if b.0 { "free" } else { "not free" },
+                ms(*s)
+            );
+        }
+        println!("| enclosed sweep as evaluate runs it | {:.2} |", ms(tsweep));
+        println!(
+            "| **evaluate (all three metrics, full sweep)** | **{:.2}** |",
+            ms(total)
+        );
+        println!(
+            "\n{h} x {w}, one thread, minimum of {runs} runs; corners {corners}, enclosed {}",
+            curve.iter().max().unwrap_or(&0)
+        );
+        Ok::<(), String>(())
+    })?;
+    Ok(())
+}
