@@ -388,8 +388,8 @@ def wall_angle(grid: OccupancyMap) -> float:
     row and column (``D``, integers), the 3x3 Sobel derivatives ``gx, gy`` of ``D``
     (reflect-101), and per cell with ``g = gx + i gy != 0`` the term ``g**4 / |g|**3``
     (weight ``|g|``, angle ``4 phi``) rounded half to even to integers and summed exactly;
-    the angle is ``atan2(sum Im, sum Re) / 4``. An image-style angle: positive turns +x towards +y (rows
-    down). A map with no known cell or no gradient has angle 0.
+    the angle is ``atan2(sum Im, sum Re) / 4``. An image-style angle: positive turns +x
+    towards +y (rows down). A map with no known cell or no gradient has angle 0.
 
     Examples
     --------
