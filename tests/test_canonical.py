@@ -235,3 +235,26 @@ def test_the_report_shows_each_maps_share_of_the_largest_known_area() -> None:
     r = rank_sequence(summarize(df), "s")
     assert r.coverage == {"a": 1.0, "b": 0.79, "c": 0.9}
     assert r.partial == ["b"]
+
+
+def test_map_facts_equal_a_plain_numpy_computation_on_small_and_thin_maps() -> None:
+    from slamq.models.quality import map_facts
+
+    rng = np.random.default_rng(3)
+    for h in range(1, 7):
+        for w in range(1, 7):
+            values = rng.choice(np.array([0, 100, 205, 254, 17], np.uint8), size=(h, w))
+            unknown = rng.random((h, w)) < 0.5
+            f = map_facts(OccupancyMap(values, unknown, resolution=0.1))
+            known = ~unknown
+            if not known.any():
+                assert math.isnan(f["known_box_m2"])
+                continue
+            rows, cols = np.flatnonzero(known.any(1)), np.flatnonzero(known.any(0))
+            box = (rows[-1] - rows[0] + 1) * (cols[-1] - cols[0] + 1) * 0.01
+            assert f["known_box_m2"] == pytest.approx(box, rel=1e-12)
+            levels = np.unique(values[known]).size
+            assert f["saver"].split("/")[1] == ("graded" if levels > 3 else "trinary")
+            if unknown.any():
+                shade = np.bincount(values[unknown], minlength=256).argmax()
+                assert f["saver"].endswith(f"unknown {shade}")

@@ -54,7 +54,7 @@ def map_facts(grid: Any) -> dict[str, Any]:
                                *bins[2:]).ravel()
         shade = str(int(unk.argmax()))
     mode = meta.get("mode") or meta.get("kind") or "array"
-    _, _, box_w, box_h = cv2.boundingRect(cv2.compare(unknown, 0, cv2.CMP_EQ))
+    _, _, box_w, box_h = cv2.boundingRect(np.equal(unknown, 0).view(np.uint8))
     nan = math.nan
     box = nan
     if box_w and grid.resolution is not None:
