@@ -25,6 +25,7 @@ import warnings
 from pathlib import Path
 
 import slamq
+from slamq.metrics.reference import canonical_map
 
 MAPS = (
     "base_model_mu_building/mu_gm.yaml",
@@ -67,8 +68,6 @@ def main() -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             m = slamq.load_map(path)
-        from slamq.metrics.reference import canonical_map
-
         canon = canonical_map(m)
         plain = best(lambda m=m: slamq.evaluate(m, threads=1, canonical_resolution=0,
                                                  sweep_step=256), args.repeat)

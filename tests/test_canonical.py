@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import warnings
 from pathlib import Path
 
 import cv2
@@ -120,7 +121,8 @@ def _corpus(shared_data: Path) -> list[OccupancyMap]:
         if "ground_truth" in path.name:
             continue
         try:
-            with _quiet():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # the corpus's YAMLs name absolute paths
                 m = slamq.load_map(path)
         except slamq.MapError:
             continue
@@ -133,22 +135,6 @@ def _corpus(shared_data: Path) -> list[OccupancyMap]:
         if (slamq.evaluate(m, **FAST).corners_canonical or 0) >= 100:
             out.append(m)
     return out
-
-
-def _quiet():  # noqa: ANN202 - a context manager
-    import warnings
-
-    ctx = warnings.catch_warnings()
-    ctx.__enter__()
-    warnings.simplefilter("ignore")
-
-    class _Exit:
-        def __enter__(self) -> None:
-            return None
-
-        def __exit__(self, *exc: object) -> None:
-            ctx.__exit__(*exc)
-    return _Exit()
 
 
 PERTURBATIONS = {
@@ -213,8 +199,6 @@ def test_comparability_warnings_name_the_metrics_affected() -> None:
 
 
 def test_a_bare_image_beside_its_yaml_is_flagged_in_its_record(test_data: Path) -> None:
-    import warnings
-
     pgm = test_data / "slam_comparison_tools" / "test_results" / "office" / "gmapping_map.pgm"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -15,8 +15,11 @@ use rayon::prelude::*;
 /// very coarse map resampled to a fine reference resolution.
 pub const MAX_CANONICAL_CELLS: usize = 1 << 30;
 
-/// Rows `r0..r1` and columns `c0..c1` of the known cells' bounding box, or `None`.
-pub fn known_bounds(grid: &Grid) -> Option<(usize, usize, usize, usize)> {
+/// Rows `r0..r1` and columns `c0..c1` of a box: `(r0, r1, c0, c1)`.
+pub type Bounds = (usize, usize, usize, usize);
+
+/// The known cells' bounding box, or `None`.
+pub fn known_bounds(grid: &Grid) -> Option<Bounds> {
     let w = grid.width;
     let known_row = |r: usize| grid.unknown[r * w..(r + 1) * w].iter().any(|&u| !u);
     let r0 = (0..grid.height).find(|&r| known_row(r))?;
@@ -104,9 +107,14 @@ fn angle_terms(gx: i64, gy: i64) -> (i64, i64) {
 /// and column (`D`), its 3x3 Sobel derivatives on that grid (reflect-101), and the sum of
 /// `g**4 / |g|**3` per cell, rounded to integers.
 pub fn wall_angle(grid: &Grid) -> Result<f64, OutOfMemory> {
-    let Some((r0, r1, c0, c1)) = known_bounds(grid) else {
-        return Ok(0.0);
-    };
+    match known_bounds(grid) {
+        Some(b) => angle_in(grid, b),
+        None => Ok(0.0),
+    }
+}
+
+/// [`wall_angle`] of the box `b` (the known cells' bounding box).
+fn angle_in(grid: &Grid, (r0, r1, c0, c1): Bounds) -> Result<f64, OutOfMemory> {
     let (h, w) = (r1 - r0, c1 - c0);
     let mut s = filled(h * w, 0i32)?;
     s.par_chunks_mut(w).enumerate().for_each(|(r, out)| {
@@ -175,14 +183,25 @@ pub fn canonical_map(
     resolution: Option<f64>,
     reference: f64,
 ) -> Result<Option<CanonicalMap>, OutOfMemory> {
-    let Some((r0, r1, c0, c1)) = known_bounds(grid) else {
-        return Ok(Some(CanonicalMap {
+    match known_bounds(grid) {
+        Some(b) => map_in(grid, b, angle, resolution, reference),
+        None => Ok(Some(CanonicalMap {
             values: grid.values.to_vec(),
             unknown: grid.unknown.to_vec(),
             height: grid.height,
             width: grid.width,
-        }));
-    };
+        })),
+    }
+}
+
+/// [`canonical_map`] of the box `b` (the known cells' bounding box).
+fn map_in(
+    grid: &Grid,
+    (r0, r1, c0, c1): Bounds,
+    angle: f64,
+    resolution: Option<f64>,
+    reference: f64,
+) -> Result<Option<CanonicalMap>, OutOfMemory> {
     let (h, w) = (r1 - r0, c1 - c0);
     let f = match resolution {
         Some(res) => reference / res,
@@ -282,14 +301,15 @@ pub fn canonical_corners(
     resolution: Option<f64>,
     params: &CornerParams,
 ) -> Result<Canonical, OutOfMemory> {
-    if known_bounds(grid).is_none() {
+    // one pass over the unknown mask for the box; both steps work inside it
+    let Some(b) = known_bounds(grid) else {
         return Ok(Canonical {
             angle: 0.0,
             corners: Some(0),
         });
-    }
-    let angle = wall_angle(grid)?;
-    let Some(map) = canonical_map(grid, angle, resolution, params.canonical_resolution)? else {
+    };
+    let angle = angle_in(grid, b)?;
+    let Some(map) = map_in(grid, b, angle, resolution, params.canonical_resolution)? else {
         return Ok(Canonical {
             angle,
             corners: None,

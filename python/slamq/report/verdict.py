@@ -99,21 +99,20 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
     warnings: list[str] = []
     share = known_share(block)  # by area: comparable across resolutions; else cells
     partial = {a for a, s in share.items() if s < COMPLETE_SHARE}
-    if partial:
-        for a in sorted(partial):
-            warnings.append(f"{a}'s map knows {100 * share[a]:.0f}% of the area of the most "
-                            "complete map: a partial map, never named best")
+    for a in sorted(partial):
+        warnings.append(f"{a}'s map knows {100 * share[a]:.0f}% of the area of the most "
+                        "complete map: a partial map, never named best")
     res_differ = len(distinct_resolutions(block.get("resolution_mean", []))) > 1
     turned = angle_spread(block.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG
+    differ = " and ".join(w for w, d in (("resolution", res_differ), ("orientation", turned))
+                          if d)
     for key, higher, tie, tie_higher, confidence in _BASES:
         if key == "corners" and (res_differ or turned) and len(
                 _means(block, "corners_canonical")):
             key = "corners_canonical"
-            warnings.append("the maps differ in " + (
-                "resolution" if res_differ and not turned else "orientation" if turned
-                and not res_differ else "resolution and orientation") + ": ranked by "
-                "corners_canonical (each map turned to its walls and resampled to one "
-                "resolution) instead of corners")
+            warnings.append(f"the maps differ in {differ}: ranked by corners_canonical (each "
+                            "map turned to its walls and resampled to one resolution) instead "
+                            "of corners")
         means = _means(block, key)
         if len(means) < 2 and not (key.startswith("corners") and len(means) == 1):
             continue
