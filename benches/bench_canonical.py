@@ -6,7 +6,7 @@ memory, minimum of ``--repeat`` runs:
 
 - ``plain``: ``slamq.evaluate(m, canonical_resolution=0, sweep_step=256)``: occupancy, the
   corner count and one binarisation of the sweep (an upper bound of the time of corners);
-- ``with canonical``: the same with the default ``canonical_resolution`` (0.05 m);
+- ``with canonical``: the same with the default ``canonical_resolution`` (0.07 m);
 
 and prints the canonical step's own time (the difference) and its ratio to ``plain``.
 

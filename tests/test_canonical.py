@@ -114,7 +114,7 @@ def test_skipped_when_canonical_resolution_is_zero_and_too_large_is_null() -> No
 
 def _corpus(shared_data: Path) -> list[OccupancyMap]:
     """The real SLAM maps of the corpus: one per distinct content, simulator ground truths
-    left out, at most 1 Mcell (test time), at least 100 canonical corners (a relative
+    left out, at most 1 Mcell (test time), at least 50 canonical corners (a relative
     change of a handful of corners says nothing)."""
     out, seen = [], set()
     for path in sorted((shared_data / "maps").rglob("*.yaml")):
@@ -132,7 +132,7 @@ def _corpus(shared_data: Path) -> list[OccupancyMap]:
         if digest in seen:
             continue
         seen.add(digest)
-        if (slamq.evaluate(m, **FAST).corners_canonical or 0) >= 100:
+        if (slamq.evaluate(m, **FAST).corners_canonical or 0) >= 50:
             out.append(m)
     return out
 
@@ -149,12 +149,11 @@ PERTURBATIONS = {
 
 
 def test_invariance_on_real_maps(shared_data: Path) -> None:
-    """Issue 13 item 2: under each rotation and on a 2x finer grid the median over the
-    corpus of corners_canonical's relative change stays within 10% of the upright, native
-    value. On a 2x coarser grid it does not: the coarser map has lost the detail (its walls
-    are two reference cells thick), and the median change is about -20% on these maps
-    (asserted within 25%), against -60% for plain corners. Plain corners on the same maps
-    are printed beside it (run with -s to see the table)."""
+    """Issue 13 item 2: under each rotation and on a 2x finer and a 2x coarser grid, the
+    median over the corpus of corners_canonical's relative change stays within 10% of the
+    upright, native value (and the median |change| within 25%), where plain corners move by
+    more than 40% on either grid. Plain corners on the same maps are printed beside it (run
+    with -s to see the table)."""
     maps = _corpus(shared_data)
     assert len(maps) >= 20, len(maps)
     print(f"\n{len(maps)} real maps; relative change, median (median of |change|; worst)")
@@ -169,8 +168,7 @@ def test_invariance_on_real_maps(shared_data: Path) -> None:
         print(f"{name:14s} corners_canonical {np.median(c):+.3f} ({np.median(abs(c)):.3f}; "
               f"{c[np.argmax(abs(c))]:+.2f})   corners {np.median(p):+.3f} "
               f"({np.median(abs(p)):.3f}; {p[np.argmax(abs(p))]:+.2f})")
-        bound = 0.25 if name == "2x coarser" else 0.10
-        assert abs(np.median(c)) <= bound, (name, np.median(c))
+        assert abs(np.median(c)) <= 0.10, (name, np.median(c))
         assert np.median(abs(c)) <= 0.25, (name, np.median(abs(c)))
         if name.startswith("2x"):  # where plain corners fail
             assert abs(np.median(p)) > 0.4 and abs(np.median(p)) > 2 * abs(np.median(c))

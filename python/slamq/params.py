@@ -76,7 +76,7 @@ class Params:
         "corner mask: Harris response above harris_quality * max R",
     )
     canonical_resolution: float = _param(
-        0.05, 0.0, None, "m",
+        0.07, 0.0, None, "m",
         "corners_canonical: the map is turned to its dominant wall direction and resampled "
         "to this resolution before its corners are counted; 0 skips corners_canonical",
     )

@@ -48,41 +48,53 @@ fn filled<T: Clone>(n: usize, x: T) -> Result<Vec<T>, OutOfMemory> {
 /// The 9-tap binomial (two 5-tap binomial blurs in one), sum 256.
 const B9: [i32; 9] = [1, 8, 28, 56, 70, 56, 28, 8, 1];
 
-/// `D`: the 9x9 binomial sum of `src` (`h x w`, reflect-101) at every second row and column
-/// (rows and columns 0, 2, 4, ...), `ceil(h/2) x ceil(w/2)`; exact in `i32` for inputs
-/// below 2^15.
+/// `D`: the 9x9 binomial sum of the box's known values (unknown cells count 0; reflect-101
+/// at the box's edges) at every second row and column (rows and columns 0, 2, 4, ...),
+/// `ceil(h/2) x ceil(w/2)`; exact in `i32` (at most 255 * 256^2). Each output row is one
+/// vertical pass over nine input rows, straight from the map, then the decimated
+/// horizontal taps: no full-size copy of the box.
 fn blur9_decimated(
-    src: &[i32],
-    h: usize,
-    w: usize,
+    grid: &Grid,
+    (r0, r1, c0, c1): Bounds,
 ) -> Result<(Vec<i32>, usize, usize), OutOfMemory> {
+    let (h, w) = (r1 - r0, c1 - c0);
     let (hd, wd) = (h.div_ceil(2), w.div_ceil(2));
-    let mut vert = filled(hd * w, 0i32)?;
-    vert.par_chunks_mut(w).enumerate().for_each(|(rd, out)| {
-        let rows: [&[i32]; 9] = std::array::from_fn(|k| {
-            let rr = reflect101((2 * rd) as isize + k as isize - 4, h);
-            &src[rr * w..(rr + 1) * w]
-        });
-        for (x, o) in out.iter_mut().enumerate() {
-            *o = (0..9).map(|k| B9[k] * rows[k][x]).sum();
-        }
-    });
     let mut out = filled(hd * wd, 0i32)?;
-    out.par_chunks_mut(wd)
-        .zip(vert.par_chunks(w))
-        .for_each(|(o, v)| {
+    out.par_chunks_mut(wd).enumerate().for_each_init(
+        || vec![0i32; w],
+        |vert, (rd, o)| {
+            vert.fill(0);
+            for (k, &b) in B9.iter().enumerate() {
+                let rr = reflect101((2 * rd) as isize + k as isize - 4, h);
+                let at = (r0 + rr) * grid.width + c0;
+                let (v, u) = (&grid.values[at..at + w], &grid.unknown[at..at + w]);
+                for ((acc, &v), &u) in vert.iter_mut().zip(v).zip(u) {
+                    *acc += b * (i32::from(v) * i32::from(!u));
+                }
+            }
             for (xd, o) in o.iter_mut().enumerate() {
                 let x = 2 * xd;
                 *o = if x >= 4 && x + 4 < w {
-                    (0..9).map(|k| B9[k] * v[x + k - 4]).sum()
+                    (0..9).map(|k| B9[k] * vert[x + k - 4]).sum()
                 } else {
                     (0..9)
-                        .map(|k| B9[k] * v[reflect101(x as isize + k as isize - 4, w)])
+                        .map(|k| B9[k] * vert[reflect101(x as isize + k as isize - 4, w)])
                         .sum()
                 };
             }
-        });
+        },
+    );
     Ok((out, hd, wd))
+}
+
+/// `x` rounded half to even, for `|x| < 2^51` (the terms are below `|g| < 2^31`): adding
+/// and subtracting 1.5 * 2^52 rounds in the FPU's default mode, which is half to even, the
+/// same as `round_ties_even` and numpy's `rint`, without the libm call that baseline x86-64
+/// makes of `round_ties_even`.
+#[inline]
+fn rint(x: f64) -> i64 {
+    const MAGIC: f64 = 6_755_399_441_055_744.0;
+    ((x + MAGIC) - MAGIC) as i64
 }
 
 /// The `g**4 / |g|**3` terms of one cell's Sobel gradient, rounded half to even (SPEC 3a.2).
@@ -96,9 +108,7 @@ fn angle_terms(gx: i64, gy: i64) -> (i64, i64) {
     let a = x * x - y * y;
     let b = 2.0 * (x * y);
     let w = r2 * r2.sqrt();
-    let re = ((a * a - b * b) / w).round_ties_even() as i64;
-    let im = ((2.0 * (a * b)) / w).round_ties_even() as i64;
-    (re, im)
+    (rint((a * a - b * b) / w), rint((2.0 * (a * b)) / w))
 }
 
 /// The dominant wall direction modulo 90 degrees of the known bounding box, radians in
@@ -115,17 +125,7 @@ pub fn wall_angle(grid: &Grid) -> Result<f64, OutOfMemory> {
 
 /// [`wall_angle`] of the box `b` (the known cells' bounding box).
 fn angle_in(grid: &Grid, (r0, r1, c0, c1): Bounds) -> Result<f64, OutOfMemory> {
-    let (h, w) = (r1 - r0, c1 - c0);
-    let mut s = filled(h * w, 0i32)?;
-    s.par_chunks_mut(w).enumerate().for_each(|(r, out)| {
-        let at = (r0 + r) * grid.width + c0;
-        let (v, u) = (&grid.values[at..at + w], &grid.unknown[at..at + w]);
-        for x in 0..w {
-            out[x] = if u[x] { 0 } else { v[x] as i32 };
-        }
-    });
-    let (g2, h, w) = blur9_decimated(&s, h, w)?;
-    drop(s);
+    let (g2, h, w) = blur9_decimated(grid, (r0, r1, c0, c1))?;
     let (re, im) = (0..h)
         .into_par_iter()
         .map(|r| {
@@ -224,12 +224,11 @@ fn map_in(
     let (half_w, half_h) = ((big_w / 2) as f64, (big_h / 2) as f64);
     let mut values = filled(big_w * big_h, 0u8)?;
     let mut unknown = filled(big_w * big_h, true)?;
-    // the sub-cell offsets, and per output column the rotated x parts; every product is
-    // the same float64 operation as in the reference, only computed once
+    // the sub-cell offsets, and per output column j and sub-column m the rotated x parts
+    // c*qx and s*qx (the same float64 products as the reference's, computed once), laid out
+    // m-major so that the address pass vectorises
     let offs: Vec<f64> = (0..n).map(|k| (k as f64 + 0.5) / nf).collect();
     let (wf, hf) = (w as f64, h as f64);
-    // per output column j and sub-column m: c*qx and s*qx (the same products as the
-    // reference's, computed once), laid out m-major so that the address pass vectorises
     let cols = big_w * n;
     let mut cqx = filled(cols, 0.0f64)?;
     let mut sqx = filled(cols, 0.0f64)?;
@@ -242,47 +241,141 @@ fn map_in(
     }
     let (w1, h1) = (wf - 1.0, hf - 1.0);
     let (stride, base) = (grid.width, r0 * grid.width + c0);
-    values
-        .par_chunks_mut(big_w)
-        .zip(unknown.par_chunks_mut(big_w))
+    let need = (n * n) as u32;
+    // which BLOCK x BLOCK blocks of the box hold a known cell: an output tile whose samples
+    // all fall in blocks without one is unknown, and is skipped (most of a turned, partly
+    // explored map's canonical grid)
+    const BLOCK: usize = 8;
+    let (bh, bw) = (h.div_ceil(BLOCK), w.div_ceil(BLOCK));
+    let mut known_block = filled(bh * bw, false)?;
+    known_block
+        .par_chunks_mut(bw)
         .enumerate()
-        .for_each(|(i, (vrow, urow))| {
-            let ii = i as f64 - half_h;
-            let mut total = vec![0u32; big_w];
-            let mut count = vec![0u32; big_w];
-            let mut at = vec![0usize; big_w];
-            for o in &offs {
-                let q = (ii + o) * f;
-                let (sqy, cqy) = (s * q, c * q);
-                for m in 0..n {
-                    let (cx_row, sx_row) = (
-                        &cqx[m * big_w..(m + 1) * big_w],
-                        &sqx[m * big_w..(m + 1) * big_w],
-                    );
-                    // addresses: the box cell under each sample (floor, clamped to the box:
-                    // samples beyond its edge take the edge cell, so a fully known map
-                    // gets no artificial frontier); for px >= 0, truncation is floor
-                    for ((a, &cq), &sq) in at.iter_mut().zip(cx_row).zip(sx_row) {
-                        let px = (cq - sqy) + cx;
-                        let py = (sq + cqy) + cy;
-                        let xi = px.max(0.0).min(w1) as usize;
-                        let yi = py.max(0.0).min(h1) as usize;
-                        *a = base + yi * stride + xi;
-                    }
-                    // branch-free: known and unknown cells alternate unpredictably
-                    for ((t, k), &a) in total.iter_mut().zip(count.iter_mut()).zip(&at) {
-                        let known = u32::from(!grid.unknown[a]);
-                        *t += u32::from(grid.values[a]) * known;
-                        *k += known;
-                    }
+        .for_each(|(br, out)| {
+            for r in br * BLOCK..((br + 1) * BLOCK).min(h) {
+                let row = &grid.unknown[base + r * stride..base + r * stride + w];
+                for (o, cells) in out.iter_mut().zip(row.chunks(BLOCK)) {
+                    *o |= cells.iter().any(|&u| !u);
                 }
             }
-            let need = (n * n) as u32;
-            for j in 0..big_w {
-                let (t, k) = (total[j] as u64, count[j] as u64);
-                if 2 * count[j] >= need {
-                    vrow[j] = ((2 * t + k) / (2 * k)) as u8;
-                    urow[j] = false;
+        });
+    // the box cell (row, column) under sample (k, m) of output cell (i, j): the address
+    // pass below computes the same, many at a time
+    let cell_of = |i: usize, k: usize, j: usize, m: usize| {
+        let q = (i as f64 - half_h + offs[k]) * f;
+        let px = (cqx[m * big_w + j] - s * q) + cx;
+        let py = (sqx[m * big_w + j] + c * q) + cy;
+        (
+            py.max(0.0).min(h1) as i64 as usize,
+            px.max(0.0).min(w1) as i64 as usize,
+        )
+    };
+    // a tile (output rows i0..i1, columns j0..j1) of which every sample is unknown: its
+    // samples lie in the bounding box of its four corner samples (the map is affine), taken
+    // one cell wider against rounding
+    let all_unknown = |i0: usize, i1: usize, j0: usize, j1: usize| {
+        let corners = [
+            cell_of(i0, 0, j0, 0),
+            cell_of(i0, 0, j1 - 1, n - 1),
+            cell_of(i1 - 1, n - 1, j0, 0),
+            cell_of(i1 - 1, n - 1, j1 - 1, n - 1),
+        ];
+        let y0 = corners
+            .iter()
+            .map(|c| c.0)
+            .min()
+            .unwrap_or(0)
+            .saturating_sub(1);
+        let y1 = corners
+            .iter()
+            .map(|c| c.0)
+            .max()
+            .unwrap_or(h - 1)
+            .saturating_add(1)
+            .min(h - 1);
+        let x0 = corners
+            .iter()
+            .map(|c| c.1)
+            .min()
+            .unwrap_or(0)
+            .saturating_sub(1);
+        let x1 = corners
+            .iter()
+            .map(|c| c.1)
+            .max()
+            .unwrap_or(w - 1)
+            .saturating_add(1)
+            .min(w - 1);
+        (y0 / BLOCK..=y1 / BLOCK).all(|br| {
+            known_block[br * bw + x0 / BLOCK..=br * bw + x1 / BLOCK]
+                .iter()
+                .all(|&k| !k)
+        })
+    };
+    // output tiles of TILE x TILE cells: the input cells one tile samples lie in a small
+    // turned square, so the gathers stay in cache (row by row over a wide turned map, every
+    // sample was a cache miss)
+    const TILE: usize = 64;
+    values
+        .par_chunks_mut(big_w * TILE)
+        .zip(unknown.par_chunks_mut(big_w * TILE))
+        .enumerate()
+        .for_each(|(t, (vblock, ublock))| {
+            let rows = vblock.len() / big_w;
+            // per output cell of a tile row: the sum and the number of its known samples
+            let mut total = [0u32; TILE];
+            let mut count = [0u32; TILE];
+            let mut at = [0usize; TILE];
+            for j0 in (0..big_w).step_by(TILE) {
+                let j1 = (j0 + TILE).min(big_w);
+                let cells = j1 - j0;
+                if all_unknown(t * TILE, t * TILE + rows, j0, j1) {
+                    continue; // left unknown, as allocated
+                }
+                for r in 0..rows {
+                    let ii = (t * TILE + r) as f64 - half_h;
+                    total[..cells].fill(0);
+                    count[..cells].fill(0);
+                    for o in &offs {
+                        let q = (ii + o) * f;
+                        let (sqy, cqy) = (s * q, c * q);
+                        for m in 0..n {
+                            let cx_row = &cqx[m * big_w + j0..m * big_w + j1];
+                            let sx_row = &sqx[m * big_w + j0..m * big_w + j1];
+                            // addresses: the box cell under each sample (floor, clamped to
+                            // the box: samples beyond its edge take the edge cell, so a
+                            // fully known map gets no artificial frontier); for px >= 0,
+                            // truncation is floor
+                            for ((a, &cq), &sq) in at[..cells].iter_mut().zip(cx_row).zip(sx_row) {
+                                let px = (cq - sqy) + cx;
+                                let py = (sq + cqy) + cy;
+                                // clamped to 0..w-1 first: the i64 cast is one
+                                // instruction, where a usize cast is several
+                                let xi = px.max(0.0).min(w1) as i64 as usize;
+                                let yi = py.max(0.0).min(h1) as i64 as usize;
+                                *a = base + yi * stride + xi;
+                            }
+                            // branch-free: known and unknown cells alternate unpredictably
+                            for ((t, k), &a) in total[..cells]
+                                .iter_mut()
+                                .zip(&mut count[..cells])
+                                .zip(&at[..cells])
+                            {
+                                let known = u32::from(!grid.unknown[a]);
+                                *t += u32::from(grid.values[a]) * known;
+                                *k += known;
+                            }
+                        }
+                    }
+                    let row = r * big_w + j0;
+                    for x in 0..cells {
+                        let (t, k) = (u64::from(total[x]), u64::from(count[x]));
+                        if 2 * k >= u64::from(need) {
+                            // the mean of the known samples, rounded half up
+                            vblock[row + x] = ((2 * t + k) / (2 * k)) as u8;
+                            ublock[row + x] = false;
+                        }
+                    }
                 }
             }
         });
@@ -377,6 +470,29 @@ mod tests {
     }
 
     #[test]
+    fn rint_rounds_half_to_even_like_round_ties_even() {
+        for x in [
+            0.5,
+            1.5,
+            2.5,
+            -0.5,
+            -1.5,
+            -2.5,
+            0.49999999999999994,
+            1e9 + 0.5,
+            -7.25,
+            123.75,
+        ] {
+            assert_eq!(rint(x), x.round_ties_even() as i64, "{x}");
+        }
+        let mut x = -1e6;
+        while x < 1e6 {
+            assert_eq!(rint(x), x.round_ties_even() as i64, "{x}");
+            x += 0.123_456_7;
+        }
+    }
+
+    #[test]
     fn bounds_are_the_known_box() {
         let mut u = vec![true; 5 * 6];
         for r in 1..3 {
@@ -395,15 +511,28 @@ mod timing {
     #[test]
     #[ignore]
     fn time_steps() {
-        let n = 1000;
-        let mut v = vec![254u8; n * n];
-        for i in 0..n * n {
-            if (i / n) % 37 == 0 || (i % n) % 53 == 0 {
-                v[i] = 0;
+        // CANON_RAW=MAP.raw:H:W (values then the 0/1 unknown mask, as examples/stages.rs
+        // reads them) times a real map; else a 1000 x 1000 grid of walls
+        let (v, u, h, w) = match std::env::var("CANON_RAW") {
+            Ok(spec) => {
+                let parts: Vec<&str> = spec.split(':').collect();
+                let (h, w): (usize, usize) = (parts[1].parse().unwrap(), parts[2].parse().unwrap());
+                let bytes = std::fs::read(parts[0]).unwrap();
+                let u: Vec<bool> = bytes[h * w..].iter().map(|&b| b != 0).collect();
+                (bytes[..h * w].to_vec(), u, h, w)
             }
-        }
-        let u = vec![false; n * n];
-        let g = Grid::new(&v, &u, n, n).unwrap();
+            Err(_) => {
+                let n = 1000;
+                let mut v = vec![254u8; n * n];
+                for i in 0..n * n {
+                    if (i / n) % 37 == 0 || (i % n) % 53 == 0 {
+                        v[i] = 0;
+                    }
+                }
+                (v, vec![false; n * n], n, n)
+            }
+        };
+        let g = Grid::new(&v, &u, h, w).unwrap();
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
             .build()
@@ -418,9 +547,7 @@ mod timing {
                 let t = std::time::Instant::now();
                 let a = wall_angle(&g).unwrap();
                 let t1 = t.elapsed().as_secs_f64();
-                let m = canonical_map(&g, a + 0.1, Some(0.05), 0.05)
-                    .unwrap()
-                    .unwrap();
+                let m = canonical_map(&g, a, Some(0.05), 0.07).unwrap().unwrap();
                 let t2 = t.elapsed().as_secs_f64();
                 let g2 = Grid::new(&m.values, &m.unknown, m.height, m.width).unwrap();
                 let _ = count_corners(&g2, &CornerParams::default());

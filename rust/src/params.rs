@@ -27,7 +27,7 @@ impl Default for CornerParams {
             min_dot_area: 5,
             harris_k: 0.04,
             harris_quality: 0.01,
-            canonical_resolution: 0.05,
+            canonical_resolution: 0.07,
         }
     }
 }

@@ -449,8 +449,8 @@ def canonical_map(grid: OccupancyMap, params: Params | None = None) -> Occupancy
     >>> img = np.full((30, 30), 254, np.uint8)
     >>> img[8, 4:26] = 0
     >>> c = canonical_map(OccupancyMap(img, np.zeros_like(img, bool), resolution=0.05))
-    >>> c.shape, c.resolution          # 30 x 30 cells and 2 of margin on each side
-    ((34, 34), 0.05)
+    >>> c.shape, c.resolution          # 30 x 30 cells of 0.05 m: 21.4 of 0.07 m, plus margin
+    ((26, 26), 0.07)
     """
     params = _params(params)
     crop = _crop(grid)

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from typing import IO
 
 from slamq.models import MapQuality
+from slamq.params import Params
 
 __all__ = ["format_table", "print_table"]
 
@@ -34,8 +35,9 @@ LEGEND = (
     "lower is better for occupied_fraction, corners and enclosed_areas (paper III); "
     "peak_at_u: the unknown value at which enclosed_areas peaks; proportion = occupied / "
     "(free + unknown) depends on the canvas; canonical: corners of the map turned to its walls' "
-    "direction and resampled to 0.05 m (compare maps of different orientation or resolution "
-    "on it)"
+    "direction and resampled to canonical_resolution (default "
+    f"{Params().canonical_resolution:g} m; compare maps of different orientation or "
+    "resolution on it)"
 )
 
 
