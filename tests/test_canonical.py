@@ -240,3 +240,25 @@ def test_map_facts_equal_a_plain_numpy_computation_on_small_and_thin_maps() -> N
             if unknown.any():
                 shade = np.bincount(values[unknown], minlength=256).argmax()
                 assert f["saver"].endswith(f"unknown {shade}")
+
+
+def test_the_core_gives_the_same_map_facts_as_opencv() -> None:
+    """slamq.evaluate takes saver and known box from the Rust histogram pass; map_facts
+    (OpenCV) is their reference: equal on random maps, with and without loader pixels
+    (the shade of the unknown cells comes from the pixels when they differ), and on every
+    shape down to 1 x 1."""
+    from slamq.models.quality import map_facts
+
+    rng = np.random.default_rng(5)
+    for i in range(60):
+        h, w = rng.integers(1, 40, size=2)
+        values = rng.choice(np.array([0, 100, 205, 254, 17, 3], np.uint8), size=(h, w))
+        unknown = rng.random((h, w)) < rng.random()
+        meta = {"pixels": rng.integers(0, 256, size=(h, w), dtype=np.uint8)} if i % 2 else {}
+        m = OccupancyMap(values, unknown, resolution=[None, 0.05][i % 3 > 0], meta=meta)
+        q = slamq.evaluate(m, **FAST)
+        f = map_facts(m)
+        assert q.saver == f["saver"], (i, q.saver, f["saver"])
+        assert q.flags == f["flags"]
+        box = f["known_box_m2"]
+        assert q.known_box_m2 == box or (math.isnan(box) and math.isnan(q.known_box_m2))

@@ -26,6 +26,12 @@ class RawQuality:
     def corners_canonical(self) -> int | None: ...
     @property
     def curve(self) -> list[int]: ...
+    @property
+    def known_levels(self) -> int: ...
+    @property
+    def unknown_shade(self) -> int | None: ...
+    @property
+    def known_box(self) -> tuple[int, int, int, int] | None: ...
 
 class RawComparison:
     """The counts and sums of one ground-truth comparison (SPEC section 7); distances in
@@ -76,6 +82,7 @@ def evaluate(
     params: Params,
     threads: int = 0,
     resolution: float | None = None,
+    shade: npt.NDArray[np.uint8] | None = None,
 ) -> RawQuality: ...
 def evaluate_many(
     maps: list[tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_], float | None]],

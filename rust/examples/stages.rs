@@ -79,7 +79,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 });
             }
             curve = time(&mut tsweep, || sweep(&grid, &hist, &p.enclosed));
-            q = Some(time(&mut total, || evaluate(&grid, None, &p)));
+            q = Some(time(&mut total, || evaluate(&grid, None, &p, None)));
         }
         let q = q.ok_or("no run")?.map_err(|e| e.to_string())?;
         assert_eq!((q.corners, &q.curve), (corners, &curve));

@@ -394,8 +394,19 @@ pub fn canonical_corners(
     resolution: Option<f64>,
     params: &CornerParams,
 ) -> Result<Canonical, OutOfMemory> {
-    // one pass over the unknown mask for the box; both steps work inside it
-    let Some(b) = known_bounds(grid) else {
+    canonical_corners_in(grid, known_bounds(grid), resolution, params)
+}
+
+/// [`canonical_corners`] with the known cells' bounding box already found
+/// ([`known_bounds`]).
+pub fn canonical_corners_in(
+    grid: &Grid,
+    bounds: Option<Bounds>,
+    resolution: Option<f64>,
+    params: &CornerParams,
+) -> Result<Canonical, OutOfMemory> {
+    // both steps work inside the box
+    let Some(b) = bounds else {
         return Ok(Canonical {
             angle: 0.0,
             corners: Some(0),

@@ -1,6 +1,6 @@
 //! All three metrics of one map (SPEC sections 2-4, and 3a), and of many maps in parallel.
 
-use crate::canonical::canonical_corners;
+use crate::canonical::{canonical_corners_in, known_bounds, Bounds};
 use crate::corners::count_corners;
 use crate::enclosed::sweep;
 use crate::grid::Grid;
@@ -19,6 +19,13 @@ pub struct Quality {
     pub corners_canonical: Option<usize>,
     /// `count_u` for every swept `u`.
     pub curve: Vec<usize>,
+    /// What the map's numbers depend on besides the place (the comparability checks): the
+    /// number of distinct values among the known cells, the commonest value (or shade,
+    /// [`Grid::histogram_with`]) of the unknown cells (the smallest of equals; `None`
+    /// without unknown cells), and the known cells' bounding box `(r0, r1, c0, c1)`.
+    pub known_levels: usize,
+    pub unknown_shade: Option<u8>,
+    pub known_box: Option<Bounds>,
 }
 
 // NaN never equals itself; two results are equal when their angles are bit-identical.
@@ -29,6 +36,8 @@ impl PartialEq for Quality {
             && self.wall_angle.to_bits() == other.wall_angle.to_bits()
             && self.corners_canonical == other.corners_canonical
             && self.curve == other.curve
+            && (self.known_levels, self.unknown_shade, self.known_box)
+                == (other.known_levels, other.unknown_shade, other.known_box)
     }
 }
 
@@ -70,29 +79,43 @@ pub fn reserve_working_set(cells: usize) -> Result<(), OutOfMemory> {
 }
 
 /// Evaluate one map of `resolution` metres per cell (`None`: not known), or say that its
-/// working memory cannot be had.
+/// working memory cannot be had. `shade`: the array whose values give the unknown cells'
+/// shade (`Quality::unknown_shade`; the loader's pixels), `None`: the map's values.
 pub fn evaluate(
     grid: &Grid,
     resolution: Option<f64>,
     params: &Params,
+    shade: Option<&[u8]>,
 ) -> Result<Quality, OutOfMemory> {
     reserve_working_set(grid.height * grid.width)?;
-    let hist = grid.histogram();
+    let hist = grid.histogram_with(shade);
     let occupancy = occupancy(&hist);
     let corners = count_corners(grid, &params.corners);
     let curve = sweep(grid, &hist, &params.enclosed);
+    let known_box = known_bounds(grid);
     let (wall_angle, corners_canonical) = if params.corners.canonical_resolution > 0.0 {
-        let c = canonical_corners(grid, resolution, &params.corners)?;
+        let c = canonical_corners_in(grid, known_box, resolution, &params.corners)?;
         (c.angle, c.corners)
     } else {
         (f64::NAN, None)
     };
+    // the first of equal counts, as numpy's argmax
+    let unknown_shade = (hist.unknown > 0).then(|| {
+        let top = hist.unknown_values.iter().copied().max().unwrap_or(0);
+        hist.unknown_values
+            .iter()
+            .position(|&c| c == top)
+            .unwrap_or(0) as u8
+    });
     Ok(Quality {
         occupancy,
         corners,
         wall_angle,
         corners_canonical,
         curve,
+        known_levels: hist.known.iter().filter(|&&c| c > 0).count(),
+        unknown_shade,
+        known_box,
     })
 }
 
@@ -103,7 +126,7 @@ pub fn evaluate_many(
 ) -> Vec<Result<Quality, OutOfMemory>> {
     grids
         .par_iter()
-        .map(|(g, res)| evaluate(g, *res, params))
+        .map(|(g, res)| evaluate(g, *res, params, None))
         .collect()
 }
 

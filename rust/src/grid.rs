@@ -109,27 +109,41 @@ impl<'a> Grid<'a> {
         &self.unknown[r * self.width..(r + 1) * self.width]
     }
 
-    /// Histogram of the known cells' values, and the number of unknown cells.
+    /// Histogram of the known cells' values, the number of unknown cells, and the histogram
+    /// of the unknown cells' values.
     pub fn histogram(&self) -> Histogram {
+        self.histogram_with(None)
+    }
+
+    /// [`Grid::histogram`], the unknown cells counted by the value of `shade` at the same
+    /// cell (the loader's pixels, whose shade says how the map was saved) instead of their
+    /// value; `None`, or a `shade` of another length: their value.
+    pub fn histogram_with(&self, shade: Option<&[u8]>) -> Histogram {
         let w = self.width;
         let band = BAND_ROWS * w;
-        let parts: Vec<([u64; 256], u64)> = self
+        let shade = match shade {
+            Some(s) if s.len() == self.values.len() => s,
+            _ => self.values,
+        };
+        let parts: Vec<([u64; 256], [u64; 256])> = self
             .values
             .par_chunks(band)
             .zip(self.unknown.par_chunks(band))
-            .map(|(vals, unk)| {
-                // four sub-histograms break the store-to-load dependency on repeated values;
-                // blocks of 8 cells that are all unknown, or all known with one value (long
-                // runs of free space and canvas), are counted at once
-                let mut h = [[0u32; 256]; 4];
-                let mut unknown = 0u64; // cells of all-unknown blocks
-                let mut binned = 0u64; // unknown cells counted in bin 0
+            .zip(shade.par_chunks(band))
+            .map(|((vals, unk), sh)| {
+                // one table of 512 bins: known cells by value in 0..256, unknown cells by
+                // their shade in 256..512; four sub-tables break the store-to-load
+                // dependency on repeated values; blocks of 8 cells that are all known (or
+                // all unknown) with one value (shade), long runs of free space and canvas,
+                // are counted at once
+                let mut h = [[0u32; 512]; 4];
                 let mut vc = vals.chunks_exact(8);
                 let mut uc = unk.chunks_exact(8);
-                for (v, u) in (&mut vc).zip(&mut uc) {
+                let mut sc = sh.chunks_exact(8);
+                for ((v, u), s) in (&mut vc).zip(&mut uc).zip(&mut sc) {
                     let n_unknown = u.iter().filter(|&&x| x).count();
-                    if n_unknown == 8 {
-                        unknown += 8;
+                    if n_unknown == 8 && s.iter().all(|&x| x == s[0]) {
+                        h[0][256 + s[0] as usize] += 8;
                         continue;
                     }
                     if n_unknown == 0 && v.iter().all(|&x| x == v[0]) {
@@ -137,33 +151,45 @@ impl<'a> Grid<'a> {
                         continue;
                     }
                     for k in 0..8 {
-                        // unknown cells are counted in bin 0 (v masked to 0, no branch) and
-                        // removed below
-                        h[k & 3][(v[k] & (u[k] as u8).wrapping_sub(1)) as usize] += 1;
+                        // no branch: the value, or for an unknown cell its shade, and the
+                        // half of the table
+                        let m = u8::from(u[k]).wrapping_neg();
+                        let x = (v[k] & !m) | (s[k] & m);
+                        h[k & 3][x as usize | (usize::from(u[k]) << 8)] += 1;
                     }
-                    binned += n_unknown as u64;
                 }
-                for (v, u) in vc.remainder().iter().zip(uc.remainder()) {
-                    h[0][if *u { 0 } else { *v as usize }] += 1;
-                    binned += *u as u64;
+                for ((v, u), s) in vc
+                    .remainder()
+                    .iter()
+                    .zip(uc.remainder())
+                    .zip(sc.remainder())
+                {
+                    let x = if *u { 256 + *s as usize } else { *v as usize };
+                    h[0][x] += 1;
                 }
-                let mut out = [0u64; 256];
-                for (i, o) in out.iter_mut().enumerate() {
-                    *o = h.iter().map(|hk| hk[i] as u64).sum();
+                let (mut known, mut shades) = ([0u64; 256], [0u64; 256]);
+                for i in 0..256 {
+                    known[i] = h.iter().map(|hk| u64::from(hk[i])).sum();
+                    shades[i] = h.iter().map(|hk| u64::from(hk[256 + i])).sum();
                 }
-                out[0] -= binned;
-                (out, unknown + binned)
+                (known, shades)
             })
             .collect();
         let mut known = [0u64; 256];
-        let mut unknown = 0u64;
-        for (h, u) in parts {
+        let mut unknown_values = [0u64; 256];
+        for (h, sh) in parts {
             for (k, c) in known.iter_mut().zip(h.iter()) {
                 *k += c;
             }
-            unknown += u;
+            for (k, c) in unknown_values.iter_mut().zip(sh.iter()) {
+                *k += c;
+            }
         }
-        Histogram { known, unknown }
+        Histogram {
+            known,
+            unknown: unknown_values.iter().sum(),
+            unknown_values,
+        }
     }
 }
 
@@ -172,6 +198,8 @@ impl<'a> Grid<'a> {
 pub struct Histogram {
     pub known: [u64; 256],
     pub unknown: u64,
+    /// The unknown cells by value (or by the shade they were histogrammed with).
+    pub unknown_values: [u64; 256],
 }
 
 impl Histogram {
@@ -226,5 +254,24 @@ mod tests {
         }
         assert_eq!(h.known, expect);
         assert_eq!(h.unknown, u.iter().filter(|x| **x).count() as u64);
+        // the unknown cells by value, and by another array's value (a shade)
+        let shade: Vec<u8> = (0..200u32).map(|i| (i % 11) as u8 + 100).collect();
+        let (mut by_value, mut by_shade) = ([0u64; 256], [0u64; 256]);
+        for ((a, s), b) in v.iter().zip(&shade).zip(&u) {
+            if *b {
+                by_value[*a as usize] += 1;
+                by_shade[*s as usize] += 1;
+            }
+        }
+        assert_eq!(h.unknown_values, by_value);
+        let hs = g.histogram_with(Some(&shade));
+        assert_eq!((hs.known, hs.unknown), (h.known, h.unknown));
+        assert_eq!(hs.unknown_values, by_shade);
+        // blocks of 8 all-unknown cells of one shade, and all-known of one value
+        let v = vec![7u8; 64];
+        let u: Vec<bool> = (0..64).map(|i| i < 32).collect();
+        let g = Grid::new(&v, &u, 4, 16).unwrap();
+        let h = g.histogram_with(Some(&[205u8; 64]));
+        assert_eq!((h.known[7], h.unknown, h.unknown_values[205]), (32, 32, 32));
     }
 }

@@ -176,7 +176,11 @@ mod tests {
             } else {
                 (state >> 30) % 100_000
             };
-            let hist = Histogram { known, unknown };
+            let hist = Histogram {
+                known,
+                unknown,
+                unknown_values: [0; 256],
+            };
             let total = hist.known_count() + unknown;
             let table = threshold_table(&hist);
             for u in 0..256 {

@@ -58,7 +58,11 @@ mod tests {
         for &(v, c) in pairs {
             known[v] = c;
         }
-        Histogram { known, unknown }
+        Histogram {
+            known,
+            unknown,
+            unknown_values: [0; 256],
+        }
     }
 
     #[test]

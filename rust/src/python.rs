@@ -163,6 +163,14 @@ struct RawQuality {
     corners_canonical: Option<usize>,
     /// `count_u` for every swept `u` (SPEC 4).
     curve: Vec<usize>,
+    /// Distinct values among the known cells.
+    known_levels: usize,
+    /// The commonest value (shade) of the unknown cells, the smallest of equals; None
+    /// without unknown cells.
+    unknown_shade: Option<u8>,
+    /// The known cells' bounding box `(r0, r1, c0, c1)` (rows `r0..r1`, columns `c0..c1`);
+    /// None without known cells.
+    known_box: Option<(usize, usize, usize, usize)>,
 }
 
 // NaN angles (canonical step skipped) compare equal bit for bit.
@@ -173,6 +181,8 @@ impl PartialEq for RawQuality {
             && self.wall_angle.to_bits() == o.wall_angle.to_bits()
             && self.corners_canonical == o.corners_canonical
             && self.curve == o.curve
+            && (self.known_levels, self.unknown_shade, self.known_box)
+                == (o.known_levels, o.unknown_shade, o.known_box)
     }
 }
 
@@ -186,6 +196,9 @@ impl From<Quality> for RawQuality {
             wall_angle: q.wall_angle,
             corners_canonical: q.corners_canonical,
             curve: q.curve,
+            known_levels: q.known_levels,
+            unknown_shade: q.unknown_shade,
+            known_box: q.known_box,
         }
     }
 }
@@ -217,12 +230,14 @@ fn checked_resolution(resolution: Option<f64>) -> PyResult<Option<f64>> {
     }
 }
 
-/// evaluate(values, unknown, params, threads=0, resolution=None) -> RawQuality
+/// evaluate(values, unknown, params, threads=0, resolution=None, shade=None) -> RawQuality
 ///
 /// The integers of SPEC sections 2-4 (and 3a) for one map. `params`: a `slamq.Params`;
-/// `threads` = 0 uses every core; `resolution`: metres per cell, for `corners_canonical`.
+/// `threads` = 0 uses every core; `resolution`: metres per cell, for `corners_canonical`;
+/// `shade`: an array of the map's shape whose values give the unknown cells' shade
+/// (`RawQuality.unknown_shade`; the loader's pixels), `None`: the map's values.
 #[pyfunction]
-#[pyo3(signature = (values, unknown, params, threads=0, resolution=None))]
+#[pyo3(signature = (values, unknown, params, threads=0, resolution=None, shade=None))]
 fn evaluate(
     py: Python<'_>,
     values: PyReadonlyArray2<'_, u8>,
@@ -230,11 +245,26 @@ fn evaluate(
     params: PyParams,
     threads: usize,
     resolution: Option<f64>,
+    shade: Option<PyReadonlyArray2<'_, u8>>,
 ) -> PyResult<RawQuality> {
     let p = params.checked()?;
     let g = grid(&values, &unknown)?;
     let res = checked_resolution(resolution)?;
-    let q = compute(py, threads, || evaluate_grid(&g, res, &p))?;
+    let shade = match &shade {
+        None => None,
+        Some(s) if s.shape() != values.shape() => {
+            return Err(PyValueError::new_err(format!(
+                "shade shape {:?} differs from values shape {:?}",
+                s.shape(),
+                values.shape()
+            )))
+        }
+        Some(s) => Some(
+            s.as_slice()
+                .map_err(|_| PyValueError::new_err("shade must be a C-contiguous uint8 array"))?,
+        ),
+    };
+    let q = compute(py, threads, || evaluate_grid(&g, res, &p, shade))?;
     Ok(q.map_err(|e| memory_error(&e, None))?.into())
 }
 

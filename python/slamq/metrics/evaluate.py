@@ -16,7 +16,7 @@ from typing import Any, Union
 
 from slamq.errors import ConformanceError, OutOfMemoryError, SlamqError
 from slamq.models import MapQuality, OccupancyMap
-from slamq.models.quality import map_facts
+from slamq.models.quality import facts_from_counts, shade_source
 from slamq.params import Params, check_threads, params_doc
 from slamq.sources import load_map
 
@@ -91,7 +91,8 @@ def evaluate(
         raise OutOfMemoryError(f"{os.fspath(where)}: out of memory while loading the map"
                                ) from None
     try:
-        raw = _core.evaluate(grid.values, grid.unknown, params, n_threads, grid.resolution)
+        raw = _core.evaluate(grid.values, grid.unknown, params, n_threads, grid.resolution,
+                             shade_source(grid))
     except MemoryError as exc:
         h, w = grid.shape
         raise OutOfMemoryError(f"{grid.source}: {exc} of a {h} x {w} map (up to "
@@ -109,7 +110,7 @@ def evaluate(
         resolution=grid.resolution,
         corners_canonical=raw.corners_canonical,
         wall_angle=raw.wall_angle,
-        facts=map_facts(grid),
+        facts=facts_from_counts(grid, raw.known_levels, raw.unknown_shade, raw.known_box),
     )
     if verify:
         from slamq.metrics import reference

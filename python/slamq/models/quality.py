@@ -10,7 +10,28 @@ from typing import Any
 
 from slamq.params import Params
 
-__all__ = ["MapQuality", "map_facts"]
+__all__ = ["MapQuality", "facts_from_counts", "map_facts", "shade_source"]
+
+
+def shade_source(grid: Any) -> Any:
+    """The array whose values give a map's unknown cells their shade (``saver`` of
+    :func:`map_facts`): the loader's pixels (``meta["pixels"]``) when they differ from the
+    values (a YAML's thresholds, ``negate``), else None (the values themselves).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import load_map
+    >>> shade_source(load_map(np.array([[0, 205]], np.uint8))) is None
+    True
+    """
+    import numpy as np
+
+    pixels = (getattr(grid, "meta", {}) or {}).get("pixels")
+    if (isinstance(pixels, np.ndarray) and pixels.dtype == np.uint8
+            and pixels.shape == grid.values.shape and pixels is not grid.values):
+        return np.ascontiguousarray(pixels)
+    return None
 
 
 def map_facts(grid: Any) -> dict[str, Any]:
@@ -24,6 +45,10 @@ def map_facts(grid: Any) -> dict[str, Any]:
     ``mostly_unknown``) with ``;``. ``known_box_m2`` is the area of the known cells'
     bounding box (NaN without a resolution).
 
+    This is the reference, with OpenCV's histograms and bounding box; ``slamq.evaluate``
+    takes the same counts from the Rust core's histogram pass (:func:`facts_from_counts`),
+    and ``verify=True`` checks that they agree.
+
     Examples
     --------
     >>> import numpy as np
@@ -36,33 +61,50 @@ def map_facts(grid: Any) -> dict[str, Any]:
     import cv2
     import numpy as np
 
-    # OpenCV's masked histograms and bounding box: one vectorised pass each, where numpy's
-    # unique / boolean indexing cost as much as the whole Rust evaluation of a busy map
     values = np.ascontiguousarray(grid.values, np.uint8)
     unknown = np.ascontiguousarray(grid.unknown, bool).view(np.uint8)
-    meta = getattr(grid, "meta", {}) or {}
     bins = ([0], None, [256], [0, 256])
     total = cv2.calcHist([values], bins[0], None, *bins[2:]).ravel()
     unk = cv2.calcHist([values], bins[0], unknown, *bins[2:]).ravel()
     levels = int(np.count_nonzero(total - unk))
-    pixels = meta.get("pixels")
-    shade = "-"
+    shade = None
     if unk.sum() > 0:
-        if isinstance(pixels, np.ndarray) and pixels.shape == values.shape and (
-                pixels is not grid.values) and pixels.dtype == np.uint8:
-            unk = cv2.calcHist([np.ascontiguousarray(pixels)], bins[0], unknown,
-                               *bins[2:]).ravel()
-        shade = str(int(unk.argmax()))
+        pixels = shade_source(grid)
+        if pixels is not None:
+            unk = cv2.calcHist([pixels], bins[0], unknown, *bins[2:]).ravel()
+        shade = int(unk.argmax())
+    x, y, box_w, box_h = cv2.boundingRect(np.equal(unknown, 0).view(np.uint8))
+    box = (y, y + box_h, x, x + box_w) if box_w else None
+    return facts_from_counts(grid, levels, shade, box)
+
+
+def facts_from_counts(grid: Any, levels: int, shade: int | None,
+                      box: tuple[int, int, int, int] | None) -> dict[str, Any]:
+    """:func:`map_facts` from its counts: the number of distinct values of the known cells,
+    the unknown cells' commonest shade (None without unknown cells) and the known cells'
+    bounding box ``(r0, r1, c0, c1)`` (None without known cells).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import OccupancyMap
+    >>> m = OccupancyMap(np.zeros((4, 4), np.uint8), np.zeros((4, 4), bool), resolution=0.5)
+    >>> facts_from_counts(m, 1, None, (0, 4, 1, 3))["known_box_m2"]
+    2.0
+    """
+    import math
+
+    meta = getattr(grid, "meta", {}) or {}
     mode = meta.get("mode") or meta.get("kind") or "array"
-    _, _, box_w, box_h = cv2.boundingRect(np.equal(unknown, 0).view(np.uint8))
-    nan = math.nan
-    box = nan
-    if box_w and grid.resolution is not None:
-        box = float(box_w * box_h) * float(grid.resolution) ** 2
+    box_m2 = math.nan
+    if box is not None and grid.resolution is not None:
+        r0, r1, c0, c1 = box
+        box_m2 = float((r1 - r0) * (c1 - c0)) * float(grid.resolution) ** 2
     return {
-        "saver": f"{mode}/{'graded' if levels > 3 else 'trinary'}/unknown {shade}",
+        "saver": f"{mode}/{'graded' if levels > 3 else 'trinary'}/unknown "
+                 f"{'-' if shade is None else shade}",
         "flags": ";".join(meta.get("flags", [])),
-        "known_box_m2": box,
+        "known_box_m2": box_m2,
     }
 
 
@@ -244,7 +286,11 @@ class MapQuality:
             a, b = getattr(self, name), getattr(other, name)
             if a != b and not (name == "curve" and (a is None or b is None)):
                 diffs.append(f"{name}: {a!r} != {b!r}")
-        for name in ("occupied_fraction", "proportion", "threshold", "wall_angle"):
+        for name in ("saver", "flags"):
+            if getattr(self, name) != getattr(other, name):
+                diffs.append(f"{name}: {getattr(self, name)!r} != {getattr(other, name)!r}")
+        for name in ("occupied_fraction", "proportion", "threshold", "wall_angle",
+                     "known_box_m2"):
             a, b = getattr(self, name), getattr(other, name)
             if math.isnan(a) and math.isnan(b):
                 continue
