@@ -9,6 +9,8 @@ file reading included:
   ``sync.associate_trajectories`` + ``main_ape.ape(align=True)``,
 - optionally the ``evo_ape tum GT EST -a`` command (``--cli``; includes start-up),
 
+then the peak memory of each side, each in a fresh process (``--no-memory`` skips it),
+
 asserts that the RMSE (and every statistic) agree to 1e-9, and prints a table with the
 ratios measured in this run.
 
@@ -118,6 +120,39 @@ def timed(fn, repeat: int, children: bool = False):
     return best, best_cpu, out
 
 
+def _status_kb(field: str) -> int:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(field + ":"):
+                return int(line.split()[1])
+    return 0
+
+
+def child(which: str, gt: Path, est: Path) -> None:
+    """Run one side once in this (fresh) process and print its peak memory: VmHWM (peak
+    resident set) and VmRSS after the imports (the interpreter, numpy, pandas, evo)."""
+    logging.getLogger("evo").setLevel(logging.WARNING)
+    if which == "evo":
+        from evo.core import metrics, sync  # noqa: F401
+        from evo.main_ape import ape  # noqa: F401
+        from evo.tools import file_interface  # noqa: F401
+    else:
+        import slamq.metrics.ate  # noqa: F401
+        import slamq.sources.trajectories  # noqa: F401
+    import pandas  # noqa: F401
+    base = _status_kb("VmRSS")
+    run_evo(gt, est) if which == "evo" else run_slamq(gt, est, "se3")
+    print(base, _status_kb("VmHWM"))
+
+
+def peak_memory(which: str, gt: Path, est: Path) -> tuple[float, float]:
+    """(peak resident MB, peak MB above the imports) of one fresh run of ``which``."""
+    out = subprocess.run([sys.executable, __file__, "--child", which, str(gt), str(est)],
+                         capture_output=True, text=True, check=True).stdout.split()
+    base, peak = int(out[-2]), int(out[-1])
+    return peak / 1024, (peak - base) / 1024
+
+
 def _merge(a, b):
     return min(a[0], b[0]), min(a[1], b[1]), a[2]
 
@@ -128,7 +163,14 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="slamq repetitions (best kept)")
     ap.add_argument("--evo-repeat", type=int, default=1, help="evo repetitions")
     ap.add_argument("--cli", action="store_true", help="also time the evo_ape command")
+    ap.add_argument("--no-memory", action="store_true",
+                    help="skip the peak-memory runs (one fresh process per side)")
+    ap.add_argument("--child", nargs=3, metavar=("WHICH", "GT", "EST"),
+                    help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.child:
+        child(args.child[0], Path(args.child[1]), Path(args.child[2]))
+        return 0
     logging.getLogger("evo").setLevel(logging.WARNING)
     import evo
     import pandas  # noqa: F401 - imported before timing, like evo
@@ -176,6 +218,15 @@ def main(argv=None) -> int:
                   f"{t_evo / sec:20.1f}x | {c_evo / cpu:5.1f}x |")
         print("slamq se3 statistics equal evo's to 1e-9: yes "
               f"(max |diff| {max(abs(r_s3[k] - r_evo[k]) for k in STATS):.1e})")
+        if not args.no_memory:
+            evo_peak, evo_above = peak_memory("evo", gt, est)
+            s_peak, s_above = peak_memory("slamq", gt, est)
+            print("\npeak memory, one fresh process each (VmHWM; 'above imports': minus the "
+                  "resident set after importing numpy, pandas and the library)")
+            print("| | peak MB | above imports MB |\n|---|---:|---:|")
+            print(f"| evo Python API | {evo_peak:.0f} | {evo_above:.0f} |")
+            print(f"| slamq ate(align='se3') | {s_peak:.0f} | {s_above:.0f} |")
+            print(f"| evo / slamq | {evo_peak / s_peak:.1f}x | {evo_above / s_above:.1f}x |")
     return 0
 
 

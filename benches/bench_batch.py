@@ -92,6 +92,58 @@ def write_maps(folder: Path, n: int, seed: int = 0) -> None:
         cv2.imwrite(str(run / "map.pgm"), img)
 
 
+def write_dense_maps(folder: Path, n: int) -> int:
+    """``n`` maps as ``<algorithm>/<sequence>/<run>/map.yaml`` + ``map.pgm``: the dense
+    1-Mcell crops of ``bench.py --dense`` (the busiest 1000 x 1000 windows of four real
+    maps), each in one of its 8 flips and turns by 90 degrees and with one cell changed, so
+    that every file differs. Returns how many crops there were (0: no corpus)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench import dense_maps
+
+    crops = [m for name, m in dense_maps() if m.shape == (SIDE, SIDE)]
+    for i in range(n if crops else 0):
+        m = crops[i % len(crops)]
+        img = np.where(m.unknown, 205, m.values).astype(np.uint8)
+        k = (i // len(crops)) % 8
+        img = np.rot90(img, k % 4)
+        img = np.ascontiguousarray(img[:, ::-1] if k >= 4 else img)
+        img[i % SIDE, (7 * i) % SIDE] = 254 if img[i % SIDE, (7 * i) % SIDE] != 254 else 0
+        run = folder / f"alg{i % 8}" / f"seq{(i // 8) % 5}" / f"run{i:05d}"
+        run.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(run / "map.pgm"), img)
+        (run / "map.yaml").write_text(
+            "image: map.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+            "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    return len(crops)
+
+
+def per_map_costs(folder: Path, count: int = 24) -> list[tuple[str, float]]:
+    """One thread, in this process, median ms per map over ``count`` maps: each step the
+    batch takes for a map, timed alone."""
+    import statistics
+
+    import slamq
+    from slamq.batch.records import content_hash
+
+    maps = sorted(folder.rglob("map.yaml"))[:count]
+    steps: dict[str, list[float]] = {}
+
+    def t(name: str, fn):
+        t0 = time.perf_counter()
+        out = fn()
+        steps.setdefault(name, []).append(1000 * (time.perf_counter() - t0))
+        return out
+
+    for p in maps:
+        t("hash (SHA-1 of YAML + PGM)", lambda p=p: content_hash(p))
+        m = t("decode (load_map: read, parse YAML, PGM, thresholds)",
+              lambda p=p: slamq.load_map(p))
+        t("metrics, canonical corners off",
+          lambda m=m: slamq.evaluate(m, threads=1, canonical_resolution=0))
+        t("metrics, default (canonical corners on)", lambda m=m: slamq.evaluate(m, threads=1))
+    return [(k, statistics.median(v)) for k, v in steps.items()]
+
+
 def run_batch(src: Path, out: Path, threads: int, chunk: int) -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(
@@ -129,7 +181,13 @@ def main() -> None:
                     help="maps for the 1- vs 2-thread comparison (default 1000)")
     ap.add_argument("--chunk-size", type=int, default=32)
     ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
+    ap.add_argument("--dense", action="store_true",
+                    help="issue 15: 1-Mcell dense crops of real maps as PGM + YAML (not "
+                         "mostly-unknown canvases), 1 vs 2 threads, and each map's time by step")
     args = ap.parse_args()
+    if args.dense:
+        dense(args)
+        return
 
     load0 = os.getloadavg()[0]
     tmp = Path(tempfile.mkdtemp(prefix="slamq-bench-batch-"))
@@ -178,6 +236,43 @@ def main() -> None:
               f"'CPU s / wall s' is how many cores the batch actually got)")
         print(f"one thread spends {per_map_ms:.1f} ms per map (hash + decode + metrics + "
               f"write); 100 maps/s on 2 threads needs <= 20 ms")
+    finally:
+        if args.keep:
+            print(f"kept {tmp}")
+        else:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def dense(args: argparse.Namespace) -> None:
+    load0 = os.getloadavg()[0]
+    tmp = Path(tempfile.mkdtemp(prefix="slamq-bench-dense-"))
+    try:
+        maps = tmp / "maps"
+        if not write_dense_maps(maps, args.scaling_maps):
+            print(f"skipped: no corpus under {CORPUS}")
+            return
+        print(f"{args.scaling_maps} dense 1-Mcell crops (PGM + YAML) in {maps}; CPUs "
+              f"available: {len(os.sched_getaffinity(0))}")
+        t1 = run_batch(maps, tmp / "t1.parquet", 1, args.chunk_size)
+        t2 = run_batch(maps, tmp / "t2.parquet", 2, args.chunk_size)
+        print("\n| run | maps/s (in batch) | ms per map | CPU s / wall s | failed |")
+        print("|---|---:|---:|---:|---:|")
+        for name, r in (("1 thread", t1), ("2 threads", t2)):
+            print(f"| {name} | {r['n'] / r['seconds']:.1f} | {1000 * r['seconds'] / r['n']:.1f} "
+                  f"| {r['cpu'] / r['wall']:.2f} | {r['failed']} |")
+        ratio = (t2["n"] / t2["seconds"]) / (t1["n"] / t1["seconds"])
+        print(f"\n2 threads / 1 thread: {ratio:.2f}x (target >= 1.8x); 2 threads: "
+              f"{t2['n'] / t2['seconds']:.1f} maps/s (target >= 150)")
+        costs = per_map_costs(maps)
+        per_map = 1000 * t1["seconds"] / t1["n"]
+        print("\none map, one thread, median ms (each step timed alone, in one process):\n")
+        print("| step | ms | share of the 1-thread batch's ms per map |\n|---|---:|---:|")
+        for name, ms in costs:
+            print(f"| {name} | {ms:.2f} | {100 * ms / per_map:.0f}% |")
+        rest = per_map - costs[0][1] - costs[1][1] - costs[3][1]
+        print(f"| the rest: discovery, records, Parquet, the thread pool (batch ms - hash - "
+              f"decode - default metrics) | {rest:.2f} | {100 * rest / per_map:.0f}% |")
+        print(f"\nload average before / after: {load0:.1f} / {os.getloadavg()[0]:.1f}")
     finally:
         if args.keep:
             print(f"kept {tmp}")

@@ -2,6 +2,8 @@
 it loads maps, checks parameters and turns these integers into a :class:`slamq.MapQuality`.
 tests/test_stubs.py checks these names and signatures against the built module."""
 
+import os
+
 import numpy as np
 import numpy.typing as npt
 
@@ -89,6 +91,9 @@ def evaluate_many(
     params: Params,
     threads: int = 0,
 ) -> list[RawQuality]: ...
+def read_table(
+    path: str | os.PathLike[str], sep: str, skip: int = 0
+) -> npt.NDArray[np.float64] | None: ...
 def otsu_table(
     values: npt.NDArray[np.uint8], unknown: npt.NDArray[np.bool_]
 ) -> list[int]: ...

@@ -40,6 +40,7 @@ pub mod otsu;
 pub mod params;
 pub mod proportion;
 pub mod se2;
+pub mod table;
 
 #[cfg(feature = "python")]
 mod python;

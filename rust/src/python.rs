@@ -322,6 +322,42 @@ fn default_params(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
+/// read_table(path, sep, skip=0) -> numpy.ndarray | None: the numbers of a regular numeric
+/// text table (`rust/src/table.rs`: `#` comments, blank lines skipped, `sep` " " for runs of
+/// blanks or one separator byte, every row as long as the first, plain decimal numbers) as
+/// a float64 array of shape (rows, cols); None when the file cannot be read or the table is
+/// not regular (the caller's general parser then says why).
+#[pyfunction]
+#[pyo3(signature = (path, sep, skip=0))]
+fn read_table<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    sep: &str,
+    skip: usize,
+) -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
+    let sep = match sep.as_bytes() {
+        b" " => crate::table::Sep::Blanks,
+        [b] => crate::table::Sep::Byte(*b),
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "sep must be one byte, got {sep:?}"
+            )))
+        }
+    };
+    let table = compute(py, 0, || {
+        crate::table::read_table_file(&path, sep, skip)
+            .ok()
+            .flatten()
+    })?;
+    match table {
+        None => Ok(None),
+        Some(t) => {
+            let arr = PyArray1::from_vec(py, t.values);
+            Ok(Some(arr.reshape([t.rows, t.cols])?))
+        }
+    }
+}
+
 /// otsu_table(values, unknown) -> list[int]: T_u for u = 0..255 (SPEC section 4 step 2).
 #[pyfunction]
 fn otsu_table(
@@ -500,6 +536,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate_many, m)?)?;
     m.add_function(wrap_pyfunction!(otsu_table, m)?)?;
+    m.add_function(wrap_pyfunction!(read_table, m)?)?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
     m.add("WORK_BYTES_PER_CELL", crate::evaluate::WORK_BYTES_PER_CELL)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;

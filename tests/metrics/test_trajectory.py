@@ -583,3 +583,33 @@ def test_cli_ate_several_estimates_is_one_row_each_unless_runs(tmp_path, capsys)
     assert "RMSE over" not in out and "one row per estimate; --runs" in out
     assert main(["ate", str(g), *files, "-a", "none", "--runs"]) == 0
     assert "RMSE over 2 runs (align none): 0.200000" in capsys.readouterr().out
+
+
+def test_the_core_table_reader_equals_python_float_and_leaves_irregular_files_to_pandas(
+        tmp_path) -> None:
+    """slamq._core.read_table (the fast path of every text trajectory) parses each number as
+    Python's float does, bit for bit, and returns None on anything irregular, so that the
+    general reader still names the file and the row."""
+    from slamq import _core
+
+    rng = np.random.default_rng(11)
+    tokens = [[repr(float(x)) for x in row] for row in rng.normal(size=(500, 8)) * 10.0 ** (
+        rng.integers(-12, 12, size=(500, 8)))]
+    tokens[3][2] = "1600000000.123456789"
+    tokens[4][5] = "-0.000000000"
+    tokens[5][1] = "12345678901234567890123e-3"
+    text = "# t x y z qx qy qz qw\n" + "\n".join("\t ".join(r) + "  # c" * (i % 2)
+                                               for i, r in enumerate(tokens)) + "\n\n"
+    p = tmp_path / "t.txt"
+    p.write_text(text)
+    got = _core.read_table(p, " ", 0)
+    want = np.array([[float(x) for x in r] for r in tokens])
+    assert got is not None and got.shape == (500, 8)
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))
+    for bad in ("1 2 3\n4 5\n", "1 2 nan\n", "1 2 x\n", "1,2\n"):
+        p.write_text(bad)
+        assert _core.read_table(p, " ", 0) is None, bad
+    p.write_text("0 1 2 0 0 0 0 1\n1 1 2 0 0 0 1\n")
+    with pytest.raises(slamq.TrajectoryError, match=r"t\.txt.*row 2"):
+        slamq.load_trajectory(p)
+    assert _core.read_table(tmp_path / "absent.txt", " ", 0) is None

@@ -1,0 +1,473 @@
+//! A fast reader for the numeric text tables trajectories come in (TUM, KITTI, CSV): the
+//! regular case only. Lines split on `\n` (a `\r` before it is dropped); `#` starts a
+//! comment to the end of the line; blank lines are skipped; fields are separated by runs of
+//! spaces and tabs (or by one `sep` byte, blanks around it allowed); every data line must
+//! have the first data line's number of fields, and every field must be a plain decimal
+//! number (`[+-]digits[.digits][(e|E)[+-]digits]`). Anything else - a word, `nan`, a ragged
+//! row, an empty field - makes [`read_table`] return `None`, and the caller reads the file
+//! with its general parser, which says what is wrong and where. Numbers are parsed by Rust's
+//! correctly rounded `f64` parser, as Python's `float` does; chunks of lines are parsed in
+//! parallel and the rows keep their order.
+
+use rayon::prelude::*;
+
+/// The field separator: runs of blanks, or one byte with optional blanks around it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sep {
+    Blanks,
+    Byte(u8),
+}
+
+/// A table's numbers, row-major, and its number of columns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    pub values: Vec<f64>,
+    pub rows: usize,
+    pub cols: usize,
+}
+
+fn is_blank(b: u8) -> bool {
+    b == b' ' || b == b'\t'
+}
+
+/// Exact powers of ten as `f64` (10^22 is the largest).
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// A plain decimal number (`[+-]digits[.digits][(e|E)[+-]digits]`, at least one digit
+/// before the exponent), correctly rounded; `None` for any other text. One pass: Clinger's
+/// fast path when the significant digits fit in 2^53 and the power of ten is exact (one
+/// correctly rounded multiplication or division: the usual case of trajectory files), else
+/// Rust's parser.
+fn number(f: &[u8]) -> Option<f64> {
+    let n = f.len();
+    let mut i = 0;
+    let neg = match f.first() {
+        Some(b'-') => {
+            i = 1;
+            true
+        }
+        Some(b'+') => {
+            i = 1;
+            false
+        }
+        _ => false,
+    };
+    let mut mant: u64 = 0;
+    let mut digits = 0u32; // significant digits in mant (leading zeros are not)
+    let mut scale: i32 = 0; // digits after the point
+    let mut seen = false;
+    while i < n && f[i].is_ascii_digit() {
+        let d = u64::from(f[i] - b'0');
+        if mant != 0 || d != 0 {
+            digits += 1;
+            mant = mant.wrapping_mul(10).wrapping_add(d);
+        }
+        seen = true;
+        i += 1;
+    }
+    if i < n && f[i] == b'.' {
+        i += 1;
+        while i < n && f[i].is_ascii_digit() {
+            let d = u64::from(f[i] - b'0');
+            if mant != 0 || d != 0 {
+                digits += 1;
+                mant = mant.wrapping_mul(10).wrapping_add(d);
+            }
+            scale += 1;
+            seen = true;
+            i += 1;
+        }
+    }
+    if !seen {
+        return None;
+    }
+    let mut exp: i32 = 0;
+    if i < n && (f[i] | 0x20) == b'e' {
+        i += 1;
+        let eneg = match f.get(i) {
+            Some(b'-') => {
+                i += 1;
+                true
+            }
+            Some(b'+') => {
+                i += 1;
+                false
+            }
+            _ => false,
+        };
+        let start = i;
+        while i < n && f[i].is_ascii_digit() {
+            exp = (exp * 10 + i32::from(f[i] - b'0')).min(100_000);
+            i += 1;
+        }
+        if i == start {
+            return None;
+        }
+        if eneg {
+            exp = -exp;
+        }
+    }
+    if i != n {
+        return None;
+    }
+    let e = exp - scale;
+    if digits > 19 || mant >= 1 << 53 || !(-22..=22).contains(&e) {
+        return slow(f);
+    }
+    let m = mant as f64;
+    let v = if e < 0 {
+        m / POW10[(-e) as usize]
+    } else {
+        m * POW10[e as usize]
+    };
+    Some(if neg { -v } else { v })
+}
+
+fn slow(f: &[u8]) -> Option<f64> {
+    std::str::from_utf8(f).ok()?.parse::<f64>().ok()
+}
+
+/// The fields of one line (comment removed), appended to `out`; their count, or `None`
+/// when one is not a plain number or is empty.
+fn parse_line(line: &[u8], sep: Sep, out: &mut Vec<f64>) -> Option<usize> {
+    // a CRLF line end; any other CR (old Mac line ends) makes a field fail
+    let line = line.strip_suffix(b"\r").unwrap_or(line);
+    let line = match line.iter().position(|&b| b == b'#') {
+        Some(k) => &line[..k],
+        None => line,
+    };
+    let mut n = 0;
+    match sep {
+        Sep::Blanks => {
+            for f in line.split(|&b| is_blank(b)).filter(|f| !f.is_empty()) {
+                out.push(number(f)?);
+                n += 1;
+            }
+        }
+        Sep::Byte(s) => {
+            if line.iter().all(|&b| is_blank(b)) {
+                return Some(0);
+            }
+            for f in line.split(|&b| b == s) {
+                let a = f.iter().position(|&b| !is_blank(b))?;
+                let z = f.len() - f.iter().rev().position(|&b| !is_blank(b)).unwrap_or(0);
+                out.push(number(&f[a..z])?);
+                n += 1;
+            }
+        }
+    }
+    Some(n)
+}
+
+/// `text` split into about `parts` chunks at line ends (at least 64 KiB each).
+fn chunks(text: &[u8], parts: usize) -> Vec<&[u8]> {
+    let target = text.len().div_ceil(parts.max(1)).max(1 << 16);
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start < text.len() {
+        let mut end = (start + target).min(text.len());
+        while end < text.len() && text[end - 1] != b'\n' {
+            end += 1;
+        }
+        out.push(&text[start..end]);
+        start = end;
+    }
+    out
+}
+
+/// Rows gathered block by block: the skipped lines still to skip, the numbers so far.
+struct Rows {
+    skip: usize,
+    sep: Sep,
+    values: Vec<f64>,
+    rows: usize,
+    cols: usize,
+}
+
+impl Rows {
+    fn new(sep: Sep, skip: usize) -> Self {
+        Rows {
+            skip,
+            sep,
+            values: Vec::new(),
+            rows: 0,
+            cols: 0,
+        }
+    }
+
+    /// Parse `text`, whole lines only (the last may lack its `\n`), in parallel chunks;
+    /// `None` when the table is not regular.
+    fn feed(&mut self, mut text: &[u8]) -> Option<()> {
+        while self.skip > 0 && !text.is_empty() {
+            text = match text.iter().position(|&b| b == b'\n') {
+                Some(k) => &text[k + 1..],
+                None => &[],
+            };
+            self.skip -= 1;
+        }
+        let sep = self.sep;
+        let parts: Vec<Option<(Vec<f64>, usize, usize)>> =
+            chunks(text, 4 * rayon::current_num_threads())
+                .into_par_iter()
+                .map(|chunk| {
+                    let mut values = Vec::with_capacity(chunk.len() / 8);
+                    let (mut rows, mut cols) = (0usize, 0usize);
+                    for line in chunk.split(|&b| b == b'\n') {
+                        let n = parse_line(line, sep, &mut values)?;
+                        if n == 0 {
+                            continue;
+                        }
+                        if rows > 0 && n != cols {
+                            return None;
+                        }
+                        cols = n;
+                        rows += 1;
+                    }
+                    Some((values, rows, cols))
+                })
+                .collect();
+        for p in parts {
+            let (v, r, c) = p?;
+            if r == 0 {
+                continue;
+            }
+            if self.cols != 0 && c != self.cols {
+                return None;
+            }
+            self.cols = c;
+            self.rows += r;
+            self.values.extend_from_slice(&v);
+        }
+        Some(())
+    }
+
+    fn done(self) -> Table {
+        Table {
+            values: self.values,
+            rows: self.rows,
+            cols: self.cols,
+        }
+    }
+}
+
+/// Every data row of `text` after its first `skip` lines, or `None` when the table is not
+/// regular (see the module documentation). A table without data rows has 0 rows, 0 columns.
+pub fn read_table(text: &[u8], sep: Sep, skip: usize) -> Option<Table> {
+    let mut rows = Rows::new(sep, skip);
+    rows.feed(text)?;
+    Some(rows.done())
+}
+
+/// Bytes of a file read and parsed at a time by [`read_table_file`].
+const BLOCK: usize = 8 << 20;
+
+/// [`read_table`] of a file, read in blocks of 8 MiB so that the whole text is never held:
+/// the memory is the numbers (8 bytes each) and one block. The numbers' buffer is sized
+/// once from the first block's numbers per byte. `Ok(None)`: not a regular table.
+pub fn read_table_file(
+    path: &std::path::Path,
+    sep: Sep,
+    skip: usize,
+) -> std::io::Result<Option<Table>> {
+    use std::io::Read;
+    let mut file = std::fs::File::open(path)?;
+    let size = file.metadata().map(|m| m.len() as usize).unwrap_or(0);
+    let mut rows = Rows::new(sep, skip);
+    let mut buf: Vec<u8> = Vec::with_capacity(BLOCK.min(size.max(1)) + (1 << 16));
+    let mut first = true;
+    loop {
+        let have = buf.len();
+        buf.resize(have + BLOCK, 0);
+        let got = file.read(&mut buf[have..])?;
+        buf.truncate(have + got);
+        let end = if got == 0 {
+            buf.len()
+        } else {
+            match buf.iter().rposition(|&b| b == b'\n') {
+                Some(k) => k + 1,
+                None => continue, // a line longer than the block: read on
+            }
+        };
+        if rows.feed(&buf[..end]).is_none() {
+            return Ok(None);
+        }
+        if first && end > 0 {
+            // numbers per byte of this block, times the file's size, and some slack
+            let per_byte = rows.values.len() as f64 / end as f64;
+            let want = (per_byte * size as f64 * 1.02) as usize + 1024;
+            rows.values.reserve(want.saturating_sub(rows.values.len()));
+            first = false;
+        }
+        buf.drain(..end);
+        if got == 0 {
+            break;
+        }
+    }
+    Ok(Some(rows.done()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_a_tum_table_with_comments_blanks_and_crlf() {
+        let t = b"# t x y\n1.5 2 -3e2\r\n\n  4\t5.25   6 # end\n";
+        let got = read_table(t, Sep::Blanks, 0).unwrap();
+        assert_eq!((got.rows, got.cols), (2, 3));
+        assert_eq!(got.values, vec![1.5, 2.0, -300.0, 4.0, 5.25, 6.0]);
+    }
+
+    #[test]
+    fn irregular_tables_are_left_to_the_general_parser() {
+        for bad in [
+            &b"1 2 3\n4 5\n"[..],
+            b"1 2 3\n4 5 6 7\n",
+            b"1 2 nan\n",
+            b"1 2 inf\n",
+            b"1 x 3\n",
+            b"1 2 3e\n",
+            b"1 . 3\n",
+            b"0x10 1\n",
+            b"1_000 2\n",
+            b"1 2 3\r4 5 6\r",
+        ] {
+            assert_eq!(read_table(bad, Sep::Blanks, 0), None, "{:?}", bad);
+        }
+        assert_eq!(read_table(b"1,,3\n", Sep::Byte(b','), 0), None);
+    }
+
+    #[test]
+    fn csv_with_blanks_and_a_header_skipped() {
+        let t = b"time,x,y\n1, 2 ,3\n4,5,6\n";
+        let got = read_table(t, Sep::Byte(b','), 1).unwrap();
+        assert_eq!((got.rows, got.cols), (2, 3));
+        assert_eq!(got.values, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+    }
+
+    #[test]
+    fn parsing_is_correctly_rounded_and_chunking_keeps_the_order() {
+        let mut text = String::new();
+        for i in 0..100_000 {
+            text.push_str(&format!("{}.{:03} 0.1 {}e-7\n", i, i % 1000, i));
+        }
+        let got = read_table(text.as_bytes(), Sep::Blanks, 0).unwrap();
+        assert_eq!((got.rows, got.cols), (100_000, 3));
+        for i in [0usize, 1, 65_535, 99_999] {
+            let want: f64 = format!("{}.{:03}", i, i % 1000).parse().unwrap();
+            assert_eq!(got.values[3 * i], want);
+            assert_eq!(got.values[3 * i + 1], 0.1);
+        }
+    }
+
+    #[test]
+    fn the_fast_path_equals_rusts_parser() {
+        let cases = [
+            "0",
+            "-0",
+            "+0.0",
+            "1",
+            "-1.5",
+            "1600000000.123456",
+            "0.123456789",
+            "1e22",
+            "1e23",
+            "9007199254740993",
+            "123456789012345678901",
+            "4.9e-324",
+            "1.7976931348623157e308",
+            "0.1",
+            "0.30000000000000004",
+            "-2.5E-3",
+            "00012.3400",
+            "5e-22",
+            "3.14159265358979323",
+            ".5",
+            "5.",
+            "7e0",
+            "1e-400",
+            "2e400",
+        ];
+        for c in cases {
+            let want: f64 = c.parse().unwrap();
+            let got = number(c.as_bytes()).unwrap();
+            assert_eq!(got.to_bits(), want.to_bits(), "{c}");
+        }
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        for _ in 0..200_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let s = format!(
+                "{}.{:0w$}",
+                x % 10_000_000_000,
+                x % 1_000_000_000,
+                w = (x % 12) as usize
+            );
+            let want: f64 = s.parse().unwrap();
+            assert_eq!(
+                number(s.as_bytes()).unwrap().to_bits(),
+                want.to_bits(),
+                "{s}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_file_read_in_blocks_equals_the_text_read_at_once() {
+        let dir = std::env::temp_dir().join(format!("slamq_table_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("t.txt");
+        let mut text = String::from("# header\nskipped line\n");
+        for i in 0..400_000 {
+            text.push_str(&format!("{i} {}.25 -{}e-3\n", i % 977, i % 13));
+        }
+        std::fs::write(&p, &text).unwrap(); // about 9 MiB: more than one block
+        let whole = read_table(text.as_bytes(), Sep::Blanks, 2).unwrap();
+        let blocks = read_table_file(&p, Sep::Blanks, 2).unwrap().unwrap();
+        assert_eq!(whole, blocks);
+        assert_eq!((blocks.rows, blocks.cols), (400_000, 3));
+        std::fs::write(&p, "1 2\n3\n").unwrap();
+        assert_eq!(read_table_file(&p, Sep::Blanks, 0).unwrap(), None);
+        std::fs::write(&p, "1 2").unwrap(); // no final line end
+        assert_eq!(
+            read_table_file(&p, Sep::Blanks, 0).unwrap().unwrap().values,
+            vec![1.0, 2.0]
+        );
+        assert!(read_table_file(&dir.join("absent"), Sep::Blanks, 0).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn empty_and_comment_only_tables_have_no_rows() {
+        let got = read_table(b"# only\n\n", Sep::Blanks, 0).unwrap();
+        assert_eq!((got.rows, got.cols), (0, 0));
+        assert_eq!(read_table(b"", Sep::Blanks, 5).unwrap().rows, 0);
+    }
+}
+#[cfg(test)]
+mod timing {
+    #[test]
+    #[ignore]
+    fn time_read() {
+        let p = std::env::var("TABLE").unwrap();
+        for _ in 0..3 {
+            let t = std::time::Instant::now();
+            let t1 = 0.0;
+            let got = super::read_table_file(std::path::Path::new(&p), super::Sep::Blanks, 0)
+                .unwrap()
+                .unwrap();
+            let t2 = t.elapsed().as_secs_f64();
+            eprintln!(
+                "read {:.3} parse {:.3} rows {} threads {}",
+                t1,
+                t2 - t1,
+                got.rows,
+                rayon::current_num_threads()
+            );
+        }
+    }
+}
