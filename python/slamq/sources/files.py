@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import functools
 import math
 import os
 import stat
@@ -234,15 +235,39 @@ def load_yaml_safely(raw: bytes, where: Any) -> Any:
     ...
     slamq.errors.MapError: m.yaml: YAML aliases (*x) are not allowed in a map YAML
     """
+    import copy
+
+    if len(raw) <= _YAML_CACHE_BYTES:
+        doc, problem = _parse_yaml_cached(raw)
+        doc = copy.deepcopy(doc)  # the caller may change it; the cache keeps its own
+    else:
+        doc, problem = _parse_yaml(raw)
+    if problem is not None:
+        raise fail(where, problem)
+    return doc
+
+
+#: A batch parses each map YAML up to three times (discovery, the content hash, the
+#: loader) from the same bytes: YAMLs up to this size are parsed once, by their bytes.
+_YAML_CACHE_BYTES = 1 << 16
+
+
+@functools.lru_cache(maxsize=4096)
+def _parse_yaml_cached(raw: bytes) -> tuple[Any, str | None]:
+    return _parse_yaml(raw)
+
+
+def _parse_yaml(raw: bytes) -> tuple[Any, str | None]:
+    """The document, or None and why it cannot be had (without the file's name)."""
     import yaml
 
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     try:
         for event in yaml.parse(raw, Loader=loader):  # events only: nothing is expanded
             if isinstance(event, yaml.AliasEvent):
-                raise fail(where, f"YAML aliases (*{event.anchor}) are not allowed in a map YAML")
-        return yaml.load(raw, Loader=loader)  # noqa: S506 - a safe loader
+                return None, f"YAML aliases (*{event.anchor}) are not allowed in a map YAML"
+        return yaml.load(raw, Loader=loader), None  # noqa: S506 - a safe loader
     except yaml.YAMLError as exc:
-        raise fail(where, f"unparsable YAML: {one_line(exc)[:200]}") from None
+        return None, f"unparsable YAML: {one_line(exc)[:200]}"
     except UnicodeDecodeError:
-        raise fail(where, "unparsable YAML: not UTF-8 text") from None
+        return None, "unparsable YAML: not UTF-8 text"
