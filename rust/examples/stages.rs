@@ -42,7 +42,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let values = &bytes[..h * w];
     let unknown: Vec<bool> = bytes[h * w..].iter().map(|&b| b != 0).collect();
     let grid = Grid::new(values, &unknown, h, w)?;
-    let p = Params::default();
+    // canonical corners off, as in `benches/bench.py --dense` (the OpenCV pipeline has none)
+    let mut p = Params::default();
+    p.corners.canonical_resolution = 0.0;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     pool.install(|| {
         let names = [
