@@ -280,32 +280,14 @@ fn map_in(
             cell_of(i1 - 1, n - 1, j0, 0),
             cell_of(i1 - 1, n - 1, j1 - 1, n - 1),
         ];
-        let y0 = corners
-            .iter()
-            .map(|c| c.0)
-            .min()
-            .unwrap_or(0)
-            .saturating_sub(1);
-        let y1 = corners
-            .iter()
-            .map(|c| c.0)
-            .max()
-            .unwrap_or(h - 1)
-            .saturating_add(1)
-            .min(h - 1);
-        let x0 = corners
-            .iter()
-            .map(|c| c.1)
-            .min()
-            .unwrap_or(0)
-            .saturating_sub(1);
-        let x1 = corners
-            .iter()
-            .map(|c| c.1)
-            .max()
-            .unwrap_or(w - 1)
-            .saturating_add(1)
-            .min(w - 1);
+        // the rows (columns) the corner samples span, one wider on each side, in 0..=last
+        let span = |at: [usize; 4], last: usize| {
+            let lo = at.iter().copied().min().unwrap_or(0).saturating_sub(1);
+            let hi = at.iter().copied().max().unwrap_or(last);
+            (lo, hi.saturating_add(1).min(last))
+        };
+        let (y0, y1) = span(corners.map(|c| c.0), h - 1);
+        let (x0, x1) = span(corners.map(|c| c.1), w - 1);
         (y0 / BLOCK..=y1 / BLOCK).all(|br| {
             known_block[br * bw + x0 / BLOCK..=br * bw + x1 / BLOCK]
                 .iter()
