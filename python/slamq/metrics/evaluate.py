@@ -2,10 +2,12 @@
 
 Follow one map from here: :func:`evaluate` loads it (:func:`slamq.load_map`), hands the
 ``values`` and ``unknown`` buffers and the :class:`~slamq.Params` to ``slamq._core.evaluate``
-(rust/src/python.rs -> evaluate.rs -> proportion.rs, corners.rs, enclosed.rs) and wraps the
-integers it returns in a :class:`~slamq.MapQuality`. Ratios are computed from those integers
-by :meth:`MapQuality.from_counts`, the same code :mod:`slamq.metrics.reference` uses, so
-both sides agree bit for bit.
+(rust/src/python.rs -> evaluate.rs -> proportion.rs, corners.rs, canonical.rs, enclosed.rs)
+and wraps the integers it returns in a :class:`~slamq.MapQuality`. Ratios are computed from
+those integers by :meth:`MapQuality.from_counts`, the same code :mod:`slamq.metrics.reference`
+uses, so both sides agree bit for bit; the comparability facts (saver, known box) come from
+the core's histogram pass (:func:`~slamq.models.quality.facts_from_counts`), where the
+reference computes them with OpenCV (:func:`~slamq.models.quality.map_facts`).
 """
 
 from __future__ import annotations
