@@ -37,57 +37,59 @@ const POW10: [f64; 23] = [
 ];
 
 /// A plain decimal number (`[+-]digits[.digits][(e|E)[+-]digits]`, at least one digit
-/// before the exponent), correctly rounded; `None` for any other text. One pass: Clinger's
-/// fast path when the significant digits fit in 2^53 and the power of ten is exact (one
-/// correctly rounded multiplication or division: the usual case of trajectory files), else
-/// Rust's parser.
+/// before the exponent), correctly rounded; `None` for any other text.
 fn number(f: &[u8]) -> Option<f64> {
-    let n = f.len();
-    let mut i = 0;
-    let neg = match f.first() {
+    match number_at(f, 0) {
+        Some((v, end)) if end == f.len() => Some(v),
+        _ => None,
+    }
+}
+
+/// The bytes that end a field of a blank-separated line.
+fn ends_field(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\n' | b'\r' | b'#')
+}
+
+/// The plain decimal number starting at `t[i]` and where it ends (the first byte that
+/// [`ends_field`], or a byte it cannot contain: the caller checks what follows). One pass:
+/// Clinger's fast path when the significant digits fit in 2^53 and the power of ten is
+/// exact (one correctly rounded multiplication or division: the usual case of trajectory
+/// files), else Rust's parser on the same bytes.
+fn number_at(t: &[u8], start: usize) -> Option<(f64, usize)> {
+    let n = t.len();
+    let mut i = start;
+    let neg = match t.get(i) {
         Some(b'-') => {
-            i = 1;
+            i += 1;
             true
         }
         Some(b'+') => {
-            i = 1;
+            i += 1;
             false
         }
         _ => false,
     };
+    // every digit counts (leading zeros too: more than 19 goes to the slow path, which is
+    // only slower), eight at a time where eight are in a row
     let mut mant: u64 = 0;
-    let mut digits = 0u32; // significant digits in mant (leading zeros are not)
+    let mut digits = 0usize;
+    let i0 = i;
+    i = digit_run(t, i, &mut mant);
+    digits += i - i0;
     let mut scale: i32 = 0; // digits after the point
-    let mut seen = false;
-    while i < n && f[i].is_ascii_digit() {
-        let d = u64::from(f[i] - b'0');
-        if mant != 0 || d != 0 {
-            digits += 1;
-            mant = mant.wrapping_mul(10).wrapping_add(d);
-        }
-        seen = true;
-        i += 1;
+    if i < n && t[i] == b'.' {
+        let f0 = i + 1;
+        i = digit_run(t, f0, &mut mant);
+        scale = (i - f0) as i32;
+        digits += i - f0;
     }
-    if i < n && f[i] == b'.' {
-        i += 1;
-        while i < n && f[i].is_ascii_digit() {
-            let d = u64::from(f[i] - b'0');
-            if mant != 0 || d != 0 {
-                digits += 1;
-                mant = mant.wrapping_mul(10).wrapping_add(d);
-            }
-            scale += 1;
-            seen = true;
-            i += 1;
-        }
-    }
-    if !seen {
+    if digits == 0 {
         return None;
     }
     let mut exp: i32 = 0;
-    if i < n && (f[i] | 0x20) == b'e' {
+    if i < n && (t[i] | 0x20) == b'e' {
         i += 1;
-        let eneg = match f.get(i) {
+        let eneg = match t.get(i) {
             Some(b'-') => {
                 i += 1;
                 true
@@ -98,24 +100,21 @@ fn number(f: &[u8]) -> Option<f64> {
             }
             _ => false,
         };
-        let start = i;
-        while i < n && f[i].is_ascii_digit() {
-            exp = (exp * 10 + i32::from(f[i] - b'0')).min(100_000);
+        let e0 = i;
+        while i < n && t[i].is_ascii_digit() {
+            exp = (exp * 10 + i32::from(t[i] - b'0')).min(100_000);
             i += 1;
         }
-        if i == start {
+        if i == e0 {
             return None;
         }
         if eneg {
             exp = -exp;
         }
     }
-    if i != n {
-        return None;
-    }
     let e = exp - scale;
     if digits > 19 || mant >= 1 << 53 || !(-22..=22).contains(&e) {
-        return slow(f);
+        return Some((slow(&t[start..i])?, i));
     }
     let m = mant as f64;
     let v = if e < 0 {
@@ -123,41 +122,110 @@ fn number(f: &[u8]) -> Option<f64> {
     } else {
         m * POW10[e as usize]
     };
-    Some(if neg { -v } else { v })
+    Some((if neg { -v } else { v }, i))
+}
+
+/// Appends the run of ASCII digits starting at `t[i]` to `mant` (wrapping: the caller
+/// counts the digits and takes the slow path past 19) and returns where the run ends.
+/// Eight digits at a time (SWAR: one 64-bit load, a check, three multiplications).
+fn digit_run(t: &[u8], mut i: usize, mant: &mut u64) -> usize {
+    while let Some(eight) = t.get(i..i + 8) {
+        let mut x = u64::from_le_bytes(eight.try_into().unwrap_or([0; 8]));
+        // all eight bytes in b'0'..=b'9'
+        let all_digits = ((x & 0xF0F0_F0F0_F0F0_F0F0)
+            | ((x.wrapping_add(0x0606_0606_0606_0606) & 0xF0F0_F0F0_F0F0_F0F0) >> 4))
+            == 0x3333_3333_3333_3333;
+        if !all_digits {
+            break;
+        }
+        x = x.wrapping_sub(0x3030_3030_3030_3030);
+        x = x.wrapping_mul(10).wrapping_add(x >> 8);
+        let v = ((x & 0x0000_00FF_0000_00FF)
+            .wrapping_mul(100 + (1_000_000 << 32))
+            .wrapping_add(((x >> 16) & 0x0000_00FF_0000_00FF).wrapping_mul(1 + (10_000 << 32))))
+            >> 32;
+        *mant = mant.wrapping_mul(100_000_000).wrapping_add(v);
+        i += 8;
+    }
+    while let Some(&b) = t.get(i) {
+        if !b.is_ascii_digit() {
+            break;
+        }
+        *mant = mant.wrapping_mul(10).wrapping_add(u64::from(b - b'0'));
+        i += 1;
+    }
+    i
+}
+
+/// The data rows of a chunk of whole lines separated by blanks, in one pass over its bytes:
+/// `(rows, columns)`, or `None` when it is not regular.
+fn parse_blanks(t: &[u8], out: &mut Vec<f64>) -> Option<(usize, usize)> {
+    let n = t.len();
+    let (mut rows, mut cols) = (0usize, 0usize);
+    let mut i = 0;
+    while i < n {
+        let mut fields = 0usize;
+        // one line: fields, blanks, up to its end or a comment
+        while i < n {
+            let b = t[i];
+            if b == b' ' || b == b'\t' {
+                i += 1;
+            } else if b == b'\n' {
+                break;
+            } else if b == b'#' {
+                i += t[i..].iter().position(|&c| c == b'\n').unwrap_or(n - i);
+                break;
+            } else if b == b'\r' {
+                // a CRLF line end; any other CR (old Mac line ends) is irregular
+                if i + 1 < n && t[i + 1] != b'\n' {
+                    return None;
+                }
+                i += 1;
+            } else {
+                let (v, end) = number_at(t, i)?;
+                if end < n && !ends_field(t[end]) {
+                    return None;
+                }
+                out.push(v);
+                fields += 1;
+                i = end;
+            }
+        }
+        i += 1; // the line end
+        if fields == 0 {
+            continue;
+        }
+        if rows > 0 && fields != cols {
+            return None;
+        }
+        cols = fields;
+        rows += 1;
+    }
+    Some((rows, cols))
 }
 
 fn slow(f: &[u8]) -> Option<f64> {
     std::str::from_utf8(f).ok()?.parse::<f64>().ok()
 }
 
-/// The fields of one line (comment removed), appended to `out`; their count, or `None`
-/// when one is not a plain number or is empty.
-fn parse_line(line: &[u8], sep: Sep, out: &mut Vec<f64>) -> Option<usize> {
+/// The fields of one line separated by `sep` (comment removed), appended to `out`; their
+/// count, or `None` when one is not a plain number or is empty.
+fn parse_line(line: &[u8], sep: u8, out: &mut Vec<f64>) -> Option<usize> {
     // a CRLF line end; any other CR (old Mac line ends) makes a field fail
     let line = line.strip_suffix(b"\r").unwrap_or(line);
     let line = match line.iter().position(|&b| b == b'#') {
         Some(k) => &line[..k],
         None => line,
     };
+    if line.iter().all(|&b| is_blank(b)) {
+        return Some(0);
+    }
     let mut n = 0;
-    match sep {
-        Sep::Blanks => {
-            for f in line.split(|&b| is_blank(b)).filter(|f| !f.is_empty()) {
-                out.push(number(f)?);
-                n += 1;
-            }
-        }
-        Sep::Byte(s) => {
-            if line.iter().all(|&b| is_blank(b)) {
-                return Some(0);
-            }
-            for f in line.split(|&b| b == s) {
-                let a = f.iter().position(|&b| !is_blank(b))?;
-                let z = f.len() - f.iter().rev().position(|&b| !is_blank(b)).unwrap_or(0);
-                out.push(number(&f[a..z])?);
-                n += 1;
-            }
-        }
+    for f in line.split(|&b| b == sep) {
+        let a = f.iter().position(|&b| !is_blank(b))?;
+        let z = f.len() - f.iter().rev().position(|&b| !is_blank(b)).unwrap_or(0);
+        out.push(number(&f[a..z])?);
+        n += 1;
     }
     Some(n)
 }
@@ -214,9 +282,14 @@ impl Rows {
                 .into_par_iter()
                 .map(|chunk| {
                     let mut values = Vec::with_capacity(chunk.len() / 8);
+                    if sep == Sep::Blanks {
+                        let (rows, cols) = parse_blanks(chunk, &mut values)?;
+                        return Some((values, rows, cols));
+                    }
                     let (mut rows, mut cols) = (0usize, 0usize);
+                    let Sep::Byte(byte) = sep else { return None };
                     for line in chunk.split(|&b| b == b'\n') {
-                        let n = parse_line(line, sep, &mut values)?;
+                        let n = parse_line(line, byte, &mut values)?;
                         if n == 0 {
                             continue;
                         }
@@ -279,10 +352,8 @@ pub fn read_table_file(
     let mut buf: Vec<u8> = Vec::with_capacity(BLOCK.min(size.max(1)) + (1 << 16));
     let mut first = true;
     loop {
-        let have = buf.len();
-        buf.resize(have + BLOCK, 0);
-        let got = file.read(&mut buf[have..])?;
-        buf.truncate(have + got);
+        // appended without zero-filling the block first
+        let got = (&mut file).take(BLOCK as u64).read_to_end(&mut buf)?;
         let end = if got == 0 {
             buf.len()
         } else {
