@@ -613,3 +613,18 @@ def test_the_core_table_reader_equals_python_float_and_leaves_irregular_files_to
     with pytest.raises(slamq.TrajectoryError, match=r"t\.txt.*row 2"):
         slamq.load_trajectory(p)
     assert _core.read_table(tmp_path / "absent.txt", " ", 0) is None
+
+
+def test_distinct_points_are_found_beyond_the_first_poses() -> None:
+    """The alignment's check for enough distinct points looks at the first 4096 poses
+    first; a long trajectory whose first poses all coincide is still judged on all."""
+    from slamq.metrics.align import _distinct_at_least
+
+    p = np.zeros((10_000, 3))
+    assert not _distinct_at_least(p, 2)
+    p[9_000] = [1.0, 0.0, 0.0]
+    assert _distinct_at_least(p, 2) and not _distinct_at_least(p, 3)
+    p[9_500] = [0.0, 1.0, 0.0]
+    assert _distinct_at_least(p, 3)
+    p[:3] = [[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]
+    assert _distinct_at_least(p, 3)

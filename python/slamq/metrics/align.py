@@ -128,6 +128,8 @@ def _distinct_at_least(p: np.ndarray, k: int) -> bool:
         return False
     if k <= 1:
         return True
+    if p.shape[0] > 4096 and _distinct_at_least(p[:4096], k):
+        return True  # almost always decided by the first poses, without a pass over all
     d0 = (p != p[0]).any(axis=1)
     if not d0.any():
         return False
