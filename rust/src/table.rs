@@ -57,18 +57,7 @@ fn ends_field(b: u8) -> bool {
 /// files), else Rust's parser on the same bytes.
 fn number_at(t: &[u8], start: usize) -> Option<(f64, usize)> {
     let n = t.len();
-    let mut i = start;
-    let neg = match t.get(i) {
-        Some(b'-') => {
-            i += 1;
-            true
-        }
-        Some(b'+') => {
-            i += 1;
-            false
-        }
-        _ => false,
-    };
+    let (neg, mut i) = sign(t, start);
     // every digit counts (leading zeros too: more than 19 goes to the slow path, which is
     // only slower), eight at a time where eight are in a row
     let mut mant: u64 = 0;
@@ -88,18 +77,8 @@ fn number_at(t: &[u8], start: usize) -> Option<(f64, usize)> {
     }
     let mut exp: i32 = 0;
     if i < n && (t[i] | 0x20) == b'e' {
-        i += 1;
-        let eneg = match t.get(i) {
-            Some(b'-') => {
-                i += 1;
-                true
-            }
-            Some(b'+') => {
-                i += 1;
-                false
-            }
-            _ => false,
-        };
+        let (eneg, after) = sign(t, i + 1);
+        i = after;
         let e0 = i;
         while i < n && t[i].is_ascii_digit() {
             exp = (exp * 10 + i32::from(t[i] - b'0')).min(100_000);
@@ -123,6 +102,15 @@ fn number_at(t: &[u8], start: usize) -> Option<(f64, usize)> {
         m * POW10[e as usize]
     };
     Some((if neg { -v } else { v }, i))
+}
+
+/// An optional sign at `t[i]`: whether it is `-`, and where the digits start.
+fn sign(t: &[u8], i: usize) -> (bool, usize) {
+    match t.get(i) {
+        Some(b'-') => (true, i + 1),
+        Some(b'+') => (false, i + 1),
+        _ => (false, i),
+    }
 }
 
 /// Appends the run of ASCII digits starting at `t[i]` to `mant` (wrapping: the caller
@@ -155,6 +143,19 @@ fn digit_run(t: &[u8], mut i: usize, mant: &mut u64) -> usize {
         i += 1;
     }
     i
+}
+
+/// Counts a line of `fields` numbers (none: a blank or comment line) as a row; `None` when
+/// it is not as long as the rows before it.
+fn add_row(fields: usize, rows: &mut usize, cols: &mut usize) -> Option<()> {
+    if fields > 0 {
+        if *rows > 0 && fields != *cols {
+            return None;
+        }
+        *cols = fields;
+        *rows += 1;
+    }
+    Some(())
 }
 
 /// The data rows of a chunk of whole lines separated by blanks, in one pass over its bytes:
@@ -192,14 +193,7 @@ fn parse_blanks(t: &[u8], out: &mut Vec<f64>) -> Option<(usize, usize)> {
             }
         }
         i += 1; // the line end
-        if fields == 0 {
-            continue;
-        }
-        if rows > 0 && fields != cols {
-            return None;
-        }
-        cols = fields;
-        rows += 1;
+        add_row(fields, &mut rows, &mut cols)?;
     }
     Some((rows, cols))
 }
@@ -289,15 +283,7 @@ impl Rows {
                     let (mut rows, mut cols) = (0usize, 0usize);
                     let Sep::Byte(byte) = sep else { return None };
                     for line in chunk.split(|&b| b == b'\n') {
-                        let n = parse_line(line, byte, &mut values)?;
-                        if n == 0 {
-                            continue;
-                        }
-                        if rows > 0 && n != cols {
-                            return None;
-                        }
-                        cols = n;
-                        rows += 1;
+                        add_row(parse_line(line, byte, &mut values)?, &mut rows, &mut cols)?;
                     }
                     Some((values, rows, cols))
                 })
