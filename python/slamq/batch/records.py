@@ -191,20 +191,35 @@ class EvalOptions:
         #: ``threads`` of each ``slamq.evaluate`` call: one core per map, the maps in
         #: parallel (each calling thread gets its own 1-thread pool in the core).
         self.core_threads: int | None = 1
+        self._config: str | None = None
+        self._param_fields: dict[str, Any] | None = None
 
     def __getstate__(self) -> dict[str, Any]:
         return dict(self.__dict__)
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
+        self.__dict__.update({"_config": None, "_param_fields": None, **state})
 
     def columns(self) -> tuple[str, ...]:
         return columns(self.curve)
 
     @property
+    def param_fields(self) -> dict[str, Any]:
+        """The ``param_*`` columns of every record (built once per batch, not per map)."""
+        if self._param_fields is None:
+            self._param_fields = {f"param_{k}": v for k, v in self.params.to_dict().items()}
+        return self._param_fields
+
+    @property
     def config(self) -> str:
         """Every setting that changes a record, as a short JSON string (stored per record):
-        the metric parameters, ``unknown_value``, ``curve`` and the ATE options."""
+        the metric parameters, ``unknown_value``, ``curve`` and the ATE options. Built once
+        per batch (the options do not change while it runs)."""
+        if self._config is None:
+            self._config = self._config_json()
+        return self._config
+
+    def _config_json(self) -> str:
         return json.dumps(
             {
                 "params": self.params.to_dict(),
@@ -282,7 +297,7 @@ def evaluate_run(
         unknown_value=options.unknown_value, config=options.config,
         gt_map=_str(_gt_map(run)),
     )
-    rec.update({f"param_{k}": v for k, v in options.params.to_dict().items()})
+    rec.update(options.param_fields)
     where = str(run.map)
     # One read: the map's files are hashed and decoded from the same bytes (read_once), and
     # a bag, read twice, must look the same (inode, size, mtime) before and after.
@@ -304,7 +319,7 @@ def evaluate_run(
             q = evaluate(
                 str(run.map), threads=options.core_threads, curve=options.curve,
                 verify=options.verify,
-                unknown_value=options.unknown_value, **options.params.to_dict(),
+                unknown_value=options.unknown_value, params=options.params,
             )
             d = q.to_dict()
             if not options.curve:
