@@ -105,15 +105,18 @@ def folder_maps(folder: Path, files: list[Path] | None = None) -> list[Path]:
         files = sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith("."))
     docs = {p: read_yaml(p) for p in files if p.suffix.lower() in YAML_SUFFIXES}
     yamls = [p for p, doc in docs.items() if _is_map_doc(doc)]
-    named: set[Path] = set()
-    for y in yamls:
-        img = yaml_image(y, docs[y])
-        if img is not None:
-            named.add(_resolved(img))
-    images = [
-        p for p in files
-        if p.suffix.lower() in IMAGE_SUFFIXES and not (named and _resolved(p) in named)
-    ]
+    named_paths = {img for img in (yaml_image(y, docs[y]) for y in yamls) if img is not None}
+    resolved: set[Path] | None = None  # resolved only for an image not named as it is
+
+    def named(p: Path) -> bool:
+        nonlocal resolved
+        if not named_paths or p in named_paths:
+            return bool(named_paths)
+        if resolved is None:
+            resolved = {_resolved(img) for img in named_paths}
+        return _resolved(p) in resolved
+
+    images = [p for p in files if p.suffix.lower() in IMAGE_SUFFIXES and not named(p)]
     maps = sorted(yamls + images)
     series = Counter(_series(p) for p in maps)
     snaps = [p for p in maps if SNAPSHOT.match(p.stem) and series[_series(p)] > 1]
