@@ -47,6 +47,19 @@ def test_folder_yields_yaml_maps_and_unnamed_images_once(tmp_path):
             assert m.unknown.tolist() == [[False, True], [False, False]]
 
 
+def test_an_image_named_through_another_path_is_not_a_second_map(tmp_path):
+    # the YAML names its image by a path that differs from the folder listing's (a ".."
+    # detour, a symlink): the image is still the YAML's, found by resolving both
+    _pgm(tmp_path / "real.pgm")
+    (tmp_path / "link.pgm").symlink_to(tmp_path / "real.pgm")
+    (tmp_path / "sub").mkdir()
+    _yaml(tmp_path / "m.yaml", "sub/../link.pgm")
+    _pgm(tmp_path / "other.pgm")
+    maps, problems = discover_maps(tmp_path)
+    assert [p.name for p in maps] == ["m.yaml", "other.pgm"]
+    assert problems == []
+
+
 def test_missing_paths_unparsable_yaml_and_unsupported_files_are_problems(tmp_path):
     _pgm(tmp_path / "ok.pgm")
     (tmp_path / "broken.yaml").write_text("image: [oops\n")
