@@ -320,21 +320,19 @@ pub fn read_table(text: &[u8], sep: Sep, skip: usize) -> Option<Table> {
     Some(rows.done())
 }
 
-/// Bytes of a file read and parsed at a time by [`read_table_file`].
+/// Bytes of a file read and parsed at a time by [`read_table_file`] and [`read_tum_file`].
 const BLOCK: usize = 8 << 20;
 
-/// [`read_table`] of a file, read in blocks of 8 MiB so that the whole text is never held:
-/// the memory is the numbers (8 bytes each) and one block. The numbers' buffer is sized
-/// once from the first block's numbers per byte. `Ok(None)`: not a regular table.
-pub fn read_table_file(
+/// Calls `feed(text, size, first)` on a file's text, whole lines at a time, in blocks of
+/// about 8 MiB, so that the whole text is never held (`size`: the file's size; `first`:
+/// the first call with text). Stops at the first `None` and returns `Ok(None)`.
+fn for_each_block(
     path: &std::path::Path,
-    sep: Sep,
-    skip: usize,
-) -> std::io::Result<Option<Table>> {
+    mut feed: impl FnMut(&[u8], usize, bool) -> Option<()>,
+) -> std::io::Result<Option<()>> {
     use std::io::Read;
     let mut file = std::fs::File::open(path)?;
     let size = file.metadata().map(|m| m.len() as usize).unwrap_or(0);
-    let mut rows = Rows::new(sep, skip);
     let mut buf: Vec<u8> = Vec::with_capacity(BLOCK.min(size.max(1)) + (1 << 16));
     let mut first = true;
     loop {
@@ -348,14 +346,10 @@ pub fn read_table_file(
                 None => continue, // a line longer than the block: read on
             }
         };
-        if rows.feed(&buf[..end]).is_none() {
+        if feed(&buf[..end], size, first && end > 0).is_none() {
             return Ok(None);
         }
-        if first && end > 0 {
-            // numbers per byte of this block, times the file's size, and some slack
-            let per_byte = rows.values.len() as f64 / end as f64;
-            let want = (per_byte * size as f64 * 1.02) as usize + 1024;
-            rows.values.reserve(want.saturating_sub(rows.values.len()));
+        if end > 0 {
             first = false;
         }
         buf.drain(..end);
@@ -363,7 +357,141 @@ pub fn read_table_file(
             break;
         }
     }
-    Ok(Some(rows.done()))
+    Ok(Some(()))
+}
+
+/// [`read_table`] of a file, read in blocks of 8 MiB so that the whole text is never held:
+/// the memory is the numbers (8 bytes each) and one block. The numbers' buffer is sized
+/// once from the first block's numbers per byte. `Ok(None)`: not a regular table.
+pub fn read_table_file(
+    path: &std::path::Path,
+    sep: Sep,
+    skip: usize,
+) -> std::io::Result<Option<Table>> {
+    let mut rows = Rows::new(sep, skip);
+    let done = for_each_block(path, |text, size, first| {
+        rows.feed(text)?;
+        if first {
+            // numbers per byte of this block, times the file's size, and some slack
+            let per_byte = rows.values.len() as f64 / text.len() as f64;
+            let want = (per_byte * size as f64 * 1.02) as usize + 1024;
+            rows.values.reserve(want.saturating_sub(rows.values.len()));
+        }
+        Some(())
+    })?;
+    Ok(done.map(|()| rows.done()))
+}
+
+/// The poses of a TUM file (`t x y z qx qy qz qw` a line) in the layout
+/// `slamq.Trajectory` keeps: timestamps, positions `(n, 3)` and unit quaternions `(n, 4)`
+/// in w, x, y, z order, row-major.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Poses {
+    pub t: Vec<f64>,
+    pub p: Vec<f64>,
+    pub q: Vec<f64>,
+}
+
+impl Poses {
+    /// The number of poses.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// Whether there is no pose.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+}
+
+/// The squared norm of a quaternion `(w, x, y, z)` summed in that order, as numpy's
+/// `einsum("ij,ij->i", q, q)` sums the rows of the column-major array the general TUM
+/// reader hands `slamq.Trajectory` (`arr[:, [7, 4, 5, 6]]`), so that the unit quaternions
+/// are bit-equal to those of that path.
+pub fn quat_norm2(w: f64, x: f64, y: f64, z: f64) -> f64 {
+    w * w + x * x + y * y + z * z
+}
+
+/// One chunk's rows (8 numbers each, row-major) written into its slices of the columns;
+/// `(clean, first timestamp, last timestamp)`. Clean: every number finite, every timestamp
+/// at least the one before it, every quaternion's norm at least 1e-12 (what
+/// `slamq.Trajectory` checks).
+fn tum_rows(v: &[f64], t: &mut [f64], p: &mut [f64], q: &mut [f64]) -> (bool, f64, f64) {
+    let mut clean = true;
+    let mut prev = f64::NEG_INFINITY;
+    for (i, r) in v.chunks_exact(8).enumerate() {
+        clean &= r.iter().all(|x| x.is_finite());
+        clean &= r[0] >= prev;
+        prev = r[0];
+        t[i] = r[0];
+        p[3 * i..3 * i + 3].copy_from_slice(&r[1..4]);
+        let (w, x, y, z) = (r[7], r[4], r[5], r[6]);
+        let norm = quat_norm2(w, x, y, z).sqrt();
+        clean &= norm >= 1e-12;
+        q[4 * i] = w / norm;
+        q[4 * i + 1] = x / norm;
+        q[4 * i + 2] = y / norm;
+        q[4 * i + 3] = z / norm;
+    }
+    let first = v.first().copied().unwrap_or(f64::NEG_INFINITY);
+    (clean, first, prev)
+}
+
+/// The poses of a regular TUM file (blank-separated, 8 plain decimal numbers a data line,
+/// `#` comments) read in blocks and parsed in parallel straight into [`Poses`] (no table
+/// of all the numbers is held). `Ok(None)` unless the file is a regular table of 8 columns
+/// with at least one row whose poses `slamq.Trajectory` accepts as they are (finite numbers,
+/// non-decreasing timestamps, non-zero quaternions): the caller's general reader then
+/// reads it, and says what is wrong.
+pub fn read_tum_file(path: &std::path::Path) -> std::io::Result<Option<Poses>> {
+    let mut out = Poses::default();
+    let mut last_t = f64::NEG_INFINITY;
+    let done = for_each_block(path, |text, size, first| {
+        let parts: Vec<Option<Vec<f64>>> = chunks(text, 4 * rayon::current_num_threads())
+            .into_par_iter()
+            .map(|chunk| {
+                let mut values = Vec::with_capacity(chunk.len() / 8);
+                let (rows, cols) = parse_blanks(chunk, &mut values)?;
+                (rows == 0 || cols == 8).then_some(values)
+            })
+            .collect();
+        let parts = parts.into_iter().collect::<Option<Vec<_>>>()?;
+        let rows: usize = parts.iter().map(|v| v.len() / 8).sum();
+        if first {
+            let want = (rows as f64 / text.len() as f64 * size as f64 * 1.02) as usize + 128;
+            out.t.reserve(want);
+            out.p.reserve(3 * want);
+            out.q.reserve(4 * want);
+        }
+        let n0 = out.len();
+        out.t.resize(n0 + rows, 0.0);
+        out.p.resize(3 * (n0 + rows), 0.0);
+        out.q.resize(4 * (n0 + rows), 0.0);
+        let (mut t, mut p, mut q) = (&mut out.t[n0..], &mut out.p[3 * n0..], &mut out.q[4 * n0..]);
+        let mut jobs = Vec::with_capacity(parts.len());
+        for v in &parts {
+            let r = v.len() / 8;
+            let (t1, t2) = std::mem::take(&mut t).split_at_mut(r);
+            let (p1, p2) = std::mem::take(&mut p).split_at_mut(3 * r);
+            let (q1, q2) = std::mem::take(&mut q).split_at_mut(4 * r);
+            (t, p, q) = (t2, p2, q2);
+            jobs.push((v.as_slice(), t1, p1, q1));
+        }
+        let checks: Vec<(bool, f64, f64)> = jobs
+            .into_par_iter()
+            .map(|(v, t, p, q)| tum_rows(v, t, p, q))
+            .collect();
+        for ((clean, first_t, end_t), v) in checks.into_iter().zip(&parts) {
+            if !clean || (!v.is_empty() && first_t < last_t) {
+                return None;
+            }
+            if !v.is_empty() {
+                last_t = end_t;
+            }
+        }
+        Some(())
+    })?;
+    Ok(done.and_then(|()| (!out.is_empty()).then_some(out)))
 }
 
 #[cfg(test)]
