@@ -38,6 +38,13 @@ fn upper_from(at: &impl Fn(usize) -> f64, n: usize, x: f64, hint: usize) -> usiz
     if hint > 0 && at(hint - 1) > x {
         return upper_in(at, x, 0, hint - 1);
     }
+    // the usual steps of two sorted trajectories: the same pose, or the next one
+    if hint == n || at(hint) > x {
+        return hint;
+    }
+    if hint + 1 == n || at(hint + 1) > x {
+        return hint + 1;
+    }
     let (mut lo, mut step) = (hint, 1usize);
     while lo + step <= n && at(lo + step - 1) <= x {
         lo += step;

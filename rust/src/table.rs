@@ -55,6 +55,7 @@ fn ends_field(b: u8) -> bool {
 /// Clinger's fast path when the significant digits fit in 2^53 and the power of ten is
 /// exact (one correctly rounded multiplication or division: the usual case of trajectory
 /// files), else Rust's parser on the same bytes.
+#[inline(always)]
 fn number_at(t: &[u8], start: usize) -> Option<(f64, usize)> {
     let n = t.len();
     let (neg, mut i) = sign(t, start);
@@ -116,6 +117,7 @@ fn sign(t: &[u8], i: usize) -> (bool, usize) {
 /// Appends the run of ASCII digits starting at `t[i]` to `mant` (wrapping: the caller
 /// counts the digits and takes the slow path past 19) and returns where the run ends.
 /// Eight digits at a time (SWAR: one 64-bit load, a check, three multiplications).
+#[inline(always)]
 fn digit_run(t: &[u8], mut i: usize, mant: &mut u64) -> usize {
     while let Some(eight) = t.get(i..i + 8) {
         let mut x = u64::from_le_bytes(eight.try_into().unwrap_or([0; 8]));
