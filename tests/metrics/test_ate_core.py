@@ -266,3 +266,29 @@ def test_read_tum_unsorted_policies_still_apply(tmp_path):
     empty.write_text("# nothing\n")
     assert _core.read_tum(empty) is None
     assert _core.read_tum(tmp_path / "absent.txt") is None
+
+
+def test_results_do_not_depend_on_the_thread_count(tmp_path):
+    import subprocess
+    import sys
+
+    from conftest import slamq_env
+
+    gt = _walk(60_000, 11)
+    gt.write_tum(tmp_path / "gt.txt")
+    _moved(gt, 12).write_tum(tmp_path / "est.txt")
+    code = (
+        "import hashlib; from slamq import load_trajectory; from slamq.metrics.ate import ate\n"
+        f"g = load_trajectory({str(tmp_path / 'gt.txt')!r})\n"
+        f"e = load_trajectory({str(tmp_path / 'est.txt')!r})\n"
+        "for a in ('se2', 'se3', 'sim3'):\n"
+        "    r = ate(g, e, align=a)\n"
+        "    print(a, [v.hex() for v in r.stats().values() if isinstance(v, float)],\n"
+        "          hashlib.sha256(r.errors.tobytes() + e.orientations.tobytes()).hexdigest())\n"
+    )
+    out = []
+    for threads in ("1", "3"):
+        env = slamq_env() | {"RAYON_NUM_THREADS": threads}
+        out.append(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                  env=env, check=True, timeout=120).stdout)
+    assert out[0] == out[1] and out[0].count("\n") == 3
