@@ -4,6 +4,11 @@ The numbers equal evo's (``evo_ape`` / ``evo_rpe``, translation part, metres) fo
 alignments evo has: association by :func:`slamq.metrics.sync.associate`, alignment by
 :func:`slamq.metrics.align.estimate_alignment`, statistics as evo's ``get_statistic``
 (``std`` is the population standard deviation of the per-pose errors).
+
+:func:`ate` runs its passes over the poses in the Rust core (``rust/src/ate.rs``: the
+association, the Umeyama sums, the per-pose errors and their statistics; the 3x3 SVD stays
+in numpy); :func:`ate_numpy` is the same computation in numpy, the reference it is tested
+against (equal to about 1e-13: the sums are taken in another order).
 """
 
 from __future__ import annotations
@@ -299,7 +304,17 @@ def ate(
     return _ate_result(stats, errors, est.timestamps[ei], align, a, gt, est, max_dt, offset)
 
 
-def _ate_result(stats, errors, timestamps, align, a, gt, est, max_dt, offset) -> ErrorResult:
+def _ate_result(
+    stats: dict,
+    errors: np.ndarray,
+    timestamps: np.ndarray,
+    align: str,
+    a: Alignment,
+    gt: Trajectory,
+    est: Trajectory,
+    max_dt: float,
+    offset: float,
+) -> ErrorResult:
     return ErrorResult(
         **stats,
         n=int(errors.shape[0]),
