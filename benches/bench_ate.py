@@ -11,8 +11,9 @@ file reading included:
 
 then the peak memory of each side, each in a fresh process (``--no-memory`` skips it),
 
-asserts that the RMSE (and every statistic) agree to 1e-9, and prints a table with the
-ratios measured in this run.
+asserts that the RMSE (and every statistic) agree to 1e-9 with evo's, and (se3 and se2)
+with slamq's numpy reference ``ate_numpy``, and prints a table with the ratios measured in
+this run.
 
 Usage::
 
@@ -71,6 +72,15 @@ def run_slamq(gt: Path, est: Path, align: str) -> dict:
     from slamq.sources.trajectories import load_trajectory
 
     r = ate(load_trajectory(gt), load_trajectory(est), align=align)
+    return {k: float(getattr(r, k)) for k in STATS} | {"n": r.n}
+
+
+def run_slamq_numpy(gt: Path, est: Path, align: str) -> dict:
+    """The numpy reference of slamq's ATE (``ate_numpy``) on the same files (not timed)."""
+    from slamq.metrics.ate import ate_numpy
+    from slamq.sources.trajectories import load_trajectory
+
+    r = ate_numpy(load_trajectory(gt), load_trajectory(est), align=align)
     return {k: float(getattr(r, k)) for k in STATS} | {"n": r.n}
 
 
@@ -198,6 +208,14 @@ def main(argv=None) -> int:
             tol = 1e-9 * max(1.0, abs(r_evo[k]))
             assert abs(r_s3[k] - r_evo[k]) <= tol, (k, r_s3[k], r_evo[k])
         assert r_s3["n"] == r_evo["n"], (r_s3["n"], r_evo["n"])
+        # and equal to the numpy reference implementation (slamq.metrics.ate.ate_numpy),
+        # for both alignments
+        for align, ours in (("se3", r_s3), ("se2", r_s2)):
+            ref = run_slamq_numpy(gt, est, align)
+            for k in STATS:
+                tol = 1e-9 * max(1.0, abs(ref[k]))
+                assert abs(ours[k] - ref[k]) <= tol, (align, k, ours[k], ref[k])
+            assert ours["n"] == ref["n"], (align, ours["n"], ref["n"])
         rows.append(("evo Python API (read+assoc+ape -a)", t_evo, c_evo, r_evo["rmse"]))
         if args.cli:
             # evo_ape prints 6 decimals
@@ -217,7 +235,8 @@ def main(argv=None) -> int:
             print(f"| {name:36s} | {sec:8.3f} | {cpu:8.3f} | {rmse:12.9f} | "
                   f"{t_evo / sec:20.1f}x | {c_evo / cpu:5.1f}x |")
         print("slamq se3 statistics equal evo's to 1e-9: yes "
-              f"(max |diff| {max(abs(r_s3[k] - r_evo[k]) for k in STATS):.1e})")
+              f"(max |diff| {max(abs(r_s3[k] - r_evo[k]) for k in STATS):.1e}); se3 and se2 "
+              "equal the numpy reference (ate_numpy) to 1e-9: yes")
         if not args.no_memory:
             evo_peak, evo_above = peak_memory("evo", gt, est)
             s_peak, s_above = peak_memory("slamq", gt, est)

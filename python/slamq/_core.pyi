@@ -94,6 +94,33 @@ def evaluate_many(
 def read_table(
     path: str | os.PathLike[str], sep: str, skip: int = 0
 ) -> npt.NDArray[np.float64] | None: ...
+def read_tum(
+    path: str | os.PathLike[str],
+) -> (
+    tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]] | None
+): ...
+def match_stamps(
+    stamps_1: npt.NDArray[np.float64],
+    stamps_2: npt.NDArray[np.float64],
+    max_dt: float,
+    offset_2: float = 0.0,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]: ...
+def ate_moments(
+    gt: npt.NDArray[np.float64],
+    est: npt.NDArray[np.float64],
+    gi: npt.NDArray[np.int64],
+    ei: npt.NDArray[np.int64],
+    dims: int,
+) -> tuple[list[float], list[float], float, list[list[float]]]: ...
+def ate_errors(
+    gt: npt.NDArray[np.float64],
+    est: npt.NDArray[np.float64],
+    gi: npt.NDArray[np.int64],
+    ei: npt.NDArray[np.int64],
+    rotation: list[list[float]] | None,
+    translation: list[float],
+    scale: float,
+) -> tuple[npt.NDArray[np.float64], tuple[float, float, float, float, float, float]]: ...
 def otsu_table(
     values: npt.NDArray[np.uint8], unknown: npt.NDArray[np.bool_]
 ) -> list[int]: ...

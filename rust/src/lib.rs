@@ -19,12 +19,15 @@
 //! - [`se2`]: planar rigid motions, map frames, the closed-form rigid fit.
 //! - [`icp`]: trimmed SE(2) ICP onto a distance transform, and the coarse rotation search.
 //! - [`compare`]: a map against a ground-truth map, SPEC section 7.
+//! - [`ate`]: the absolute trajectory error's passes over the poses (association, Umeyama
+//!   sums, errors, statistics); [`table`]: the numeric text table and TUM pose reader.
 //! - `python` (feature `python`): the pyo3 bindings, and nothing else.
 
 // Stencil loops index several rows at offsets from one column index; iterator chains would
 // hide the arithmetic the SPEC describes.
 #![allow(clippy::needless_range_loop)]
 
+pub mod ate;
 pub mod border;
 pub mod canonical;
 pub mod compare;

@@ -55,6 +55,7 @@ fn ends_field(b: u8) -> bool {
 /// Clinger's fast path when the significant digits fit in 2^53 and the power of ten is
 /// exact (one correctly rounded multiplication or division: the usual case of trajectory
 /// files), else Rust's parser on the same bytes.
+#[inline(always)]
 fn number_at(t: &[u8], start: usize) -> Option<(f64, usize)> {
     let n = t.len();
     let (neg, mut i) = sign(t, start);
@@ -116,6 +117,7 @@ fn sign(t: &[u8], i: usize) -> (bool, usize) {
 /// Appends the run of ASCII digits starting at `t[i]` to `mant` (wrapping: the caller
 /// counts the digits and takes the slow path past 19) and returns where the run ends.
 /// Eight digits at a time (SWAR: one 64-bit load, a check, three multiplications).
+#[inline(always)]
 fn digit_run(t: &[u8], mut i: usize, mant: &mut u64) -> usize {
     while let Some(eight) = t.get(i..i + 8) {
         let mut x = u64::from_le_bytes(eight.try_into().unwrap_or([0; 8]));
@@ -320,8 +322,75 @@ pub fn read_table(text: &[u8], sep: Sep, skip: usize) -> Option<Table> {
     Some(rows.done())
 }
 
-/// Bytes of a file read and parsed at a time by [`read_table_file`].
+/// Bytes of a file read and parsed at a time by [`read_table_file`] and [`read_tum_file`].
 const BLOCK: usize = 8 << 20;
+
+/// Appends up to [`BLOCK`] bytes of `file` to `buf` (without zero-filling them first);
+/// the number of bytes read (0: the end of the file).
+fn read_block(file: &mut std::fs::File, buf: &mut Vec<u8>) -> std::io::Result<usize> {
+    use std::io::Read;
+    file.take(BLOCK as u64).read_to_end(buf)
+}
+
+/// Where the whole lines of `buf` end: after its last `\n`, or its end once the file is
+/// read (`got == 0`); 0 when no line is whole yet.
+fn lines_end(buf: &[u8], got: usize) -> usize {
+    if got == 0 {
+        buf.len()
+    } else {
+        buf.iter().rposition(|&b| b == b'\n').map_or(0, |k| k + 1)
+    }
+}
+
+/// Calls `feed(text, size, first)` on a file's text, whole lines at a time, in blocks of
+/// about 8 MiB, so that the whole text is never held (`size`: the file's size; `first`:
+/// the first call). The next block is read while `feed` parses the one before (two
+/// buffers). Stops at the first `None` and returns `Ok(None)`.
+fn for_each_block(
+    path: &std::path::Path,
+    mut feed: impl FnMut(&[u8], usize, bool) -> Option<()> + Send,
+) -> std::io::Result<Option<()>> {
+    let mut file = std::fs::File::open(path)?;
+    let size = file.metadata().map(|m| m.len() as usize).unwrap_or(0);
+    let cap = BLOCK.min(size.max(1)) + (1 << 16);
+    let (mut cur, mut next) = (Vec::with_capacity(cap), Vec::with_capacity(cap));
+    let mut got = read_block(&mut file, &mut cur)?;
+    let mut first = true;
+    loop {
+        let mut end = lines_end(&cur, got);
+        while end == 0 && got > 0 {
+            // a line longer than the block: read on
+            got = read_block(&mut file, &mut cur)?;
+            end = lines_end(&cur, got);
+        }
+        let last = got == 0;
+        let (text, rest) = cur.split_at(end);
+        let file = &mut file;
+        let next_buf = &mut next;
+        let feed = &mut feed;
+        let (read, fed) = rayon::join(
+            move || {
+                next_buf.clear();
+                next_buf.extend_from_slice(rest);
+                if last {
+                    Ok(0)
+                } else {
+                    read_block(file, next_buf)
+                }
+            },
+            move || text.is_empty() || feed(text, size, first).is_some(),
+        );
+        if !fed {
+            return Ok(None);
+        }
+        got = read?;
+        first &= text.is_empty();
+        if last {
+            return Ok(Some(()));
+        }
+        std::mem::swap(&mut cur, &mut next);
+    }
+}
 
 /// [`read_table`] of a file, read in blocks of 8 MiB so that the whole text is never held:
 /// the memory is the numbers (8 bytes each) and one block. The numbers' buffer is sized
@@ -331,39 +400,137 @@ pub fn read_table_file(
     sep: Sep,
     skip: usize,
 ) -> std::io::Result<Option<Table>> {
-    use std::io::Read;
-    let mut file = std::fs::File::open(path)?;
-    let size = file.metadata().map(|m| m.len() as usize).unwrap_or(0);
     let mut rows = Rows::new(sep, skip);
-    let mut buf: Vec<u8> = Vec::with_capacity(BLOCK.min(size.max(1)) + (1 << 16));
-    let mut first = true;
-    loop {
-        // appended without zero-filling the block first
-        let got = (&mut file).take(BLOCK as u64).read_to_end(&mut buf)?;
-        let end = if got == 0 {
-            buf.len()
-        } else {
-            match buf.iter().rposition(|&b| b == b'\n') {
-                Some(k) => k + 1,
-                None => continue, // a line longer than the block: read on
-            }
-        };
-        if rows.feed(&buf[..end]).is_none() {
-            return Ok(None);
-        }
-        if first && end > 0 {
+    let done = for_each_block(path, |text, size, first| {
+        rows.feed(text)?;
+        if first {
             // numbers per byte of this block, times the file's size, and some slack
-            let per_byte = rows.values.len() as f64 / end as f64;
+            let per_byte = rows.values.len() as f64 / text.len() as f64;
             let want = (per_byte * size as f64 * 1.02) as usize + 1024;
             rows.values.reserve(want.saturating_sub(rows.values.len()));
-            first = false;
         }
-        buf.drain(..end);
-        if got == 0 {
-            break;
-        }
+        Some(())
+    })?;
+    Ok(done.map(|()| rows.done()))
+}
+
+/// The poses of a TUM file (`t x y z qx qy qz qw` a line) in the layout
+/// `slamq.Trajectory` keeps: timestamps, positions `(n, 3)` and unit quaternions `(n, 4)`
+/// in w, x, y, z order, row-major.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Poses {
+    pub t: Vec<f64>,
+    pub p: Vec<f64>,
+    pub q: Vec<f64>,
+}
+
+impl Poses {
+    /// The number of poses.
+    pub fn len(&self) -> usize {
+        self.t.len()
     }
-    Ok(Some(rows.done()))
+
+    /// Whether there is no pose.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+}
+
+/// The squared norm of a quaternion `(w, x, y, z)` summed in that order, as numpy's
+/// `einsum("ij,ij->i", q, q)` sums the rows of the column-major array the general TUM
+/// reader hands `slamq.Trajectory` (`arr[:, [7, 4, 5, 6]]`), so that the unit quaternions
+/// are bit-equal to those of that path.
+pub fn quat_norm2(w: f64, x: f64, y: f64, z: f64) -> f64 {
+    w * w + x * x + y * y + z * z
+}
+
+/// One chunk's rows (8 numbers each, row-major) written into its slices of the columns;
+/// `(clean, first timestamp, last timestamp)`. Clean: every number finite, every timestamp
+/// at least the one before it, every quaternion's norm at least 1e-12 (what
+/// `slamq.Trajectory` checks).
+fn tum_rows(v: &[f64], t: &mut [f64], p: &mut [f64], q: &mut [f64]) -> (bool, f64, f64) {
+    let mut clean = true;
+    let mut prev = f64::NEG_INFINITY;
+    for (i, r) in v.chunks_exact(8).enumerate() {
+        clean &= r.iter().all(|x| x.is_finite());
+        clean &= r[0] >= prev;
+        prev = r[0];
+        t[i] = r[0];
+        p[3 * i..3 * i + 3].copy_from_slice(&r[1..4]);
+        let (w, x, y, z) = (r[7], r[4], r[5], r[6]);
+        let norm = quat_norm2(w, x, y, z).sqrt();
+        clean &= norm >= 1e-12;
+        q[4 * i] = w / norm;
+        q[4 * i + 1] = x / norm;
+        q[4 * i + 2] = y / norm;
+        q[4 * i + 3] = z / norm;
+    }
+    let first = v.first().copied().unwrap_or(f64::NEG_INFINITY);
+    (clean, first, prev)
+}
+
+/// The poses of a regular TUM file (blank-separated, 8 plain decimal numbers a data line,
+/// `#` comments) read in blocks and parsed in parallel straight into [`Poses`] (no table
+/// of all the numbers is held). `Ok(None)` unless the file is a regular table of 8 columns
+/// with at least one row whose poses `slamq.Trajectory` accepts as they are (finite numbers,
+/// non-decreasing timestamps, non-zero quaternions): the caller's general reader then
+/// reads it, and says what is wrong.
+pub fn read_tum_file(path: &std::path::Path) -> std::io::Result<Option<Poses>> {
+    let mut out = Poses::default();
+    let mut last_t = f64::NEG_INFINITY;
+    // each chunk's numbers, the buffers kept from block to block
+    let mut parts: Vec<Vec<f64>> = Vec::new();
+    let done = for_each_block(path, |text, size, first| {
+        let chunks = chunks(text, 4 * rayon::current_num_threads());
+        parts.resize_with(chunks.len(), Vec::new);
+        let parts = &mut parts[..chunks.len()];
+        let regular = chunks
+            .into_par_iter()
+            .zip(parts.par_iter_mut())
+            .all(|(chunk, values)| {
+                values.clear();
+                values.reserve(chunk.len() / 8);
+                matches!(parse_blanks(chunk, values), Some((rows, cols)) if rows == 0 || cols == 8)
+            });
+        if !regular {
+            return None;
+        }
+        let rows: usize = parts.iter().map(|v| v.len() / 8).sum();
+        if first {
+            let want = (rows as f64 / text.len() as f64 * size as f64 * 1.02) as usize + 128;
+            out.t.reserve(want);
+            out.p.reserve(3 * want);
+            out.q.reserve(4 * want);
+        }
+        let n0 = out.len();
+        out.t.resize(n0 + rows, 0.0);
+        out.p.resize(3 * (n0 + rows), 0.0);
+        out.q.resize(4 * (n0 + rows), 0.0);
+        let (mut t, mut p, mut q) = (&mut out.t[n0..], &mut out.p[3 * n0..], &mut out.q[4 * n0..]);
+        let mut jobs = Vec::with_capacity(parts.len());
+        for v in parts.iter() {
+            let r = v.len() / 8;
+            let (t1, t2) = std::mem::take(&mut t).split_at_mut(r);
+            let (p1, p2) = std::mem::take(&mut p).split_at_mut(3 * r);
+            let (q1, q2) = std::mem::take(&mut q).split_at_mut(4 * r);
+            (t, p, q) = (t2, p2, q2);
+            jobs.push((v.as_slice(), t1, p1, q1));
+        }
+        let checks: Vec<(bool, f64, f64)> = jobs
+            .into_par_iter()
+            .map(|(v, t, p, q)| tum_rows(v, t, p, q))
+            .collect();
+        for ((clean, first_t, end_t), v) in checks.into_iter().zip(parts.iter()) {
+            if !clean || (!v.is_empty() && first_t < last_t) {
+                return None;
+            }
+            if !v.is_empty() {
+                last_t = end_t;
+            }
+        }
+        Some(())
+    })?;
+    Ok(done.and_then(|()| (!out.is_empty()).then_some(out)))
 }
 
 #[cfg(test)]
@@ -474,6 +641,36 @@ mod tests {
     }
 
     #[test]
+    fn digit_runs_equal_a_byte_by_byte_count() {
+        let alphabet = b"0123456789/:. -+eE\n\xff\xfa\x00\xb0\xb9";
+        let mut x: u64 = 0x2545_F491_4F6C_DD1D;
+        for _ in 0..100_000 {
+            let mut t = Vec::new();
+            for _ in 0..(x % 24) {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                let pick = if x % 3 == 0 {
+                    x as usize
+                } else {
+                    (x % 10) as usize
+                };
+                t.push(alphabet[pick % alphabet.len()]);
+            }
+            for start in 0..t.len().min(4) {
+                let (mut got, mut want) = (7u64, 7u64);
+                let end = digit_run(&t, start, &mut got);
+                let mut i = start;
+                while i < t.len() && t[i].is_ascii_digit() {
+                    want = want.wrapping_mul(10).wrapping_add(u64::from(t[i] - b'0'));
+                    i += 1;
+                }
+                assert_eq!((end, got), (i, want), "{t:?} from {start}");
+            }
+        }
+    }
+
+    #[test]
     fn a_file_read_in_blocks_equals_the_text_read_at_once() {
         let dir = std::env::temp_dir().join(format!("slamq_table_{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -495,6 +692,50 @@ mod tests {
             vec![1.0, 2.0]
         );
         assert!(read_table_file(&dir.join("absent"), Sep::Blanks, 0).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_tum_file_read_into_columns_equals_its_table() {
+        let dir = std::env::temp_dir().join(format!("slamq_tum_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("t.txt");
+        let mut text = String::from("# t x y z qx qy qz qw\n");
+        for i in 0..250_000 {
+            // about 17 MiB: three blocks; a comment and a blank line now and then
+            text.push_str(&format!(
+                "{}.{:06} {}.5 -{} 0.{:09} 0.25 -0.{:03} {}.75 1.{}\n",
+                1_600_000_000 + i / 100,
+                (i % 100) * 10_000,
+                i % 977,
+                i % 13,
+                i * 7919 % 1_000_000_000,
+                i % 1000,
+                i % 3,
+                i % 10
+            ));
+            if i % 50_000 == 7 {
+                text.push_str("# a comment\n\n");
+            }
+        }
+        std::fs::write(&p, &text).unwrap();
+        let table = read_table(text.as_bytes(), Sep::Blanks, 0).unwrap();
+        let poses = read_tum_file(&p).unwrap().unwrap();
+        assert_eq!(poses.len(), 250_000);
+        for (i, r) in table.values.chunks_exact(8).enumerate() {
+            assert_eq!(poses.t[i], r[0]);
+            assert_eq!(&poses.p[3 * i..3 * i + 3], &r[1..4]);
+            let n = quat_norm2(r[7], r[4], r[5], r[6]).sqrt();
+            let want = [r[7] / n, r[4] / n, r[5] / n, r[6] / n];
+            assert_eq!(&poses.q[4 * i..4 * i + 4], &want);
+        }
+        // a timestamp going back, a zero quaternion, 7 columns, no rows: not taken here
+        let back = text.replacen("1600001000.000000", "1500000000.000000", 1);
+        let zero = format!("{text}1700000000 0 0 0 0 0 0 0\n");
+        for bad in [back, zero, "0 1 2 3 4 5 6\n".into(), "# none\n".into()] {
+            std::fs::write(&p, &bad).unwrap();
+            assert_eq!(read_tum_file(&p).unwrap(), None);
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -17,7 +17,10 @@ import numpy as np
 from slamq.errors import TrajectoryError
 from slamq.models.trajectory import matrix_to_quat, quat_multiply, quat_to_matrix
 
-__all__ = ["ALIGNMENTS", "Alignment", "umeyama", "estimate_alignment"]
+__all__ = [
+    "ALIGNMENTS", "Alignment", "umeyama", "umeyama_solve", "estimate_alignment",
+    "estimate_alignment_pairs",
+]
 
 #: Alignment names accepted by :func:`slamq.ate` and ``rpe``.
 ALIGNMENTS = ("se2", "se3", "sim3", "origin", "none")
@@ -107,6 +110,28 @@ def umeyama(
     yc = y - mean_y
     sigma_x = 1.0 / n * (np.linalg.norm(xc) ** 2)
     cov_xy = np.multiply(1.0 / n, yc.T @ xc)
+    return umeyama_solve(mean_x, mean_y, sigma_x, cov_xy, with_scale)
+
+
+def umeyama_solve(
+    mean_x: np.ndarray,
+    mean_y: np.ndarray,
+    sigma_x: float,
+    cov_xy: np.ndarray,
+    with_scale: bool = False,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """:func:`umeyama` from its sums: the means ``(m,)``, ``sigma_x`` (mean squared
+    distance of ``x`` from its mean) and ``cov_xy`` ``(m, m)`` (mean of ``yc xc^T``).
+
+    The sums come from :func:`umeyama` (numpy) or from the Rust core
+    (``slamq._core.ate_moments``); the SVD, the degeneracy test and the rest are evo's.
+
+    Raises
+    ------
+    TrajectoryError
+        As :func:`umeyama`.
+    """
+    m = cov_xy.shape[0]
     u, d, v = np.linalg.svd(cov_xy)
     if np.count_nonzero(d > np.finfo(d.dtype).eps) < m - 1:
         raise TrajectoryError(
@@ -207,4 +232,78 @@ def estimate_alignment(
         r, t, c = umeyama(est_pos, gt_pos, kind == "sim3")
     except TrajectoryError as exc:
         raise TrajectoryError(f"{source}: {exc}") from None
+    return Alignment(kind, r, t, c)
+
+
+def _distinct_pairs(est_pos: np.ndarray, ei: np.ndarray, dims: int, k: int) -> bool:
+    """:func:`_distinct_at_least` of ``est_pos[ei][:, :dims]``, usually from the first
+    4096 pairs only (without gathering every pair's position)."""
+    if ei.shape[0] > 4096 and _distinct_at_least(est_pos[ei[:4096], :dims], k):
+        return True
+    return _distinct_at_least(est_pos[ei][:, :dims], k)
+
+
+def estimate_alignment_pairs(
+    kind: str,
+    gt_pos: np.ndarray,
+    est_pos: np.ndarray,
+    gi: np.ndarray,
+    ei: np.ndarray,
+    *,
+    source: str = "<array>",
+) -> Alignment:
+    """:func:`estimate_alignment` of the associated pairs ``gt_pos[gi]``, ``est_pos[ei]``
+    for ``se2 | se3 | sim3 | none``, with the Umeyama sums taken by the Rust core
+    (``slamq._core.ate_moments``: no gathered copies of the positions).
+
+    Same alignment as :func:`estimate_alignment` (the sums differ from numpy's by rounding
+    only), same errors for the same inputs.
+
+    Parameters
+    ----------
+    kind : str
+    gt_pos, est_pos : (N, 3) C-contiguous float64 arrays
+        The trajectories' positions.
+    gi, ei : (n,) int64 arrays
+        The associated rows (``slamq.metrics.sync.associate``), ``n >= 1``.
+    source : str
+        Named in the error messages (the estimate's file).
+
+    Raises
+    ------
+    TrajectoryError
+        As :func:`estimate_alignment` (``origin`` is not handled here).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> p = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0]])
+    >>> i = np.arange(3)
+    >>> a = estimate_alignment_pairs("se2", p + [5, 0, 0], p, i, i)
+    >>> (np.round(a.translation, 12) + 0.0).tolist()
+    [5.0, 0.0, 0.0]
+    """
+    from slamq import _core
+
+    if kind not in ALIGNMENTS or kind == "origin":
+        raise TrajectoryError(f"unknown alignment {kind!r} (one of se2, se3, sim3, none)")
+    if kind == "none":
+        return Alignment("none", np.eye(3), np.zeros(3), 1.0)
+    dims, need = (2, 2) if kind == "se2" else (3, 3)
+    if not _distinct_pairs(est_pos, ei, dims, need):
+        what = "x-y positions" if kind == "se2" else "positions"
+        raise TrajectoryError(
+            f"{source}: degenerate alignment: {kind} needs at least {need} distinct estimated "
+            f"{what} among the {ei.shape[0]} associated poses"
+        )
+    mean_x, mean_y, sigma_x, cov = _core.ate_moments(gt_pos, est_pos, gi, ei, dims)
+    try:
+        r, t, c = umeyama_solve(np.array(mean_x), np.array(mean_y), sigma_x, np.array(cov),
+                                kind == "sim3")
+    except TrajectoryError as exc:
+        raise TrajectoryError(f"{source}: {exc}") from None
+    if kind == "se2":
+        r3 = np.eye(3)
+        r3[:2, :2] = r
+        return Alignment("se2", r3, np.array([t[0], t[1], 0.0]), 1.0)
     return Alignment(kind, r, t, c)

@@ -4,6 +4,11 @@ The numbers equal evo's (``evo_ape`` / ``evo_rpe``, translation part, metres) fo
 alignments evo has: association by :func:`slamq.metrics.sync.associate`, alignment by
 :func:`slamq.metrics.align.estimate_alignment`, statistics as evo's ``get_statistic``
 (``std`` is the population standard deviation of the per-pose errors).
+
+:func:`ate` runs its passes over the poses in the Rust core (``rust/src/ate.rs``: the
+association, the Umeyama sums, the per-pose errors and their statistics; the 3x3 SVD stays
+in numpy); :func:`ate_numpy` is the same computation in numpy, the reference it is tested
+against (equal to about 1e-13: the sums are taken in another order).
 """
 
 from __future__ import annotations
@@ -16,12 +21,20 @@ from typing import Union
 
 import numpy as np
 
+from slamq import _core
 from slamq.errors import TrajectoryError
-from slamq.metrics.align import ALIGNMENTS, Alignment, estimate_alignment
-from slamq.metrics.sync import associate
+from slamq.metrics.align import (
+    ALIGNMENTS,
+    Alignment,
+    estimate_alignment,
+    estimate_alignment_pairs,
+)
+from slamq.metrics.sync import associate, matching_indices_numpy
 from slamq.models.trajectory import Trajectory, quat_multiply, quat_rotate
 
-__all__ = ["ErrorResult", "RunsResult", "ate", "rpe", "ate_runs", "STAT_NAMES"]
+__all__ = [
+    "ErrorResult", "RunsResult", "ate", "ate_numpy", "rpe", "ate_runs", "STAT_NAMES",
+]
 
 #: The statistics of an :class:`ErrorResult`, in output order.
 STAT_NAMES = ("rmse", "mean", "median", "std", "min", "max", "sse")
@@ -265,6 +278,82 @@ def ate(
     gt = _as_traj(gt, "gt")
     est = _as_traj(est, "est")
     gi, ei = _associated(gt, est, max_dt, offset)
+    if align == "origin":
+        a = estimate_alignment(align, gt.positions[gi[:1]], est.positions[ei[:1]],
+                               gt.orientations[gi[:1]], est.orientations[ei[:1]],
+                               source=est.source)
+    else:
+        a = estimate_alignment_pairs(align, gt.positions, est.positions, gi, ei,
+                                     source=est.source)
+    # the per-pose errors and their statistics in one pass of the Rust core, without
+    # gathered copies of the positions (the numpy reference: ate_numpy)
+    rotation = None if a.kind == "none" else a.rotation.tolist()
+    errors, (total, sse, ssd, lo, hi, median) = _core.ate_errors(
+        gt.positions, est.positions, gi, ei, rotation, a.translation.tolist(),
+        float(a.scale))
+    n = int(errors.shape[0])
+    stats = {
+        "rmse": math.sqrt(sse / n),
+        "mean": total / n,
+        "median": median,
+        "std": math.sqrt(ssd / n),
+        "min": lo,
+        "max": hi,
+        "sse": sse,
+    }
+    return _ate_result(stats, errors, est.timestamps[ei], align, a, gt, est, max_dt, offset)
+
+
+def _ate_result(
+    stats: dict,
+    errors: np.ndarray,
+    timestamps: np.ndarray,
+    align: str,
+    a: Alignment,
+    gt: Trajectory,
+    est: Trajectory,
+    max_dt: float,
+    offset: float,
+) -> ErrorResult:
+    return ErrorResult(
+        **stats,
+        n=int(errors.shape[0]),
+        errors=errors,
+        timestamps=timestamps,
+        metric="ate",
+        align=align,
+        alignment=a,
+        gt_source=gt.source,
+        est_source=est.source,
+        params={"max_dt": float(max_dt), "offset": float(offset)},
+    )
+
+
+def ate_numpy(
+    gt: Trajectory,
+    est: Trajectory,
+    *,
+    align: str = "se2",
+    max_dt: float = 0.01,
+    offset: float = 0.0,
+) -> ErrorResult:
+    """:func:`ate` in numpy (association, Umeyama, errors, statistics): the reference the
+    Rust passes of :func:`ate` are tested against. Same arguments, result and errors.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq.models import Trajectory
+    >>> t = np.arange(20.0)
+    >>> gt = Trajectory.from_xy_yaw(t, t, np.sin(t))
+    >>> est = Trajectory.from_xy_yaw(t, t + 1, np.sin(t))
+    >>> ate_numpy(gt, est, align="none").rmse == ate(gt, est, align="none").rmse == 1.0
+    True
+    """
+    _check_align(align)
+    gt = _as_traj(gt, "gt")
+    est = _as_traj(est, "est")
+    gi, ei = associate(gt, est, max_dt=max_dt, offset=offset, matcher=matching_indices_numpy)
     gp = gt.positions[gi]
     ep = est.positions[ei]
     if align == "origin":
@@ -275,18 +364,8 @@ def ate(
     ep = a.apply_positions(ep)
     diff = ep - gp
     errors = np.sqrt(np.einsum("ij,ij->i", diff, diff))
-    return ErrorResult(
-        **_stats(errors),
-        n=int(errors.shape[0]),
-        errors=errors,
-        timestamps=est.timestamps[ei],
-        metric="ate",
-        align=align,
-        alignment=a,
-        gt_source=gt.source,
-        est_source=est.source,
-        params={"max_dt": float(max_dt), "offset": float(offset)},
-    )
+    return _ate_result(_stats(errors), errors, est.timestamps[ei], align, a, gt, est,
+                       max_dt, offset)
 
 
 def _pairs_by_frames(n: int, delta: int) -> tuple[np.ndarray, np.ndarray]:

@@ -9,12 +9,14 @@ are dropped. ``offset`` is added to the estimate's timestamps.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from slamq.errors import TrajectoryError
 from slamq.models.trajectory import Trajectory
 
-__all__ = ["matching_indices", "associate"]
+__all__ = ["matching_indices", "matching_indices_numpy", "associate"]
 
 
 def matching_indices(
@@ -23,12 +25,34 @@ def matching_indices(
     """Indices ``(i1, i2)`` of the best match in ``stamps_2 + offset_2`` of each stamp_1.
 
     ``stamps_2`` must be sorted (non-decreasing). Same result as evo's
-    ``sync.matching_time_indices`` for sorted stamps.
+    ``sync.matching_time_indices`` for sorted stamps. Computed by the Rust core
+    (``slamq._core.match_stamps``, one pass over sorted stamps); equal to
+    :func:`matching_indices_numpy`, the vectorised reference.
 
     Examples
     --------
     >>> import numpy as np
     >>> matching_indices(np.array([0.0, 1.0, 2.5]), np.array([0.005, 1.02, 2.5]), 0.01)
+    (array([0, 2]), array([0, 2]))
+    """
+    from slamq import _core
+
+    s1 = np.ascontiguousarray(stamps_1, dtype=np.float64)
+    s2 = np.ascontiguousarray(stamps_2, dtype=np.float64)
+    if s1.ndim != 1 or s2.ndim != 1 or s2.shape[0] == 0:
+        return matching_indices_numpy(stamps_1, stamps_2, max_dt, offset_2)  # as it fails
+    return _core.match_stamps(s1, s2, float(max_dt), float(offset_2))
+
+
+def matching_indices_numpy(
+    stamps_1: np.ndarray, stamps_2: np.ndarray, max_dt: float = 0.01, offset_2: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`matching_indices` in numpy: the reference the Rust core is tested against.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> matching_indices_numpy(np.array([0.0, 1.0, 2.5]), np.array([0.005, 1.02, 2.5]), 0.01)
     (array([0, 2]), array([0, 2]))
     """
     s1 = np.asarray(stamps_1, dtype=np.float64)
@@ -48,7 +72,12 @@ def matching_indices(
 
 
 def associate(
-    gt: Trajectory, est: Trajectory, *, max_dt: float = 0.01, offset: float = 0.0
+    gt: Trajectory,
+    est: Trajectory,
+    *,
+    max_dt: float = 0.01,
+    offset: float = 0.0,
+    matcher: Callable[..., tuple[np.ndarray, np.ndarray]] = matching_indices,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Pairs of indices ``(gt_index, est_index)`` of the associated poses.
 
@@ -59,6 +88,8 @@ def associate(
         Largest accepted time difference, seconds (evo's ``--t_max_diff``, 0.01).
     offset : float
         Seconds added to the estimate's timestamps (evo's ``--t_offset``).
+    matcher : callable
+        :func:`matching_indices` (Rust) or :func:`matching_indices_numpy` (the reference).
 
     Raises
     ------
@@ -80,10 +111,10 @@ def associate(
         raise TrajectoryError(f"offset must be finite, not {offset!r}")
     second_longer = len(est) > len(gt)
     if second_longer:
-        i_short, i_long = matching_indices(gt.timestamps, est.timestamps, max_dt, offset)
+        i_short, i_long = matcher(gt.timestamps, est.timestamps, max_dt, offset)
         gi, ei = i_short, i_long
     else:
-        i_short, i_long = matching_indices(est.timestamps, gt.timestamps, max_dt, -offset)
+        i_short, i_long = matcher(est.timestamps, gt.timestamps, max_dt, -offset)
         gi, ei = i_long, i_short
     if gi.shape[0] == 0:
         raise TrajectoryError(

@@ -249,6 +249,32 @@ class Trajectory:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
+    def _from_checked(
+        cls,
+        timestamps: np.ndarray,
+        positions: np.ndarray,
+        orientations: np.ndarray,
+        *,
+        source: str = "<array>",
+        meta: dict | None = None,
+    ) -> Trajectory:
+        """A trajectory of arrays that already pass every check of the constructor.
+
+        For readers that checked and normalised the poses themselves (``slamq._core.read_tum``):
+        C-contiguous float64 arrays ``(N,)``, ``(N, 3)`` and ``(N, 4)`` (unit quaternions,
+        w x y z, normalised as the constructor does), finite, non-decreasing timestamps,
+        ``N >= 1``. The arrays are kept as they are (made read-only), not copied.
+        """
+        obj = object.__new__(cls)
+        for name, arr in (("timestamps", timestamps), ("positions", positions),
+                          ("orientations", orientations)):
+            arr.flags.writeable = False
+            object.__setattr__(obj, name, arr)
+        object.__setattr__(obj, "source", source)
+        object.__setattr__(obj, "meta", {} if meta is None else meta)
+        return obj
+
+    @classmethod
     def from_xy_yaw(
         cls,
         t: np.ndarray,

@@ -205,6 +205,14 @@ def read_tum(path: PathLike, *, unsorted: str = "error") -> Trajectory:
     [1.0, 2.0]
     """
     path = Path(path)
+    from slamq import _core
+
+    # The common case in one pass: a regular TUM file whose poses the Trajectory checks
+    # accept, parsed by the Rust core straight into the Trajectory's arrays (normalised
+    # as the constructor does). Anything else is read below, and its errors raised there.
+    fast = _core.read_tum(path)
+    if fast is not None:
+        return Trajectory._from_checked(*fast, source=str(path), meta={"format": "tum"})
     arr = _read_table(path, sep="ws")
     _nonempty(arr, path)
     _check_cols(arr, path, 8, "TUM")
