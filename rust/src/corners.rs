@@ -486,10 +486,16 @@ mod tests {
             s = s.wrapping_mul(6364136223846793005).wrapping_add(1);
             (s >> 33) as usize
         };
-        let p = CornerParams::default();
-        for trial in 0..300 {
+        let ks = [0.04, 0.0, -0.05, 0.25, -0.0];
+        for trial in 0..600 {
+            // default parameters, then other Harris k (negative too) and quality levels
+            let mut p = CornerParams::default();
+            if trial >= 300 {
+                p.harris_k = ks[trial % ks.len()];
+                p.harris_quality = [0.01, 0.0, 0.5, 0.9][trial % 4];
+            }
             let h = 1 + next() % 23;
-            let w = 1 + next() % 23;
+            let w = 1 + next() % if trial % 5 == 0 { 150 } else { 23 };
             let density = next() % 100;
             let mut mask: Vec<u8> = (0..h * w).map(|_| (next() % 100 < density) as u8).collect();
             if trial % 3 == 0 {
