@@ -261,8 +261,17 @@ impl Components {
                         *p = k as u32;
                     }
                     for r in r0 + 1..r1 {
+                        // a run of this row is a singleton until its first contact, which
+                        // can link it straight to the other run's root (smaller index)
+                        let mut last = usize::MAX;
                         touching_runs(runs_ref, (rs[r - 1], rs[r]), (rs[r], rs[r + 1]), |i, j| {
-                            union(par, (i - base) as u32, (j - base) as u32)
+                            let (a, b) = ((i - base) as u32, (j - base) as u32);
+                            if j != last {
+                                last = j;
+                                par[b as usize] = find(par, a);
+                            } else {
+                                union(par, a, b);
+                            }
                         });
                     }
                     let mut roots = Vec::new();
