@@ -17,7 +17,7 @@
 use crate::border::reflect101;
 use crate::filter::{blur_row, laplacian_mask_row, structure_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
-use crate::label::{push_runs, Components, MaskRows, RowRuns, Run};
+use crate::label::{count_components, push_runs, Components, MaskRows, RowRuns, Run};
 use crate::params::CornerParams;
 use rayon::prelude::*;
 
@@ -533,7 +533,7 @@ pub fn count_corners(grid: &Grid, params: &CornerParams) -> usize {
     let runs = drop_dots_runs(&mut mask, runs, h, w, params.min_dot_area);
     let corners = corner_runs(&mask, &runs, h, w, params);
     drop((mask, runs));
-    Components::from_runs(corners.runs, corners.row_start, h, w).count()
+    count_components(&corners.runs, &corners.row_start, h)
 }
 
 #[cfg(test)]

@@ -225,6 +225,177 @@ fn split_bands<'v, T>(v: &'v mut [T], base: &[usize]) -> Vec<&'v mut [T]> {
     out
 }
 
+/// The number of 8-connected components of an image given by its runs
+/// (`runs[row_start[r]..row_start[r + 1]]` are row `r`'s runs, left to right), without
+/// labelling them: a union-find over the runs counts the unions that join two components,
+/// and every such union removes one of the `runs.len()` singletons. Bands in parallel, then
+/// the band seams; the count is the same for any thread count.
+pub fn count_components(runs: &[Run], row_start: &[usize], height: usize) -> usize {
+    let bands = bands(height);
+    let mut band_base: Vec<usize> = bands.iter().map(|&(r0, _)| row_start[r0]).collect();
+    band_base.push(runs.len());
+    debug_assert!(runs.len() < u32::MAX as usize);
+    let mut parent: Vec<u32> = vec![0; runs.len()];
+    let merged: usize = split_bands(&mut parent, &band_base)
+        .into_par_iter()
+        .zip(bands.par_iter().zip(band_base.par_iter()))
+        .map(|(par, (&(r0, r1), &base))| {
+            for (k, p) in par.iter_mut().enumerate() {
+                *p = (base + k) as u32;
+            }
+            let mut merged = 0usize;
+            for r in r0 + 1..r1 {
+                let mut last = usize::MAX;
+                touching_runs(
+                    runs,
+                    (row_start[r - 1], row_start[r]),
+                    (row_start[r], row_start[r + 1]),
+                    |i, j| {
+                        let (a, b) = ((i - base) as u32, (j - base) as u32);
+                        if j != last {
+                            // the first contact of a singleton always joins two components
+                            last = j;
+                            par[b as usize] = find_in(par, a, base);
+                            merged += 1;
+                        } else {
+                            merged += union_in(par, a, b, base) as usize;
+                        }
+                    },
+                );
+            }
+            merged
+        })
+        .sum();
+    let mut seams = 0usize;
+    for &(r0, _) in bands.iter().skip(1) {
+        touching_runs(
+            runs,
+            (row_start[r0 - 1], row_start[r0]),
+            (row_start[r0], row_start[r0 + 1]),
+            |i, j| seams += union_in(&mut parent, i as u32, j as u32, 0) as usize,
+        );
+    }
+    runs.len() - merged - seams
+}
+
+/// The number of 8-connected components of an `height x width` image given by its runs that
+/// touch no image border and have at least `min_area` cells, without labelling them: the
+/// union-find carries each component's size and border contact at its root, merged as
+/// components join (bands in parallel, then the seams; the same for any thread count).
+pub fn count_enclosed_runs(
+    runs: &[Run],
+    row_start: &[usize],
+    height: usize,
+    width: usize,
+    min_area: u32,
+) -> usize {
+    let bands = bands(height);
+    let mut band_base: Vec<usize> = bands.iter().map(|&(r0, _)| row_start[r0]).collect();
+    band_base.push(runs.len());
+    debug_assert!(runs.len() < u32::MAX as usize);
+    let n = runs.len();
+    let mut parent: Vec<u32> = vec![0; n];
+    // size (at most the cell count, below 2^32) with the border flag in the top bit
+    let mut stat: Vec<u64> = vec![0; n];
+    const EDGE: u64 = 1 << 63;
+    let merge = |st: &mut [u64], into: usize, from: usize| {
+        let (a, b) = (st[into], st[from]);
+        st[into] = ((a & !EDGE) + (b & !EDGE)) | ((a | b) & EDGE);
+    };
+    split_bands(&mut parent, &band_base)
+        .into_par_iter()
+        .zip(split_bands(&mut stat, &band_base))
+        .zip(bands.par_iter().zip(band_base.par_iter()))
+        .for_each(|((par, st), (&(r0, r1), &base))| {
+            for r in r0..r1 {
+                let edge_row = r == 0 || r + 1 == height;
+                for i in row_start[r]..row_start[r + 1] {
+                    let run = runs[i];
+                    let k = i - base;
+                    par[k] = i as u32;
+                    let edge = edge_row || run.start == 0 || run.end as usize == width;
+                    st[k] = u64::from(run.end - run.start) | if edge { EDGE } else { 0 };
+                }
+            }
+            for r in r0 + 1..r1 {
+                let mut last = usize::MAX;
+                touching_runs(
+                    runs,
+                    (row_start[r - 1], row_start[r]),
+                    (row_start[r], row_start[r + 1]),
+                    |i, j| {
+                        let (a, b) = ((i - base) as u32, (j - base) as u32);
+                        let ra = find_in(par, a, base) - base as u32;
+                        if j != last {
+                            last = j;
+                            par[b as usize] = ra + base as u32;
+                            merge(st, ra as usize, b as usize);
+                        } else {
+                            let rb = find_in(par, b, base) - base as u32;
+                            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                            if lo != hi {
+                                par[hi as usize] = lo + base as u32;
+                                merge(st, lo as usize, hi as usize);
+                            }
+                        }
+                    },
+                );
+            }
+        });
+    for &(r0, _) in bands.iter().skip(1) {
+        touching_runs(
+            runs,
+            (row_start[r0 - 1], row_start[r0]),
+            (row_start[r0], row_start[r0 + 1]),
+            |i, j| {
+                let ra = find_in(&mut parent, i as u32, 0);
+                let rb = find_in(&mut parent, j as u32, 0);
+                let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                if lo != hi {
+                    parent[hi as usize] = lo;
+                    merge(&mut stat, lo as usize, hi as usize);
+                }
+            },
+        );
+    }
+    parent
+        .par_iter()
+        .zip(stat.par_iter())
+        .enumerate()
+        .filter(|&(i, (&p, &st))| p as usize == i && st & EDGE == 0 && st >= u64::from(min_area))
+        .count()
+}
+
+/// [`find`] on a band's slice of a parent array holding global indices (`base`: the index
+/// of the slice's first entry); returns the root as a band-local index.
+#[inline]
+fn find_in(parent: &mut [u32], x: u32, base: usize) -> u32 {
+    let b = base as u32;
+    let mut x = x;
+    loop {
+        let p = parent[x as usize] - b;
+        if p == x {
+            return x + b;
+        }
+        let gp = parent[p as usize];
+        parent[x as usize] = gp;
+        x = gp - b;
+    }
+}
+
+/// [`union`] on a band's slice of global indices; whether two components were joined.
+#[inline]
+fn union_in(parent: &mut [u32], a: u32, b: u32, base: usize) -> bool {
+    let ra = find_in(parent, a, base) - base as u32;
+    let rb = find_in(parent, b, base) - base as u32;
+    if ra < rb {
+        parent[rb as usize] = ra + base as u32;
+    } else if rb < ra {
+        parent[ra as usize] = rb + base as u32;
+    }
+    ra != rb
+}
+
 impl Components {
     /// Label the 8-connected components of an `height x width` binary image.
     pub fn label<S: RowSource>(source: &S, height: usize, width: usize) -> Components {
@@ -587,6 +758,75 @@ mod tests {
                     naive_runs(&row)
                 );
             }
+        }
+    }
+
+    #[test]
+    fn component_count_without_labels_equals_the_labelling() {
+        let mut state = 777u64;
+        for (h, w, density) in [
+            (1, 1, 50),
+            (300, 37, 20),
+            (300, 37, 45),
+            (130, 64, 60),
+            (65, 5, 70),
+        ] {
+            let m: Vec<u8> = (0..h * w)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((state >> 33) % 100 < density) as u8
+                })
+                .collect();
+            let rows = MaskRows { mask: &m, width: w };
+            let rr = RowRuns::of(&rows, h, w);
+            let expect = naive_count(&m, h, w).0;
+            for threads in [1, 2] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let got = pool.install(|| count_components(&rr.runs, &rr.row_start, h));
+                assert_eq!(got, expect, "{h}x{w} density {density} threads {threads}");
+            }
+        }
+    }
+
+    #[test]
+    fn enclosed_count_without_labels_equals_the_labelling() {
+        let mut state = 4242u64;
+        for (h, w, density) in [
+            (1, 1, 50),
+            (300, 37, 50),
+            (300, 37, 65),
+            (130, 64, 60),
+            (65, 5, 80),
+        ] {
+            let m: Vec<u8> = (0..h * w)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((state >> 33) % 100 < density) as u8
+                })
+                .collect();
+            let rows = MaskRows { mask: &m, width: w };
+            let rr = RowRuns::of(&rows, h, w);
+            let c = Components::label(&rows, h, w);
+            for min_area in [0, 1, 2, 5, 40] {
+                let expect = c.count_enclosed(min_area);
+                for threads in [1, 2] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let got = pool
+                        .install(|| count_enclosed_runs(&rr.runs, &rr.row_start, h, w, min_area));
+                    assert_eq!(got, expect, "{h}x{w} {density}% min {min_area} x{threads}");
+                }
+            }
+            assert_eq!(c.count_enclosed(1), naive_count(&m, h, w).1);
         }
     }
 
