@@ -50,7 +50,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let names = [
             "histogram",
             "structure mask (blur + Laplacian + threshold + runs)",
-            "dot removal (label the runs, clear small)",
+            "dot removal (sizes by union-find on the runs, clear small)",
             "Harris (sums, response, corner runs)",
             "corner blobs (count the corner runs' components)",
             "Otsu table (256 thresholds)",

@@ -17,7 +17,9 @@
 use crate::border::reflect101;
 use crate::filter::{blur_row, laplacian_mask_row, structure_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
-use crate::label::{count_components, push_runs, Components, MaskRows, RowRuns, Run};
+use crate::label::{
+    count_components, drop_small_runs, push_runs, Components, MaskRows, RowRuns, Run,
+};
 use crate::params::CornerParams;
 use rayon::prelude::*;
 
@@ -127,9 +129,7 @@ pub fn drop_dots_runs(
     if min_dot_area <= 1 {
         return runs;
     }
-    let comps = Components::from_runs(runs.runs, runs.row_start, height, width);
-    comps.clear_small(mask, min_dot_area);
-    comps.runs_of_large(min_dot_area)
+    drop_small_runs(runs, mask, height, width, min_dot_area)
 }
 
 /// The Harris response of one cell's sums, exactly `(A*C - B*B) - k*(A+C)^2` in float64.

@@ -366,6 +366,106 @@ pub fn count_enclosed_runs(
         .count()
 }
 
+/// Drop the 8-connected components of fewer than `min_size` cells from an image given as
+/// `mask` (row-major, `height x width`, zeroed where a component is dropped) and its runs;
+/// returns the runs that remain. The same as [`Components::clear_small`] and
+/// [`Components::runs_of_large`] after labelling, without the labels: a union-find with the
+/// sizes at the roots (bands in parallel, then the seams), one ascending pass that points
+/// every run at its root (a non-root's parent always has a smaller index), and one pass per
+/// band that keeps or clears each run.
+pub fn drop_small_runs(
+    rr: RowRuns,
+    mask: &mut [u8],
+    height: usize,
+    width: usize,
+    min_size: u32,
+) -> RowRuns {
+    let (runs, row_start) = (&rr.runs, &rr.row_start);
+    let bands = bands(height);
+    let mut band_base: Vec<usize> = bands.iter().map(|&(r0, _)| row_start[r0]).collect();
+    band_base.push(runs.len());
+    debug_assert!(runs.len() < u32::MAX as usize);
+    let n = runs.len();
+    let mut parent: Vec<u32> = vec![0; n];
+    let mut size: Vec<u32> = vec![0; n];
+    split_bands(&mut parent, &band_base)
+        .into_par_iter()
+        .zip(split_bands(&mut size, &band_base))
+        .zip(bands.par_iter().zip(band_base.par_iter()))
+        .for_each(|((par, siz), (&(r0, r1), &base))| {
+            for (k, (p, sz)) in par.iter_mut().zip(siz.iter_mut()).enumerate() {
+                *p = (base + k) as u32;
+                let run = runs[base + k];
+                *sz = run.end - run.start;
+            }
+            for r in r0 + 1..r1 {
+                let mut last = usize::MAX;
+                touching_runs(
+                    runs,
+                    (row_start[r - 1], row_start[r]),
+                    (row_start[r], row_start[r + 1]),
+                    |i, j| {
+                        let (a, b) = ((i - base) as u32, (j - base) as u32);
+                        let ra = (find_in(par, a, base) - base as u32) as usize;
+                        if j != last {
+                            last = j;
+                            par[b as usize] = (ra + base) as u32;
+                            siz[ra] = siz[ra].saturating_add(siz[b as usize]);
+                        } else {
+                            let rb = (find_in(par, b, base) - base as u32) as usize;
+                            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                            if lo != hi {
+                                par[hi] = (lo + base) as u32;
+                                siz[lo] = siz[lo].saturating_add(siz[hi]);
+                            }
+                        }
+                    },
+                );
+            }
+        });
+    for &(r0, _) in bands.iter().skip(1) {
+        touching_runs(
+            runs,
+            (row_start[r0 - 1], row_start[r0]),
+            (row_start[r0], row_start[r0 + 1]),
+            |i, j| {
+                let ra = find_in(&mut parent, i as u32, 0) as usize;
+                let rb = find_in(&mut parent, j as u32, 0) as usize;
+                let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                if lo != hi {
+                    parent[hi] = lo as u32;
+                    size[lo] = size[lo].saturating_add(size[hi]);
+                }
+            },
+        );
+    }
+    for i in 0..n {
+        parent[i] = parent[parent[i] as usize];
+    }
+    let parts: Vec<(Vec<Run>, Vec<usize>)> = mask
+        .par_chunks_mut(BAND_ROWS * width)
+        .zip(bands.par_iter())
+        .map(|(band, &(r0, r1))| {
+            let mut kept = Vec::new();
+            let mut starts = Vec::with_capacity(r1 - r0);
+            for r in r0..r1 {
+                starts.push(kept.len());
+                let row = &mut band[(r - r0) * width..(r - r0 + 1) * width];
+                for i in row_start[r]..row_start[r + 1] {
+                    let run = runs[i];
+                    if size[parent[i] as usize] >= min_size {
+                        kept.push(run);
+                    } else {
+                        row[run.start as usize..run.end as usize].fill(0);
+                    }
+                }
+            }
+            (kept, starts)
+        })
+        .collect();
+    RowRuns::concat(parts)
+}
+
 /// [`find`] on a band's slice of a parent array holding global indices (`base`: the index
 /// of the slice's first entry); returns the root as a band-local index.
 #[inline]
@@ -827,6 +927,46 @@ mod tests {
                 }
             }
             assert_eq!(c.count_enclosed(1), naive_count(&m, h, w).1);
+        }
+    }
+
+    #[test]
+    fn dropping_small_components_by_runs_equals_the_labelling() {
+        let mut state = 31u64;
+        for (h, w, density) in [
+            (1, 1, 50),
+            (300, 37, 20),
+            (300, 37, 45),
+            (130, 64, 55),
+            (65, 5, 30),
+        ] {
+            let m: Vec<u8> = (0..h * w)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((state >> 33) % 100 < density) as u8
+                })
+                .collect();
+            for min_size in [0, 1, 2, 5, 30] {
+                let c = Components::label(&MaskRows { mask: &m, width: w }, h, w);
+                let mut expect_mask = m.clone();
+                c.clear_small(&mut expect_mask, min_size);
+                let expect = c.runs_of_large(min_size);
+                for threads in [1, 2] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let mut got_mask = m.clone();
+                    let rr = RowRuns::of(&MaskRows { mask: &m, width: w }, h, w);
+                    let got = pool.install(|| drop_small_runs(rr, &mut got_mask, h, w, min_size));
+                    let what = format!("{h}x{w} {density}% min {min_size} x{threads}");
+                    assert_eq!(got_mask, expect_mask, "{what}");
+                    assert_eq!(got.runs, expect.runs, "{what}");
+                    assert_eq!(got.row_start, expect.row_start, "{what}");
+                }
+            }
         }
     }
 
