@@ -169,16 +169,16 @@ fn band_histogram(vals: &[u8], unk: &[bool], sh: &[u8]) -> ([u64; 256], [u64; 25
         }
     };
     // the three commonest keys of a sample (distinct; an unused slot matches no cell)
-    let mut sample = [0u16; 512];
+    let mut sample = [0u32; 512];
     for i in (0..vals.len()).step_by(61) {
-        sample[key(i)] += 1;
+        sample[key(i)] = sample[key(i)].saturating_add(1); // wide maps: only the speed
     }
     let sampled = vals.len().div_ceil(61);
     let mut covered = 0usize;
     let mut hv = [0u8; 3];
     let mut hu = [2u8; 3]; // 2: no cell's unknown flag
     for k in 0..3 {
-        let (mut top, mut at) = (0u16, 0usize);
+        let (mut top, mut at) = (0u32, 0usize);
         for (j, &c) in sample.iter().enumerate() {
             if c > top {
                 (top, at) = (c, j);
