@@ -10,7 +10,7 @@ use slamq::corners::{corner_runs, drop_dots_runs, structure_mask_runs};
 use slamq::enclosed::{binarisations, count_binarisation, sweep};
 use slamq::evaluate::evaluate;
 use slamq::grid::Grid;
-use slamq::label::Components;
+use slamq::label::count_components;
 use slamq::otsu::threshold_table;
 use slamq::params::Params;
 use std::time::Instant;
@@ -50,9 +50,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let names = [
             "histogram",
             "structure mask (blur + Laplacian + threshold + runs)",
-            "dot removal (label the runs, clear small)",
+            "dot removal (sizes by union-find on the runs, clear small)",
             "Harris (sums, response, corner runs)",
-            "corner blobs (label corner runs)",
+            "corner blobs (count the corner runs' components)",
             "Otsu table (256 thresholds)",
         ];
         let mut t = [f64::INFINITY; 6];
@@ -71,9 +71,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 drop_dots_runs(&mut mask, runs, h, w, p.corners.min_dot_area)
             });
             let cr = time(&mut t[3], || corner_runs(&mask, &rr, h, w, &p.corners));
-            corners = time(&mut t[4], || {
-                Components::from_runs(cr.runs, cr.row_start, h, w).count()
-            });
+            corners = time(&mut t[4], || count_components(&cr.runs, &cr.row_start, h));
             time(&mut t[5], || threshold_table(&hist));
             for (k, b) in keys.iter().enumerate() {
                 time(&mut tb[k], || {

@@ -8,13 +8,18 @@
 //! Harris sums of a cell depend only on the 4x4 mask window around it, so they are tabulated
 //! once per process for all 65,536 windows (by class of equal sums); a row's window codes
 //! are built from four mask rows, only over the columns next to set structure cells, and
-//! the cells with `R > 0` are kept with their response, so the relative threshold needs no
-//! second pass; the corner blobs are counted from runs.
+//! the window classes are ranked by their response for the given `k` (positive ones first, by
+//! decreasing `R`), so that the pass over the cells needs no float: the cells with `R > 0`
+//! (rank below a count) are kept with their rank, the largest response is that of the
+//! smallest rank, and the relative threshold is a cut on the ranks; the corner blobs are
+//! counted from runs.
 
 use crate::border::reflect101;
 use crate::filter::{blur_row, laplacian_mask_row, structure_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
-use crate::label::{push_runs, Components, MaskRows, RowRuns, Run};
+use crate::label::{
+    count_components, drop_small_runs, push_runs, Components, MaskRows, RowRuns, Run,
+};
 use crate::params::CornerParams;
 use rayon::prelude::*;
 
@@ -42,54 +47,61 @@ pub fn structure_mask_runs(grid: &Grid, log_threshold: f64) -> (Vec<u8>, RowRuns
         let runs = RowRuns::concat(vec![(Vec::new(), vec![0; h])]);
         return (mask, runs);
     };
+    // scratch rows per rayon job (S rows of a band, G rows of a band, the blur's vertical pass),
+    // reused across the bands a job runs: every row read is written first in each band
     let parts: Vec<(Vec<Run>, Vec<usize>)> = mask
         .par_chunks_mut(BAND_ROWS * w)
         .zip(bands(h))
-        .map(|(out, (r0, r1))| {
-            // S rows needed: r0-3 ..= r1+2, reflect-mapped; those all fall in [base, end)
-            let base = (r0 as isize - 3).max(0) as usize;
-            let end = (r1 + 3).min(h);
-            let s_rows: Vec<Vec<u16>> = (base..end)
-                .map(|rr| {
-                    let mut row = vec![0u16; w];
-                    structure_row(grid.value_row(rr), grid.unknown_row(rr), &mut row);
-                    row
-                })
-                .collect();
-            let s_of = |k: usize| -> &[u16] { &s_rows[k - base] };
-            let s_any: Vec<bool> = s_rows
-                .iter()
-                .map(|row| row.iter().any(|&x| x != 0))
-                .collect();
-            let mut vbuf = vec![0u16; w];
-            // G rows r0-1 ..= r1 (reflect-mapped); a row whose five S rows are all zero is zero
-            let mut g_rows: Vec<Vec<u16>> = Vec::with_capacity(r1 - r0 + 2);
-            let mut g_any: Vec<bool> = Vec::with_capacity(r1 - r0 + 2);
-            for k in r0 as isize - 1..r1 as isize + 1 {
-                let gr = reflect101(k, h);
-                let nonzero = (-2..=2).any(|j| s_any[reflect101(gr as isize + j, h) - base]);
-                let mut g = vec![0u16; w];
-                if nonzero {
-                    blur_row(&s_of, gr, h, &mut vbuf, &mut g);
+        .map_init(
+            || (Vec::<u16>::new(), Vec::<u16>::new(), vec![0u16; w]),
+            |(s_buf, g_buf, vbuf), (out, (r0, r1))| {
+                // S rows needed: r0-3 ..= r1+2, reflect-mapped; those all fall in [base, end)
+                let base = (r0 as isize - 3).max(0) as usize;
+                let end = (r1 + 3).min(h);
+                if s_buf.len() < (end - base) * w {
+                    s_buf.resize((end - base) * w, 0);
                 }
-                g_rows.push(g);
-                g_any.push(nonzero);
-            }
-            let mut runs = Vec::new();
-            let mut starts = Vec::with_capacity(r1 - r0);
-            for r in r0..r1 {
-                let i = r - r0 + 1;
-                let row_out = &mut out[(r - r0) * w..(r - r0 + 1) * w];
-                starts.push(runs.len());
-                if !(g_any[i - 1] || g_any[i] || g_any[i + 1]) {
-                    row_out.fill((0 > t) as u8); // L = 0 everywhere on this row
-                } else {
-                    laplacian_mask_row(&g_rows[i - 1], &g_rows[i], &g_rows[i + 1], t, row_out);
+                let mut s_any = Vec::with_capacity(end - base);
+                for (rr, row) in (base..end).zip(s_buf.chunks_exact_mut(w)) {
+                    structure_row(grid.value_row(rr), grid.unknown_row(rr), row);
+                    s_any.push(row.iter().any(|&x| x != 0));
                 }
-                push_runs(row_out, &mut runs);
-            }
-            (runs, starts)
-        })
+                let s_buf: &[u16] = s_buf;
+                let s_of = |k: usize| -> &[u16] { &s_buf[(k - base) * w..(k - base + 1) * w] };
+                // G rows r0-1 ..= r1 (reflect-mapped); a row whose five S rows are all zero
+                // is zero
+                let ng = r1 - r0 + 2;
+                if g_buf.len() < ng * w {
+                    g_buf.resize(ng * w, 0);
+                }
+                let mut g_any: Vec<bool> = Vec::with_capacity(ng);
+                for (k, g) in (r0 as isize - 1..r1 as isize + 1).zip(g_buf.chunks_exact_mut(w)) {
+                    let gr = reflect101(k, h);
+                    let nonzero = (-2..=2).any(|j| s_any[reflect101(gr as isize + j, h) - base]);
+                    if nonzero {
+                        blur_row(&s_of, gr, h, vbuf, g);
+                    } else {
+                        g.fill(0);
+                    }
+                    g_any.push(nonzero);
+                }
+                let g_row = |i: usize| &g_buf[i * w..(i + 1) * w];
+                let mut runs = Vec::new();
+                let mut starts = Vec::with_capacity(r1 - r0);
+                for r in r0..r1 {
+                    let i = r - r0 + 1;
+                    let row_out = &mut out[(r - r0) * w..(r - r0 + 1) * w];
+                    starts.push(runs.len());
+                    if !(g_any[i - 1] || g_any[i] || g_any[i + 1]) {
+                        row_out.fill((0 > t) as u8); // L = 0 everywhere on this row
+                    } else {
+                        laplacian_mask_row(g_row(i - 1), g_row(i), g_row(i + 1), t, row_out);
+                    }
+                    push_runs(row_out, &mut runs);
+                }
+                (runs, starts)
+            },
+        )
         .collect();
     (mask, RowRuns::concat(parts))
 }
@@ -117,9 +129,7 @@ pub fn drop_dots_runs(
     if min_dot_area <= 1 {
         return runs;
     }
-    let comps = Components::from_runs(runs.runs, runs.row_start, height, width);
-    comps.clear_small(mask, min_dot_area);
-    comps.runs_of_large(min_dot_area)
+    drop_small_runs(runs, mask, height, width, min_dot_area)
 }
 
 /// The Harris response of one cell's sums, exactly `(A*C - B*B) - k*(A+C)^2` in float64.
@@ -182,6 +192,75 @@ fn window_classes() -> &'static WindowClasses {
     })
 }
 
+/// The window classes ranked by their response for one Harris `k`: the classes with `R > 0`
+/// first, by decreasing `R`, then all others (empty windows, `R <= 0`, NaN). A cell's rank
+/// then says all the first pass needs without a float: whether `R > 0` (`rank < positive`),
+/// and the largest response is that of the smallest rank seen; the cells above a positive
+/// threshold are the ranks below a cut.
+struct Ranked {
+    /// Rank of every 4 x 4 window code.
+    rank: Vec<u16>,
+    /// Response by rank.
+    resp: Vec<f64>,
+    /// Number of ranks with `R > 0`.
+    positive: usize,
+}
+
+impl Ranked {
+    fn build(k: f64) -> Ranked {
+        let table = window_classes();
+        let resp_of: Vec<f64> = table
+            .sums
+            .iter()
+            .map(|&(a, b, c)| response(a, b, c, k))
+            .collect();
+        // an empty window (A = C = 0, so B = 0) is never counted as positive
+        let is_pos = |c: usize| {
+            let (a, _, cc) = table.sums[c];
+            (a != 0 || cc != 0) && resp_of[c] > 0.0
+        };
+        let mut order: Vec<usize> = (0..resp_of.len()).collect();
+        // positive classes first by decreasing response (ties by class), then the rest
+        order.sort_by(|&x, &y| match (is_pos(x), is_pos(y)) {
+            (true, true) => resp_of[y].total_cmp(&resp_of[x]).then(x.cmp(&y)),
+            (true, false) => std::cmp::Ordering::Less,
+            (false, true) => std::cmp::Ordering::Greater,
+            (false, false) => x.cmp(&y),
+        });
+        let mut rank_of_class = vec![0u16; order.len()];
+        for (r, &c) in order.iter().enumerate() {
+            rank_of_class[c] = r as u16;
+        }
+        Ranked {
+            rank: table
+                .class
+                .iter()
+                .map(|&c| rank_of_class[c as usize])
+                .collect(),
+            resp: order.iter().map(|&c| resp_of[c]).collect(),
+            positive: order.iter().filter(|&&c| is_pos(c)).count(),
+        }
+    }
+}
+
+/// [`Ranked`] for `k`, kept for the last `k` asked (building it takes ~65,536 steps).
+fn ranked(k: f64) -> std::sync::Arc<Ranked> {
+    use std::sync::{Arc, Mutex};
+    static LAST: Mutex<Option<(u64, Arc<Ranked>)>> = Mutex::new(None);
+    if let Ok(guard) = LAST.lock() {
+        if let Some((bits, r)) = guard.as_ref() {
+            if *bits == k.to_bits() {
+                return r.clone();
+            }
+        }
+    }
+    let r = Arc::new(Ranked::build(k));
+    if let Ok(mut guard) = LAST.lock() {
+        *guard = Some((k.to_bits(), r.clone()));
+    }
+    r
+}
+
 /// The sums of one cell computed from the mask directly with reflect-101 everywhere (SPEC
 /// section 3 step 6), for row 0 and column 0, where the box's row (column) above is
 /// `reflect(-1) = 1`, below (right of) the cell, and the 4 x 4 window does not apply.
@@ -231,27 +310,51 @@ fn window_nibbles(
     }
 }
 
-/// Keep one directly computed cell's response: the running maximum, and the cell if R > 0.
-#[inline]
-fn visit(best: &mut f64, positive: &mut Vec<(u32, f64)>, x: usize, resp: f64) {
-    if resp > *best {
-        *best = resp;
-    }
-    if resp > 0.0 {
-        positive.push((x as u32, resp));
-    }
+/// One band's cells with `R > 0`: `(column, key)` in row-major order, where a key below the
+/// number of window classes is the cell's rank ([`Ranked`]) and `classes + i` is
+/// `direct[i]`, the response of a cell computed directly (row 0, column 0). Eight bytes a
+/// cell instead of sixteen with the response itself: the threshold is a cut on the ranks.
+struct Positive {
+    /// The largest response of the directly computed cells.
+    best: f64,
+    /// The smallest rank of the window cells.
+    min_rank: u16,
+    cells: Vec<(u32, u32)>,
+    direct: Vec<f64>,
+    /// Where each row of the band starts in `cells` (one more entry than rows).
+    starts: Vec<usize>,
 }
 
-/// One band's largest response, its cells with `R > 0` as `(column, R)` in row-major order,
-/// and where each of its rows starts in that list (one more entry than rows).
-type BandResponses = (f64, Vec<(u32, f64)>, Vec<usize>);
+impl Positive {
+    /// Keep one directly computed cell's response: the running maximum, and the cell if R > 0.
+    #[inline]
+    fn visit_direct(&mut self, classes: usize, x: usize, resp: f64) {
+        if resp > self.best {
+            self.best = resp;
+        }
+        if resp > 0.0 {
+            self.cells
+                .push((x as u32, (classes + self.direct.len()) as u32));
+            self.direct.push(resp);
+        }
+    }
+
+    /// Keep one window cell of rank `rank`.
+    #[inline]
+    fn visit_rank(&mut self, x: usize, rank: u16, positive: usize) {
+        self.min_rank = self.min_rank.min(rank);
+        if (rank as usize) < positive {
+            self.cells.push((x as u32, rank as u32));
+        }
+    }
+}
 
 /// Steps 6-7: the corner mask of a dot-free structure mask (given with its runs), as runs.
 ///
 /// The sums are visited only next to set mask cells: elsewhere `A = B = C = 0`, so `R = 0`.
 /// Only a cell with `R > 0` can pass `R > harris_quality * max R` (the threshold is never
 /// negative, and a map whose largest response is `<= 0` has no corner), so those cells are
-/// kept, with their response, in the one pass that also finds the maximum.
+/// kept, with their rank ([`Ranked`]), in the one pass that also finds the maximum.
 pub fn corner_runs(
     mask: &[u8],
     runs: &RowRuns,
@@ -261,33 +364,25 @@ pub fn corner_runs(
 ) -> RowRuns {
     let (h, w) = (height, width);
     let k = params.harris_k;
-    let table = window_classes();
-    // the response of every window class, exactly `response(A, B, C, k)`; a class with
-    // A = C = 0 (so B = 0) is passed over like an empty window (-inf: never the maximum,
-    // never positive)
-    let resp_of: Vec<f64> = table
-        .sums
-        .iter()
-        .map(|&(a, b, c)| {
-            if a == 0 && c == 0 {
-                f64::NEG_INFINITY
-            } else {
-                response(a, b, c, k)
-            }
-        })
-        .collect();
-    // per band, in row-major order: the cells with R > 0 as (row, column, R)
-    let found: Vec<BandResponses> = bands(h)
+    let rk = ranked(k);
+    let (nc, npos) = (rk.resp.len(), rk.positive);
+    let npos16 = npos.min(u16::MAX as usize) as u16; // at most 65,536 classes
+                                                     // per band, in row-major order: the cells with R > 0
+    let found: Vec<Positive> = bands(h)
         .into_par_iter()
         .map(|(r0, r1)| {
-            let mut best = f64::NEG_INFINITY;
-            let mut positive: Vec<(u32, f64)> = Vec::new();
-            let mut starts = Vec::with_capacity(r1 - r0 + 1);
+            let mut pos = Positive {
+                best: f64::NEG_INFINITY,
+                min_rank: u16::MAX,
+                cells: Vec::new(),
+                direct: Vec::new(),
+                starts: Vec::with_capacity(r1 - r0 + 1),
+            };
             let mut nib = vec![0u8; w];
             // one row's candidates before compaction (each cell written, kept if R > 0)
-            let mut row_buf = vec![(0u32, 0.0f64); w];
+            let mut row_buf = vec![(0u32, 0u32); w];
             for r in r0..r1 {
-                starts.push(positive.len());
+                pos.starts.push(pos.cells.len());
                 // columns whose window can hold a set cell: the bounding interval of the runs
                 // of mask rows r-2 ..= r+1, widened by the window's reach
                 let (mut first, mut last) = (usize::MAX, 0usize);
@@ -306,7 +401,7 @@ pub fn corner_runs(
                     for x in first.saturating_sub(2)..(last + 2).min(w) {
                         let (a, b, c) = sums_direct(mask, (h, w), 0, x);
                         if a != 0 || c != 0 {
-                            visit(&mut best, &mut positive, x, response(a, b, c, k));
+                            pos.visit_direct(nc, x, response(a, b, c, k));
                         }
                     }
                     continue;
@@ -315,7 +410,7 @@ pub fn corner_runs(
                     // column 0 reads mask columns 0 ..= 2 only
                     let (a, b, c) = sums_direct(mask, (h, w), r, 0);
                     if a != 0 || c != 0 {
-                        visit(&mut best, &mut positive, 0, response(a, b, c, k));
+                        pos.visit_direct(nc, 0, response(a, b, c, k));
                     }
                 }
                 if w == 1 {
@@ -339,9 +434,12 @@ pub fn corner_runs(
                 // every cell is written to the end of `positive`, kept only when R > 0
                 let inner_hi = xhi.min(w - 1);
                 let mut len = 0;
+                let mut min_rank = pos.min_rank;
                 let mut x = xlo;
                 while x < inner_hi {
-                    if code == 0 && x + 8 <= inner_hi {
+                    // eight columns at a time, one branch for the eight
+                    let step = if x + 8 <= inner_hi { 8 } else { 1 };
+                    if step == 8 && code == 0 {
                         // eight empty columns ahead: the code stays 0 across them
                         let mut word = [0u8; 8];
                         word.copy_from_slice(&nib[x + 1..x + 9]);
@@ -350,52 +448,65 @@ pub fn corner_runs(
                             continue;
                         }
                     }
-                    code = (code & 0x0fff) | (nib[x + 1] as u16) << 12;
-                    let resp = resp_of[table.class[code as usize] as usize];
-                    best = if resp > best { resp } else { best };
-                    row_buf[len] = (x as u32, resp);
-                    len += (resp > 0.0) as usize;
-                    code >>= 4;
-                    x += 1;
+                    for (xx, &n) in (x..x + step).zip(&nib[x + 1..x + 1 + step]) {
+                        code = (code & 0x0fff) | (n as u16) << 12;
+                        let rank = rk.rank[code as usize];
+                        min_rank = min_rank.min(rank);
+                        row_buf[len] = (xx as u32, rank as u32);
+                        len += (rank < npos16) as usize;
+                        code >>= 4;
+                    }
+                    x += step;
                 }
-                positive.extend_from_slice(&row_buf[..len]);
+                pos.min_rank = min_rank;
+                pos.cells.extend_from_slice(&row_buf[..len]);
                 if xhi == w && inner_hi < w {
                     let x = w - 1;
                     code = (code & 0x0fff) | nb(x as isize + 1) << 12;
                     if code != 0 {
-                        visit(
-                            &mut best,
-                            &mut positive,
-                            x,
-                            resp_of[table.class[code as usize] as usize],
-                        );
+                        pos.visit_rank(x, rk.rank[code as usize], npos);
                     }
                 }
             }
-            starts.push(positive.len());
-            (best, positive, starts)
+            pos.starts.push(pos.cells.len());
+            pos
         })
         .collect();
+    // the largest response where it is positive (otherwise no corner, whatever its value)
     let best = found
         .iter()
-        .map(|(b, _, _)| *b)
+        .map(|p| {
+            let ranked = match p.min_rank as usize {
+                m if m < npos => rk.resp[m],
+                _ => f64::NEG_INFINITY,
+            };
+            p.best.max(ranked)
+        })
         .fold(f64::NEG_INFINITY, f64::max);
     let threshold = if best > 0.0 {
         params.harris_quality * best
     } else {
         f64::INFINITY
     };
+    // the ranks that pass are those below `cut` (positive ranks by decreasing response)
+    let cut = rk.resp[..npos].partition_point(|&r| r > threshold);
     let parts = found
         .into_par_iter()
         .zip(bands(h))
-        .map(|((_, positive, pos_start), (r0, r1))| {
+        .map(|(pos, (r0, r1))| {
             let mut out: Vec<Run> = Vec::new();
             let mut starts = Vec::with_capacity(r1 - r0);
             for i in 0..r1 - r0 {
                 starts.push(out.len());
                 let row_first = out.len();
-                for &(x, resp) in &positive[pos_start[i]..pos_start[i + 1]] {
-                    if resp <= threshold || resp.is_nan() {
+                for &(x, key) in &pos.cells[pos.starts[i]..pos.starts[i + 1]] {
+                    let key = key as usize;
+                    let keep = if key < nc {
+                        key < cut
+                    } else {
+                        pos.direct[key - nc] > threshold
+                    };
+                    if !keep {
                         continue;
                     }
                     let n = out.len();
@@ -422,7 +533,7 @@ pub fn count_corners(grid: &Grid, params: &CornerParams) -> usize {
     let runs = drop_dots_runs(&mut mask, runs, h, w, params.min_dot_area);
     let corners = corner_runs(&mask, &runs, h, w, params);
     drop((mask, runs));
-    Components::from_runs(corners.runs, corners.row_start, h, w).count()
+    count_components(&corners.runs, &corners.row_start, h)
 }
 
 #[cfg(test)]
@@ -486,10 +597,16 @@ mod tests {
             s = s.wrapping_mul(6364136223846793005).wrapping_add(1);
             (s >> 33) as usize
         };
-        let p = CornerParams::default();
-        for trial in 0..300 {
+        let ks = [0.04, 0.0, -0.05, 0.25, -0.0];
+        for trial in 0..600 {
+            // default parameters, then other Harris k (negative too) and quality levels
+            let mut p = CornerParams::default();
+            if trial >= 300 {
+                p.harris_k = ks[trial % ks.len()];
+                p.harris_quality = [0.01, 0.0, 0.5, 0.9][trial % 4];
+            }
             let h = 1 + next() % 23;
-            let w = 1 + next() % 23;
+            let w = 1 + next() % if trial % 5 == 0 { 150 } else { 23 };
             let density = next() % 100;
             let mut mask: Vec<u8> = (0..h * w).map(|_| (next() % 100 < density) as u8).collect();
             if trial % 3 == 0 {
@@ -549,6 +666,77 @@ mod tests {
             let a = drop_dots(&mut m1, h, w, 5);
             let b = drop_dots_runs(&mut m2, scan, h, w, 5);
             assert_eq!((m1, a.runs, a.row_start), (m2, b.runs, b.row_start));
+        }
+    }
+
+    /// Steps 1-4 literally: S, the 5 x 5 binomial blur and the Laplacian with reflect-101 at
+    /// every cell, thresholded.
+    fn naive_structure_mask(g: &Grid, t: f64) -> Vec<u8> {
+        let (h, w) = (g.height, g.width);
+        let s = |r: isize, c: isize| {
+            let i = reflect101(r, h) * w + reflect101(c, w);
+            if g.unknown[i] {
+                0i64
+            } else {
+                g.values[i] as i64
+            }
+        };
+        let b = [1i64, 4, 6, 4, 1];
+        let blur = |r: isize, c: isize| {
+            let (r, c) = (reflect101(r, h) as isize, reflect101(c, w) as isize);
+            let mut acc = 0;
+            for i in 0..5 {
+                for j in 0..5 {
+                    acc += b[i] * b[j] * s(r + i as isize - 2, c + j as isize - 2);
+                }
+            }
+            acc
+        };
+        let mut out = vec![0u8; h * w];
+        for r in 0..h as isize {
+            for c in 0..w as isize {
+                let l = blur(r - 1, c) + blur(r + 1, c) + blur(r, c - 1) + blur(r, c + 1)
+                    - 4 * blur(r, c);
+                out[r as usize * w + c as usize] = (l as f64 > t * 255.0 * 256.0) as u8;
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn structure_mask_equals_the_literal_filters_for_any_thread_count() {
+        let mut st = 11u64;
+        for (h, w) in [
+            (1, 1),
+            (2, 9),
+            (5, 5),
+            (64, 7),
+            (65, 12),
+            (200, 9),
+            (131, 30),
+        ] {
+            let v: Vec<u8> = (0..h * w)
+                .map(|_| {
+                    st = st.wrapping_mul(6364136223846793005).wrapping_add(3);
+                    [0u8, 128, 254, 254, 254, 254, 37][(st >> 40) as usize % 7]
+                })
+                .collect();
+            // unknown in blocks, so that some bands have all-zero S rows
+            let u: Vec<bool> = (0..h * w)
+                .map(|i| (i / w / 20) % 3 == 1 || v[i] == 128)
+                .collect();
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            for t in [0.1, 0.0, -0.05] {
+                let expect = naive_structure_mask(&g, t);
+                for threads in [1, 2] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let (mask, _) = pool.install(|| structure_mask_runs(&g, t));
+                    assert_eq!(mask, expect, "{h}x{w} t {t} threads {threads}");
+                }
+            }
         }
     }
 

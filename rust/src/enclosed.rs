@@ -15,7 +15,7 @@
 //! Both paths count exactly what the literal definition counts, for any thread count.
 
 use crate::grid::{Grid, Histogram};
-use crate::label::{Components, RowSource};
+use crate::label::{count_enclosed_runs, Components, RowRuns, RowSource};
 use crate::otsu::threshold_table;
 use crate::params::EnclosedParams;
 use std::collections::BTreeMap;
@@ -126,7 +126,14 @@ fn direct(grid: &Grid, cut: u16, unknown_free: bool, min_area: u32) -> usize {
         cut,
         unknown_free,
     };
-    Components::label(&rows, grid.height, grid.width).count_enclosed(min_area)
+    let runs = RowRuns::of(&rows, grid.height, grid.width);
+    count_enclosed_runs(
+        &runs.runs,
+        &runs.row_start,
+        grid.height,
+        grid.width,
+        min_area,
+    )
 }
 
 const ABSENT: i32 = i32::MIN;

@@ -130,50 +130,7 @@ impl<'a> Grid<'a> {
             .par_chunks(band)
             .zip(self.unknown.par_chunks(band))
             .zip(shade.par_chunks(band))
-            .map(|((vals, unk), sh)| {
-                // one table of 512 bins: known cells by value in 0..256, unknown cells by
-                // their shade in 256..512; four sub-tables break the store-to-load
-                // dependency on repeated values; blocks of 8 cells that are all known (or
-                // all unknown) with one value (shade), long runs of free space and canvas,
-                // are counted at once
-                let mut h = [[0u32; 512]; 4];
-                let mut vc = vals.chunks_exact(8);
-                let mut uc = unk.chunks_exact(8);
-                let mut sc = sh.chunks_exact(8);
-                for ((v, u), s) in (&mut vc).zip(&mut uc).zip(&mut sc) {
-                    let n_unknown = u.iter().filter(|&&x| x).count();
-                    if n_unknown == 8 && s.iter().all(|&x| x == s[0]) {
-                        h[0][256 + s[0] as usize] += 8;
-                        continue;
-                    }
-                    if n_unknown == 0 && v.iter().all(|&x| x == v[0]) {
-                        h[0][v[0] as usize] += 8;
-                        continue;
-                    }
-                    for k in 0..8 {
-                        // no branch: the value, or for an unknown cell its shade, and the
-                        // half of the table
-                        let m = u8::from(u[k]).wrapping_neg();
-                        let x = (v[k] & !m) | (s[k] & m);
-                        h[k & 3][x as usize | (usize::from(u[k]) << 8)] += 1;
-                    }
-                }
-                for ((v, u), s) in vc
-                    .remainder()
-                    .iter()
-                    .zip(uc.remainder())
-                    .zip(sc.remainder())
-                {
-                    let x = if *u { 256 + *s as usize } else { *v as usize };
-                    h[0][x] += 1;
-                }
-                let (mut known, mut shades) = ([0u64; 256], [0u64; 256]);
-                for i in 0..256 {
-                    known[i] = h.iter().map(|hk| u64::from(hk[i])).sum();
-                    shades[i] = h.iter().map(|hk| u64::from(hk[256 + i])).sum();
-                }
-                (known, shades)
-            })
+            .map(|((vals, unk), sh)| band_histogram(vals, unk, sh))
             .collect();
         let mut known = [0u64; 256];
         let mut unknown_values = [0u64; 256];
@@ -191,6 +148,166 @@ impl<'a> Grid<'a> {
             unknown_values,
         }
     }
+}
+
+/// Cells per block of [`band_histogram`]'s hot-key pass.
+const HOT_BLOCK: usize = 32;
+
+/// The histogram of one band: known cells by value, unknown cells by shade.
+///
+/// Maps are dominated by a few keys (free, occupied, unknown shade), which a sample of the band
+/// finds; blocks of cells are counted against those three keys by compare-and-add (branch-free,
+/// so the loop vectorises), and only the cells of other keys go through the 512-bin table
+/// (four sub-tables break the store-to-load dependency on repeated values). Which keys are hot
+/// changes the speed, never the counts.
+fn band_histogram(vals: &[u8], unk: &[bool], sh: &[u8]) -> ([u64; 256], [u64; 256]) {
+    let key = |i: usize| {
+        if unk[i] {
+            256 + sh[i] as usize
+        } else {
+            vals[i] as usize
+        }
+    };
+    // the three commonest keys of a sample (distinct; an unused slot matches no cell)
+    let mut sample = [0u32; 512];
+    for i in (0..vals.len()).step_by(61) {
+        sample[key(i)] = sample[key(i)].saturating_add(1); // wide maps: only the speed
+    }
+    let sampled = vals.len().div_ceil(61);
+    let mut covered = 0usize;
+    let mut hv = [0u8; 3];
+    let mut hu = [2u8; 3]; // 2: no cell's unknown flag
+    for k in 0..3 {
+        let (mut top, mut at) = (0u32, 0usize);
+        for (j, &c) in sample.iter().enumerate() {
+            if c > top {
+                (top, at) = (c, j);
+            }
+        }
+        if top == 0 {
+            break;
+        }
+        sample[at] = 0;
+        covered += top as usize;
+        hv[k] = (at & 255) as u8;
+        hu[k] = (at >> 8) as u8;
+    }
+    if covered * 8 < sampled * 7 {
+        // graded maps: most cells are of other keys, the table alone is faster
+        return band_histogram_table(vals, unk, sh);
+    }
+    let mut hot = [0u64; 3];
+    // per-lane counts of the hot keys, flushed before they can overflow (no per-block sum)
+    let mut lanes = [[0u8; HOT_BLOCK]; 3];
+    let mut pending = 0u32;
+    let flush = |lanes: &mut [[u8; HOT_BLOCK]; 3], hot: &mut [u64; 3]| {
+        for (n, l) in hot.iter_mut().zip(lanes.iter_mut()) {
+            *n += l.iter().map(|&c| u64::from(c)).sum::<u64>();
+            *l = [0u8; HOT_BLOCK];
+        }
+    };
+    let mut h = [[0u32; 512]; 4];
+    let mut vc = vals.chunks_exact(HOT_BLOCK);
+    let mut uc = unk.chunks_exact(HOT_BLOCK);
+    let mut sc = sh.chunks_exact(HOT_BLOCK);
+    for ((v, u), s) in (&mut vc).zip(&mut uc).zip(&mut sc) {
+        // the value, or for an unknown cell its shade, with no branch
+        let mut x = [0u8; HOT_BLOCK];
+        let mut uu = [0u8; HOT_BLOCK];
+        for j in 0..HOT_BLOCK {
+            let m = u8::from(u[j]);
+            uu[j] = m;
+            let m = m.wrapping_neg();
+            x[j] = (v[j] & !m) | (s[j] & m);
+        }
+        let mut hit = [0u8; HOT_BLOCK];
+        for (l, (&hvk, &huk)) in lanes.iter_mut().zip(hv.iter().zip(&hu)) {
+            for j in 0..HOT_BLOCK {
+                let e = u8::from(x[j] == hvk) & u8::from(uu[j] == huk);
+                hit[j] |= e;
+                l[j] += e;
+            }
+        }
+        // every cell matched one hot key (at most one: the keys are distinct)?
+        let mut all = u64::MAX;
+        for c in hit.chunks_exact(8) {
+            let mut word = [0u8; 8];
+            word.copy_from_slice(c);
+            all &= u64::from_le_bytes(word);
+        }
+        if all != 0x0101_0101_0101_0101 {
+            for j in 0..HOT_BLOCK {
+                // no branch per cell: a hot cell adds 0
+                h[j & 3][x[j] as usize | (usize::from(uu[j]) << 8)] += u32::from(hit[j] ^ 1);
+            }
+        }
+        pending += 1;
+        if pending == 255 {
+            flush(&mut lanes, &mut hot);
+            pending = 0;
+        }
+    }
+    flush(&mut lanes, &mut hot);
+    let done = vals.len() - vc.remainder().len();
+    for i in done..vals.len() {
+        h[0][key(i)] += 1;
+    }
+    let (mut known, mut shades) = ([0u64; 256], [0u64; 256]);
+    for i in 0..256 {
+        known[i] = h.iter().map(|hk| u64::from(hk[i])).sum();
+        shades[i] = h.iter().map(|hk| u64::from(hk[256 + i])).sum();
+    }
+    for k in 0..3 {
+        match hu[k] {
+            0 => known[hv[k] as usize] += hot[k],
+            1 => shades[hv[k] as usize] += hot[k],
+            _ => {}
+        }
+    }
+    (known, shades)
+}
+
+/// [`band_histogram`] by the table alone: one table of 512 bins (known cells by value in
+/// 0..256, unknown cells by shade in 256..512), four sub-tables against the store-to-load
+/// dependency on repeated values; blocks of 8 cells that are all known (or all unknown) with
+/// one value (shade), long runs of free space and canvas, are counted at once.
+fn band_histogram_table(vals: &[u8], unk: &[bool], sh: &[u8]) -> ([u64; 256], [u64; 256]) {
+    let mut h = [[0u32; 512]; 4];
+    let mut vc = vals.chunks_exact(8);
+    let mut uc = unk.chunks_exact(8);
+    let mut sc = sh.chunks_exact(8);
+    for ((v, u), s) in (&mut vc).zip(&mut uc).zip(&mut sc) {
+        let n_unknown = u.iter().filter(|&&x| x).count();
+        if n_unknown == 8 && s.iter().all(|&x| x == s[0]) {
+            h[0][256 + s[0] as usize] += 8;
+            continue;
+        }
+        if n_unknown == 0 && v.iter().all(|&x| x == v[0]) {
+            h[0][v[0] as usize] += 8;
+            continue;
+        }
+        for k in 0..8 {
+            // no branch: the value, or for an unknown cell its shade, and the half of the table
+            let m = u8::from(u[k]).wrapping_neg();
+            let x = (v[k] & !m) | (s[k] & m);
+            h[k & 3][x as usize | (usize::from(u[k]) << 8)] += 1;
+        }
+    }
+    for ((v, u), s) in vc
+        .remainder()
+        .iter()
+        .zip(uc.remainder())
+        .zip(sc.remainder())
+    {
+        let x = if *u { 256 + *s as usize } else { *v as usize };
+        h[0][x] += 1;
+    }
+    let (mut known, mut shades) = ([0u64; 256], [0u64; 256]);
+    for i in 0..256 {
+        known[i] = h.iter().map(|hk| u64::from(hk[i])).sum();
+        shades[i] = h.iter().map(|hk| u64::from(hk[256 + i])).sum();
+    }
+    (known, shades)
 }
 
 /// Value histogram of the known cells plus the unknown count.
@@ -238,6 +355,41 @@ mod tests {
             Grid::new(&v, &u, 3, 3),
             Err(GridError::Length { .. })
         ));
+    }
+
+    #[test]
+    fn histogram_equals_a_plain_count_on_random_maps() {
+        let mut st = 3u64;
+        let mut next = || {
+            st = st
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            st >> 33
+        };
+        for trial in 0..60 {
+            let (h, w) = (1 + next() as usize % 150, 1 + next() as usize % 90);
+            // few keys (hot path), many keys (fallback), and shades unlike the values
+            let levels = [1u64, 2, 3, 4, 7, 256][trial % 6];
+            let unk_pct = next() % 101;
+            let v: Vec<u8> = (0..h * w).map(|_| (next() % levels * 37) as u8).collect();
+            let u: Vec<bool> = (0..h * w).map(|_| next() % 100 < unk_pct).collect();
+            let shade: Vec<u8> = (0..h * w).map(|_| (next() % levels * 11) as u8).collect();
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            for sh in [None, Some(&shade[..])] {
+                let (mut known, mut unknown) = ([0u64; 256], [0u64; 256]);
+                for i in 0..h * w {
+                    if u[i] {
+                        unknown[sh.map_or(v[i], |s| s[i]) as usize] += 1;
+                    } else {
+                        known[v[i] as usize] += 1;
+                    }
+                }
+                let got = g.histogram_with(sh);
+                assert_eq!(got.known, known, "trial {trial}");
+                assert_eq!(got.unknown_values, unknown, "trial {trial}");
+                assert_eq!(got.unknown, unknown.iter().sum::<u64>());
+            }
+        }
     }
 
     #[test]

@@ -106,57 +106,64 @@ pub struct Components {
     border: Vec<bool>,
 }
 
-const ALL_ONES: u64 = 0x0101_0101_0101_0101;
-
-/// First index `>= x` whose byte is non-zero (or `row.len()`).
+/// The 0/1 bytes of one 64-cell block packed into bits (bit `i` = byte `i`): eight bytes at a
+/// time by one multiplication, which moves byte `i`'s low bit to bit `49 + i` (every partial
+/// product lands on its own bit, so nothing carries).
 #[inline]
-fn next_set(row: &[u8], mut x: usize) -> usize {
-    while x + 8 <= row.len() {
+fn pack64(block: &[u8]) -> u64 {
+    const M: u64 = 0x0002_0408_1020_4081; // sum of 2^(7j), j = 0..8
+    let mut bits = 0u64;
+    for (k, c) in block.chunks_exact(8).enumerate() {
         let mut word = [0u8; 8];
-        word.copy_from_slice(&row[x..x + 8]);
-        let bits = u64::from_le_bytes(word);
-        if bits != 0 {
-            // little-endian: the lowest set byte is the first one
-            return x + (bits.trailing_zeros() / 8) as usize;
-        }
-        x += 8;
+        word.copy_from_slice(c);
+        let x = u64::from_le_bytes(word) & 0x0101_0101_0101_0101;
+        bits |= ((x.wrapping_mul(M) >> 49) & 0xff) << (8 * k);
     }
-    while x < row.len() && row[x] == 0 {
-        x += 1;
-    }
-    x
-}
-
-/// First index `>= x` whose byte is zero (or `row.len()`); bytes are 0 or 1.
-#[inline]
-fn next_clear(row: &[u8], mut x: usize) -> usize {
-    while x + 8 <= row.len() {
-        let mut word = [0u8; 8];
-        word.copy_from_slice(&row[x..x + 8]);
-        let bits = u64::from_le_bytes(word) ^ ALL_ONES;
-        if bits != 0 {
-            return x + (bits.trailing_zeros() / 8) as usize;
-        }
-        x += 8;
-    }
-    while x < row.len() && row[x] != 0 {
-        x += 1;
-    }
-    x
+    bits
 }
 
 /// Append the runs of one 0/1 row to `out`.
+///
+/// The row is packed into 64-bit words; a word's run edges (cells that differ from the cell
+/// before them) are visited by trailing-zero counts, one loop exit per word instead of one
+/// unpredictable branch per run boundary (noisy maps have many short runs).
 pub fn push_runs(row: &[u8], out: &mut Vec<Run>) {
     let n = row.len();
-    let mut x = next_set(row, 0);
-    while x < n {
-        let s = x;
-        x = next_clear(row, x);
+    let mut open: Option<u32> = None;
+    let mut carry = 0u64; // the last cell of the previous word
+                          // runs alternate start and end edges, a pattern branch predictors follow
+    let edge = |pos: u32, open: &mut Option<u32>, out: &mut Vec<Run>| match open.take() {
+        Some(start) => out.push(Run { start, end: pos }),
+        None => *open = Some(pos),
+    };
+    let mut base = 0usize;
+    let mut blocks = row.chunks_exact(64);
+    for block in &mut blocks {
+        let bits = pack64(block);
+        let mut edges = bits ^ ((bits << 1) | carry);
+        carry = bits >> 63;
+        while edges != 0 {
+            edge(
+                (base + edges.trailing_zeros() as usize) as u32,
+                &mut open,
+                out,
+            );
+            edges &= edges - 1;
+        }
+        base += 64;
+    }
+    for (i, &b) in blocks.remainder().iter().enumerate() {
+        let bit = (b & 1) as u64;
+        if bit != carry {
+            edge((base + i) as u32, &mut open, out);
+        }
+        carry = bit;
+    }
+    if let Some(start) = open {
         out.push(Run {
-            start: s as u32,
-            end: x as u32,
+            start,
+            end: n as u32,
         });
-        x = next_set(row, x);
     }
 }
 
@@ -199,11 +206,10 @@ fn touching_runs(
         if a.start <= b.end && b.start <= a.end {
             touch(i, j);
         }
-        if a.end < b.end {
-            i += 1;
-        } else {
-            j += 1;
-        }
+        // advance the run that ends first, without a branch (unpredictable on noisy maps)
+        let step = (a.end < b.end) as usize;
+        i += step;
+        j += 1 - step;
     }
 }
 
@@ -217,6 +223,277 @@ fn split_bands<'v, T>(v: &'v mut [T], base: &[usize]) -> Vec<&'v mut [T]> {
         rest = tail;
     }
     out
+}
+
+/// The number of 8-connected components of an image given by its runs
+/// (`runs[row_start[r]..row_start[r + 1]]` are row `r`'s runs, left to right), without
+/// labelling them: a union-find over the runs counts the unions that join two components,
+/// and every such union removes one of the `runs.len()` singletons. Bands in parallel, then
+/// the band seams; the count is the same for any thread count.
+pub fn count_components(runs: &[Run], row_start: &[usize], height: usize) -> usize {
+    let bands = bands(height);
+    let mut band_base: Vec<usize> = bands.iter().map(|&(r0, _)| row_start[r0]).collect();
+    band_base.push(runs.len());
+    debug_assert!(runs.len() < u32::MAX as usize);
+    let mut parent: Vec<u32> = vec![0; runs.len()];
+    let merged: usize = split_bands(&mut parent, &band_base)
+        .into_par_iter()
+        .zip(bands.par_iter().zip(band_base.par_iter()))
+        .map(|(par, (&(r0, r1), &base))| {
+            for (k, p) in par.iter_mut().enumerate() {
+                *p = (base + k) as u32;
+            }
+            let mut merged = 0usize;
+            for r in r0 + 1..r1 {
+                let mut last = usize::MAX;
+                touching_runs(
+                    runs,
+                    (row_start[r - 1], row_start[r]),
+                    (row_start[r], row_start[r + 1]),
+                    |i, j| {
+                        let (a, b) = ((i - base) as u32, (j - base) as u32);
+                        if j != last {
+                            // the first contact of a singleton always joins two components
+                            last = j;
+                            par[b as usize] = find_in(par, a, base);
+                            merged += 1;
+                        } else {
+                            merged += union_in(par, a, b, base) as usize;
+                        }
+                    },
+                );
+            }
+            merged
+        })
+        .sum();
+    let mut seams = 0usize;
+    for &(r0, _) in bands.iter().skip(1) {
+        touching_runs(
+            runs,
+            (row_start[r0 - 1], row_start[r0]),
+            (row_start[r0], row_start[r0 + 1]),
+            |i, j| seams += union_in(&mut parent, i as u32, j as u32, 0) as usize,
+        );
+    }
+    runs.len() - merged - seams
+}
+
+/// The number of 8-connected components of an `height x width` image given by its runs that
+/// touch no image border and have at least `min_area` cells, without labelling them: the
+/// union-find carries each component's size and border contact at its root, merged as
+/// components join (bands in parallel, then the seams; the same for any thread count).
+pub fn count_enclosed_runs(
+    runs: &[Run],
+    row_start: &[usize],
+    height: usize,
+    width: usize,
+    min_area: u32,
+) -> usize {
+    let bands = bands(height);
+    let mut band_base: Vec<usize> = bands.iter().map(|&(r0, _)| row_start[r0]).collect();
+    band_base.push(runs.len());
+    debug_assert!(runs.len() < u32::MAX as usize);
+    let n = runs.len();
+    let mut parent: Vec<u32> = vec![0; n];
+    // size (at most the cell count, below 2^32) with the border flag in the top bit
+    let mut stat: Vec<u64> = vec![0; n];
+    const EDGE: u64 = 1 << 63;
+    let merge = |st: &mut [u64], into: usize, from: usize| {
+        let (a, b) = (st[into], st[from]);
+        st[into] = ((a & !EDGE) + (b & !EDGE)) | ((a | b) & EDGE);
+    };
+    split_bands(&mut parent, &band_base)
+        .into_par_iter()
+        .zip(split_bands(&mut stat, &band_base))
+        .zip(bands.par_iter().zip(band_base.par_iter()))
+        .for_each(|((par, st), (&(r0, r1), &base))| {
+            for r in r0..r1 {
+                let edge_row = r == 0 || r + 1 == height;
+                for i in row_start[r]..row_start[r + 1] {
+                    let run = runs[i];
+                    let k = i - base;
+                    par[k] = i as u32;
+                    let edge = edge_row || run.start == 0 || run.end as usize == width;
+                    st[k] = u64::from(run.end - run.start) | if edge { EDGE } else { 0 };
+                }
+            }
+            for r in r0 + 1..r1 {
+                let mut last = usize::MAX;
+                touching_runs(
+                    runs,
+                    (row_start[r - 1], row_start[r]),
+                    (row_start[r], row_start[r + 1]),
+                    |i, j| {
+                        let (a, b) = ((i - base) as u32, (j - base) as u32);
+                        let ra = find_in(par, a, base) - base as u32;
+                        if j != last {
+                            last = j;
+                            par[b as usize] = ra + base as u32;
+                            merge(st, ra as usize, b as usize);
+                        } else {
+                            let rb = find_in(par, b, base) - base as u32;
+                            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                            if lo != hi {
+                                par[hi as usize] = lo + base as u32;
+                                merge(st, lo as usize, hi as usize);
+                            }
+                        }
+                    },
+                );
+            }
+        });
+    for &(r0, _) in bands.iter().skip(1) {
+        touching_runs(
+            runs,
+            (row_start[r0 - 1], row_start[r0]),
+            (row_start[r0], row_start[r0 + 1]),
+            |i, j| {
+                let ra = find_in(&mut parent, i as u32, 0);
+                let rb = find_in(&mut parent, j as u32, 0);
+                let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                if lo != hi {
+                    parent[hi as usize] = lo;
+                    merge(&mut stat, lo as usize, hi as usize);
+                }
+            },
+        );
+    }
+    parent
+        .par_iter()
+        .zip(stat.par_iter())
+        .enumerate()
+        .filter(|&(i, (&p, &st))| p as usize == i && st & EDGE == 0 && st >= u64::from(min_area))
+        .count()
+}
+
+/// Drop the 8-connected components of fewer than `min_size` cells from an image given as
+/// `mask` (row-major, `height x width`, zeroed where a component is dropped) and its runs;
+/// returns the runs that remain. The same as [`Components::clear_small`] and
+/// [`Components::runs_of_large`] after labelling, without the labels: a union-find with the
+/// sizes at the roots (bands in parallel, then the seams), one ascending pass that points
+/// every run at its root (a non-root's parent always has a smaller index), and one pass per
+/// band that keeps or clears each run.
+pub fn drop_small_runs(
+    rr: RowRuns,
+    mask: &mut [u8],
+    height: usize,
+    width: usize,
+    min_size: u32,
+) -> RowRuns {
+    let (runs, row_start) = (&rr.runs, &rr.row_start);
+    let bands = bands(height);
+    let mut band_base: Vec<usize> = bands.iter().map(|&(r0, _)| row_start[r0]).collect();
+    band_base.push(runs.len());
+    debug_assert!(runs.len() < u32::MAX as usize);
+    let n = runs.len();
+    let mut parent: Vec<u32> = vec![0; n];
+    let mut size: Vec<u32> = vec![0; n];
+    split_bands(&mut parent, &band_base)
+        .into_par_iter()
+        .zip(split_bands(&mut size, &band_base))
+        .zip(bands.par_iter().zip(band_base.par_iter()))
+        .for_each(|((par, siz), (&(r0, r1), &base))| {
+            for (k, (p, sz)) in par.iter_mut().zip(siz.iter_mut()).enumerate() {
+                *p = (base + k) as u32;
+                let run = runs[base + k];
+                *sz = run.end - run.start;
+            }
+            for r in r0 + 1..r1 {
+                let mut last = usize::MAX;
+                touching_runs(
+                    runs,
+                    (row_start[r - 1], row_start[r]),
+                    (row_start[r], row_start[r + 1]),
+                    |i, j| {
+                        let (a, b) = ((i - base) as u32, (j - base) as u32);
+                        let ra = (find_in(par, a, base) - base as u32) as usize;
+                        if j != last {
+                            last = j;
+                            par[b as usize] = (ra + base) as u32;
+                            siz[ra] = siz[ra].saturating_add(siz[b as usize]);
+                        } else {
+                            let rb = (find_in(par, b, base) - base as u32) as usize;
+                            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                            if lo != hi {
+                                par[hi] = (lo + base) as u32;
+                                siz[lo] = siz[lo].saturating_add(siz[hi]);
+                            }
+                        }
+                    },
+                );
+            }
+        });
+    for &(r0, _) in bands.iter().skip(1) {
+        touching_runs(
+            runs,
+            (row_start[r0 - 1], row_start[r0]),
+            (row_start[r0], row_start[r0 + 1]),
+            |i, j| {
+                let ra = find_in(&mut parent, i as u32, 0) as usize;
+                let rb = find_in(&mut parent, j as u32, 0) as usize;
+                let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                if lo != hi {
+                    parent[hi] = lo as u32;
+                    size[lo] = size[lo].saturating_add(size[hi]);
+                }
+            },
+        );
+    }
+    for i in 0..n {
+        parent[i] = parent[parent[i] as usize];
+    }
+    let parts: Vec<(Vec<Run>, Vec<usize>)> = mask
+        .par_chunks_mut(BAND_ROWS * width)
+        .zip(bands.par_iter())
+        .map(|(band, &(r0, r1))| {
+            let mut kept = Vec::new();
+            let mut starts = Vec::with_capacity(r1 - r0);
+            for r in r0..r1 {
+                starts.push(kept.len());
+                let row = &mut band[(r - r0) * width..(r - r0 + 1) * width];
+                for i in row_start[r]..row_start[r + 1] {
+                    let run = runs[i];
+                    if size[parent[i] as usize] >= min_size {
+                        kept.push(run);
+                    } else {
+                        row[run.start as usize..run.end as usize].fill(0);
+                    }
+                }
+            }
+            (kept, starts)
+        })
+        .collect();
+    RowRuns::concat(parts)
+}
+
+/// [`find`] on a band's slice of a parent array holding global indices (`base`: the index
+/// of the slice's first entry); returns the root as a band-local index.
+#[inline]
+fn find_in(parent: &mut [u32], x: u32, base: usize) -> u32 {
+    let b = base as u32;
+    let mut x = x;
+    loop {
+        let p = parent[x as usize] - b;
+        if p == x {
+            return x + b;
+        }
+        let gp = parent[p as usize];
+        parent[x as usize] = gp;
+        x = gp - b;
+    }
+}
+
+/// [`union`] on a band's slice of global indices; whether two components were joined.
+#[inline]
+fn union_in(parent: &mut [u32], a: u32, b: u32, base: usize) -> bool {
+    let ra = find_in(parent, a, base) - base as u32;
+    let rb = find_in(parent, b, base) - base as u32;
+    if ra < rb {
+        parent[rb as usize] = ra + base as u32;
+    } else if rb < ra {
+        parent[ra as usize] = rb + base as u32;
+    }
+    ra != rb
 }
 
 impl Components {
@@ -255,8 +532,17 @@ impl Components {
                         *p = k as u32;
                     }
                     for r in r0 + 1..r1 {
+                        // a run of this row is a singleton until its first contact, which
+                        // can link it straight to the other run's root (smaller index)
+                        let mut last = usize::MAX;
                         touching_runs(runs_ref, (rs[r - 1], rs[r]), (rs[r], rs[r + 1]), |i, j| {
-                            union(par, (i - base) as u32, (j - base) as u32)
+                            let (a, b) = ((i - base) as u32, (j - base) as u32);
+                            if j != last {
+                                last = j;
+                                par[b as usize] = find(par, a);
+                            } else {
+                                union(par, a, b);
+                            }
                         });
                     }
                     let mut roots = Vec::new();
@@ -517,6 +803,170 @@ mod tests {
                 .collect();
             let c = Components::label(&MaskRows { mask: &m, width: w }, h, w);
             assert_eq!((c.count(), c.count_enclosed(1)), naive_count(&m, h, w));
+        }
+    }
+
+    /// Runs by a plain scan, cell by cell.
+    fn naive_runs(row: &[u8]) -> Vec<Run> {
+        let mut out = Vec::new();
+        let mut x = 0;
+        while x < row.len() {
+            if row[x] != 0 {
+                let s = x;
+                while x < row.len() && row[x] != 0 {
+                    x += 1;
+                }
+                out.push(Run {
+                    start: s as u32,
+                    end: x as u32,
+                });
+            } else {
+                x += 1;
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn packed_runs_equal_a_plain_scan() {
+        let mut state = 99u64;
+        for trial in 0..2000 {
+            let w = 1 + trial % 300;
+            let density = trial % 101;
+            let row: Vec<u8> = (0..w)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((state >> 33) % 100 < density as u64) as u8
+                })
+                .collect();
+            let mut got = vec![Run { start: 7, end: 9 }]; // appended to, not replaced
+            push_runs(&row, &mut got);
+            let mut expect = vec![Run { start: 7, end: 9 }];
+            expect.extend(naive_runs(&row));
+            assert_eq!(got, expect, "width {w}: {row:?}");
+        }
+        for w in [63, 64, 65, 128, 129] {
+            for row in [vec![1u8; w], vec![0u8; w]] {
+                assert_eq!(
+                    {
+                        let mut o = Vec::new();
+                        push_runs(&row, &mut o);
+                        o
+                    },
+                    naive_runs(&row)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn component_count_without_labels_equals_the_labelling() {
+        let mut state = 777u64;
+        for (h, w, density) in [
+            (1, 1, 50),
+            (300, 37, 20),
+            (300, 37, 45),
+            (130, 64, 60),
+            (65, 5, 70),
+        ] {
+            let m: Vec<u8> = (0..h * w)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((state >> 33) % 100 < density) as u8
+                })
+                .collect();
+            let rows = MaskRows { mask: &m, width: w };
+            let rr = RowRuns::of(&rows, h, w);
+            let expect = naive_count(&m, h, w).0;
+            for threads in [1, 2] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let got = pool.install(|| count_components(&rr.runs, &rr.row_start, h));
+                assert_eq!(got, expect, "{h}x{w} density {density} threads {threads}");
+            }
+        }
+    }
+
+    #[test]
+    fn enclosed_count_without_labels_equals_the_labelling() {
+        let mut state = 4242u64;
+        for (h, w, density) in [
+            (1, 1, 50),
+            (300, 37, 50),
+            (300, 37, 65),
+            (130, 64, 60),
+            (65, 5, 80),
+        ] {
+            let m: Vec<u8> = (0..h * w)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((state >> 33) % 100 < density) as u8
+                })
+                .collect();
+            let rows = MaskRows { mask: &m, width: w };
+            let rr = RowRuns::of(&rows, h, w);
+            let c = Components::label(&rows, h, w);
+            for min_area in [0, 1, 2, 5, 40] {
+                let expect = c.count_enclosed(min_area);
+                for threads in [1, 2] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let got = pool
+                        .install(|| count_enclosed_runs(&rr.runs, &rr.row_start, h, w, min_area));
+                    assert_eq!(got, expect, "{h}x{w} {density}% min {min_area} x{threads}");
+                }
+            }
+            assert_eq!(c.count_enclosed(1), naive_count(&m, h, w).1);
+        }
+    }
+
+    #[test]
+    fn dropping_small_components_by_runs_equals_the_labelling() {
+        let mut state = 31u64;
+        for (h, w, density) in [
+            (1, 1, 50),
+            (300, 37, 20),
+            (300, 37, 45),
+            (130, 64, 55),
+            (65, 5, 30),
+        ] {
+            let m: Vec<u8> = (0..h * w)
+                .map(|_| {
+                    state = state
+                        .wrapping_mul(6364136223846793005)
+                        .wrapping_add(1442695040888963407);
+                    ((state >> 33) % 100 < density) as u8
+                })
+                .collect();
+            for min_size in [0, 1, 2, 5, 30] {
+                let c = Components::label(&MaskRows { mask: &m, width: w }, h, w);
+                let mut expect_mask = m.clone();
+                c.clear_small(&mut expect_mask, min_size);
+                let expect = c.runs_of_large(min_size);
+                for threads in [1, 2] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let mut got_mask = m.clone();
+                    let rr = RowRuns::of(&MaskRows { mask: &m, width: w }, h, w);
+                    let got = pool.install(|| drop_small_runs(rr, &mut got_mask, h, w, min_size));
+                    let what = format!("{h}x{w} {density}% min {min_size} x{threads}");
+                    assert_eq!(got_mask, expect_mask, "{what}");
+                    assert_eq!(got.runs, expect.runs, "{what}");
+                    assert_eq!(got.row_start, expect.row_start, "{what}");
+                }
+            }
         }
     }
 

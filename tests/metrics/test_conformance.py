@@ -121,3 +121,51 @@ def test_thread_count_does_not_matter(grid: OccupancyMap) -> None:
     two = slamq.evaluate(grid, curve=True, threads=2)
     default = slamq.evaluate(grid, curve=True)
     assert one.differences(two) == [] and one.differences(default) == []
+
+
+def _broken_map(seed: int, h: int, w: int, copies: int, noise: float) -> OccupancyMap:
+    """A map like awabot hector_odom: rooms drawn ``copies`` times with drift (superposed,
+    shifted and sheared copies of the same walls), free space sprinkled with unknown and
+    occupied specks, so that every row has dozens of short runs."""
+    rng = np.random.default_rng(seed)
+    values = np.full((h, w), 205, np.uint8)
+    unknown = np.ones((h, w), bool)
+    rooms = [(int(rng.integers(0, h // 2)), int(rng.integers(0, w // 2)),
+              int(rng.integers(8, h // 2 + 9)), int(rng.integers(8, w // 2 + 9)))
+             for _ in range(int(rng.integers(2, 7)))]
+    for k in range(copies):
+        dr, dc = int(rng.integers(-6, 7)), int(rng.integers(-6, 7))
+        shear = rng.uniform(-0.05, 0.05)
+        for r0, c0, hh, ww in rooms:
+            rr0, cc0 = r0 + dr + k, c0 + dc
+            rows = slice(max(rr0, 0), max(min(rr0 + hh, h), 0))
+            cols = slice(max(cc0, 0), max(min(cc0 + ww, w), 0))
+            unknown[rows, cols] = False
+            block = values[rows, cols]
+            block[block == 205] = 254
+            for r in range(rows.start, rows.stop):
+                off = int(round(shear * (r - rows.start)))
+                for c in (cc0 + off, cc0 + ww - 1 + off):
+                    if 0 <= c < w:
+                        values[r, c] = 0
+            for r in (rows.start, rows.stop - 1):
+                if rows.start < rows.stop:
+                    values[r, cols] = 0
+    specks = rng.random((h, w)) < noise
+    unknown[specks & (rng.random((h, w)) < 0.5)] = True
+    values[specks & ~unknown] = 0
+    values[unknown] = 205
+    return OccupancyMap(values, unknown, source=f"<broken map {seed} {h}x{w} x{copies}>")
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 2**32 - 1), st.integers(65, 260), st.integers(20, 200),
+       st.integers(1, 4), st.sampled_from([0.0, 0.01, 0.05, 0.2]))
+def test_broken_maps_with_superposed_copies(seed: int, h: int, w: int, copies: int,
+                                            noise: float) -> None:
+    # many short runs, dots and corners across several row bands (64 rows): the packed run
+    # extraction, the label-free counts, the dot removal by runs and the hot-key histogram
+    grid = _broken_map(seed, h, w, copies, noise)
+    expected = assert_conforms(grid)
+    two = slamq.evaluate(grid, curve=True, threads=2)
+    assert two.differences(expected) == []
