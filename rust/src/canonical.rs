@@ -45,40 +45,65 @@ fn filled<T: Clone>(n: usize, x: T) -> Result<Vec<T>, OutOfMemory> {
     Ok(v)
 }
 
-/// The 9-tap binomial (two 5-tap binomial blurs in one), sum 256.
-const B9: [i32; 9] = [1, 8, 28, 56, 70, 56, 28, 8, 1];
+/// A known cell of the packed box ([`pack_box`]) has this bit set, on top of its value.
+const KNOWN: u16 = 1 << 12;
+/// The value bits of a packed cell (its value when known, 0 when unknown).
+const VALUE: u16 = KNOWN - 1;
 
-/// `D`: the 9x9 binomial sum of the box's known values (unknown cells count 0; reflect-101
-/// at the box's edges) at every second row and column (rows and columns 0, 2, 4, ...),
-/// `ceil(h/2) x ceil(w/2)`; exact in `i32` (at most 255 * 256^2). Each output row is one
-/// vertical pass over nine input rows, straight from the map, then the decimated
-/// horizontal taps: no full-size copy of the box.
-fn blur9_decimated(
-    grid: &Grid,
-    (r0, r1, c0, c1): Bounds,
-) -> Result<(Vec<i32>, usize, usize), OutOfMemory> {
+/// The box's cells packed one `u16` each, row-major with the box's width as stride: the
+/// value plus [`KNOWN`] for a known cell, 0 for an unknown one. `p & VALUE` is the
+/// structure image (SPEC 3 step 1); the sum of up to 16 packed cells is `sum + 4096 k`
+/// (`k` the number of known ones), which is what a resampled cell needs.
+fn pack_box(grid: &Grid, (r0, r1, c0, c1): Bounds) -> Result<Vec<u16>, OutOfMemory> {
     let (h, w) = (r1 - r0, c1 - c0);
+    let mut out = filled(h * w, 0u16)?;
+    out.par_chunks_mut(w.max(1) * 64.min(h.max(1)))
+        .enumerate()
+        .for_each(|(t, block)| {
+            for (i, o) in block.chunks_mut(w).enumerate() {
+                let at = (r0 + t * 64 + i) * grid.width + c0;
+                let (v, u) = (&grid.values[at..at + w], &grid.unknown[at..at + w]);
+                for ((o, &v), &u) in o.iter_mut().zip(v).zip(u) {
+                    *o = (u16::from(v) | KNOWN) * u16::from(!u);
+                }
+            }
+        });
+    Ok(out)
+}
+
+/// The 9-tap binomial (two 5-tap binomial blurs in one), sum 256.
+const B9: [u16; 9] = [1, 8, 28, 56, 70, 56, 28, 8, 1];
+
+/// `D`: the 9x9 binomial sum of the packed box's known values ([`pack_box`], `h x w`;
+/// unknown cells count 0; reflect-101 at the box's edges) at every second row and column
+/// (rows and columns 0, 2, 4, ...), `ceil(h/2) x ceil(w/2)`; exact in `i32` (at most
+/// 255 * 256^2). Each output row is one vertical pass over nine input rows, exact in `u16`
+/// (at most 255 * 256), then the decimated horizontal taps.
+fn blur9_decimated(
+    packed: &[u16],
+    h: usize,
+    w: usize,
+) -> Result<(Vec<i32>, usize, usize), OutOfMemory> {
     let (hd, wd) = (h.div_ceil(2), w.div_ceil(2));
     let mut out = filled(hd * wd, 0i32)?;
     out.par_chunks_mut(wd).enumerate().for_each_init(
-        || vec![0i32; w],
+        || vec![0u16; w],
         |vert, (rd, o)| {
             vert.fill(0);
             for (k, &b) in B9.iter().enumerate() {
                 let rr = reflect101((2 * rd) as isize + k as isize - 4, h);
-                let at = (r0 + rr) * grid.width + c0;
-                let (v, u) = (&grid.values[at..at + w], &grid.unknown[at..at + w]);
-                for ((acc, &v), &u) in vert.iter_mut().zip(v).zip(u) {
-                    *acc += b * (i32::from(v) * i32::from(!u));
+                for (acc, &p) in vert.iter_mut().zip(&packed[rr * w..(rr + 1) * w]) {
+                    *acc += b * (p & VALUE);
                 }
             }
+            let tap = |x: usize, k: usize| i32::from(B9[k]) * i32::from(vert[x]);
             for (xd, o) in o.iter_mut().enumerate() {
                 let x = 2 * xd;
                 *o = if x >= 4 && x + 4 < w {
-                    (0..9).map(|k| B9[k] * vert[x + k - 4]).sum()
+                    (0..9).map(|k| tap(x + k - 4, k)).sum()
                 } else {
                     (0..9)
-                        .map(|k| B9[k] * vert[reflect101(x as isize + k as isize - 4, w)])
+                        .map(|k| tap(reflect101(x as isize + k as isize - 4, w), k))
                         .sum()
                 };
             }
@@ -92,24 +117,32 @@ fn blur9_decimated(
 /// same as `round_ties_even` and numpy's `rint`, without the libm call that baseline x86-64
 /// makes of `round_ties_even`.
 #[inline]
-fn rint(x: f64) -> i64 {
+fn rint_f(x: f64) -> f64 {
     const MAGIC: f64 = 6_755_399_441_055_744.0;
-    ((x + MAGIC) - MAGIC) as i64
+    (x + MAGIC) - MAGIC
 }
 
-/// The `g**4 / |g|**3` terms of one cell's Sobel gradient, rounded half to even (SPEC 3a.2).
+#[cfg(test)]
+fn rint(x: f64) -> i64 {
+    rint_f(x) as i64
+}
+
+/// The `g**4 / |g|**3` terms of one cell's Sobel gradient, rounded half to even (SPEC 3a.2),
+/// as integer-valued floats: `(0, 0)` for a zero gradient. Branch-free, so that a row of
+/// them vectorises: a zero gradient divides its zero numerators by 1 instead of by 0.
 #[inline]
-fn angle_terms(gx: i64, gy: i64) -> (i64, i64) {
-    let (x, y) = (gx as f64, gy as f64);
+fn angle_terms(x: f64, y: f64) -> (f64, f64) {
     let r2 = x * x + y * y;
-    if r2 <= 0.0 {
-        return (0, 0);
-    }
     let a = x * x - y * y;
     let b = 2.0 * (x * y);
-    let w = r2 * r2.sqrt();
-    (rint((a * a - b * b) / w), rint((2.0 * (a * b)) / w))
+    let w = if r2 > 0.0 { r2 * r2.sqrt() } else { 1.0 };
+    (rint_f((a * a - b * b) / w), rint_f((2.0 * (a * b)) / w))
 }
+
+/// Cells per partial sum of the angle terms: each term is an integer below `|g| < 2^27`
+/// (`D < 2^24`, a Sobel derivative at most 4 of them), so a float sum of this many is
+/// exact (below 2^53) whatever the order.
+const TERMS_PER_SUM: usize = 1 << 20;
 
 /// The dominant wall direction modulo 90 degrees of the known bounding box, radians in
 /// (-pi/4, pi/4] (image axes: +x right, +y down). 0 for a map without known cells or
@@ -118,39 +151,66 @@ fn angle_terms(gx: i64, gy: i64) -> (i64, i64) {
 /// `g**4 / |g|**3` per cell, rounded to integers.
 pub fn wall_angle(grid: &Grid) -> Result<f64, OutOfMemory> {
     match known_bounds(grid) {
-        Some(b) => angle_in(grid, b),
+        Some(b) => angle_in(&pack_box(grid, b)?, b.1 - b.0, b.3 - b.2),
         None => Ok(0.0),
     }
 }
 
-/// [`wall_angle`] of the box `b` (the known cells' bounding box).
-fn angle_in(grid: &Grid, (r0, r1, c0, c1): Bounds) -> Result<f64, OutOfMemory> {
-    let (g2, h, w) = blur9_decimated(grid, (r0, r1, c0, c1))?;
-    let (re, im) = (0..h)
-        .into_par_iter()
-        .map(|r| {
-            let row = |k: isize| {
-                let rr = reflect101(r as isize + k, h);
-                &g2[rr * w..(rr + 1) * w]
-            };
-            let (up, mid, down) = (row(-1), row(0), row(1));
-            let (mut sre, mut sim) = (0i64, 0i64);
-            for x in 0..w {
-                let (l, rt) = if x >= 1 && x + 1 < w {
-                    (x - 1, x + 1)
-                } else {
-                    (reflect101(x as isize - 1, w), reflect101(x as isize + 1, w))
+/// [`wall_angle`] of the packed box ([`pack_box`], `h x w`).
+fn angle_in(packed: &[u16], h: usize, w: usize) -> Result<f64, OutOfMemory> {
+    let (g2, h, w) = blur9_decimated(packed, h, w)?;
+    let (re, im) = g2
+        .par_chunks(w)
+        .enumerate()
+        .map_init(
+            || (vec![0.0f64; w], vec![0.0f64; w]),
+            |(gxs, gys), (r, _)| {
+                let row = |k: isize| {
+                    let rr = reflect101(r as isize + k, h);
+                    &g2[rr * w..(rr + 1) * w]
                 };
-                let col = |c: usize| up[c] as i64 + 2 * mid[c] as i64 + down[c] as i64;
-                let gx = col(rt) - col(l);
-                let gy = (down[l] as i64 + 2 * down[x] as i64 + down[rt] as i64)
-                    - (up[l] as i64 + 2 * up[x] as i64 + up[rt] as i64);
-                let (a, b) = angle_terms(gx, gy);
-                sre += a;
-                sim += b;
-            }
-            (sre, sim)
-        })
+                let (up, mid, down) = (row(-1), row(0), row(1));
+                // the 3x3 Sobel derivatives (exact in i32: at most 4 * 255 * 256^2)
+                let grad = |l: usize, x: usize, rt: usize| {
+                    let col = |c: usize| up[c] + 2 * mid[c] + down[c];
+                    let gx = col(rt) - col(l);
+                    let gy = (down[l] + 2 * down[x] + down[rt]) - (up[l] + 2 * up[x] + up[rt]);
+                    (f64::from(gx), f64::from(gy))
+                };
+                for x in [0, w - 1] {
+                    let (l, rt) = (reflect101(x as isize - 1, w), reflect101(x as isize + 1, w));
+                    (gxs[x], gys[x]) = grad(l, x, rt);
+                }
+                if w > 2 {
+                    let inner = gxs[1..w - 1].iter_mut().zip(&mut gys[1..w - 1]);
+                    for (x, (gx, gy)) in inner.enumerate() {
+                        (*gx, *gy) = grad(x, x + 1, x + 2);
+                    }
+                }
+                let (mut sre, mut sim) = (0i64, 0i64);
+                for (xs, ys) in gxs.chunks(TERMS_PER_SUM).zip(gys.chunks(TERMS_PER_SUM)) {
+                    // four partial sums, so that the loop vectorises (exact in any order)
+                    let (mut re4, mut im4) = ([0.0f64; 4], [0.0f64; 4]);
+                    let (xq, yq) = (xs.chunks_exact(4), ys.chunks_exact(4));
+                    let (xr, yr) = (xq.remainder(), yq.remainder());
+                    for (x4, y4) in xq.zip(yq) {
+                        for l in 0..4 {
+                            let (a, b) = angle_terms(x4[l], y4[l]);
+                            re4[l] += a;
+                            im4[l] += b;
+                        }
+                    }
+                    for (&x, &y) in xr.iter().zip(yr) {
+                        let (a, b) = angle_terms(x, y);
+                        re4[0] += a;
+                        im4[0] += b;
+                    }
+                    sre += re4.iter().map(|&v| v as i64).sum::<i64>();
+                    sim += im4.iter().map(|&v| v as i64).sum::<i64>();
+                }
+                (sre, sim)
+            },
+        )
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     if re == 0 && im == 0 {
         return Ok(0.0);
@@ -184,7 +244,7 @@ pub fn canonical_map(
     reference: f64,
 ) -> Result<Option<CanonicalMap>, OutOfMemory> {
     match known_bounds(grid) {
-        Some(b) => map_in(grid, b, angle, resolution, reference),
+        Some(b) => map_in(grid, &pack_box(grid, b)?, b, angle, resolution, reference),
         None => Ok(Some(CanonicalMap {
             values: grid.values.to_vec(),
             unknown: grid.unknown.to_vec(),
@@ -194,13 +254,53 @@ pub fn canonical_map(
     }
 }
 
-/// [`canonical_map`] of the box `b` (the known cells' bounding box).
+/// 2^52: a float in `0..2^52` plus this has its integer part as the low bits of its
+/// mantissa, rounded to nearest.
+const TWO52: f64 = 4_503_599_627_370_496.0;
+
+/// `floor(clamp(p, 0, last))` for `last < 2^52` (NaN gives 0), in float operations only:
+/// the clamped value rounded to an integer (to nearest), less one where that rounded up.
+#[inline]
+fn floor_in(p: f64, last: f64) -> f64 {
+    let p = if p > 0.0 { p } else { 0.0 };
+    let p = if p < last { p } else { last };
+    let r = (p + TWO52) - TWO52;
+    if r > p {
+        r - 1.0
+    } else {
+        r
+    }
+}
+
+/// The integer value of an integer-valued float in `0..2^52`, from its bits.
+#[inline]
+fn float_bits_index(x: f64) -> u64 {
+    (x + TWO52).to_bits() - TWO52.to_bits()
+}
+
+/// [`canonical_map`] of the box `b` (the known cells' bounding box), `packed` its cells
+/// ([`pack_box`]).
 fn map_in(
     grid: &Grid,
+    packed: &[u16],
+    b: Bounds,
+    angle: f64,
+    resolution: Option<f64>,
+    reference: f64,
+) -> Result<Option<CanonicalMap>, OutOfMemory> {
+    map_in_with(grid, packed, b, angle, resolution, reference, true)
+}
+
+/// [`map_in`], by the general path only when `allow_fast` is false (the tests compare the
+/// two).
+fn map_in_with(
+    grid: &Grid,
+    packed: &[u16],
     (r0, r1, c0, c1): Bounds,
     angle: f64,
     resolution: Option<f64>,
     reference: f64,
+    allow_fast: bool,
 ) -> Result<Option<CanonicalMap>, OutOfMemory> {
     let (h, w) = (r1 - r0, c1 - c0);
     let f = match resolution {
@@ -294,6 +394,10 @@ fn map_in(
                 .all(|&k| !k)
         })
     };
+    // the fast path, when an output cell's packed samples sum without carrying into the
+    // count (at most 16 of them, 16 * 255 < 4096) and a box cell's index fits in u32: one
+    // gather per sample from the packed box, addresses in i32
+    let fast = allow_fast && need <= 16 && h * w < 1 << 52;
     // output tiles of TILE x TILE cells: the input cells one tile samples lie in a small
     // turned square, so the gathers stay in cache (row by row over a wide turned map, every
     // sample was a cache miss)
@@ -308,11 +412,54 @@ fn map_in(
             let mut total = [0u32; TILE];
             let mut count = [0u32; TILE];
             let mut at = [0usize; TILE];
+            // the fast path's sums of packed samples and box cells (row * w + column)
+            let mut sums = [0u32; TILE];
+            let mut cell = [0u64; TILE];
             for j0 in (0..big_w).step_by(TILE) {
                 let j1 = (j0 + TILE).min(big_w);
                 let cells = j1 - j0;
                 if all_unknown(t * TILE, t * TILE + rows, j0, j1) {
                     continue; // left unknown, as allocated
+                }
+                if fast {
+                    for r in 0..rows {
+                        let ii = (t * TILE + r) as f64 - half_h;
+                        sums[..cells].fill(0);
+                        for o in &offs {
+                            let q = (ii + o) * f;
+                            let (sqy, cqy) = (s * q, c * q);
+                            for m in 0..n {
+                                let cx_row = &cqx[m * big_w + j0..m * big_w + j1];
+                                let sx_row = &sqx[m * big_w + j0..m * big_w + j1];
+                                // the same cells as the general path's, in float
+                                // arithmetic throughout so that the loop vectorises
+                                for ((a, &cq), &sq) in
+                                    cell[..cells].iter_mut().zip(cx_row).zip(sx_row)
+                                {
+                                    let px = (cq - sqy) + cx;
+                                    let py = (sq + cqy) + cy;
+                                    let idx = floor_in(py, h1) * wf + floor_in(px, w1);
+                                    *a = float_bits_index(idx);
+                                }
+                                for (a, &i) in sums[..cells].iter_mut().zip(&cell[..cells]) {
+                                    *a += u32::from(packed[i as usize]);
+                                }
+                            }
+                        }
+                        let row = r * big_w + j0;
+                        let out = vblock[row..row + cells]
+                            .iter_mut()
+                            .zip(&mut ublock[row..row + cells]);
+                        for ((v, u), &a) in out.zip(&sums[..cells]) {
+                            // the sum of the known samples' values, and their number
+                            let (t, k) = (a & u32::from(VALUE), a >> KNOWN.trailing_zeros());
+                            if 2 * k >= need {
+                                *v = ((2 * t + k) / (2 * k)) as u8;
+                                *u = false;
+                            }
+                        }
+                    }
+                    continue;
                 }
                 for r in 0..rows {
                     let ii = (t * TILE + r) as f64 - half_h;
@@ -394,8 +541,18 @@ pub fn canonical_corners_in(
             corners: Some(0),
         });
     };
-    let angle = angle_in(grid, b)?;
-    let Some(map) = map_in(grid, b, angle, resolution, params.canonical_resolution)? else {
+    let packed = pack_box(grid, b)?;
+    let angle = angle_in(&packed, b.1 - b.0, b.3 - b.2)?;
+    let map = map_in(
+        grid,
+        &packed,
+        b,
+        angle,
+        resolution,
+        params.canonical_resolution,
+    )?;
+    drop(packed);
+    let Some(map) = map else {
         return Ok(Canonical {
             angle,
             corners: None,
@@ -482,6 +639,98 @@ mod tests {
         while x < 1e6 {
             assert_eq!(rint(x), x.round_ties_even() as i64, "{x}");
             x += 0.123_456_7;
+        }
+    }
+
+    /// A pseudo-random map: walls, free cells, graded values and unknown patches.
+    fn random_map(h: usize, w: usize, seed: u64) -> (Vec<u8>, Vec<bool>) {
+        let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let p_unknown = next() % 100;
+        let mut v = vec![0u8; h * w];
+        let mut u = vec![false; h * w];
+        for i in 0..h * w {
+            let r = next();
+            v[i] = match r % 4 {
+                0 => 0,
+                1 => 254,
+                2 => 205,
+                _ => (r >> 8) as u8,
+            };
+            u[i] = (r >> 20) % 100 < p_unknown;
+        }
+        (v, u)
+    }
+
+    #[test]
+    fn the_fast_resample_equals_the_general_one() {
+        // every sample count the fast path takes (n = 2, 3, 4: f up to 4), turned by angles
+        // that put samples exactly on cell edges (0, 45 degrees) and anywhere else
+        let angles = [
+            0.0,
+            0.3,
+            -std::f64::consts::FRAC_PI_4,
+            std::f64::consts::FRAC_PI_4,
+            -0.1,
+            1e-9,
+        ];
+        let mut checked = 0;
+        for seed in 0..40u64 {
+            let (h, w) = (1 + (seed as usize * 7) % 53, 1 + (seed as usize * 13) % 61);
+            let (v, u) = random_map(h, w, seed);
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            let Some(b) = known_bounds(&g) else { continue };
+            let packed = pack_box(&g, b).unwrap();
+            for (k, res) in [
+                None,
+                Some(0.05),
+                Some(0.035),
+                Some(0.02),
+                Some(0.0175),
+                Some(0.07),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let a = angles[(seed as usize + k) % angles.len()];
+                let fast = map_in_with(&g, &packed, b, a, res, 0.07, true).unwrap();
+                let slow = map_in_with(&g, &packed, b, a, res, 0.07, false).unwrap();
+                assert_eq!(fast, slow, "seed {seed}, resolution {res:?}, angle {a}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 150, "{checked}");
+    }
+
+    #[test]
+    fn floor_in_is_the_clamped_floor() {
+        for &(p, last) in &[
+            (-0.5, 9.0),
+            (0.0, 9.0),
+            (0.49999999999999994, 9.0),
+            (0.5, 9.0),
+            (1.5, 9.0),
+            (2.5, 9.0),
+            (2.9999999999999996, 9.0),
+            (3.0, 9.0),
+            (8.999_999, 9.0),
+            (9.0, 9.0),
+            (12.5, 9.0),
+            (f64::NAN, 9.0),
+            (4_503_599_627_370_495.5, 4_503_599_627_370_495.0),
+        ] {
+            let want = if p.is_nan() {
+                0.0
+            } else {
+                p.max(0.0).min(last).floor()
+            };
+            assert_eq!(floor_in(p, last), want, "{p}");
+            assert_eq!(float_bits_index(want), want as u64);
         }
     }
 
