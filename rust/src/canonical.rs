@@ -265,17 +265,127 @@ fn floor_in(p: f64, last: f64) -> f64 {
     let p = if p > 0.0 { p } else { 0.0 };
     let p = if p < last { p } else { last };
     let r = (p + TWO52) - TWO52;
-    if r > p {
-        r - 1.0
-    } else {
-        r
-    }
+    r - if r > p { 1.0 } else { 0.0 }
 }
 
 /// The integer value of an integer-valued float in `0..2^52`, from its bits.
 #[inline]
 fn float_bits_index(x: f64) -> u64 {
     (x + TWO52).to_bits() - TWO52.to_bits()
+}
+
+/// `ceil(2^18 / 2k)` for `k` in `0..=16` (0 for `k = 0`): [`half_up_mean`]'s divisions.
+const HALF_UP_RECIPROCALS: [u32; 17] = {
+    let mut m = [0u32; 17];
+    let mut k = 1;
+    while k <= 16 {
+        m[k] = (1u32 << 18).div_ceil(2 * k as u32);
+        k += 1;
+    }
+    m
+};
+
+/// `(2t + k) / 2k`, the mean of `k <= 16` values of sum `t <= 255 k` rounded half up (0 for
+/// `k = 0`), by a multiplication: `x * ceil(2^18 / d) / 2^18` exceeds `x / d` by less than
+/// `x / 2^18 < 1/32 <= 1/d` for `x < 2^13`, so its floor is `x / d`'s.
+#[inline]
+fn half_up_mean(t: u32, k: u32) -> u32 {
+    let m = HALF_UP_RECIPROCALS[(k as usize).min(16)];
+    ((2 * t + k) * m) >> 18
+}
+
+/// Output tiles of `TILE x TILE` cells: the input cells one tile samples lie in a small
+/// turned square, so the gathers stay in cache (row by row over a wide turned map, every
+/// sample was a cache miss).
+const TILE: usize = 32;
+
+/// The resample's fast path (SPEC 3a.3 for at most 4 x 4 samples per output cell): what an
+/// output tile needs of the geometry, the same floats as the general path's.
+struct FastTile<'a> {
+    packed: &'a [u16],
+    cqx: &'a [f64],
+    sqx: &'a [f64],
+    offs: &'a [f64],
+    big_w: usize,
+    f: f64,
+    c: f64,
+    s: f64,
+    cx: f64,
+    cy: f64,
+    half_h: f64,
+    w1: f64,
+    h1: f64,
+    wf: f64,
+    need: u32,
+}
+
+impl FastTile<'_> {
+    /// Fill columns `j0..j1` of the output rows in `vblock` / `ublock` (rows `row0..` of the
+    /// canonical map): with AVX2 when the processor has it (the same float operations, four
+    /// at a time instead of two), else with baseline x86-64 (SSE2) or the target's own.
+    fn run(&self, vblock: &mut [u8], ublock: &mut [bool], row0: usize, j0: usize, j1: usize) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2, checked just above
+            unsafe { self.run_avx2(vblock, ublock, row0, j0, j1) };
+            return;
+        }
+        self.tile(vblock, ublock, row0, j0, j1);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn run_avx2(&self, vblock: &mut [u8], ublock: &mut [bool], row0: usize, j0: usize, j1: usize) {
+        self.tile(vblock, ublock, row0, j0, j1);
+    }
+
+    #[inline(always)]
+    fn tile(&self, vblock: &mut [u8], ublock: &mut [bool], row0: usize, j0: usize, j1: usize) {
+        let big_w = self.big_w;
+        let (f, c, s, cx, cy) = (self.f, self.c, self.s, self.cx, self.cy);
+        let (w1, h1, wf) = (self.w1, self.h1, self.wf);
+        let cells = j1 - j0;
+        // per output cell of a tile row: the sum of its packed samples; per sample, its box
+        // cell (row * w + column)
+        let mut sums = [0u32; TILE];
+        let mut cell = [0u64; TILE];
+        for r in 0..vblock.len() / big_w {
+            let ii = (row0 + r) as f64 - self.half_h;
+            sums[..cells].fill(0);
+            for o in self.offs {
+                let q = (ii + o) * f;
+                let (sqy, cqy) = (s * q, c * q);
+                for m in 0..self.offs.len() {
+                    let cx_row = &self.cqx[m * big_w + j0..m * big_w + j1];
+                    let sx_row = &self.sqx[m * big_w + j0..m * big_w + j1];
+                    // the same cells as the general path's, in float arithmetic throughout
+                    // so that the loop vectorises
+                    for ((a, &cq), &sq) in cell[..cells].iter_mut().zip(cx_row).zip(sx_row) {
+                        let px = (cq - sqy) + cx;
+                        let py = (sq + cqy) + cy;
+                        let idx = floor_in(py, h1) * wf + floor_in(px, w1);
+                        *a = float_bits_index(idx);
+                    }
+                    for (a, &i) in sums[..cells].iter_mut().zip(&cell[..cells]) {
+                        *a += u32::from(self.packed[i as usize]);
+                    }
+                }
+            }
+            let row = r * big_w + j0;
+            let out = vblock[row..row + cells]
+                .iter_mut()
+                .zip(&mut ublock[row..row + cells]);
+            for ((v, u), &a) in out.zip(&sums[..cells]) {
+                // the sum of the known samples' values, and their number; branch-free (known
+                // and unknown cells alternate unpredictably on a noisy map)
+                let (t, k) = (a & u32::from(VALUE), a >> KNOWN.trailing_zeros());
+                let known = 2 * k >= self.need;
+                let mean = half_up_mean(t, k);
+                *v = (mean * u32::from(known)) as u8;
+                *u = !known;
+            }
+        }
+    }
 }
 
 /// [`canonical_map`] of the box `b` (the known cells' bounding box), `packed` its cells
@@ -398,10 +508,26 @@ fn map_in_with(
     // count (at most 16 of them, 16 * 255 < 4096) and a box cell's index fits in u32: one
     // gather per sample from the packed box, addresses in i32
     let fast = allow_fast && need <= 16 && h * w < 1 << 52;
+    let fast_tile = FastTile {
+        packed,
+        cqx: &cqx,
+        sqx: &sqx,
+        offs: &offs,
+        big_w,
+        f,
+        c,
+        s,
+        cx,
+        cy,
+        half_h,
+        w1,
+        h1,
+        wf,
+        need,
+    };
     // output tiles of TILE x TILE cells: the input cells one tile samples lie in a small
     // turned square, so the gathers stay in cache (row by row over a wide turned map, every
     // sample was a cache miss)
-    const TILE: usize = 64;
     values
         .par_chunks_mut(big_w * TILE)
         .zip(unknown.par_chunks_mut(big_w * TILE))
@@ -412,9 +538,6 @@ fn map_in_with(
             let mut total = [0u32; TILE];
             let mut count = [0u32; TILE];
             let mut at = [0usize; TILE];
-            // the fast path's sums of packed samples and box cells (row * w + column)
-            let mut sums = [0u32; TILE];
-            let mut cell = [0u64; TILE];
             for j0 in (0..big_w).step_by(TILE) {
                 let j1 = (j0 + TILE).min(big_w);
                 let cells = j1 - j0;
@@ -422,43 +545,7 @@ fn map_in_with(
                     continue; // left unknown, as allocated
                 }
                 if fast {
-                    for r in 0..rows {
-                        let ii = (t * TILE + r) as f64 - half_h;
-                        sums[..cells].fill(0);
-                        for o in &offs {
-                            let q = (ii + o) * f;
-                            let (sqy, cqy) = (s * q, c * q);
-                            for m in 0..n {
-                                let cx_row = &cqx[m * big_w + j0..m * big_w + j1];
-                                let sx_row = &sqx[m * big_w + j0..m * big_w + j1];
-                                // the same cells as the general path's, in float
-                                // arithmetic throughout so that the loop vectorises
-                                for ((a, &cq), &sq) in
-                                    cell[..cells].iter_mut().zip(cx_row).zip(sx_row)
-                                {
-                                    let px = (cq - sqy) + cx;
-                                    let py = (sq + cqy) + cy;
-                                    let idx = floor_in(py, h1) * wf + floor_in(px, w1);
-                                    *a = float_bits_index(idx);
-                                }
-                                for (a, &i) in sums[..cells].iter_mut().zip(&cell[..cells]) {
-                                    *a += u32::from(packed[i as usize]);
-                                }
-                            }
-                        }
-                        let row = r * big_w + j0;
-                        let out = vblock[row..row + cells]
-                            .iter_mut()
-                            .zip(&mut ublock[row..row + cells]);
-                        for ((v, u), &a) in out.zip(&sums[..cells]) {
-                            // the sum of the known samples' values, and their number
-                            let (t, k) = (a & u32::from(VALUE), a >> KNOWN.trailing_zeros());
-                            if 2 * k >= need {
-                                *v = ((2 * t + k) / (2 * k)) as u8;
-                                *u = false;
-                            }
-                        }
-                    }
+                    fast_tile.run(vblock, ublock, t * TILE, j0, j1);
                     continue;
                 }
                 for r in 0..rows {
@@ -705,6 +792,16 @@ mod tests {
             }
         }
         assert!(checked > 150, "{checked}");
+    }
+
+    #[test]
+    fn half_up_mean_divides_exactly() {
+        for k in 1..=16u32 {
+            for t in 0..=255 * k {
+                assert_eq!(half_up_mean(t, k), (2 * t + k) / (2 * k), "{t} / {k}");
+            }
+        }
+        assert_eq!(half_up_mean(0, 0), 0);
     }
 
     #[test]
