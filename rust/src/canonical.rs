@@ -144,6 +144,82 @@ fn angle_terms(x: f64, y: f64) -> (f64, f64) {
 /// exact (below 2^53) whatever the order.
 const TERMS_PER_SUM: usize = 1 << 20;
 
+/// Scratch rows of [`sobel_terms_row`]: per column of a row of `D`, the vertical Sobel
+/// smoothing `up + 2 mid + down`, the vertical difference `down - up`, and the two
+/// derivatives.
+#[derive(Default)]
+struct SobelRows {
+    col: Vec<i32>,
+    dv: Vec<i32>,
+    gx: Vec<i32>,
+    gy: Vec<i32>,
+}
+
+/// The sums of the rounded angle terms (SPEC 3a.2) of one row of `D`, given its rows
+/// `[up, mid, down]` (reflect-101 already applied). The 3x3 Sobel derivatives are exact in
+/// `i32` (at most 4 * 255 * 256^2), so `gy` may be formed from the vertical differences.
+/// (An AVX2 copy of this was slower: the divisions and square roots bound it.)
+fn sobel_terms_row([up, mid, down]: [&[i32]; 3], s: &mut SobelRows) -> (i64, i64) {
+    let w = mid.len();
+    for v in [&mut s.col, &mut s.dv, &mut s.gx, &mut s.gy] {
+        v.resize(w, 0);
+    }
+    for (((c, d), (&u, &m)), &dn) in s
+        .col
+        .iter_mut()
+        .zip(&mut s.dv)
+        .zip(up.iter().zip(mid))
+        .zip(down)
+    {
+        *c = u + 2 * m + dn;
+        *d = dn - u;
+    }
+    let (col, dv) = (&s.col, &s.dv);
+    for x in [0, w - 1] {
+        let (l, rt) = (reflect101(x as isize - 1, w), reflect101(x as isize + 1, w));
+        s.gx[x] = col[rt] - col[l];
+        s.gy[x] = dv[l] + 2 * dv[x] + dv[rt];
+    }
+    if w > 2 {
+        let inner = s.gx[1..w - 1].iter_mut().zip(&mut s.gy[1..w - 1]);
+        let (cl, cr) = (&col[..w - 2], &col[2..]);
+        let (dl, dm, dr) = (&dv[..w - 2], &dv[1..w - 1], &dv[2..]);
+        for (((gx, gy), (&cl, &cr)), ((&dl, &dm), &dr)) in
+            inner.zip(cl.iter().zip(cr)).zip(dl.iter().zip(dm).zip(dr))
+        {
+            *gx = cr - cl;
+            *gy = dl + 2 * dm + dr;
+        }
+    }
+    let (mut sre, mut sim) = (0i64, 0i64);
+    for (xs, ys) in s.gx.chunks(TERMS_PER_SUM).zip(s.gy.chunks(TERMS_PER_SUM)) {
+        // four partial sums, so that the loop vectorises (exact in any order)
+        let (mut re4, mut im4) = ([0.0f64; 4], [0.0f64; 4]);
+        let (xq, yq) = (xs.chunks_exact(4), ys.chunks_exact(4));
+        let (xr, yr) = (xq.remainder(), yq.remainder());
+        for (x4, y4) in xq.zip(yq) {
+            // most cells of a map have no gradient (unknown canvas, open floor): their
+            // terms are 0
+            if (x4[0] | x4[1] | x4[2] | x4[3] | y4[0] | y4[1] | y4[2] | y4[3]) == 0 {
+                continue;
+            }
+            for l in 0..4 {
+                let (a, b) = angle_terms(f64::from(x4[l]), f64::from(y4[l]));
+                re4[l] += a;
+                im4[l] += b;
+            }
+        }
+        for (&x, &y) in xr.iter().zip(yr) {
+            let (a, b) = angle_terms(f64::from(x), f64::from(y));
+            re4[0] += a;
+            im4[0] += b;
+        }
+        sre += re4.iter().map(|&v| v as i64).sum::<i64>();
+        sim += im4.iter().map(|&v| v as i64).sum::<i64>();
+    }
+    (sre, sim)
+}
+
 /// The dominant wall direction modulo 90 degrees of the known bounding box, radians in
 /// (-pi/4, pi/4] (image axes: +x right, +y down). 0 for a map without known cells or
 /// gradient. SPEC 3a.2: the structure image's 9x9 binomial blur taken at every second row
@@ -162,55 +238,13 @@ fn angle_in(packed: &[u16], h: usize, w: usize) -> Result<f64, OutOfMemory> {
     let (re, im) = g2
         .par_chunks(w)
         .enumerate()
-        .map_init(
-            || (vec![0.0f64; w], vec![0.0f64; w]),
-            |(gxs, gys), (r, _)| {
-                let row = |k: isize| {
-                    let rr = reflect101(r as isize + k, h);
-                    &g2[rr * w..(rr + 1) * w]
-                };
-                let (up, mid, down) = (row(-1), row(0), row(1));
-                // the 3x3 Sobel derivatives (exact in i32: at most 4 * 255 * 256^2)
-                let grad = |l: usize, x: usize, rt: usize| {
-                    let col = |c: usize| up[c] + 2 * mid[c] + down[c];
-                    let gx = col(rt) - col(l);
-                    let gy = (down[l] + 2 * down[x] + down[rt]) - (up[l] + 2 * up[x] + up[rt]);
-                    (f64::from(gx), f64::from(gy))
-                };
-                for x in [0, w - 1] {
-                    let (l, rt) = (reflect101(x as isize - 1, w), reflect101(x as isize + 1, w));
-                    (gxs[x], gys[x]) = grad(l, x, rt);
-                }
-                if w > 2 {
-                    let inner = gxs[1..w - 1].iter_mut().zip(&mut gys[1..w - 1]);
-                    for (x, (gx, gy)) in inner.enumerate() {
-                        (*gx, *gy) = grad(x, x + 1, x + 2);
-                    }
-                }
-                let (mut sre, mut sim) = (0i64, 0i64);
-                for (xs, ys) in gxs.chunks(TERMS_PER_SUM).zip(gys.chunks(TERMS_PER_SUM)) {
-                    // four partial sums, so that the loop vectorises (exact in any order)
-                    let (mut re4, mut im4) = ([0.0f64; 4], [0.0f64; 4]);
-                    let (xq, yq) = (xs.chunks_exact(4), ys.chunks_exact(4));
-                    let (xr, yr) = (xq.remainder(), yq.remainder());
-                    for (x4, y4) in xq.zip(yq) {
-                        for l in 0..4 {
-                            let (a, b) = angle_terms(x4[l], y4[l]);
-                            re4[l] += a;
-                            im4[l] += b;
-                        }
-                    }
-                    for (&x, &y) in xr.iter().zip(yr) {
-                        let (a, b) = angle_terms(x, y);
-                        re4[0] += a;
-                        im4[0] += b;
-                    }
-                    sre += re4.iter().map(|&v| v as i64).sum::<i64>();
-                    sim += im4.iter().map(|&v| v as i64).sum::<i64>();
-                }
-                (sre, sim)
-            },
-        )
+        .map_init(SobelRows::default, |scratch, (r, _)| {
+            let row = |k: isize| {
+                let rr = reflect101(r as isize + k, h);
+                &g2[rr * w..(rr + 1) * w]
+            };
+            sobel_terms_row([row(-1), row(0), row(1)], scratch)
+        })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     if re == 0 && im == 0 {
         return Ok(0.0);
@@ -259,11 +293,16 @@ pub fn canonical_map(
 const TWO52: f64 = 4_503_599_627_370_496.0;
 
 /// `floor(clamp(p, 0, last))` for `last < 2^52` (NaN gives 0), in float operations only:
-/// the clamped value rounded to an integer (to nearest), less one where that rounded up.
-#[inline]
-fn floor_in(p: f64, last: f64) -> f64 {
+/// with `ROUND` by `floor` (one instruction where SSE4.1 is enabled, a library call on
+/// baseline x86-64), else the clamped value rounded to an integer (to nearest), less one
+/// where that rounded up. Both are exact: the same result.
+#[inline(always)]
+fn floor_in<const ROUND: bool>(p: f64, last: f64) -> f64 {
     let p = if p > 0.0 { p } else { 0.0 };
     let p = if p < last { p } else { last };
+    if ROUND {
+        return p.floor();
+    }
     let r = (p + TWO52) - TWO52;
     r - if r > p { 1.0 } else { 0.0 }
 }
@@ -317,6 +356,7 @@ struct FastTile<'a> {
     h1: f64,
     wf: f64,
     need: u32,
+    path: Path,
 }
 
 impl FastTile<'_> {
@@ -325,22 +365,30 @@ impl FastTile<'_> {
     /// at a time instead of two), else with baseline x86-64 (SSE2) or the target's own.
     fn run(&self, vblock: &mut [u8], ublock: &mut [bool], row0: usize, j0: usize, j1: usize) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if self.path == Path::Best && std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2, checked just above
             unsafe { self.run_avx2(vblock, ublock, row0, j0, j1) };
             return;
         }
-        self.tile(vblock, ublock, row0, j0, j1);
+        self.tile::<false>(vblock, ublock, row0, j0, j1);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn run_avx2(&self, vblock: &mut [u8], ublock: &mut [bool], row0: usize, j0: usize, j1: usize) {
-        self.tile(vblock, ublock, row0, j0, j1);
+        self.tile::<true>(vblock, ublock, row0, j0, j1);
     }
 
+    /// [`FastTile::run`]; `ROUND`: floors by `floor` ([`floor_in`]).
     #[inline(always)]
-    fn tile(&self, vblock: &mut [u8], ublock: &mut [bool], row0: usize, j0: usize, j1: usize) {
+    fn tile<const ROUND: bool>(
+        &self,
+        vblock: &mut [u8],
+        ublock: &mut [bool],
+        row0: usize,
+        j0: usize,
+        j1: usize,
+    ) {
         let big_w = self.big_w;
         let (f, c, s, cx, cy) = (self.f, self.c, self.s, self.cx, self.cy);
         let (w1, h1, wf) = (self.w1, self.h1, self.wf);
@@ -363,7 +411,7 @@ impl FastTile<'_> {
                     for ((a, &cq), &sq) in cell[..cells].iter_mut().zip(cx_row).zip(sx_row) {
                         let px = (cq - sqy) + cx;
                         let py = (sq + cqy) + cy;
-                        let idx = floor_in(py, h1) * wf + floor_in(px, w1);
+                        let idx = floor_in::<ROUND>(py, h1) * wf + floor_in::<ROUND>(px, w1);
                         *a = float_bits_index(idx);
                     }
                     for (a, &i) in sums[..cells].iter_mut().zip(&cell[..cells]) {
@@ -398,11 +446,23 @@ fn map_in(
     resolution: Option<f64>,
     reference: f64,
 ) -> Result<Option<CanonicalMap>, OutOfMemory> {
-    map_in_with(grid, packed, b, angle, resolution, reference, true)
+    map_in_with(grid, packed, b, angle, resolution, reference, Path::Best)
 }
 
-/// [`map_in`], by the general path only when `allow_fast` is false (the tests compare the
-/// two).
+/// Which way [`map_in_with`] resamples (the tests compare them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Path {
+    /// The fast path where it applies, with AVX2 when the processor has it.
+    Best,
+    /// The fast path where it applies, never AVX2.
+    #[cfg(test)]
+    Baseline,
+    /// The general path only.
+    #[cfg(test)]
+    General,
+}
+
+/// [`map_in`] by the resampling `path`.
 fn map_in_with(
     grid: &Grid,
     packed: &[u16],
@@ -410,7 +470,7 @@ fn map_in_with(
     angle: f64,
     resolution: Option<f64>,
     reference: f64,
-    allow_fast: bool,
+    path: Path,
 ) -> Result<Option<CanonicalMap>, OutOfMemory> {
     let (h, w) = (r1 - r0, c1 - c0);
     let f = match resolution {
@@ -507,6 +567,10 @@ fn map_in_with(
     // the fast path, when an output cell's packed samples sum without carrying into the
     // count (at most 16 of them, 16 * 255 < 4096) and a box cell's index fits in u32: one
     // gather per sample from the packed box, addresses in i32
+    #[cfg(test)]
+    let allow_fast = path != Path::General;
+    #[cfg(not(test))]
+    let allow_fast = true;
     let fast = allow_fast && need <= 16 && h * w < 1 << 52;
     let fast_tile = FastTile {
         packed,
@@ -524,6 +588,7 @@ fn map_in_with(
         h1,
         wf,
         need,
+        path,
     };
     // output tiles of TILE x TILE cells: the input cells one tile samples lie in a small
     // turned square, so the gathers stay in cache (row by row over a wide turned map, every
@@ -785,9 +850,14 @@ mod tests {
             .enumerate()
             {
                 let a = angles[(seed as usize + k) % angles.len()];
-                let fast = map_in_with(&g, &packed, b, a, res, 0.07, true).unwrap();
-                let slow = map_in_with(&g, &packed, b, a, res, 0.07, false).unwrap();
-                assert_eq!(fast, slow, "seed {seed}, resolution {res:?}, angle {a}");
+                let slow = map_in_with(&g, &packed, b, a, res, 0.07, Path::General).unwrap();
+                for path in [Path::Best, Path::Baseline] {
+                    let fast = map_in_with(&g, &packed, b, a, res, 0.07, path).unwrap();
+                    assert_eq!(
+                        fast, slow,
+                        "{path:?}: seed {seed}, resolution {res:?}, angle {a}"
+                    );
+                }
                 checked += 1;
             }
         }
@@ -826,7 +896,8 @@ mod tests {
             } else {
                 p.max(0.0).min(last).floor()
             };
-            assert_eq!(floor_in(p, last), want, "{p}");
+            assert_eq!(floor_in::<false>(p, last), want, "{p}");
+            assert_eq!(floor_in::<true>(p, last), want, "{p}");
             assert_eq!(float_bits_index(want), want as u64);
         }
     }
