@@ -87,29 +87,75 @@ fn blur9_decimated(
     let (hd, wd) = (h.div_ceil(2), w.div_ceil(2));
     let mut out = filled(hd * wd, 0i32)?;
     out.par_chunks_mut(wd).enumerate().for_each_init(
-        || vec![0u16; w],
-        |vert, (rd, o)| {
-            vert.fill(0);
-            for (k, &b) in B9.iter().enumerate() {
+        || (vec![0u16; w], vec![0i32; w]),
+        |(vert, full), (rd, o)| {
+            let rows: [&[u16]; 9] = std::array::from_fn(|k| {
                 let rr = reflect101((2 * rd) as isize + k as isize - 4, h);
-                for (acc, &p) in vert.iter_mut().zip(&packed[rr * w..(rr + 1) * w]) {
-                    *acc += b * (p & VALUE);
-                }
-            }
-            let tap = |x: usize, k: usize| i32::from(B9[k]) * i32::from(vert[x]);
-            for (xd, o) in o.iter_mut().enumerate() {
-                let x = 2 * xd;
-                *o = if x >= 4 && x + 4 < w {
-                    (0..9).map(|k| tap(x + k - 4, k)).sum()
-                } else {
-                    (0..9)
-                        .map(|k| tap(reflect101(x as isize + k as isize - 4, w), k))
-                        .sum()
-                };
-            }
+                &packed[rr * w..(rr + 1) * w]
+            });
+            blur_row(rows, vert, full, o);
         },
     );
     Ok((out, hd, wd))
+}
+
+/// One row of `D` ([`blur9_decimated`]) from the nine packed rows around it: the vertical
+/// taps into `vert` (`u16`), the horizontal ones at every column into `full` (`i32`), and
+/// every second of those into `o`. With AVX2 when the processor has it (integer arithmetic:
+/// the same result).
+fn blur_row(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the processor has AVX2, checked just above
+        unsafe { blur_row_avx2(rows, vert, full, o) };
+        return;
+    }
+    blur_row_in(rows, vert, full, o);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn blur_row_avx2(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]) {
+    blur_row_in(rows, vert, full, o);
+}
+
+#[inline(always)]
+fn blur_row_in(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]) {
+    let w = vert.len();
+    // the symmetric taps 1, 8, 28, 56 | 70: four sums of a pair and the centre, exact in u16
+    let [r0, r1, r2, r3, r4, r5, r6, r7, r8] = rows.map(|r| &r[..w]);
+    for (x, v) in vert.iter_mut().enumerate() {
+        let p = |r: &[u16]| r[x] & VALUE;
+        *v = (p(r0) + p(r8))
+            + 8 * (p(r1) + p(r7))
+            + 28 * (p(r2) + p(r6))
+            + 56 * (p(r3) + p(r5))
+            + 70 * p(r4);
+    }
+    let tap = |x: usize, k: usize| i32::from(B9[k]) * i32::from(vert[x]);
+    if w >= 9 {
+        let v = |k: usize| &vert[k..w - 8 + k];
+        let (v0, v1, v2, v3, v4) = (v(0), v(1), v(2), v(3), v(4));
+        let (v5, v6, v7, v8) = (v(5), v(6), v(7), v(8));
+        for (x, f) in full[4..w - 4].iter_mut().enumerate() {
+            let q = |s: &[u16]| i32::from(s[x]);
+            *f = (q(v0) + q(v8))
+                + 8 * (q(v1) + q(v7))
+                + 28 * (q(v2) + q(v6))
+                + 56 * (q(v3) + q(v5))
+                + 70 * q(v4);
+        }
+    }
+    for (xd, o) in o.iter_mut().enumerate() {
+        let x = 2 * xd;
+        *o = if x >= 4 && x + 4 < w {
+            full[x]
+        } else {
+            (0..9)
+                .map(|k| tap(reflect101(x as isize + k as isize - 4, w), k))
+                .sum()
+        };
+    }
 }
 
 /// `x` rounded half to even, for `|x| < 2^51` (the terms are below `|g| < 2^31`): adding
@@ -370,18 +416,27 @@ impl FastTile<'_> {
             unsafe { self.run_avx2(vblock, ublock, row0, j0, j1) };
             return;
         }
-        self.tile::<false>(vblock, ublock, row0, j0, j1);
+        match self.offs.len() {
+            2 => self.tile::<false, 2>(vblock, ublock, row0, j0, j1),
+            3 => self.tile::<false, 3>(vblock, ublock, row0, j0, j1),
+            _ => self.tile::<false, 4>(vblock, ublock, row0, j0, j1),
+        }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn run_avx2(&self, vblock: &mut [u8], ublock: &mut [bool], row0: usize, j0: usize, j1: usize) {
-        self.tile::<true>(vblock, ublock, row0, j0, j1);
+        match self.offs.len() {
+            2 => self.tile::<true, 2>(vblock, ublock, row0, j0, j1),
+            3 => self.tile::<true, 3>(vblock, ublock, row0, j0, j1),
+            _ => self.tile::<true, 4>(vblock, ublock, row0, j0, j1),
+        }
     }
 
-    /// [`FastTile::run`]; `ROUND`: floors by `floor` ([`floor_in`]).
+    /// [`FastTile::run`] for `N` samples a side (`N = self.offs.len()`, 2 to 4); `ROUND`:
+    /// floors by `floor` ([`floor_in`]).
     #[inline(always)]
-    fn tile<const ROUND: bool>(
+    fn tile<const ROUND: bool, const N: usize>(
         &self,
         vblock: &mut [u8],
         ublock: &mut [bool],
@@ -396,14 +451,18 @@ impl FastTile<'_> {
         // per output cell of a tile row: the sum of its packed samples; per sample, its box
         // cell (row * w + column)
         let mut sums = [0u32; TILE];
-        let mut cell = [0u64; TILE];
+        let mut cell = [[0u64; TILE]; N];
+        let offs: &[f64; N] = match self.offs.try_into() {
+            Ok(o) => o,
+            Err(_) => return,
+        };
         for r in 0..vblock.len() / big_w {
             let ii = (row0 + r) as f64 - self.half_h;
             sums[..cells].fill(0);
-            for o in self.offs {
+            for o in offs {
                 let q = (ii + o) * f;
                 let (sqy, cqy) = (s * q, c * q);
-                for m in 0..self.offs.len() {
+                for (m, cell) in cell.iter_mut().enumerate() {
                     let cx_row = &self.cqx[m * big_w + j0..m * big_w + j1];
                     let sx_row = &self.sqx[m * big_w + j0..m * big_w + j1];
                     // the same cells as the general path's, in float arithmetic throughout
@@ -414,9 +473,13 @@ impl FastTile<'_> {
                         let idx = floor_in::<ROUND>(py, h1) * wf + floor_in::<ROUND>(px, w1);
                         *a = float_bits_index(idx);
                     }
-                    for (a, &i) in sums[..cells].iter_mut().zip(&cell[..cells]) {
-                        *a += u32::from(self.packed[i as usize]);
-                    }
+                }
+                // the N samples of this sample row of each output cell
+                for (x, a) in sums[..cells].iter_mut().enumerate() {
+                    *a += cell
+                        .iter()
+                        .map(|c| u32::from(self.packed[c[x] as usize]))
+                        .sum::<u32>();
                 }
             }
             let row = r * big_w + j0;
@@ -862,6 +925,45 @@ mod tests {
             }
         }
         assert!(checked > 150, "{checked}");
+    }
+
+    #[test]
+    fn the_decimated_blur_is_the_9x9_binomial_sum_on_every_path() {
+        for seed in 0..30u64 {
+            let (h, w) = (1 + (seed as usize * 5) % 23, 1 + (seed as usize * 11) % 29);
+            let (v, u) = random_map(h, w, seed + 100);
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            let packed = pack_box(&g, (0, h, 0, w)).unwrap();
+            let (d, hd, wd) = blur9_decimated(&packed, h, w).unwrap();
+            assert_eq!((hd, wd), (h.div_ceil(2), w.div_ceil(2)));
+            let s = |r: usize, c: usize| {
+                if u[r * w + c] {
+                    0
+                } else {
+                    i32::from(v[r * w + c])
+                }
+            };
+            for rd in 0..hd {
+                let rows: [&[u16]; 9] = std::array::from_fn(|k| {
+                    let rr = reflect101((2 * rd) as isize + k as isize - 4, h);
+                    &packed[rr * w..(rr + 1) * w]
+                });
+                let mut baseline = vec![0i32; wd];
+                blur_row_in(rows, &mut vec![0u16; w], &mut vec![0i32; w], &mut baseline);
+                for cd in 0..wd {
+                    let mut want = 0;
+                    for i in 0..9 {
+                        for j in 0..9 {
+                            let r = reflect101((2 * rd + i) as isize - 4, h);
+                            let c = reflect101((2 * cd + j) as isize - 4, w);
+                            want += i32::from(B9[i]) * i32::from(B9[j]) * s(r, c);
+                        }
+                    }
+                    assert_eq!(d[rd * wd + cd], want, "{h} x {w} at ({rd}, {cd})");
+                    assert_eq!(baseline[cd], want, "{h} x {w} at ({rd}, {cd})");
+                }
+            }
+        }
     }
 
     #[test]
