@@ -3,6 +3,12 @@
 //! corners of that canonical map are counted. The reference function is
 //! `slamq.metrics.reference.canonical_corner_count`; every step below is integer
 //! arithmetic or one float64 formula evaluated in the same order on both sides.
+//!
+//! Both steps read the box packed one `u16` per cell (`pack_box`). The resample has a fast
+//! path for up to 4 x 4 samples per output cell (one gather per sample, addresses in float
+//! arithmetic that vectorises) beside the general one; the blur rows and the fast resample
+//! run as AVX2 copies of themselves when the processor has it (runtime detection; the same
+//! operations, so the same results). The tests compare every path.
 
 use crate::border::reflect101;
 use crate::corners::count_corners;
@@ -45,6 +51,15 @@ fn filled<T: Clone>(n: usize, x: T) -> Result<Vec<T>, OutOfMemory> {
     Ok(v)
 }
 
+/// Whether the processor has AVX2 (cached by std after the first call): the hot loops of
+/// this module then run as AVX2 copies of themselves, the same operations on wider
+/// registers (the same results; no FMA).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn has_avx2() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+}
+
 /// A known cell of the packed box ([`pack_box`]) has this bit set, on top of its value.
 const KNOWN: u16 = 1 << 12;
 /// The value bits of a packed cell (its value when known, 0 when unknown).
@@ -56,12 +71,13 @@ const VALUE: u16 = KNOWN - 1;
 /// (`k` the number of known ones), which is what a resampled cell needs.
 fn pack_box(grid: &Grid, (r0, r1, c0, c1): Bounds) -> Result<Vec<u16>, OutOfMemory> {
     let (h, w) = (r1 - r0, c1 - c0);
+    const ROWS: usize = 64; // per parallel task
     let mut out = filled(h * w, 0u16)?;
-    out.par_chunks_mut(w.max(1) * 64.min(h.max(1)))
+    out.par_chunks_mut(w * ROWS)
         .enumerate()
         .for_each(|(t, block)| {
             for (i, o) in block.chunks_mut(w).enumerate() {
-                let at = (r0 + t * 64 + i) * grid.width + c0;
+                let at = (r0 + t * ROWS + i) * grid.width + c0;
                 let (v, u) = (&grid.values[at..at + w], &grid.unknown[at..at + w]);
                 for ((o, &v), &u) in o.iter_mut().zip(v).zip(u) {
                     *o = (u16::from(v) | KNOWN) * u16::from(!u);
@@ -105,7 +121,7 @@ fn blur9_decimated(
 /// the same result).
 fn blur_row(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
+    if has_avx2() {
         // SAFETY: the processor has AVX2, checked just above
         unsafe { blur_row_avx2(rows, vert, full, o) };
         return;
@@ -402,6 +418,8 @@ struct FastTile<'a> {
     h1: f64,
     wf: f64,
     need: u32,
+    /// [`Path::Best`] except in the tests ([`Path`]; read on x86-64 only)
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     path: Path,
 }
 
@@ -411,7 +429,7 @@ impl FastTile<'_> {
     /// at a time instead of two), else with baseline x86-64 (SSE2) or the target's own.
     fn run(&self, vblock: &mut [u8], ublock: &mut [bool], row0: usize, j0: usize, j1: usize) {
         #[cfg(target_arch = "x86_64")]
-        if self.path == Path::Best && std::arch::is_x86_feature_detected!("avx2") {
+        if self.path == Path::Best && has_avx2() {
             // SAFETY: the processor has AVX2, checked just above
             unsafe { self.run_avx2(vblock, ublock, row0, j0, j1) };
             return;
