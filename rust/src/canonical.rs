@@ -646,8 +646,8 @@ fn map_in_with(
         })
     };
     // the fast path, when an output cell's packed samples sum without carrying into the
-    // count (at most 16 of them, 16 * 255 < 4096) and a box cell's index fits in u32: one
-    // gather per sample from the packed box, addresses in i32
+    // count (at most 16 of them, 16 * 255 < 4096) and a box cell's index is exact in a
+    // float: one gather per sample from the packed box
     #[cfg(test)]
     let allow_fast = path != Path::General;
     #[cfg(not(test))]
@@ -671,9 +671,6 @@ fn map_in_with(
         need,
         path,
     };
-    // output tiles of TILE x TILE cells: the input cells one tile samples lie in a small
-    // turned square, so the gathers stay in cache (row by row over a wide turned map, every
-    // sample was a cache miss)
     values
         .par_chunks_mut(big_w * TILE)
         .zip(unknown.par_chunks_mut(big_w * TILE))
