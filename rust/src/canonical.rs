@@ -65,15 +65,19 @@ const KNOWN: u16 = 1 << 12;
 /// The value bits of a packed cell (its value when known, 0 when unknown).
 const VALUE: u16 = KNOWN - 1;
 
-/// The box's cells packed one `u16` each, row-major with the box's width as stride: the
-/// value plus [`KNOWN`] for a known cell, 0 for an unknown one. `p & VALUE` is the
+/// The box's cells packed one `u16` each, row-major with the box's width as stride (then
+/// zeros up to a power-of-two length): the value plus [`KNOWN`] for a known cell, 0 for an
+/// unknown one. `p & VALUE` is the
 /// structure image (SPEC 3 step 1); the sum of up to 16 packed cells is `sum + 4096 k`
 /// (`k` the number of known ones), which is what a resampled cell needs.
 fn pack_box(grid: &Grid, (r0, r1, c0, c1): Bounds) -> Result<Vec<u16>, OutOfMemory> {
     let (h, w) = (r1 - r0, c1 - c0);
     const ROWS: usize = 64; // per parallel task
-    let mut out = filled(h * w, 0u16)?;
-    out.par_chunks_mut(w * ROWS)
+                            // zero-padded to a power of two: the resample's gathers mask their indices instead of
+                            // checking them
+    let mut out = filled((h * w).next_power_of_two(), 0u16)?;
+    out[..h * w]
+        .par_chunks_mut(w * ROWS)
         .enumerate()
         .for_each(|(t, block)| {
             for (i, o) in block.chunks_mut(w).enumerate() {
@@ -470,6 +474,8 @@ impl FastTile<'_> {
         // cell (row * w + column)
         let mut sums = [0u32; TILE];
         let mut cell = [[0u64; TILE]; N];
+        let mask = self.packed.len().saturating_sub(1);
+        let packed = &self.packed[..=mask];
         let offs: &[f64; N] = match self.offs.try_into() {
             Ok(o) => o,
             Err(_) => return,
@@ -492,11 +498,12 @@ impl FastTile<'_> {
                         *a = float_bits_index(idx);
                     }
                 }
-                // the N samples of this sample row of each output cell
+                // the N samples of this sample row of each output cell (the indices are
+                // below h * w, so the mask keeps them; it spares the bounds checks)
                 for (x, a) in sums[..cells].iter_mut().enumerate() {
                     *a += cell
                         .iter()
-                        .map(|c| u32::from(self.packed[c[x] as usize]))
+                        .map(|c| u32::from(packed[c[x] as usize & mask]))
                         .sum::<u32>();
                 }
             }
@@ -652,7 +659,7 @@ fn map_in_with(
     let allow_fast = path != Path::General;
     #[cfg(not(test))]
     let allow_fast = true;
-    let fast = allow_fast && need <= 16 && h * w < 1 << 52;
+    let fast = allow_fast && need <= 16 && h * w < 1 << 52 && packed.len().is_power_of_two();
     let fast_tile = FastTile {
         packed,
         cqx: &cqx,
