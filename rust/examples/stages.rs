@@ -4,7 +4,10 @@
 //! the values (H x W bytes) followed by the unknown mask (H x W bytes, 0/1), row-major
 //! (benches/bench.py --stages writes such files for its dense crops). Prints the minimum
 //! over RUNS of each stage's time, in ms per million cells, and checks that the stages
-//! together give what `evaluate` gives.
+//! together give what `evaluate` gives. The canonical step (SPEC 3a, off in the rows above
+//! it, as in `bench.py --dense`) follows, by sub-stage, for the map taken as 0.05 m.
+//! `stages MAP.raw HEIGHT WIDTH RUNS canonical` runs only the canonical step, RUNS times,
+//! and prints its results (for callgrind).
 
 use slamq::canonical::{canonical_corners_in, canonical_map, known_bounds, wall_angle};
 use slamq::corners::{corner_runs, count_corners, drop_dots_runs, structure_mask_runs};
@@ -92,8 +95,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let res = Some(0.05);
         let cnames = [
             "canonical: known box",
-            "canonical: wall angle",
-            "canonical: resample",
+            "canonical: wall angle (with the known box and its packing)",
+            "canonical: resample (with the known box and its packing)",
             "canonical: corners of the canonical map",
         ];
         if only_canonical {
