@@ -10,9 +10,14 @@ memory, minimum of ``--repeat`` runs:
 
 and prints the canonical step's own time (the difference) and its ratio to ``plain``.
 
+``--dense`` times instead the 1-Mcell dense crops of ``bench.py --dense`` (issue 15) as maps
+of 0.05 m, the resolution ``bench_batch.py --dense`` gives them, with the full sweep:
+``plain`` is then ``slamq.evaluate(m, canonical_resolution=0)``, the three metrics as a
+batch computes them.
+
 Usage::
 
-    PYTHONPATH=python python benches/bench_canonical.py [--repeat 7]
+    PYTHONPATH=python python benches/bench_canonical.py [--repeat 7] [--dense]
 """
 
 from __future__ import annotations
@@ -50,12 +55,16 @@ def best(fn, repeat: int) -> float:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--dense", action="store_true",
+                    help="the dense 1-Mcell crops of bench.py --dense, at 0.05 m")
     ap.add_argument("--data", type=Path,
                     default=Path(__file__).resolve().parent.parent.parent / "shared" / "data")
     args = ap.parse_args()
     print(f"- machine: {platform.machine()}, Python {platform.python_version()}; one thread; "
           f"minimum of {args.repeat} runs")
     print()
+    if args.dense:
+        return dense(args.repeat)
     print("| map | Mcells | canonical Mcells | wall angle | plain ms | with canonical ms "
           "| canonical step ms | step / plain |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
@@ -82,6 +91,29 @@ def main() -> int:
     if ratios:
         print(f"\ncanonical step / plain: median {sorted(ratios)[len(ratios) // 2]:.2f}, "
               f"worst {max(ratios):.2f}")
+    return 0
+
+
+def dense(repeat: int) -> int:
+    """The canonical step's time on the dense crops of ``bench.py --dense`` (0.05 m)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench import dense_maps
+
+    print("| dense crop (0.05 m) | canonical Mcells | wall angle | plain ms "
+          "| with canonical ms | canonical step ms |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for label, crop in dense_maps():
+        if crop.shape != (1000, 1000):
+            continue  # the whole graded maps of bench.py --dense
+        m = slamq.OccupancyMap(crop.values, crop.unknown, resolution=0.05)
+        canon = canonical_map(m)
+        plain = best(lambda m=m: slamq.evaluate(m, threads=1, canonical_resolution=0),
+                     repeat)
+        full = best(lambda m=m: slamq.evaluate(m, threads=1), repeat)
+        q = slamq.evaluate(m)
+        print(f"| {label} | {0 if canon is None else canon.values.size / 1e6:.2f} | "
+              f"{q.wall_angle:+.1f} | {plain * 1e3:.1f} | {full * 1e3:.1f} | "
+              f"{max(full - plain, 0.0) * 1e3:.1f} |")
     return 0
 
 

@@ -12,6 +12,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from strategies import occupancy_maps
 
 import slamq
 from slamq import OccupancyMap
@@ -81,6 +84,23 @@ def test_rust_equals_reference_on_random_maps_and_any_thread_count() -> None:
         assert one.corners_canonical == reference.canonical_corner_count(m)
         want = math.degrees(reference.wall_angle(m))
         assert one.wall_angle == want or (math.isnan(want) and math.isnan(one.wall_angle))
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(occupancy_maps(max_side=120),
+       st.sampled_from([None, 0.05, 0.035, 0.025, 0.02, 0.0175, 0.0139, 0.1]),
+       st.sampled_from([0.0, 0.0, 3.0, -17.0, 45.0, 30.5]))
+def test_rust_equals_reference_on_hypothesis_maps(m: OccupancyMap, res: float | None,
+                                                  degrees: float) -> None:
+    # resolutions giving n = 2, 3, 4 samples a side (the core's packed fast path) and 5 (its
+    # general path); turned maps for wall angles other than about 0
+    m = OccupancyMap(m.values, m.unknown, resolution=res)
+    if degrees:
+        m = turned(m, degrees)
+    q = slamq.evaluate(m, **FAST)
+    assert q.corners_canonical == reference.canonical_corner_count(m)
+    want = math.degrees(reference.wall_angle(m))
+    assert q.wall_angle == want
 
 
 def test_axis_aligned_room_keeps_its_corners_and_turning_it_is_found() -> None:

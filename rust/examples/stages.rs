@@ -4,9 +4,13 @@
 //! the values (H x W bytes) followed by the unknown mask (H x W bytes, 0/1), row-major
 //! (benches/bench.py --stages writes such files for its dense crops). Prints the minimum
 //! over RUNS of each stage's time, in ms per million cells, and checks that the stages
-//! together give what `evaluate` gives.
+//! together give what `evaluate` gives. The canonical step (SPEC 3a, off in the rows above
+//! it, as in `bench.py --dense`) follows, by sub-stage, for the map taken as 0.05 m.
+//! `stages MAP.raw HEIGHT WIDTH RUNS canonical` runs only the canonical step, RUNS times,
+//! and prints its results (for callgrind).
 
-use slamq::corners::{corner_runs, drop_dots_runs, structure_mask_runs};
+use slamq::canonical::{canonical_corners_in, canonical_map, known_bounds, wall_angle};
+use slamq::corners::{corner_runs, count_corners, drop_dots_runs, structure_mask_runs};
 use slamq::enclosed::{binarisations, count_binarisation, sweep};
 use slamq::evaluate::evaluate;
 use slamq::grid::Grid;
@@ -30,6 +34,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let bytes = std::fs::read(&args[1])?;
     let (h, w): (usize, usize) = (args[2].parse()?, args[3].parse()?);
     let runs: usize = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or(20);
+    // `canonical` as a fifth argument: only the canonical step, RUNS times (for callgrind)
+    let only_canonical = args.get(5).is_some_and(|a| a == "canonical");
     if bytes.len() != 2 * h * w {
         return Err(format!(
             "{} holds {} bytes, expected {}",
@@ -62,7 +68,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut tsweep = f64::INFINITY;
         let (mut corners, mut curve) = (0, Vec::new());
         let mut q = None;
-        for _ in 0..runs {
+        for _ in 0..if only_canonical { 0 } else { runs } {
             let hist = time(&mut t[0], || grid.histogram());
             let (mut mask, runs) = time(&mut t[1], || {
                 structure_mask_runs(&grid, p.corners.log_threshold)
@@ -81,6 +87,47 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             curve = time(&mut tsweep, || sweep(&grid, &hist, &p.enclosed));
             q = Some(time(&mut total, || evaluate(&grid, None, &p, None)));
         }
+        // the canonical step (SPEC 3a) of a 0.05 m map at the default reference resolution,
+        // by sub-stage, and as evaluate runs it
+        let pc = Params::default().corners;
+        let res = Some(0.05);
+        let cnames = [
+            "canonical: known box",
+            "canonical: wall angle (with the known box and its packing)",
+            "canonical: resample (with the known box and its packing)",
+            "canonical: corners of the canonical map",
+        ];
+        if only_canonical {
+            let b = known_bounds(&grid);
+            for _ in 0..runs {
+                let c = canonical_corners_in(&grid, b, res, &pc).map_err(|e| e.to_string())?;
+                println!("wall angle {} corners_canonical {:?}", c.angle, c.corners);
+            }
+            return Ok(());
+        }
+        let mut tc = [f64::INFINITY; 4];
+        let mut tcanon = f64::INFINITY;
+        let (mut ccount, mut cc, mut ccells) = (None, None, 0);
+        for _ in 0..runs {
+            time(&mut tc[0], || known_bounds(&grid));
+            let a = time(&mut tc[1], || wall_angle(&grid)).map_err(|e| e.to_string())?;
+            let m = time(&mut tc[2], || {
+                canonical_map(&grid, a, res, pc.canonical_resolution)
+            })
+            .map_err(|e| e.to_string())?;
+            if let Some(m) = m {
+                let g = Grid::new(&m.values, &m.unknown, m.height, m.width)
+                    .map_err(|e| e.to_string())?;
+                ccells = m.height * m.width;
+                ccount = Some(time(&mut tc[3], || count_corners(&g, &pc)));
+            }
+            let b = known_bounds(&grid);
+            cc = Some(
+                time(&mut tcanon, || canonical_corners_in(&grid, b, res, &pc))
+                    .map_err(|e| e.to_string())?,
+            );
+        }
+        assert_eq!(cc.map(|c| c.corners), Some(ccount));
         let q = q.ok_or("no run")?.map_err(|e| e.to_string())?;
         assert_eq!((q.corners, &q.curve), (corners, &curve));
         let mc = (h * w) as f64 / 1e6;
@@ -102,9 +149,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "| **evaluate (all three metrics, full sweep)** | **{:.2}** |",
             ms(total)
         );
+        for (n, s) in cnames.iter().zip(tc) {
+            println!("| {n} | {:.2} |", ms(s));
+        }
         println!(
-            "\n{h} x {w}, one thread, minimum of {runs} runs; corners {corners}, enclosed {}",
-            curve.iter().max().unwrap_or(&0)
+            "| **canonical step as evaluate runs it (0.05 m map, {:.2} Mcell canonical)** | **{:.2}** |",
+            ccells as f64 / 1e6,
+            ms(tcanon)
+        );
+        println!(
+            "\n{h} x {w}, one thread, minimum of {runs} runs; corners {corners}, enclosed {}, corners_canonical {:?}",
+            curve.iter().max().unwrap_or(&0),
+            ccount
         );
         Ok::<(), String>(())
     })?;

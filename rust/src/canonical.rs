@@ -3,6 +3,12 @@
 //! corners of that canonical map are counted. The reference function is
 //! `slamq.metrics.reference.canonical_corner_count`; every step below is integer
 //! arithmetic or one float64 formula evaluated in the same order on both sides.
+//!
+//! Both steps read the box packed one `u16` per cell (`pack_box`). The resample has a fast
+//! path for up to 4 x 4 samples per output cell (one gather per sample, addresses in float
+//! arithmetic that vectorises) beside the general one; the blur rows and the fast resample
+//! run as AVX2 copies of themselves when the processor has it (runtime detection; the same
+//! operations, so the same results). The tests compare every path.
 
 use crate::border::reflect101;
 use crate::corners::count_corners;
@@ -45,46 +51,131 @@ fn filled<T: Clone>(n: usize, x: T) -> Result<Vec<T>, OutOfMemory> {
     Ok(v)
 }
 
-/// The 9-tap binomial (two 5-tap binomial blurs in one), sum 256.
-const B9: [i32; 9] = [1, 8, 28, 56, 70, 56, 28, 8, 1];
+/// Whether the processor has AVX2 (cached by std after the first call): the hot loops of
+/// this module then run as AVX2 copies of themselves, the same operations on wider
+/// registers (the same results; no FMA).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn has_avx2() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+}
 
-/// `D`: the 9x9 binomial sum of the box's known values (unknown cells count 0; reflect-101
-/// at the box's edges) at every second row and column (rows and columns 0, 2, 4, ...),
-/// `ceil(h/2) x ceil(w/2)`; exact in `i32` (at most 255 * 256^2). Each output row is one
-/// vertical pass over nine input rows, straight from the map, then the decimated
-/// horizontal taps: no full-size copy of the box.
-fn blur9_decimated(
-    grid: &Grid,
-    (r0, r1, c0, c1): Bounds,
-) -> Result<(Vec<i32>, usize, usize), OutOfMemory> {
+/// A known cell of the packed box ([`pack_box`]) has this bit set, on top of its value.
+const KNOWN: u16 = 1 << 12;
+/// The value bits of a packed cell (its value when known, 0 when unknown).
+const VALUE: u16 = KNOWN - 1;
+
+/// The box's cells packed one `u16` each, row-major with the box's width as stride (then
+/// zeros up to a power-of-two length): the value plus [`KNOWN`] for a known cell, 0 for an
+/// unknown one. `p & VALUE` is the
+/// structure image (SPEC 3 step 1); the sum of up to 16 packed cells is `sum + 4096 k`
+/// (`k` the number of known ones), which is what a resampled cell needs.
+fn pack_box(grid: &Grid, (r0, r1, c0, c1): Bounds) -> Result<Vec<u16>, OutOfMemory> {
     let (h, w) = (r1 - r0, c1 - c0);
+    const ROWS: usize = 64; // per parallel task
+                            // zero-padded to a power of two: the resample's gathers mask their indices instead of
+                            // checking them
+    let mut out = filled((h * w).next_power_of_two(), 0u16)?;
+    out[..h * w]
+        .par_chunks_mut(w * ROWS)
+        .enumerate()
+        .for_each(|(t, block)| {
+            for (i, o) in block.chunks_mut(w).enumerate() {
+                let at = (r0 + t * ROWS + i) * grid.width + c0;
+                let (v, u) = (&grid.values[at..at + w], &grid.unknown[at..at + w]);
+                for ((o, &v), &u) in o.iter_mut().zip(v).zip(u) {
+                    *o = (u16::from(v) | KNOWN) * u16::from(!u);
+                }
+            }
+        });
+    Ok(out)
+}
+
+/// The 9-tap binomial (two 5-tap binomial blurs in one), sum 256.
+const B9: [u16; 9] = [1, 8, 28, 56, 70, 56, 28, 8, 1];
+
+/// `D`: the 9x9 binomial sum of the packed box's known values ([`pack_box`], `h x w`;
+/// unknown cells count 0; reflect-101 at the box's edges) at every second row and column
+/// (rows and columns 0, 2, 4, ...), `ceil(h/2) x ceil(w/2)`; exact in `i32` (at most
+/// 255 * 256^2). Each output row is one vertical pass over nine input rows, exact in `u16`
+/// (at most 255 * 256), then the decimated horizontal taps.
+fn blur9_decimated(
+    packed: &[u16],
+    h: usize,
+    w: usize,
+) -> Result<(Vec<i32>, usize, usize), OutOfMemory> {
     let (hd, wd) = (h.div_ceil(2), w.div_ceil(2));
     let mut out = filled(hd * wd, 0i32)?;
     out.par_chunks_mut(wd).enumerate().for_each_init(
-        || vec![0i32; w],
-        |vert, (rd, o)| {
-            vert.fill(0);
-            for (k, &b) in B9.iter().enumerate() {
+        || (vec![0u16; w], vec![0i32; w]),
+        |(vert, full), (rd, o)| {
+            let rows: [&[u16]; 9] = std::array::from_fn(|k| {
                 let rr = reflect101((2 * rd) as isize + k as isize - 4, h);
-                let at = (r0 + rr) * grid.width + c0;
-                let (v, u) = (&grid.values[at..at + w], &grid.unknown[at..at + w]);
-                for ((acc, &v), &u) in vert.iter_mut().zip(v).zip(u) {
-                    *acc += b * (i32::from(v) * i32::from(!u));
-                }
-            }
-            for (xd, o) in o.iter_mut().enumerate() {
-                let x = 2 * xd;
-                *o = if x >= 4 && x + 4 < w {
-                    (0..9).map(|k| B9[k] * vert[x + k - 4]).sum()
-                } else {
-                    (0..9)
-                        .map(|k| B9[k] * vert[reflect101(x as isize + k as isize - 4, w)])
-                        .sum()
-                };
-            }
+                &packed[rr * w..(rr + 1) * w]
+            });
+            blur_row(rows, vert, full, o);
         },
     );
     Ok((out, hd, wd))
+}
+
+/// One row of `D` ([`blur9_decimated`]) from the nine packed rows around it: the vertical
+/// taps into `vert` (`u16`), the horizontal ones at every column into `full` (`i32`), and
+/// every second of those into `o`. With AVX2 when the processor has it (integer arithmetic:
+/// the same result).
+fn blur_row(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: the processor has AVX2, checked just above
+        unsafe { blur_row_avx2(rows, vert, full, o) };
+        return;
+    }
+    blur_row_in(rows, vert, full, o);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn blur_row_avx2(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]) {
+    blur_row_in(rows, vert, full, o);
+}
+
+#[inline(always)]
+fn blur_row_in(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]) {
+    let w = vert.len();
+    // the symmetric taps 1, 8, 28, 56 | 70: four sums of a pair and the centre, exact in u16
+    let [r0, r1, r2, r3, r4, r5, r6, r7, r8] = rows.map(|r| &r[..w]);
+    for (x, v) in vert.iter_mut().enumerate() {
+        let p = |r: &[u16]| r[x] & VALUE;
+        *v = (p(r0) + p(r8))
+            + 8 * (p(r1) + p(r7))
+            + 28 * (p(r2) + p(r6))
+            + 56 * (p(r3) + p(r5))
+            + 70 * p(r4);
+    }
+    let tap = |x: usize, k: usize| i32::from(B9[k]) * i32::from(vert[x]);
+    if w >= 9 {
+        let v = |k: usize| &vert[k..w - 8 + k];
+        let (v0, v1, v2, v3, v4) = (v(0), v(1), v(2), v(3), v(4));
+        let (v5, v6, v7, v8) = (v(5), v(6), v(7), v(8));
+        for (x, f) in full[4..w - 4].iter_mut().enumerate() {
+            let q = |s: &[u16]| i32::from(s[x]);
+            *f = (q(v0) + q(v8))
+                + 8 * (q(v1) + q(v7))
+                + 28 * (q(v2) + q(v6))
+                + 56 * (q(v3) + q(v5))
+                + 70 * q(v4);
+        }
+    }
+    for (xd, o) in o.iter_mut().enumerate() {
+        let x = 2 * xd;
+        *o = if x >= 4 && x + 4 < w {
+            full[x]
+        } else {
+            (0..9)
+                .map(|k| tap(reflect101(x as isize + k as isize - 4, w), k))
+                .sum()
+        };
+    }
 }
 
 /// `x` rounded half to even, for `|x| < 2^51` (the terms are below `|g| < 2^31`): adding
@@ -92,23 +183,107 @@ fn blur9_decimated(
 /// same as `round_ties_even` and numpy's `rint`, without the libm call that baseline x86-64
 /// makes of `round_ties_even`.
 #[inline]
-fn rint(x: f64) -> i64 {
+fn rint_f(x: f64) -> f64 {
     const MAGIC: f64 = 6_755_399_441_055_744.0;
-    ((x + MAGIC) - MAGIC) as i64
+    (x + MAGIC) - MAGIC
 }
 
-/// The `g**4 / |g|**3` terms of one cell's Sobel gradient, rounded half to even (SPEC 3a.2).
+#[cfg(test)]
+fn rint(x: f64) -> i64 {
+    rint_f(x) as i64
+}
+
+/// The `g**4 / |g|**3` terms of one cell's Sobel gradient, rounded half to even (SPEC 3a.2),
+/// as integer-valued floats: `(0, 0)` for a zero gradient. Branch-free, so that a row of
+/// them vectorises: a zero gradient divides its zero numerators by 1 instead of by 0.
 #[inline]
-fn angle_terms(gx: i64, gy: i64) -> (i64, i64) {
-    let (x, y) = (gx as f64, gy as f64);
+fn angle_terms(x: f64, y: f64) -> (f64, f64) {
     let r2 = x * x + y * y;
-    if r2 <= 0.0 {
-        return (0, 0);
-    }
     let a = x * x - y * y;
     let b = 2.0 * (x * y);
-    let w = r2 * r2.sqrt();
-    (rint((a * a - b * b) / w), rint((2.0 * (a * b)) / w))
+    let w = if r2 > 0.0 { r2 * r2.sqrt() } else { 1.0 };
+    (rint_f((a * a - b * b) / w), rint_f((2.0 * (a * b)) / w))
+}
+
+/// Cells per partial sum of the angle terms: each term is an integer below `|g| < 2^27`
+/// (`D < 2^24`, a Sobel derivative at most 4 of them), so a float sum of this many is
+/// exact (below 2^53) whatever the order.
+const TERMS_PER_SUM: usize = 1 << 20;
+
+/// Scratch rows of [`sobel_terms_row`]: per column of a row of `D`, the vertical Sobel
+/// smoothing `up + 2 mid + down`, the vertical difference `down - up`, and the two
+/// derivatives.
+#[derive(Default)]
+struct SobelRows {
+    col: Vec<i32>,
+    dv: Vec<i32>,
+    gx: Vec<i32>,
+    gy: Vec<i32>,
+}
+
+/// The sums of the rounded angle terms (SPEC 3a.2) of one row of `D`, given its rows
+/// `[up, mid, down]` (reflect-101 already applied). The 3x3 Sobel derivatives are exact in
+/// `i32` (at most 4 * 255 * 256^2), so `gy` may be formed from the vertical differences.
+/// (An AVX2 copy of this was slower: the divisions and square roots bound it.)
+fn sobel_terms_row([up, mid, down]: [&[i32]; 3], s: &mut SobelRows) -> (i64, i64) {
+    let w = mid.len();
+    for v in [&mut s.col, &mut s.dv, &mut s.gx, &mut s.gy] {
+        v.resize(w, 0);
+    }
+    for (((c, d), (&u, &m)), &dn) in s
+        .col
+        .iter_mut()
+        .zip(&mut s.dv)
+        .zip(up.iter().zip(mid))
+        .zip(down)
+    {
+        *c = u + 2 * m + dn;
+        *d = dn - u;
+    }
+    let (col, dv) = (&s.col, &s.dv);
+    for x in [0, w - 1] {
+        let (l, rt) = (reflect101(x as isize - 1, w), reflect101(x as isize + 1, w));
+        s.gx[x] = col[rt] - col[l];
+        s.gy[x] = dv[l] + 2 * dv[x] + dv[rt];
+    }
+    if w > 2 {
+        let inner = s.gx[1..w - 1].iter_mut().zip(&mut s.gy[1..w - 1]);
+        let (cl, cr) = (&col[..w - 2], &col[2..]);
+        let (dl, dm, dr) = (&dv[..w - 2], &dv[1..w - 1], &dv[2..]);
+        for (((gx, gy), (&cl, &cr)), ((&dl, &dm), &dr)) in
+            inner.zip(cl.iter().zip(cr)).zip(dl.iter().zip(dm).zip(dr))
+        {
+            *gx = cr - cl;
+            *gy = dl + 2 * dm + dr;
+        }
+    }
+    let (mut sre, mut sim) = (0i64, 0i64);
+    for (xs, ys) in s.gx.chunks(TERMS_PER_SUM).zip(s.gy.chunks(TERMS_PER_SUM)) {
+        // four partial sums, so that the loop vectorises (exact in any order)
+        let (mut re4, mut im4) = ([0.0f64; 4], [0.0f64; 4]);
+        let (xq, yq) = (xs.chunks_exact(4), ys.chunks_exact(4));
+        let (xr, yr) = (xq.remainder(), yq.remainder());
+        for (x4, y4) in xq.zip(yq) {
+            // most cells of a map have no gradient (unknown canvas, open floor): their
+            // terms are 0
+            if (x4[0] | x4[1] | x4[2] | x4[3] | y4[0] | y4[1] | y4[2] | y4[3]) == 0 {
+                continue;
+            }
+            for l in 0..4 {
+                let (a, b) = angle_terms(f64::from(x4[l]), f64::from(y4[l]));
+                re4[l] += a;
+                im4[l] += b;
+            }
+        }
+        for (&x, &y) in xr.iter().zip(yr) {
+            let (a, b) = angle_terms(f64::from(x), f64::from(y));
+            re4[0] += a;
+            im4[0] += b;
+        }
+        sre += re4.iter().map(|&v| v as i64).sum::<i64>();
+        sim += im4.iter().map(|&v| v as i64).sum::<i64>();
+    }
+    (sre, sim)
 }
 
 /// The dominant wall direction modulo 90 degrees of the known bounding box, radians in
@@ -118,38 +293,23 @@ fn angle_terms(gx: i64, gy: i64) -> (i64, i64) {
 /// `g**4 / |g|**3` per cell, rounded to integers.
 pub fn wall_angle(grid: &Grid) -> Result<f64, OutOfMemory> {
     match known_bounds(grid) {
-        Some(b) => angle_in(grid, b),
+        Some(b) => angle_in(&pack_box(grid, b)?, b.1 - b.0, b.3 - b.2),
         None => Ok(0.0),
     }
 }
 
-/// [`wall_angle`] of the box `b` (the known cells' bounding box).
-fn angle_in(grid: &Grid, (r0, r1, c0, c1): Bounds) -> Result<f64, OutOfMemory> {
-    let (g2, h, w) = blur9_decimated(grid, (r0, r1, c0, c1))?;
-    let (re, im) = (0..h)
-        .into_par_iter()
-        .map(|r| {
+/// [`wall_angle`] of the packed box ([`pack_box`], `h x w`).
+fn angle_in(packed: &[u16], h: usize, w: usize) -> Result<f64, OutOfMemory> {
+    let (g2, h, w) = blur9_decimated(packed, h, w)?;
+    let (re, im) = g2
+        .par_chunks(w)
+        .enumerate()
+        .map_init(SobelRows::default, |scratch, (r, _)| {
             let row = |k: isize| {
                 let rr = reflect101(r as isize + k, h);
                 &g2[rr * w..(rr + 1) * w]
             };
-            let (up, mid, down) = (row(-1), row(0), row(1));
-            let (mut sre, mut sim) = (0i64, 0i64);
-            for x in 0..w {
-                let (l, rt) = if x >= 1 && x + 1 < w {
-                    (x - 1, x + 1)
-                } else {
-                    (reflect101(x as isize - 1, w), reflect101(x as isize + 1, w))
-                };
-                let col = |c: usize| up[c] as i64 + 2 * mid[c] as i64 + down[c] as i64;
-                let gx = col(rt) - col(l);
-                let gy = (down[l] as i64 + 2 * down[x] as i64 + down[rt] as i64)
-                    - (up[l] as i64 + 2 * up[x] as i64 + up[rt] as i64);
-                let (a, b) = angle_terms(gx, gy);
-                sre += a;
-                sim += b;
-            }
-            (sre, sim)
+            sobel_terms_row([row(-1), row(0), row(1)], scratch)
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     if re == 0 && im == 0 {
@@ -184,7 +344,7 @@ pub fn canonical_map(
     reference: f64,
 ) -> Result<Option<CanonicalMap>, OutOfMemory> {
     match known_bounds(grid) {
-        Some(b) => map_in(grid, b, angle, resolution, reference),
+        Some(b) => map_in(grid, &pack_box(grid, b)?, b, angle, resolution, reference),
         None => Ok(Some(CanonicalMap {
             values: grid.values.to_vec(),
             unknown: grid.unknown.to_vec(),
@@ -194,13 +354,230 @@ pub fn canonical_map(
     }
 }
 
-/// [`canonical_map`] of the box `b` (the known cells' bounding box).
+/// 2^52: a float in `0..2^52` plus this has its integer part as the low bits of its
+/// mantissa, rounded to nearest.
+const TWO52: f64 = 4_503_599_627_370_496.0;
+
+/// `floor(clamp(p, 0, last))` for `last < 2^52` (NaN gives 0), in float operations only:
+/// with `ROUND` by `floor` (one instruction where SSE4.1 is enabled, a library call on
+/// baseline x86-64), else the clamped value rounded to an integer (to nearest), less one
+/// where that rounded up. Both are exact: the same result.
+#[inline(always)]
+fn floor_in<const ROUND: bool>(p: f64, last: f64) -> f64 {
+    let p = if p > 0.0 { p } else { 0.0 };
+    let p = if p < last { p } else { last };
+    if ROUND {
+        return p.floor();
+    }
+    let r = (p + TWO52) - TWO52;
+    r - if r > p { 1.0 } else { 0.0 }
+}
+
+/// The integer value of an integer-valued float in `0..2^52`, from its bits.
+#[inline]
+fn float_bits_index(x: f64) -> u64 {
+    (x + TWO52).to_bits() - TWO52.to_bits()
+}
+
+/// `ceil(2^18 / 2k)` for `k` in `0..=16` (0 for `k = 0`): [`half_up_mean`]'s divisions.
+const HALF_UP_RECIPROCALS: [u32; 17] = {
+    let mut m = [0u32; 17];
+    let mut k = 1;
+    while k <= 16 {
+        m[k] = (1u32 << 18).div_ceil(2 * k as u32);
+        k += 1;
+    }
+    m
+};
+
+/// `(2t + k) / 2k`, the mean of `k <= 16` values of sum `t <= 255 k` rounded half up (0 for
+/// `k = 0`), by a multiplication: `x * ceil(2^18 / d) / 2^18` exceeds `x / d` by less than
+/// `x / 2^18 < 1/32 <= 1/d` for `x < 2^13`, so its floor is `x / d`'s.
+#[inline]
+fn half_up_mean(t: u32, k: u32) -> u32 {
+    let m = HALF_UP_RECIPROCALS[(k as usize).min(16)];
+    ((2 * t + k) * m) >> 18
+}
+
+/// [`half_up_mean`] for at most 4 samples, of which at least 2 are known (the other case is
+/// unknown, its mean unused): `x / 4`, `x / 6` (`x * ceil(2^16 / 6) / 2^16`: too large by
+/// less than `x / 2^16 * 1/3 < 1/6` for `x < 2^13`) or `x / 8`, chosen without a branch or
+/// a table lookup, so that a row of them vectorises.
+#[inline(always)]
+fn half_up_mean_of_4(t: u32, k: u32) -> u32 {
+    let x = 2 * t + k;
+    let by6 = (x * 10_923) >> 16;
+    match k {
+        3 => by6,
+        4 => x >> 3,
+        _ => x >> 2,
+    }
+}
+
+/// Output tiles of `TILE x TILE` cells: the input cells one tile samples lie in a small
+/// turned square, so the gathers stay in cache (row by row over a wide turned map, every
+/// sample was a cache miss).
+const TILE: usize = 32;
+
+/// The resample's fast path (SPEC 3a.3 for at most 4 x 4 samples per output cell): what an
+/// output tile needs of the geometry, the same floats as the general path's.
+struct FastTile<'a> {
+    packed: &'a [u16],
+    cqx: &'a [f64],
+    sqx: &'a [f64],
+    offs: &'a [f64],
+    big_w: usize,
+    f: f64,
+    c: f64,
+    s: f64,
+    cx: f64,
+    cy: f64,
+    half_h: f64,
+    w1: f64,
+    h1: f64,
+    wf: f64,
+    need: u32,
+    /// [`Path::Best`] except in the tests ([`Path`]; read on x86-64 only)
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    path: Path,
+}
+
+impl FastTile<'_> {
+    /// Fill columns `j0..j1` of the output rows in `vblock` / `ublock` (rows `row0..` of the
+    /// canonical map): with AVX2 when the processor has it (the same float operations, four
+    /// at a time instead of two), else with baseline x86-64 (SSE2) or the target's own.
+    fn run(&self, vblock: &mut [u8], ublock: &mut [bool], row0: usize, j0: usize, j1: usize) {
+        #[cfg(target_arch = "x86_64")]
+        if self.path == Path::Best && has_avx2() {
+            // SAFETY: the processor has AVX2, checked just above
+            unsafe { self.run_avx2(vblock, ublock, row0, j0, j1) };
+            return;
+        }
+        match self.offs.len() {
+            2 => self.tile::<false, 2>(vblock, ublock, row0, j0, j1),
+            3 => self.tile::<false, 3>(vblock, ublock, row0, j0, j1),
+            _ => self.tile::<false, 4>(vblock, ublock, row0, j0, j1),
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn run_avx2(&self, vblock: &mut [u8], ublock: &mut [bool], row0: usize, j0: usize, j1: usize) {
+        match self.offs.len() {
+            2 => self.tile::<true, 2>(vblock, ublock, row0, j0, j1),
+            3 => self.tile::<true, 3>(vblock, ublock, row0, j0, j1),
+            _ => self.tile::<true, 4>(vblock, ublock, row0, j0, j1),
+        }
+    }
+
+    /// [`FastTile::run`] for `N` samples a side (`N = self.offs.len()`, 2 to 4); `ROUND`:
+    /// floors by `floor` ([`floor_in`]).
+    #[inline(always)]
+    fn tile<const ROUND: bool, const N: usize>(
+        &self,
+        vblock: &mut [u8],
+        ublock: &mut [bool],
+        row0: usize,
+        j0: usize,
+        j1: usize,
+    ) {
+        let big_w = self.big_w;
+        let (f, c, s, cx, cy) = (self.f, self.c, self.s, self.cx, self.cy);
+        let (w1, h1, wf) = (self.w1, self.h1, self.wf);
+        let cells = j1 - j0;
+        // per output cell of a tile row: the sum of its packed samples; per sample, its box
+        // cell (row * w + column)
+        let mut sums = [0u32; TILE];
+        let mut cell = [[0u64; TILE]; N];
+        let mask = self.packed.len().saturating_sub(1);
+        let packed = &self.packed[..=mask];
+        let offs: &[f64; N] = match self.offs.try_into() {
+            Ok(o) => o,
+            Err(_) => return,
+        };
+        for r in 0..vblock.len() / big_w {
+            let ii = (row0 + r) as f64 - self.half_h;
+            sums[..cells].fill(0);
+            for o in offs {
+                let q = (ii + o) * f;
+                let (sqy, cqy) = (s * q, c * q);
+                for (m, cell) in cell.iter_mut().enumerate() {
+                    let cx_row = &self.cqx[m * big_w + j0..m * big_w + j1];
+                    let sx_row = &self.sqx[m * big_w + j0..m * big_w + j1];
+                    // the same cells as the general path's, in float arithmetic throughout
+                    // so that the loop vectorises
+                    for ((a, &cq), &sq) in cell[..cells].iter_mut().zip(cx_row).zip(sx_row) {
+                        let px = (cq - sqy) + cx;
+                        let py = (sq + cqy) + cy;
+                        let idx = floor_in::<ROUND>(py, h1) * wf + floor_in::<ROUND>(px, w1);
+                        *a = float_bits_index(idx);
+                    }
+                }
+                // the N samples of this sample row of each output cell (the indices are
+                // below h * w, so the mask keeps them; it spares the bounds checks)
+                for (x, a) in sums[..cells].iter_mut().enumerate() {
+                    *a += cell
+                        .iter()
+                        .map(|c| u32::from(packed[c[x] as usize & mask]))
+                        .sum::<u32>();
+                }
+            }
+            let row = r * big_w + j0;
+            let out = vblock[row..row + cells]
+                .iter_mut()
+                .zip(&mut ublock[row..row + cells]);
+            for ((v, u), &a) in out.zip(&sums[..cells]) {
+                // the sum of the known samples' values, and their number; branch-free (known
+                // and unknown cells alternate unpredictably on a noisy map)
+                let (t, k) = (a & u32::from(VALUE), a >> KNOWN.trailing_zeros());
+                let known = 2 * k >= self.need;
+                let mean = if N == 2 {
+                    half_up_mean_of_4(t, k)
+                } else {
+                    half_up_mean(t, k)
+                };
+                *v = (mean * u32::from(known)) as u8;
+                *u = !known;
+            }
+        }
+    }
+}
+
+/// [`canonical_map`] of the box `b` (the known cells' bounding box), `packed` its cells
+/// ([`pack_box`]).
 fn map_in(
     grid: &Grid,
+    packed: &[u16],
+    b: Bounds,
+    angle: f64,
+    resolution: Option<f64>,
+    reference: f64,
+) -> Result<Option<CanonicalMap>, OutOfMemory> {
+    map_in_with(grid, packed, b, angle, resolution, reference, Path::Best)
+}
+
+/// Which way [`map_in_with`] resamples (the tests compare them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Path {
+    /// The fast path where it applies, with AVX2 when the processor has it.
+    Best,
+    /// The fast path where it applies, never AVX2.
+    #[cfg(test)]
+    Baseline,
+    /// The general path only.
+    #[cfg(test)]
+    General,
+}
+
+/// [`map_in`] by the resampling `path`.
+fn map_in_with(
+    grid: &Grid,
+    packed: &[u16],
     (r0, r1, c0, c1): Bounds,
     angle: f64,
     resolution: Option<f64>,
     reference: f64,
+    path: Path,
 ) -> Result<Option<CanonicalMap>, OutOfMemory> {
     let (h, w) = (r1 - r0, c1 - c0);
     let f = match resolution {
@@ -294,10 +671,32 @@ fn map_in(
                 .all(|&k| !k)
         })
     };
-    // output tiles of TILE x TILE cells: the input cells one tile samples lie in a small
-    // turned square, so the gathers stay in cache (row by row over a wide turned map, every
-    // sample was a cache miss)
-    const TILE: usize = 64;
+    // the fast path, when an output cell's packed samples sum without carrying into the
+    // count (at most 16 of them, 16 * 255 < 4096) and a box cell's index is exact in a
+    // float: one gather per sample from the packed box
+    #[cfg(test)]
+    let allow_fast = path != Path::General;
+    #[cfg(not(test))]
+    let allow_fast = true;
+    let fast = allow_fast && need <= 16 && h * w < 1 << 52 && packed.len().is_power_of_two();
+    let fast_tile = FastTile {
+        packed,
+        cqx: &cqx,
+        sqx: &sqx,
+        offs: &offs,
+        big_w,
+        f,
+        c,
+        s,
+        cx,
+        cy,
+        half_h,
+        w1,
+        h1,
+        wf,
+        need,
+        path,
+    };
     values
         .par_chunks_mut(big_w * TILE)
         .zip(unknown.par_chunks_mut(big_w * TILE))
@@ -313,6 +712,10 @@ fn map_in(
                 let cells = j1 - j0;
                 if all_unknown(t * TILE, t * TILE + rows, j0, j1) {
                     continue; // left unknown, as allocated
+                }
+                if fast {
+                    fast_tile.run(vblock, ublock, t * TILE, j0, j1);
+                    continue;
                 }
                 for r in 0..rows {
                     let ii = (t * TILE + r) as f64 - half_h;
@@ -394,8 +797,18 @@ pub fn canonical_corners_in(
             corners: Some(0),
         });
     };
-    let angle = angle_in(grid, b)?;
-    let Some(map) = map_in(grid, b, angle, resolution, params.canonical_resolution)? else {
+    let packed = pack_box(grid, b)?;
+    let angle = angle_in(&packed, b.1 - b.0, b.3 - b.2)?;
+    let map = map_in(
+        grid,
+        &packed,
+        b,
+        angle,
+        resolution,
+        params.canonical_resolution,
+    )?;
+    drop(packed);
+    let Some(map) = map else {
         return Ok(Canonical {
             angle,
             corners: None,
@@ -482,6 +895,158 @@ mod tests {
         while x < 1e6 {
             assert_eq!(rint(x), x.round_ties_even() as i64, "{x}");
             x += 0.123_456_7;
+        }
+    }
+
+    /// A pseudo-random map: walls, free cells, graded values and unknown patches.
+    fn random_map(h: usize, w: usize, seed: u64) -> (Vec<u8>, Vec<bool>) {
+        let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let p_unknown = next() % 100;
+        let mut v = vec![0u8; h * w];
+        let mut u = vec![false; h * w];
+        for i in 0..h * w {
+            let r = next();
+            v[i] = match r % 4 {
+                0 => 0,
+                1 => 254,
+                2 => 205,
+                _ => (r >> 8) as u8,
+            };
+            u[i] = (r >> 20) % 100 < p_unknown;
+        }
+        (v, u)
+    }
+
+    #[test]
+    fn the_fast_resample_equals_the_general_one() {
+        // every sample count the fast path takes (n = 2, 3, 4: f up to 4), turned by angles
+        // that put samples exactly on cell edges (0, 45 degrees) and anywhere else
+        let angles = [
+            0.0,
+            0.3,
+            -std::f64::consts::FRAC_PI_4,
+            std::f64::consts::FRAC_PI_4,
+            -0.1,
+            1e-9,
+        ];
+        let mut checked = 0;
+        for seed in 0..40u64 {
+            let (h, w) = (1 + (seed as usize * 7) % 53, 1 + (seed as usize * 13) % 61);
+            let (v, u) = random_map(h, w, seed);
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            let Some(b) = known_bounds(&g) else { continue };
+            let packed = pack_box(&g, b).unwrap();
+            for (k, res) in [
+                None,
+                Some(0.05),
+                Some(0.035),
+                Some(0.02),
+                Some(0.0175),
+                Some(0.07),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let a = angles[(seed as usize + k) % angles.len()];
+                let slow = map_in_with(&g, &packed, b, a, res, 0.07, Path::General).unwrap();
+                for path in [Path::Best, Path::Baseline] {
+                    let fast = map_in_with(&g, &packed, b, a, res, 0.07, path).unwrap();
+                    assert_eq!(
+                        fast, slow,
+                        "{path:?}: seed {seed}, resolution {res:?}, angle {a}"
+                    );
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 150, "{checked}");
+    }
+
+    #[test]
+    fn the_decimated_blur_is_the_9x9_binomial_sum_on_every_path() {
+        for seed in 0..30u64 {
+            let (h, w) = (1 + (seed as usize * 5) % 23, 1 + (seed as usize * 11) % 29);
+            let (v, u) = random_map(h, w, seed + 100);
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            let packed = pack_box(&g, (0, h, 0, w)).unwrap();
+            let (d, hd, wd) = blur9_decimated(&packed, h, w).unwrap();
+            assert_eq!((hd, wd), (h.div_ceil(2), w.div_ceil(2)));
+            let s = |r: usize, c: usize| {
+                if u[r * w + c] {
+                    0
+                } else {
+                    i32::from(v[r * w + c])
+                }
+            };
+            for rd in 0..hd {
+                let rows: [&[u16]; 9] = std::array::from_fn(|k| {
+                    let rr = reflect101((2 * rd) as isize + k as isize - 4, h);
+                    &packed[rr * w..(rr + 1) * w]
+                });
+                let mut baseline = vec![0i32; wd];
+                blur_row_in(rows, &mut vec![0u16; w], &mut vec![0i32; w], &mut baseline);
+                for cd in 0..wd {
+                    let mut want = 0;
+                    for i in 0..9 {
+                        for j in 0..9 {
+                            let r = reflect101((2 * rd + i) as isize - 4, h);
+                            let c = reflect101((2 * cd + j) as isize - 4, w);
+                            want += i32::from(B9[i]) * i32::from(B9[j]) * s(r, c);
+                        }
+                    }
+                    assert_eq!(d[rd * wd + cd], want, "{h} x {w} at ({rd}, {cd})");
+                    assert_eq!(baseline[cd], want, "{h} x {w} at ({rd}, {cd})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn half_up_mean_divides_exactly() {
+        for k in 1..=16u32 {
+            for t in 0..=255 * k {
+                assert_eq!(half_up_mean(t, k), (2 * t + k) / (2 * k), "{t} / {k}");
+            }
+        }
+        assert_eq!(half_up_mean(0, 0), 0);
+        for k in 2..=4u32 {
+            for t in 0..=255 * k {
+                assert_eq!(half_up_mean_of_4(t, k), (2 * t + k) / (2 * k), "{t} / {k}");
+            }
+        }
+    }
+
+    #[test]
+    fn floor_in_is_the_clamped_floor() {
+        for &(p, last) in &[
+            (-0.5, 9.0),
+            (0.0, 9.0),
+            (0.49999999999999994, 9.0),
+            (0.5, 9.0),
+            (1.5, 9.0),
+            (2.5, 9.0),
+            (2.9999999999999996, 9.0),
+            (3.0, 9.0),
+            (8.999_999, 9.0),
+            (9.0, 9.0),
+            (12.5, 9.0),
+            (f64::NAN, 9.0),
+            (4_503_599_627_370_495.5, 4_503_599_627_370_495.0),
+        ] {
+            let want = if p.is_nan() {
+                0.0
+            } else {
+                p.max(0.0).min(last).floor()
+            };
+            assert_eq!(floor_in::<false>(p, last), want, "{p}");
+            assert_eq!(floor_in::<true>(p, last), want, "{p}");
+            assert_eq!(float_bits_index(want), want as u64);
         }
     }
 
