@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 from slamq.params import Params
@@ -223,7 +223,7 @@ class MapQuality:
         denominator = free + unknown
         proportion = (occupied / denominator if denominator else nan) if known else nan
         threshold = int(sum_darkness) / (255 * known) if known else nan
-        counts = tuple(int(c) for c in curve)
+        counts = tuple(map(int, curve))
         best = max(counts) if counts else 0
         best_u = params.sweep_values[counts.index(best)] if counts else 0
         return cls(
@@ -260,11 +260,12 @@ class MapQuality:
         >>> d["corners"], d["param_sweep_step"]
         (0, 1)
         """
-        out = asdict(self)
-        params = out.pop("params")
+        # every field but params holds an immutable value: a shallow copy is asdict's
+        # result without its per-element recursion into the 256-value curve
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "params"}
         if out["curve"] is not None:
             out["curve"] = list(out["curve"])
-        out.update({f"param_{k}": v for k, v in params.items()})
+        out.update({f"param_{k}": v for k, v in self.params.to_dict().items()})
         return out
 
     def differences(self, other: MapQuality, rel: float = 1e-12) -> list[str]:

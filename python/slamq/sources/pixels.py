@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 from typing import Any
 
@@ -62,12 +63,16 @@ def _map_saver_shades(grey: np.ndarray) -> tuple[list[int], np.ndarray] | None:
     return sorted(v for v, n in counts.items() if n), unknown
 
 
+@functools.lru_cache(maxsize=64)
 def _threshold_unknown_lut(negate: bool, occ: float, free: float) -> np.ndarray:
-    """Unknown decision for each pixel 0..255: free <= p <= occ, p = (255 - v) / 255."""
+    """Unknown decision for each pixel 0..255: free <= p <= occ, p = (255 - v) / 255.
+    Built once per (negate, occ, free) and read-only (a batch's maps share one)."""
     pix = np.arange(256, dtype=np.int64)
     v = 255 - pix if negate else pix
     p = (255 - v).astype(np.float64) / 255.0
-    return (free <= p) & (p <= occ)
+    lut = (free <= p) & (p <= occ)
+    lut.setflags(write=False)
+    return lut
 
 
 def interpret(
