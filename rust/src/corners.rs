@@ -487,8 +487,8 @@ pub fn corner_runs(
                 let mut code =
                     nb(xlo as isize - 2) | nb(xlo as isize - 1) << 4 | nb(xlo as isize) << 8;
                 // columns x + 1 < w read nib[x + 1] as it is; the last column reflects. No
-                // branch per cell: an empty window (code 0) is a class of response -inf, and
-                // every cell is written to the end of `positive`, kept only when R > 0
+                // branch per cell: an empty window (code 0) is a class of response -inf (a
+                // rank at or above every cut), and every visited cell's rank is written
                 let inner_hi = xhi.min(w - 1);
                 pos.touched[r - r0] = true;
                 let row_ranks = &mut pos.ranks[(r - r0) * w..(r - r0 + 1) * w];
