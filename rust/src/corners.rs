@@ -9,10 +9,10 @@
 //! once per process for all 65,536 windows (by class of equal sums); a row's window codes
 //! are built from four mask rows, only over the columns next to set structure cells, and
 //! the window classes are ranked by their response for the given `k` (positive ones first, by
-//! decreasing `R`), so that the pass over the cells needs no float: the cells with `R > 0`
-//! (rank below a count) are kept with their rank, the largest response is that of the
-//! smallest rank, and the relative threshold is a cut on the ranks; the corner blobs are
-//! counted from runs.
+//! decreasing `R`), so that the pass over the cells needs no float: every visited cell's
+//! rank is stored (two bytes a cell), the largest response is that of the smallest rank, and
+//! the relative threshold is a cut on the ranks, applied to whole rows by a vector compare
+//! before their runs are found; the corner blobs are counted from runs.
 
 use crate::border::reflect101;
 use crate::filter::{blur_row, laplacian_mask_row, structure_row};
@@ -295,6 +295,38 @@ fn window_nibbles(
     hi: usize,
     nib: &mut [u8],
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: AVX2 is present
+        unsafe { window_nibbles_avx2(mask, (h, w), r, lo, hi, nib) };
+        return;
+    }
+    window_nibbles_in(mask, (h, w), r, lo, hi, nib);
+}
+
+/// [`window_nibbles`] compiled for AVX2 (the same bytes, 32 columns a register).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn window_nibbles_avx2(
+    mask: &[u8],
+    (h, w): (usize, usize),
+    r: usize,
+    lo: usize,
+    hi: usize,
+    nib: &mut [u8],
+) {
+    window_nibbles_in(mask, (h, w), r, lo, hi, nib);
+}
+
+#[inline(always)]
+fn window_nibbles_in(
+    mask: &[u8],
+    (h, w): (usize, usize),
+    r: usize,
+    lo: usize,
+    hi: usize,
+    nib: &mut [u8],
+) {
     let rows: [&[u8]; 4] = std::array::from_fn(|i| {
         let k = reflect101(r as isize - 2 + i as isize, h);
         &mask[k * w..(k + 1) * w]
@@ -310,10 +342,9 @@ fn window_nibbles(
     }
 }
 
-/// One band's cells with `R > 0`: `(column, key)` in row-major order, where a key below the
-/// number of window classes is the cell's rank ([`Ranked`]) and `classes + i` is
-/// `direct[i]`, the response of a cell computed directly (row 0, column 0). Eight bytes a
-/// cell instead of sixteen with the response itself: the threshold is a cut on the ranks.
+/// One band's Harris pass: the rank ([`Ranked`]) of every window cell, and the directly
+/// computed cells (row 0, column 0) with `R > 0` as `(column, classes + i)` in row-major
+/// order, `direct[i]` their response.
 struct Positive {
     /// The largest response of the directly computed cells.
     best: f64,
@@ -323,6 +354,11 @@ struct Positive {
     direct: Vec<f64>,
     /// Where each row of the band starts in `cells` (one more entry than rows).
     starts: Vec<usize>,
+    /// The rank of every window cell of the band's rows, row-major, `u16::MAX` where no
+    /// window was visited (above every cut): the pass over the ranks compares whole rows.
+    ranks: Vec<u16>,
+    /// Whether a row's ranks were written.
+    touched: Vec<bool>,
 }
 
 impl Positive {
@@ -339,13 +375,35 @@ impl Positive {
         }
     }
 
-    /// Keep one window cell of rank `rank`.
+    /// Keep one window cell of rank `rank` (at offset `at` of `ranks`).
     #[inline]
-    fn visit_rank(&mut self, x: usize, rank: u16, positive: usize) {
+    fn visit_rank(&mut self, at: usize, rank: u16) {
         self.min_rank = self.min_rank.min(rank);
-        if (rank as usize) < positive {
-            self.cells.push((x as u32, rank as u32));
-        }
+        self.ranks[at] = rank;
+    }
+}
+
+/// `keep[x] = (ranks[x] < cut)` as 0/1 for one row (AVX2 when present: 16 ranks a compare).
+fn keep_row(ranks: &[u16], cut: u16, keep: &mut [u8]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: AVX2 is present
+        unsafe { keep_row_avx2(ranks, cut, keep) };
+        return;
+    }
+    keep_row_in(ranks, cut, keep);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn keep_row_avx2(ranks: &[u16], cut: u16, keep: &mut [u8]) {
+    keep_row_in(ranks, cut, keep);
+}
+
+#[inline(always)]
+fn keep_row_in(ranks: &[u16], cut: u16, keep: &mut [u8]) {
+    for (k, &r) in keep.iter_mut().zip(ranks) {
+        *k = (r < cut) as u8;
     }
 }
 
@@ -366,8 +424,7 @@ pub fn corner_runs(
     let k = params.harris_k;
     let rk = ranked(k);
     let (nc, npos) = (rk.resp.len(), rk.positive);
-    let npos16 = npos.min(u16::MAX as usize) as u16; // at most 65,536 classes
-                                                     // per band, in row-major order: the cells with R > 0
+    // per band: the ranks of the window cells and the directly computed cells with R > 0
     let found: Vec<Positive> = bands(h)
         .into_par_iter()
         .map(|(r0, r1)| {
@@ -377,10 +434,10 @@ pub fn corner_runs(
                 cells: Vec::new(),
                 direct: Vec::new(),
                 starts: Vec::with_capacity(r1 - r0 + 1),
+                ranks: vec![u16::MAX; (r1 - r0) * w],
+                touched: vec![false; r1 - r0],
             };
             let mut nib = vec![0u8; w];
-            // one row's candidates before compaction (each cell written, kept if R > 0)
-            let mut row_buf = vec![(0u32, 0u32); w];
             for r in r0..r1 {
                 pos.starts.push(pos.cells.len());
                 // columns whose window can hold a set cell: the bounding interval of the runs
@@ -430,10 +487,11 @@ pub fn corner_runs(
                 let mut code =
                     nb(xlo as isize - 2) | nb(xlo as isize - 1) << 4 | nb(xlo as isize) << 8;
                 // columns x + 1 < w read nib[x + 1] as it is; the last column reflects. No
-                // branch per cell: an empty window (code 0) is a class of response -inf, and
-                // every cell is written to the end of `positive`, kept only when R > 0
+                // branch per cell: an empty window (code 0) is a class of response -inf (a
+                // rank at or above every cut), and every visited cell's rank is written
                 let inner_hi = xhi.min(w - 1);
-                let mut len = 0;
+                pos.touched[r - r0] = true;
+                let row_ranks = &mut pos.ranks[(r - r0) * w..(r - r0 + 1) * w];
                 let mut min_rank = pos.min_rank;
                 let mut x = xlo;
                 while x < inner_hi {
@@ -448,23 +506,24 @@ pub fn corner_runs(
                             continue;
                         }
                     }
-                    for (xx, &n) in (x..x + step).zip(&nib[x + 1..x + 1 + step]) {
+                    for (o, &n) in row_ranks[x..x + step]
+                        .iter_mut()
+                        .zip(&nib[x + 1..x + 1 + step])
+                    {
                         code = (code & 0x0fff) | (n as u16) << 12;
                         let rank = rk.rank[code as usize];
                         min_rank = min_rank.min(rank);
-                        row_buf[len] = (xx as u32, rank as u32);
-                        len += (rank < npos16) as usize;
+                        *o = rank;
                         code >>= 4;
                     }
                     x += step;
                 }
                 pos.min_rank = min_rank;
-                pos.cells.extend_from_slice(&row_buf[..len]);
                 if xhi == w && inner_hi < w {
                     let x = w - 1;
                     code = (code & 0x0fff) | nb(x as isize + 1) << 12;
                     if code != 0 {
-                        pos.visit_rank(x, rk.rank[code as usize], npos);
+                        pos.visit_rank((r - r0) * w + x, rk.rank[code as usize]);
                     }
                 }
             }
@@ -490,35 +549,25 @@ pub fn corner_runs(
     };
     // the ranks that pass are those below `cut` (positive ranks by decreasing response)
     let cut = rk.resp[..npos].partition_point(|&r| r > threshold);
+    let cut16 = cut as u16; // cut <= npos < the class count <= 65,536, so below u16::MAX
     let parts = found
         .into_par_iter()
         .zip(bands(h))
         .map(|(pos, (r0, r1))| {
             let mut out: Vec<Run> = Vec::new();
             let mut starts = Vec::with_capacity(r1 - r0);
+            let mut keep = vec![0u8; w];
             for i in 0..r1 - r0 {
                 starts.push(out.len());
-                let row_first = out.len();
-                for &(x, key) in &pos.cells[pos.starts[i]..pos.starts[i + 1]] {
-                    let key = key as usize;
-                    let keep = if key < nc {
-                        key < cut
-                    } else {
-                        pos.direct[key - nc] > threshold
-                    };
-                    if !keep {
-                        continue;
-                    }
-                    let n = out.len();
-                    if n > row_first && out[n - 1].end == x {
-                        out[n - 1].end += 1; // the cell right of the row's last run
-                    } else {
-                        out.push(Run {
-                            start: x,
-                            end: x + 1,
-                        });
-                    }
+                let direct = &pos.cells[pos.starts[i]..pos.starts[i + 1]];
+                if !pos.touched[i] && direct.is_empty() {
+                    continue;
                 }
+                keep_row(&pos.ranks[i * w..(i + 1) * w], cut16, &mut keep);
+                for &(x, key) in direct {
+                    keep[x as usize] = (pos.direct[key as usize - nc] > threshold) as u8;
+                }
+                push_runs(&keep, &mut out);
             }
             (out, starts)
         })

@@ -14,10 +14,11 @@
 //!
 //! Both paths count exactly what the literal definition counts, for any thread count.
 
-use crate::grid::{Grid, Histogram};
-use crate::label::{count_enclosed_runs, Components, RowRuns, RowSource};
+use crate::grid::{bands, Grid, Histogram};
+use crate::label::{count_enclosed_runs, push_runs_by, Components, RowRuns, RowSource, Run};
 use crate::otsu::threshold_table;
 use crate::params::EnclosedParams;
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 /// A family with at most this many distinct thresholds is labelled directly, one run
@@ -49,6 +50,88 @@ impl RowSource for FreeRows<'_> {
         }
         buf
     }
+
+    /// The runs straight from the values and unknown flags, 64 cells a word, without the
+    /// byte row (AVX2 when present: compare and `movemask`, 32 cells an instruction).
+    #[inline]
+    fn push_row_runs(&self, r: usize, buf: &mut [u8], out: &mut Vec<Run>) {
+        let (vals, unk) = (self.grid.value_row(r), self.grid.unknown_row(r));
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: AVX2 is present
+            unsafe { free_runs_avx2(vals, unk, self.cut, self.unknown_free, out) };
+            return;
+        }
+        let _ = buf;
+        free_runs_plain(vals, unk, self.cut, self.unknown_free, out);
+    }
+}
+
+/// Whether one cell is free: known and `v >= cut`, or unknown and `unknown_free`.
+#[inline(always)]
+fn is_free(v: u8, u: bool, cut: u16, unknown_free: bool) -> bool {
+    if u {
+        unknown_free
+    } else {
+        v as u16 >= cut
+    }
+}
+
+/// The runs of one row of a binarisation, 64 cells packed at a time without SIMD.
+fn free_runs_plain(vals: &[u8], unk: &[bool], cut: u16, unknown_free: bool, out: &mut Vec<Run>) {
+    let uf = unknown_free as u8;
+    push_runs_by(
+        vals.len(),
+        |base| {
+            let mut bits = 0u64;
+            for (i, (&v, &u)) in vals[base..base + 64]
+                .iter()
+                .zip(&unk[base..base + 64])
+                .enumerate()
+            {
+                let u = u as u8;
+                let b = (((v as u16) >= cut) as u8 & (u ^ 1)) | (uf & u);
+                bits |= (b as u64) << i;
+            }
+            bits
+        },
+        |i| is_free(vals[i], unk[i], cut, unknown_free),
+        out,
+    );
+}
+
+/// [`free_runs_plain`] with AVX2: `v >= cut` as `max(v, cut) == v` (for `cut <= 255`; no
+/// known cell is free when `cut = 256`), selected against the unknown flags, then `movemask`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn free_runs_avx2(vals: &[u8], unk: &[bool], cut: u16, unknown_free: bool, out: &mut Vec<Run>) {
+    use std::arch::x86_64::*;
+    let n = vals.len().min(unk.len());
+    let cutv = _mm256_set1_epi8(cut.min(255) as u8 as i8);
+    let known_on = _mm256_set1_epi8(if cut <= 255 { -1 } else { 0 });
+    let unknown_on = _mm256_set1_epi8(if unknown_free { -1 } else { 0 });
+    let zero = _mm256_setzero_si256();
+    let half = |base: usize| -> u64 {
+        // SAFETY: the caller asks for base + 64 <= n, so 32 bytes from base (and from
+        // base + 32) are in both rows; a bool is one byte, 0 or 1
+        unsafe {
+            let v = _mm256_loadu_si256(vals.as_ptr().add(base) as *const __m256i);
+            let u = _mm256_loadu_si256(unk.as_ptr().add(base) as *const __m256i);
+            let ge = _mm256_and_si256(_mm256_cmpeq_epi8(_mm256_max_epu8(v, cutv), v), known_on);
+            let known = _mm256_cmpeq_epi8(u, zero);
+            let free = _mm256_or_si256(
+                _mm256_and_si256(ge, known),
+                _mm256_andnot_si256(known, unknown_on),
+            );
+            _mm256_movemask_epi8(free) as u32 as u64
+        }
+    };
+    push_runs_by(
+        n,
+        |base| half(base) | (half(base + 32) << 32),
+        |i| is_free(vals[i], unk[i], cut, unknown_free),
+        out,
+    );
 }
 
 /// The binarisation of every swept `u` (in `(0..256).step_by(sweep_step)` order).
@@ -93,6 +176,8 @@ pub fn count_binarisation(grid: &Grid, (unknown_free, cut): (bool, u16), min_are
 pub fn sweep(grid: &Grid, hist: &Histogram, params: &EnclosedParams) -> Vec<usize> {
     let keys = keys_of(hist, params);
     let mut counts: BTreeMap<Binarisation, usize> = keys.iter().map(|k| (*k, 0)).collect();
+    // the binarisations labelled directly, their runs found together in one pass
+    let mut direct_keys = Vec::new();
     for unknown_free in [false, true] {
         let cuts: Vec<u16> = counts
             .keys()
@@ -102,18 +187,78 @@ pub fn sweep(grid: &Grid, hist: &Histogram, params: &EnclosedParams) -> Vec<usiz
         if cuts.is_empty() {
             continue;
         }
-        let found = if cuts.len() <= DIRECT_MAX {
-            cuts.iter()
-                .map(|&cut| (cut, direct(grid, cut, unknown_free, params.min_area)))
-                .collect()
+        if cuts.len() <= DIRECT_MAX {
+            direct_keys.extend(
+                cuts.iter()
+                    .map(|&cut| Binarisation { unknown_free, cut })
+                    .filter(|b| b.cut < 256 || b.unknown_free), // else nothing is free: 0
+            );
         } else {
-            incremental(grid, hist, unknown_free, &cuts, params.min_area)
-        };
-        for (cut, n) in found {
-            counts.insert(Binarisation { unknown_free, cut }, n);
+            for (cut, n) in incremental(grid, hist, unknown_free, &cuts, params.min_area) {
+                counts.insert(Binarisation { unknown_free, cut }, n);
+            }
         }
     }
+    for (b, runs) in direct_keys.iter().zip(runs_of_many(grid, &direct_keys)) {
+        counts.insert(*b, count_direct(grid, &runs, params.min_area));
+    }
     keys.iter().map(|k| counts[k]).collect()
+}
+
+/// The runs of several binarisations in one pass over the grid: each row is read from
+/// memory once and binarised once per key while it is in cache (the labellings of a
+/// sweep are otherwise bound by reading the grid).
+fn runs_of_many(grid: &Grid, keys: &[Binarisation]) -> Vec<RowRuns> {
+    if keys.is_empty() {
+        return Vec::new();
+    }
+    let sources: Vec<FreeRows> = keys
+        .iter()
+        .map(|b| FreeRows {
+            grid,
+            cut: b.cut,
+            unknown_free: b.unknown_free,
+        })
+        .collect();
+    let w = grid.width;
+    let parts: Vec<Vec<(Vec<Run>, Vec<usize>)>> = bands(grid.height)
+        .into_par_iter()
+        .map(|(r0, r1)| {
+            let mut buf = vec![0u8; w];
+            let mut per: Vec<(Vec<Run>, Vec<usize>)> = keys
+                .iter()
+                .map(|_| (Vec::new(), Vec::with_capacity(r1 - r0)))
+                .collect();
+            for r in r0..r1 {
+                for (src, (runs, starts)) in sources.iter().zip(per.iter_mut()) {
+                    starts.push(runs.len());
+                    src.push_row_runs(r, &mut buf, runs);
+                }
+            }
+            per
+        })
+        .collect();
+    let mut by_key: Vec<Vec<(Vec<Run>, Vec<usize>)>> = keys
+        .iter()
+        .map(|_| Vec::with_capacity(parts.len()))
+        .collect();
+    for band in parts {
+        for (k, part) in by_key.iter_mut().zip(band) {
+            k.push(part);
+        }
+    }
+    by_key.into_iter().map(RowRuns::concat).collect()
+}
+
+/// `count_u` of one binarisation given by its runs.
+fn count_direct(grid: &Grid, runs: &RowRuns, min_area: u32) -> usize {
+    count_enclosed_runs(
+        &runs.runs,
+        &runs.row_start,
+        grid.height,
+        grid.width,
+        min_area,
+    )
 }
 
 /// One binarisation labelled by runs.
@@ -127,13 +272,7 @@ fn direct(grid: &Grid, cut: u16, unknown_free: bool, min_area: u32) -> usize {
         unknown_free,
     };
     let runs = RowRuns::of(&rows, grid.height, grid.width);
-    count_enclosed_runs(
-        &runs.runs,
-        &runs.row_start,
-        grid.height,
-        grid.width,
-        min_area,
-    )
+    count_direct(grid, &runs, min_area)
 }
 
 const ABSENT: i32 = i32::MIN;
@@ -347,6 +486,76 @@ fn seed(grid: &Grid, cut: u16, unknown_free: bool, min_area: u32) -> Forest {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn runs_straight_from_the_grid_equal_the_byte_rows() {
+        let mut st = 41u64;
+        let mut next = || {
+            st = st
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            st >> 33
+        };
+        for trial in 0..40 {
+            let (h, w) = (1 + next() as usize % 9, 1 + next() as usize % 300);
+            let v: Vec<u8> = (0..h * w)
+                .map(|_| [0u8, 1, 100, 205, 253, 254, 255][next() as usize % 7])
+                .collect();
+            let u: Vec<bool> = (0..h * w).map(|_| next() % 100 < trial * 2).collect();
+            let grid = Grid::new(&v, &u, h, w).unwrap();
+            let mut keys = Vec::new();
+            for unknown_free in [false, true] {
+                for cut in [0u16, 1, 100, 254, 255, 256] {
+                    keys.push(Binarisation { unknown_free, cut });
+                    let rows = FreeRows {
+                        grid: &grid,
+                        cut,
+                        unknown_free,
+                    };
+                    let mut buf = vec![0u8; w];
+                    let bytes: Vec<u8> = (0..h)
+                        .flat_map(|r| rows.row(r, &mut buf).to_vec())
+                        .collect();
+                    let expect = RowRuns::of(
+                        &crate::label::MaskRows {
+                            mask: &bytes,
+                            width: w,
+                        },
+                        h,
+                        w,
+                    );
+                    let got = RowRuns::of(&rows, h, w);
+                    assert_eq!(
+                        (&got.runs, &got.row_start),
+                        (&expect.runs, &expect.row_start)
+                    );
+                    for r in 0..h {
+                        let mut plain = Vec::new();
+                        free_runs_plain(
+                            grid.value_row(r),
+                            grid.unknown_row(r),
+                            cut,
+                            unknown_free,
+                            &mut plain,
+                        );
+                        assert_eq!(plain, expect.row(r), "{h}x{w} cut {cut} row {r}");
+                    }
+                }
+            }
+            for (b, many) in keys.iter().zip(runs_of_many(&grid, &keys)) {
+                let one = RowRuns::of(
+                    &FreeRows {
+                        grid: &grid,
+                        cut: b.cut,
+                        unknown_free: b.unknown_free,
+                    },
+                    h,
+                    w,
+                );
+                assert_eq!((&many.runs, &many.row_start), (&one.runs, &one.row_start));
+            }
+        }
+    }
 
     /// The literal definition: one labelling per swept u.
     fn literal(grid: &Grid, hist: &Histogram, params: &EnclosedParams) -> Vec<usize> {

@@ -44,8 +44,8 @@ impl PartialEq for Quality {
 impl Eq for Quality {}
 
 /// Bytes of working memory per cell that one evaluation may hold at its peak: the sweep's
-/// forest (4) and value order (4), or the corner step's mask (1), and the runs of a
-/// binarisation with their union-find arrays (up to about 10 for a checkerboard: 20 bytes a
+/// forest (4) and value order (4), or the corner step's mask (1) and Harris ranks (2), and
+/// the runs of a binarisation with their union-find arrays (up to about 10 for a checkerboard: 20 bytes a
 /// run, half a run a cell), rounded up.
 pub const WORK_BYTES_PER_CELL: usize = 16;
 

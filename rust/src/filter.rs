@@ -7,9 +7,34 @@ use crate::border::reflect101;
 /// Binomial taps `[1 4 6 4 1]` (the 5-tap Gaussian OpenCV uses for sigma ~ 1).
 const B: [u16; 5] = [1, 4, 6, 4, 1];
 
+/// Whether the processor has AVX2 (cached by std after the first call): the row filters then
+/// run as AVX2 copies of themselves, the same integer operations on wider registers.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn has_avx2() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+}
+
 /// Row `r` of the structure image `S = v` for known cells, `0` for unknown ones.
 #[inline]
 pub fn structure_row(values: &[u8], unknown: &[bool], out: &mut [u16]) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: AVX2 is present
+        unsafe { structure_row_avx2(values, unknown, out) };
+        return;
+    }
+    structure_row_in(values, unknown, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn structure_row_avx2(values: &[u8], unknown: &[bool], out: &mut [u16]) {
+    structure_row_in(values, unknown, out);
+}
+
+#[inline(always)]
+fn structure_row_in(values: &[u8], unknown: &[bool], out: &mut [u16]) {
     for ((o, &v), &u) in out.iter_mut().zip(values).zip(unknown) {
         // branch-free (v masked by 0 or 0xff), so that the loop vectorises
         *o = (v & (u as u8).wrapping_sub(1)) as u16;
@@ -20,6 +45,35 @@ pub fn structure_row(values: &[u8], unknown: &[bool], out: &mut [u16]) {
 /// without rounding). `s_row(k)` returns row `k` of S; `vbuf` is scratch of the row width.
 /// Values stay below 65,281, so `u16` is exact.
 pub fn blur_row<'s>(
+    s_row: &impl Fn(usize) -> &'s [u16],
+    r: usize,
+    height: usize,
+    vbuf: &mut [u16],
+    out: &mut [u16],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: AVX2 is present
+        unsafe { blur_row_avx2(s_row, r, height, vbuf, out) };
+        return;
+    }
+    blur_row_in(s_row, r, height, vbuf, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn blur_row_avx2<'s>(
+    s_row: &impl Fn(usize) -> &'s [u16],
+    r: usize,
+    height: usize,
+    vbuf: &mut [u16],
+    out: &mut [u16],
+) {
+    blur_row_in(s_row, r, height, vbuf, out);
+}
+
+#[inline(always)]
+fn blur_row_in<'s>(
     s_row: &impl Fn(usize) -> &'s [u16],
     r: usize,
     height: usize,
@@ -71,6 +125,23 @@ pub fn blur_row<'s>(
 /// `Laplacian` ksize 1), thresholded: `out[x] = (L > t)` as 0/1, with `t` an integer
 /// (the caller turns the float threshold into `floor`, which is exact for integer L).
 pub fn laplacian_mask_row(up: &[u16], mid: &[u16], down: &[u16], t: i32, out: &mut [u8]) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: AVX2 is present
+        unsafe { laplacian_mask_row_avx2(up, mid, down, t, out) };
+        return;
+    }
+    laplacian_mask_row_in(up, mid, down, t, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn laplacian_mask_row_avx2(up: &[u16], mid: &[u16], down: &[u16], t: i32, out: &mut [u8]) {
+    laplacian_mask_row_in(up, mid, down, t, out);
+}
+
+#[inline(always)]
+fn laplacian_mask_row_in(up: &[u16], mid: &[u16], down: &[u16], t: i32, out: &mut [u8]) {
     let w = mid.len();
     let lap = |x: usize, l: usize, r: usize| -> i32 {
         up[x] as i32 + down[x] as i32 + mid[l] as i32 + mid[r] as i32 - 4 * mid[x] as i32
@@ -126,6 +197,35 @@ mod tests {
                         "{h}x{w} at {r},{x}"
                     );
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn dispatched_rows_equal_the_plain_copies() {
+        // on a machine with AVX2 the public functions run the AVX2 copies
+        for w in [1usize, 2, 3, 5, 17, 64, 301] {
+            let h = 6;
+            let v: Vec<u8> = (0..h * w).map(|i| ((i * 97 + 5) % 256) as u8).collect();
+            let u: Vec<bool> = (0..h * w).map(|i| i % 7 == 3).collect();
+            let (mut s1, mut s2) = (vec![0u16; h * w], vec![0u16; h * w]);
+            structure_row(&v, &u, &mut s1);
+            structure_row_in(&v, &u, &mut s2);
+            assert_eq!(s1, s2);
+            let row = |k: usize| &s1[k * w..(k + 1) * w];
+            let mut vbuf = vec![0u16; w];
+            let (mut g1, mut g2) = (vec![0u16; h * w], vec![0u16; h * w]);
+            for r in 0..h {
+                blur_row(&row, r, h, &mut vbuf, &mut g1[r * w..(r + 1) * w]);
+                blur_row_in(&row, r, h, &mut vbuf, &mut g2[r * w..(r + 1) * w]);
+            }
+            assert_eq!(g1, g2);
+            let g = |k: usize| &g1[k * w..(k + 1) * w];
+            for t in [-5000, -1, 0, 1, 3000] {
+                let (mut o1, mut o2) = (vec![0u8; w], vec![0u8; w]);
+                laplacian_mask_row(g(1), g(2), g(3), t, &mut o1);
+                laplacian_mask_row_in(g(1), g(2), g(3), t, &mut o2);
+                assert_eq!(o1, o2, "width {w} t {t}");
             }
         }
     }

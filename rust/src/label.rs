@@ -22,6 +22,13 @@ pub trait RowSource: Sync {
     /// Row `r` as 0/1 bytes, either borrowed from the source or written into `buf`
     /// (`buf.len()` is the width).
     fn row<'b>(&'b self, r: usize, buf: &'b mut [u8]) -> &'b [u8];
+
+    /// Append the runs of row `r` to `out` (`buf.len()` is the width): by default
+    /// [`push_runs`] of [`RowSource::row`]; a source may find them without the byte row.
+    #[inline]
+    fn push_row_runs(&self, r: usize, buf: &mut [u8], out: &mut Vec<Run>) {
+        push_runs(self.row(r, buf), out);
+    }
 }
 
 /// A binary image held as a row-major 0/1 byte mask.
@@ -56,7 +63,7 @@ impl RowRuns {
                 let mut starts = Vec::with_capacity(r1 - r0);
                 for r in r0..r1 {
                     starts.push(runs.len());
-                    push_runs(source.row(r, &mut buf), &mut runs);
+                    source.push_row_runs(r, &mut buf, &mut runs);
                 }
                 (runs, starts)
             })
@@ -109,8 +116,36 @@ pub struct Components {
 /// The 0/1 bytes of one 64-cell block packed into bits (bit `i` = byte `i`): eight bytes at a
 /// time by one multiplication, which moves byte `i`'s low bit to bit `49 + i` (every partial
 /// product lands on its own bit, so nothing carries).
+#[cfg(target_arch = "x86_64")]
 #[inline]
 fn pack64(block: &[u8]) -> u64 {
+    // SSE2 (baseline on x86_64): each byte's low bit moved to its sign bit, then `movemask`
+    use std::arch::x86_64::{__m128i, _mm_loadu_si128, _mm_movemask_epi8, _mm_slli_epi16};
+    debug_assert!(block.len() >= 64);
+    let mut bits = 0u64;
+    for k in 0..4 {
+        let c = &block[16 * k..16 * k + 16];
+        // SAFETY: `c` holds 16 bytes (unaligned load); SSE2 is always present on x86_64
+        let m = unsafe {
+            let x = _mm_loadu_si128(c.as_ptr() as *const __m128i);
+            _mm_movemask_epi8(_mm_slli_epi16(x, 7)) as u32 as u64
+        };
+        bits |= (m & 0xffff) << (16 * k);
+    }
+    bits
+}
+
+/// [`pack64`] without SSE2.
+#[cfg(not(target_arch = "x86_64"))]
+#[inline]
+fn pack64(block: &[u8]) -> u64 {
+    pack64_scalar(block)
+}
+
+/// The multiplication form of [`pack64`] (also the reference its test compares with).
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+#[inline]
+fn pack64_scalar(block: &[u8]) -> u64 {
     const M: u64 = 0x0002_0408_1020_4081; // sum of 2^(7j), j = 0..8
     let mut bits = 0u64;
     for (k, c) in block.chunks_exact(8).enumerate() {
@@ -128,7 +163,25 @@ fn pack64(block: &[u8]) -> u64 {
 /// before them) are visited by trailing-zero counts, one loop exit per word instead of one
 /// unpredictable branch per run boundary (noisy maps have many short runs).
 pub fn push_runs(row: &[u8], out: &mut Vec<Run>) {
-    let n = row.len();
+    push_runs_by(
+        row.len(),
+        |base| pack64(&row[base..base + 64]),
+        |i| row[i] & 1 != 0,
+        out,
+    );
+}
+
+/// [`push_runs`] of a row of `n` cells given by `block(base)`, the bits of cells
+/// `base..base + 64` (bit `i` = cell `base + i`; asked for `base + 64 <= n` only: every
+/// multiple of 64 in order, then `n - 64` for the last `n % 64` cells), and `cell(i)`, asked
+/// only for rows shorter than 64 cells.
+#[inline(always)]
+pub fn push_runs_by(
+    n: usize,
+    mut block: impl FnMut(usize) -> u64,
+    cell: impl Fn(usize) -> bool,
+    out: &mut Vec<Run>,
+) {
     let mut open: Option<u32> = None;
     let mut carry = 0u64; // the last cell of the previous word
                           // runs alternate start and end edges, a pattern branch predictors follow
@@ -137,9 +190,8 @@ pub fn push_runs(row: &[u8], out: &mut Vec<Run>) {
         None => *open = Some(pos),
     };
     let mut base = 0usize;
-    let mut blocks = row.chunks_exact(64);
-    for block in &mut blocks {
-        let bits = pack64(block);
+    while base + 64 <= n {
+        let bits = block(base);
         let mut edges = bits ^ ((bits << 1) | carry);
         carry = bits >> 63;
         while edges != 0 {
@@ -152,12 +204,27 @@ pub fn push_runs(row: &[u8], out: &mut Vec<Run>) {
         }
         base += 64;
     }
-    for (i, &b) in blocks.remainder().iter().enumerate() {
-        let bit = (b & 1) as u64;
-        if bit != carry {
-            edge((base + i) as u32, &mut open, out);
+    let rem = n - base;
+    if rem > 0 && n >= 64 {
+        // the last `rem` cells as the top of the word that ends the row, shifted down
+        let bits = block(n - 64) >> (64 - rem);
+        let mut edges = (bits ^ ((bits << 1) | carry)) & ((1u64 << rem) - 1);
+        while edges != 0 {
+            edge(
+                (base + edges.trailing_zeros() as usize) as u32,
+                &mut open,
+                out,
+            );
+            edges &= edges - 1;
         }
-        carry = bit;
+    } else {
+        for i in base..n {
+            let bit = cell(i) as u64;
+            if bit != carry {
+                edge(i as u32, &mut open, out);
+            }
+            carry = bit;
+        }
     }
     if let Some(start) = open {
         out.push(Run {
@@ -857,6 +924,28 @@ mod tests {
                     },
                     naive_runs(&row)
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn pack64_equals_the_multiplication_form() {
+        let mut state = 5u64;
+        for density in 0..=100u64 {
+            for _ in 0..50 {
+                let block: Vec<u8> = (0..64)
+                    .map(|_| {
+                        state = state
+                            .wrapping_mul(6364136223846793005)
+                            .wrapping_add(1442695040888963407);
+                        ((state >> 33) % 100 < density) as u8
+                    })
+                    .collect();
+                let bits = pack64(&block);
+                assert_eq!(bits, pack64_scalar(&block));
+                for (i, &b) in block.iter().enumerate() {
+                    assert_eq!((bits >> i) & 1, b as u64);
+                }
             }
         }
     }

@@ -48,6 +48,24 @@ pub fn otsu(hist: &[u64; 256], total: u64) -> u8 {
 /// chains of different `u` overlap. Every lane performs exactly [`otsu`]'s operations in
 /// its order, so the thresholds are the same bit for bit (tested against it).
 pub fn threshold_table(hist: &Histogram) -> [u8; 256] {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: AVX2 is present
+        return unsafe { threshold_table_avx2(hist) };
+    }
+    threshold_table_in(hist)
+}
+
+/// [`threshold_table`] compiled for AVX2: the same float operations in the same order, four
+/// lanes a register instead of two (no FMA, so every result is the same bit for bit).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn threshold_table_avx2(hist: &Histogram) -> [u8; 256] {
+    threshold_table_in(hist)
+}
+
+#[inline(always)]
+fn threshold_table_in(hist: &Histogram) -> [u8; 256] {
     let total = hist.known_count() + hist.unknown;
     let scale = 1.0 / (total as f64);
     const N: usize = 256;
