@@ -791,6 +791,26 @@ impl Components {
 mod tests {
     use super::*;
 
+    /// `n` cells, each set with probability `density`% (a seeded LCG: the same masks on
+    /// every run).
+    fn random_mask(state: &mut u64, n: usize, density: u64) -> Vec<u8> {
+        (0..n)
+            .map(|_| {
+                *state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((*state >> 33) % 100 < density) as u8
+            })
+            .collect()
+    }
+
+    fn pool_of(threads: usize) -> rayon::ThreadPool {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+    }
+
     fn from_str(rows: &[&str]) -> (Vec<u8>, usize, usize) {
         let h = rows.len();
         let w = rows[0].len();
@@ -860,14 +880,7 @@ mod tests {
         let mut state = 12345u64;
         for density in [20u64, 45, 60] {
             let (h, w) = (300, 37);
-            let m: Vec<u8> = (0..h * w)
-                .map(|_| {
-                    state = state
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    ((state >> 33) % 100 < density) as u8
-                })
-                .collect();
+            let m = random_mask(&mut state, h * w, density);
             let c = Components::label(&MaskRows { mask: &m, width: w }, h, w);
             assert_eq!((c.count(), c.count_enclosed(1)), naive_count(&m, h, w));
         }
@@ -900,14 +913,7 @@ mod tests {
         for trial in 0..2000 {
             let w = 1 + trial % 300;
             let density = trial % 101;
-            let row: Vec<u8> = (0..w)
-                .map(|_| {
-                    state = state
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    ((state >> 33) % 100 < density as u64) as u8
-                })
-                .collect();
+            let row = random_mask(&mut state, w, density as u64);
             let mut got = vec![Run { start: 7, end: 9 }]; // appended to, not replaced
             push_runs(&row, &mut got);
             let mut expect = vec![Run { start: 7, end: 9 }];
@@ -933,14 +939,7 @@ mod tests {
         let mut state = 5u64;
         for density in 0..=100u64 {
             for _ in 0..50 {
-                let block: Vec<u8> = (0..64)
-                    .map(|_| {
-                        state = state
-                            .wrapping_mul(6364136223846793005)
-                            .wrapping_add(1442695040888963407);
-                        ((state >> 33) % 100 < density) as u8
-                    })
-                    .collect();
+                let block = random_mask(&mut state, 64, density);
                 let bits = pack64(&block);
                 assert_eq!(bits, pack64_scalar(&block));
                 for (i, &b) in block.iter().enumerate() {
@@ -960,22 +959,12 @@ mod tests {
             (130, 64, 60),
             (65, 5, 70),
         ] {
-            let m: Vec<u8> = (0..h * w)
-                .map(|_| {
-                    state = state
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    ((state >> 33) % 100 < density) as u8
-                })
-                .collect();
+            let m = random_mask(&mut state, h * w, density);
             let rows = MaskRows { mask: &m, width: w };
             let rr = RowRuns::of(&rows, h, w);
             let expect = naive_count(&m, h, w).0;
             for threads in [1, 2] {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap();
+                let pool = pool_of(threads);
                 let got = pool.install(|| count_components(&rr.runs, &rr.row_start, h));
                 assert_eq!(got, expect, "{h}x{w} density {density} threads {threads}");
             }
@@ -992,24 +981,14 @@ mod tests {
             (130, 64, 60),
             (65, 5, 80),
         ] {
-            let m: Vec<u8> = (0..h * w)
-                .map(|_| {
-                    state = state
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    ((state >> 33) % 100 < density) as u8
-                })
-                .collect();
+            let m = random_mask(&mut state, h * w, density);
             let rows = MaskRows { mask: &m, width: w };
             let rr = RowRuns::of(&rows, h, w);
             let c = Components::label(&rows, h, w);
             for min_area in [0, 1, 2, 5, 40] {
                 let expect = c.count_enclosed(min_area);
                 for threads in [1, 2] {
-                    let pool = rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads)
-                        .build()
-                        .unwrap();
+                    let pool = pool_of(threads);
                     let got = pool
                         .install(|| count_enclosed_runs(&rr.runs, &rr.row_start, h, w, min_area));
                     assert_eq!(got, expect, "{h}x{w} {density}% min {min_area} x{threads}");
@@ -1029,24 +1008,14 @@ mod tests {
             (130, 64, 55),
             (65, 5, 30),
         ] {
-            let m: Vec<u8> = (0..h * w)
-                .map(|_| {
-                    state = state
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    ((state >> 33) % 100 < density) as u8
-                })
-                .collect();
+            let m = random_mask(&mut state, h * w, density);
             for min_size in [0, 1, 2, 5, 30] {
                 let c = Components::label(&MaskRows { mask: &m, width: w }, h, w);
                 let mut expect_mask = m.clone();
                 c.clear_small(&mut expect_mask, min_size);
                 let expect = c.runs_of_large(min_size);
                 for threads in [1, 2] {
-                    let pool = rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads)
-                        .build()
-                        .unwrap();
+                    let pool = pool_of(threads);
                     let mut got_mask = m.clone();
                     let rr = RowRuns::of(&MaskRows { mask: &m, width: w }, h, w);
                     let got = pool.install(|| drop_small_runs(rr, &mut got_mask, h, w, min_size));
