@@ -51,13 +51,13 @@ def _map_saver_shades(grey: np.ndarray) -> tuple[list[int], np.ndarray] | None:
     """The map_saver shades present in a uint8 image and its ``== 205`` mask, or None when
     the image holds any other value.
 
-    Five vectorised comparisons (about 0.1 ms per million cells) instead of a 256-bin
-    histogram and a table lookup (about 0.8 ms): most maps are map_saver images, and for
-    them the unknown mask is exactly ``grey == 205``.
+    One vectorised comparison per shade of :data:`MAP_SAVER_SHADES` (about 0.1 ms per
+    million cells) instead of a 256-bin histogram and a table lookup (about 0.8 ms): most
+    maps are map_saver images, and for them the unknown mask is exactly ``grey == 205``.
     """
     unknown = np.ascontiguousarray(grey == MAP_SAVER_UNKNOWN)
-    counts = {v: int(np.count_nonzero(grey == v)) for v in (0, 254, 255)}
-    counts[MAP_SAVER_UNKNOWN] = int(np.count_nonzero(unknown))
+    counts = {v: int(np.count_nonzero(unknown if v == MAP_SAVER_UNKNOWN else grey == v))
+              for v in MAP_SAVER_SHADES}
     if sum(counts.values()) != grey.size:
         return None
     return sorted(v for v, n in counts.items() if n), unknown
