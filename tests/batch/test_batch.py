@@ -710,3 +710,31 @@ def test_discovery_streams_the_runs_discover_runs_lists(test_data: Path, tmp_pat
                           for r in office)
     assert found.layout_lines() == describe_layout(listed)
     assert found.layout_lines()[0].startswith(f"{len(listed)} runs: ")
+
+
+def test_discovery_replays_its_walk_and_walks_again_once_closed(tmp_path: Path) -> None:
+    """Iterating a Discovery gives the runs its walk found (read back from its temporary
+    file, more than one chunk of them here): a map added afterwards is not among them, so
+    ``len()`` stays their count; two iterations may interleave; once closed, iterating
+    walks the folders again and finds the new map."""
+    from slamq.batch.runs import Discovery
+
+    Discovery.CHUNK, chunk = 3, Discovery.CHUNK
+    try:
+        for i in range(7):
+            d = tmp_path / "algo" / "seq" / f"r{i}"
+            d.mkdir(parents=True)
+            (d / "map.pgm").write_bytes(b"P5 2 2 255\n" + bytes([0, 205, 254, 254]))
+        found = Discovery(tmp_path)
+        walked = discover_runs(tmp_path)
+        extra = tmp_path / "algo" / "seq" / "r7"
+        extra.mkdir()
+        (extra / "map.pgm").write_bytes(b"P5 2 2 255\n" + bytes([0, 205, 254, 254]))
+        assert list(found) == walked and len(found) == len(walked) == 7
+        a, b = iter(found), iter(found)
+        pairs = [(next(a), next(b)) for _ in range(7)]
+        assert [x for x, _ in pairs] == [y for _, y in pairs] == walked
+        found.close()
+        assert [r.run for r in found] == [f"r{i}" for i in range(8)]
+    finally:
+        Discovery.CHUNK = chunk

@@ -14,8 +14,9 @@ How it runs
   worker, and results stream back with ``as_completed``; at most two chunks per worker
   thread are in flight, and records are put back in input order before they are written.
 
-The runs come from a :class:`~slamq.batch.runs.Discovery`: counted by a first walk of the
-sources, then found again as they are evaluated, so no list of every run is held. Results
+The runs come from a :class:`~slamq.batch.runs.Discovery`: found by one walk of the
+sources, which counts them and writes them to a temporary file, then read back from it a
+chunk at a time as they are evaluated, so no list of every run is held in memory. Results
 are written to ``out`` one chunk at a time (see :class:`slamq.results.ResultsFile`); what
 resuming skips is kept as 64-bit digests (16 bytes per stored row).
 """
@@ -79,9 +80,9 @@ def evaluate_many(
     ----------
     sources : path, Run, an iterable of them, or a :class:`slamq.batch.runs.Discovery`
         Folders, manifest CSV files, map files or :class:`Run` objects; see
-        :func:`slamq.discover_runs`. They are walked twice (to count the runs and find
-        each sequence's ground-truth map, then to evaluate them as they are found), so
-        memory does not grow with the number of maps.
+        :func:`slamq.discover_runs`. They are walked once (to count the runs and find
+        each sequence's ground-truth map); the runs found wait in a temporary file until
+        they are evaluated, so memory does not grow with the number of maps.
     threads : int, optional
         Worker threads (local), or threads per chunk inside each Dask worker. Default: the
         CPUs available (local); the worker's CPUs divided by its Dask threads (Dask).

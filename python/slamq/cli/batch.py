@@ -99,8 +99,8 @@ def _cmd_batch(args: argparse.Namespace) -> int:
         for line in describe_layout(found):
             print(line)
         return EXIT_OK if found else EXIT_BAD_INPUT
-    # counted and summarised by a first walk, evaluated as a second walk finds them: no
-    # list of every run in memory
+    # counted and summarised by one walk, read back from a temporary file as they are
+    # evaluated: no list of every run in memory
     runs = Discovery(args.sources)
     if not args.quiet:
         for line in runs.layout_lines():
