@@ -125,6 +125,9 @@ def otsu_table(
     values: npt.NDArray[np.uint8], unknown: npt.NDArray[np.bool_]
 ) -> list[int]: ...
 def default_params() -> dict[str, float | int]: ...
+def map_saver_shades(
+    grey: npt.NDArray[np.uint8],
+) -> tuple[list[int] | None, npt.NDArray[np.bool_]]: ...
 def compare(
     est_values: npt.NDArray[np.uint8],
     est_unknown: npt.NDArray[np.bool_],

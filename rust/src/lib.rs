@@ -3,6 +3,7 @@
 //!
 //! Module map (one idea per file; nothing here knows about Python except `python`):
 //! - [`grid`]: the borrowed map view and its checks, the value histogram, row bands.
+//! - [`pixels`]: the loader's one pass over a map_saver image (its shades, its unknown mask).
 //! - [`border`]: reflect-101 indexing shared by every filter.
 //! - [`filter`]: integer binomial blur + Laplacian (the Harris sums are tabulated per 4x4
 //!   mask window in [`corners`]).
@@ -41,6 +42,7 @@ pub mod icp;
 pub mod label;
 pub mod otsu;
 pub mod params;
+pub mod pixels;
 pub mod proportion;
 pub mod se2;
 pub mod table;

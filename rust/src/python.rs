@@ -308,6 +308,35 @@ fn evaluate_many<'py>(
         .collect()
 }
 
+/// map_saver_shades(grey) -> (list[int] | None, numpy.ndarray): which of map_saver's grey
+/// levels (0, 205, 254, 255) a C-contiguous 2-D uint8 image holds, or None when it holds any
+/// other value, and its unknown mask `grey == 205` (bool, the image's shape); one pass
+/// without the GIL (`rust/src/pixels.rs`).
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+fn map_saver_shades<'py>(
+    py: Python<'py>,
+    grey: PyReadonlyArray2<'py, u8>,
+) -> PyResult<(Option<Vec<u32>>, Bound<'py, PyArray2<bool>>)> {
+    let [h, w] = [grey.shape()[0], grey.shape()[1]];
+    let g = grey
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("grey must be a C-contiguous uint8 array"))?;
+    let (seen, unknown) = compute(py, 0, || {
+        let mut unknown = vec![false; g.len()];
+        let seen = crate::pixels::map_saver_shades(g, &mut unknown);
+        (seen, unknown)
+    })?;
+    let present = seen.map(|seen| {
+        crate::pixels::MAP_SAVER_SHADES
+            .iter()
+            .zip(seen)
+            .filter_map(|(&v, s)| s.then_some(u32::from(v)))
+            .collect()
+    });
+    Ok((present, PyArray1::from_vec(py, unknown).reshape([h, w])?))
+}
+
 /// default_params() -> dict: the core's own defaults (rust/src/params.rs), for the test that
 /// keeps them equal to the Python table's.
 #[pyfunction]
@@ -687,6 +716,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ate_moments, m)?)?;
     m.add_function(wrap_pyfunction!(ate_errors, m)?)?;
     m.add_function(wrap_pyfunction!(default_params, m)?)?;
+    m.add_function(wrap_pyfunction!(map_saver_shades, m)?)?;
     m.add("WORK_BYTES_PER_CELL", crate::evaluate::WORK_BYTES_PER_CELL)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_class::<RawQuality>()?;

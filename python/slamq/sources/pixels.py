@@ -51,10 +51,30 @@ def _map_saver_shades(grey: np.ndarray) -> tuple[list[int], np.ndarray] | None:
     """The map_saver shades present in a uint8 image and its ``== 205`` mask, or None when
     the image holds any other value.
 
-    One vectorised comparison per shade of :data:`MAP_SAVER_SHADES` (about 0.1 ms per
-    million cells) instead of a 256-bin histogram and a table lookup (about 0.8 ms): most
-    maps are map_saver images, and for them the unknown mask is exactly ``grey == 205``.
+    Most maps are map_saver images, and for them the unknown mask is exactly
+    ``grey == 205``. The Rust core finds both in one pass without the GIL
+    (``rust/src/pixels.rs``, about 0.1 ms per million cells; the numpy version,
+    :func:`_map_saver_shades_numpy`, held the GIL for its counts, which a batch's other
+    threads then waited for).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> shades, unknown = _map_saver_shades(np.array([[0, 205], [254, 254]], np.uint8))
+    >>> shades, unknown.tolist()
+    ([0, 205, 254], [[False, True], [False, False]])
+    >>> _map_saver_shades(np.array([[0, 100]], np.uint8)) is None
+    True
     """
+    from slamq import _core
+
+    present, unknown = _core.map_saver_shades(np.ascontiguousarray(grey))
+    return None if present is None else (present, unknown)
+
+
+def _map_saver_shades_numpy(grey: np.ndarray) -> tuple[list[int], np.ndarray] | None:
+    """:func:`_map_saver_shades` with numpy: one comparison and one count per shade of
+    :data:`MAP_SAVER_SHADES` (the reference the tests hold the Rust pass to)."""
     unknown = np.ascontiguousarray(grey == MAP_SAVER_UNKNOWN)
     counts = {v: int(np.count_nonzero(unknown if v == MAP_SAVER_UNKNOWN else grey == v))
               for v in MAP_SAVER_SHADES}
