@@ -53,6 +53,7 @@ import slamq.sources.mapserver  # noqa: F401
 src, out, threads, chunk = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
 params = json.loads(sys.argv[5]) if len(sys.argv) > 5 else {}
 t0 = time.perf_counter()
+main0 = time.thread_time()
 n = failed = 0
 for rec in evaluate_many(src, threads=threads, chunk_size=chunk, out=out, **params):
     n += 1
@@ -60,7 +61,7 @@ for rec in evaluate_many(src, threads=threads, chunk_size=chunk, out=out, **para
 dt = time.perf_counter() - t0
 ru = resource.getrusage(resource.RUSAGE_SELF)
 print(json.dumps({"n": n, "failed": failed, "seconds": dt, "rss_mb": ru.ru_maxrss / 1024.0,
-                  "cpu": ru.ru_utime + ru.ru_stime}))
+                  "cpu": ru.ru_utime + ru.ru_stime, "main_cpu": time.thread_time() - main0}))
 """
 
 
@@ -195,6 +196,9 @@ def main() -> None:
     ap.add_argument("--scaling-maps", type=int, default=1000,
                     help="maps for the 1- vs 2-thread comparison (default 1000)")
     ap.add_argument("--chunk-size", type=int, default=32)
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="--dense: runs of each configuration, 1 and 2 threads alternating; "
+                         "the table gives their medians (default 3)")
     ap.add_argument("--keep", action="store_true", help="keep the temporary folder")
     ap.add_argument("--dense", action="store_true",
                     help="issue 15: 1-Mcell dense crops of real maps as PGM + YAML (not "
@@ -268,18 +272,33 @@ def dense(args: argparse.Namespace) -> None:
             return
         print(f"{args.scaling_maps} dense 1-Mcell crops (PGM + YAML) in {maps}; CPUs "
               f"available: {len(os.sched_getaffinity(0))}")
-        print("\n| run | maps/s (in batch) | ms per map | CPU s / wall s | failed |")
-        print("|---|---:|---:|---:|---:|")
+        print(f"\nEach row: the median of {args.repeat} runs, 1- and 2-thread runs "
+              "alternating (so that a slow spell of the machine hits both); the ratio is that "
+              "of the medians, the range that of the runs paired in order.\n")
+        print("| run | maps/s (in batch), median | range | ms per map | CPU s / wall s | "
+              "main thread CPU ms per map | failed |")
+        print("|---|---:|---:|---:|---:|---:|---:|")
         for label, params in (("default", {}),
                               ("canonical_resolution=0", {"canonical_resolution": 0})):
-            t1 = run_batch(maps, tmp / "t1.parquet", 1, args.chunk_size, params)
-            t2 = run_batch(maps, tmp / "t2.parquet", 2, args.chunk_size, params)
-            for name, r in ((f"{label}, 1 thread", t1), (f"{label}, 2 threads", t2)):
-                print(f"| {name} | {r['n'] / r['seconds']:.1f} | "
-                      f"{1000 * r['seconds'] / r['n']:.1f} | {r['cpu'] / r['wall']:.2f} | "
-                      f"{r['failed']} |")
+            ones, twos = [], []
+            for _ in range(args.repeat):
+                ones.append(run_batch(maps, tmp / "t1.parquet", 1, args.chunk_size, params))
+                twos.append(run_batch(maps, tmp / "t2.parquet", 2, args.chunk_size, params))
+            rows = []
+            for name, runs in ((f"{label}, 1 thread", ones), (f"{label}, 2 threads", twos)):
+                rates = sorted(r["n"] / r["seconds"] for r in runs)
+                r = sorted(runs, key=lambda r: r["n"] / r["seconds"])[len(runs) // 2]
+                rows.append(r)
+                print(f"| {name} | {rates[len(rates) // 2]:.1f} | {rates[0]:.0f}-{rates[-1]:.0f} | "
+                      f"{1000 * r['seconds'] / r['n']:.2f} | {r['cpu'] / r['wall']:.2f} | "
+                      f"{1000 * r['main_cpu'] / r['n']:.3f} | "
+                      f"{sum(x['failed'] for x in runs)} |")
+            t1, t2 = rows
             ratio = (t2["n"] / t2["seconds"]) / (t1["n"] / t1["seconds"])
-            print(f"| {label}: 2 threads / 1 thread | {ratio:.2f}x (target >= 1.8x) | | | |")
+            pairs = sorted((b["n"] / b["seconds"]) / (a["n"] / a["seconds"])
+                           for a, b in zip(ones, twos))
+            print(f"| {label}: 2 threads / 1 thread | {ratio:.2f}x (target >= 1.8x) | "
+                  f"{pairs[0]:.2f}-{pairs[-1]:.2f}x | | | | |")
             if label == "default":
                 first = t1
         costs = per_map_costs(maps)
