@@ -547,9 +547,13 @@ def _compact_parquet(path: Path, journal: Path, row_group: int) -> None:
     """Parquet file + journal -> a new Parquet file (atomic rename), then drop the journal.
 
     Streamed: a first pass takes the 128-bit key digest of every row (16 bytes each) and
-    the columns of every part, the second writes the rows no later row supersedes, a row
-    group at a time; memory does not hold the table.
+    the columns of every part, from the same Arrow tables (the journal parsed once for
+    both); the second writes the rows no later row supersedes, a row group at a time;
+    memory does not hold the table. (Keeping the first pass's tables in a temporary Arrow
+    IPC file instead of parsing the journal again saved another half of the time but
+    raised the peak memory by about 20 MiB, which the Arrow allocator kept.)
     """
+    import numpy as np
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -560,15 +564,12 @@ def _compact_parquet(path: Path, journal: Path, row_group: int) -> None:
             schemas.append(pq.read_schema(path))
         except Exception as exc:  # noqa: BLE001 - pyarrow raises several types
             raise MapError(f"{path}: not a readable Parquet file: {exc}") from exc
-    schemas += [t.schema for t in _jsonl_tables(journal)]
+    digests = [_key_digests128(_parquet_rows(path, list(KEY)))] if path.exists() else []
+    for table in _jsonl_tables(journal):
+        schemas.append(table.schema)
+        digests.append(_table_key_digests128(table))
     schema = _unify(schemas) if schemas else _arrow_table([]).schema
-
-    def rows() -> Iterator[dict[str, Any]]:
-        if path.exists():
-            yield from _parquet_rows(path, list(KEY))
-        yield from _iter_jsonl(journal)
-
-    keep = _last_of_each(_key_digests128(rows()))
+    keep = _last_of_each(np.concatenate(digests) if digests else np.zeros((0, 2), np.int64))
 
     def parts() -> Iterator[Any]:
         if path.exists():
@@ -601,6 +602,14 @@ def _compact_parquet(path: Path, journal: Path, row_group: int) -> None:
         journal.unlink()
     except FileNotFoundError:
         pass
+
+
+def _table_key_digests128(table: Any) -> Any:
+    """:func:`_key_digests128` of the rows of an Arrow table (a key column it lacks is
+    None in every row, as in a record without that key)."""
+    cols = [table.column(k).to_pylist() if k in table.column_names
+            else [None] * table.num_rows for k in KEY]
+    return _key_digests128(dict(zip(KEY, row)) for row in zip(*cols))
 
 
 def _unify(schemas: list[Any]) -> Any:
