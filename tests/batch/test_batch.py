@@ -11,12 +11,15 @@ import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 import pandas as pd
 import pytest
 from conftest import slamq_env  # noqa: E402
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import slamq
 from slamq.batch import Run, discover_runs, evaluate_many, read_manifest
@@ -738,3 +741,22 @@ def test_discovery_replays_its_walk_and_walks_again_once_closed(tmp_path: Path) 
         assert [r.run for r in found] == [f"r{i}" for i in range(8)]
     finally:
         Discovery.CHUNK = chunk
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.dictionaries(
+    st.text(min_size=1, max_size=8),
+    st.one_of(st.none(), st.booleans(), st.integers(-(2**70), 2**70), st.floats(), st.text(),
+              st.floats().map(np.float64), st.integers(-5, 5).map(np.int64),
+              st.lists(st.floats(), max_size=3)),
+    max_size=8))
+def test_a_results_line_is_the_same_with_and_without_the_plain_record_shortcut(
+    rec: dict[str, Any],
+) -> None:
+    """A record of plain values is dumped without a json_value call per value; the line is
+    the one json_value gives (NaN and infinities null, numpy scalars numbers)."""
+    from slamq.results.columns import json_value
+    from slamq.results.files import _dumps
+
+    want = json.dumps({k: json_value(v) for k, v in rec.items()}, allow_nan=False) + "\n"
+    assert _dumps(rec) == want

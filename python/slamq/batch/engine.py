@@ -190,6 +190,8 @@ class _Done:
         """The fingerprint digest stored for ``key``, or None."""
         import numpy as np
 
+        if not len(self.keys):  # a fresh batch: no digest to take
+            return None
         d = key_digest(key)
         i = int(np.searchsorted(self.keys, d))
         if i < len(self.keys) and int(self.keys[i]) == d:

@@ -638,7 +638,20 @@ def _conform(table: Any, schema: Any) -> Any:
     return pa.Table.from_arrays(arrays, schema=schema)
 
 
+#: Value types :func:`_dumps` writes as they are (``json_value`` leaves them unchanged, but
+#: for a float that is NaN or infinite).
+_PLAIN = frozenset({str, int, float, bool, type(None)})
+
+
 def _dumps(rec: dict[str, Any]) -> str:
+    """One JSON line of a record: values through :func:`json_value` (NaN -> null, numpy
+    scalars -> numbers, paths -> strings). A record of plain values (what a batch makes)
+    is dumped as it is: the same line, without a call per value."""
+    if all(type(v) in _PLAIN for v in rec.values()):
+        try:
+            return json.dumps(rec, allow_nan=False) + "\n"
+        except ValueError:  # a NaN or an infinity: null, as json_value says
+            pass
     return json.dumps({k: json_value(v) for k, v in rec.items()}, allow_nan=False) + "\n"
 
 
