@@ -90,7 +90,7 @@ def content_hash(path: os.PathLike[str] | str) -> str:
         raw = read_regular_file(path, "a map YAML", MAX_YAML_BYTES)
         _hash_bytes(h, raw)
         try:
-            doc = load_yaml_safely(raw, path)
+            doc = load_yaml_safely(raw, path, shared=True)  # only read
         except MapError:
             return h.hexdigest()  # the loader names the file and the reason
         img = yaml_image(path, doc)

@@ -221,10 +221,14 @@ def short_repr(value: Any, limit: int = 80) -> str:
     return f"{text[:limit]}... ({len(text)} chars)"
 
 
-def load_yaml_safely(raw: bytes, where: Any) -> Any:
+def load_yaml_safely(raw: bytes, where: Any, *, shared: bool = False) -> Any:
     """Parse a map YAML with a safe loader, refusing anchors and aliases: a few hundred
     bytes of nested aliases ("billion laughs") would expand to gigabytes, and a map YAML
     has no use for them.
+
+    ``shared=True``: the caller only reads the document, so it may get the cached one
+    itself rather than a deep copy (a batch reads each map YAML three times: discovery,
+    the content hash, the loader).
 
     Examples
     --------
@@ -239,7 +243,8 @@ def load_yaml_safely(raw: bytes, where: Any) -> Any:
 
     if len(raw) <= _YAML_CACHE_BYTES:
         doc, problem = _parse_yaml_cached(raw)
-        doc = copy.deepcopy(doc)  # the caller may change it; the cache keeps its own
+        if not shared:
+            doc = copy.deepcopy(doc)  # the caller may change it; the cache keeps its own
     else:
         doc, problem = _parse_yaml(raw)
     if problem is not None:

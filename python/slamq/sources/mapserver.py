@@ -96,7 +96,7 @@ def load_yaml_map(
     warnings_out: list[str],
 ) -> OccupancyMap:
     raw = read_regular_file(path, "a map YAML", MAX_YAML_BYTES)
-    doc = load_yaml_safely(raw, path)
+    doc = load_yaml_safely(raw, path, shared=True)  # only read
     if isinstance(doc, dict) and "rosbag2_bagfile_information" in doc:
         from slamq.sources.bag_maps import read_last_map
 

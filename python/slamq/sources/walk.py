@@ -50,7 +50,10 @@ UNREADABLE = object()
 
 def read_yaml(path: Path) -> Any:
     """The parsed YAML of a file met while searching; None when it is too large to be a
-    map YAML; :data:`UNREADABLE` when it is not a regular file or does not parse."""
+    map YAML; :data:`UNREADABLE` when it is not a regular file or does not parse.
+
+    The document is the parse cache's own (:func:`slamq.sources.files.load_yaml_safely`
+    with ``shared=True``): read it, do not change it."""
 
     try:
         st = path.stat()
@@ -58,7 +61,7 @@ def read_yaml(path: Path) -> Any:
             return UNREADABLE
         if st.st_size > MAX_YAML_BYTES:
             return None
-        return load_yaml_safely(path.read_bytes(), path)
+        return load_yaml_safely(path.read_bytes(), path, shared=True)  # only read
     except (OSError, MapError):
         return UNREADABLE
 
