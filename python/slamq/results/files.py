@@ -648,10 +648,10 @@ def _dumps(rec: dict[str, Any]) -> str:
     scalars -> numbers, paths -> strings). A record of plain values (what a batch makes)
     is dumped as it is: the same line, without a call per value."""
     if all(type(v) in _PLAIN for v in rec.values()):
-        try:
-            return json.dumps(rec, allow_nan=False) + "\n"
-        except ValueError:  # a NaN or an infinity: null, as json_value says
-            pass
+        bad = [k for k, v in rec.items() if type(v) is float and not math.isfinite(v)]
+        if bad:  # NaN and infinities: null, as json_value says
+            rec = {**rec, **dict.fromkeys(bad)}
+        return json.dumps(rec, allow_nan=False) + "\n"
     return json.dumps({k: json_value(v) for k, v in rec.items()}, allow_nan=False) + "\n"
 
 
