@@ -271,18 +271,17 @@ fn touching_runs(
     pairs: &mut Vec<(u32, u32)>,
     mut touch: impl FnMut(usize, usize),
 ) {
-    let (mut i, pe) = prev;
-    let (mut j, ce) = cur;
-    if i >= pe || j >= ce {
+    let (i0, pe) = prev;
+    let (j0, ce) = cur;
+    if i0 >= pe || j0 >= ce {
         return;
     }
     // each step advances i or j, so there are fewer steps than runs in the two rows
-    let steps = (pe - i) + (ce - j);
+    let steps = (pe - i0) + (ce - j0);
     if pairs.len() < steps {
         pairs.resize(steps, (0, 0));
     }
-    let (prev_runs, cur_runs) = (&runs[i..pe], &runs[j..ce]);
-    let (i0, j0) = (i, j);
+    let (prev_runs, cur_runs) = (&runs[i0..pe], &runs[j0..ce]);
     let mut n = 0usize;
     let (mut ii, mut jj) = (0usize, 0usize);
     while ii < prev_runs.len() && jj < cur_runs.len() {
@@ -294,10 +293,8 @@ fn touching_runs(
         ii += step;
         jj += 1 - step;
     }
-    i = i0;
-    j = j0;
     for &(a, b) in &pairs[..n] {
-        touch(i + a as usize, j + b as usize);
+        touch(i0 + a as usize, j0 + b as usize);
     }
 }
 
@@ -383,8 +380,10 @@ pub fn count_components(runs: &[Run], row_start: &[usize], height: usize) -> usi
 
 /// The number of 8-connected components of an `height x width` image given by its runs that
 /// touch no image border and have at least `min_area` cells, without labelling them: the
-/// unions of [`union_runs`], then one ascending pass that points every run at its root and
-/// adds its size and border contact to the root's.
+/// unions of [`union_runs`], then, for `min_area <= 1` (every component is large enough),
+/// the component count less the distinct roots of the runs on the border; otherwise one
+/// ascending pass that points every run at its root and adds its size and border contact
+/// to the root's. The count is the same for any thread count.
 pub fn count_enclosed_runs(
     runs: &[Run],
     row_start: &[usize],
