@@ -484,46 +484,59 @@ pub fn corner_runs(
                 let nhi = (xhi + 1).min(w);
                 window_nibbles(mask, (h, w), r, nlo, nhi, &mut nib);
                 let nb = |c: isize| nib[reflect101(c, w)] as u16;
-                let mut code =
-                    nb(xlo as isize - 2) | nb(xlo as isize - 1) << 4 | nb(xlo as isize) << 8;
-                // columns x + 1 < w read nib[x + 1] as it is; the last column reflects. No
-                // branch per cell: an empty window (code 0) is a class of response -inf (a
-                // rank at or above every cut), and every visited cell's rank is written
+                // the window code of column x: nib[x-2] | nib[x-1] << 4 | nib[x] << 8 |
+                // nib[x+1] << 12, reflect-mapped at the ends; each column's code is built on
+                // its own (no chain from one column to the next). Columns x + 1 < w read
+                // nib[x + 1] as it is; the last column reflects. No branch per cell: an
+                // empty window (code 0) is a class of response -inf (a rank at or above
+                // every cut), and every visited cell's rank is written
+                let code_at = |x: usize| -> u16 {
+                    nib[x - 2] as u16
+                        | (nib[x - 1] as u16) << 4
+                        | (nib[x] as u16) << 8
+                        | (nib[x + 1] as u16) << 12
+                };
                 let inner_hi = xhi.min(w - 1);
                 pos.touched[r - r0] = true;
                 let row_ranks = &mut pos.ranks[(r - r0) * w..(r - r0 + 1) * w];
                 let mut min_rank = pos.min_rank;
                 let mut x = xlo;
+                if x == 1 && x < inner_hi {
+                    // column 1 reads the reflected column -1
+                    let code = nb(-1) | nb(0) << 4 | nb(1) << 8 | nb(2) << 12;
+                    let rank = rk.rank[code as usize];
+                    min_rank = min_rank.min(rank);
+                    row_ranks[1] = rank;
+                    x = 2;
+                }
                 while x < inner_hi {
-                    // eight columns at a time, one branch for the eight
-                    let step = if x + 8 <= inner_hi { 8 } else { 1 };
-                    if step == 8 && code == 0 {
-                        // eight empty columns ahead: the code stays 0 across them
-                        let mut word = [0u8; 8];
-                        word.copy_from_slice(&nib[x + 1..x + 9]);
-                        if u64::from_ne_bytes(word) == 0 {
-                            x += 8;
-                            continue;
+                    if x + 8 <= inner_hi {
+                        // eight columns at a time, one branch for the eight: they read
+                        // nib[x-2 ..= x+8], and if that is all zero their ranks stay empty
+                        let (mut lo8, mut hi8) = ([0u8; 8], [0u8; 8]);
+                        lo8.copy_from_slice(&nib[x - 2..x + 6]);
+                        hi8.copy_from_slice(&nib[x + 1..x + 9]);
+                        if u64::from_ne_bytes(lo8) | u64::from_ne_bytes(hi8) != 0 {
+                            for (t, o) in row_ranks[x..x + 8].iter_mut().enumerate() {
+                                let rank = rk.rank[code_at(x + t) as usize];
+                                min_rank = min_rank.min(rank);
+                                *o = rank;
+                            }
                         }
-                    }
-                    for (o, &n) in row_ranks[x..x + step]
-                        .iter_mut()
-                        .zip(&nib[x + 1..x + 1 + step])
-                    {
-                        code = (code & 0x0fff) | (n as u16) << 12;
-                        let rank = rk.rank[code as usize];
+                        x += 8;
+                    } else {
+                        let rank = rk.rank[code_at(x) as usize];
                         min_rank = min_rank.min(rank);
-                        *o = rank;
-                        code >>= 4;
+                        row_ranks[x] = rank;
+                        x += 1;
                     }
-                    x += step;
                 }
                 pos.min_rank = min_rank;
                 if xhi == w && inner_hi < w {
-                    let x = w - 1;
-                    code = (code & 0x0fff) | nb(x as isize + 1) << 12;
+                    let x = w as isize - 1;
+                    let code = nb(x - 2) | nb(x - 1) << 4 | nb(x) << 8 | nb(x + 1) << 12;
                     if code != 0 {
-                        pos.visit_rank((r - r0) * w + x, rk.rank[code as usize]);
+                        pos.visit_rank((r - r0) * w + x as usize, rk.rank[code as usize]);
                     }
                 }
             }

@@ -259,24 +259,42 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
 
 /// Call `touch(i, j)` for every run `i` of the previous row (`runs[prev.0..prev.1]`) and
 /// run `j` of the current row (`runs[cur.0..cur.1]`) that are 8-connected: their column
-/// ranges overlap or meet diagonally.
+/// ranges overlap or meet diagonally. In merge order: `j` never decreases.
+///
+/// The pairs are first gathered into `pairs` (scratch, grown as needed) by a merge scan
+/// without a branch per step: whether two runs touch is unpredictable on noisy maps, so
+/// every step writes its pair and only advances the count when they touch.
 fn touching_runs(
     runs: &[Run],
     prev: (usize, usize),
     cur: (usize, usize),
+    pairs: &mut Vec<(u32, u32)>,
     mut touch: impl FnMut(usize, usize),
 ) {
-    let (mut i, pe) = prev;
-    let (mut j, ce) = cur;
-    while i < pe && j < ce {
-        let (a, b) = (runs[i], runs[j]);
-        if a.start <= b.end && b.start <= a.end {
-            touch(i, j);
-        }
-        // advance the run that ends first, without a branch (unpredictable on noisy maps)
+    let (i0, pe) = prev;
+    let (j0, ce) = cur;
+    if i0 >= pe || j0 >= ce {
+        return;
+    }
+    // each step advances i or j, so there are fewer steps than runs in the two rows
+    let steps = (pe - i0) + (ce - j0);
+    if pairs.len() < steps {
+        pairs.resize(steps, (0, 0));
+    }
+    let (prev_runs, cur_runs) = (&runs[i0..pe], &runs[j0..ce]);
+    let mut n = 0usize;
+    let (mut ii, mut jj) = (0usize, 0usize);
+    while ii < prev_runs.len() && jj < cur_runs.len() {
+        let (a, b) = (prev_runs[ii], cur_runs[jj]);
+        pairs[n] = (ii as u32, jj as u32);
+        n += ((a.start <= b.end) & (b.start <= a.end)) as usize;
+        // advance the run that ends first
         let step = (a.end < b.end) as usize;
-        i += step;
-        j += 1 - step;
+        ii += step;
+        jj += 1 - step;
+    }
+    for &(a, b) in &pairs[..n] {
+        touch(i0 + a as usize, j0 + b as usize);
     }
 }
 
@@ -292,12 +310,15 @@ fn split_bands<'v, T>(v: &'v mut [T], base: &[usize]) -> Vec<&'v mut [T]> {
     out
 }
 
-/// The number of 8-connected components of an image given by its runs
-/// (`runs[row_start[r]..row_start[r + 1]]` are row `r`'s runs, left to right), without
-/// labelling them: a union-find over the runs counts the unions that join two components,
-/// and every such union removes one of the `runs.len()` singletons. Bands in parallel, then
-/// the band seams; the count is the same for any thread count.
-pub fn count_components(runs: &[Run], row_start: &[usize], height: usize) -> usize {
+/// A union-find over the runs of an image (`runs[row_start[r]..row_start[r + 1]]` are row
+/// `r`'s runs, left to right) joining every two 8-connected runs: the bands of rows in
+/// parallel, each on its own slice, then the band seams. Returns the parent of every run and
+/// the number of unions that joined two components (`runs.len()` minus the component count).
+///
+/// Union is by smaller index and paths are only ever shortened, so `parent[i] <= i`, and one
+/// ascending pass `parent[i] = parent[parent[i]]` points every run at its root. The result
+/// is the same for any thread count.
+fn union_runs(runs: &[Run], row_start: &[usize], height: usize) -> (Vec<u32>, usize) {
     let bands = bands(height);
     let mut band_base: Vec<usize> = bands.iter().map(|&(r0, _)| row_start[r0]).collect();
     band_base.push(runs.len());
@@ -311,12 +332,14 @@ pub fn count_components(runs: &[Run], row_start: &[usize], height: usize) -> usi
                 *p = (base + k) as u32;
             }
             let mut merged = 0usize;
+            let mut pairs = Vec::new();
             for r in r0 + 1..r1 {
                 let mut last = usize::MAX;
                 touching_runs(
                     runs,
                     (row_start[r - 1], row_start[r]),
                     (row_start[r], row_start[r + 1]),
+                    &mut pairs,
                     |i, j| {
                         let (a, b) = ((i - base) as u32, (j - base) as u32);
                         if j != last {
@@ -334,21 +357,33 @@ pub fn count_components(runs: &[Run], row_start: &[usize], height: usize) -> usi
         })
         .sum();
     let mut seams = 0usize;
+    let mut pairs = Vec::new();
     for &(r0, _) in bands.iter().skip(1) {
         touching_runs(
             runs,
             (row_start[r0 - 1], row_start[r0]),
             (row_start[r0], row_start[r0 + 1]),
+            &mut pairs,
             |i, j| seams += union_in(&mut parent, i as u32, j as u32, 0) as usize,
         );
     }
-    runs.len() - merged - seams
+    (parent, merged + seams)
+}
+
+/// The number of 8-connected components of an image given by its runs
+/// (`runs[row_start[r]..row_start[r + 1]]` are row `r`'s runs, left to right), without
+/// labelling them: every union of [`union_runs`] that joins two components removes one of
+/// the `runs.len()` singletons. The count is the same for any thread count.
+pub fn count_components(runs: &[Run], row_start: &[usize], height: usize) -> usize {
+    runs.len() - union_runs(runs, row_start, height).1
 }
 
 /// The number of 8-connected components of an `height x width` image given by its runs that
 /// touch no image border and have at least `min_area` cells, without labelling them: the
-/// union-find carries each component's size and border contact at its root, merged as
-/// components join (bands in parallel, then the seams; the same for any thread count).
+/// unions of [`union_runs`], then, for `min_area <= 1` (every component is large enough),
+/// the component count less the distinct roots of the runs on the border; otherwise one
+/// ascending pass that points every run at its root and adds its size and border contact
+/// to the root's. The count is the same for any thread count.
 pub fn count_enclosed_runs(
     runs: &[Run],
     row_start: &[usize],
@@ -356,81 +391,51 @@ pub fn count_enclosed_runs(
     width: usize,
     min_area: u32,
 ) -> usize {
-    let bands = bands(height);
-    let mut band_base: Vec<usize> = bands.iter().map(|&(r0, _)| row_start[r0]).collect();
-    band_base.push(runs.len());
-    debug_assert!(runs.len() < u32::MAX as usize);
-    let n = runs.len();
-    let mut parent: Vec<u32> = vec![0; n];
+    let (mut parent, merged) = union_runs(runs, row_start, height);
+    if min_area <= 1 {
+        // every component is large enough: the components less those touching the border,
+        // found from the border runs alone (rows 0 and h-1, and runs at columns 0 or w-1)
+        let mut touching: Vec<u32> = Vec::new();
+        for r in 0..height {
+            let row = &runs[row_start[r]..row_start[r + 1]];
+            let base = row_start[r];
+            if r == 0 || r + 1 == height {
+                touching.extend((0..row.len()).map(|k| find_in(&mut parent, (base + k) as u32, 0)));
+            } else if let (Some(first), Some(last)) = (row.first(), row.last()) {
+                if first.start == 0 {
+                    touching.push(find_in(&mut parent, base as u32, 0));
+                }
+                if last.end as usize == width {
+                    touching.push(find_in(&mut parent, (base + row.len() - 1) as u32, 0));
+                }
+            }
+        }
+        touching.sort_unstable();
+        touching.dedup();
+        return runs.len() - merged - touching.len();
+    }
     // size (at most the cell count, below 2^32) with the border flag in the top bit
-    let mut stat: Vec<u64> = vec![0; n];
     const EDGE: u64 = 1 << 63;
-    let merge = |st: &mut [u64], into: usize, from: usize| {
-        let (a, b) = (st[into], st[from]);
-        st[into] = ((a & !EDGE) + (b & !EDGE)) | ((a | b) & EDGE);
-    };
-    split_bands(&mut parent, &band_base)
-        .into_par_iter()
-        .zip(split_bands(&mut stat, &band_base))
-        .zip(bands.par_iter().zip(band_base.par_iter()))
-        .for_each(|((par, st), (&(r0, r1), &base))| {
-            for r in r0..r1 {
-                let edge_row = r == 0 || r + 1 == height;
-                for i in row_start[r]..row_start[r + 1] {
-                    let run = runs[i];
-                    let k = i - base;
-                    par[k] = i as u32;
-                    let edge = edge_row || run.start == 0 || run.end as usize == width;
-                    st[k] = u64::from(run.end - run.start) | if edge { EDGE } else { 0 };
-                }
-            }
-            for r in r0 + 1..r1 {
-                let mut last = usize::MAX;
-                touching_runs(
-                    runs,
-                    (row_start[r - 1], row_start[r]),
-                    (row_start[r], row_start[r + 1]),
-                    |i, j| {
-                        let (a, b) = ((i - base) as u32, (j - base) as u32);
-                        let ra = find_in(par, a, base) - base as u32;
-                        if j != last {
-                            last = j;
-                            par[b as usize] = ra + base as u32;
-                            merge(st, ra as usize, b as usize);
-                        } else {
-                            let rb = find_in(par, b, base) - base as u32;
-                            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-                            if lo != hi {
-                                par[hi as usize] = lo + base as u32;
-                                merge(st, lo as usize, hi as usize);
-                            }
-                        }
-                    },
-                );
-            }
-        });
-    for &(r0, _) in bands.iter().skip(1) {
-        touching_runs(
-            runs,
-            (row_start[r0 - 1], row_start[r0]),
-            (row_start[r0], row_start[r0 + 1]),
-            |i, j| {
-                let ra = find_in(&mut parent, i as u32, 0);
-                let rb = find_in(&mut parent, j as u32, 0);
-                let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-                if lo != hi {
-                    parent[hi as usize] = lo;
-                    merge(&mut stat, lo as usize, hi as usize);
-                }
-            },
-        );
+    let mut stat: Vec<u64> = vec![0; runs.len()];
+    for r in 0..height {
+        let edge_row = r == 0 || r + 1 == height;
+        for i in row_start[r]..row_start[r + 1] {
+            let run = runs[i];
+            let root = parent[parent[i] as usize];
+            parent[i] = root;
+            let edge = edge_row | (run.start == 0) | (run.end as usize == width);
+            stat[root as usize] |= if edge { EDGE } else { 0 };
+            stat[root as usize] += u64::from(run.end - run.start);
+        }
     }
     parent
-        .par_iter()
-        .zip(stat.par_iter())
+        .iter()
+        .zip(&stat)
         .enumerate()
-        .filter(|&(i, (&p, &st))| p as usize == i && st & EDGE == 0 && st >= u64::from(min_area))
-        .count()
+        .map(|(i, (&p, &st))| {
+            ((p as usize == i) & (st & EDGE == 0) & (st >= u64::from(min_area))) as usize
+        })
+        .sum()
 }
 
 /// Drop the 8-connected components of fewer than `min_size` cells from an image given as
@@ -465,12 +470,14 @@ pub fn drop_small_runs(
                 let run = runs[base + k];
                 *sz = run.end - run.start;
             }
+            let mut pairs = Vec::new();
             for r in r0 + 1..r1 {
                 let mut last = usize::MAX;
                 touching_runs(
                     runs,
                     (row_start[r - 1], row_start[r]),
                     (row_start[r], row_start[r + 1]),
+                    &mut pairs,
                     |i, j| {
                         let (a, b) = ((i - base) as u32, (j - base) as u32);
                         let ra = (find_in(par, a, base) - base as u32) as usize;
@@ -490,11 +497,13 @@ pub fn drop_small_runs(
                 );
             }
         });
+    let mut pairs = Vec::new();
     for &(r0, _) in bands.iter().skip(1) {
         touching_runs(
             runs,
             (row_start[r0 - 1], row_start[r0]),
             (row_start[r0], row_start[r0 + 1]),
+            &mut pairs,
             |i, j| {
                 let ra = find_in(&mut parent, i as u32, 0) as usize;
                 let rb = find_in(&mut parent, j as u32, 0) as usize;
@@ -534,17 +543,20 @@ pub fn drop_small_runs(
 }
 
 /// [`find`] on a band's slice of a parent array holding global indices (`base`: the index
-/// of the slice's first entry); returns the root as a band-local index.
+/// of the slice's first entry); returns the root's global index.
+///
+/// A run and its parent are read before the first test, so that the common cases (the run
+/// is a root, or its parent is) leave after one predictable branch; longer paths are halved.
 #[inline]
 fn find_in(parent: &mut [u32], x: u32, base: usize) -> u32 {
     let b = base as u32;
     let mut x = x;
     loop {
         let p = parent[x as usize] - b;
-        if p == x {
-            return x + b;
-        }
         let gp = parent[p as usize];
+        if gp - b == p {
+            return gp;
+        }
         parent[x as usize] = gp;
         x = gp - b;
     }
@@ -598,19 +610,26 @@ impl Components {
                     for (k, p) in par.iter_mut().enumerate() {
                         *p = k as u32;
                     }
+                    let mut pairs = Vec::new();
                     for r in r0 + 1..r1 {
                         // a run of this row is a singleton until its first contact, which
                         // can link it straight to the other run's root (smaller index)
                         let mut last = usize::MAX;
-                        touching_runs(runs_ref, (rs[r - 1], rs[r]), (rs[r], rs[r + 1]), |i, j| {
-                            let (a, b) = ((i - base) as u32, (j - base) as u32);
-                            if j != last {
-                                last = j;
-                                par[b as usize] = find(par, a);
-                            } else {
-                                union(par, a, b);
-                            }
-                        });
+                        touching_runs(
+                            runs_ref,
+                            (rs[r - 1], rs[r]),
+                            (rs[r], rs[r + 1]),
+                            &mut pairs,
+                            |i, j| {
+                                let (a, b) = ((i - base) as u32, (j - base) as u32);
+                                if j != last {
+                                    last = j;
+                                    par[b as usize] = find(par, a);
+                                } else {
+                                    union(par, a, b);
+                                }
+                            },
+                        );
                     }
                     let mut roots = Vec::new();
                     for r in r0..r1 {
@@ -637,12 +656,13 @@ impl Components {
         };
         // 3. the seams between bands: unions of band-local roots (never of the other runs,
         // whose parent must stay their band-local root for step 5)
+        let mut pairs = Vec::new();
         for &(r0, _) in bands.iter().skip(1) {
             let (prev, cur) = (
                 (row_start[r0 - 1], row_start[r0]),
                 (row_start[r0], row_start[r0 + 1]),
             );
-            touching_runs(&runs, prev, cur, |i, j| {
+            touching_runs(&runs, prev, cur, &mut pairs, |i, j| {
                 let (ra, rb) = (parent[i], parent[j]);
                 union(&mut parent, ra, rb);
             });
