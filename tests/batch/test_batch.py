@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import shutil
 import signal
 import subprocess
@@ -760,3 +761,64 @@ def test_a_results_line_is_the_same_with_and_without_the_plain_record_shortcut(
 
     want = json.dumps({k: json_value(v) for k, v in rec.items()}, allow_nan=False) + "\n"
     assert _dumps(rec) == want
+
+
+def _room_maps(folder: Path, n: int) -> Path:
+    for i in range(n):
+        img = np.full((40, 40), 254, np.uint8)
+        img[5 + i % 7 : 25, 8:30] = 0
+        img[30:35, :] = 205
+        cv2.imwrite(str(folder / f"algo{i}_map.pgm"), img)
+    return folder
+
+
+def test_batch_workers_are_adopted_kept_and_reused(tmp_path: Path) -> None:
+    """A local batch runs its maps on worker threads the core adopted (no second thread per
+    map), keeps them for the next batch of the same thread count instead of starting new
+    ones (the core keeps a few KB per adopted thread), and gives the records of
+    ``slamq.evaluate``."""
+    import threading
+
+    from slamq import _core
+
+    _room_maps(tmp_path, 6)
+    names: set[str] = set()
+    for _ in range(4):
+        recs = list(evaluate_many(tmp_path, threads=2))
+        names |= {t.name for t in threading.enumerate() if t.name.startswith("slamq-batch-2")}
+        for r in recs:
+            q = slamq.evaluate(r["map"], threads=1)
+            assert (r["occupied"], r["corners"], r["enclosed_areas"]) == (
+                q.occupied, q.corners, q.enclosed_areas)
+    assert 1 <= len(names) <= 2  # the same two workers every time
+    with ThreadPoolExecutor(1) as ex:  # what an adopted thread does, in a fresh thread
+        first, again = ex.submit(_core.adopt_thread).result(), ex.submit(
+            _core.adopt_thread).result()
+        img = cv2.imread(str(tmp_path / "algo3_map.pgm"), cv2.IMREAD_GRAYSCALE)
+        one, every = ex.submit(slamq.evaluate, img, threads=1).result(), ex.submit(
+            slamq.evaluate, img).result()
+    assert (first, again) == (True, False)
+    assert one == every == slamq.evaluate(img, threads=1)
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="os.fork (POSIX)")
+def test_a_forked_child_starts_its_own_batch_workers(tmp_path: Path) -> None:
+    """The kept workers do not exist in a forked child: its batch makes new ones instead of
+    waiting for threads that are not there."""
+    _room_maps(tmp_path, 3)
+    script = (
+        "import os, sys\n"
+        "from slamq.batch import evaluate_many\n"
+        f"src = {str(tmp_path)!r}\n"
+        "assert len(list(evaluate_many(src, threads=2))) == 3\n"
+        "pid = os.fork()\n"
+        "if pid == 0:\n"
+        "    ok = len(list(evaluate_many(src, threads=2))) == 3\n"
+        "    os._exit(0 if ok else 3)\n"
+        "_, status = os.waitpid(pid, 0)\n"
+        "print(os.waitstatus_to_exitcode(status))\n"
+    )
+    proc = subprocess.run([sys.executable, "-W", "ignore", "-c", script], env=slamq_env(),
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.split()[-1] == "0", proc.stderr[-2000:]

@@ -3,11 +3,14 @@
 How it runs
 -----------
 * **Local** (default): a thread pool of ``threads`` workers. Each worker hashes, loads
-  (OpenCV decoding releases the GIL) and evaluates one map with ``slamq.evaluate`` (the
-  Rust core releases the GIL), so the threads run in parallel; each map is evaluated on
-  one core (``threads=1``: every calling thread has its own 1-thread pool). At most
-  ``max(2 * threads, chunk_size)`` maps are queued at once and only the running ones are
-  in memory; records come back in input order.
+  (file reads, hashing and the map_saver pass release the GIL) and evaluates one map with
+  ``slamq.evaluate`` (the Rust core releases the GIL), so the threads run in parallel;
+  each map is evaluated on one core, the worker's own: the workers are adopted by the
+  core (:func:`slamq._core.adopt_thread`) instead of handing each map to a second thread
+  and waiting for it. The workers are kept between batches (one set per thread count,
+  made again after a fork), since the core keeps about 8 KB for every thread it adopted.
+  At most ``max(2 * threads, chunk_size)`` maps are queued at once and only the running
+  ones are in memory; records come back in input order.
 * **concurrent.futures.Executor**: the same, with your executor (a process pool works).
 * **Dask**: chunks of ``chunk_size`` runs are sent to the workers (only paths travel; the
   workers must see the same files), each chunk is evaluated with a thread pool inside the
@@ -25,11 +28,12 @@ from __future__ import annotations
 
 import itertools
 import os
+import threading
 import uuid
 import warnings
 from collections import deque
 from collections.abc import Iterable, Iterator
-from concurrent.futures import Executor, Future, ThreadPoolExecutor
+from concurrent.futures import Executor, Future, ThreadPoolExecutor, wait
 from typing import Any, Callable
 
 from slamq.batch.records import EvalOptions, evaluate_run
@@ -298,6 +302,36 @@ def _warn_other_settings(
     warnings.warn(text, UserWarning, stacklevel=5)
 
 
+_WORKERS: dict[int, ThreadPoolExecutor] = {}
+_WORKERS_LOCK = threading.Lock()
+_WORKERS_PID = os.getpid()
+
+
+def _adopt() -> None:
+    """A batch worker's first step: the Rust core runs this thread's maps on it."""
+    from slamq import _core
+
+    try:
+        _core.adopt_thread()
+    except Exception:  # noqa: BLE001 - not adopted: its maps go to a second thread, as before
+        pass
+
+
+def _workers(n: int) -> ThreadPoolExecutor:
+    """The kept pool of ``n`` adopted batch workers (made on first use, and again in a
+    forked child, where the parent's threads do not exist)."""
+    global _WORKERS_PID
+    with _WORKERS_LOCK:
+        if _WORKERS_PID != os.getpid():
+            _WORKERS.clear()
+            _WORKERS_PID = os.getpid()
+        pool = _WORKERS.get(n)
+        if pool is None:
+            pool = _WORKERS[n] = ThreadPoolExecutor(
+                max_workers=n, thread_name_prefix=f"slamq-batch-{n}", initializer=_adopt)
+        return pool
+
+
 def _run_local(
     runs: Iterable[Run],
     options: EvalOptions,
@@ -310,7 +344,7 @@ def _run_local(
     if executor is not None:
         n = max(n, getattr(executor, "_max_workers", n))
     own = executor is None
-    pool = ThreadPoolExecutor(max_workers=n, thread_name_prefix="slamq") if own else executor
+    pool = _workers(n) if own else executor
     assert pool is not None
     window = max(2 * n, chunk)
     pending: deque[Future[dict[str, Any] | None]] = deque()
@@ -324,8 +358,8 @@ def _run_local(
     finally:
         for f in pending:
             f.cancel()
-        if own:
-            pool.shutdown(wait=True, cancel_futures=True)
+        if own:  # the maps already running finish before the batch returns
+            wait(pending)
 
 
 def evaluate_chunk(
