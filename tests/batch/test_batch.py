@@ -822,3 +822,29 @@ def test_a_forked_child_starts_its_own_batch_workers(tmp_path: Path) -> None:
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.split()[-1] == "0", proc.stderr[-2000:]
+
+
+def test_discovery_walks_again_when_its_temporary_file_cannot_be_written(
+    tmp_path: Path,
+) -> None:
+    """A disk that takes no more bytes (here a file size limit of 1 KB, whose writes then
+    fail with EFBIG) costs the temporary file, not the batch: iterating walks the folders
+    again and finds the same runs."""
+    seq = tmp_path / "lab"
+    seq.mkdir()
+    for i in range(600):  # more than one chunk of runs: a write before the walk ends
+        (seq / f"algo{i}_map.pgm").write_bytes(b"P5 2 2 255\n" + bytes([0, 205, 254, 254]))
+    script = (
+        "import resource, signal\n"
+        "from slamq.batch.runs import Discovery, discover_runs\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "resource.setrlimit(resource.RLIMIT_FSIZE, (1024, 1024))\n"
+        f"found = Discovery({str(tmp_path)!r})\n"
+        "assert found._spill is None\n"
+        "assert list(found) == discover_runs(" + repr(str(tmp_path)) + ")\n"
+        "print(len(found))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", script], env=slamq_env(),
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.split()[-1] == "600"

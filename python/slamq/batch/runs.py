@@ -241,13 +241,24 @@ class Discovery:
             for run in _iter_runs(self._sources):
                 self._summary.add(run)
                 _add_reference(self._refs, run)
-                if self._spill is not None:
-                    self._spill.add(run)
-            if self._spill is not None:
-                self._spill.finish()
+                self._keep(run)
+            self._keep(None)
         except BaseException:
             self.close()
             raise
+
+    def _keep(self, run: Run | None) -> None:
+        """Add ``run`` to the temporary file (None: flush it). When writing fails (a full
+        disk), the file is dropped and iterating walks the sources again."""
+        if self._spill is None:
+            return
+        try:
+            if run is None:
+                self._spill.finish()
+            else:
+                self._spill.add(run)
+        except OSError:
+            self.close()
 
     def __len__(self) -> int:
         return self._summary.n
