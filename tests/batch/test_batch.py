@@ -848,3 +848,25 @@ def test_discovery_walks_again_when_its_temporary_file_cannot_be_written(
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.split()[-1] == "600"
+
+
+def test_at_most_four_kept_worker_pools(tmp_path: Path) -> None:
+    """Batches with six thread counts keep the workers of the last four; the others' threads
+    end once their batch is done."""
+    import gc
+    import threading
+
+    _room_maps(tmp_path, 3)
+    for n in (9, 10, 11, 12, 13, 14):
+        assert len(list(evaluate_many(tmp_path, threads=n))) == 3
+    gc.collect()
+    deadline = time.monotonic() + 10
+    alive: set[str] = set()
+    while time.monotonic() < deadline:
+        alive = {t.name.rsplit("_", 1)[0] for t in threading.enumerate()
+                 if t.name.startswith("slamq-batch-") and t.is_alive()}
+        if not alive & {"slamq-batch-9", "slamq-batch-10"}:
+            break
+        time.sleep(0.05)
+    assert {"slamq-batch-11", "slamq-batch-14"} <= alive
+    assert not alive & {"slamq-batch-9", "slamq-batch-10"}

@@ -305,6 +305,9 @@ def _warn_other_settings(
 _WORKERS: dict[int, ThreadPoolExecutor] = {}
 _WORKERS_LOCK = threading.Lock()
 _WORKERS_PID = os.getpid()
+#: Pools kept at once (by thread count, the most recently used). An older one is let go:
+#: its threads end once no batch uses it (each leaving its ~8 KB in the core).
+_KEEP_POOLS = 4
 
 
 def _adopt() -> None:
@@ -325,10 +328,15 @@ def _workers(n: int) -> ThreadPoolExecutor:
         if _WORKERS_PID != os.getpid():
             _WORKERS.clear()
             _WORKERS_PID = os.getpid()
-        pool = _WORKERS.get(n)
+        pool = _WORKERS.pop(n, None)
         if pool is None:
-            pool = _WORKERS[n] = ThreadPoolExecutor(
+            pool = ThreadPoolExecutor(
                 max_workers=n, thread_name_prefix=f"slamq-batch-{n}", initializer=_adopt)
+        _WORKERS[n] = pool  # the most recently used last
+        while len(_WORKERS) > _KEEP_POOLS:
+            # not shut down: a batch still running on it keeps it; when the last reference
+            # goes, the executor's workers see it gone and end
+            del _WORKERS[next(iter(_WORKERS))]
         return pool
 
 
