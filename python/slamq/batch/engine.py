@@ -8,7 +8,8 @@ How it runs
   each map is evaluated on one core, the worker's own: the workers are adopted by the
   core (:func:`slamq._core.adopt_thread`) instead of handing each map to a second thread
   and waiting for it. The workers are kept between batches (one set per thread count,
-  made again after a fork), since the core keeps about 8 KB for every thread it adopted.
+  for the last four counts used; made again after a fork), since the core keeps about 8 KB
+  for every thread it adopted.
   At most ``max(2 * threads, chunk_size)`` maps are queued at once and only the running
   ones are in memory; records come back in input order.
 * **concurrent.futures.Executor**: the same, with your executor (a process pool works).
