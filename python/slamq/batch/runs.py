@@ -530,7 +530,9 @@ def _discover_folder(root: Path) -> Iterator[Run]:
         if len(rel) >= 3 and len(maps) == 1:
             algorithm, sequence, run_id = rel[-3], rel[-2], rel[-1]
             traj = _pick_trajectory(_trajectory_files(files), sequence)
-            gt = _find_groundtruth([here, here.parent], sequence, root)
+            # the run folder's files are listed already: only its parent is scanned
+            gt = _groundtruth_among(files, sequence) or _find_groundtruth(
+                [here.parent], sequence, root)
             if gt is None and traj is not None and _is_paired_log(traj):
                 gt = traj
             yield Run(maps[0], algorithm, sequence, run_id, traj, gt, layout="runs")
@@ -584,6 +586,14 @@ def _find_groundtruth(
         if gt is not None:
             return gt
     return None
+
+
+def _groundtruth_among(files: Iterable[Path], sequence: str) -> Path | None:
+    """What :func:`_groundtruth_in` finds in a folder whose files are ``files`` (its
+    non-hidden entries; a hidden name is never a ground-truth name)."""
+    gts = [p for p in files if p.suffix.lower() in TRAJECTORY_SUFFIXES
+           and _is_gt_name(p, sequence) and p.is_file()]
+    return min(gts) if gts else None
 
 
 @functools.lru_cache(maxsize=256)

@@ -156,8 +156,9 @@ def walk_folders(root: Path) -> Iterator[tuple[Path, list[Path], list[Path]]]:
             continue
         visited.add(real)
         dirs[:] = sorted(
-            d for d in dirs
-            if not d.startswith(".") and not (here / d / "metadata.yaml").is_file()
+            d for d in dirs  # os.path on strings: a Path per folder costs more than the stat
+            if not d.startswith(".")
+            and not os.path.isfile(os.path.join(folder, d, "metadata.yaml"))
         )
         files = sorted(here / n for n in names if not n.startswith("."))
         yield here, files, folder_maps(here, files)
