@@ -513,12 +513,20 @@ pub fn corner_runs(
                     if x + 8 <= inner_hi {
                         // eight columns at a time, one branch for the eight: they read
                         // nib[x-2 ..= x+8], and if that is all zero their ranks stay empty
-                        let (mut lo8, mut hi8) = ([0u8; 8], [0u8; 8]);
-                        lo8.copy_from_slice(&nib[x - 2..x + 6]);
-                        hi8.copy_from_slice(&nib[x + 1..x + 9]);
-                        if u64::from_ne_bytes(lo8) | u64::from_ne_bytes(hi8) != 0 {
+                        // (their codes built eight at a time: byte t of `lo` is
+                        // nib[x-2+t] | nib[x-1+t] << 4, of `hi` nib[x+t] | nib[x+1+t] << 4,
+                        // nibbles being below 16)
+                        let word = |at: usize| {
+                            let mut b = [0u8; 8];
+                            b.copy_from_slice(&nib[at..at + 8]);
+                            u64::from_le_bytes(b)
+                        };
+                        let lo = word(x - 2) | word(x - 1) << 4;
+                        let hi = word(x) | word(x + 1) << 4;
+                        if lo | hi != 0 {
                             for (t, o) in row_ranks[x..x + 8].iter_mut().enumerate() {
-                                let rank = rk.rank[code_at(x + t) as usize];
+                                let code = ((lo >> (8 * t)) & 0xff) | ((hi >> (8 * t)) & 0xff) << 8;
+                                let rank = rk.rank[code as usize];
                                 min_rank = min_rank.min(rank);
                                 *o = rank;
                             }
