@@ -424,6 +424,10 @@ pub fn corner_runs(
     let k = params.harris_k;
     let rk = ranked(k);
     let (nc, npos) = (rk.resp.len(), rk.positive);
+    // the rank table as a plain slice, so that its pointer and length stay in registers
+    // through the rank pass (read through the shared `Ranked`, they are loaded again after
+    // every store of a rank)
+    let rank_of: &[u16] = &rk.rank;
     // per band: the ranks of the window cells and the directly computed cells with R > 0
     let found: Vec<Positive> = bands(h)
         .into_par_iter()
@@ -504,7 +508,7 @@ pub fn corner_runs(
                 if x == 1 && x < inner_hi {
                     // column 1 reads the reflected column -1
                     let code = nb(-1) | nb(0) << 4 | nb(1) << 8 | nb(2) << 12;
-                    let rank = rk.rank[code as usize];
+                    let rank = rank_of[code as usize];
                     min_rank = min_rank.min(rank);
                     row_ranks[1] = rank;
                     x = 2;
@@ -526,14 +530,14 @@ pub fn corner_runs(
                         if lo | hi != 0 {
                             for (t, o) in row_ranks[x..x + 8].iter_mut().enumerate() {
                                 let code = ((lo >> (8 * t)) & 0xff) | ((hi >> (8 * t)) & 0xff) << 8;
-                                let rank = rk.rank[code as usize];
+                                let rank = rank_of[code as usize];
                                 min_rank = min_rank.min(rank);
                                 *o = rank;
                             }
                         }
                         x += 8;
                     } else {
-                        let rank = rk.rank[code_at(x) as usize];
+                        let rank = rank_of[code_at(x) as usize];
                         min_rank = min_rank.min(rank);
                         row_ranks[x] = rank;
                         x += 1;
@@ -544,7 +548,7 @@ pub fn corner_runs(
                     let x = w as isize - 1;
                     let code = nb(x - 2) | nb(x - 1) << 4 | nb(x) << 8 | nb(x + 1) << 12;
                     if code != 0 {
-                        pos.visit_rank((r - r0) * w + x as usize, rk.rank[code as usize]);
+                        pos.visit_rank((r - r0) * w + x as usize, rank_of[code as usize]);
                     }
                 }
             }
