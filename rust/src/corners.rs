@@ -231,12 +231,16 @@ impl Ranked {
         for (r, &c) in order.iter().enumerate() {
             rank_of_class[c] = r as u16;
         }
+        // one entry of padding after the 2^16 codes: the AVX2 rank pass reads 32 bits at
+        // every code's entry (the padding only ever lands in bits it masks off)
+        let mut rank: Vec<u16> = table
+            .class
+            .iter()
+            .map(|&c| rank_of_class[c as usize])
+            .collect();
+        rank.push(u16::MAX);
         Ranked {
-            rank: table
-                .class
-                .iter()
-                .map(|&c| rank_of_class[c as usize])
-                .collect(),
+            rank,
             resp: order.iter().map(|&c| resp_of[c]).collect(),
             positive: order.iter().filter(|&&c| is_pos(c)).count(),
         }
@@ -383,6 +387,57 @@ impl Positive {
     }
 }
 
+/// The eight-column blocks of the rank pass of [`corner_runs`] from column `x` while
+/// `x + 8 <= hi` (the same ranks and minimum as its scalar loop): the eight window codes
+/// from four 64-bit words of nibbles, their ranks by one gather. Returns the column after
+/// the last block and the minimum rank so far.
+///
+/// # Safety
+/// AVX2 must be present; `2 <= x`, `hi < nib.len()`, `hi <= ranks.len()`, and `table`
+/// must hold at least `2^16 + 1` entries (each code's entry is read as 32 bits).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn rank_blocks_avx2(
+    nib: &[u8],
+    ranks: &mut [u16],
+    table: &[u16],
+    mut x: usize,
+    hi: usize,
+    min_rank: u16,
+) -> (usize, u16) {
+    use std::arch::x86_64::*;
+    debug_assert!(x >= 2 && hi < nib.len() && hi <= ranks.len() && table.len() > 1 << 16);
+    let word = |at: usize| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&nib[at..at + 8]);
+        u64::from_le_bytes(b)
+    };
+    let low16 = _mm256_set1_epi32(0xffff);
+    let mut vmin = _mm_set1_epi16(-1);
+    while x + 8 <= hi {
+        let lo = word(x - 2) | word(x - 1) << 4;
+        let hw = word(x) | word(x + 1) << 4;
+        if lo | hw != 0 {
+            // code t = byte t of `lo` | byte t of `hw` << 8
+            let codes =
+                _mm_unpacklo_epi8(_mm_cvtsi64_si128(lo as i64), _mm_cvtsi64_si128(hw as i64));
+            let idx = _mm256_cvtepu16_epi32(codes);
+            // SAFETY: every code is below 2^16 and `table` has an entry past the last, so
+            // the 32 bits at 2 * code are inside it
+            let g = _mm256_i32gather_epi32::<2>(table.as_ptr() as *const i32, idx);
+            let g = _mm256_and_si256(g, low16);
+            let r8 = _mm_packus_epi32(_mm256_castsi256_si128(g), _mm256_extracti128_si256::<1>(g));
+            let out = &mut ranks[x..x + 8];
+            // SAFETY: `out` holds eight u16 (unaligned store)
+            _mm_storeu_si128(out.as_mut_ptr() as *mut __m128i, r8);
+            vmin = _mm_min_epu16(vmin, r8);
+        }
+        x += 8;
+    }
+    let m = (_mm_cvtsi128_si32(_mm_minpos_epu16(vmin)) & 0xffff) as u16;
+    (x, min_rank.min(m))
+}
+
 /// `keep[x] = (ranks[x] < cut)` as 0/1 for one row (AVX2 when present: 16 ranks a compare).
 fn keep_row(ranks: &[u16], cut: u16, keep: &mut [u8]) {
     #[cfg(target_arch = "x86_64")]
@@ -424,6 +479,12 @@ pub fn corner_runs(
     let k = params.harris_k;
     let rk = ranked(k);
     let (nc, npos) = (rk.resp.len(), rk.positive);
+    // the rank table as a plain slice, so that its pointer and length stay in registers
+    // through the rank pass (read through the shared `Ranked`, they are loaded again after
+    // every store of a rank)
+    let rank_of: &[u16] = &rk.rank;
+    #[cfg(target_arch = "x86_64")]
+    let avx2 = std::arch::is_x86_feature_detected!("avx2");
     // per band: the ranks of the window cells and the directly computed cells with R > 0
     let found: Vec<Positive> = bands(h)
         .into_par_iter()
@@ -504,28 +565,44 @@ pub fn corner_runs(
                 if x == 1 && x < inner_hi {
                     // column 1 reads the reflected column -1
                     let code = nb(-1) | nb(0) << 4 | nb(1) << 8 | nb(2) << 12;
-                    let rank = rk.rank[code as usize];
+                    let rank = rank_of[code as usize];
                     min_rank = min_rank.min(rank);
                     row_ranks[1] = rank;
                     x = 2;
+                }
+                #[cfg(target_arch = "x86_64")]
+                if avx2 && x >= 2 && rank_of.len() > 1 << 16 {
+                    // SAFETY: AVX2 is present, x >= 2, inner_hi < w = nib.len() and
+                    // rank_of holds an entry past code 2^16 - 1
+                    (x, min_rank) = unsafe {
+                        rank_blocks_avx2(&nib, row_ranks, rank_of, x, inner_hi, min_rank)
+                    };
                 }
                 while x < inner_hi {
                     if x + 8 <= inner_hi {
                         // eight columns at a time, one branch for the eight: they read
                         // nib[x-2 ..= x+8], and if that is all zero their ranks stay empty
-                        let (mut lo8, mut hi8) = ([0u8; 8], [0u8; 8]);
-                        lo8.copy_from_slice(&nib[x - 2..x + 6]);
-                        hi8.copy_from_slice(&nib[x + 1..x + 9]);
-                        if u64::from_ne_bytes(lo8) | u64::from_ne_bytes(hi8) != 0 {
+                        // (their codes built eight at a time: byte t of `lo` is
+                        // nib[x-2+t] | nib[x-1+t] << 4, of `hi` nib[x+t] | nib[x+1+t] << 4,
+                        // nibbles being below 16)
+                        let word = |at: usize| {
+                            let mut b = [0u8; 8];
+                            b.copy_from_slice(&nib[at..at + 8]);
+                            u64::from_le_bytes(b)
+                        };
+                        let lo = word(x - 2) | word(x - 1) << 4;
+                        let hi = word(x) | word(x + 1) << 4;
+                        if lo | hi != 0 {
                             for (t, o) in row_ranks[x..x + 8].iter_mut().enumerate() {
-                                let rank = rk.rank[code_at(x + t) as usize];
+                                let code = ((lo >> (8 * t)) & 0xff) | ((hi >> (8 * t)) & 0xff) << 8;
+                                let rank = rank_of[code as usize];
                                 min_rank = min_rank.min(rank);
                                 *o = rank;
                             }
                         }
                         x += 8;
                     } else {
-                        let rank = rk.rank[code_at(x) as usize];
+                        let rank = rank_of[code_at(x) as usize];
                         min_rank = min_rank.min(rank);
                         row_ranks[x] = rank;
                         x += 1;
@@ -536,7 +613,7 @@ pub fn corner_runs(
                     let x = w as isize - 1;
                     let code = nb(x - 2) | nb(x - 1) << 4 | nb(x) << 8 | nb(x + 1) << 12;
                     if code != 0 {
-                        pos.visit_rank((r - r0) * w + x as usize, rk.rank[code as usize]);
+                        pos.visit_rank((r - r0) * w + x as usize, rank_of[code as usize]);
                     }
                 }
             }
@@ -601,6 +678,53 @@ pub fn count_corners(grid: &Grid, params: &CornerParams) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn rank_blocks_avx2_equal_the_scalar_codes() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let rk = ranked(0.04);
+        let w = 203;
+        let mut state = 12345u64;
+        for density in [0u64, 1, 3, 8, 16] {
+            // nibbles with about density / 16 of their bits set, runs of zeros between
+            let nib: Vec<u8> = (0..w)
+                .map(|_| {
+                    let mut n = 0u8;
+                    for b in 0..4 {
+                        state = state
+                            .wrapping_mul(6364136223846793005)
+                            .wrapping_add(1442695040888963407);
+                        n |= (((state >> 33) % 16 < density) as u8) << b;
+                    }
+                    n
+                })
+                .collect();
+            let (x0, hi) = (2, w - 1);
+            let mut ranks = vec![u16::MAX; w];
+            // SAFETY: AVX2 is present; 2 <= x0, hi < w, and the table is padded
+            let (x, m) = unsafe { rank_blocks_avx2(&nib, &mut ranks, &rk.rank, x0, hi, 7000) };
+            assert!(x + 8 > hi && x <= hi);
+            let mut want = vec![u16::MAX; w];
+            let mut want_min = 7000u16;
+            for b in (x0..x).step_by(8) {
+                if nib[b - 2..b + 9].iter().all(|&n| n == 0) {
+                    continue;
+                }
+                for c in b..b + 8 {
+                    let code = nib[c - 2] as usize
+                        | (nib[c - 1] as usize) << 4
+                        | (nib[c] as usize) << 8
+                        | (nib[c + 1] as usize) << 12;
+                    want[c] = rk.rank[code];
+                    want_min = want_min.min(want[c]);
+                }
+            }
+            assert_eq!((ranks, m), (want, want_min), "density {density}");
+        }
+    }
 
     fn square_map(n: usize, lo: usize, hi: usize) -> (Vec<u8>, Vec<bool>) {
         let mut v = vec![254u8; n * n];
