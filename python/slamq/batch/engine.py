@@ -10,8 +10,9 @@ How it runs
   and waiting for it. The workers are kept between batches (one set per thread count,
   for the last four counts used; made again after a fork), since the core keeps about 8 KB
   for every thread it adopted.
-  At most ``max(2 * threads, chunk_size)`` maps are queued at once and only the running
-  ones are in memory; records come back in input order.
+  At most ``max(2 * threads, chunk_size) + chunk_size // 2 - 1`` maps are queued at once
+  and only the running ones are in memory; finished maps are collected half a chunk at a
+  time (or what finished within 50 ms); records come back in input order.
 * **concurrent.futures.Executor**: the same, with your executor (a process pool works).
 * **Dask**: chunks of ``chunk_size`` runs are sent to the workers (only paths travel; the
   workers must see the same files), each chunk is evaluated with a thread pool inside the
@@ -355,20 +356,39 @@ def _run_local(
     own = executor is None
     pool = _workers(n) if own else executor
     assert pool is not None
-    window = max(2 * n, chunk)
+    group = max(1, chunk // 2)
+    window = max(2 * n, chunk) + group - 1
     pending: deque[Future[dict[str, Any] | None]] = deque()
     try:
         for run in runs:
             pending.append(pool.submit(evaluate_run, run, options, done.get(run.key)))
             if len(pending) >= window:
-                yield pending.popleft().result()
+                yield from _finished(pending, group)
         while pending:
-            yield pending.popleft().result()
+            yield from _finished(pending, group)
     finally:
         for f in pending:
             f.cancel()
         if own:  # the maps already running finish before the batch returns
             wait(pending)
+
+
+#: Longest wait for a group of finished maps before the oldest alone is taken, seconds.
+_GROUP_WAIT = 0.05
+
+
+def _finished(
+    pending: deque[Future[dict[str, Any] | None]], group: int
+) -> Iterator[dict[str, Any] | None]:
+    """Take the oldest finished maps off ``pending``, in order: the first ``group`` of
+    them once all are done, or after :data:`_GROUP_WAIT` those done by then (at least the
+    oldest). The batch's thread thus wakes about once per group instead of once per map:
+    each wake-up takes a core from a worker (2 / 1 threads, 960 dense crops, canonical
+    corners off: 2-thread median 535 -> 548 maps/s over five alternating pairs)."""
+    wait(list(itertools.islice(pending, group)), timeout=_GROUP_WAIT)
+    yield pending.popleft().result()
+    while pending and pending[0].done():
+        yield pending.popleft().result()
 
 
 def evaluate_chunk(
