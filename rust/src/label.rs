@@ -234,29 +234,6 @@ pub fn push_runs_by(
     }
 }
 
-#[inline]
-fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    // path halving
-    while parent[x as usize] != x {
-        let p = parent[x as usize];
-        let gp = parent[p as usize];
-        parent[x as usize] = gp;
-        x = gp;
-    }
-    x
-}
-
-#[inline]
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let ra = find(parent, a);
-    let rb = find(parent, b);
-    if ra < rb {
-        parent[rb as usize] = ra;
-    } else if rb < ra {
-        parent[ra as usize] = rb;
-    }
-}
-
 /// Call `touch(i, j)` for every run `i` of the previous row (`runs[prev.0..prev.1]`) and
 /// run `j` of the current row (`runs[cur.0..cur.1]`) that are 8-connected: their column
 /// ranges overlap or meet diagonally. In merge order: `j` never decreases.
@@ -332,27 +309,7 @@ fn union_runs(runs: &[Run], row_start: &[usize], height: usize) -> (Vec<u32>, us
                 *p = (base + k) as u32;
             }
             let mut merged = 0usize;
-            let mut pairs = Vec::new();
-            for r in r0 + 1..r1 {
-                let mut last = usize::MAX;
-                touching_runs(
-                    runs,
-                    (row_start[r - 1], row_start[r]),
-                    (row_start[r], row_start[r + 1]),
-                    &mut pairs,
-                    |i, j| {
-                        let (a, b) = ((i - base) as u32, (j - base) as u32);
-                        if j != last {
-                            // the first contact of a singleton always joins two components
-                            last = j;
-                            par[b as usize] = find_in(par, a, base);
-                            merged += 1;
-                        } else {
-                            merged += union_in(par, a, b, base) as usize;
-                        }
-                    },
-                );
-            }
+            union_band(par, runs, row_start, (r0, r1), base, |_, _| merged += 1);
             merged
         })
         .sum();
@@ -470,32 +427,9 @@ pub fn drop_small_runs(
                 let run = runs[base + k];
                 *sz = run.end - run.start;
             }
-            let mut pairs = Vec::new();
-            for r in r0 + 1..r1 {
-                let mut last = usize::MAX;
-                touching_runs(
-                    runs,
-                    (row_start[r - 1], row_start[r]),
-                    (row_start[r], row_start[r + 1]),
-                    &mut pairs,
-                    |i, j| {
-                        let (a, b) = ((i - base) as u32, (j - base) as u32);
-                        let ra = (find_in(par, a, base) - base as u32) as usize;
-                        if j != last {
-                            last = j;
-                            par[b as usize] = (ra + base) as u32;
-                            siz[ra] = siz[ra].saturating_add(siz[b as usize]);
-                        } else {
-                            let rb = (find_in(par, b, base) - base as u32) as usize;
-                            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-                            if lo != hi {
-                                par[hi] = (lo + base) as u32;
-                                siz[lo] = siz[lo].saturating_add(siz[hi]);
-                            }
-                        }
-                    },
-                );
-            }
+            union_band(par, runs, row_start, (r0, r1), base, |lo, hi| {
+                siz[lo] = siz[lo].saturating_add(siz[hi]);
+            });
         });
     let mut pairs = Vec::new();
     for &(r0, _) in bands.iter().skip(1) {
@@ -542,8 +476,55 @@ pub fn drop_small_runs(
     RowRuns::concat(parts)
 }
 
-/// [`find`] on a band's slice of a parent array holding global indices (`base`: the index
-/// of the slice's first entry); returns the root's global index.
+/// The unions of one band's rows `r0 + 1..r1`: every two touching runs of consecutive rows
+/// join their components, on the band's slice `par` of a parent array of global indices
+/// (`base`: the index of its first entry; initialised to `base + k`), the larger root
+/// under the smaller, so a run's parent never has a larger index. `joined(lo, hi)` is
+/// called with the band-local roots of every join (`hi` now under `lo`): the one place the
+/// component counts, [`drop_small_runs`] and [`Components::from_runs`] differ.
+///
+/// A run of the current row is a singleton until its first contact, which links it
+/// straight to the other run's root (a smaller index) without a second find.
+#[inline(always)]
+fn union_band(
+    par: &mut [u32],
+    runs: &[Run],
+    row_start: &[usize],
+    (r0, r1): (usize, usize),
+    base: usize,
+    mut joined: impl FnMut(usize, usize),
+) {
+    let mut pairs = Vec::new();
+    for r in r0 + 1..r1 {
+        let mut last = usize::MAX;
+        touching_runs(
+            runs,
+            (row_start[r - 1], row_start[r]),
+            (row_start[r], row_start[r + 1]),
+            &mut pairs,
+            |i, j| {
+                let (a, b) = ((i - base) as u32, j - base);
+                let ra = (find_in(par, a, base) - base as u32) as usize;
+                if j != last {
+                    last = j;
+                    par[b] = (ra + base) as u32;
+                    joined(ra, b);
+                } else {
+                    let rb = (find_in(par, b as u32, base) - base as u32) as usize;
+                    let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                    if lo != hi {
+                        par[hi] = (lo + base) as u32;
+                        joined(lo, hi);
+                    }
+                }
+            },
+        );
+    }
+}
+
+/// The root of `x` (union-find with path halving) on a band's slice of a parent array
+/// holding global indices (`base`: the index of the slice's first entry; 0 for the whole
+/// array); returns the root's global index.
 ///
 /// A run and its parent are read before the first test, so that the common cases (the run
 /// is a root, or its parent is) leave after one predictable branch; longer paths are halved.
@@ -562,7 +543,8 @@ fn find_in(parent: &mut [u32], x: u32, base: usize) -> u32 {
     }
 }
 
-/// [`union`] on a band's slice of global indices; whether two components were joined.
+/// Join the components of `a` and `b` (band-local indices) on a band's slice of global
+/// indices, the larger root under the smaller; whether two components were joined.
 #[inline]
 fn union_in(parent: &mut [u32], a: u32, b: u32, base: usize) -> bool {
     let ra = find_in(parent, a, base) - base as u32;
@@ -608,47 +590,24 @@ impl Components {
             jobs.into_par_iter()
                 .map(|(((par, siz), bor), (&(r0, r1), &base))| {
                     for (k, p) in par.iter_mut().enumerate() {
-                        *p = k as u32;
+                        *p = (base + k) as u32;
                     }
-                    let mut pairs = Vec::new();
-                    for r in r0 + 1..r1 {
-                        // a run of this row is a singleton until its first contact, which
-                        // can link it straight to the other run's root (smaller index)
-                        let mut last = usize::MAX;
-                        touching_runs(
-                            runs_ref,
-                            (rs[r - 1], rs[r]),
-                            (rs[r], rs[r + 1]),
-                            &mut pairs,
-                            |i, j| {
-                                let (a, b) = ((i - base) as u32, (j - base) as u32);
-                                if j != last {
-                                    last = j;
-                                    par[b as usize] = find(par, a);
-                                } else {
-                                    union(par, a, b);
-                                }
-                            },
-                        );
-                    }
+                    union_band(par, runs_ref, rs, (r0, r1), base, |_, _| {});
                     let mut roots = Vec::new();
                     for r in r0..r1 {
                         let edge_row = r == 0 || r + 1 == height;
                         for i in rs[r]..rs[r + 1] {
                             let k = i - base;
-                            let root = par[par[k] as usize];
+                            let root = par[par[k] as usize - base];
                             par[k] = root;
-                            if root as usize == k {
-                                roots.push(i as u32);
+                            if root as usize == i {
+                                roots.push(root);
                             }
                             let run = runs_ref[i];
-                            let root = root as usize;
+                            let root = root as usize - base;
                             siz[root] = siz[root].saturating_add(run.end - run.start);
                             bor[root] |= edge_row || run.start == 0 || run.end as usize == width;
                         }
-                    }
-                    for p in par.iter_mut() {
-                        *p += base as u32;
                     }
                     roots
                 })
@@ -664,13 +623,13 @@ impl Components {
             );
             touching_runs(&runs, prev, cur, &mut pairs, |i, j| {
                 let (ra, rb) = (parent[i], parent[j]);
-                union(&mut parent, ra, rb);
+                union_in(&mut parent, ra, rb, 0);
             });
         }
         // 4. each band-local root hands its statistics to its component's root and then
         // points straight at it (serial, but over components, not runs)
         for &lr in local_roots.iter().flatten() {
-            let g = find(&mut parent, lr);
+            let g = find_in(&mut parent, lr, 0);
             if g != lr {
                 let (g, lr) = (g as usize, lr as usize);
                 size[g] = size[g].saturating_add(size[lr]);

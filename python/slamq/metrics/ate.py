@@ -219,11 +219,6 @@ def _check_align(align: str) -> None:
         raise TrajectoryError(f"unknown alignment {align!r} (one of {', '.join(ALIGNMENTS)})")
 
 
-def _associated(gt: Trajectory, est: Trajectory, max_dt: float, offset: float):
-    gi, ei = associate(gt, est, max_dt=max_dt, offset=offset)
-    return gi, ei
-
-
 def ate(
     gt: TrajLike,
     est: TrajLike,
@@ -277,7 +272,7 @@ def ate(
     _check_align(align)
     gt = _as_traj(gt, "gt")
     est = _as_traj(est, "est")
-    gi, ei = _associated(gt, est, max_dt, offset)
+    gi, ei = associate(gt, est, max_dt=max_dt, offset=offset)
     if align == "origin":
         a = estimate_alignment(align, gt.positions[gi[:1]], est.positions[ei[:1]],
                                gt.orientations[gi[:1]], est.orientations[ei[:1]],
@@ -463,7 +458,7 @@ def rpe(
                 raise TrajectoryError(
                     f"{tr.source}: has no orientation column, so the {relation} error of "
                     f"{name} would be zero by construction; use relation='trans'")
-    gi, ei = _associated(gt, est, max_dt, offset)
+    gi, ei = associate(gt, est, max_dt=max_dt, offset=offset)
     gp, gq = gt.positions[gi], gt.orientations[gi]
     ep, eq = est.positions[ei], est.orientations[ei]
     if align == "origin":
