@@ -32,13 +32,6 @@ struct Owned {
 }
 
 impl Owned {
-    fn new(pid: u32, pool: rayon::ThreadPool) -> Self {
-        Owned {
-            pid,
-            pool: Some(Arc::new(pool)),
-        }
-    }
-
     /// The pool, when it can run work in this process.
     fn live(&self) -> Option<Arc<rayon::ThreadPool>> {
         let here = self.pid == 0 || self.pid == std::process::id();
@@ -80,11 +73,11 @@ fn current_pool(slot: &mut Option<Owned>, threads: usize) -> PyResult<Arc<rayon:
     if let Some(pool) = slot.as_ref().and_then(Owned::live) {
         return Ok(pool);
     }
-    let own = Owned::new(std::process::id(), build_pool(threads)?);
-    let pool = own
-        .live()
-        .ok_or_else(|| PyRuntimeError::new_err("no pool"))?;
-    *slot = Some(own);
+    let pool = Arc::new(build_pool(threads)?);
+    *slot = Some(Owned {
+        pid: std::process::id(),
+        pool: Some(pool.clone()),
+    });
     Ok(pool)
 }
 
@@ -123,7 +116,11 @@ fn adopt_thread() -> PyResult<bool> {
         .build()
         .map_err(|e| PyRuntimeError::new_err(format!("cannot adopt this thread: {e}")))?;
     // a 1-thread pool this thread had ends with its thread (one of a parent is forgotten)
-    POOLS.with(|pools| pools.borrow_mut().insert(1, Owned::new(0, p)));
+    let own = Owned {
+        pid: 0,
+        pool: Some(Arc::new(p)),
+    };
+    POOLS.with(|pools| pools.borrow_mut().insert(1, own));
     ADOPTED.with(|a| a.set(true));
     Ok(true)
 }
