@@ -83,7 +83,7 @@ def test_the_study_measures_every_metric_against_the_severity(plan, monkeypatch)
     t = synth.study(scores=scores, permutations=200)
     pooled = t[t["sequence"] == "(pooled)"].set_index(["degradation", "metric"])
     assert set(pooled.index) == {(k, m) for k in sev
-                                 for m in (*validity.METRICS, *synth.PLAN_FIGURES)}
+                                 for m in (*validity.METRICS, *synth.damage.PLAN_FIGURES)}
     assert pooled.loc[("drift", "plan_f1_loss"), "agreement"] == 1.0
     assert pooled.loc[("specks", "corners"), "agreement"] == 1.0
     assert set(t["n"][t["sequence"] != "(pooled)"]) == {3}
@@ -92,13 +92,13 @@ def test_the_study_measures_every_metric_against_the_severity(plan, monkeypatch)
 
 def test_the_command_rewrites_the_marked_section(tmp_path, capsys) -> None:
     doc = tmp_path / "v.md"
-    doc.write_text(f"head\n{synth.BEGIN}\nold\n{synth.END}\ntail\n")
-    assert synth.main(["--plans", "1", "--permutations", "20", "--markdown", str(doc)]) == 0
+    doc.write_text(f"head\n{synth.damage.BEGIN}\nold\n{synth.damage.END}\ntail\n")
+    assert synth.damage.main(["--plans", "1", "--permutations", "20", "--markdown", str(doc)]) == 0
     text = doc.read_text()
     assert text.startswith("head\n") and text.endswith("tail\n") and "old" not in text
     assert "| rotation (deg) |" in text and "python -m slamq.synth --plans 1" in text
     (tmp_path / "bare.md").write_text("no markers\n")
-    assert synth.main(["--plans", "1", "--permutations", "0", "--markdown",
+    assert synth.damage.main(["--plans", "1", "--permutations", "0", "--markdown",
                        str(tmp_path / "bare.md")]) == 2
 
 
@@ -106,6 +106,6 @@ def test_docs_hold_the_study_and_its_command() -> None:
     from pathlib import Path
 
     doc = (Path(__file__).parents[1] / "docs" / "validity.md").read_text()
-    section = doc.split(synth.BEGIN)[1].split(synth.END)[0]
+    section = doc.split(synth.damage.BEGIN)[1].split(synth.damage.END)[0]
     assert "Regenerate with `python -m slamq.synth" in section
     assert all(f"| {k} (" in section for k in synth.DEGRADATIONS)

@@ -441,7 +441,7 @@ def changes(scores: pd.DataFrame) -> pd.DataFrame:
     Examples
     --------
     >>> import pandas as pd
-    >>> from slamq.synth import changes
+    >>> from slamq.synth.damage import changes
     >>> df = pd.DataFrame({"degradation": "rotation", "sequence": "rotation/0",
     ...                    "severity": [0.0, 2.0], "corners": [100, 118]})
     >>> float(changes(df).loc[("rotation", 2.0), "corners"])
@@ -461,7 +461,7 @@ def markdown(table: pd.DataFrame, scores: pd.DataFrame, command: str) -> str:
 
     Examples
     --------
-    >>> from slamq.synth import floor_plan, markdown, records, study
+    >>> from slamq.synth.damage import floor_plan, markdown, records, study
     >>> df = records([floor_plan(0, rooms=(2, 2))], severities={"specks": [0, 0.01]})
     >>> print(markdown(study(scores=df, permutations=0), df, "cmd").splitlines()[0])
     Regenerate with `cmd`.
