@@ -67,7 +67,7 @@ def cast(poses: np.ndarray, laser: LaserSpec) -> np.ndarray:
     return r
 
 
-def drive(n: int, step: float = 0.05, turn: float = math.radians(6)) -> np.ndarray:
+def drive(n: int, step: float = 0.047, turn: float = math.radians(6)) -> np.ndarray:
     """(n, 3) poses along LOOP (repeated), ``step`` m per pose, turning on the spot by at
     most ``turn`` rad per pose at the corners."""
     out: list[tuple[float, float, float]] = []

@@ -35,7 +35,8 @@ import numpy as np
 from slamq.errors import SlamqError
 from slamq.synth.sequence import Sequence
 
-__all__ = ["EPOCH", "MOTION_MODEL", "mrpt_timestamp", "odometry_increments", "write_rawlog"]
+__all__ = ["EPOCH", "MOTION_MODEL", "graphslam_nodes", "mrpt_timestamp", "odometry_increments",
+           "write_rawlog", "write_step_times"]
 
 #: Seconds since 1970 added to a sequence's stamps in every written log (a valid ROS time,
 #: 2023-11-14 22:13:20 UTC); the sequence's time 0 is this instant.
@@ -85,6 +86,72 @@ def odometry_increments(odom: np.ndarray) -> np.ndarray:
         inc[1:, 1] = -s * d[:, 0] + c * d[:, 1]
         inc[1:, 2] = np.angle(np.exp(1j * (odom[1:, 2] - odom[:-1, 2])))
     return inc
+
+
+def graphslam_nodes(odom: np.ndarray, max_distance: float = 0.5,
+                    max_angle: float = math.radians(30.0)) -> np.ndarray:
+    """Indices of the scans at which ``graphslam-engine``'s ``CFixedIntervalsNRD`` adds a
+    graph node: the first scan, then each scan where the odometry since the last node has
+    moved more than ``max_distance`` metres or turned more than ``max_angle`` radians
+    (``[NodeRegistrationDeciderParameters] registration_max_distance`` /
+    ``registration_max_angle``; MRPT 2.5.8 composes the increments exactly so). Node ``k``
+    of its output graph is the robot at scan ``graphslam_nodes(...)[k]``.
+
+    Examples
+    --------
+    >>> odom = np.column_stack([np.arange(12) * 0.2, np.zeros(12), np.zeros(12)])
+    >>> graphslam_nodes(odom).tolist()
+    [0, 3, 6, 9]
+    """
+    inc = odometry_increments(odom)
+    nodes = [0] if len(inc) else []
+    x = y = th = 0.0
+    for i in range(1, len(inc)):
+        dx, dy, dth = inc[i]
+        c, s = math.cos(th), math.sin(th)
+        x, y, th = x + c * dx - s * dy, y + s * dx + c * dy, th + dth
+        th = math.atan2(math.sin(th), math.cos(th))
+        if math.hypot(x, y) > max_distance or abs(th) > max_angle:
+            nodes.append(i)
+            x = y = th = 0.0
+    return np.asarray(nodes, np.int64)
+
+
+def write_step_times(seq: Sequence, rawlog: str | Path, *, epoch: float = EPOCH,
+                     node_interval: tuple[float, float] = (0.5, 30.0)) -> tuple[Path, Path]:
+    """Write the sidecars that put index-only pose logs on the sequence's clock.
+
+    ``<rawlog>.steps.txt``: the Unix time of each scan, one per line (``icp-slam``'s pose
+    log numbers its poses by step); ``<rawlog>.nodes.txt``: the time of each
+    ``graphslam-engine`` graph node (:func:`graphslam_nodes` with ``node_interval`` =
+    (metres, degrees), its ``registration_max_distance`` / ``registration_max_angle``).
+    ``slamq run`` reads them through an output's ``times:`` (e.g.
+    ``times: "{input}.steps.txt"``).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from slamq.models import OccupancyMap
+    >>> from slamq.synth import LaserSpec
+    >>> world = OccupancyMap(np.full((4, 4), 254, np.uint8), np.zeros((4, 4), bool), 0.1)
+    >>> odom = np.column_stack([np.arange(4) * 0.3, np.zeros(4), np.zeros(4)])
+    >>> seq = Sequence(np.arange(4) * 0.1, odom, odom, np.ones((4, 3), np.float32),
+    ...                LaserSpec(beams=3), world)
+    >>> steps, nodes = write_step_times(seq, pathlib.Path(tempfile.mkdtemp()) / "s.rawlog")
+    >>> nodes.read_text().split()
+    ['1700000000.000000', '1700000000.200000']
+    """
+    rawlog = Path(rawlog)
+    t = epoch + np.asarray(seq.stamps, np.float64)
+    nodes = graphslam_nodes(seq.odom, node_interval[0], math.radians(node_interval[1]))
+    steps_path = rawlog.with_name(rawlog.name + ".steps.txt")
+    nodes_path = rawlog.with_name(rawlog.name + ".nodes.txt")
+    try:
+        np.savetxt(steps_path, t, fmt="%.6f")
+        np.savetxt(nodes_path, t[nodes], fmt="%.6f")
+    except OSError as exc:
+        raise SlamqError(f"{steps_path}: cannot write ({exc.strerror or exc})") from exc
+    return steps_path, nodes_path
 
 
 def _header(name: str, version: int) -> bytes:
