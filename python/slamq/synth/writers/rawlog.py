@@ -64,8 +64,12 @@ def mrpt_timestamp(seconds: float | np.ndarray) -> Any:
     >>> mrpt_timestamp(EPOCH + 0.5) - mrpt_timestamp(EPOCH)
     5000000
     """
-    ticks = np.round((np.asarray(seconds, np.float64) + _UNIX_TO_1601) * 1e7).astype(np.uint64)
-    return int(ticks) if ticks.ndim == 0 else ticks
+    s = np.asarray(seconds, np.float64)
+    whole = np.floor(s)
+    # whole seconds in integers (1.3e17 ticks is past float64's exact integers)
+    ticks = ((whole.astype(np.int64) + _UNIX_TO_1601) * 10_000_000
+             + np.round((s - whole) * 1e7).astype(np.int64))
+    return int(ticks) if ticks.ndim == 0 else ticks.astype(np.uint64)
 
 
 def odometry_increments(odom: np.ndarray) -> np.ndarray:
@@ -239,7 +243,10 @@ def write_rawlog(seq: Sequence, path: str | Path, *, motion_model: dict[str, flo
     valid = np.isfinite(ranges) & (ranges >= laser.min_range) & (ranges <= laser.max_range)
     ranges = np.where(valid, ranges, np.float32(laser.max_range)).astype("<f4")
     valid_bytes = valid.astype(np.int8)
-    ticks = mrpt_timestamp(epoch + np.asarray(seq.stamps, np.float64))
+    # the epoch's whole seconds apart: stamps keep their 100 ns precision
+    whole = math.floor(epoch)
+    ticks = mrpt_timestamp(whole) + mrpt_timestamp(epoch - whole + np.asarray(
+        seq.stamps, np.float64)) - mrpt_timestamp(0.0)
     inc = odometry_increments(seq.odom)
     label = sensor_label.encode()
     scan_head = (_FRAME + struct.pack("<I", 1) + _SCAN
