@@ -25,6 +25,7 @@
         outputs:
           map: {path: "finalMap_*.png", format: mrpt}           # mrpt | yaml | image
           trajectory: {path: log_estimated_path.txt, format: mrpt}   # mrpt | tum | ...
+          # icp-slam / graphslam-engine log poses by index: times: "{input}.steps.txt"
           snapshots: {path: "maps/mapbuilt_*.png", format: mrpt}
 
 Placeholders in commands, overrides and environment values: ``{sequence} {input} {out}
@@ -82,6 +83,11 @@ class Output:
     path: str
     format: str
     topic: str | None = None
+    #: A trajectory output timed by step or node index (``icp-slam``'s pose log,
+    #: ``graphslam-engine``'s graph): a file listing one clock time per index (placeholders
+    #: such as ``{input}`` filled in), e.g. ``"{input}.steps.txt"`` beside a rawlog
+    #: written by :mod:`slamq.synth.writers`.
+    times: str | None = None
 
 
 @dataclass(frozen=True)
@@ -204,7 +210,10 @@ def _output(value: Any, where: str, formats: tuple[str, ...]) -> Output | None:
     fmt = str(value.get("format", "auto" if "auto" in formats else formats[0]))
     if fmt not in formats:
         raise ParamError(f"{where}.format must be one of {', '.join(formats)}, got {fmt!r}")
-    return Output(str(value["path"]), fmt, value.get("topic"))
+    times = value.get("times")
+    if times is not None and (not isinstance(times, str) or not times):
+        raise ParamError(f"{where}.times must be a path (one time per step), got {times!r}")
+    return Output(str(value["path"]), fmt, value.get("topic"), times)
 
 
 def _command(value: Any, where: str) -> list[str] | str:

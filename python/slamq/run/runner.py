@@ -278,6 +278,12 @@ def _collect(spec: RunSpec, config: RunConfig) -> tuple[str, str, dict[str, Any]
 
                 fmt = None if algo.trajectory.format == "auto" else algo.trajectory.format
                 traj = load_trajectory(found[-1], format=fmt, topic=algo.trajectory.topic)
+            if algo.trajectory.times is not None:
+                from slamq.sources.mrpt import apply_step_times
+
+                times = Path(render(algo.trajectory.times, _values(spec, 0, config),
+                                    f"algorithms.{algo.name}.outputs.trajectory.times"))
+                traj = apply_step_times(traj, times if times.is_absolute() else out / times)
             traj.write_tum(folder / "trajectory.tum")
         except (SlamqError, OSError) as exc:
             return "no_output", f"trajectory unreadable: {exc}", files
