@@ -43,7 +43,7 @@ _LAZY = {
     "discover_runs": "slamq.batch.runs",
     "evaluate_many": "slamq.batch.engine",
     "run": "slamq.run",
-    "read_results": "slamq.results.files",
+    "read_results": "slamq.results.formats",
     "summarize": "slamq.results.summary",
     "synth": "slamq.synth",
     "validate": "slamq.results.validity",

@@ -20,7 +20,7 @@ from slamq.errors import MapError, ParamError, SlamqError
 from slamq.models.comparison import COMPARISON_FIGURES
 from slamq.params import Params
 from slamq.results.columns import ATE_STATS, columns
-from slamq.results.files import digest64
+from slamq.results.store import digest64
 from slamq.sources.files import (
     MAX_IMAGE_BYTES,
     MAX_YAML_BYTES,
@@ -275,7 +275,7 @@ def evaluate_run(
     options : EvalOptions
     done : int or str, optional
         The fingerprint of a stored, error-free record of this run (resume), or its
-        :func:`slamq.results.files.digest64` (what a batch keeps). When the map's content
+        :func:`slamq.results.store.digest64` (what a batch keeps). When the map's content
         hash gives the same fingerprint, nothing is evaluated.
 
     Returns

@@ -2,7 +2,7 @@
 core.
 
 Follow one pair from here: :func:`compare` loads both maps (:func:`slamq.load_map`), hands
-their buffers and frames to ``slamq._core.compare`` (rust/src/python.rs -> compare.rs, which
+their buffers and frames to ``slamq._core.compare`` (rust/src/bindings/comparison.rs -> compare.rs, which
 uses edt.rs for the distance transforms and icp.rs for the alignment) and wraps the counts
 it returns in a :class:`~slamq.MapComparison`.
 """

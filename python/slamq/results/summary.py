@@ -49,7 +49,7 @@ GT_METRICS = ("gt_precision", "gt_recall", "gt_f1", "gt_iou", "gt_ne", "gt_rever
 def _frame(results: Any) -> Any:
     import pandas as pd
 
-    from slamq.results.files import read_results
+    from slamq.results.formats import read_results
 
     if isinstance(results, pd.DataFrame):
         return results

@@ -104,7 +104,7 @@ def validate(results: Any, *, truths: tuple[str, ...] | None = None,
     0.8333
     """
     from slamq.results.columns import REFERENCE_ALGORITHMS
-    from slamq.results.files import read_results
+    from slamq.results.formats import read_results
 
     df = results if isinstance(results, pd.DataFrame) else read_results(results)
     if "error" in df:
