@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from slamq.batch.runs import Run, is_reference
+from slamq.batch.runs import Run, is_ground_truth
 from slamq.errors import MapError, ParamError, SlamqError
 from slamq.models.comparison import COMPARISON_FIGURES
 from slamq.params import Params
@@ -354,7 +354,7 @@ def _ate_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
 
 def _gt_map(run: Run) -> Path | None:
     """The ground-truth map to compare the run with (never for a reference run)."""
-    return None if is_reference(run.algorithm) else run.gt_map
+    return None if is_ground_truth(run.algorithm) else run.gt_map
 
 
 def _gt_fields(run: Run, options: EvalOptions) -> dict[str, Any]:

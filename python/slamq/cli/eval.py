@@ -43,10 +43,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="also run slamq.metrics.reference (slow) and fail on any difference")
     p.add_argument("--threads", type=int, default=None, help="cap on worker threads")
     add_map_options(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=handle)
 
 
-def run(args: argparse.Namespace) -> int:
+def handle(args: argparse.Namespace) -> int:
     """Evaluate every map found; one error line per bad map, the others still evaluated."""
     from slamq.errors import ParamError, SlamqError
     from slamq.metrics.evaluate import evaluate

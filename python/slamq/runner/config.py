@@ -30,7 +30,7 @@ Placeholders in commands, overrides and environment values: ``{sequence} {input}
 {iteration} {seed} {config} {slot} {ros_domain_id} {ros_master_port} {param.NAME}``;
 other braces are left alone. ``{out}`` is ``<run folder>/out``, the command's working
 folder. A ROS algorithm gives ``recipe:`` (a list of steps) instead of ``command:``;
-see :mod:`slamq.run.runner`.
+see :mod:`slamq.runner.runner`.
 """
 
 from __future__ import annotations
