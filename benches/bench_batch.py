@@ -48,7 +48,8 @@ import cv2, pyarrow, pyarrow.parquet, yaml  # noqa: E401,F401
 # pyarrow imports pandas the first time it builds an array (here: when the Parquet file is
 # compacted at the end), ~0.4-0.6 s once per process
 import pandas  # noqa: F401
-import slamq.batch.records, slamq.metrics.evaluate, slamq.results.files  # noqa: E401,F401
+import slamq.batch.records, slamq.metrics.evaluate  # noqa: E401,F401
+import slamq.results.formats, slamq.results.store  # noqa: E401,F401
 import slamq.sources.mapserver  # noqa: F401
 src, out, threads, chunk = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
 params = json.loads(sys.argv[5]) if len(sys.argv) > 5 else {}

@@ -72,7 +72,7 @@ def bench_mrpt(scans: int, beams: int, noise: float) -> None:
     import yaml
 
     from slamq.results import read_results
-    from slamq.run import runner
+    from slamq.runner import runner
     from slamq.synth.writers import write, write_groundtruth
 
     if not all(shutil.which(p) for p in ("rbpf-slam", "icp-slam", "graphslam-engine")):

@@ -18,7 +18,7 @@ PACKAGE = Path(slamq.__file__).parent
 
 #: The layers, bottom first; a module may import its own layer and the layers below it.
 LAYERS = ("errors", "params", "models", "sources", "metrics", "results", "synth", "batch",
-          "report", "run", "cli")
+          "report", "runner", "cli")
 
 
 def _modules() -> list[str]:

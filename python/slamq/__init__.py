@@ -8,7 +8,7 @@ evaluation.
 Data flows one way through the subpackages, and nothing imports upward:
 :mod:`slamq.sources` (readers) -> :mod:`slamq.models` (plain data) -> :mod:`slamq.metrics`
 -> :mod:`slamq.results` -> :mod:`slamq.synth` -> :mod:`slamq.batch` -> :mod:`slamq.report`
--> :mod:`slamq.run` -> :mod:`slamq.cli`.
+-> :mod:`slamq.runner` -> :mod:`slamq.cli`.
 Heavy parts (batch, bags, pbstream) are imported on first use.
 
 >>> import numpy as np, slamq
@@ -42,8 +42,8 @@ __version__ = "0.1.0"
 _LAZY = {
     "discover_runs": "slamq.batch.runs",
     "evaluate_many": "slamq.batch.engine",
-    "run": "slamq.run",
-    "read_results": "slamq.results.files",
+    "run": "slamq.runner.runner",
+    "read_results": "slamq.results.formats",
     "summarize": "slamq.results.summary",
     "synth": "slamq.synth",
     "validate": "slamq.results.validity",

@@ -1,6 +1,7 @@
-"""Type stubs of the Rust core (rust/src/python.rs). Use :func:`slamq.evaluate` instead:
-it loads maps, checks parameters and turns these integers into a :class:`slamq.MapQuality`.
-tests/test_stubs.py checks these names and signatures against the built module."""
+"""Type stubs of the Rust core (rust/src/bindings/, one file per domain). Use
+:func:`slamq.evaluate` instead: it loads maps, checks parameters and turns these integers
+into a :class:`slamq.MapQuality`. tests/test_architecture.py checks these names and
+signatures against the built module."""
 
 import os
 

@@ -5,7 +5,7 @@ range, unit and help text. Everything else is generated from this table: the key
 checks of :func:`slamq.evaluate` and :func:`slamq.metrics.reference.evaluate`, the
 ``--log-threshold``-style options of every CLI command, the parameter list in
 :class:`Params`' docstring, the ``param_*`` columns of results files, and what the Rust
-core receives (it reads these attributes, rust/src/python.rs). Adding a parameter means a
+core receives (it reads these attributes, rust/src/bindings/maps.rs). Adding a parameter means a
 field here, a field of the Rust struct in rust/src/params.rs, and its use in the metric
 (Rust and the reference function).
 """

@@ -9,10 +9,11 @@
 //! `stages MAP.raw HEIGHT WIDTH RUNS canonical` runs only the canonical step, RUNS times,
 //! and prints its results (for callgrind).
 
-use slamq::canonical::{canonical_corners_in, canonical_map, known_bounds, wall_angle};
+use slamq::canonical::{canonical_corners_in, canonical_map, wall_angle};
 use slamq::corners::{corner_runs, count_corners, drop_dots_runs, structure_mask_runs};
 use slamq::enclosed::{binarisations, count_binarisation, sweep};
 use slamq::evaluate::evaluate;
+use slamq::grid::known_bounds;
 use slamq::grid::Grid;
 use slamq::label::count_components;
 use slamq::otsu::threshold_table;

@@ -12,34 +12,14 @@
 
 use crate::border::reflect101;
 use crate::corners::count_corners;
-use crate::evaluate::{reserve_working_set, OutOfMemory};
-use crate::grid::Grid;
+use crate::grid::{known_bounds, Bounds, Grid};
+use crate::memory::{reserve_working_set, OutOfMemory};
 use crate::params::CornerParams;
 use rayon::prelude::*;
 
 /// Canonical maps larger than this are not built (`corners_canonical` is then `None`): a
 /// very coarse map resampled to a fine reference resolution.
 pub const MAX_CANONICAL_CELLS: usize = 1 << 30;
-
-/// Rows `r0..r1` and columns `c0..c1` of a box: `(r0, r1, c0, c1)`.
-pub type Bounds = (usize, usize, usize, usize);
-
-/// The known cells' bounding box, or `None`.
-pub fn known_bounds(grid: &Grid) -> Option<Bounds> {
-    let w = grid.width;
-    let known_row = |r: usize| grid.unknown[r * w..(r + 1) * w].iter().any(|&u| !u);
-    let r0 = (0..grid.height).find(|&r| known_row(r))?;
-    let r1 = (0..grid.height).rev().find(|&r| known_row(r))? + 1;
-    let (mut c0, mut c1) = (w, 0);
-    for r in r0..r1 {
-        let row = &grid.unknown[r * w..(r + 1) * w];
-        if let Some(first) = row.iter().position(|&u| !u) {
-            c0 = c0.min(first);
-            c1 = c1.max(w - row.iter().rev().position(|&u| !u).unwrap_or(0));
-        }
-    }
-    Some((r0, r1, c0, c1))
-}
 
 /// A `Vec` of `n` copies of `x`, or `OutOfMemory`.
 fn filled<T: Clone>(n: usize, x: T) -> Result<Vec<T>, OutOfMemory> {

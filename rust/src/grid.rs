@@ -327,6 +327,26 @@ fn band_histogram_table(vals: &[u8], unk: &[bool], sh: &[u8]) -> ([u64; 256], [u
     (known, shades)
 }
 
+/// Rows `r0..r1` and columns `c0..c1` of a box: `(r0, r1, c0, c1)`.
+pub type Bounds = (usize, usize, usize, usize);
+
+/// The known cells' bounding box, or `None`.
+pub fn known_bounds(grid: &Grid) -> Option<Bounds> {
+    let w = grid.width;
+    let known_row = |r: usize| grid.unknown[r * w..(r + 1) * w].iter().any(|&u| !u);
+    let r0 = (0..grid.height).find(|&r| known_row(r))?;
+    let r1 = (0..grid.height).rev().find(|&r| known_row(r))? + 1;
+    let (mut c0, mut c1) = (w, 0);
+    for r in r0..r1 {
+        let row = &grid.unknown[r * w..(r + 1) * w];
+        if let Some(first) = row.iter().position(|&u| !u) {
+            c0 = c0.min(first);
+            c1 = c1.max(w - row.iter().rev().position(|&u| !u).unwrap_or(0));
+        }
+    }
+    Some((r0, r1, c0, c1))
+}
+
 /// Value histogram of the known cells plus the unknown count.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Histogram {

@@ -1,14 +1,16 @@
 //! slamq core: the three no-reference 2D SLAM map metrics of Filatov et al. (arXiv 1708.02354),
 //! as pinned down by docs/spec.md, on borrowed occupancy grids.
 //!
-//! Module map (one idea per file; nothing here knows about Python except `python`):
-//! - [`grid`]: the borrowed map view and its checks, the value histogram, row bands.
+//! Module map (one idea per file; nothing here knows about Python except `bindings`):
+//! - [`grid`]: the borrowed map view and its checks, the value histogram, the known cells'
+//!   bounding box, row bands.
 //! - [`pixels`]: the loader's one pass over a map_saver image (its shades, its unknown mask).
 //! - [`border`]: reflect-101 indexing shared by every filter.
 //! - [`filter`]: integer binomial blur + Laplacian (the Harris sums are tabulated per 4x4
 //!   mask window in [`corners`]).
 //! - [`label`]: 8-connected labelling of binary images by runs (union-find, parallel bands).
 //! - [`otsu`]: OpenCV-exact Otsu, and the threshold for every unknown value.
+//! - [`memory`]: the working memory of an evaluation (its fallible reservation).
 //! - [`params`]: every metric parameter and its default.
 //! - [`proportion`]: SPEC section 2.
 //! - [`corners`]: SPEC section 3.
@@ -22,7 +24,8 @@
 //! - [`compare`]: a map against a ground-truth map, SPEC section 7.
 //! - [`ate`]: the absolute trajectory error's passes over the poses (association, Umeyama
 //!   sums, errors, statistics); [`table`]: the numeric text table and TUM pose reader.
-//! - `python` (feature `python`): the pyo3 bindings, and nothing else.
+//! - `bindings` (feature `python`): the pyo3 bindings, one file per domain, and their
+//!   runtime (thread pools, fork handling); nothing else.
 
 // Stencil loops index several rows at offsets from one column index; iterator chains would
 // hide the arithmetic the SPEC describes.
@@ -40,6 +43,7 @@ pub mod filter;
 pub mod grid;
 pub mod icp;
 pub mod label;
+pub mod memory;
 pub mod otsu;
 pub mod params;
 pub mod pixels;
@@ -48,4 +52,4 @@ pub mod se2;
 pub mod table;
 
 #[cfg(feature = "python")]
-mod python;
+mod bindings;

@@ -1,7 +1,7 @@
 //! Every metric parameter of the spec (docs/spec.md sections 3-4) and its default.
 //!
 //! The Python table `python/slamq/params.py` is the source of names, ranges, units and help
-//! text; the bindings (`python.rs`) read a Python `slamq.Params` into [`Params`], and a test
+//! text; the bindings (`bindings/maps.rs`) read a Python `slamq.Params` into [`Params`], and a test
 //! (`tests/test_params.py`) checks that the defaults here equal the Python ones.
 
 /// Parameters of SPEC section 3 (defaults in `Default`).

@@ -27,7 +27,8 @@ from slamq.batch import Run, discover_runs, evaluate_many, read_manifest
 from slamq.batch.records import content_hash
 from slamq.cli import main as cli_main
 from slamq.results import read_results, summarize
-from slamq.results.files import ResultsFile, journal_path
+from slamq.results.formats import journal_path
+from slamq.results.store import ResultsFile
 
 
 def _core_available() -> bool:
@@ -757,7 +758,7 @@ def test_a_results_line_is_the_same_with_and_without_the_plain_record_shortcut(
     """A record of plain values is dumped without a json_value call per value; the line is
     the one json_value gives (NaN and infinities null, numpy scalars numbers)."""
     from slamq.results.columns import json_value
-    from slamq.results.files import _dumps
+    from slamq.results.formats import dumps_record as _dumps
 
     want = json.dumps({k: json_value(v) for k, v in rec.items()}, allow_nan=False) + "\n"
     assert _dumps(rec) == want

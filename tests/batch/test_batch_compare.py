@@ -16,7 +16,7 @@ from conftest import TEST_DATA
 import slamq
 from slamq.batch.runs import discover_runs
 from slamq.results.columns import GT_COLUMNS
-from slamq.results.files import read_records
+from slamq.results.formats import read_records
 
 ROOT = TEST_DATA / "slam_comparison_tools"
 

@@ -16,7 +16,7 @@ from conftest import TEST_DATA, slamq_env
 
 import slamq
 from slamq.cli import main
-from slamq.results.files import read_records as read_results
+from slamq.results.formats import read_records as read_results
 from slamq.sources import load_map
 
 OFFICE = TEST_DATA / "slam_comparison_tools" / "test_results" / "office"

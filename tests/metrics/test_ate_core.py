@@ -1,5 +1,5 @@
 """The Rust passes of the ATE (rust/src/ate.rs) and the one-pass TUM reader
-(rust/src/table.rs) against their numpy references: ``ate`` equals ``ate_numpy``,
+(rust/src/table.rs) against their numpy twins: ``ate`` equals ``ate_numpy``,
 ``matching_indices`` equals ``matching_indices_numpy``, ``read_tum`` equals the general
 table reader + the ``Trajectory`` constructor, with the same errors (type and message).
 The comparison with evo itself is tests/metrics/test_trajectory_evo.py."""

@@ -54,8 +54,8 @@ def test_parameters_are_checked() -> None:
         slamq.consensus([plan(), plan()])
     with pytest.raises(slamq.ParamError, match="quorum"):
         slamq.consensus([plan()] * 3, quorum=1.0)
-    with pytest.raises(slamq.ParamError, match="reference"):
-        slamq.consensus([plan()] * 3, reference="x")
+    with pytest.raises(slamq.ParamError, match="base"):
+        slamq.consensus([plan()] * 3, base="x")
 
 
 def test_on_the_office_world_the_broken_cartographer_map_scores_worst(test_data) -> None:
@@ -65,7 +65,7 @@ def test_on_the_office_world_the_broken_cartographer_map_scores_worst(test_data)
     f1 = {n: s.f1 for n, s in c.scores.items()}
     assert min(f1, key=f1.get) == "cartographer"  # ATE 1.6 m; the others below 0.35 m
     assert f1["cartographer"] < 0.5 < min(v for n, v in f1.items() if n != "cartographer")
-    assert c.reference != "cartographer"
+    assert c.base != "cartographer"
 
 
 def test_measured_on_slam_comparison_tools_it_does_not_clearly_beat_corners(

@@ -26,15 +26,15 @@ from slamq.metrics import reference
 from slamq.report import build_report
 from slamq.report.data import evaluate_map, load_results
 from slamq.report.frames import build_timeline, find_snapshots, write_timeline_gif
-from slamq.report.metrics import (
+from slamq.report.overlays import CORNER_RGB, draw_overlay
+from slamq.report.plots import metric_figure
+from slamq.report.ranking import (
     METRICS,
     format_mean_std,
     format_value,
     rank_sequence,
     summarize,
 )
-from slamq.report.overlays import CORNER_RGB, draw_overlay
-from slamq.report.plots import metric_figure
 
 FREE, WALL, UNKNOWN = 254, 0, 205
 
@@ -153,7 +153,7 @@ def test_gt_f1_ranks_the_highest_first_and_the_reference_is_not_ranked():
     df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b", "ground_truth"],
                        "gt_f1": [0.9, 0.99, np.nan], "gt_chamfer": [0.05, 0.01, np.nan]})
     r = rank_sequence(summarize(df), "s")
-    assert r.order == ["b", "a"] and r.references == ["ground_truth"]
+    assert r.order == ["b", "a"] and r.ground_truths == ["ground_truth"]
     assert r.best["gt_f1"] == ["b"] and r.best["gt_chamfer"] == ["b"]
     assert r.ranks["gt_f1"] == {"a": 2.0, "b": 1.0}
 
@@ -367,8 +367,8 @@ def test_cli_report(tmp_path, site):
 
 
 def test_reference_maps_are_shown_but_not_ranked() -> None:
-    from slamq.report.metrics import rank_sequence
-    from slamq.report.metrics import summarize as report_summary
+    from slamq.report.ranking import rank_sequence
+    from slamq.report.ranking import summarize as report_summary
 
     df = pd.DataFrame({
         "sequence": "s",
@@ -379,7 +379,7 @@ def test_reference_maps_are_shown_but_not_ranked() -> None:
     })
     r = rank_sequence(report_summary(df), "s")
     assert r.order == ["a", "b"]
-    assert r.references == ["ground_truth"]
+    assert r.ground_truths == ["ground_truth"]
     assert "ground_truth" not in r.score and r.winner == "a"
 
 

@@ -11,7 +11,7 @@ import pytest
 from conftest import comparison_tools_runs
 
 import slamq
-from slamq.report.metrics import summarize
+from slamq.report.ranking import summarize
 from slamq.report.verdict import sequence_verdict, verdict_sentence
 
 

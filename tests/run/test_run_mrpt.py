@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 from slamq.results import read_results
-from slamq.run import runner
+from slamq.runner import runner
 from slamq.sources import load_map
 from slamq.sources.mrpt import load_mrpt_grid, read_mrpt_path
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from slamq.run import runner
+from slamq.runner import runner
 
 PY = sys.executable
 

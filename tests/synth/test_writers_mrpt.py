@@ -15,7 +15,7 @@ import yaml
 from _world import make_sequence
 
 from slamq.results import read_results
-from slamq.run import runner
+from slamq.runner import runner
 from slamq.sources.mrpt import load_mrpt_grid, read_mrpt_path
 from slamq.synth.writers import EPOCH, graphslam_nodes, write, write_groundtruth
 

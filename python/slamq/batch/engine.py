@@ -42,7 +42,8 @@ from slamq.batch.records import EvalOptions, evaluate_run
 from slamq.batch.runs import Discovery, Run
 from slamq.errors import ParamError
 from slamq.results.columns import settings_difference
-from slamq.results.files import ResultsFile, digest64, key_digest, results_format
+from slamq.results.formats import results_format
+from slamq.results.store import ResultsFile, digest64, key_digest
 
 __all__ = ["evaluate_many", "evaluate_chunk"]
 

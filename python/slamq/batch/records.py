@@ -15,12 +15,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from slamq.batch.runs import Run, is_reference
+from slamq.batch.runs import Run, is_ground_truth
 from slamq.errors import MapError, ParamError, SlamqError
 from slamq.models.comparison import COMPARISON_FIGURES
 from slamq.params import Params
 from slamq.results.columns import ATE_STATS, columns
-from slamq.results.files import digest64
+from slamq.results.store import digest64
 from slamq.sources.files import (
     MAX_IMAGE_BYTES,
     MAX_YAML_BYTES,
@@ -275,7 +275,7 @@ def evaluate_run(
     options : EvalOptions
     done : int or str, optional
         The fingerprint of a stored, error-free record of this run (resume), or its
-        :func:`slamq.results.files.digest64` (what a batch keeps). When the map's content
+        :func:`slamq.results.store.digest64` (what a batch keeps). When the map's content
         hash gives the same fingerprint, nothing is evaluated.
 
     Returns
@@ -354,7 +354,7 @@ def _ate_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
 
 def _gt_map(run: Run) -> Path | None:
     """The ground-truth map to compare the run with (never for a reference run)."""
-    return None if is_reference(run.algorithm) else run.gt_map
+    return None if is_ground_truth(run.algorithm) else run.gt_map
 
 
 def _gt_fields(run: Run, options: EvalOptions) -> dict[str, Any]:

@@ -32,8 +32,8 @@ followed once.
   ``<sequence>_gt*``, searched in the run folder, then the sequence folder, then the root.
   A CSV trajectory whose header has both ``gt_x`` and an estimate column (``slam_x``,
   ``est_x``) is its own ground truth (a paired pose log).
-* **Ground-truth map** of a sequence (docs/spec.md section 7): the map of its reference
-  run, i.e. a map whose algorithm is one of :data:`REFERENCE_ALGORITHMS` (a
+* **Ground-truth map** of a sequence (docs/spec.md section 7): the map of its ground-truth
+  run, i.e. a map whose algorithm is one of :data:`GROUND_TRUTH_ALGORITHMS` (a
   ``<sequence>_ground_truth`` map anywhere under the root, or a ``ground_truth*.yaml`` /
   ``gt_map.yaml`` in the sequence folder, which the flat layout names ``ground_truth`` /
   ``gt``). Every other run of the sequence gets it as ``gt_map`` (the first by path when
@@ -60,18 +60,18 @@ from pathlib import Path
 from typing import IO, Any
 
 from slamq.errors import MapError
-from slamq.results.columns import REFERENCE_ALGORITHMS
+from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources.files import PathLike
 from slamq.sources.trajectories import paired_columns
 from slamq.sources.walk import walk_folders
 
 __all__ = [
-    "REFERENCE_ALGORITHMS",
+    "GROUND_TRUTH_ALGORITHMS",
     "Discovery",
     "Run",
     "describe_layout",
     "discover_runs",
-    "is_reference",
+    "is_ground_truth",
     "read_manifest",
     "TRAJECTORY_SUFFIXES",
 ]
@@ -82,15 +82,15 @@ GROUND_TRUTH = "ground_truth"
 MANIFEST_COLUMNS = ("algorithm", "sequence", "run", "map", "trajectory", "groundtruth",
                     "gt_map")
 
-def is_reference(algorithm: str) -> bool:
-    """Whether runs of ``algorithm`` are reference (ground-truth) maps.
+def is_ground_truth(algorithm: str) -> bool:
+    """Whether runs of ``algorithm`` are ground-truth maps.
 
     Examples
     --------
-    >>> is_reference("Ground_Truth"), is_reference("gmapping")
+    >>> is_ground_truth("Ground_Truth"), is_ground_truth("gmapping")
     (True, False)
     """
-    return str(algorithm).lower() in REFERENCE_ALGORITHMS
+    return str(algorithm).lower() in GROUND_TRUTH_ALGORITHMS
 
 _GT_NAME = re.compile(r"^(ground[_-]?truth|gt)([_\-.].*)?$", re.IGNORECASE)
 _TRAJ_HINT = re.compile(r"traj|pose|odom|est", re.IGNORECASE)
@@ -187,7 +187,7 @@ def discover_runs(sources: PathLike | Run | Iterable[PathLike | Run]) -> list[Ru
     runs = list(_iter_runs(_source_list(sources)))
     refs: dict[str, Path] = {}
     for r in runs:
-        _add_reference(refs, r)
+        _add_ground_truth(refs, r)
     return [_with_ground_truth_map(r, refs) for r in runs]
 
 
@@ -240,7 +240,7 @@ class Discovery:
         try:
             for run in _iter_runs(self._sources):
                 self._summary.add(run)
-                _add_reference(self._refs, run)
+                _add_ground_truth(self._refs, run)
                 self._keep(run)
             self._keep(None)
         except BaseException:
@@ -396,17 +396,18 @@ def _source_runs(src: PathLike | Run) -> Iterable[Run]:
     raise MapError(f"{path}: not a file or folder")
 
 
-def _add_reference(refs: dict[str, Path], run: Run) -> None:
-    """Note ``run`` if it is the first (by path) reference run of its sequence."""
-    if is_reference(run.algorithm):
+def _add_ground_truth(refs: dict[str, Path], run: Run) -> None:
+    """Note ``run`` if it is the first (by path) ground-truth run of its sequence."""
+    if is_ground_truth(run.algorithm):
         have = refs.get(run.sequence)
         if have is None or str(run.map) < str(have):
             refs[run.sequence] = run.map
 
 
 def _with_ground_truth_map(run: Run, refs: dict[str, Path]) -> Run:
-    """A non-reference run without a ``gt_map`` gets its sequence's reference map."""
-    if run.gt_map is not None or is_reference(run.algorithm) or run.sequence not in refs:
+    """A run that is not a ground truth and has no ``gt_map`` gets its sequence's ground-truth
+    map."""
+    if run.gt_map is not None or is_ground_truth(run.algorithm) or run.sequence not in refs:
         return run
     return dataclasses.replace(run, gt_map=refs[run.sequence])
 

@@ -79,10 +79,10 @@ def add_parser(subparsers: Any) -> None:
                    help="print the algorithm / sequence / run of every map found (and the "
                    "layout that was detected), and evaluate nothing")
     add_map_options(p)
-    p.set_defaults(func=_cmd_batch)
+    p.set_defaults(func=handle)
 
 
-def _cmd_batch(args: argparse.Namespace) -> int:
+def handle(args: argparse.Namespace) -> int:
     from slamq.batch import evaluate_many
     from slamq.batch.runs import Discovery, describe_layout
     from slamq.errors import SlamqError
@@ -174,7 +174,7 @@ def _print_runs(runs: list) -> None:
     from slamq.results.table import short_names
 
     names = short_names([str(r.map) for r in runs])
-    from slamq.batch.runs import is_reference
+    from slamq.batch.runs import is_ground_truth
 
     rows = [("algorithm", "sequence", "run", "layout", "map", "trajectory", "groundtruth",
              "gt_map")]
@@ -182,7 +182,7 @@ def _print_runs(runs: list) -> None:
         rows.append((r.algorithm, r.sequence, r.run, r.layout, names[str(r.map)],
                      r.trajectory.name if r.trajectory else "-",
                      r.groundtruth.name if r.groundtruth else "-",
-                     "(reference)" if is_reference(r.algorithm) else
+                     "(reference)" if is_ground_truth(r.algorithm) else
                      r.gt_map.name if r.gt_map else "-"))
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:

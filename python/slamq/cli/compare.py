@@ -2,7 +2,7 @@
 section 7).
 
 Follow one map: :func:`run` -> :func:`slamq.compare` (python/slamq/metrics/compare.py) ->
-``slamq._core.compare`` (rust/src/python.rs) -> rust/src/compare.rs (edt.rs, icp.rs).
+``slamq._core.compare`` (rust/src/bindings/comparison.rs) -> rust/src/compare.rs (edt.rs, icp.rs).
 """
 
 from __future__ import annotations
@@ -57,10 +57,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    "matched walls green, missing walls red, ghost walls blue")
     add_unknown_value_option(p)
     p.add_argument("--threads", type=int, default=None, help="cap on worker threads")
-    p.set_defaults(func=run)
+    p.set_defaults(func=handle)
 
 
-def run(args: argparse.Namespace) -> int:
+def handle(args: argparse.Namespace) -> int:
     """Compare every map found with the ground truth; one error line per bad map."""
     from slamq.errors import ParamError, SlamqError
     from slamq.metrics.compare import compare

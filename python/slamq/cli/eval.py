@@ -1,7 +1,7 @@
 """``slamq eval PATH...``: the three map metrics of maps, folders (recursive) and bags.
 
 Follow one map: :func:`run` -> :func:`slamq.evaluate` (python/slamq/metrics/evaluate.py)
--> ``slamq._core.evaluate`` (rust/src/python.rs) -> rust/src/evaluate.rs -> the metric's
+-> ``slamq._core.evaluate`` (rust/src/bindings/maps.rs) -> rust/src/evaluate.rs -> the metric's
 file (rust/src/proportion.rs, corners.rs, enclosed.rs).
 """
 
@@ -43,15 +43,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="also run slamq.metrics.reference (slow) and fail on any difference")
     p.add_argument("--threads", type=int, default=None, help="cap on worker threads")
     add_map_options(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=handle)
 
 
-def run(args: argparse.Namespace) -> int:
+def handle(args: argparse.Namespace) -> int:
     """Evaluate every map found; one error line per bad map, the others still evaluated."""
     from slamq.errors import ParamError, SlamqError
     from slamq.metrics.evaluate import evaluate
     from slamq.params import check_threads, params_from_args
-    from slamq.results.files import write_csv, write_json
+    from slamq.results.formats import write_csv, write_json
     from slamq.results.table import print_table
     from slamq.sources.walk import discover_maps
 

@@ -25,10 +25,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="skip map-building animations from snapshots")
     p.add_argument("--no-trajectories", action="store_true",
                    help="skip drawing trajectories over maps")
-    p.set_defaults(func=run)
+    p.set_defaults(func=handle)
 
 
-def run(args: argparse.Namespace) -> int:
+def handle(args: argparse.Namespace) -> int:
     """Build the report; print where it is."""
     need_extra("report", "slamq report")
     from slamq.report import build_report

@@ -23,12 +23,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="run again the finished runs whose outcome was not ok")
     p.add_argument("--dry-run", action="store_true",
                    help="print the planned runs and their commands; run nothing")
-    p.set_defaults(func=run)
+    p.set_defaults(func=handle)
 
 
-def run(args: argparse.Namespace) -> int:
+def handle(args: argparse.Namespace) -> int:
     """Run the config; print one line per run and where the results are."""
-    from slamq.run import runner
+    from slamq.runner import runner
 
     def progress(row: dict) -> None:
         print(f"{row['outcome']:<12} {row['algorithm']} {row['sequence']} #{row['iteration']}"

@@ -21,10 +21,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="standard deviation: 1 = sample (default), 0 = population")
     s.add_argument("--csv", metavar="FILE", help="also write the summary as CSV")
     s.add_argument("--json", metavar="FILE", help="also write the summary as JSON")
-    s.set_defaults(func=run)
+    s.set_defaults(func=handle)
 
 
-def run(args: argparse.Namespace) -> int:
+def handle(args: argparse.Namespace) -> int:
     """Print the summary table; optionally write it as CSV / JSON."""
     from slamq.results import read_results, summarize, summary_table
     from slamq.results.summary import spreadsheet_safe

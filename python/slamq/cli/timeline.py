@@ -33,10 +33,10 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--no-frames", action="store_true", help="do not write PNG frames")
     p.add_argument("--threads", type=int, default=None, help="cap on worker threads")
     add_map_options(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=handle)
 
 
-def run(args: argparse.Namespace) -> int:
+def handle(args: argparse.Namespace) -> int:
     """Evaluate the bag's maps over time; write the files; print one row per map."""
     from slamq.params import params_from_args
     from slamq.report.timeline import timeline

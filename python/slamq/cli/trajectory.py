@@ -80,7 +80,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "Equal to evo_ape for se3 (-a), sim3 (-as), origin and none.",
     )
     _common_options(p, "se2")
-    p.set_defaults(func=_cmd_ate)
+    p.set_defaults(func=handle_ate)
 
     p = subparsers.add_parser(
         "rpe",
@@ -97,7 +97,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    default="trans", help="error of the relative pose (default %(default)s)")
     p.add_argument("--pairs-from", choices=("est", "gt"), default="est",
                    help="whose path length picks the pairs for --unit m (default est)")
-    p.set_defaults(func=_cmd_rpe)
+    p.set_defaults(func=handle_rpe)
 
 
 def _load(path: str, args: argparse.Namespace, gt: bool):
@@ -201,9 +201,9 @@ def _run(args: argparse.Namespace, metric: str) -> int:
     return EXIT_BAD_INPUT if failed else EXIT_OK
 
 
-def _cmd_ate(args: argparse.Namespace) -> int:
+def handle_ate(args: argparse.Namespace) -> int:
     return _run(args, "ate")
 
 
-def _cmd_rpe(args: argparse.Namespace) -> int:
+def handle_rpe(args: argparse.Namespace) -> int:
     return _run(args, "rpe")

@@ -25,10 +25,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="also print every sequence (default: the pooled rows)")
     p.add_argument("--csv", metavar="FILE", help="also write every row as CSV")
     p.add_argument("--json", metavar="FILE", help="also write every row as JSON")
-    p.set_defaults(func=run)
+    p.set_defaults(func=handle)
 
 
-def run(args: argparse.Namespace) -> int:
+def handle(args: argparse.Namespace) -> int:
     """Print the validity table."""
     from rich.table import Table
 

@@ -7,8 +7,8 @@ alignments evo has: association by :func:`slamq.metrics.sync.associate`, alignme
 
 :func:`ate` runs its passes over the poses in the Rust core (``rust/src/ate.rs``: the
 association, the Umeyama sums, the per-pose errors and their statistics; the 3x3 SVD stays
-in numpy); :func:`ate_numpy` is the same computation in numpy, the reference it is tested
-against (equal to about 1e-13: the sums are taken in another order).
+in numpy); :func:`ate_numpy` is the same computation in numpy, its numpy twin, which it is
+tested against (equal to about 1e-13: the sums are taken in another order).
 """
 
 from __future__ import annotations
@@ -281,7 +281,7 @@ def ate(
         a = estimate_alignment_pairs(align, gt.positions, est.positions, gi, ei,
                                      source=est.source)
     # the per-pose errors and their statistics in one pass of the Rust core, without
-    # gathered copies of the positions (the numpy reference: ate_numpy)
+    # gathered copies of the positions (its numpy twin: ate_numpy)
     rotation = None if a.kind == "none" else a.rotation.tolist()
     errors, (total, sse, ssd, lo, hi, median) = _core.ate_errors(
         gt.positions, est.positions, gi, ei, rotation, a.translation.tolist(),
@@ -332,7 +332,7 @@ def ate_numpy(
     max_dt: float = 0.01,
     offset: float = 0.0,
 ) -> ErrorResult:
-    """:func:`ate` in numpy (association, Umeyama, errors, statistics): the reference the
+    """:func:`ate` in numpy (association, Umeyama, errors, statistics): the numpy twin the
     Rust passes of :func:`ate` are tested against. Same arguments, result and errors.
 
     Examples

@@ -2,9 +2,9 @@
 core.
 
 Follow one pair from here: :func:`compare` loads both maps (:func:`slamq.load_map`), hands
-their buffers and frames to ``slamq._core.compare`` (rust/src/python.rs -> compare.rs, which
-uses edt.rs for the distance transforms and icp.rs for the alignment) and wraps the counts
-it returns in a :class:`~slamq.MapComparison`.
+their buffers and frames to ``slamq._core.compare`` (rust/src/bindings/comparison.rs ->
+compare.rs, which uses edt.rs for the distance transforms and icp.rs for the alignment) and
+wraps the counts it returns in a :class:`~slamq.MapComparison`.
 """
 
 from __future__ import annotations

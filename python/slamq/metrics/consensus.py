@@ -1,7 +1,7 @@
 """``slamq.consensus`` (experimental): several maps of one place scored against the map they
 agree on, without ground truth.
 
-Every map is aligned onto a reference map's grid by :func:`slamq.compare` (frames, then
+Every map is aligned onto a base map's grid by :func:`slamq.compare` (frames, then
 trimmed ICP; the per-cell flags of the comparison give the aligned occupied and known cells).
 A cell of the consensus is occupied when more than ``quorum`` of the voting maps have an
 occupied cell within ``radius`` cells of it and at least one of them has it exactly (so the
@@ -10,8 +10,8 @@ unknown otherwise. Each map is then scored against the consensus of the *other* 
 (leave-one-out: a map does not vote for itself) with the figures of :func:`slamq.compare`
 (F1, chamfer...).
 
-The reference is the medoid: the map whose mean F1 against the others is highest (a broken
-map makes a poor reference, and the largest map is often the broken one).
+The base is the medoid: the map whose mean F1 against the others is highest (a broken
+map makes a poor base, and the largest map is often the broken one).
 
 Measured on slam_comparison_tools (3 worlds x 5 algorithms, ground truth withheld), the
 consensus F1 loss (1 - F1) agrees with the trajectory error no better than corners
@@ -43,10 +43,10 @@ class Consensus:
     ----------
     names : list of str
         The maps, in the order given.
-    reference : str
+    base : str
         The map whose grid the consensus is built on.
     consensus : OccupancyMap
-        The consensus of all maps (every map voting), on the reference's grid.
+        The consensus of all maps (every map voting), on the base's grid.
     scores : dict of str to MapComparison
         Each map against the consensus of the other maps.
 
@@ -62,7 +62,7 @@ class Consensus:
     """
 
     names: list[str]
-    reference: str
+    base: str
     consensus: OccupancyMap
     scores: dict[str, MapComparison]
 
@@ -89,7 +89,7 @@ def _aligned(est: OccupancyMap, ref: OccupancyMap, align: str, threads: int | No
 
 
 def consensus(maps: Mapping[str, Any] | Sequence[Any], *, quorum: float = 0.5,
-              radius: int = 1, align: str = "icp", reference: str | None = None,
+              radius: int = 1, align: str = "icp", base: str | None = None,
               tolerance: float | None = None, threads: int | None = None) -> Consensus:
     """Score each of several maps of one place against the consensus of the others.
 
@@ -106,8 +106,8 @@ def consensus(maps: Mapping[str, Any] | Sequence[Any], *, quorum: float = 0.5,
     radius : int, default 1
         Cells of slack between the maps' walls once aligned.
     align : {"icp", "origin", "search"}, default "icp"
-        How each map is aligned onto the reference (see :func:`slamq.compare`).
-    reference : str, optional
+        How each map is aligned onto the base (see :func:`slamq.compare`).
+    base : str, optional
         The name of the map whose grid is used (default: the medoid by pairwise F1).
     tolerance : float, optional
         Matching distance of the scores, metres (default: :func:`slamq.compare`'s).
@@ -146,16 +146,16 @@ def consensus(maps: Mapping[str, Any] | Sequence[Any], *, quorum: float = 0.5,
 
     loaded = {str(k): load_map(v) for k, v in named.items()}
     names = list(loaded)
-    if reference is None:
+    if base is None:
         mean_f1 = {}
         for a in names:
             f1 = [compare(loaded[b], loaded[a], align=align, threads=threads).f1
                   for b in names if b != a]
             mean_f1[a] = float(np.nanmean(f1)) if np.isfinite(f1).any() else -1.0
-        reference = max(names, key=lambda a: (mean_f1[a], -names.index(a)))
-    elif reference not in loaded:
-        raise ParamError(f"reference {reference!r} is not one of the maps: {names}")
-    ref = loaded[reference]
+        base = max(names, key=lambda a: (mean_f1[a], -names.index(a)))
+    elif base not in loaded:
+        raise ParamError(f"base {base!r} is not one of the maps: {names}")
+    ref = loaded[base]
     kernel = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
     occ, near, known = {}, {}, {}
     for n in names:
@@ -178,5 +178,5 @@ def consensus(maps: Mapping[str, Any] | Sequence[Any], *, quorum: float = 0.5,
         others = [v for v in names if v != n]
         scores[n] = compare(loaded[n], build(others, f"<consensus without {n}>"),
                             align=align, tolerance=tolerance, threads=threads)
-    return Consensus(names=names, reference=reference,
+    return Consensus(names=names, base=base,
                      consensus=build(names, "<consensus>"), scores=scores)

@@ -2,7 +2,7 @@
 
 Follow one map from here: :func:`evaluate` loads it (:func:`slamq.load_map`), hands the
 ``values`` and ``unknown`` buffers and the :class:`~slamq.Params` to ``slamq._core.evaluate``
-(rust/src/python.rs -> evaluate.rs -> proportion.rs, corners.rs, canonical.rs, enclosed.rs)
+(rust/src/bindings/maps.rs -> evaluate.rs -> proportion.rs, corners.rs, canonical.rs, enclosed.rs)
 and wraps the integers it returns in a :class:`~slamq.MapQuality`. Ratios are computed from
 those integers by :meth:`MapQuality.from_counts`, the same code :mod:`slamq.metrics.reference`
 uses, so both sides agree bit for bit; the comparability facts (saver, known box) come from
@@ -26,7 +26,7 @@ __all__ = ["MapSource", "WORK_BYTES_PER_CELL", "evaluate"]
 
 #: Peak working memory of one evaluation, in bytes per cell; the core reserves it before it
 #: starts and raises :class:`~slamq.OutOfMemoryError` when it cannot (equal to
-#: ``slamq._core.WORK_BYTES_PER_CELL``, from rust/src/evaluate.rs).
+#: ``slamq._core.WORK_BYTES_PER_CELL``, from rust/src/memory.rs).
 WORK_BYTES_PER_CELL = 16
 
 #: What :func:`evaluate` accepts: a path, an :class:`OccupancyMap`, or a numpy image array.

@@ -27,7 +27,7 @@ def matching_indices(
     ``stamps_2`` must be sorted (non-decreasing). Same result as evo's
     ``sync.matching_time_indices`` for sorted stamps. Computed by the Rust core
     (``slamq._core.match_stamps``, one pass over sorted stamps); equal to
-    :func:`matching_indices_numpy`, the vectorised reference.
+    :func:`matching_indices_numpy`, its vectorised numpy twin.
 
     Examples
     --------
@@ -47,7 +47,7 @@ def matching_indices(
 def matching_indices_numpy(
     stamps_1: np.ndarray, stamps_2: np.ndarray, max_dt: float = 0.01, offset_2: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`matching_indices` in numpy: the reference the Rust core is tested against.
+    """:func:`matching_indices` in numpy: the numpy twin the Rust core is tested against.
 
     Examples
     --------
@@ -89,7 +89,7 @@ def associate(
     offset : float
         Seconds added to the estimate's timestamps (evo's ``--t_offset``).
     matcher : callable
-        :func:`matching_indices` (Rust) or :func:`matching_indices_numpy` (the reference).
+        :func:`matching_indices` (Rust) or :func:`matching_indices_numpy` (its numpy twin).
 
     Raises
     ------

@@ -8,7 +8,7 @@ map (numbers, overlays, the enclosed-area curve, the trajectory coloured by ATE,
 animation of the map being built when snapshots exist). Nothing is fetched from the
 network; the folder can be zipped, mailed or served as it is.
 
-Modules: :mod:`~slamq.report.metrics` (directions, ranking, formatting),
+Modules: :mod:`~slamq.report.ranking` (directions, ranking, formatting),
 :mod:`~slamq.report.plots`, :mod:`~slamq.report.overlays`, :mod:`~slamq.report.frames`
 (animations), :mod:`~slamq.report.trajectory`, :mod:`~slamq.report.site` (the pages),
 :mod:`~slamq.report.cli`.
@@ -24,10 +24,10 @@ __all__ = ["METRICS", "Metric", "build_report", "rank_sequence", "summarize"]
 # Loaded on first use (PEP 562), so that `slamq --help` and `slamq eval` do not import
 # pandas and matplotlib just to register the `report` subcommand.
 _WHERE = {
-    "METRICS": "slamq.report.metrics",
-    "Metric": "slamq.report.metrics",
-    "rank_sequence": "slamq.report.metrics",
-    "summarize": "slamq.report.metrics",
+    "METRICS": "slamq.report.ranking",
+    "Metric": "slamq.report.ranking",
+    "rank_sequence": "slamq.report.ranking",
+    "summarize": "slamq.report.ranking",
     "build_report": "slamq.report.site",
 }
 

@@ -81,7 +81,7 @@ def load_results(results: ResultsLike) -> pd.DataFrame:
 
 
 def _read_file(path: Path) -> pd.DataFrame:
-    from slamq.results.files import read_results
+    from slamq.results.formats import read_results
 
     if path.suffix.lower() not in (".jsonl", ".ndjson", ".parquet", ".pq", ".json", ".csv"):
         raise SlamqError(f"{path}: unknown results format {path.suffix!r} "

@@ -20,9 +20,8 @@ import pandas as pd
 
 from slamq.errors import SlamqError
 from slamq.report.data import ResultsLike, evaluate_map, load_results, params_of, usable
-from slamq.report.metrics import (
+from slamq.report.ranking import (
     METRICS,
-    REFERENCE_NAMES,
     SequenceRanking,
     format_mean_std,
     format_value,
@@ -30,6 +29,7 @@ from slamq.report.metrics import (
     summarize,
 )
 from slamq.report.verdict import verdict_sentence, write_verdicts
+from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import spreadsheet_safe
 
 __all__ = ["build_report"]
@@ -421,7 +421,7 @@ def _plots(ok: pd.DataFrame, out: Path, sequences: list[str]) -> list[tuple[str,
 
     # a reference (ground-truth) map is shown beside the ranking, never plotted as an
     # algorithm among the others
-    ok = ok[~ok["algorithm"].astype(str).str.lower().isin(REFERENCE_NAMES)]
+    ok = ok[~ok["algorithm"].astype(str).str.lower().isin(GROUND_TRUTH_ALGORITHMS)]
     if ok.empty:
         return []
     colours = algorithm_colours(ok["algorithm"].astype(str))
@@ -571,7 +571,7 @@ def _sequence_section(
     head += "<th title=\"mean known area relative to the most complete map of the sequence\">"
     head += "known area</th>"
     rows = []
-    for place, alg in enumerate(ranking.order + ranking.references, start=1):
+    for place, alg in enumerate(ranking.order + ranking.ground_truths, start=1):
         ranked = alg in ranking.score
         row = block.loc[alg]
         cells = []
@@ -620,7 +620,7 @@ def _sequence_section(
         "corner (docs/spec.md section 3); coloured fill: one enclosed free region counted "
         "at the unknown value where the count peaks (section 4); grey: unknown cells; "
         "black: occupied; white: free.</p><div class=\"gallery\">")
-    for alg in ranking.order + ranking.references:
+    for alg in ranking.order + ranking.ground_truths:
         picks = gallery.get((seq, alg), [])
         figs = []
         for which, i in zip(("best", "worst") if len(picks) > 1 else ("",), picks):

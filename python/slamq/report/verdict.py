@@ -36,8 +36,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from slamq.batch.runs import REFERENCE_ALGORITHMS
-from slamq.report.metrics import COMPLETE_SHARE, known_share
+from slamq.report.ranking import COMPLETE_SHARE, known_share
+from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_resolutions
 
 __all__ = ["COMPLETE_SHARE", "CLEAR_MARGIN", "sequence_verdict", "write_verdicts"]
@@ -70,7 +70,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
     Parameters
     ----------
     summary : pandas.DataFrame
-        :func:`slamq.report.metrics.summarize` output (index sequence, algorithm).
+        :func:`slamq.report.ranking.summarize` output (index sequence, algorithm).
     sequence : str
 
     Returns
@@ -83,7 +83,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
     Examples
     --------
     >>> import pandas as pd
-    >>> from slamq.report.metrics import summarize
+    >>> from slamq.report.ranking import summarize
     >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b", "c"],
     ...                    "corners": [300, 40, 35], "ate_rmse": [0.05, 2.0, float("nan")],
     ...                    "known": [1000, 1000, 500]})
@@ -94,7 +94,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
     ['b', 'a', 'c']
     """
     block = summary.xs(sequence, level="sequence") if len(summary) else summary
-    refs = [a for a in block.index if str(a).lower() in REFERENCE_ALGORITHMS]
+    refs = [a for a in block.index if str(a).lower() in GROUND_TRUTH_ALGORITHMS]
     block = block.drop(index=refs)
     warnings: list[str] = []
     share = known_share(block)  # by area: comparable across resolutions; else cells

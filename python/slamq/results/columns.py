@@ -25,7 +25,7 @@ __all__ = [
     "GT_COLUMNS",
     "KEY",
     "QUALITY_COLUMNS",
-    "REFERENCE_ALGORITHMS",
+    "GROUND_TRUTH_ALGORITHMS",
     "RUN_COLUMNS",
     "columns",
     "json_value",
@@ -49,9 +49,9 @@ ATE_STATS = ("rmse", "mean", "median", "std", "min", "max", "n")
 ATE_COLUMNS = tuple(f"ate_{s}" for s in ATE_STATS) + ("ate_error",)
 #: The map against its sequence's ground-truth map (SPEC section 7), when there is one.
 GT_COLUMNS = ("gt_map",) + tuple(f"gt_{f}" for f in COMPARISON_FIGURES) + ("gt_error",)
-#: "Algorithms" whose maps are references of their sequence (a ground truth beside the
-#: runs): compared with, shown, never ranked.
-REFERENCE_ALGORITHMS = frozenset({"ground_truth", "groundtruth", "gt", "reference"})
+#: "Algorithms" whose maps are the ground truth of their sequence (beside the runs):
+#: compared with, shown, never ranked.
+GROUND_TRUTH_ALGORITHMS = frozenset({"ground_truth", "groundtruth", "gt", "reference"})
 
 
 def columns(curve: bool = False) -> tuple[str, ...]:

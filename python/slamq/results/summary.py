@@ -49,7 +49,7 @@ GT_METRICS = ("gt_precision", "gt_recall", "gt_f1", "gt_iou", "gt_ne", "gt_rever
 def _frame(results: Any) -> Any:
     import pandas as pd
 
-    from slamq.results.files import read_results
+    from slamq.results.formats import read_results
 
     if isinstance(results, pd.DataFrame):
         return results
@@ -138,11 +138,11 @@ def comparability_warnings(records: Any) -> list[str]:
     """
     import pandas as pd
 
-    from slamq.results.columns import REFERENCE_ALGORITHMS
+    from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 
     if "algorithm" in records.columns:
         records = records[~records["algorithm"].astype(str).str.lower().isin(
-            REFERENCE_ALGORITHMS)]
+            GROUND_TRUTH_ALGORITHMS)]
     out = resolution_warnings(records)
     seqs = records["sequence"] if "sequence" in records.columns else pd.Series(
         "all maps", index=records.index)

@@ -1,6 +1,6 @@
 """The terminal table of :class:`slamq.MapQuality` results (``slamq eval``).
 
-Files are written and read by :mod:`slamq.results.files`.
+Files are written and read by :mod:`slamq.results.formats`.
 """
 
 from __future__ import annotations

@@ -103,14 +103,14 @@ def validate(results: Any, *, truths: tuple[str, ...] | None = None,
     >>> round(float(row["concordance"]), 4)  # 5 of the 6 pairs in the same order
     0.8333
     """
-    from slamq.results.columns import REFERENCE_ALGORITHMS
-    from slamq.results.files import read_results
+    from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
+    from slamq.results.formats import read_results
 
     df = results if isinstance(results, pd.DataFrame) else read_results(results)
     if "error" in df:
         df = df[df["error"].isna() | (df["error"].astype(str) == "")]
     if "algorithm" in df:
-        df = df[~df["algorithm"].astype(str).str.lower().isin(REFERENCE_ALGORITHMS)]
+        df = df[~df["algorithm"].astype(str).str.lower().isin(GROUND_TRUTH_ALGORITHMS)]
     if truths is None:
         truths = tuple(t for t in TRUTHS if t in df)
     rng = np.random.default_rng(seed)

@@ -74,7 +74,7 @@ def _map_saver_shades(grey: np.ndarray) -> tuple[list[int], np.ndarray] | None:
 
 def _map_saver_shades_numpy(grey: np.ndarray) -> tuple[list[int], np.ndarray] | None:
     """:func:`_map_saver_shades` with numpy: one comparison and one count per shade of
-    :data:`MAP_SAVER_SHADES` (the reference the tests hold the Rust pass to)."""
+    :data:`MAP_SAVER_SHADES` (the numpy twin the tests hold the Rust pass to)."""
     unknown = np.ascontiguousarray(grey == MAP_SAVER_UNKNOWN)
     counts = {v: int(np.count_nonzero(unknown if v == MAP_SAVER_UNKNOWN else grey == v))
               for v in MAP_SAVER_SHADES}

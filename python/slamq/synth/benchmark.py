@@ -139,7 +139,7 @@ def expand(name: str, doc: Any, output: Path, base: Path, where: str) -> list[Ge
     >>> str(g[0].input), str(g[0].groundtruth_map.name)
     ('/tmp/out/sequences/gen-w00-office-low-s0/gen-w00-office-low-s0.rawlog', 'visible_map.yaml')
     """
-    from slamq.synth.odometry import NOISE
+    from slamq.synth.sensors import NOISE
 
     if not isinstance(doc, dict):
         raise ParamError(f"{where} must be a mapping (worlds, noise, seeds, ...)")

@@ -39,8 +39,8 @@ from pathlib import Path
 from typing import Any
 
 from slamq.errors import ParamError, SlamqError
-from slamq.run import process
-from slamq.run.config import Algorithm, Output, RunConfig, Sequence, load_config, render
+from slamq.runner import process
+from slamq.runner.config import Algorithm, Output, RunConfig, Sequence, load_config, render
 from slamq.synth.benchmark import generate_missing
 
 __all__ = ["RunSpec", "plan", "execute", "run", "run_key"]
@@ -614,7 +614,7 @@ def run(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
     Parameters
     ----------
     config : path, dict or RunConfig
-        See :mod:`slamq.run.config`.
+        See :mod:`slamq.runner.config`.
     retry_failed : bool
         Run again the finished runs whose outcome was not ``ok``.
     dry_run : bool

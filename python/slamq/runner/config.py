@@ -33,7 +33,7 @@ Placeholders in commands, overrides and environment values: ``{sequence} {input}
 other braces are left alone. ``{out}`` is ``<run folder>/out``, the command's working
 folder. A ``synth:`` sequence is a recipe for generated sequences with exact ground truth
 (:mod:`slamq.synth.benchmark`). A ROS algorithm gives ``recipe:`` (a list of steps)
-instead of ``command:``; see :mod:`slamq.run.runner`.
+instead of ``command:``; see :mod:`slamq.runner.runner`.
 """
 
 from __future__ import annotations

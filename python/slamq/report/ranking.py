@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from slamq.batch.runs import REFERENCE_ALGORITHMS
+from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 
 __all__ = [
     "METRICS",
@@ -191,8 +191,8 @@ class SequenceRanking:
         map (``known_area_m2``; known cells when a map has no resolution; paper III.A).
     coverage : dict
         ``coverage[algorithm]`` = its mean known area relative to the most complete map's.
-    references : list of str
-        Reference maps in the sequence (an "algorithm" named ground_truth, groundtruth, gt
+    ground_truths : list of str
+        Ground-truth maps in the sequence (an "algorithm" named ground_truth, groundtruth, gt
         or reference): shown beside the ranking, never ranked.
     """
 
@@ -204,7 +204,7 @@ class SequenceRanking:
     metrics: list[Metric]
     disagree: list[Metric]
     partial: list[str]
-    references: list[str] = field(default_factory=list)
+    ground_truths: list[str] = field(default_factory=list)
     coverage: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -245,11 +245,6 @@ def _join(parts: list[str]) -> str:
     return ", ".join(parts[:-1]) + " and " + parts[-1]
 
 
-#: "Algorithms" that are reference maps (e.g. a ground-truth map beside the SLAM maps, as
-#: ``slamq batch`` names ``<sequence>_ground_truth`` files): shown, never ranked.
-REFERENCE_NAMES = REFERENCE_ALGORITHMS
-
-
 def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
     """Rank the algorithms of one sequence: mean rank over the metrics, lower is better.
 
@@ -257,7 +252,8 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
     the lowest, or the highest for a ``higher`` metric; ties share the average rank; an
     algorithm without a value on a metric is not ranked on it, and the ranks of those that
     have it are stretched to span 1..N).
-    Reference maps (:data:`REFERENCE_NAMES`) are left out of the ranking.
+    Ground-truth maps (:data:`~slamq.results.columns.GROUND_TRUTH_ALGORITHMS`) are left out
+    of the ranking.
     The overall score is the mean of an algorithm's ranks; ties are broken
     by the ATE RMSE rank, then by name. A metric "disagrees" when its best algorithm(s) do
     not include the overall winner.
@@ -282,8 +278,9 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
     (['a', 'b'], [])
     """
     block = summary.xs(sequence, level="sequence") if len(summary) else summary
-    references = [str(a) for a in block.index if str(a).lower() in REFERENCE_NAMES]
-    block = block.drop(index=references)
+    ground_truths = [str(a) for a in block.index
+                     if str(a).lower() in GROUND_TRUTH_ALGORITHMS]
+    block = block.drop(index=ground_truths)
     algorithms = [str(a) for a in block.index]
     ranks: dict[str, dict[str, float]] = {}
     best: dict[str, list[str]] = {}
@@ -317,7 +314,7 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
     partial = sorted(a for a, v in coverage.items() if v < COMPLETE_SHARE)
     return SequenceRanking(
         sequence=str(sequence), order=order, score=score, ranks=ranks, best=best,
-        metrics=used, disagree=disagree, partial=partial, references=references,
+        metrics=used, disagree=disagree, partial=partial, ground_truths=ground_truths,
         coverage=coverage,
     )
 
