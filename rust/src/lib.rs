@@ -22,6 +22,8 @@
 //! - [`compare`]: a map against a ground-truth map, SPEC section 7.
 //! - [`ate`]: the absolute trajectory error's passes over the poses (association, Umeyama
 //!   sums, errors, statistics); [`table`]: the numeric text table and TUM pose reader.
+//! - [`raycast`]: exact laser ray casting on a grid (Amanatides-Woo), the simulator's
+//!   sensor for ground truth on demand.
 //! - `python` (feature `python`): the pyo3 bindings, and nothing else.
 
 // Stencil loops index several rows at offsets from one column index; iterator chains would
@@ -44,6 +46,7 @@ pub mod otsu;
 pub mod params;
 pub mod pixels;
 pub mod proportion;
+pub mod raycast;
 pub mod se2;
 pub mod table;
 
