@@ -337,7 +337,8 @@ def compose(start: np.ndarray, steps: np.ndarray) -> np.ndarray:
 
 
 def odometry(gt: Any, noise: str | OdometryNoise = "low", *,
-             seed: int | np.random.Generator | None = 0) -> np.ndarray:
+             seed: int | np.random.Generator | None = 0,
+             carried: Any = ()) -> np.ndarray:
     """The odometry along the ground-truth path ``gt``: its per-step motions in the robot
     frame, each with seeded errors, composed from the first pose (``odom`` = ``map`` at
     time 0).
@@ -346,7 +347,8 @@ def odometry(gt: Any, noise: str | OdometryNoise = "low", *,
     ``1 + noise.scale``; the translation gets Gaussian errors of standard deviation
     ``noise.translation * sqrt(d)`` along and across it; the heading gets ``noise.rotation
     * sqrt(d) + noise.turn * sqrt(|dθ|)`` of Gaussian error and ``noise.heading_bias * d``
-    of drift. With no noise the odometry is the ground truth (to rounding).
+    of drift. With no noise the odometry is the ground truth (to rounding). The steps into
+    the indices ``carried`` (kidnaps: the robot was carried) are not seen: no motion.
 
     Returns
     -------
@@ -367,6 +369,11 @@ def odometry(gt: Any, noise: str | OdometryNoise = "low", *,
     if len(gt) < 2:
         return gt.copy()
     steps = increments(gt)
+    carried = np.asarray(carried, dtype=np.int64)
+    if carried.size:
+        if ((carried < 1) | (carried >= len(gt))).any():
+            raise SlamqError(f"carried indices must be within 1..{len(gt) - 1}")
+        steps[carried - 1] = 0.0
     length = np.hypot(steps[:, 0], steps[:, 1])
     if nz != NOISE["none"]:
         rng = np.random.default_rng(seed)
@@ -378,7 +385,7 @@ def odometry(gt: Any, noise: str | OdometryNoise = "low", *,
         steps[:, 2] += (e[:, 2] * (nz.rotation * root + nz.turn * np.sqrt(np.abs(steps[:, 2])))
                         + nz.heading_bias * length)
     out = compose(gt[0], steps)
-    if nz == NOISE["none"]:
+    if nz == NOISE["none"] and not carried.size:
         out[:, 2] = gt[:, 2]  # exact, not the sum of wrapped differences
     out[:, 2] = _wrap(out[:, 2])
     return out
