@@ -45,7 +45,8 @@ def simulate(world: OccupancyMap | str | os.PathLike[str], *, seed: int = 0,
     path : Drive, optional
         Drive this instead of planning one (its ``stamps`` and ``poses``).
     name : str, optional
-        Default: ``"<kind>-<world seed>-s<seed>-<noise>"``.
+        Default: ``"<kind>-<world seed>-s<seed>-<noise>"`` (a map file: its stem for
+        ``<kind>-<world seed>``).
     threads : int, optional
         Ray casting threads (None: every core); the result does not depend on it.
     **drive_options
@@ -82,10 +83,11 @@ def simulate(world: OccupancyMap | str | os.PathLike[str], *, seed: int = 0,
     odom = odometry(path.poses, nz, seed=np.random.default_rng(streams[1]),
                     carried=path.meta.get("kidnaps", ()))
     wmeta = {k: v for k, v in world.meta.items() if k in ("kind", "seed", "features",
-                                                           "size", "path")}
+                                                           "size", "path", "name")}
     noise_name = next((k for k, v in NOISE.items() if v == nz), "custom")
     if name is None:
-        name = f"{wmeta.get('kind', 'world')}-{wmeta.get('seed', 0)}-s{seed}-{noise_name}"
+        what = wmeta.get("name") or f"{wmeta.get('kind', 'world')}-{wmeta.get('seed', 0)}"
+        name = f"{what}-s{seed}-{noise_name}"
     meta = {
         "seed": int(seed),
         "world": dict(wmeta, source=world.source, shape=list(world.shape),

@@ -502,7 +502,7 @@ def load_world(path: str | Path) -> OccupancyMap:
     free = (m.values >= 128) & ~m.unknown
     if not free.any():
         raise MapError(f"{p}: the map has no free cell to drive in")
-    meta: dict[str, Any] = {"kind": "file", "path": str(p)}
+    meta: dict[str, Any] = {"kind": "file", "name": p.stem, "path": str(p)}
     side = p.with_suffix(".json")
     if p.suffix in (".yaml", ".yml") and side.is_file():
         try:
