@@ -28,6 +28,7 @@ only the walls the laser hit, or ``gt_map.yaml``), so every ok run has ``ate_*``
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Iterable
 from collections.abc import Sequence as Seq
@@ -44,7 +45,8 @@ from slamq.errors import ParamError
 __all__ = ["Generated", "expand", "generate", "generate_missing"]
 
 #: Files every generated sequence has (besides the writers' outputs).
-TRUTH_FILES = ("gt_map.yaml", "visible_map.yaml", "gt.tum", "odom.tum", "sequence.json")
+TRUTH_FILES = ("gt_map.yaml", "visible_map.yaml", "gt_map_start.yaml", "visible_map_start.yaml",
+               "gt.tum", "odom.tum", "sequence.json")
 #: The keys a ``synth:`` recipe may have.
 KEYS = {"worlds", "kinds", "noise", "seeds", "input", "formats", "groundtruth_map", "laser",
         "drive"}
@@ -69,7 +71,12 @@ class Generated:
 
     @property
     def groundtruth_map(self) -> Path:
-        return self.folder / f"{self.recipe['groundtruth_map']}_map.yaml"
+        """The ground-truth map in the frame the SLAM programs map in: an MRPT rawlog or a
+        CARMEN log gives odometry increments, so their maps start at the robot's first pose
+        (``*_map_start.yaml``: the same image, its origin moved into that frame, exact);
+        a bag's odometry is in the world frame (``*_map.yaml``)."""
+        start = "_start" if self.recipe["input"] in ("rawlog", "carmen") else ""
+        return self.folder / f"{self.recipe['groundtruth_map']}_map{start}.yaml"
 
     def complete(self) -> bool:
         """Whether the folder holds this recipe's files (then it is not generated again)."""
@@ -136,8 +143,10 @@ def expand(name: str, doc: Any, output: Path, base: Path, where: str) -> list[Ge
     ...            Path("/tmp/out"), Path("."), "sequences.gen.synth")
     >>> [s.name for s in g][:3]
     ['gen-w00-office-low-s0', 'gen-w00-office-high-s0', 'gen-w01-office-low-s0']
-    >>> str(g[0].input), str(g[0].groundtruth_map.name)
-    ('/tmp/out/sequences/gen-w00-office-low-s0/gen-w00-office-low-s0.rawlog', 'visible_map.yaml')
+    >>> str(g[0].folder)
+    '/tmp/out/sequences/gen-w00-office-low-s0'
+    >>> g[0].input.name, g[0].groundtruth_map.name
+    ('gen-w00-office-low-s0.rawlog', 'visible_map_start.yaml')
     """
     from slamq.synth.sensors import NOISE
 
@@ -180,25 +189,43 @@ def expand(name: str, doc: Any, output: Path, base: Path, where: str) -> list[Ge
 def generate(g: Generated) -> Generated:
     """Make one generated sequence's files (the world, the drive, the sensors, the writers'
     outputs and the ground truth), then its ``recipe.json`` last."""
-    from slamq.sources import load_map
     from slamq.synth import writers
     from slamq.synth.sequence import LaserSpec
     from slamq.synth.simulate import simulate
     from slamq.synth.truth import write_truth
-    from slamq.synth.world import world
+    from slamq.synth.world import load_world, world
 
     r = g.recipe
     w = r["world"]
-    grid = load_map(w["map"]) if "map" in w else world(w["seed"], kind=w["kind"])
+    grid = load_world(w["map"]) if "map" in w else world(w["seed"], kind=w["kind"])
     laser = LaserSpec(**r["laser"])
     seq = simulate(grid, seed=r["seed"], noise=r["noise"], laser=laser, name=g.name,
                    **r["drive"])
     g.folder.mkdir(parents=True, exist_ok=True)
     (g.folder / "recipe.json").unlink(missing_ok=True)
     write_truth(seq, g.folder)
+    for which in ("gt", "visible"):
+        _start_frame_yaml(g.folder / f"{which}_map.yaml", seq.gt[0])
     writers.write(seq, g.folder, r["formats"])
     (g.folder / "recipe.json").write_text(json.dumps(r, indent=1, sort_keys=True))
     return g
+
+
+def _start_frame_yaml(yaml_path: Path, first: np.ndarray) -> Path:
+    """Beside a map_server YAML, ``<stem>_start.yaml``: the same image with its origin
+    expressed in the frame of the robot's first pose ``first`` (x, y, yaw)."""
+    import yaml
+
+    doc = yaml.safe_load(yaml_path.read_text())
+    ox, oy, oyaw = (float(v) for v in doc["origin"])
+    x0, y0, th = (float(v) for v in first)
+    c, s = math.cos(th), math.sin(th)
+    dx, dy = ox - x0, oy - y0
+    doc["origin"] = [c * dx + s * dy, -s * dx + c * dy,
+                     math.atan2(math.sin(oyaw - th), math.cos(oyaw - th))]
+    out = yaml_path.with_name(yaml_path.stem + "_start.yaml")
+    out.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return out
 
 
 def generate_missing(sequences: Iterable[Generated], *, parallel: int = 1,
@@ -233,7 +260,7 @@ def load_benchmark(output: Path) -> pd.DataFrame:
 
     Runs that produced no map are rows too (``outcome`` not ``ok``, metrics missing).
     """
-    from slamq.results.files import read_results
+    from slamq.results.formats import read_results
 
     output = Path(output)
     results = output / "results.jsonl"

@@ -20,7 +20,7 @@ import numpy as np
 from slamq.errors import SlamqError
 from slamq.models import OccupancyMap, Trajectory
 from slamq.synth.sensors import cast
-from slamq.synth.sequence import LaserSpec, Sequence
+from slamq.synth.sequence import EPOCH, LaserSpec, Sequence
 
 __all__ = ["load_sequence", "save_sequence", "visible_map", "write_truth"]
 
@@ -93,7 +93,8 @@ def visible_map(seq: Sequence, *, threads: int | None = None) -> OccupancyMap:
 
 
 def _trajectory(seq: Sequence, poses: np.ndarray, what: str) -> Trajectory:
-    return Trajectory.from_xy_yaw(seq.stamps, poses[:, 0], poses[:, 1], poses[:, 2],
+    """A path on the clock of the sensor logs (``EPOCH + stamps``)."""
+    return Trajectory.from_xy_yaw(EPOCH + seq.stamps, poses[:, 0], poses[:, 1], poses[:, 2],
                                   source=f"{seq.name}:{what}")
 
 

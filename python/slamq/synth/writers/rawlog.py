@@ -33,14 +33,10 @@ from typing import Any
 import numpy as np
 
 from slamq.errors import SlamqError
-from slamq.synth.sequence import Sequence
+from slamq.synth.sequence import EPOCH, Sequence
 
 __all__ = ["EPOCH", "MOTION_MODEL", "graphslam_nodes", "mrpt_timestamp", "odometry_increments",
            "write_rawlog", "write_step_times"]
-
-#: Seconds since 1970 added to a sequence's stamps in every written log (a valid ROS time,
-#: 2023-11-14 22:13:20 UTC); the sequence's time 0 is this instant.
-EPOCH = 1_700_000_000.0
 
 #: MRPT's Gaussian odometry motion model (``CActionRobotMovement2D``'s defaults): the
 #: standard deviations grow with the increment as ``a1`` (m/m), ``a2`` (m/rad), ``a3``
