@@ -1,13 +1,15 @@
 """Benchmark: writing a simulated sequence in every format of ``slamq.synth.writers``, and
 (``--mrpt``) what MRPT's SLAM programs make of a written rawlog.
 
-The sequence comes from the simulator when the package has one (``slamq.synth.simulate``),
-else from the tests' small world (tests/synth/_world.py: walls as segments, an exact
-numpy ray cast, a drive around a loop). Times are the minimum over ``--repeat`` runs, in
+The sequence comes from the simulator when the package has one (``slamq.synth.simulate``
+on its office world, cut to ``--scans``), else from the tests' small world
+(tests/synth/_world.py: walls as segments, an exact numpy ray cast, a drive around a
+loop). Times are the minimum over ``--repeat`` runs, in
 one process, files written to a temporary folder (page cache, not the disk's speed).
 
 ``--mrpt`` then writes the rawlog of the same drive with perfect and with noisy
-odometry (``--noise``, default 5% of each step plus a yaw drift) and runs rbpf-slam,
+odometry (``--noise``: the tests' world's relative odometry error, default 5% of each
+step plus a yaw drift; the simulator's ``high`` preset) and runs rbpf-slam,
 icp-slam and graphslam-engine on both through ``slamq run`` (examples/synth_mrpt.yaml),
 printing ATE RMSE (se2-aligned, against the exact path) and F1 against the world map.
 
@@ -31,6 +33,21 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def make(scans: int, beams: int, noise: float, name: str):
+    """A sequence of ``scans`` x ``beams``: the simulator's office world (odometry noise
+    preset ``none`` when ``noise`` is 0, else ``high``) when slamq has one, else the
+    tests' small world with ``noise`` as its relative odometry error."""
+    try:
+        from slamq.synth import simulate, world  # the simulator (ground truth on demand)
+    except ImportError:
+        simulate = None
+    if simulate is not None:
+        from slamq.synth import LaserSpec, Sequence
+
+        s = simulate(world(1, kind="office"), seed=1, noise="none" if noise == 0 else "high",
+                     laser=LaserSpec(beams=beams), name=name)
+        k = min(scans, len(s))
+        return Sequence(s.stamps[:k], s.gt[:k], s.odom[:k], s.ranges[:k], s.laser, s.world,
+                        name, s.meta)
     sys.path.insert(0, str(ROOT / "tests" / "synth"))
     from _world import make_sequence
 
@@ -60,7 +77,9 @@ def bench_formats(scans: int, beams: int, repeat: int) -> None:
     print(f"\n{scans} scans x {beams} beams ({scans * beams / 1e6:.2f} M ranges), "
           f"min of {repeat}")
     print("| step | seconds | size |\n|---|---|---|")
-    print(f"| generation (tests/synth/_world.py ray cast) | {min(gen):.3f} | |")
+    what = ("tests/synth/_world.py" if seq.meta.get("world") == "test room"
+            else "slamq.synth.simulate, office world")
+    print(f"| generation ({what}) | {min(gen):.3f} | |")
     for fmt, t, size in rows:
         print(f"| write {fmt} | {t:.3f} | {size / 2**20:.1f} MiB |")
     print(f"| write, every format | {total:.3f} | |")
