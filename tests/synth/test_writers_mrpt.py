@@ -76,6 +76,14 @@ def test_three_mrpt_programs_map_a_written_rawlog(tmp_path, room):
     step = np.hypot(*np.diff(path.positions[:, :2], axis=0).T).sum()
     truth = np.hypot(*np.diff(seq.gt[:, :2], axis=0).T).sum()
     assert step == pytest.approx(truth, rel=0.1)
+    # icp-slam logs the odometry it decoded (the actions' increments composed, from 0):
+    # the sequence's odometry seen from its first pose, to the log's 6 decimals
+    odo = np.loadtxt(Path(rows["icp-slam"]["folder"]) / "out" / "log_odometry_path.txt")
+    c, s = np.cos(seq.odom[0, 2]), np.sin(seq.odom[0, 2])
+    d = seq.odom[:, :2] - seq.odom[0, :2]
+    rel = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1],
+                           np.angle(np.exp(1j * (seq.odom[:, 2] - seq.odom[0, 2])))])
+    np.testing.assert_allclose(odo[:, 1:], rel, atol=2e-6)
     graph = Path(rows["graphslam-engine"]["folder"]) / "out" / "graphslam"
     assert len(read_mrpt_path(graph / "output_graph.graph")) == n_nodes
     assert (load_mrpt_grid(graph / "output_map.png").values < 50).any()
