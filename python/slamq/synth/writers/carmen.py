@@ -168,7 +168,7 @@ def read_carmen(path: str | Path) -> dict[str, np.ndarray]:
     >>> import tempfile, pathlib
     >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.log"
     >>> _ = p.write_text("ROBOTLASER1 0 -1.57 3.14 1.57 8.0 0.01 0 3 1.0 8.0 2.5 0 "
-    ...                  "0.1 0 0 0 0 0 0 0 0 0 0 12.5 host 12.5\n")
+    ...                  "0.1 0 0 0 0 0 0 0 0 0 0 12.5 host 12.5\\n")
     >>> log = read_carmen(p)
     >>> log["ranges"].tolist(), log["laser_pose"].tolist(), log["stamps"].tolist()
     ([[1.0, inf, 2.5]], [[0.1, 0.0, 0.0]], [12.5])
