@@ -94,7 +94,6 @@ def write_carmen(seq: Sequence, path: str | Path, *, epoch: float = EPOCH,
     n = len(seq)
     ranges = np.asarray(seq.ranges, np.float64)
     valid = np.isfinite(ranges) & (ranges >= laser.min_range) & (ranges < laser.max_range)
-    text = _fixed3(np.where(valid, ranges, laser.max_range))
     odom = np.asarray(seq.odom, np.float64)
     ox, oy, oth = map(float, laser.offset)
     c, s = np.cos(odom[:, 2]), np.sin(odom[:, 2])
@@ -130,18 +129,23 @@ def write_carmen(seq: Sequence, path: str | Path, *, epoch: float = EPOCH,
     head = (f"ROBOTLASER1 {_LASER_TYPE} {laser.angle_min:.6f} {laser.fov:.6f} "
             f"{laser.angle_increment:.6f} {laser.max_range:.3f} {laser.range_noise:.3f} 0 "
             f"{laser.beams} ").encode()
-    out = ["\n".join(lines).encode() + b"\n"]
-    for i in range(n):
-        ts = f"{t[i]:.6f}"
-        out.append(f"ODOM {odom[i, 0]:.6f} {odom[i, 1]:.6f} {odom[i, 2]:.6f} {tv[i]:.6f} "
-                   f"{rv[i]:.6f} 0.000000 {ts} {hostname} {ts}\n".encode())
-        out += [head, text[i].tobytes(),
-                (f" 0 {lpose[i, 0]:.6f} {lpose[i, 1]:.6f} {lpose[i, 2]:.6f} "
-                 f"{odom[i, 0]:.6f} {odom[i, 1]:.6f} {odom[i, 2]:.6f} {tv[i]:.6f} {rv[i]:.6f} "
-                 f"0.000000 0.000000 0.000000 {ts} {hostname} {ts}\n").encode()]
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(b"".join(out))
+        with open(path, "wb", buffering=1 << 20) as f:
+            f.write("\n".join(lines).encode() + b"\n")
+            for lo in range(0, n, 256):  # ranges formatted 256 scans at a time
+                text = _fixed3(np.where(valid[lo:lo + 256], ranges[lo:lo + 256],
+                                        laser.max_range))
+                for i in range(lo, min(n, lo + 256)):
+                    ts = f"{t[i]:.6f}"
+                    f.write(b"".join((
+                        f"ODOM {odom[i, 0]:.6f} {odom[i, 1]:.6f} {odom[i, 2]:.6f} "
+                        f"{tv[i]:.6f} {rv[i]:.6f} 0.000000 {ts} {hostname} {ts}\n".encode(),
+                        head, text[i - lo].tobytes(),
+                        (f" 0 {lpose[i, 0]:.6f} {lpose[i, 1]:.6f} {lpose[i, 2]:.6f} "
+                         f"{odom[i, 0]:.6f} {odom[i, 1]:.6f} {odom[i, 2]:.6f} {tv[i]:.6f} "
+                         f"{rv[i]:.6f} 0.000000 0.000000 0.000000 {ts} {hostname} {ts}\n"
+                         ).encode())))
     except OSError as exc:
         raise SlamqError(f"{path}: cannot write the CARMEN log ({exc.strerror or exc})") from exc
     return path
@@ -162,6 +166,16 @@ def read_carmen(path: str | Path) -> dict[str, np.ndarray]:
     ------
     slamq.SlamqError
         A malformed line (the file and line number are named).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.log"
+    >>> _ = p.write_text("ROBOTLASER1 0 -1.57 3.14 1.57 8.0 0.01 0 3 1.0 8.0 2.5 0 "
+    ...                  "0.1 0 0 0 0 0 0 0 0 0 0 12.5 host 12.5\\n")
+    >>> log = read_carmen(p)
+    >>> log["ranges"].tolist(), log["laser_pose"].tolist(), log["stamps"].tolist()
+    ([[1.0, inf, 2.5]], [[0.1, 0.0, 0.0]], [12.5])
     """
     path = Path(path)
     stamps, ranges, lpose, rpose, odom, ostamps = [], [], [], [], [], []

@@ -251,14 +251,14 @@ def write_rawlog(seq: Sequence, path: str | Path, *, motion_model: dict[str, flo
     scan_mid = struct.pack("<f", laser.range_noise)
     scan_tail = (struct.pack("<f", laser.angle_increment) + struct.pack("<I", len(label))
                  + label + struct.pack("<d?", 0.0, False) + _END + _END)
-    parts: list[bytes] = []
-    for i in range(n):
-        t = int(ticks[i])
-        parts += [_action(inc[i], t, model), scan_head, ranges[i].tobytes(),
-                  valid_bytes[i].tobytes(), scan_mid, struct.pack("<Q", t), scan_tail]
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(b"".join(parts))
+        with open(path, "wb", buffering=1 << 20) as f:  # streamed: flat memory
+            for i in range(n):
+                t = int(ticks[i])
+                f.write(b"".join((_action(inc[i], t, model), scan_head, ranges[i].tobytes(),
+                                  valid_bytes[i].tobytes(), scan_mid, struct.pack("<Q", t),
+                                  scan_tail)))
     except OSError as exc:
         raise SlamqError(f"{path}: cannot write the rawlog ({exc.strerror or exc})") from exc
     return path
