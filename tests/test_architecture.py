@@ -1,5 +1,7 @@
-"""The package's shape: data flows one way (no import cycle, nothing imports upward), one
-table of parameters, and typed stubs that match the built Rust module."""
+"""The package's shape: data flows one way (no import cycle, nothing imports upward, the top
+package included, imports by name strings included), one module talks to the Rust core,
+metrics never read files, one table of parameters, and typed stubs that match the built
+Rust module."""
 
 from __future__ import annotations
 
@@ -17,8 +19,10 @@ from slamq import _core
 PACKAGE = Path(slamq.__file__).parent
 
 #: The layers, bottom first; a module may import its own layer and the layers below it.
-LAYERS = ("errors", "params", "models", "sources", "metrics", "results", "synth", "batch",
-          "report", "runner", "cli")
+#: The top package (``slamq/__init__.py``) is above them all; no module imports it.
+LAYERS = ("version", "errors", "params", "native", "models", "sources", "metrics", "api",
+          "results", "synth", "batch", "report", "runner", "cli")
+TOP = len(LAYERS)
 
 
 def _modules() -> list[str]:
@@ -31,39 +35,79 @@ def _modules() -> list[str]:
 MODULES = frozenset(_modules())
 
 
-def _layer(module: str) -> int | None:
+def _layer(module: str) -> int:
+    if module == "slamq":
+        return TOP
     parts = module.split(".")
-    if len(parts) < 2 or parts[1] not in LAYERS:
-        return None
+    assert parts[1] in LAYERS, f"{module}: in no layer; add it to LAYERS"
     return LAYERS.index(parts[1])
 
 
-def _imports(module: str) -> set[str]:
-    """Every slamq module named in an ``import`` statement of ``module`` (any depth: also
-    the imports inside functions, which run later)."""
+def _tree(module: str) -> ast.Module:
     mod = importlib.import_module(module)
-    tree = ast.parse(Path(inspect.getfile(mod)).read_text(encoding="utf-8"))
+    return ast.parse(Path(inspect.getfile(mod)).read_text(encoding="utf-8"))
+
+
+def _imports(module: str) -> set[str]:
+    """Every slamq module ``module`` imports: named in an ``import`` statement (any depth:
+    also the imports inside functions, which run later), or by a string that is a module's
+    whole name (``importlib.import_module(name)``, the lazy-attribute tables)."""
     found: set[str] = set()
-    for node in ast.walk(tree):
+    for node in ast.walk(_tree(module)):
         if isinstance(node, ast.Import):
             found.update(a.name for a in node.names if a.name.startswith("slamq"))
         elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("slamq"):
-            found.add(node.module)
-            for a in node.names:  # "from slamq.metrics import reference" imports a module
-                if f"{node.module}.{a.name}" in MODULES:
-                    found.add(f"{node.module}.{a.name}")
+            # "from slamq.metrics import reference" imports the module slamq.metrics.reference
+            # (and its package); "from slamq import native" imports slamq.native only
+            names = {f"{node.module}.{a.name}" for a in node.names}
+            found.update(names & MODULES)
+            if node.module != "slamq" or not names <= MODULES:
+                found.add(node.module)
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
+            # a submodule's dotted name ("slamq" alone is the program's and the logger's)
+            if "." in node.value and (node.value in MODULES or node.value == "slamq._core"):
+                found.add(node.value)
     return found
+
+
+def test_every_module_is_in_a_layer() -> None:
+    for module in _modules():
+        _layer(module)
+
+
+def test_no_module_of_the_package_imports_the_top_package() -> None:
+    assert [m for m in _modules() if "slamq" in _imports(m)] == []
+
+
+def test_exactly_one_module_talks_to_the_rust_core() -> None:
+    assert [m for m in _modules() if "slamq._core" in _imports(m)] == ["slamq.native"]
+
+
+def test_metrics_take_models_and_never_read_files() -> None:
+    """A metric works on OccupancyMap / Trajectory objects: no metric module imports a
+    reader (slamq.api turns paths into models and calls the metric)."""
+    reads = [(m, t) for m in _modules() if m.startswith("slamq.metrics")
+             for t in _imports(m) if t.startswith("slamq.sources")]
+    assert reads == []
+
+
+def test_the_version_is_written_once_and_agrees_with_the_packaging() -> None:
+    import re
+
+    root = Path(__file__).resolve().parents[1]
+    pyproject = re.search(r'^version = "([^"]+)"', (root / "pyproject.toml").read_text(),
+                          re.MULTILINE)
+    cargo = re.search(r'^version = "([^"]+)"', (root / "Cargo.toml").read_text(), re.MULTILINE)
+    assert pyproject and cargo
+    assert slamq.__version__ == pyproject.group(1) == cargo.group(1) == _core.__version__
 
 
 def test_nothing_imports_upward() -> None:
     upward = []
     for module in _modules():
         mine = _layer(module)
-        if mine is None:
-            continue
         for target in _imports(module):
-            theirs = _layer(target)
-            if theirs is not None and theirs > mine:
+            if target in MODULES and _layer(target) > mine:
                 upward.append(f"{module} -> {target}")
     assert upward == []
 

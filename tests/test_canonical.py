@@ -123,7 +123,8 @@ def test_skipped_when_canonical_resolution_is_zero_and_too_large_is_null() -> No
     img[10:20, 10:20] = 0
     q = slamq.evaluate(img, canonical_resolution=0)
     assert q.corners_canonical is None and math.isnan(q.wall_angle)
-    assert reference.evaluate(img, canonical_resolution=0, **FAST).corners_canonical is None
+    q = reference.evaluate(slamq.load_map(img), canonical_resolution=0, **FAST)
+    assert q.corners_canonical is None
     m = OccupancyMap(img, np.zeros_like(img, bool), resolution=500.0)  # 10^8 x finer
     q = slamq.evaluate(m, **FAST)
     assert q.corners_canonical is None and q.corners_canonical == (

@@ -5,10 +5,12 @@ grids, pinned down by docs/spec.md, computed by a Rust core and checked against 
 OpenCV reference (:mod:`slamq.metrics.reference`), plus trajectory error and batch
 evaluation.
 
-Data flows one way through the subpackages, and nothing imports upward:
-:mod:`slamq.sources` (readers) -> :mod:`slamq.models` (plain data) -> :mod:`slamq.metrics`
--> :mod:`slamq.results` -> :mod:`slamq.synth` -> :mod:`slamq.batch` -> :mod:`slamq.report`
--> :mod:`slamq.runner` -> :mod:`slamq.cli`.
+Data flows one way through the subpackages, and nothing imports upward (nor this
+package): :mod:`slamq.native` (the one caller of the Rust core) -> :mod:`slamq.models`
+(plain data) -> :mod:`slamq.sources` (readers) -> :mod:`slamq.metrics` (models in, numbers
+out) -> :mod:`slamq.api` (paths in: ``slamq.evaluate`` and friends) -> :mod:`slamq.results`
+-> :mod:`slamq.synth` -> :mod:`slamq.batch` -> :mod:`slamq.report` -> :mod:`slamq.runner`
+-> :mod:`slamq.cli`.
 Heavy parts (batch, bags, pbstream) are imported on first use.
 
 >>> import numpy as np, slamq
@@ -21,6 +23,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from slamq.api import ate, ate_runs, compare, consensus, evaluate, rpe
 from slamq.errors import (
     BagError,
     ConformanceError,
@@ -31,12 +34,10 @@ from slamq.errors import (
     SlamqError,
     TrajectoryError,
 )
-from slamq.metrics import ate, ate_runs, compare, consensus, evaluate, rpe
 from slamq.models import MapComparison, MapQuality, OccupancyMap, Trajectory
 from slamq.params import Params
 from slamq.sources import load_map, load_trajectory
-
-__version__ = "0.1.0"
+from slamq.version import __version__ as __version__
 
 #: Public names imported on first use: name -> module.
 _LAZY = {

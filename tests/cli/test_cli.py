@@ -195,16 +195,16 @@ def test_an_unexpected_failure_on_one_map_costs_no_other_map(
         tmp_path: Path, capsys: pytest.CaptureFixture[str],
         monkeypatch: pytest.MonkeyPatch) -> None:
     """A bug (not a bad input) on one map: that map's line, the others' results, exit 1."""
-    from slamq import _core
+    from slamq import native
 
-    real = _core.evaluate
+    real = native.evaluate
 
     def flaky(values, *args):
         if values.shape == (3, 3):
             raise RuntimeError("simulated bug")
         return real(values, *args)
 
-    monkeypatch.setattr(_core, "evaluate", flaky)
+    monkeypatch.setattr(native, "evaluate", flaky)
     good = _room_pgm(tmp_path / "room.pgm")
     odd = tmp_path / "odd.pgm"
     odd.write_bytes(b"P5 3 3 255\n" + bytes(9))

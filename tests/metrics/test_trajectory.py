@@ -354,7 +354,7 @@ def test_ate_statistics_and_paths(tmp_path):
     assert set(d) >= {"rmse", "mean", "median", "std", "min", "max", "sse", "n"}
     g, e = gt.write_tum(tmp_path / "g.txt"), est.write_tum(tmp_path / "e.txt")
     with pytest.warns(DeprecationWarning, match="read it with slamq.load_trajectory"):
-        assert ate(g, e, align="none").rmse == pytest.approx(0.5, abs=1e-12)
+        assert slamq.ate(g, e, align="none").rmse == pytest.approx(0.5, abs=1e-12)
     with pytest.raises(TrajectoryError, match="unknown alignment"):
         ate(gt, est, align="se4")
 
@@ -430,7 +430,11 @@ def test_ate_runs_population_and_sample_std():
 
 
 def test_public_names():
-    assert slamq.ate is ate and slamq.rpe is rpe and slamq.ate_runs is ate_runs
+    # the public functions take paths too (deprecated) and call these metrics
+    assert slamq.ate is slamq.api.ate and slamq.rpe is slamq.api.rpe
+    assert slamq.ate_runs is slamq.api.ate_runs
+    assert slamq.api.ate_of is ate and slamq.api.rpe_of is rpe
+    assert slamq.api.ate_runs_of is ate_runs
     assert slamq.Trajectory is Trajectory and slamq.load_trajectory is load_trajectory
 
 

@@ -38,6 +38,7 @@ from collections.abc import Iterable, Iterator
 from concurrent.futures import Executor, Future, ThreadPoolExecutor, wait
 from typing import Any, Callable
 
+from slamq import native
 from slamq.batch.records import EvalOptions, evaluate_run
 from slamq.batch.runs import Discovery, Run
 from slamq.errors import ParamError
@@ -315,10 +316,8 @@ _KEEP_POOLS = 4
 
 def _adopt() -> None:
     """A batch worker's first step: the Rust core runs this thread's maps on it."""
-    from slamq import _core
-
     try:
-        _core.adopt_thread()
+        native.adopt_thread()
     except Exception:  # noqa: BLE001 - not adopted: its maps go to a second thread, as before
         pass
 

@@ -314,7 +314,7 @@ def evaluate_run(
             if expected == done or (isinstance(done, int) and digest64(expected) == done):
                 return None
         try:
-            from slamq.metrics.evaluate import evaluate
+            from slamq.api import evaluate
 
             q = evaluate(
                 str(run.map), threads=options.core_threads, curve=options.curve,
@@ -359,7 +359,7 @@ def _gt_map(run: Run) -> Path | None:
 
 def _gt_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
     """``gt_*``: the run's map against its sequence's ground-truth map (SPEC section 7)."""
-    from slamq.metrics.compare import compare
+    from slamq.api import compare
 
     gt = _gt_map(run)
     assert gt is not None

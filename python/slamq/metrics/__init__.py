@@ -1,5 +1,9 @@
 """The metrics: map quality (the Rust core, and its OpenCV reference) and trajectory error.
 
+Metrics take models (:class:`~slamq.OccupancyMap`, :class:`~slamq.Trajectory`) and never
+read a file; :mod:`slamq.api` (``slamq.evaluate``, ``slamq.compare``, ...) turns paths and
+arrays into models and calls them. They reach the Rust core through :mod:`slamq.native`.
+
 - :func:`evaluate` (:mod:`slamq.metrics.evaluate`): the three map metrics of
   docs/spec.md sections 2-4, computed by the Rust core.
 - :func:`compare` (:mod:`slamq.metrics.compare`): a map against a ground-truth map,

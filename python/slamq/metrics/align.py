@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from slamq import native
 from slamq.errors import TrajectoryError
 from slamq.models.trajectory import matrix_to_quat, quat_multiply, quat_to_matrix
 
@@ -283,8 +284,6 @@ def estimate_alignment_pairs(
     >>> (np.round(a.translation, 12) + 0.0).tolist()
     [5.0, 0.0, 0.0]
     """
-    from slamq import _core
-
     if kind not in ALIGNMENTS or kind == "origin":
         raise TrajectoryError(f"unknown alignment {kind!r} (one of se2, se3, sim3, none)")
     if kind == "none":
@@ -296,7 +295,7 @@ def estimate_alignment_pairs(
             f"{source}: degenerate alignment: {kind} needs at least {need} distinct estimated "
             f"{what} among the {ei.shape[0]} associated poses"
         )
-    mean_x, mean_y, sigma_x, cov = _core.ate_moments(gt_pos, est_pos, gi, ei, dims)
+    mean_x, mean_y, sigma_x, cov = native.ate_moments(gt_pos, est_pos, gi, ei, dims)
     try:
         r, t, c = umeyama_solve(np.array(mean_x), np.array(mean_y), sigma_x, np.array(cov),
                                 kind == "sim3")

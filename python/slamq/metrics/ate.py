@@ -16,12 +16,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Union
 
 import numpy as np
 
-from slamq import _core
+from slamq import native
 from slamq.errors import TrajectoryError
 from slamq.metrics.align import (
     ALIGNMENTS,
@@ -38,7 +36,6 @@ __all__ = [
 
 #: The statistics of an :class:`ErrorResult`, in output order.
 STAT_NAMES = ("rmse", "mean", "median", "std", "min", "max", "sse")
-TrajLike = Union[Trajectory, str, Path]
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,21 +180,11 @@ class RunsResult:
         return f"{self.mean:.3f} \u00b1 {self.std_sample:.3f} m ({self.n_runs} runs, sample std)"
 
 
-def _as_traj(x: TrajLike, what: str) -> Trajectory:
+def _as_traj(x: Trajectory, what: str) -> Trajectory:
     if isinstance(x, Trajectory):
         return x
-    if isinstance(x, (str, Path)):
-        # Deprecated: the metrics work on Trajectory objects; reading files is the sources'
-        # job (slamq.load_trajectory). Kept, with a warning, so old callers still work.
-        import warnings
-
-        from slamq.sources.trajectories import load_trajectory
-
-        warnings.warn(
-            f"passing a file path as {what} is deprecated; read it with "
-            "slamq.load_trajectory(path) first", DeprecationWarning, stacklevel=3)
-        return load_trajectory(x)
-    raise TrajectoryError(f"{what} must be a Trajectory or a file path, not {type(x).__name__}")
+    raise TrajectoryError(f"{what} must be a Trajectory, not {type(x).__name__} (read files "
+                          "with slamq.load_trajectory; slamq.ate still takes paths)")
 
 
 def _stats(errors: np.ndarray) -> dict:
@@ -220,8 +207,8 @@ def _check_align(align: str) -> None:
 
 
 def ate(
-    gt: TrajLike,
-    est: TrajLike,
+    gt: Trajectory,
+    est: Trajectory,
     *,
     align: str = "se2",
     max_dt: float = 0.01,
@@ -231,9 +218,9 @@ def ate(
 
     Parameters
     ----------
-    gt, est : Trajectory or path
-        Ground truth and estimate (file paths still work, deprecated: read them with
-        :func:`slamq.load_trajectory`).
+    gt, est : Trajectory
+        Ground truth and estimate (:func:`slamq.load_trajectory` reads them;
+        :func:`slamq.ate` still takes file paths, deprecated).
     align : {"se2", "se3", "sim3", "origin", "none"}
         ``se2`` (default): rotation about z + x-y translation, for 2-D SLAM; ``se3`` and
         ``sim3``: evo's ``-a`` and ``-as``; ``origin``: first associated poses made
@@ -283,7 +270,7 @@ def ate(
     # the per-pose errors and their statistics in one pass of the Rust core, without
     # gathered copies of the positions (its numpy twin: ate_numpy)
     rotation = None if a.kind == "none" else a.rotation.tolist()
-    errors, (total, sse, ssd, lo, hi, median) = _core.ate_errors(
+    errors, (total, sse, ssd, lo, hi, median) = native.ate_errors(
         gt.positions, est.positions, gi, ei, rotation, a.translation.tolist(),
         float(a.scale))
     n = int(errors.shape[0])
@@ -384,8 +371,8 @@ def _pairs_by_path(p: np.ndarray, delta: float) -> tuple[np.ndarray, np.ndarray]
 
 
 def rpe(
-    gt: TrajLike,
-    est: TrajLike,
+    gt: Trajectory,
+    est: Trajectory,
     *,
     delta: float = 1,
     unit: str = "frames",
@@ -399,7 +386,7 @@ def rpe(
 
     Parameters
     ----------
-    gt, est : Trajectory or path
+    gt, est : Trajectory
     delta : float
         Distance between the poses of a pair: frames (an integer >= 1) or metres of
         travelled path.
@@ -506,8 +493,8 @@ def rpe(
 
 
 def ate_runs(
-    gt: TrajLike,
-    ests: Sequence[TrajLike],
+    gt: Trajectory,
+    ests: Sequence[Trajectory],
     *,
     align: str = "se2",
     max_dt: float = 0.01,

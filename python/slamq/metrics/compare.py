@@ -1,8 +1,8 @@
-"""``slamq.compare``: a map against a ground-truth map (docs/spec.md section 7), by the Rust
-core.
+"""A map against a ground-truth map (docs/spec.md section 7), by the Rust core
+(``slamq.compare`` is this after :mod:`slamq.api` has loaded both maps).
 
-Follow one pair from here: :func:`compare` loads both maps (:func:`slamq.load_map`), hands
-their buffers and frames to ``slamq._core.compare`` (rust/src/bindings/comparison.rs ->
+Follow one pair from here: :func:`compare` hands the two maps' buffers and frames to
+:func:`slamq.native.compare` (rust/src/bindings/comparison.rs ->
 compare.rs, which uses edt.rs for the distance transforms and icp.rs for the alignment) and
 wraps the counts it returns in a :class:`~slamq.MapComparison`.
 """
@@ -13,10 +13,10 @@ import math
 import numbers
 from typing import Any
 
+from slamq import native
 from slamq.errors import MapError, ParamError
 from slamq.models import MapComparison, OccupancyMap
 from slamq.params import check_threads
-from slamq.sources import load_map
 
 __all__ = ["ALIGN_MODES", "DEFAULT_TOLERANCE_CELLS", "compare"]
 
@@ -42,8 +42,8 @@ def _frame(m: OccupancyMap, resolution: float) -> tuple[float, float, float, flo
 
 
 def compare(
-    estimate: Any,
-    ground_truth: Any,
+    estimate: OccupancyMap,
+    ground_truth: OccupancyMap,
     *,
     tolerance: float | None = None,
     occupied_threshold: float = 0.5,
@@ -51,7 +51,6 @@ def compare(
     max_distance: float | None = None,
     cells: bool = False,
     threads: int | None = None,
-    unknown_value: int | None = None,
 ) -> MapComparison:
     """Score a map against a ground-truth map, aligned (docs/spec.md section 7).
 
@@ -61,9 +60,10 @@ def compare(
 
     Parameters
     ----------
-    estimate, ground_truth : path, OccupancyMap, or numpy array
-        Anything :func:`slamq.load_map` reads. A map without a resolution (a bare array)
-        takes the other map's, or 1 (distances then count cells).
+    estimate, ground_truth : OccupancyMap
+        The two maps (:func:`slamq.compare` takes paths and image arrays too). A map without
+        a resolution (from a bare array) takes the other map's, or 1 (distances then count
+        cells).
     tolerance : float, optional
         Matching distance for precision and recall, metres (default: 2 cells of the ground
         truth's resolution).
@@ -80,8 +80,6 @@ def compare(
         Keep the per-cell flags (for overlays) in ``MapComparison.cells``.
     threads : int, optional
         Cap on the Rust worker threads (default: all cores). Results do not depend on it.
-    unknown_value : int, optional
-        Passed to :func:`slamq.load_map` for both maps.
 
     Returns
     -------
@@ -90,7 +88,7 @@ def compare(
     Raises
     ------
     slamq.MapError
-        A map that cannot be read, or two maps that cannot be compared (naming both).
+        Two maps that cannot be compared (naming both).
     slamq.ParamError
         A parameter out of range.
 
@@ -106,23 +104,24 @@ def compare(
     >>> c.ne > 0
     True
     """
-    from slamq import _core
-
+    for what, m in (("estimate", estimate), ("ground_truth", ground_truth)):
+        if not isinstance(m, OccupancyMap):
+            raise ParamError(f"compare takes OccupancyMaps, not {type(m).__name__} as {what};"
+                             " slamq.compare reads files and arrays")
     if align not in ALIGN_MODES:
         raise ParamError(f"align must be one of {', '.join(ALIGN_MODES)}, got {align!r}")
     threshold = _number("occupied_threshold", occupied_threshold)
     if threshold >= 1:
         raise ParamError(f"occupied_threshold must be in [0, 1), got {occupied_threshold!r}")
     n_threads = check_threads(threads)
-    est = load_map(estimate, unknown_value=unknown_value)
-    gt = load_map(ground_truth, unknown_value=unknown_value)
+    est, gt = estimate, ground_truth
     res_gt = gt.resolution or est.resolution or 1.0
     res_est = est.resolution or gt.resolution or 1.0
     tol = (DEFAULT_TOLERANCE_CELLS * res_gt if tolerance is None
            else _number("tolerance", tolerance))
     cap = None if max_distance is None else _number("max_distance", max_distance, True)
     try:
-        raw, flags = _core.compare(
+        raw, flags = native.compare(
             est.values, est.unknown, _frame(est, res_est),
             gt.values, gt.unknown, _frame(gt, res_gt),
             tolerance=tol / res_gt, occupied_threshold=threshold, align=align,

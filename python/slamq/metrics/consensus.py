@@ -30,7 +30,6 @@ import numpy as np
 from slamq.errors import ParamError
 from slamq.metrics.compare import compare
 from slamq.models import MapComparison, OccupancyMap
-from slamq.sources import load_map
 
 __all__ = ["Consensus", "consensus"]
 
@@ -53,7 +52,7 @@ class Consensus:
     Examples
     --------
     >>> import numpy as np, slamq
-    >>> from slamq.metrics.consensus import consensus
+    >>> from slamq import consensus
     >>> img = np.full((40, 40), 254, np.uint8); img[5, 5:35] = 0; img[5:35, 5] = 0
     >>> bad = img.copy(); bad[20, 10:35] = 0                 # a ghost wall
     >>> c = consensus({"a": img, "b": img, "c": img, "d": bad})
@@ -72,7 +71,7 @@ class Consensus:
         Examples
         --------
         >>> import numpy as np
-        >>> from slamq.metrics.consensus import consensus
+        >>> from slamq import consensus
         >>> img = np.full((20, 20), 254, np.uint8); img[5, 2:18] = 0
         >>> [r["f1"] for r in consensus([img, img, img]).table()]
         [1.0, 1.0, 1.0]
@@ -88,7 +87,7 @@ def _aligned(est: OccupancyMap, ref: OccupancyMap, align: str, threads: int | No
     return (flags & 1) != 0, (flags & 16) != 0
 
 
-def consensus(maps: Mapping[str, Any] | Sequence[Any], *, quorum: float = 0.5,
+def consensus(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *, quorum: float = 0.5,
               radius: int = 1, align: str = "icp", base: str | None = None,
               tolerance: float | None = None, threads: int | None = None) -> Consensus:
     """Score each of several maps of one place against the consensus of the others.
@@ -98,8 +97,8 @@ def consensus(maps: Mapping[str, Any] | Sequence[Any], *, quorum: float = 0.5,
     Parameters
     ----------
     maps : mapping of name to map, or sequence of maps
-        At least 3 maps (paths, OccupancyMap or arrays, as :func:`slamq.load_map` reads);
-        a sequence is named ``"0"``, ``"1"``...
+        At least 3 maps (:func:`slamq.consensus` takes paths and image arrays too); a
+        sequence is named ``"0"``, ``"1"``...
     quorum : float, default 0.5
         A consensus cell is occupied when more than this share of the voters has a wall
         within ``radius`` cells of it.
@@ -126,7 +125,7 @@ def consensus(maps: Mapping[str, Any] | Sequence[Any], *, quorum: float = 0.5,
     Examples
     --------
     >>> import numpy as np
-    >>> from slamq.metrics.consensus import consensus
+    >>> from slamq import consensus
     >>> img = np.full((30, 30), 254, np.uint8); img[5, 5:25] = 0; img[5:25, 5] = 0
     >>> shifted = np.roll(img, 6, axis=1); shifted[:, :6] = 254   # a displaced copy...
     >>> doubled = np.minimum(img, shifted)                         # ...superposed
@@ -144,7 +143,11 @@ def consensus(maps: Mapping[str, Any] | Sequence[Any], *, quorum: float = 0.5,
         raise ParamError(f"radius must be an integer >= 0, got {radius!r}")
     import cv2  # on first use: importing OpenCV takes a while
 
-    loaded = {str(k): load_map(v) for k, v in named.items()}
+    loaded = {str(k): v for k, v in named.items()}
+    for k, v in loaded.items():
+        if not isinstance(v, OccupancyMap):
+            raise ParamError(f"consensus takes OccupancyMaps, not {type(v).__name__} as "
+                             f"{k!r}; slamq.consensus reads files and arrays")
     names = list(loaded)
     if base is None:
         mean_f1 = {}

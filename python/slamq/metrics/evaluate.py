@@ -1,55 +1,51 @@
-"""``slamq.evaluate``: the three map metrics of docs/spec.md sections 2-4, by the Rust core.
+"""The three map metrics of docs/spec.md sections 2-4 of one :class:`~slamq.OccupancyMap`,
+by the Rust core (``slamq.evaluate`` is this after :mod:`slamq.api` has loaded the map).
 
-Follow one map from here: :func:`evaluate` loads it (:func:`slamq.load_map`), hands the
-``values`` and ``unknown`` buffers and the :class:`~slamq.Params` to ``slamq._core.evaluate``
-(rust/src/bindings/maps.rs -> evaluate.rs -> proportion.rs, corners.rs, canonical.rs, enclosed.rs)
-and wraps the integers it returns in a :class:`~slamq.MapQuality`. Ratios are computed from
-those integers by :meth:`MapQuality.from_counts`, the same code :mod:`slamq.metrics.reference`
-uses, so both sides agree bit for bit; the comparability facts (saver, known box) come from
-the core's histogram pass (:func:`~slamq.models.quality.facts_from_counts`), where the
-reference computes them with OpenCV (:func:`~slamq.models.quality.map_facts`).
+Follow one map from here: :func:`evaluate` hands the map's ``values`` and ``unknown``
+buffers and the :class:`~slamq.Params` to :func:`slamq.native.evaluate`
+(rust/src/bindings/maps.rs -> evaluate.rs -> proportion.rs, corners.rs, canonical.rs,
+enclosed.rs) and wraps the integers it returns in a :class:`~slamq.MapQuality`. Ratios are
+computed from those integers by :meth:`MapQuality.from_counts`, the same code
+:mod:`slamq.metrics.reference` uses, so both sides agree bit for bit; the comparability
+facts (saver, known box) come from the core's histogram pass
+(:func:`~slamq.models.quality.facts_from_counts`), where the reference computes them with
+OpenCV (:func:`~slamq.models.quality.map_facts`).
 """
 
 from __future__ import annotations
 
-import os
 from dataclasses import replace
-from typing import Any, Union
+from typing import Any
 
-from slamq.errors import ConformanceError, OutOfMemoryError, SlamqError
+from slamq import native
+from slamq.errors import ConformanceError, OutOfMemoryError, ParamError
 from slamq.models import MapQuality, OccupancyMap
 from slamq.models.quality import facts_from_counts, shade_source
 from slamq.params import Params, check_threads, params_doc
-from slamq.sources import load_map
 
-__all__ = ["MapSource", "WORK_BYTES_PER_CELL", "evaluate"]
+__all__ = ["WORK_BYTES_PER_CELL", "evaluate"]
 
 #: Peak working memory of one evaluation, in bytes per cell; the core reserves it before it
-#: starts and raises :class:`~slamq.OutOfMemoryError` when it cannot (equal to
-#: ``slamq._core.WORK_BYTES_PER_CELL``, from rust/src/memory.rs).
-WORK_BYTES_PER_CELL = 16
-
-#: What :func:`evaluate` accepts: a path, an :class:`OccupancyMap`, or a numpy image array.
-MapSource = Union[str, os.PathLike, OccupancyMap, Any]
+#: starts and raises :class:`~slamq.OutOfMemoryError` when it cannot (rust/src/memory.rs).
+WORK_BYTES_PER_CELL: int = native.WORK_BYTES_PER_CELL
 
 
 def evaluate(
-    source: MapSource,
+    grid: OccupancyMap,
     *,
     params: Params | None = None,
     curve: bool = False,
     verify: bool = False,
     threads: int | None = None,
-    unknown_value: int | None = None,
     **metric_params: Any,
 ) -> MapQuality:
     """Compute the three map metrics of docs/spec.md sections 2-4 with the Rust core.
 
     Parameters
     ----------
-    source : path, OccupancyMap, or numpy array
-        A map file (YAML or image), an :class:`OccupancyMap`, or a 2-D uint8 image array
-        (loaded with the image defaults of :func:`slamq.load_map`).
+    grid : OccupancyMap
+        The map (:func:`slamq.load_map` reads one; :func:`slamq.evaluate` takes a path or
+        an image array too).
     params : Params, optional
         All metric parameters at once; or give them one by one as keywords (below).
     curve : bool, default False
@@ -60,8 +56,6 @@ def evaluate(
     threads : int, optional
         Cap on the Rust worker threads for this call (default: all cores; at most
         :data:`slamq.params.MAX_THREADS`). Results do not depend on it.
-    unknown_value : int, optional
-        Passed to :func:`slamq.load_map` when ``source`` is a path or an image array.
     {params}
 
     Returns
@@ -71,29 +65,22 @@ def evaluate(
     Examples
     --------
     >>> import numpy as np, slamq
+    >>> from slamq.metrics.evaluate import evaluate
     >>> img = np.full((20, 20), 254, np.uint8)
     >>> img[8:12, 8:12] = 0          # a square obstacle in open space
-    >>> q = slamq.evaluate(img)
+    >>> q = evaluate(slamq.OccupancyMap(img, np.zeros_like(img, bool)))
     >>> q.occupied, q.corners, q.enclosed_areas
     (16, 4, 0)
-    >>> slamq.evaluate(img, min_area=4) == slamq.evaluate(img, params=slamq.Params(min_area=4))
+    >>> q.corners == slamq.evaluate(img).corners
     True
     """
-    from slamq import _core
-
+    if not isinstance(grid, OccupancyMap):
+        raise ParamError(f"evaluate takes an OccupancyMap, not {type(grid).__name__}; "
+                         "slamq.evaluate reads files and arrays")
     params = Params.resolve(params, metric_params)
     n_threads = check_threads(threads)
-    where = source if isinstance(source, (str, os.PathLike)) else getattr(
-        source, "source", "<array>")
     try:
-        grid = load_map(source, unknown_value=unknown_value)
-    except MemoryError as exc:
-        if isinstance(exc, SlamqError):
-            raise
-        raise OutOfMemoryError(f"{os.fspath(where)}: out of memory while loading the map"
-                               ) from None
-    try:
-        raw = _core.evaluate(grid.values, grid.unknown, params, n_threads, grid.resolution,
+        raw = native.evaluate(grid.values, grid.unknown, params, n_threads, grid.resolution,
                              shade_source(grid))
     except MemoryError as exc:
         h, w = grid.shape

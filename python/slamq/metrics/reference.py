@@ -44,10 +44,10 @@ from typing import Any, NamedTuple
 import cv2
 import numpy as np
 
+from slamq.errors import ParamError
 from slamq.models import MapQuality, OccupancyMap
 from slamq.models.quality import map_facts
 from slamq.params import Params, params_doc
-from slamq.sources import load_map
 
 __all__ = [
     "OccupancyCounts",
@@ -733,28 +733,25 @@ def enclosed_curve(grid: OccupancyMap, params: Params | None = None) -> list[int
 
 
 def evaluate(
-    source: Any,
+    grid: OccupancyMap,
     *,
     params: Params | None = None,
     curve: bool = False,
-    unknown_value: int | None = None,
     **metric_params: Any,
 ) -> MapQuality:
     """The three map metrics by the literal definition (docs/spec.md sections 2-4).
 
-    Same signature and result as :func:`slamq.evaluate` (without ``verify`` and
-    ``threads``); slow: the map is labelled once per sweep value.
+    Same signature and result as :func:`slamq.metrics.evaluate.evaluate` (without
+    ``verify`` and ``threads``); slow: the map is labelled once per sweep value.
 
     Parameters
     ----------
-    source : path, OccupancyMap, or numpy array
-        Anything :func:`slamq.load_map` accepts.
+    grid : OccupancyMap
+        The map (:func:`slamq.load_map` reads one from a file or an image array).
     params : Params, optional
         All metric parameters at once; or give them one by one as keywords (below).
     curve : bool, default False
         Keep the whole curve ``count_u`` in the result.
-    unknown_value : int, optional
-        Passed to :func:`slamq.load_map`.
     {params}
 
     Returns
@@ -772,8 +769,10 @@ def evaluate(
     >>> q.occupied, q.corners, q.enclosed_areas
     (16, 4, 0)
     """
+    if not isinstance(grid, OccupancyMap):
+        raise ParamError(f"reference.evaluate takes an OccupancyMap, not "
+                         f"{type(grid).__name__}; read files and arrays with slamq.load_map")
     params = Params.resolve(params, metric_params)
-    grid = load_map(source, unknown_value=unknown_value)
     counts = occupancy_counts(grid)
     return MapQuality.from_counts(
         source=grid.source,

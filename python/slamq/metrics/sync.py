@@ -13,6 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from slamq import native
 from slamq.errors import TrajectoryError
 from slamq.models.trajectory import Trajectory
 
@@ -35,13 +36,11 @@ def matching_indices(
     >>> matching_indices(np.array([0.0, 1.0, 2.5]), np.array([0.005, 1.02, 2.5]), 0.01)
     (array([0, 2]), array([0, 2]))
     """
-    from slamq import _core
-
     s1 = np.ascontiguousarray(stamps_1, dtype=np.float64)
     s2 = np.ascontiguousarray(stamps_2, dtype=np.float64)
     if s1.ndim != 1 or s2.ndim != 1 or s2.shape[0] == 0:
         return matching_indices_numpy(stamps_1, stamps_2, max_dt, offset_2)  # as it fails
-    return _core.match_stamps(s1, s2, float(max_dt), float(offset_2))
+    return native.match_stamps(s1, s2, float(max_dt), float(offset_2))
 
 
 def matching_indices_numpy(

@@ -132,6 +132,6 @@ def evaluate_map(source: Any, params: Params, *, curve: bool = True):
     >>> evaluate_map(np.full((4, 4), 254, np.uint8), slamq.Params()).corners
     0
     """
-    from slamq.metrics.evaluate import evaluate
+    from slamq.api import evaluate
 
     return evaluate(source, params=params, curve=curve)

@@ -331,7 +331,7 @@ def _ground_truth_section(rec: dict, out: Path, mp: _MapPage) -> str:
     """The map aligned over its sequence's ground-truth map (docs/spec.md section 7)."""
     if not usable(rec.get("gt_map")) or usable(rec.get("gt_error")):
         return ""
-    from slamq.metrics.compare import compare
+    from slamq.api import compare
     from slamq.report.comparison import COMPARISON_COLOURS, write_comparison_png
 
     cfg = _gt_config(rec.get("config"))
@@ -449,7 +449,7 @@ def _index_body(
     plots: list[tuple[str, str]],
     warning: str = "",
 ) -> str:
-    from slamq import __version__
+    from slamq.version import __version__
 
     n_alg = ok["algorithm"].nunique() if len(ok) else 0
     parts = [

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from slamq import native
 from slamq.sources.files import fail
 from slamq.sources.images import Image
 
@@ -66,9 +67,7 @@ def _map_saver_shades(grey: np.ndarray) -> tuple[list[int], np.ndarray] | None:
     >>> _map_saver_shades(np.array([[0, 100]], np.uint8)) is None
     True
     """
-    from slamq import _core
-
-    present, unknown = _core.map_saver_shades(np.ascontiguousarray(grey))
+    present, unknown = native.map_saver_shades(np.ascontiguousarray(grey))
     return None if present is None else (present, unknown)
 
 

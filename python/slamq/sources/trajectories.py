@@ -15,6 +15,7 @@ from typing import Any, Union
 
 import numpy as np
 
+from slamq import native
 from slamq.errors import TrajectoryError
 from slamq.models.trajectory import Trajectory, yaw_to_quat
 from slamq.sources.files import PathLike, is_bag
@@ -106,11 +107,9 @@ def _read_table(
     import pandas as pd
     from pandas.errors import EmptyDataError, ParserError
 
-    from slamq import _core
-
     fast_sep = " " if sep == "ws" else sep
     if comment == "#" and len(fast_sep.encode()) == 1 and (sep == "ws" or not sep.isspace()):
-        fast = _core.read_table(path, fast_sep, skiprows)
+        fast = native.read_table(path, fast_sep, skiprows)
         if fast is not None:
             return fast if fast.size else np.empty((0, 0))
 
@@ -205,12 +204,10 @@ def read_tum(path: PathLike, *, unsorted: str = "error") -> Trajectory:
     [1.0, 2.0]
     """
     path = Path(path)
-    from slamq import _core
-
     # The common case in one pass: a regular TUM file whose poses the Trajectory checks
     # accept, parsed by the Rust core straight into the Trajectory's arrays (normalised
     # as the constructor does). Anything else is read below, and its errors raised there.
-    fast = _core.read_tum(path)
+    fast = native.read_tum(path)
     if fast is not None:
         return Trajectory._from_checked(*fast, source=str(path), meta={"format": "tum"})
     arr = _read_table(path, sep="ws")

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from slamq import native
 from slamq.errors import SlamqError
 from slamq.models import OccupancyMap
 from slamq.synth.sequence import LaserSpec
@@ -117,14 +118,12 @@ def cast(world: OccupancyMap, poses: Any, angles: Any, max_range: float,
     >>> cast(m, [[0.25, 0.55, 0.0]], [0.0, np.pi], 10.0).tolist()
     [[0.45, inf]]
     """
-    from slamq import _core
-
     if threads is not None and threads < 1:
         raise SlamqError(f"threads must be >= 1 or None, got {threads}")
     blocked, res, origin = _grid(world)
     try:
-        return _core.raycast(blocked, res, origin, _poses(poses), _angles(angles),
-                             _max_range(max_range), threads or 0)
+        return native.raycast(blocked, res, origin, _poses(poses), _angles(angles),
+                              _max_range(max_range), threads or 0)
     except ValueError as exc:  # the core's own checks (sizes)
         raise SlamqError(f"{world.source}: {exc}") from None
 
