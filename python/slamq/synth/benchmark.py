@@ -6,7 +6,7 @@ A sequence of a run configuration may name a *recipe* instead of a recording::
       gen:
         synth:
           worlds: 20                 # world seeds 0..19 (kinds cycle), or a list of
-                                     # {kind: K, seed: S} / map_server YAML paths
+                                     # {kind: K, seed: S, size: [W, H]} / map_server YAMLs
           kinds: [office, loop]      # the kinds an integer ``worlds`` cycles through
           noise: [low, high]         # odometry noise presets (slamq.synth NOISE)
           seeds: [0, 1, 2]           # simulation seeds: drive, laser and odometry noise
@@ -118,12 +118,16 @@ def _worlds(doc: dict[str, Any], base: Path, where: str) -> list[dict[str, Any]]
         if isinstance(w, (str, os.PathLike)):
             p = Path(os.path.expanduser(str(w)))
             out.append({"map": str(p if p.is_absolute() else (base / p).resolve())})
-        elif isinstance(w, dict) and set(w) <= {"kind", "seed"} and w.get("kind", kinds[0]) \
-                in KINDS:
-            out.append({"kind": w.get("kind", kinds[0]), "seed": int(w.get("seed", i))})
+        elif isinstance(w, dict) and set(w) <= {"kind", "seed", "size"} and \
+                w.get("kind", kinds[0]) in KINDS:
+            spec = {"kind": w.get("kind", kinds[0]), "seed": int(w.get("seed", i))}
+            if "size" in w:
+                spec["size"] = [float(v) for v in w["size"]]
+            out.append(spec)
         else:
             raise ParamError(f"{where}.worlds[{i}] must be a map_server YAML path or "
-                             f"{{kind: K, seed: S}} with K one of {', '.join(KINDS)}")
+                             f"{{kind: K, seed: S, size: [W, H]}} with K one of "
+                             f"{', '.join(KINDS)}")
     return out
 
 
@@ -197,7 +201,8 @@ def generate(g: Generated) -> Generated:
 
     r = g.recipe
     w = r["world"]
-    grid = load_world(w["map"]) if "map" in w else world(w["seed"], kind=w["kind"])
+    grid = load_world(w["map"]) if "map" in w else world(
+        w["seed"], kind=w["kind"], size=tuple(w["size"]) if "size" in w else None)
     laser = LaserSpec(**r["laser"])
     seq = simulate(grid, seed=r["seed"], noise=r["noise"], laser=laser, name=g.name,
                    **r["drive"])
