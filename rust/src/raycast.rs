@@ -96,14 +96,27 @@ impl RayGrid {
     }
 
     /// The range of one beam at world angle `angle` from the world point `(x, y)`, metres
-    /// (`inf`: no stopping cell within `max_range`).
-    /// NaN when an argument is not finite (or `max_range` not positive).
+    /// (`inf`: no stopping cell within `max_range`); NaN when an argument is not finite
+    /// (or `max_range` not positive).
     pub fn cast(&self, x: f64, y: f64, angle: f64, max_range: f64) -> f64 {
+        match self.start(x, y, angle, max_range) {
+            Err(r) => r,
+            Ok(mut walk) => loop {
+                if let Some(r) = walk.step(&self.cells) {
+                    return r;
+                }
+            },
+        }
+    }
+
+    /// A beam's walk at its first cell, or its range when it needs no walk.
+    #[inline]
+    fn start(&self, x: f64, y: f64, angle: f64, max_range: f64) -> Result<Walk, f64> {
         if !(x.is_finite() && y.is_finite() && angle.is_finite())
             || max_range.is_nan()
             || max_range <= 0.0
         {
-            return f64::NAN;
+            return Err(f64::NAN);
         }
         let [c, s] = self.rot;
         let res = self.resolution;
@@ -120,7 +133,7 @@ impl RayGrid {
         for (o, d, size) in [(ox, dx, w), (oy, dy, h)] {
             if d == 0.0 {
                 if !(0.0..size).contains(&o) {
-                    return f64::INFINITY;
+                    return Err(f64::INFINITY);
                 }
             } else {
                 let (ta, tb) = ((0.0 - o) / d, (size - o) / d);
@@ -129,51 +142,40 @@ impl RayGrid {
             }
         }
         if t0.is_nan() || t1.is_nan() || t0 > t1 {
-            return f64::INFINITY;
+            return Err(f64::INFINITY);
         }
         // the first cell: where the beam is at t0, kept inside the grid against rounding
         let ix = ((ox + t0 * dx).floor()).clamp(0.0, w - 1.0);
         let iy = ((oy + t0 * dy).floor()).clamp(0.0, h - 1.0);
         let pw = (self.width + 2) as isize;
-        let mut idx = (self.height as isize - iy as isize) * pw + ix as isize + 1;
+        let idx = (self.height as isize - iy as isize) * pw + ix as isize + 1;
         // the beam's parameter at the next column and row boundary, and between boundaries
-        let (mut tx, tdx, sx) = if dx > 0.0 {
+        let (tx, tdx, sx) = if dx > 0.0 {
             ((ix + 1.0 - ox) / dx, 1.0 / dx, 1isize)
         } else if dx < 0.0 {
             ((ix - ox) / dx, -1.0 / dx, -1isize)
         } else {
             (f64::INFINITY, 0.0, 0isize)
         };
-        let (mut ty, tdy, sy) = if dy > 0.0 {
+        let (ty, tdy, sy) = if dy > 0.0 {
             ((iy + 1.0 - oy) / dy, 1.0 / dy, -pw)
         } else if dy < 0.0 {
             ((iy - oy) / dy, -1.0 / dy, pw)
         } else {
             (f64::INFINITY, 0.0, 0isize)
         };
-        let cells = &self.cells[..];
-        let mut t = t0;
-        loop {
-            // idx stays inside the padded grid: it starts inside the grid and moves one cell
-            // at a time, and the walk ends on the ring of OUTSIDE cells around it
-            let v = cells[idx as usize];
-            if v != 0 {
-                return if v == 1 && t <= t_range {
-                    t * res
-                } else {
-                    f64::INFINITY
-                };
-            }
-            // branch-free step to the nearer boundary
-            let step_x = tx < ty;
-            t = if step_x { tx } else { ty };
-            if t > t_range {
-                return f64::INFINITY;
-            }
-            tx += if step_x { tdx } else { 0.0 };
-            ty += if step_x { 0.0 } else { tdy };
-            idx += if step_x { sx } else { sy };
-        }
+        Ok(Walk {
+            t: t0,
+            tx,
+            ty,
+            tdx,
+            tdy,
+            idx,
+            sx,
+            sy,
+            t_range,
+            res,
+        })
     }
 
     /// One scan: the range of each beam at `angles` (relative to the pose's yaw) from
@@ -182,6 +184,50 @@ impl RayGrid {
         for (o, &a) in out.iter_mut().zip(angles) {
             *o = self.cast(pose[0], pose[1], pose[2] + a, max_range);
         }
+    }
+}
+
+/// A beam's walk through the grid (Amanatides-Woo): its parameter `t` (cells along the
+/// beam) where it entered the current cell `idx`, and where it meets the next column and
+/// row boundaries.
+#[derive(Clone, Copy, Debug)]
+struct Walk {
+    t: f64,
+    tx: f64,
+    ty: f64,
+    tdx: f64,
+    tdy: f64,
+    idx: isize,
+    sx: isize,
+    sy: isize,
+    t_range: f64,
+    res: f64,
+}
+
+impl Walk {
+    /// Look at the current cell: the range when it ends the walk, else move to the next.
+    #[inline(always)]
+    fn step(&mut self, cells: &[u8]) -> Option<f64> {
+        // idx stays inside the padded grid: it starts inside the grid and moves one cell at
+        // a time, and the walk ends on the ring of OUTSIDE cells around it
+        let v = cells[self.idx as usize];
+        if v != 0 {
+            return Some(if v == 1 && self.t <= self.t_range {
+                self.t * self.res
+            } else {
+                f64::INFINITY
+            });
+        }
+        // branch-free step to the nearer boundary
+        let step_x = self.tx < self.ty;
+        self.t = if step_x { self.tx } else { self.ty };
+        if self.t > self.t_range {
+            return Some(f64::INFINITY);
+        }
+        self.tx += if step_x { self.tdx } else { 0.0 };
+        self.ty += if step_x { 0.0 } else { self.tdy };
+        self.idx += if step_x { self.sx } else { self.sy };
+        None
     }
 }
 
