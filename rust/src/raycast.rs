@@ -31,6 +31,19 @@ impl fmt::Display for CastError {
 
 impl std::error::Error for CastError {}
 
+/// `n` copies of `v`, or an error when the memory cannot be had (no abort on a huge input).
+fn filled<T: Clone>(n: usize, v: T) -> Result<Vec<T>, CastError> {
+    let mut out = Vec::new();
+    out.try_reserve_exact(n).map_err(|_| {
+        CastError(format!(
+            "cannot allocate {n} values of {} bytes",
+            std::mem::size_of::<T>()
+        ))
+    })?;
+    out.resize(n, v);
+    Ok(out)
+}
+
 /// A grid ready for casting: which cells stop a beam, with a one-cell ring of [`OUTSIDE`]
 /// around it so that the walk needs no bounds check.
 #[derive(Clone, Debug)]
@@ -78,7 +91,7 @@ impl RayGrid {
             .checked_mul(pw)
             .filter(|&n| n < isize::MAX as usize / 2)
             .ok_or_else(|| CastError(format!("a {height} x {width} grid is too large")))?;
-        let mut cells = vec![OUTSIDE; n];
+        let mut cells = filled(n, OUTSIDE)?;
         for (r, row) in blocked.chunks_exact(width).enumerate() {
             let dst = &mut cells[(r + 1) * pw + 1..(r + 1) * pw + 1 + width];
             for (d, &b) in dst.iter_mut().zip(row) {
@@ -231,13 +244,13 @@ impl Walk {
     }
 }
 
-/// Every scan of `poses` (`(x, y, yaw)` each) with beams at `angles`: `poses.len() x
-/// angles.len()` ranges, row-major, scans in parallel on the current rayon pool (the same
-/// numbers for any number of threads). `max_range` must be positive (it may be `inf`);
-/// poses and angles must be finite.
+/// Every scan of `poses` (`(x, y, yaw)` triples, flat) with beams at `angles`:
+/// `poses.len() / 3 x angles.len()` ranges, row-major, scans in parallel on the current
+/// rayon pool (the same numbers for any number of threads). `max_range` must be positive
+/// (it may be `inf`); poses and angles must be finite.
 pub fn cast_scans(
     grid: &RayGrid,
-    poses: &[[f64; 3]],
+    poses: &[f64],
     angles: &[f64],
     max_range: f64,
 ) -> Result<Vec<f64>, CastError> {
@@ -246,21 +259,34 @@ pub fn cast_scans(
             "max_range must be positive, got {max_range}"
         )));
     }
-    if let Some(p) = poses.iter().find(|p| !p.iter().all(|v| v.is_finite())) {
+    if poses.len() % 3 != 0 {
+        return Err(CastError(format!(
+            "poses must be (x, y, yaw) triples, got {} numbers",
+            poses.len()
+        )));
+    }
+    if let Some(p) = poses
+        .chunks_exact(3)
+        .find(|p| !p.iter().all(|v| v.is_finite()))
+    {
         return Err(CastError(format!("poses must be finite, got {p:?}")));
     }
     if let Some(a) = angles.iter().find(|a| !a.is_finite()) {
         return Err(CastError(format!("angles must be finite, got {a}")));
     }
     let b = angles.len();
-    let mut out = vec![0.0f64; poses.len() * b];
+    let n = poses.len() / 3;
+    let total = n
+        .checked_mul(b)
+        .ok_or_else(|| CastError(format!("{n} x {b} ranges is too many")))?;
+    let mut out = filled(total, 0.0f64)?;
     if b == 0 {
         return Ok(out);
     }
     out.par_chunks_mut(b)
-        .zip(poses.par_iter())
+        .zip(poses.par_chunks_exact(3))
         .with_min_len(4)
-        .for_each(|(row, &pose)| grid.scan(pose, angles, max_range, row));
+        .for_each(|(row, p)| grid.scan([p[0], p[1], p[2]], angles, max_range, row));
     Ok(out)
 }
 
@@ -325,11 +351,12 @@ mod tests {
         assert!(RayGrid::new(&[0; 4], 2, 2, -1.0, [0.0; 3]).is_err());
         assert!(RayGrid::new(&[0; 4], 2, 2, 0.1, [f64::NAN, 0.0, 0.0]).is_err());
         let g = wall();
-        assert!(cast_scans(&g, &[[f64::NAN, 0.0, 0.0]], &[0.0], 1.0).is_err());
-        assert!(cast_scans(&g, &[[0.0; 3]], &[f64::INFINITY], 1.0).is_err());
-        assert!(cast_scans(&g, &[[0.0; 3]], &[0.0], 0.0).is_err());
-        assert!(cast_scans(&g, &[[0.0; 3]], &[0.0], f64::NAN).is_err());
-        assert!(cast_scans(&g, &[[0.0; 3]], &[0.0], f64::INFINITY).is_ok());
+        assert!(cast_scans(&g, &[f64::NAN, 0.0, 0.0], &[0.0], 1.0).is_err());
+        assert!(cast_scans(&g, &[0.0, 0.0], &[0.0], 1.0).is_err());
+        assert!(cast_scans(&g, &[0.0; 3], &[f64::INFINITY], 1.0).is_err());
+        assert!(cast_scans(&g, &[0.0; 3], &[0.0], 0.0).is_err());
+        assert!(cast_scans(&g, &[0.0; 3], &[0.0], f64::NAN).is_err());
+        assert!(cast_scans(&g, &[0.0; 3], &[0.0], f64::INFINITY).is_ok());
     }
 
     #[test]
@@ -348,8 +375,8 @@ mod tests {
             *v = u8::from(i * 7919 % 13 == 0);
         }
         let g = RayGrid::new(&b, 20, 20, 0.05, [0.0; 3]).unwrap();
-        let poses: Vec<[f64; 3]> = (0..50)
-            .map(|i| {
+        let poses: Vec<f64> = (0..50)
+            .flat_map(|i| {
                 [
                     0.1 + 0.017 * i as f64,
                     0.9 - 0.013 * i as f64,
