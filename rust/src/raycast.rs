@@ -31,6 +31,19 @@ impl fmt::Display for CastError {
 
 impl std::error::Error for CastError {}
 
+/// `n` copies of `v`, or an error when the memory cannot be had (no abort on a huge input).
+fn filled<T: Clone>(n: usize, v: T) -> Result<Vec<T>, CastError> {
+    let mut out = Vec::new();
+    out.try_reserve_exact(n).map_err(|_| {
+        CastError(format!(
+            "cannot allocate {n} values of {} bytes",
+            std::mem::size_of::<T>()
+        ))
+    })?;
+    out.resize(n, v);
+    Ok(out)
+}
+
 /// A grid ready for casting: which cells stop a beam, with a one-cell ring of [`OUTSIDE`]
 /// around it so that the walk needs no bounds check.
 #[derive(Clone, Debug)]
@@ -78,7 +91,7 @@ impl RayGrid {
             .checked_mul(pw)
             .filter(|&n| n < isize::MAX as usize / 2)
             .ok_or_else(|| CastError(format!("a {height} x {width} grid is too large")))?;
-        let mut cells = vec![OUTSIDE; n];
+        let mut cells = filled(n, OUTSIDE)?;
         for (r, row) in blocked.chunks_exact(width).enumerate() {
             let dst = &mut cells[(r + 1) * pw + 1..(r + 1) * pw + 1 + width];
             for (d, &b) in dst.iter_mut().zip(row) {
@@ -96,14 +109,27 @@ impl RayGrid {
     }
 
     /// The range of one beam at world angle `angle` from the world point `(x, y)`, metres
-    /// (`inf`: no stopping cell within `max_range`).
-    /// NaN when an argument is not finite (or `max_range` not positive).
+    /// (`inf`: no stopping cell within `max_range`); NaN when an argument is not finite
+    /// (or `max_range` not positive).
     pub fn cast(&self, x: f64, y: f64, angle: f64, max_range: f64) -> f64 {
+        match self.start(x, y, angle, max_range) {
+            Err(r) => r,
+            Ok(mut walk) => loop {
+                if let Some(r) = walk.step(&self.cells) {
+                    return r;
+                }
+            },
+        }
+    }
+
+    /// A beam's walk at its first cell, or its range when it needs no walk.
+    #[inline]
+    fn start(&self, x: f64, y: f64, angle: f64, max_range: f64) -> Result<Walk, f64> {
         if !(x.is_finite() && y.is_finite() && angle.is_finite())
             || max_range.is_nan()
             || max_range <= 0.0
         {
-            return f64::NAN;
+            return Err(f64::NAN);
         }
         let [c, s] = self.rot;
         let res = self.resolution;
@@ -120,7 +146,7 @@ impl RayGrid {
         for (o, d, size) in [(ox, dx, w), (oy, dy, h)] {
             if d == 0.0 {
                 if !(0.0..size).contains(&o) {
-                    return f64::INFINITY;
+                    return Err(f64::INFINITY);
                 }
             } else {
                 let (ta, tb) = ((0.0 - o) / d, (size - o) / d);
@@ -129,51 +155,40 @@ impl RayGrid {
             }
         }
         if t0.is_nan() || t1.is_nan() || t0 > t1 {
-            return f64::INFINITY;
+            return Err(f64::INFINITY);
         }
         // the first cell: where the beam is at t0, kept inside the grid against rounding
         let ix = ((ox + t0 * dx).floor()).clamp(0.0, w - 1.0);
         let iy = ((oy + t0 * dy).floor()).clamp(0.0, h - 1.0);
         let pw = (self.width + 2) as isize;
-        let mut idx = (self.height as isize - iy as isize) * pw + ix as isize + 1;
+        let idx = (self.height as isize - iy as isize) * pw + ix as isize + 1;
         // the beam's parameter at the next column and row boundary, and between boundaries
-        let (mut tx, tdx, sx) = if dx > 0.0 {
+        let (tx, tdx, sx) = if dx > 0.0 {
             ((ix + 1.0 - ox) / dx, 1.0 / dx, 1isize)
         } else if dx < 0.0 {
             ((ix - ox) / dx, -1.0 / dx, -1isize)
         } else {
             (f64::INFINITY, 0.0, 0isize)
         };
-        let (mut ty, tdy, sy) = if dy > 0.0 {
+        let (ty, tdy, sy) = if dy > 0.0 {
             ((iy + 1.0 - oy) / dy, 1.0 / dy, -pw)
         } else if dy < 0.0 {
             ((iy - oy) / dy, -1.0 / dy, pw)
         } else {
             (f64::INFINITY, 0.0, 0isize)
         };
-        let cells = &self.cells[..];
-        let mut t = t0;
-        loop {
-            // idx stays inside the padded grid: it starts inside the grid and moves one cell
-            // at a time, and the walk ends on the ring of OUTSIDE cells around it
-            let v = cells[idx as usize];
-            if v != 0 {
-                return if v == 1 && t <= t_range {
-                    t * res
-                } else {
-                    f64::INFINITY
-                };
-            }
-            // branch-free step to the nearer boundary
-            let step_x = tx < ty;
-            t = if step_x { tx } else { ty };
-            if t > t_range {
-                return f64::INFINITY;
-            }
-            tx += if step_x { tdx } else { 0.0 };
-            ty += if step_x { 0.0 } else { tdy };
-            idx += if step_x { sx } else { sy };
-        }
+        Ok(Walk {
+            t: t0,
+            tx,
+            ty,
+            tdx,
+            tdy,
+            idx,
+            sx,
+            sy,
+            t_range,
+            res,
+        })
     }
 
     /// One scan: the range of each beam at `angles` (relative to the pose's yaw) from
@@ -185,13 +200,57 @@ impl RayGrid {
     }
 }
 
-/// Every scan of `poses` (`(x, y, yaw)` each) with beams at `angles`: `poses.len() x
-/// angles.len()` ranges, row-major, scans in parallel on the current rayon pool (the same
-/// numbers for any number of threads). `max_range` must be positive (it may be `inf`);
-/// poses and angles must be finite.
+/// A beam's walk through the grid (Amanatides-Woo): its parameter `t` (cells along the
+/// beam) where it entered the current cell `idx`, and where it meets the next column and
+/// row boundaries.
+#[derive(Clone, Copy, Debug)]
+struct Walk {
+    t: f64,
+    tx: f64,
+    ty: f64,
+    tdx: f64,
+    tdy: f64,
+    idx: isize,
+    sx: isize,
+    sy: isize,
+    t_range: f64,
+    res: f64,
+}
+
+impl Walk {
+    /// Look at the current cell: the range when it ends the walk, else move to the next.
+    #[inline(always)]
+    fn step(&mut self, cells: &[u8]) -> Option<f64> {
+        // idx stays inside the padded grid: it starts inside the grid and moves one cell at
+        // a time, and the walk ends on the ring of OUTSIDE cells around it
+        let v = cells[self.idx as usize];
+        if v != 0 {
+            return Some(if v == 1 && self.t <= self.t_range {
+                self.t * self.res
+            } else {
+                f64::INFINITY
+            });
+        }
+        // branch-free step to the nearer boundary
+        let step_x = self.tx < self.ty;
+        self.t = if step_x { self.tx } else { self.ty };
+        if self.t > self.t_range {
+            return Some(f64::INFINITY);
+        }
+        self.tx += if step_x { self.tdx } else { 0.0 };
+        self.ty += if step_x { 0.0 } else { self.tdy };
+        self.idx += if step_x { self.sx } else { self.sy };
+        None
+    }
+}
+
+/// Every scan of `poses` (`(x, y, yaw)` triples, flat) with beams at `angles`:
+/// `poses.len() / 3 x angles.len()` ranges, row-major, scans in parallel on the current
+/// rayon pool (the same numbers for any number of threads). `max_range` must be positive
+/// (it may be `inf`); poses and angles must be finite.
 pub fn cast_scans(
     grid: &RayGrid,
-    poses: &[[f64; 3]],
+    poses: &[f64],
     angles: &[f64],
     max_range: f64,
 ) -> Result<Vec<f64>, CastError> {
@@ -200,21 +259,34 @@ pub fn cast_scans(
             "max_range must be positive, got {max_range}"
         )));
     }
-    if let Some(p) = poses.iter().find(|p| !p.iter().all(|v| v.is_finite())) {
+    if poses.len() % 3 != 0 {
+        return Err(CastError(format!(
+            "poses must be (x, y, yaw) triples, got {} numbers",
+            poses.len()
+        )));
+    }
+    if let Some(p) = poses
+        .chunks_exact(3)
+        .find(|p| !p.iter().all(|v| v.is_finite()))
+    {
         return Err(CastError(format!("poses must be finite, got {p:?}")));
     }
     if let Some(a) = angles.iter().find(|a| !a.is_finite()) {
         return Err(CastError(format!("angles must be finite, got {a}")));
     }
     let b = angles.len();
-    let mut out = vec![0.0f64; poses.len() * b];
+    let n = poses.len() / 3;
+    let total = n
+        .checked_mul(b)
+        .ok_or_else(|| CastError(format!("{n} x {b} ranges is too many")))?;
+    let mut out = filled(total, 0.0f64)?;
     if b == 0 {
         return Ok(out);
     }
     out.par_chunks_mut(b)
-        .zip(poses.par_iter())
+        .zip(poses.par_chunks_exact(3))
         .with_min_len(4)
-        .for_each(|(row, &pose)| grid.scan(pose, angles, max_range, row));
+        .for_each(|(row, p)| grid.scan([p[0], p[1], p[2]], angles, max_range, row));
     Ok(out)
 }
 
@@ -279,11 +351,12 @@ mod tests {
         assert!(RayGrid::new(&[0; 4], 2, 2, -1.0, [0.0; 3]).is_err());
         assert!(RayGrid::new(&[0; 4], 2, 2, 0.1, [f64::NAN, 0.0, 0.0]).is_err());
         let g = wall();
-        assert!(cast_scans(&g, &[[f64::NAN, 0.0, 0.0]], &[0.0], 1.0).is_err());
-        assert!(cast_scans(&g, &[[0.0; 3]], &[f64::INFINITY], 1.0).is_err());
-        assert!(cast_scans(&g, &[[0.0; 3]], &[0.0], 0.0).is_err());
-        assert!(cast_scans(&g, &[[0.0; 3]], &[0.0], f64::NAN).is_err());
-        assert!(cast_scans(&g, &[[0.0; 3]], &[0.0], f64::INFINITY).is_ok());
+        assert!(cast_scans(&g, &[f64::NAN, 0.0, 0.0], &[0.0], 1.0).is_err());
+        assert!(cast_scans(&g, &[0.0, 0.0], &[0.0], 1.0).is_err());
+        assert!(cast_scans(&g, &[0.0; 3], &[f64::INFINITY], 1.0).is_err());
+        assert!(cast_scans(&g, &[0.0; 3], &[0.0], 0.0).is_err());
+        assert!(cast_scans(&g, &[0.0; 3], &[0.0], f64::NAN).is_err());
+        assert!(cast_scans(&g, &[0.0; 3], &[0.0], f64::INFINITY).is_ok());
     }
 
     #[test]
@@ -302,8 +375,8 @@ mod tests {
             *v = u8::from(i * 7919 % 13 == 0);
         }
         let g = RayGrid::new(&b, 20, 20, 0.05, [0.0; 3]).unwrap();
-        let poses: Vec<[f64; 3]> = (0..50)
-            .map(|i| {
+        let poses: Vec<f64> = (0..50)
+            .flat_map(|i| {
                 [
                     0.1 + 0.017 * i as f64,
                     0.9 - 0.013 * i as f64,

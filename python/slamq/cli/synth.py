@@ -70,7 +70,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     q.add_argument("--speed", type=float, default=0.5, help="metres per second")
     q.add_argument("--rate", type=float, default=10.0, help="scans per second")
     q.add_argument("--length", type=float, default=None,
-                   help="stop visiting rooms once the tour would be longer (metres)")
+                   help="visit only the rooms that keep the closed tour within this many "
+                   "metres")
     q.add_argument("--laps", type=int, default=1, help="drive the tour this many times")
     q.add_argument("--pauses", type=int, default=0, help="pauses at waypoints")
     q.add_argument("--kidnaps", type=int, default=0,

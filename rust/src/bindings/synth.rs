@@ -48,8 +48,7 @@ pub(crate) fn raycast<'py>(
     let err = |e: CastError| PyValueError::new_err(e.to_string());
     let ranges = compute(py, threads, || {
         let grid = RayGrid::new(cells, h, w, resolution, [origin.0, origin.1, origin.2])?;
-        let p: Vec<[f64; 3]> = flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-        cast_scans(&grid, &p, a, max_range)
+        cast_scans(&grid, flat, a, max_range)
     })?
     .map_err(err)?;
     PyArray1::from_vec(py, ranges).reshape([n, b])
