@@ -79,18 +79,38 @@ class Generated:
         return self.folder / f"{self.recipe['groundtruth_map']}_map{start}.yaml"
 
     def complete(self) -> bool:
-        """Whether the folder holds this recipe's files (then it is not generated again)."""
+        """Whether the folder holds this recipe's files, made by this version of the
+        generator's code (then it is not generated again)."""
         try:
             old = json.loads((self.folder / "recipe.json").read_text())
         except (OSError, ValueError):
             return False
-        return old == self.recipe and self.input.exists() and all(
-            (self.folder / f).exists() for f in TRUTH_FILES)
+        return old == {**self.recipe, "code": generator_digest()} and self.input.exists() \
+            and all((self.folder / f).exists() for f in TRUTH_FILES)
 
 
 #: What each writer appends to the sequence's name (slamq.synth.writers.FORMATS).
 _INPUT_SUFFIX = {"rawlog": ".rawlog", "carmen": ".log", "rosbag1": ".bag", "rosbag2": "_ros2",
                  "mcap": "_mcap"}
+
+
+_DIGEST: list[str] = []
+
+
+def generator_digest() -> str:
+    """SHA-1 of the source of every module that makes a generated sequence's files (the
+    worlds, the drive, the sensors, the truth, the writers): a folder made by other code is
+    generated again."""
+    if not _DIGEST:
+        import hashlib
+
+        here = Path(__file__).parent
+        h = hashlib.sha1(usedforsecurity=False)
+        for f in sorted([*here.glob("*.py"), *here.glob("writers/*.py")]):
+            if f.name not in ("benchmark.py", "damage.py", "__main__.py"):
+                h.update(f.name.encode() + b"\0" + f.read_bytes())
+        _DIGEST.append(h.hexdigest()[:16])
+    return _DIGEST[0]
 
 
 def _list(value: Any, where: str) -> list[Any]:
@@ -212,7 +232,8 @@ def generate(g: Generated) -> Generated:
     for which in ("gt", "visible"):
         _start_frame_yaml(g.folder / f"{which}_map.yaml", seq.gt[0])
     writers.write(seq, g.folder, r["formats"])
-    (g.folder / "recipe.json").write_text(json.dumps(r, indent=1, sort_keys=True))
+    (g.folder / "recipe.json").write_text(json.dumps({**r, "code": generator_digest()},
+                                                     indent=1, sort_keys=True))
     return g
 
 
