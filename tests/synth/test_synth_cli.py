@@ -30,6 +30,17 @@ def test_world_then_sequence(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert doc["laser"]["beams"] == 181 and doc["meta"]["world"]["kind"] == "hall"
 
 
+def test_a_benchmark_of_worlds(tmp_path: Path, capsys) -> None:
+    assert main(["synth", "world", "--kind", "all", "--count", "7", "--seed", "10",
+                 "--resolution", "0.2", "--out", str(tmp_path)]) == 0
+    names = sorted(p.name for p in tmp_path.glob("*.yaml"))
+    assert names == sorted(["office_10.yaml", "loop_11.yaml", "corridor_12.yaml",
+                            "hall_13.yaml", "symmetric_14.yaml", "mixed_15.yaml",
+                            "office_16.yaml"])
+    assert main(["synth", "world", "--count", "2", "--name", "x", "--out",
+                 str(tmp_path)]) == 2
+
+
 def test_any_map_server_map_is_a_world(tmp_path: Path, test_data: Path) -> None:
     gt = test_data / "slam_comparison_tools/ground_truths/office_ground_truth.yaml"
     assert main(["synth", "sequence", str(gt), "--out", str(tmp_path), "--beams", "91",

@@ -39,12 +39,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                        "(its rooms and features) and NAME_transparent.png (glass walls). "
                        "Kinds: " + "; ".join(f"{k}: {v}" for k, v in KINDS.items()))
     w.add_argument("--seed", type=int, default=0, help="seed (default 0)")
-    w.add_argument("--kind", choices=sorted(KINDS), default="office",
-                   help="kind of building (default office)")
+    w.add_argument("--kind", choices=[*sorted(KINDS), "all"], default="office",
+                   help="kind of building (default office; all: the kinds in turn)")
+    w.add_argument("--count", type=int, default=1,
+                   help="this many worlds, seeds SEED, SEED+1, ... (default 1)")
     w.add_argument("--size", type=float, nargs=2, metavar=("W", "H"), default=None,
                    help="building size in metres (default 20 15; corridor 30 9)")
     w.add_argument("--resolution", type=float, default=0.05, help="metres per cell")
-    w.add_argument("--name", default=None, help="file name (default KIND_SEED)")
+    w.add_argument("--name", default=None, help="file name of a single world "
+                   "(default KIND_SEED)")
     w.add_argument("--out", required=True, metavar="DIR", help="output folder")
     w.set_defaults(func=run_world)
 
@@ -84,14 +87,21 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run_world(args: argparse.Namespace) -> int:
     """``slamq synth world``."""
-    from slamq.synth import save_world, world
+    from slamq.synth import KINDS, save_world, world
 
-    w = world(args.seed, kind=args.kind, size=tuple(args.size) if args.size else None,
-              resolution=args.resolution)
-    name = args.name or f"{args.kind}_{args.seed}"
-    path = save_world(w, _folder(args.out) / f"{name}.yaml")
-    print(f"{path}  ({args.kind}, seed {args.seed}, {w.shape[1]} x {w.shape[0]} cells, "
-          f"{len(w.meta['rooms'])} rooms: {', '.join(w.meta['features'])})")
+    if args.count < 1:
+        raise SlamqError(f"--count must be >= 1, got {args.count}")
+    if args.name and args.count > 1:
+        raise SlamqError("--name names a single world: leave it out with --count")
+    kinds = list(KINDS) if args.kind == "all" else [args.kind]
+    out = _folder(args.out)
+    for i in range(args.count):
+        kind, seed = kinds[i % len(kinds)], args.seed + i
+        w = world(seed, kind=kind, size=tuple(args.size) if args.size else None,
+                  resolution=args.resolution)
+        path = save_world(w, out / f"{args.name or f'{kind}_{seed}'}.yaml")
+        print(f"{path}  ({kind}, seed {seed}, {w.shape[1]} x {w.shape[0]} cells, "
+              f"{len(w.meta['rooms'])} rooms: {', '.join(w.meta['features'])})")
     return EXIT_OK
 
 

@@ -23,7 +23,7 @@ import numpy as np
 from slamq.errors import MapError, SlamqError
 from slamq.models import OccupancyMap
 
-__all__ = ["KINDS", "load_world", "save_world", "world"]
+__all__ = ["KINDS", "load_world", "save_world", "world", "worlds"]
 
 #: The kinds of world and what makes each hard or easy for SLAM.
 KINDS: dict[str, str] = {
@@ -426,6 +426,23 @@ def world(seed: int = 0, *, kind: str = "office", size: tuple[float, float] | No
     plan = _Plan(width, height, float(resolution))
     _MAKERS[kind](plan, rng)
     return plan.occupancy(f"<world {kind} {seed}>", {"kind": kind, "seed": int(seed)})
+
+
+def worlds(count: int = 20, seed: int = 0, *, kinds: Any = None,
+           resolution: float = 0.05) -> list[OccupancyMap]:
+    """``count`` worlds of varied difficulty for a benchmark: the kinds in turn (all of
+    :data:`KINDS` by default, in their order), world ``i`` with seed ``seed + i``.
+
+    Examples
+    --------
+    >>> [w.meta["kind"] for w in worlds(7, kinds=["hall", "office"], resolution=0.2)]
+    ['hall', 'office', 'hall', 'office', 'hall', 'office', 'hall']
+    """
+    kinds = list(KINDS) if kinds is None else list(kinds)
+    if not kinds or count < 0:
+        raise SlamqError("worlds: at least one kind and a count >= 0")
+    return [world(seed + i, kind=kinds[i % len(kinds)], resolution=resolution)
+            for i in range(count)]
 
 
 def save_world(w: OccupancyMap, yaml_path: str | Path) -> Path:
