@@ -118,20 +118,30 @@ def _folder(out: str) -> Path:
 
 def parse_formats(text: str) -> list[str]:
     """The asked formats, checked: a :class:`~slamq.errors.SlamqError` names an unknown
-    one, or a sensor-log format when ``slamq.synth.writers`` is not there."""
-    names = [f.strip().lower() for f in text.split(",") if f.strip()]
+    one, or a sensor-log format when ``slamq.synth.writers`` is not there. The writers
+    module is imported only when a format other than ``truth`` and ``npz`` is asked for;
+    its ``FORMATS`` then says which it writes."""
+    names = list(dict.fromkeys(f.strip().lower() for f in text.split(",") if f.strip()))
     if not names:
         raise SlamqError("--formats: no format given")
-    known = OWN_FORMATS + WRITER_FORMATS
-    for n in names:
+    logs = [n for n in names if n not in OWN_FORMATS]
+    if not logs:
+        return names
+    if importlib.util.find_spec("slamq.synth.writers") is None:
+        unknown = [n for n in logs if n not in WRITER_FORMATS]
+        if unknown:
+            raise SlamqError(f"--formats: unknown format {unknown[0]!r}: one of "
+                             f"{', '.join(OWN_FORMATS + WRITER_FORMATS)}")
+        raise SlamqError(f"--formats: {', '.join(logs)} needs slamq.synth.writers, which "
+                         "this installation does not have")
+    from slamq.synth import writers  # another branch's module, only when asked for
+
+    known = tuple(writers.FORMATS)
+    for n in logs:
         if n not in known:
-            raise SlamqError(f"--formats: unknown format {n!r}: one of {', '.join(known)}")
-    if any(n not in OWN_FORMATS for n in names) and \
-            importlib.util.find_spec("slamq.synth.writers") is None:
-        asked = ", ".join(n for n in names if n not in OWN_FORMATS)
-        raise SlamqError(f"--formats: {asked} needs slamq.synth.writers, which this "
-                         "installation does not have")
-    return list(dict.fromkeys(names))
+            raise SlamqError(f"--formats: unknown format {n!r}: one of "
+                             f"{', '.join(OWN_FORMATS + known)}")
+    return names
 
 
 def run_sequence(args: argparse.Namespace) -> int:
@@ -159,7 +169,7 @@ def run_sequence(args: argparse.Namespace) -> int:
         files["npz"] = save_sequence(seq, out / "sequence.npz")
     logs = [f for f in formats if f not in OWN_FORMATS]
     if logs:
-        from slamq.synth import writers  # another branch's module, only when asked for
+        from slamq.synth import writers  # checked by parse_formats
 
         files.update(writers.write(seq, out, logs))
     print(f"{seq.name}: {len(seq)} scans x {seq.laser.beams} beams, "
