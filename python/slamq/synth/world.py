@@ -59,6 +59,7 @@ class _Plan:
         self.glass = np.zeros((self.h, self.w), bool)
         self.rooms: list[dict[str, Any]] = []
         self.features: list[str] = []
+        self.doors: list[tuple[float, float]] = []
         # cell centres in metres (building frame: the building's lower-left corner at 0, 0)
         self.xs = (np.arange(self.w) + 0.5) * res - MARGIN
         self.ys = (self.h - np.arange(self.h) - 0.5) * res - MARGIN
@@ -93,11 +94,13 @@ class _Plan:
         box = self._box(x - width / 2, y - WALL, x + width / 2, y + WALL)
         self.wall[box] = False
         self.glass[box] = False
+        self.doors.append((x, y))
 
     def vdoor(self, x: float, y: float, width: float = DOOR) -> None:
         box = self._box(x - WALL, y - width / 2, x + WALL, y + width / 2)
         self.wall[box] = False
         self.glass[box] = False
+        self.doors.append((x, y))
 
     def pillar(self, cx: float, cy: float, r: float) -> None:
         d2 = (self.xs[None, :] - cx) ** 2 + (self.ys[:, None] - cy) ** 2
@@ -249,8 +252,13 @@ def _office(p: _Plan, rng: np.random.Generator, *, mixed: bool = False) -> None:
             p.segment((box[2] - c, box[3]), (box[2], box[3] - c))
             p.features.append("diagonal walls")
     if rng.random() < 0.5:
-        p.pillar(_u(rng, 2, W - 2), yc + cw / 2, 0.15)
-        p.features.append("pillars")
+        # a pillar in the corridor, away from the doors (it would block them)
+        for _ in range(20):
+            x = _u(rng, 2, W - 2)
+            if all(abs(x - dx) > 1.8 for dx, dy in p.doors if yc - 0.5 < dy < y_top + 0.5):
+                p.pillar(x, yc + cw / 2, 0.15)
+                p.features.append("pillars")
+                break
     p.features.append("corridor")
 
 
