@@ -204,15 +204,15 @@ def _rooms_along(p: _Plan, rng: np.random.Generator, x0: float, x1: float, y0: f
             p.hwall(door_y, a, b, glass=True)
             p.features.append("glass")
         p.hdoor(door_y, dx)
-        doors = [(dx, door_y)]
         if i and rng.random() < links:
             ly = _u(rng, min(y0, y1) + 1.0, max(y0, y1) - 1.0)
             p.vdoor(a, ly)
-            doors.append((a, ly))
             p.features.append("room links")
-        p.furnish(rng, a, min(y0, y1), b, max(y0, y1), doors, int(rng.integers(0, furniture + 1)))
         p.room(f"{prefix}{i}", a, min(y0, y1), b, max(y0, y1))
         boxes.append((a, min(y0, y1), b, max(y0, y1)))
+    # furniture once every door is there (a link door belongs to two rooms)
+    for box in boxes:
+        p.furnish(rng, *box, p.doors, int(rng.integers(0, furniture + 1)))
     return boxes
 
 
@@ -252,11 +252,14 @@ def _office(p: _Plan, rng: np.random.Generator, *, mixed: bool = False) -> None:
             p.segment((box[2] - c, box[3]), (box[2], box[3] - c))
             p.features.append("diagonal walls")
     if rng.random() < 0.5:
-        # a pillar in the corridor, away from the doors (it would block them)
+        # a pillar in the corridor, away from the doors (it would block them) and
         for _ in range(20):
             x = _u(rng, 2, W - 2)
             if all(abs(x - dx) > 1.8 for dx, dy in p.doors if yc - 0.5 < dy < y_top + 0.5):
-                p.pillar(x, yc + cw / 2, 0.15)
+                # against one wall (a column), so that the corridor stays passable
+                side = 1 if rng.random() < 0.5 else -1
+                r = _u(rng, 0.15, 0.22)
+                p.pillar(x, yc + cw / 2 + side * (cw / 2 - WALL / 2 - r), r)
                 p.features.append("pillars")
                 break
     p.features.append("corridor")
