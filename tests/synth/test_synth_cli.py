@@ -30,6 +30,17 @@ def test_world_then_sequence(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert doc["laser"]["beams"] == 181 and doc["meta"]["world"]["kind"] == "hall"
 
 
+def test_a_benchmark_of_worlds(tmp_path: Path, capsys) -> None:
+    assert main(["synth", "world", "--kind", "all", "--count", "7", "--seed", "10",
+                 "--resolution", "0.2", "--out", str(tmp_path)]) == 0
+    names = sorted(p.name for p in tmp_path.glob("*.yaml"))
+    assert names == sorted(["office_10.yaml", "loop_11.yaml", "corridor_12.yaml",
+                            "hall_13.yaml", "symmetric_14.yaml", "mixed_15.yaml",
+                            "office_16.yaml"])
+    assert main(["synth", "world", "--count", "2", "--name", "x", "--out",
+                 str(tmp_path)]) == 2
+
+
 def test_any_map_server_map_is_a_world(tmp_path: Path, test_data: Path) -> None:
     gt = test_data / "slam_comparison_tools/ground_truths/office_ground_truth.yaml"
     assert main(["synth", "sequence", str(gt), "--out", str(tmp_path), "--beams", "91",
@@ -67,3 +78,36 @@ def test_sensor_log_formats_need_the_writers(tmp_path: Path, capsys) -> None:
                  str(tmp_path / "o"), "--formats", "truth,rawlog"]) == 2
     assert "slamq.synth.writers" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()  # nothing simulated before the check
+
+
+def test_sensor_log_formats_go_to_the_writers(tmp_path: Path, monkeypatch, capsys) -> None:
+    """A stand-in for slamq.synth.writers (another branch): FORMATS and write()."""
+    import importlib.machinery
+    import sys
+    import types
+
+    import slamq.synth
+
+    calls = []
+    mod = types.ModuleType("slamq.synth.writers")
+    mod.__spec__ = importlib.machinery.ModuleSpec("slamq.synth.writers", None)
+    mod.FORMATS = ("rawlog", "carmen")
+
+    def write(seq, folder, formats):
+        calls.append((len(seq), list(formats)))
+        p = Path(folder) / "run.rawlog"
+        p.write_text("x")
+        return {"rawlog": p}
+
+    mod.write = write
+    monkeypatch.setitem(sys.modules, "slamq.synth.writers", mod)
+    monkeypatch.setattr(slamq.synth, "writers", mod, raising=False)
+    main(["synth", "world", "--size", "8", "6", "--out", str(tmp_path / "w")])
+    world = str(tmp_path / "w" / "office_0.yaml")
+    assert main(["synth", "sequence", world, "--out", str(tmp_path / "o"), "--beams", "31",
+                 "--formats", "truth,rawlog", "--length", "8"]) == 0
+    assert calls and calls[0][1] == ["rawlog"] and (tmp_path / "o" / "run.rawlog").is_file()
+    assert "rawlog: " in capsys.readouterr().out
+    assert main(["synth", "sequence", world, "--out", str(tmp_path / "o"),
+                 "--formats", "mcap"]) == 2
+    assert "unknown format 'mcap': one of truth, npz, rawlog, carmen" in capsys.readouterr().err

@@ -143,3 +143,12 @@ def test_drive_bad_input() -> None:
         drive(w, clearance_m=5.0)
     with pytest.raises(SlamqError, match="laps"):
         drive(w, laps=0)
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_every_room_is_visited(kind: str) -> None:
+    for seed in (21, 22):
+        w = world(seed, kind=kind)
+        d = drive(w, seed=seed)
+        # one waypoint per room, the start twice (it closes the tour)
+        assert len(d.meta["waypoints"]) == len(w.meta["rooms"]) + 1, (kind, seed)

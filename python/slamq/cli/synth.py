@@ -39,12 +39,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                        "(its rooms and features) and NAME_transparent.png (glass walls). "
                        "Kinds: " + "; ".join(f"{k}: {v}" for k, v in KINDS.items()))
     w.add_argument("--seed", type=int, default=0, help="seed (default 0)")
-    w.add_argument("--kind", choices=sorted(KINDS), default="office",
-                   help="kind of building (default office)")
+    w.add_argument("--kind", choices=[*sorted(KINDS), "all"], default="office",
+                   help="kind of building (default office; all: the kinds in turn)")
+    w.add_argument("--count", type=int, default=1,
+                   help="this many worlds, seeds SEED, SEED+1, ... (default 1)")
     w.add_argument("--size", type=float, nargs=2, metavar=("W", "H"), default=None,
                    help="building size in metres (default 20 15; corridor 30 9)")
     w.add_argument("--resolution", type=float, default=0.05, help="metres per cell")
-    w.add_argument("--name", default=None, help="file name (default KIND_SEED)")
+    w.add_argument("--name", default=None, help="file name of a single world "
+                   "(default KIND_SEED)")
     w.add_argument("--out", required=True, metavar="DIR", help="output folder")
     w.set_defaults(func=handle_world)
 
@@ -84,14 +87,21 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def handle_world(args: argparse.Namespace) -> int:
     """``slamq synth world``."""
-    from slamq.synth import save_world, world
+    from slamq.synth import KINDS, save_world, world
 
-    w = world(args.seed, kind=args.kind, size=tuple(args.size) if args.size else None,
-              resolution=args.resolution)
-    name = args.name or f"{args.kind}_{args.seed}"
-    path = save_world(w, _folder(args.out) / f"{name}.yaml")
-    print(f"{path}  ({args.kind}, seed {args.seed}, {w.shape[1]} x {w.shape[0]} cells, "
-          f"{len(w.meta['rooms'])} rooms: {', '.join(w.meta['features'])})")
+    if args.count < 1:
+        raise SlamqError(f"--count must be >= 1, got {args.count}")
+    if args.name and args.count > 1:
+        raise SlamqError("--name names a single world: leave it out with --count")
+    kinds = list(KINDS) if args.kind == "all" else [args.kind]
+    out = _folder(args.out)
+    for i in range(args.count):
+        kind, seed = kinds[i % len(kinds)], args.seed + i
+        w = world(seed, kind=kind, size=tuple(args.size) if args.size else None,
+                  resolution=args.resolution)
+        path = save_world(w, out / f"{args.name or f'{kind}_{seed}'}.yaml")
+        print(f"{path}  ({kind}, seed {seed}, {w.shape[1]} x {w.shape[0]} cells, "
+              f"{len(w.meta['rooms'])} rooms: {', '.join(w.meta['features'])})")
     return EXIT_OK
 
 
@@ -108,20 +118,30 @@ def _folder(out: str) -> Path:
 
 def parse_formats(text: str) -> list[str]:
     """The asked formats, checked: a :class:`~slamq.errors.SlamqError` names an unknown
-    one, or a sensor-log format when ``slamq.synth.writers`` is not there."""
-    names = [f.strip().lower() for f in text.split(",") if f.strip()]
+    one, or a sensor-log format when ``slamq.synth.writers`` is not there. The writers
+    module is imported only when a format other than ``truth`` and ``npz`` is asked for;
+    its ``FORMATS`` then says which it writes."""
+    names = list(dict.fromkeys(f.strip().lower() for f in text.split(",") if f.strip()))
     if not names:
         raise SlamqError("--formats: no format given")
-    known = OWN_FORMATS + WRITER_FORMATS
-    for n in names:
+    logs = [n for n in names if n not in OWN_FORMATS]
+    if not logs:
+        return names
+    if importlib.util.find_spec("slamq.synth.writers") is None:
+        unknown = [n for n in logs if n not in WRITER_FORMATS]
+        if unknown:
+            raise SlamqError(f"--formats: unknown format {unknown[0]!r}: one of "
+                             f"{', '.join(OWN_FORMATS + WRITER_FORMATS)}")
+        raise SlamqError(f"--formats: {', '.join(logs)} needs slamq.synth.writers, which "
+                         "this installation does not have")
+    from slamq.synth import writers  # another branch's module, only when asked for
+
+    known = tuple(writers.FORMATS)
+    for n in logs:
         if n not in known:
-            raise SlamqError(f"--formats: unknown format {n!r}: one of {', '.join(known)}")
-    if any(n not in OWN_FORMATS for n in names) and \
-            importlib.util.find_spec("slamq.synth.writers") is None:
-        asked = ", ".join(n for n in names if n not in OWN_FORMATS)
-        raise SlamqError(f"--formats: {asked} needs slamq.synth.writers, which this "
-                         "installation does not have")
-    return list(dict.fromkeys(names))
+            raise SlamqError(f"--formats: unknown format {n!r}: one of "
+                             f"{', '.join(OWN_FORMATS + known)}")
+    return names
 
 
 def handle_sequence(args: argparse.Namespace) -> int:
@@ -149,7 +169,7 @@ def handle_sequence(args: argparse.Namespace) -> int:
         files["npz"] = save_sequence(seq, out / "sequence.npz")
     logs = [f for f in formats if f not in OWN_FORMATS]
     if logs:
-        from slamq.synth import writers  # another branch's module, only when asked for
+        from slamq.synth import writers  # checked by parse_formats
 
         files.update(writers.write(seq, out, logs))
     print(f"{seq.name}: {len(seq)} scans x {seq.laser.beams} beams, "

@@ -12,6 +12,10 @@ Two kinds of it:
   (:mod:`~slamq.synth.drive`), the laser and odometry (:mod:`~slamq.synth.sensors`,
   :data:`NOISE`), :func:`simulate` (:mod:`~slamq.synth.simulate`), and the ground-truth
   files :func:`write_truth` (:mod:`~slamq.synth.truth`).
+
+The package's ``world``, ``drive`` and ``simulate`` are the functions, not their modules
+(``import slamq.synth.world as m`` gives the function; ``from slamq.synth.world import
+save_world`` imports from the module as usual).
 """
 
 from __future__ import annotations
@@ -30,9 +34,9 @@ from slamq.synth.sensors import NOISE, OdometryNoise
 from slamq.synth.sequence import LaserSpec, Sequence
 from slamq.synth.simulate import simulate
 from slamq.synth.truth import load_sequence, save_sequence, visible_map, write_truth
-from slamq.synth.world import KINDS, load_world, save_world, world
+from slamq.synth.world import KINDS, load_world, save_world, world, worlds
 
 __all__ = ["DEGRADATIONS", "KINDS", "NOISE", "SEVERITIES", "Drive", "LaserSpec",
            "OdometryNoise", "Sequence", "degrade", "drive", "floor_plan", "load_sequence",
            "load_world", "records", "save_sequence", "save_world", "series", "simulate",
-           "study", "visible_map", "world", "write_truth"]
+           "study", "visible_map", "world", "worlds", "write_truth"]

@@ -117,9 +117,11 @@ class _Planner:
         t = np.linspace(0.0, 1.0, n)[:, None]
         return bool(self.free_at(a + t * (b - a)).all())
 
-    def field(self, r: int, c: int) -> np.ndarray:
+    def field(self, r: int, c: int, targets: list[tuple[int, int]]) -> np.ndarray:
         """Path lengths (coarse cells, octagonal metric) from coarse cell ``(r, c)`` over the
-        drivable coarse cells; -1 where unreachable."""
+        drivable coarse cells, grown until every target is reached (or nothing more is);
+        -1 where not reached. Every cell nearer than the farthest target is settled, so
+        that a descent from a target stays on reached cells."""
         import cv2
 
         ok = self.coarse_ok.astype(np.uint8)
@@ -129,6 +131,8 @@ class _Planner:
         dist[r, c] = 0
         cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
         square = np.ones((3, 3), np.uint8)
+        tr = np.array([t[0] for t in targets], np.int64)
+        tc = np.array([t[1] for t in targets], np.int64)
         step = 0
         while True:
             step += 1
@@ -138,6 +142,8 @@ class _Planner:
                 return dist
             dist[new] = step
             reached = grown
+            if (dist[tr, tc] >= 0).all():
+                return dist
 
     def descend(self, field: np.ndarray, r: int, c: int) -> list[tuple[int, int]]:
         """The coarse cells from ``(r, c)`` down ``field`` to its source."""
@@ -323,7 +329,7 @@ def drive(world: OccupancyMap, seed: int = 0, *, speed: float = 0.5, rate: float
     pts = _waypoints(p, world, rng, label)
     if len(pts) < 2:
         raise SlamqError(f"{world.source}: too little room to drive")
-    fields = [p.field(r, c) for r, c in pts]
+    fields = [p.field(r, c, pts) for r, c in pts]
     step = p.res * _COARSE
     dist = np.array([[f[r, c] * step for (r, c) in pts] for f in fields], float)
     start = int(rng.integers(len(pts)))

@@ -23,7 +23,7 @@ import numpy as np
 from slamq.errors import MapError, SlamqError
 from slamq.models import OccupancyMap
 
-__all__ = ["KINDS", "load_world", "save_world", "world"]
+__all__ = ["KINDS", "load_world", "save_world", "world", "worlds"]
 
 #: The kinds of world and what makes each hard or easy for SLAM.
 KINDS: dict[str, str] = {
@@ -59,6 +59,7 @@ class _Plan:
         self.glass = np.zeros((self.h, self.w), bool)
         self.rooms: list[dict[str, Any]] = []
         self.features: list[str] = []
+        self.doors: list[tuple[float, float]] = []
         # cell centres in metres (building frame: the building's lower-left corner at 0, 0)
         self.xs = (np.arange(self.w) + 0.5) * res - MARGIN
         self.ys = (self.h - np.arange(self.h) - 0.5) * res - MARGIN
@@ -93,11 +94,13 @@ class _Plan:
         box = self._box(x - width / 2, y - WALL, x + width / 2, y + WALL)
         self.wall[box] = False
         self.glass[box] = False
+        self.doors.append((x, y))
 
     def vdoor(self, x: float, y: float, width: float = DOOR) -> None:
         box = self._box(x - WALL, y - width / 2, x + WALL, y + width / 2)
         self.wall[box] = False
         self.glass[box] = False
+        self.doors.append((x, y))
 
     def pillar(self, cx: float, cy: float, r: float) -> None:
         d2 = (self.xs[None, :] - cx) ** 2 + (self.ys[:, None] - cy) ** 2
@@ -201,15 +204,15 @@ def _rooms_along(p: _Plan, rng: np.random.Generator, x0: float, x1: float, y0: f
             p.hwall(door_y, a, b, glass=True)
             p.features.append("glass")
         p.hdoor(door_y, dx)
-        doors = [(dx, door_y)]
         if i and rng.random() < links:
             ly = _u(rng, min(y0, y1) + 1.0, max(y0, y1) - 1.0)
             p.vdoor(a, ly)
-            doors.append((a, ly))
             p.features.append("room links")
-        p.furnish(rng, a, min(y0, y1), b, max(y0, y1), doors, int(rng.integers(0, furniture + 1)))
         p.room(f"{prefix}{i}", a, min(y0, y1), b, max(y0, y1))
         boxes.append((a, min(y0, y1), b, max(y0, y1)))
+    # furniture once every door is there (a link door belongs to two rooms)
+    for box in boxes:
+        p.furnish(rng, *box, p.doors, int(rng.integers(0, furniture + 1)))
     return boxes
 
 
@@ -249,8 +252,16 @@ def _office(p: _Plan, rng: np.random.Generator, *, mixed: bool = False) -> None:
             p.segment((box[2] - c, box[3]), (box[2], box[3] - c))
             p.features.append("diagonal walls")
     if rng.random() < 0.5:
-        p.pillar(_u(rng, 2, W - 2), yc + cw / 2, 0.15)
-        p.features.append("pillars")
+        # a pillar in the corridor, away from the doors (it would block them) and
+        for _ in range(20):
+            x = _u(rng, 2, W - 2)
+            if all(abs(x - dx) > 1.8 for dx, dy in p.doors if yc - 0.5 < dy < y_top + 0.5):
+                # against one wall (a column), so that the corridor stays passable
+                side = 1 if rng.random() < 0.5 else -1
+                r = _u(rng, 0.15, 0.22)
+                p.pillar(x, yc + cw / 2 + side * (cw / 2 - WALL / 2 - r), r)
+                p.features.append("pillars")
+                break
     p.features.append("corridor")
 
 
@@ -426,6 +437,23 @@ def world(seed: int = 0, *, kind: str = "office", size: tuple[float, float] | No
     plan = _Plan(width, height, float(resolution))
     _MAKERS[kind](plan, rng)
     return plan.occupancy(f"<world {kind} {seed}>", {"kind": kind, "seed": int(seed)})
+
+
+def worlds(count: int = 20, seed: int = 0, *, kinds: Any = None,
+           resolution: float = 0.05) -> list[OccupancyMap]:
+    """``count`` worlds of varied difficulty for a benchmark: the kinds in turn (all of
+    :data:`KINDS` by default, in their order), world ``i`` with seed ``seed + i``.
+
+    Examples
+    --------
+    >>> [w.meta["kind"] for w in worlds(7, kinds=["hall", "office"], resolution=0.2)]
+    ['hall', 'office', 'hall', 'office', 'hall', 'office', 'hall']
+    """
+    kinds = list(KINDS) if kinds is None else list(kinds)
+    if not kinds or count < 0:
+        raise SlamqError("worlds: at least one kind and a count >= 0")
+    return [world(seed + i, kind=kinds[i % len(kinds)], resolution=resolution)
+            for i in range(count)]
 
 
 def save_world(w: OccupancyMap, yaml_path: str | Path) -> Path:
