@@ -103,8 +103,9 @@ def test_kidnaps_are_invisible_to_the_odometry(office) -> None:
 def test_truth_files(office, tmp_path: Path) -> None:
     seq = simulate(office, seed=1, noise="low", laser=LASER, length=20.0)
     files = write_truth(seq, tmp_path / "t")
-    assert {p.name for p in files.values()} == {"gt_map.yaml", "visible_map.yaml", "gt.tum",
-                                                "odom.tum", "sequence.json"}
+    assert {p.name for p in files.values()} == {
+        "gt_map.yaml", "visible_map.yaml", "gt_map_start.yaml", "visible_map_start.yaml",
+        "gt.tum", "odom.tum", "sequence.json"}
     gt_map = slamq.load_map(files["gt_map"])
     assert np.array_equal(gt_map.values == 0, office.values == 0)
     vis = slamq.load_map(files["visible_map"])
@@ -122,6 +123,19 @@ def test_truth_files(office, tmp_path: Path) -> None:
     # the visible map is never larger than the world, and a real comparison runs on it
     cmp = slamq.compare(vis, gt_map, align="origin")
     assert cmp is not None
+    # the map in the frame of the first pose: the path moved into that frame lands on the
+    # same cells of it as the world path on the world map
+    start = slamq.load_map(files["visible_map_start"])
+    assert np.array_equal(start.values, vis.values)
+    x0, y0, th = seq.gt[0]
+    c, s = np.cos(th), np.sin(th)
+    local = np.column_stack([c * (seq.gt[:, 0] - x0) + s * (seq.gt[:, 1] - y0),
+                             -s * (seq.gt[:, 0] - x0) + c * (seq.gt[:, 1] - y0)])
+    ox, oy, oyaw = start.origin
+    cw, sw = np.cos(-oyaw), np.sin(-oyaw)
+    cells = np.column_stack([cw * (local[:, 0] - ox) - sw * (local[:, 1] - oy),
+                             sw * (local[:, 0] - ox) + cw * (local[:, 1] - oy)])
+    assert np.allclose(cells, seq.gt[:, :2] - np.array(vis.origin[:2]), atol=1e-9)
 
 
 def test_visible_map_leaves_out_transparent_walls() -> None:

@@ -28,7 +28,6 @@ only the walls the laser hit, or ``gt_map.yaml``), so every ok run has ``ate_*``
 from __future__ import annotations
 
 import json
-import math
 import os
 from collections.abc import Iterable
 from collections.abc import Sequence as Seq
@@ -229,29 +228,10 @@ def generate(g: Generated) -> Generated:
     g.folder.mkdir(parents=True, exist_ok=True)
     (g.folder / "recipe.json").unlink(missing_ok=True)
     write_truth(seq, g.folder)
-    for which in ("gt", "visible"):
-        _start_frame_yaml(g.folder / f"{which}_map.yaml", seq.gt[0])
     writers.write(seq, g.folder, r["formats"])
     (g.folder / "recipe.json").write_text(json.dumps({**r, "code": generator_digest()},
                                                      indent=1, sort_keys=True))
     return g
-
-
-def _start_frame_yaml(yaml_path: Path, first: np.ndarray) -> Path:
-    """Beside a map_server YAML, ``<stem>_start.yaml``: the same image with its origin
-    expressed in the frame of the robot's first pose ``first`` (x, y, yaw)."""
-    import yaml
-
-    doc = yaml.safe_load(yaml_path.read_text())
-    ox, oy, oyaw = (float(v) for v in doc["origin"])
-    x0, y0, th = (float(v) for v in first)
-    c, s = math.cos(th), math.sin(th)
-    dx, dy = ox - x0, oy - y0
-    doc["origin"] = [c * dx + s * dy, -s * dx + c * dy,
-                     math.atan2(math.sin(oyaw - th), math.cos(oyaw - th))]
-    out = yaml_path.with_name(yaml_path.stem + "_start.yaml")
-    out.write_text(yaml.safe_dump(doc, sort_keys=False))
-    return out
 
 
 def generate_missing(sequences: Iterable[Generated], *, parallel: int = 1,

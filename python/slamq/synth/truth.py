@@ -98,20 +98,54 @@ def _trajectory(seq: Sequence, poses: np.ndarray, what: str) -> Trajectory:
                                   source=f"{seq.name}:{what}")
 
 
+def start_frame_yaml(yaml_path: str | os.PathLike[str], first: Any) -> Path:
+    r"""Beside a map_server YAML, ``<stem>_start.yaml``: the same image with its origin
+    moved into the frame of the robot's first pose ``first`` (x, y, yaw).
+
+    A SLAM program fed odometry increments (an MRPT rawlog, a CARMEN log) maps in that
+    frame, so its map is compared with this one: exact, nothing resampled.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, yaml
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "m.yaml"
+    >>> _ = p.write_text("image: m.pgm\nresolution: 0.05\norigin: [-1.0, -1.0, 0.0]\n")
+    >>> d = yaml.safe_load(start_frame_yaml(p, [1.0, 0.0, np.pi / 2]).read_text())
+    >>> [round(v, 6) for v in d["origin"]], d["image"]
+    ([-1.0, 2.0, -1.570796], 'm.pgm')
+    """
+    import yaml
+
+    path = Path(yaml_path)
+    doc = yaml.safe_load(path.read_text())
+    ox, oy, oyaw = (float(v) for v in doc["origin"])
+    x0, y0, th = (float(v) for v in first)
+    c, s = math.cos(th), math.sin(th)
+    dx, dy = ox - x0, oy - y0
+    doc["origin"] = [c * dx + s * dy, -s * dx + c * dy,
+                     math.atan2(math.sin(oyaw - th), math.cos(oyaw - th))]
+    out = path.with_name(path.stem + "_start.yaml")
+    out.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return out
+
+
 def write_truth(seq: Sequence, folder: str | os.PathLike[str], *,
                 threads: int | None = None) -> dict[str, Path]:
     """Write the ground truth of ``seq`` into ``folder``.
 
     Files: ``gt_map.yaml``/``.pgm`` (the world, map_server trinary; its meta and
     transparent walls beside it, :func:`slamq.synth.world.save_world`),
-    ``visible_map.yaml``/``.pgm`` (:func:`visible_map`), ``gt.tum`` and ``odom.tum``
+    ``visible_map.yaml``/``.pgm`` (:func:`visible_map`), ``gt_map_start.yaml`` and
+    ``visible_map_start.yaml`` (the same images in the frame of the first pose, where maps
+    built from odometry increments start: :func:`start_frame_yaml`), ``gt.tum`` and ``odom.tum``
     (``t x y z qx qy qz qw``) and ``sequence.json`` (``seq.meta``, the name, the laser, the
     files).
 
     Returns
     -------
     dict
-        ``{"gt_map", "visible_map", "gt", "odom", "sequence"}`` -> path.
+        ``{"gt_map", "visible_map", "gt_map_start", "visible_map_start", "gt", "odom",
+        "sequence"}`` -> path.
 
     Examples
     --------
@@ -121,7 +155,7 @@ def write_truth(seq: Sequence, folder: str | os.PathLike[str], *,
     >>> seq = simulate(world(0, kind="office", size=(10.0, 8.0)), noise="none",
     ...                laser=LaserSpec(beams=181), length=6.0)
     >>> sorted(write_truth(seq, tempfile.mkdtemp()))
-    ['gt', 'gt_map', 'odom', 'sequence', 'visible_map']
+    ['gt', 'gt_map', 'gt_map_start', 'odom', 'sequence', 'visible_map', 'visible_map_start']
     """
     from slamq.synth.world import save_world
 
@@ -134,6 +168,8 @@ def write_truth(seq: Sequence, folder: str | os.PathLike[str], *,
     files["gt_map"] = save_world(seq.world, out / "gt_map.yaml")
     vis = visible_map(seq, threads=threads)
     files["visible_map"] = save_world(vis, out / "visible_map.yaml")
+    files["gt_map_start"] = start_frame_yaml(files["gt_map"], seq.gt[0])
+    files["visible_map_start"] = start_frame_yaml(files["visible_map"], seq.gt[0])
     files["gt"] = _trajectory(seq, seq.gt, "gt").write_tum(out / "gt.tum")
     files["odom"] = _trajectory(seq, seq.odom, "odom").write_tum(out / "odom.tum")
     doc = {"name": seq.name, "scans": len(seq), "duration": float(seq.stamps[-1] -
