@@ -79,7 +79,7 @@ def _alive(pid: int) -> bool:
 def _numbers(out: Path) -> list[tuple]:
     df = read_results(out / "results.jsonl").sort_values(["algorithm", "run"])
     cols = ["algorithm", "sequence", "run", "occupied", "known", "corners", "ate_rmse"]
-    return [tuple(r) for r in df[cols].itertuples(index=False)]
+    return [tuple(None if v != v else v for v in r) for r in df[cols].itertuples(index=False)]
 
 
 def _dump(proc: subprocess.Popen, tmp: Path) -> str:
