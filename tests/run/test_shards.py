@@ -100,8 +100,12 @@ def test_four_shards_as_processes_merged_equal_one_unsharded_run(tmp_path: Path)
     assert "merged: 9 finished runs (9 ok)" in out
     assert _runs(tmp_path / "out") == want_runs
     assert _table(tmp_path / "out") == want_table
-    summary = (tmp_path / "out" / "summary.csv").read_text()
-    assert summary == (tmp_path / "unsharded" / "summary.csv").read_text()
+    import pandas as pd
+
+    a, b = (pd.read_csv(tmp_path / d / "summary.csv") for d in ("out", "unsharded"))
+    timing = [c for c in a if c.startswith(("wall_s", "cpu_s", "peak_rss_mb"))]
+    assert timing  # the resources are summarised too, but differ between two executions
+    pd.testing.assert_frame_equal(a.drop(columns=timing), b.drop(columns=timing))
     # merging again changes nothing; a plain run merges too and runs nothing again
     first = (tmp_path / "out" / "results.jsonl").read_text()
     result = shards.merge(path)

@@ -562,13 +562,20 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
             runs="size", ok=lambda s: int((s == "ok").sum()))
         counts["failure_rate"] = 1 - counts["ok"] / counts["runs"]
         summary = summary.merge(counts.reset_index(), on=["algorithm", "sequence"], how="outer")
+    from slamq.run.resources import resource_summary, write_scores
+
+    scores = write_scores(out, rows, results_path)
+    if summary is not None:
+        summary = resource_summary(summary, scores)
         spreadsheet_safe(summary).to_csv(out / "summary.csv", index=False)
     gifs = _gifs(rows)
     report = None
     if config.report and results_path.exists():
         from slamq.report import build_report
+        from slamq.report.resources import resources_page
 
         report = build_report(results_path, out / "report", title="slamq run report")
+        resources_page(scores, out / "report")
     return {"results": results_path, "records": len(records), "summary": summary,
             "gifs": gifs, "report": report}
 
