@@ -118,8 +118,14 @@ def _sweep(frame: pd.DataFrame, program: str, axis: str, others: list[str],
             ax.grid(alpha=0.3)
     if x_numeric and len(sub["_x"].unique()) > 2 and \
             sub["_x"].min() > 0 and sub["_x"].max() / sub["_x"].min() >= 10:
+        from matplotlib.ticker import FixedLocator, NullLocator
+
+        values = sorted(sub["_x"].unique())
         for ax in axes[0]:
             ax.set_xscale("log")
+            ax.xaxis.set_major_locator(FixedLocator(values))
+            ax.xaxis.set_minor_locator(NullLocator())
+            ax.set_xticklabels([f"{v:g}" for v in values])
     axes[0][0].legend(fontsize=7, frameon=False)
     fig.suptitle(f"{program}: mean ± std over iterations", fontsize=10)
     fig.tight_layout()
