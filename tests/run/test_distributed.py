@@ -174,6 +174,7 @@ def test_ctrl_c_of_the_client_stops_the_workers_groups(tmp_path: Path, cluster: 
 def test_a_worker_killed_mid_run_loses_no_run_and_duplicates_none(
         tmp_path: Path, cluster: Cluster) -> None:
     victim = cluster.add_worker("victim", env={"VICTIM": "1"})
+    proc = None
     try:
         cfg = _config(tmp_path, sleep=1.5, iterations=3)
         proc = subprocess.Popen([PY, "-m", "slamq", "run", str(_yaml(tmp_path, cfg)),
@@ -190,6 +191,9 @@ def test_a_worker_killed_mid_run_loses_no_run_and_duplicates_none(
         out, err = proc.communicate(timeout=90)
     finally:
         stop(victim, grace=0)
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            proc.communicate()
     assert proc.returncode == 0, err
     assert "runs: 6 ok" in out
     done = (tmp_path / "done.log").read_text().split()
@@ -205,6 +209,7 @@ def test_a_worker_killed_mid_run_loses_no_run_and_duplicates_none(
 
 def test_the_scheduler_gone_exits_2_naming_what_finished(tmp_path: Path) -> None:
     own = Cluster(tmp_path / "dask")
+    proc = None
     try:
         own.add_worker("only", resources="slamq_run=2", nthreads=2)
         cfg = _config(tmp_path, sleep=0.3, iterations=4)
@@ -220,6 +225,9 @@ def test_the_scheduler_gone_exits_2_naming_what_finished(tmp_path: Path) -> None
         stop(own.scheduler, grace=0)
         _, err = proc.communicate(timeout=60)
     finally:
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            proc.communicate()
         own.close()
     assert proc.returncode == 2, err
     assert "went away" in err and "finished" in err and "--scheduler" in err
