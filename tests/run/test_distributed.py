@@ -173,7 +173,7 @@ def test_ctrl_c_of_the_client_stops_the_workers_groups(tmp_path: Path, cluster: 
 
 def test_a_worker_killed_mid_run_loses_no_run_and_duplicates_none(
         tmp_path: Path, cluster: Cluster) -> None:
-    victim = cluster.add_worker("victim", env={"VICTIM": "1"})
+    victim = cluster.add_worker("victim", env={"VICTIM": "1"}, resources="slamq_run=1")
     proc = None
     try:
         cfg = _config(tmp_path, sleep=1.5, iterations=3)
