@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import shutil
 import signal
 import subprocess
@@ -26,10 +27,25 @@ def available() -> bool:
     return Path(DASK).exists() or shutil.which("dask") is not None
 
 
-def _start(args: list[str], log: Path, env: dict[str, str] | None = None) -> subprocess.Popen:
-    return subprocess.Popen([DASK, *args], stdout=subprocess.DEVNULL, stderr=open(log, "w"),
+def _start(args: list[str], log: Path, env: dict[str, str] | None = None,
+           hide: Path | None = None) -> subprocess.Popen:
+    cmd = [DASK, *args]
+    if hide is not None:  # a private mount namespace where ``hide`` is an empty tmpfs
+        cmd = ["unshare", "--mount", "--propagation", "private", "sh", "-c",
+               f"mount -t tmpfs slamq-hidden {shlex.quote(str(hide))} && exec {shlex.join(cmd)}"]
+    return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=open(log, "w"),
                             stdin=subprocess.DEVNULL, start_new_session=True,
                             env=slamq_env(env))
+
+
+def can_hide(folder: Path) -> bool:
+    """Whether a process can be given its own mount namespace hiding ``folder`` (root)."""
+    if not shutil.which("unshare"):
+        return False
+    p = subprocess.run(["unshare", "--mount", "--propagation", "private", "sh", "-c",
+                        f"mount -t tmpfs slamq-hidden {shlex.quote(str(folder))}"],
+                       capture_output=True, timeout=10)
+    return p.returncode == 0
 
 
 def stop(proc: subprocess.Popen, grace: float = 5.0) -> None:
@@ -77,14 +93,16 @@ class Cluster:
         self.address = json.loads(file.read_text())["address"]
 
     def add_worker(self, name: str, env: dict[str, str] | None = None,
-                   resources: str | None = None, nthreads: int = 1) -> subprocess.Popen:
-        """Start a ``dask worker`` (one process); wait until the scheduler knows it."""
+                   resources: str | None = None, nthreads: int = 1,
+                   hide: Path | None = None) -> subprocess.Popen:
+        """Start a ``dask worker`` (one process; not seeing ``hide``); wait until the
+        scheduler knows it."""
         args = ["worker", self.address, "--nworkers", "1", "--nthreads", str(nthreads),
                 "--no-dashboard", "--host", "127.0.0.1", "--name", name]
         if resources:
             args += ["--resources", resources]
         env = dict(os.environ, **(env or {}))
-        proc = _start(args, self.folder / f"{name}.log", env)
+        proc = _start(args, self.folder / f"{name}.log", env, hide)
         self.procs.append(proc)
         self.wait_workers(name)
         return proc

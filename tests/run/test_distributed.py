@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
-from _daskproc import Cluster, available, stop
+from _daskproc import Cluster, available, can_hide, stop
 from conftest import slamq_env
 
 from slamq.results import read_results
@@ -239,3 +239,30 @@ def test_the_scheduler_gone_exits_2_naming_what_finished(tmp_path: Path) -> None
     rows = runner.execute(cfg)
     assert [r["outcome"] for r in rows] == ["ok"] * 4
     assert sum(1 for r in rows if r.get("skipped")) >= len(finished)
+
+
+def test_a_worker_without_the_output_folder_returns_the_runs(tmp_path: Path) -> None:
+    # the worker runs in its own mount namespace where the output's parent is an empty
+    # tmpfs: auto mode sends the run folders back; shared mode records that it cannot
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    if not can_hide(shared):
+        pytest.skip("cannot make a private mount namespace here (needs root and unshare)")
+    cfg = _config(tmp_path, sleep=0.1, iterations=1)
+    cfg["output"] = "shared/out"
+    own = Cluster(tmp_path / "dask")
+    try:
+        own.add_worker("island", hide=shared)
+        got = runner.run(cfg, backend=dask_backend(own.address, "auto"))
+        assert [r["outcome"] for r in got["rows"]] == ["ok", "ok"]
+        for r in got["rows"]:
+            folder = Path(r["folder"])
+            assert folder.is_relative_to(shared)
+            assert (folder / "out" / "map.pgm").exists() and (folder / "run.json").exists()
+        assert len(read_results(shared / "out" / "results.jsonl")) == 2
+        shutil.rmtree(shared / "out")
+        rows = runner.execute(cfg, backend=dask_backend(own.address, "shared"))
+    finally:
+        own.close()
+    assert {r["outcome"] for r in rows} == {"infrastructure"}
+    assert "does not see the output folder" in rows[0]["reason"]
