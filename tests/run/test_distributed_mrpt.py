@@ -1,6 +1,7 @@
-"""The MRPT example (rbpf-slam with 5 and 20 particles, icp-slam; 3 iterations, seeded by
-the iteration) on a 2-worker Dask cluster of processes gives the same run keys, maps and
-numbers as the local run. On the last 50 steps of MRPT's dataset, to stay short."""
+"""The MRPT example (rbpf-slam with 5 and 20 particles, icp-slam; seeded by the iteration)
+on a 2-worker Dask cluster of processes gives the same run keys, maps and numbers as the
+local run. On the last 50 steps of MRPT's dataset and 2 iterations, to stay short
+(benches/bench_run_dask_mrpt.py runs the whole example, with a worker killed 10 s in)."""
 
 from __future__ import annotations
 
@@ -42,10 +43,11 @@ def test_mrpt_example_on_two_dask_workers_equals_the_local_run(tmp_path: Path) -
                    stdin=subprocess.DEVNULL, timeout=60)
     cfg = yaml.safe_load(EXAMPLE.read_text())
     cfg.update(sequences={"telecom_tail": {"input": str(short)}}, output=str(tmp_path / "runs"),
-               base_dir=str(tmp_path), timeout=120, report=False)
+               base_dir=str(tmp_path), timeout=120, report=False,
+               iterations=2)  # 6 runs: the test stays short (the bench runs all 9, in full)
     with pytest.warns(UserWarning, match="different resolutions"):
         local = runner.run(cfg)
-    assert [r["outcome"] for r in local["rows"]] == ["ok"] * 9
+    assert [r["outcome"] for r in local["rows"]] == ["ok"] * 6
     want = _numbers(tmp_path / "runs")
     maps = {r["key"]: load_map(r["map"]) for r in local["rows"]}
     shutil.move(tmp_path / "runs", tmp_path / "local")
@@ -67,4 +69,4 @@ def test_mrpt_example_on_two_dask_workers_equals_the_local_run(tmp_path: Path) -
     assert _numbers(tmp_path / "runs") == want
     # the particle filter still differs between iterations (the seed is the iteration)
     occ = {(n[0], n[1]): n[3] for n in want}
-    assert len({occ[("rbpf-slam[particles=5]", str(i))] for i in (1, 2, 3)}) > 1
+    assert len({occ[("rbpf-slam[particles=5]", str(i))] for i in (1, 2)}) > 1
