@@ -154,10 +154,13 @@ def test_ctrl_c_of_the_client_stops_the_workers_groups(tmp_path: Path, cluster: 
                              "--scheduler", cluster.address], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=slamq_env())
     try:
-        pids = [tmp_path / "out" / n / "default" / "seq" / str(i) / "out" / "child.pid"
-                for n in ("a", "b") for i in (1, 2)]
+        # each attempt runs in .<iteration>.attempt-ID beside its run folder
         end = time.monotonic() + 60
-        while sum(p.exists() and bool(p.read_text().strip()) for p in pids) < 3:
+        while True:
+            pids = list((tmp_path / "out").glob("*/default/seq/.*attempt*/out/child.pid"))
+            started = [int(t) for t in (p.read_text().strip() for p in pids) if t]
+            if len(started) >= 3:
+                break
             assert time.monotonic() < end and proc.poll() is None, _dump(proc, tmp_path)
             time.sleep(0.05)
         proc.send_signal(signal.SIGINT)
@@ -166,9 +169,9 @@ def test_ctrl_c_of_the_client_stops_the_workers_groups(tmp_path: Path, cluster: 
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 130, err
-    started = [int(p.read_text()) for p in pids if p.exists() and p.read_text().strip()]
-    assert started and not any(_alive(pid) for pid in started)
+    assert not any(_alive(pid) for pid in started)
     assert not list((tmp_path / "out").glob("*/default/seq/*/run.json"))
+    assert not list((tmp_path / "out").glob("*/default/seq/.*attempt*"))  # nothing left
 
 
 def test_a_worker_killed_mid_run_loses_no_run_and_duplicates_none(
@@ -200,6 +203,7 @@ def test_a_worker_killed_mid_run_loses_no_run_and_duplicates_none(
     assert len(done) == len(set(done)) == 6  # every run finished once
     assert len(log.read_text().splitlines()) > 6  # the killed run started again elsewhere
     assert len(list((tmp_path / "out").glob("fake/*/seq/*/run.json"))) == 6
+    assert not list((tmp_path / "out").glob("fake/*/seq/.*attempt*"))  # the dead one's too
     assert len(read_results(tmp_path / "out" / "results.jsonl")) == 6
     end = time.monotonic() + 10  # the dead worker's guard stopped its SLAM process
     while any(_alive(p) for p in killed) and time.monotonic() < end:

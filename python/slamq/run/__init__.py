@@ -6,6 +6,10 @@
 * :mod:`slamq.run.runner`: run folders, outcomes, resume, parallel slots, ROS recipes,
   then scoring through :func:`slamq.evaluate_many`, :func:`slamq.summarize`, GIFs and
   :func:`slamq.report.build_report`.
+* :mod:`slamq.run.distributed`: each run as a task on a Dask cluster (``--scheduler``).
+* :mod:`slamq.run.shards`: array jobs without Dask (``--shard I/N``, ``--merge``).
+* :mod:`slamq.run.resources`: wall/CPU time, peak RSS and parameter values beside the
+  scores (``scores.csv``, ``summary.csv``).
 
 The module itself is callable: ``slamq.run(config)`` is :func:`slamq.run.runner.run`.
 """

@@ -31,11 +31,17 @@ Faults
     which runs it again on another worker (Dask's ``allowed_failures``); the dead worker's
     SLAM processes are stopped by a small guard process each worker process starts, which
     kills the process groups of the runs in flight when its pipe from the worker closes.
-    A run is recorded once: only a finished attempt writes ``run.json``. When the
+    A run is recorded once: each attempt runs in its own folder (``.ITERATION.attempt-ID``
+    beside the run folder, or a scratch folder) and only a finished attempt becomes the
+    run folder, with its ``run.json``; an attempt that finishes after another (its worker
+    was cut off, not dead) is dropped. When the
     scheduler goes away the client raises :class:`SchedulerGone` (exit 2) naming how
     many runs finished, where they are listed and how to resume. Ctrl-C of the client
     cancels the tasks; each running task sees its cancellation and stops its groups
     (SIGINT, SIGTERM, SIGKILL), and the client waits for that before it exits.
+
+The client connects with a timeout of ``SLAMQ_DASK_TIMEOUT`` seconds (default 20). The
+workers need slamq (the same version) and the SLAM programs installed.
 """
 
 from __future__ import annotations
@@ -236,8 +242,11 @@ def run_task(spec: runner.RunSpec, key: str, command: Any, config: RunConfig,
             "(outputs: shared)")}, 1)
         return {"row": {**row, "command": command, "host": socket.gethostname()}}
     here = shared and outputs != "return"
-    folder = spec.folder if here else (
-        Path(tempfile.gettempdir()) / f"slamq-runs-{os.getuid()}" / key)
+    # each attempt in its own folder: an attempt the scheduler gave up on (its worker cut
+    # off, not dead) never writes into the run folder another attempt fills
+    attempt = f"attempt-{uuid.uuid4().hex[:10]}"
+    folder = (spec.folder.parent / f".{spec.folder.name}.{attempt}" if here else
+              Path(tempfile.gettempdir()) / f"slamq-runs-{os.getuid()}" / f"{key}.{attempt}")
     local = dataclasses.replace(spec, folder=folder)
     stop, done = threading.Event(), threading.Event()
     _watch_cancel(stop, done)
@@ -248,6 +257,7 @@ def run_task(spec: runner.RunSpec, key: str, command: Any, config: RunConfig,
                 attempts += 1
                 result = runner._execute_one(local, key, slot, config, stop)
                 if result is None:
+                    shutil.rmtree(folder, ignore_errors=True)
                     return {"row": None}
                 if result["outcome"] != "infrastructure" or attempts > config.retries:
                     break
@@ -257,12 +267,29 @@ def run_task(spec: runner.RunSpec, key: str, command: Any, config: RunConfig,
     row.update(command=command, host=socket.gethostname())
     if here:
         runner._write_atomic(folder / "run.json", json.dumps(row, indent=1, default=str))
-        return {"row": row}
+        return {"row": _settle(folder, spec.folder)}
     buf = io.BytesIO()
     with tarfile.open(fileobj=buf, mode="w") as tar:
         tar.add(folder, arcname=".")
     shutil.rmtree(folder, ignore_errors=True)
     return {"row": row, "tar": buf.getvalue()}
+
+
+def _settle(attempt: Path, final: Path) -> dict[str, Any]:
+    """Move a finished attempt (``run.json`` written) into the run folder, unless another
+    attempt finished first: the first one stays, this one is dropped. The run's record."""
+    done = final / "run.json"
+    if done.is_file():
+        try:
+            kept = json.loads(done.read_text())
+            shutil.rmtree(attempt, ignore_errors=True)
+            return kept
+        except (OSError, ValueError):
+            pass
+    if final.exists():
+        shutil.rmtree(final)
+    os.rename(attempt, final)
+    return json.loads(done.read_text())
 
 
 def _slots_plugin() -> Any:
@@ -398,6 +425,7 @@ def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[
                 i = futures.pop(fut)
                 try:
                     result = fut.result()
+                    fut.release()  # the worker may forget the result (a tar can be large)
                 except Exception as exc:  # noqa: BLE001 - a lost task is said below
                     if _gone(client):
                         raise _gone_error(config, keyed, rows, todo, address) from exc
@@ -416,6 +444,11 @@ def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[
                 rows[i] = row
                 if progress is not None:
                     progress(row)
+            for i in todo:  # what attempts on dead workers left beside finished runs
+                folder = keyed[i][0].folder
+                if (folder / "run.json").is_file():
+                    for stale in folder.parent.glob(f".{folder.name}.attempt-*"):
+                        shutil.rmtree(stale, ignore_errors=True)
         except KeyboardInterrupt:
             client.cancel(list(futures), force=True)
             _wait_stopped(client, sum(config.grace) + 10)
