@@ -38,7 +38,8 @@ def shard_or_merge(args: argparse.Namespace, progress: Callable[[dict], Any]) ->
               f"slamq run {args.config} to finish them here", file=sys.stderr)
     if result["summary"] is not None:
         print(f"summary: {result['results'].parent / 'summary.csv'}")
-    print(f"results: {result['results']}")
+    if result["results"] is not None:
+        print(f"results: {result['results']}")
     if result["report"] is not None:
         print(f"report written: {result['report']}")
     return EXIT_OK
