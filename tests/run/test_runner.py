@@ -131,13 +131,15 @@ def _wait_for(path: Path, seconds: float = 20) -> None:
         time.sleep(0.05)
 
 
-def test_ctrl_c_of_slamq_run_stops_every_group(tmp_path: Path) -> None:
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_ctrl_c_or_sigterm_of_slamq_run_stops_every_group(tmp_path: Path, sig: int) -> None:
+    # SIGTERM is what a batch scheduler sends at its time limit or on preemption
     cfg = _config(tmp_path, {"sleeper": {
         "command": "sleep 60 & echo $! > {out}/child.pid; wait"}}, parallel=1)
     proc = _cli(["run", str(_yaml(tmp_path, cfg))])
     pid_file = tmp_path / "out" / "sleeper" / "default" / "seq" / "1" / "out" / "child.pid"
     _wait_for(pid_file)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     _, err = proc.communicate(timeout=20)
     assert proc.returncode == 130, err
     assert "interrupted" in err

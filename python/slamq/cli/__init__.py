@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Sequence
 
@@ -77,6 +79,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     set_verbosity(args.verbose - args.quiet)
     digest = WarningDigest(quiet=args.quiet > 0)
     previous, warnings.showwarning = warnings.showwarning, digest.show
+    # SIGTERM (a batch scheduler's time limit, `kill`) stops a command as Ctrl-C does: the
+    # running SLAM programs' groups are stopped and finished work is kept
+    term = (signal.signal(signal.SIGTERM, _interrupt)
+            if threading.current_thread() is threading.main_thread() else None)
     try:
         return int(args.func(args))
     except KeyboardInterrupt:
@@ -89,8 +95,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         error_line("", f"unexpected {type(exc).__name__}: {exc}")
         return EXIT_ERROR
     finally:
+        if term is not None:
+            signal.signal(signal.SIGTERM, term)
         warnings.showwarning = previous
         digest.summary()
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":
