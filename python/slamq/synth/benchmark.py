@@ -424,8 +424,8 @@ def main(argv: Seq[str] | None = None) -> int:
     """``python -m slamq.synth.benchmark OUTPUT``: the study of a benchmark run, printed or
     written into a Markdown file between the ``<!-- benchmark:begin/end -->`` markers."""
     import argparse
-    import re
-    import sys
+
+    from slamq.synth.damage import print_or_write_section
 
     ap = argparse.ArgumentParser(prog="python -m slamq.synth.benchmark",
                                  description=main.__doc__)
@@ -436,17 +436,8 @@ def main(argv: Seq[str] | None = None) -> int:
     tables = study_benchmark(load_benchmark(args.output), permutations=args.permutations)
     command = f"python -m slamq.synth.benchmark {args.output} --permutations " \
         f"{args.permutations}" + (f" --markdown {args.markdown}" if args.markdown else "")
-    text = markdown_benchmark(tables, command)
-    if args.markdown is None:
-        sys.stdout.write(text)
-        return 0
-    doc = args.markdown.read_text(encoding="utf-8")
-    pattern = re.compile(re.escape(BEGIN) + ".*?" + re.escape(END), re.S)
-    if not pattern.search(doc):
-        doc += f"\n{BEGIN}\n{END}\n"
-    args.markdown.write_text(pattern.sub(lambda _: f"{BEGIN}\n{text}{END}", doc),
-                             encoding="utf-8")
-    return 0
+    return print_or_write_section(markdown_benchmark(tables, command), args.markdown, BEGIN,
+                                  END)
 
 
 if __name__ == "__main__":

@@ -543,17 +543,31 @@ def main(argv: Sequence[str] | None = None) -> int:
         f" --map {m}" for m in args.map)
     if args.markdown is not None:
         command += f" --markdown {args.markdown}"
-    text = markdown(table, scores, command)
-    if args.markdown is None:
+    return print_or_write_section(markdown(table, scores, command), args.markdown, BEGIN, END)
+
+
+def print_or_write_section(text: str, path: Path | None, begin: str, end: str) -> int:
+    r"""Print ``text``, or put it into the Markdown file ``path`` between the markers
+    ``begin`` and ``end`` (the studies' ``--markdown``); returns the exit code (2 when the
+    file has no such section).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "doc.md"
+    >>> _ = p.write_text("# Doc\n<!-- a -->\nold\n<!-- b -->\ntail\n")
+    >>> print_or_write_section("new\n", p, "<!-- a -->", "<!-- b -->"), p.read_text()
+    (0, '# Doc\n<!-- a -->\nnew\n<!-- b -->\ntail\n')
+    """
+    if path is None:
         sys.stdout.write(text)
         return 0
-    doc = args.markdown.read_text(encoding="utf-8")
-    pattern = re.compile(re.escape(BEGIN) + ".*?" + re.escape(END), re.S)
+    doc = path.read_text(encoding="utf-8")
+    pattern = re.compile(re.escape(begin) + ".*?" + re.escape(end), re.S)
     if not pattern.search(doc):
-        print(f"{args.markdown}: no {BEGIN} ... {END} section", file=sys.stderr)
+        print(f"{path}: no {begin} ... {end} section", file=sys.stderr)
         return 2
-    args.markdown.write_text(pattern.sub(lambda _: f"{BEGIN}\n{text}{END}", doc),
-                             encoding="utf-8")
+    path.write_text(pattern.sub(lambda _: f"{begin}\n{text}{end}", doc), encoding="utf-8")
     return 0
 
 
