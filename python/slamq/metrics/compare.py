@@ -16,14 +16,14 @@ from typing import Any
 from slamq import native
 from slamq.errors import MapError, ParamError
 from slamq.models import MapComparison, OccupancyMap
-from slamq.params import check_threads
+from slamq.params import SETTINGS, check_threads
 
 __all__ = ["ALIGN_MODES", "DEFAULT_TOLERANCE_CELLS", "compare"]
 
-#: The alignments :func:`compare` knows.
-ALIGN_MODES = ("origin", "icp", "search")
+#: The alignments :func:`compare` knows (the schema's ``compare_align`` choices).
+ALIGN_MODES = SETTINGS.compare_align.choices
 #: The default matching distance, in cells of the ground truth's grid.
-DEFAULT_TOLERANCE_CELLS = 2.0
+DEFAULT_TOLERANCE_CELLS = SETTINGS.tolerance_cells.default
 
 
 def _number(name: str, value: Any, positive: bool = False) -> float:
@@ -46,8 +46,8 @@ def compare(
     ground_truth: OccupancyMap,
     *,
     tolerance: float | None = None,
-    occupied_threshold: float = 0.5,
-    align: str = "icp",
+    occupied_threshold: float = SETTINGS.occupied_threshold.default,
+    align: str = SETTINGS.compare_align.default,
     max_distance: float | None = None,
     cells: bool = False,
     threads: int | None = None,
