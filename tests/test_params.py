@@ -35,7 +35,15 @@ ALIASES = {
 CLI_ALIASES = {**ALIASES, "format": "trajectory_format"}
 
 
+#: Keywords named like a row that mean something else there: (module, keyword).
+NOT_THE_ROW = {
+    ("slamq.synth.writers.rawlog", "max_distance"),  # graph-SLAM node spacing, metres
+}
+
+
 def _row_of(func: Any, name: str) -> str | None:
+    if (func.__module__, name) in NOT_THE_ROW:
+        return None
     if name in ALIASES:
         return ALIASES[name]
     if name == "align":
@@ -162,3 +170,10 @@ def test_a_cli_option_added_from_a_row_reads_its_type() -> None:
     args = p.parse_args(["--max-dt", "0.5", "--align", "se3"])
     assert (args.max_dt, args.align) == (0.5, "se3")
     assert p.parse_args([]).max_dt == SETTINGS.max_dt.default
+
+
+def test_the_simulator_presets_are_the_schema_choices() -> None:
+    from slamq.synth import KINDS, NOISE
+
+    assert tuple(KINDS) == SETTINGS.world_kind.choices
+    assert tuple(NOISE) == SETTINGS.noise.choices

@@ -145,6 +145,18 @@ def compare(
     threads: int = 0,
 ) -> tuple[RawComparison, npt.NDArray[np.uint8] | None]: ...
 
+# Ground truth on demand: the simulator's laser (rust/src/raycast.rs);
+# slamq.synth.sensors.cast is the Python entry, cast_numpy its reference.
+def raycast(
+    blocked: npt.NDArray[np.uint8],
+    resolution: float,
+    origin: tuple[float, float, float],
+    poses: npt.NDArray[np.float64],
+    angles: npt.NDArray[np.float64],
+    max_range: float,
+    threads: int = 0,
+) -> npt.NDArray[np.float64]: ...
+
 #: Peak working memory of one evaluation, bytes per cell (reserved before it starts;
 #: ``MemoryError`` when it cannot be).
 WORK_BYTES_PER_CELL: int

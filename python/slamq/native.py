@@ -12,6 +12,7 @@ Python asks of Rust (the typed signatures are in ``_core.pyi``):
   :func:`ate_moments`, :func:`ate_errors`;
 * the ground-truth comparison (bindings/comparison.rs): :func:`compare`,
   :class:`RawComparison`;
+* the simulator's laser (bindings/synth.rs): :func:`raycast`;
 * the runtime (bindings/runtime.rs): :func:`adopt_thread`.
 
 It sits just above :mod:`slamq.errors` and :mod:`slamq.params`: importing it loads the
@@ -38,6 +39,7 @@ from slamq._core import (
     map_saver_shades,
     match_stamps,
     otsu_table,
+    raycast,
     read_table,
     read_tum,
 )
@@ -56,6 +58,7 @@ __all__ = [
     "map_saver_shades",
     "match_stamps",
     "otsu_table",
+    "raycast",
     "read_table",
     "read_tum",
 ]

@@ -6,10 +6,11 @@
   ``--log-threshold``-style options of every CLI command, the parameter list in
   :class:`Params`' docstring, the ``param_*`` columns of results files (names and types),
   and what the Rust core receives (it reads these attributes, rust/src/bindings/maps.rs).
-* **load**, **runtime**, **trajectory**, **compare**, **consensus**: the rows of
+* **load**, **runtime**, **trajectory**, **compare**, **consensus**, **synth**: the rows of
   :data:`SETTINGS` (``unknown_value``; ``threads``; ``max_dt``, ``offset``, the ATE / RPE
   alignments, ``unsorted``; the ground-truth comparison's alignment, tolerance, occupied
-  threshold and distance cap; the consensus' quorum and radius). Function signatures,
+  threshold and distance cap; the consensus' quorum and radius; the generated worlds' kinds
+  and odometry noise presets). Function signatures,
   option objects (:class:`slamq.batch.records.EvalOptions`) and CLI options
   (:meth:`Setting.add_option`) take their defaults and choices from these rows.
 
@@ -186,7 +187,8 @@ class Setting:
     Attributes
     ----------
     family : str
-        ``"load"``, ``"runtime"``, ``"trajectory"``, ``"compare"`` or ``"consensus"``.
+        ``"load"``, ``"runtime"``, ``"trajectory"``, ``"compare"``, ``"consensus"`` or
+        ``"synth"``.
     name : str
         The row's name (also the keyword or option it is, unless noted in ``help``).
     default : Any
@@ -301,6 +303,11 @@ SETTINGS = _Rows((s.name, s) for s in (
     Setting("compare", "max_distance", None,
             "distances to the ground truth above this count as this (bounds NE for partial "
             "maps)", "m", float, 0.0, None),
+    Setting("synth", "world_kind", "office",
+            "kind of generated building (slamq.synth.KINDS says what each is)", type=str,
+            choices=("office", "loop", "corridor", "hall", "symmetric", "mixed")),
+    Setting("synth", "noise", "low", "odometry noise preset (slamq.synth.NOISE)", type=str,
+            choices=("none", "low", "high")),
     Setting("consensus", "quorum", 0.5,
             "a consensus cell is occupied when more than this share of the voters has a wall "
             "near it", "", float, 0.0, 1.0, high_open=True),

@@ -24,6 +24,8 @@
 //! - [`compare`]: a map against a ground-truth map, SPEC section 7.
 //! - [`ate`]: the absolute trajectory error's passes over the poses (association, Umeyama
 //!   sums, errors, statistics); [`table`]: the numeric text table and TUM pose reader.
+//! - [`raycast`]: exact laser ray casting on a grid (Amanatides-Woo), the simulator's
+//!   sensor for ground truth on demand.
 //! - `bindings` (feature `python`): the pyo3 bindings, one file per domain, and their
 //!   runtime (thread pools, fork handling); nothing else.
 
@@ -48,6 +50,7 @@ pub mod otsu;
 pub mod params;
 pub mod pixels;
 pub mod proportion;
+pub mod raycast;
 pub mod se2;
 pub mod table;
 

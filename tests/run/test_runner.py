@@ -274,3 +274,34 @@ def test_a_bag_map_output_on_its_own_topic_is_collected_and_scored(tmp_path: Pat
     assert not isinstance(rec["error"], str), rec["error"]
     expected = load_map(made, topic="/slam/map")
     assert rec["known"] == expected.known_count and rec["map"].endswith("map.yaml")
+
+
+def test_an_index_timed_trajectory_gets_its_times_from_a_file(tmp_path: Path) -> None:
+    # icp-slam style "step x y yaw" rows; the times come from {input}.steps.txt
+    script = tmp_path / "slam.py"
+    script.write_text(
+        "import sys, numpy as np, cv2, pathlib\n"
+        "out = pathlib.Path(sys.argv[1])\n"
+        "img = np.full((40, 40), 254, np.uint8); img[5:8, 5:35] = 0\n"
+        "cv2.imwrite(str(out / 'map.pgm'), img)\n"
+        "(out / 'log.txt').write_text(''.join(f'{i} {0.5 * i} 0 0\\n' for i in range(4)))\n")
+    (tmp_path / "in.txt.steps.txt").write_text("".join(f"{100 + i}.0\n" for i in range(4)))
+    (tmp_path / "gt.txt").write_text("".join(f"{100 + i} {0.5 * i} 0 0 0 0 0 1\n"
+                                             for i in range(4)))
+    cfg = _config(tmp_path, {"icp": {
+        "command": [PY, str(script), "{out}"],
+        "outputs": {"map": {"path": "map.pgm", "format": "image"},
+                    "trajectory": {"path": "log.txt", "format": "mrpt",
+                                   "times": "{input}.steps.txt"}}}})
+    cfg["sequences"] = {"seq": {"input": "in.txt", "groundtruth": "gt.txt"}}
+    result = runner.run(cfg)
+    assert [r["outcome"] for r in result["rows"]] == ["ok"]
+    tum = np.loadtxt(Path(result["rows"][0]["folder"]) / "trajectory.tum")
+    assert tum[:, 0].tolist() == [100.0, 101.0, 102.0, 103.0]
+    from slamq.results import read_results
+
+    rec = read_results(tmp_path / "out" / "results.jsonl").iloc[0]
+    assert rec["ate_n"] == 4 and rec["ate_rmse"] == pytest.approx(0.0, abs=1e-9)
+    cfg["algorithms"]["icp"]["outputs"]["trajectory"]["times"] = 5
+    with pytest.raises(Exception, match=r"outputs.trajectory.times must be a path"):
+        runner.run(cfg)

@@ -76,3 +76,35 @@ def test_bad_pose_logs(tmp_path: Path, text: str, reason: str) -> None:
     with pytest.raises(TrajectoryError, match=reason) as info:
         read_mrpt_path(p)
     assert str(p) in str(info.value)
+
+
+def test_graphslam_graph_is_a_trajectory_by_node_id(tmp_path: Path) -> None:
+    from slamq.sources.mrpt import read_mrpt_graph
+
+    p = tmp_path / "output_graph.graph"
+    p.write_text("VERTEX_SE2 0 0 0 0\nFIX 0\nVERTEX_SE2 2 1.0 0.1 0.2\nVERTEX_SE2 1 0.5 0 0.1\n"
+                 "EDGE_SE2 0 1 0.5 0 0.1 1 0 0 1 0 1\n")
+    for t in (read_mrpt_graph(p), read_mrpt_path(p)):  # the mrpt format reads graphs too
+        assert t.timestamps.tolist() == [0.0, 1.0, 2.0]
+        assert t.positions[:, 0].tolist() == [0.0, 0.5, 1.0]
+        assert t.yaw[2] == pytest.approx(0.2)
+    p.write_text("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 0 1 0 0\n")
+    with pytest.raises(TrajectoryError, match="repeated node ids"):
+        read_mrpt_path(p)
+    p.write_text("VERTEX_SE2 0 0 0\n")
+    with pytest.raises(TrajectoryError, match=r"output_graph.graph:1: VERTEX_SE2 needs"):
+        read_mrpt_path(p)
+
+
+def test_step_times_put_an_index_log_on_a_clock(tmp_path: Path) -> None:
+    from slamq.sources.mrpt import apply_step_times
+
+    (tmp_path / "log.txt").write_text("0 0 0 0\n1 0.5 0 0\n3 1.0 0 0\n")
+    (tmp_path / "steps.txt").write_text("# times\n10.0\n10.1\n10.2\n10.3\n")
+    t = apply_step_times(read_mrpt_path(tmp_path / "log.txt"), tmp_path / "steps.txt")
+    assert t.timestamps.tolist() == [10.0, 10.1, 10.3]
+    (tmp_path / "steps.txt").write_text("10.0\n10.1\n")
+    with pytest.raises(TrajectoryError, match=r"indexed 0\.\.3 do not fit the 2 step times"):
+        apply_step_times(read_mrpt_path(tmp_path / "log.txt"), tmp_path / "steps.txt")
+    with pytest.raises(TrajectoryError, match="cannot read step times"):
+        apply_step_times(read_mrpt_path(tmp_path / "log.txt"), tmp_path / "none.txt")

@@ -3,9 +3,10 @@
 ``slamq eval`` (:mod:`slamq.cli.eval`), ``compare`` (:mod:`~slamq.cli.compare`), ``batch``
 (:mod:`~slamq.cli.batch`), ``summary`` (:mod:`~slamq.cli.summary`), ``report``
 (:mod:`~slamq.cli.report`), ``ate`` / ``rpe`` (:mod:`~slamq.cli.trajectory`), ``timeline``
-(:mod:`~slamq.cli.timeline`). Each module has ``add_parser(subparsers)`` and its command's
-entry ``handle(args)`` (``handle_ate`` / ``handle_rpe`` in :mod:`~slamq.cli.trajectory`);
-commands call library functions, never :func:`main`. This module
+(:mod:`~slamq.cli.timeline`), ``synth`` (:mod:`~slamq.cli.synth`). Each module has
+``add_parser(subparsers)`` and its command's entry ``handle(args)`` (``handle_ate`` /
+``handle_rpe`` in :mod:`~slamq.cli.trajectory`); commands call library functions, never
+:func:`main`. This module
 is the one place that turns errors into exit codes: 0 success, 2 bad input (one stderr line
 names the file and the reason), 1 anything unexpected, 130 Ctrl-C; and the one warning
 digest (:class:`slamq.cli.common.WarningDigest`).
@@ -39,6 +40,7 @@ COMMANDS: tuple[str, ...] = (
     "slamq.cli.trajectory",
     "slamq.cli.timeline",
     "slamq.cli.run",
+    "slamq.cli.synth",
 )
 
 

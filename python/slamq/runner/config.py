@@ -14,6 +14,7 @@
     evaluate: {ate_align: se2}     # keywords of slamq.evaluate_many
     sequences:
       loop: {input: data/loop.rawlog, groundtruth: gt.txt}
+      gen: {synth: {worlds: 20, noise: [low, high], seeds: [0, 1, 2]}}   # generated
     algorithms:
       rbpf:
         command: [rbpf-slam, "{config}", "{input}"]   # list: no shell; a string: sh -c
@@ -24,13 +25,15 @@
         outputs:
           map: {path: "finalMap_*.png", format: mrpt}           # mrpt | yaml | image
           trajectory: {path: log_estimated_path.txt, format: mrpt}   # mrpt | tum | ...
+          # icp-slam / graphslam-engine log poses by index: times: "{input}.steps.txt"
           snapshots: {path: "maps/mapbuilt_*.png", format: mrpt}
 
 Placeholders in commands, overrides and environment values: ``{sequence} {input} {out}
 {iteration} {seed} {config} {slot} {ros_domain_id} {ros_master_port} {param.NAME}``;
 other braces are left alone. ``{out}`` is ``<run folder>/out``, the command's working
-folder. A ROS algorithm gives ``recipe:`` (a list of steps) instead of ``command:``;
-see :mod:`slamq.runner.runner`.
+folder. A ``synth:`` sequence is a recipe for generated sequences with exact ground truth
+(:mod:`slamq.synth.benchmark`). A ROS algorithm gives ``recipe:`` (a list of steps)
+instead of ``command:``; see :mod:`slamq.runner.runner`.
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from slamq.errors import ParamError
+from slamq.synth.benchmark import Generated, expand
 
 __all__ = ["RunConfig", "Algorithm", "Sequence", "Output", "Step", "load_config", "render"]
 
@@ -79,6 +83,11 @@ class Output:
     path: str
     format: str
     topic: str | None = None
+    #: A trajectory output timed by step or node index (``icp-slam``'s pose log,
+    #: ``graphslam-engine``'s graph): a file listing one clock time per index (placeholders
+    #: such as ``{input}`` filled in), e.g. ``"{input}.steps.txt"`` beside a rawlog
+    #: written by :mod:`slamq.synth.writers`.
+    times: str | None = None
 
 
 @dataclass(frozen=True)
@@ -140,6 +149,9 @@ class Sequence:
     input: Path
     groundtruth: Path | None = None
     groundtruth_map: Path | None = None
+    #: A generated sequence's recipe (``synth:``; :mod:`slamq.synth.benchmark`): its files
+    #: are made before the runs that read them.
+    generated: Generated | None = None
 
 
 @dataclass(frozen=True)
@@ -198,7 +210,10 @@ def _output(value: Any, where: str, formats: tuple[str, ...]) -> Output | None:
     fmt = str(value.get("format", "auto" if "auto" in formats else formats[0]))
     if fmt not in formats:
         raise ParamError(f"{where}.format must be one of {', '.join(formats)}, got {fmt!r}")
-    return Output(str(value["path"]), fmt, value.get("topic"))
+    times = value.get("times")
+    if times is not None and (not isinstance(times, str) or not times):
+        raise ParamError(f"{where}.times must be a path (one time per step), got {times!r}")
+    return Output(str(value["path"]), fmt, value.get("topic"), times)
 
 
 def _command(value: Any, where: str) -> list[str] | str:
@@ -321,19 +336,29 @@ def load_config(config: Any) -> RunConfig:
         raise ParamError(f"{source}: sequences must be a non-empty mapping name -> input")
     if not isinstance(algos, dict) or not algos:
         raise ParamError(f"{source}: algorithms must be a non-empty mapping")
+    output = _path(base, doc.get("output", "slamq-runs"), f"{source}: output")
     sequences = []
     for name, s in seqs.items():
         if isinstance(s, str):
             s = {"input": s}
         w = f"{source}: sequences.{name}"
+        if isinstance(s, dict) and "synth" in s:
+            if set(s) != {"synth"}:
+                raise ParamError(f"{w}: a generated sequence has only the key synth")
+            sequences.extend(Sequence(g.name, g.input, g.groundtruth, g.groundtruth_map, g)
+                             for g in expand(str(name), s["synth"], output, base,
+                                             f"{w}.synth"))
+            continue
         if not isinstance(s, dict) or "input" not in s:
-            raise ParamError(f"{w} needs an input")
+            raise ParamError(f"{w} needs an input (or a synth recipe)")
         sequences.append(Sequence(
             str(name), _path(base, s["input"], f"{w}.input"),
             _path(base, s["groundtruth"], f"{w}.groundtruth") if s.get("groundtruth") else None,
             _path(base, s["groundtruth_map"], f"{w}.groundtruth_map")
             if s.get("groundtruth_map") else None,
         ))
+    if len({s.name for s in sequences}) != len(sequences):
+        raise ParamError(f"{source}: two sequences have the same name")
     grace = doc.get("grace", [5.0, 5.0])
     if not (isinstance(grace, list) and len(grace) == 2):
         raise ParamError(f"{source}: grace must be [seconds after SIGINT, after SIGTERM]")
@@ -343,7 +368,7 @@ def load_config(config: Any) -> RunConfig:
     return RunConfig(
         sequences=tuple(sequences),
         algorithms=tuple(_algorithm(str(k), v, base, source) for k, v in algos.items()),
-        output=_path(base, doc.get("output", "slamq-runs"), f"{source}: output"),
+        output=output,
         iterations=_num(doc, "iterations", 1, source, int, 1),
         parallel=_num(doc, "parallel", 1, source, int, 1),
         timeout=_num(doc, "timeout", None, source),

@@ -41,6 +41,7 @@ from typing import Any
 from slamq.errors import ParamError, SlamqError
 from slamq.runner import process
 from slamq.runner.config import Algorithm, Output, RunConfig, Sequence, load_config, render
+from slamq.synth.benchmark import generate_missing
 
 __all__ = ["RunSpec", "plan", "execute", "run", "run_key"]
 
@@ -186,6 +187,15 @@ def _ini_override(text: str, over: dict[str, str], where: Path) -> str:
     return "\n".join(out) + "\n"
 
 
+def _input_key(seq: Sequence) -> str:
+    """What a run key holds of its input: the file's hash; for a generated sequence not made
+    yet (a dry run), its recipe's."""
+    if seq.generated is not None and not seq.generated.complete():
+        blob = json.dumps(seq.generated.recipe, sort_keys=True).encode()
+        return "recipe:" + hashlib.sha1(blob, usedforsecurity=False).hexdigest()
+    return input_hash(seq.input)
+
+
 def run_key(spec: RunSpec, config: RunConfig) -> tuple[str, dict[str, Any]]:
     """The run key and the resolved pieces it hashes (slot-independent)."""
     values = _values(spec, 0, config)
@@ -196,7 +206,7 @@ def run_key(spec: RunSpec, config: RunConfig) -> tuple[str, dict[str, Any]]:
     cfg = render_config_file(algo, values)
     pieces = {"algorithm": algo.name, "command": cmd, "config": cfg,
               "params": {k: str(v) for k, v in spec.params.items()},
-              "input": input_hash(spec.sequence.input), "iteration": spec.iteration}
+              "input": _input_key(spec.sequence), "iteration": spec.iteration}
     blob = json.dumps(pieces, sort_keys=True, default=str).encode()
     return hashlib.sha256(blob).hexdigest()[:32], pieces
 
@@ -268,6 +278,12 @@ def _collect(spec: RunSpec, config: RunConfig) -> tuple[str, str, dict[str, Any]
 
                 fmt = None if algo.trajectory.format == "auto" else algo.trajectory.format
                 traj = load_trajectory(found[-1], format=fmt, topic=algo.trajectory.topic)
+            if algo.trajectory.times is not None:
+                from slamq.sources.mrpt import apply_step_times
+
+                times = Path(render(algo.trajectory.times, _values(spec, 0, config),
+                                    f"algorithms.{algo.name}.outputs.trajectory.times"))
+                traj = apply_step_times(traj, times if times.is_absolute() else out / times)
             traj.write_tum(folder / "trajectory.tum")
         except (SlamqError, OSError) as exc:
             return "no_output", f"trajectory unreadable: {exc}", files
@@ -459,6 +475,9 @@ def execute(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
     SIGTERM, SIGKILL) and is raised again; interrupted runs leave no ``run.json``.
     """
     config = load_config(config)
+    if not dry_run:
+        generate_missing([s.generated for s in config.sequences if s.generated],
+                         parallel=config.parallel)
     specs = plan(config)
     keyed = [(s, *run_key(s, config)) for s in specs]
     rows: list[dict[str, Any] | None] = [None] * len(keyed)

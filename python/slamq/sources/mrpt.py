@@ -10,6 +10,12 @@
 * Pose logs: ``log_estimated_path.txt`` / ``log_odometry_path.txt`` rows
   ``index x y z yaw pitch roll t`` (``rbpf-slam``) or ``index x y yaw`` (``icp-slam``,
   no timestamps: the step index is used as the time) (:func:`read_mrpt_path`).
+* ``graphslam-engine``: ``output_map.png`` + ``output_map_limits.txt`` (a grid as above)
+  and ``output_graph.graph``, the optimised graph in MRPT's / g2o's text format
+  (``VERTEX_SE2 id x y theta``, ``EDGE_SE2 ...``, ``FIX id``): its nodes are the
+  trajectory, the node id standing for the time (:func:`read_mrpt_path` reads it too).
+* Index times to clock times: :func:`apply_step_times` gives an index-timed trajectory
+  the times of a file listing one time per step (or node).
 """
 
 from __future__ import annotations
@@ -25,7 +31,8 @@ from slamq.models import OccupancyMap, Trajectory
 from slamq.sources.files import PathLike
 from slamq.sources.maps import load_map
 
-__all__ = ["limits_path", "read_limits", "load_mrpt_grid", "write_mrpt_yaml", "read_mrpt_path"]
+__all__ = ["limits_path", "read_limits", "load_mrpt_grid", "write_mrpt_yaml", "read_mrpt_path",
+           "read_mrpt_graph", "apply_step_times"]
 
 
 def limits_path(png: PathLike) -> Path:
@@ -172,9 +179,11 @@ def read_mrpt_path(path: PathLike) -> Trajectory:
 
     Rows are ``index x y z yaw pitch roll t`` (``rbpf-slam``) or ``index x y yaw``
     (``icp-slam``, which logs no time: the step index is used as the time in seconds, so
-    such a log has no common clock with a ground truth). Comment lines (``%``, ``#``)
-    are skipped, and so are 8-column rows whose time is 0: MRPT prints its invalid
-    timestamp as 0 (``rbpf-slam`` ends its log with such a row).
+    such a log has no common clock with a ground truth; :func:`apply_step_times` gives it
+    one). Comment lines (``%``, ``#``) are skipped, and so are 8-column rows whose time is
+    0: MRPT prints its invalid timestamp as 0 (``rbpf-slam`` ends its log with such a
+    row). A ``graphslam-engine`` graph file (``VERTEX_SE2`` lines) is read by
+    :func:`read_mrpt_graph`.
 
     Examples
     --------
@@ -194,6 +203,8 @@ def read_mrpt_path(path: PathLike) -> Trajectory:
         lines = p.read_text(errors="replace").splitlines()
     except OSError as exc:
         raise TrajectoryError(f"{p}: cannot read MRPT pose log ({exc.strerror or exc})") from exc
+    if any(line.lstrip().startswith(("VERTEX_SE2", "VERTEX2")) for line in lines[:50]):
+        return _graph(lines, p)
     width = 0
     for n, line in enumerate(lines, 1):
         s = line.strip()
@@ -225,3 +236,90 @@ def _traj(a: np.ndarray, p: Path) -> Trajectory:
     if not np.all(np.isfinite(a[:, [1, 2, 4, 7]])):
         raise TrajectoryError(f"{p}: MRPT pose log holds non-finite values")
     return Trajectory.from_xy_yaw(a[:, 7], a[:, 1], a[:, 2], a[:, 4], source=str(p))
+
+
+def read_mrpt_graph(path: PathLike) -> Trajectory:
+    """Read the nodes of a 2D pose graph in MRPT's / g2o's text format (``graphslam-engine``'s
+    ``output_graph.graph``) as a trajectory, ordered by node id, the id standing for the
+    time in seconds (node ``k`` is the ``k``-th registered pose; give them clock times with
+    :func:`apply_step_times`). ``EDGE``, ``FIX`` and comment lines are skipped.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "output_graph.graph"
+    >>> _ = p.write_text("VERTEX_SE2 1 0.5 0 0.1\\nVERTEX_SE2 0 0 0 0\\nFIX 0\\n"
+    ...                  "EDGE_SE2 0 1 0.5 0 0.1 1 0 0 1 0 1\\n")
+    >>> t = read_mrpt_graph(p)
+    >>> t.timestamps.tolist(), t.positions[:, 0].tolist()
+    ([0.0, 1.0], [0.0, 0.5])
+    """
+    p = Path(path)
+    try:
+        lines = p.read_text(errors="replace").splitlines()
+    except OSError as exc:
+        raise TrajectoryError(f"{p}: cannot read MRPT graph ({exc.strerror or exc})") from exc
+    return _graph(lines, p)
+
+
+def _graph(lines: list[str], p: Path) -> Trajectory:
+    rows: list[list[float]] = []
+    for n, line in enumerate(lines, 1):
+        parts = line.split()
+        if not parts or parts[0] not in ("VERTEX_SE2", "VERTEX2"):
+            continue
+        if len(parts) < 5:
+            raise TrajectoryError(f"{p}:{n}: {parts[0]} needs 'id x y theta'")
+        try:
+            i, x, y, yaw = (float(v) for v in parts[1:5])
+        except ValueError:
+            raise TrajectoryError(f"{p}:{n}: not a number in {line.strip()[:80]!r}") from None
+        rows.append([i, x, y, 0.0, yaw, 0.0, 0.0, i])
+    a = np.asarray(rows).reshape(-1, 8)
+    a = a[np.argsort(a[:, 0], kind="stable")]
+    if len(np.unique(a[:, 0])) != len(a):
+        raise TrajectoryError(f"{p}: MRPT graph has repeated node ids")
+    return _traj(a, p)
+
+
+def apply_step_times(traj: Trajectory, times: PathLike) -> Trajectory:
+    """Give an index-timed trajectory (``icp-slam``'s pose log, a ``graphslam-engine``
+    graph) clock times: pose ``k`` gets the ``k``-th number of ``times`` (one per line,
+    ``#``/``%`` comments skipped), e.g. the ``<rawlog>.steps.txt`` / ``.nodes.txt`` files
+    that :func:`slamq.synth.writers.write_rawlog`'s sequences come with.
+
+    Raises
+    ------
+    slamq.TrajectoryError
+        A time is not an integer index, or an index past the end of the file.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "log.txt").write_text("0 0 0 0\\n1 0.5 0 0.1\\n")
+    >>> _ = (d / "steps.txt").write_text("100.0\\n100.1\\n100.2\\n")
+    >>> apply_step_times(read_mrpt_path(d / "log.txt"), d / "steps.txt").timestamps.tolist()
+    [100.0, 100.1]
+    """
+    p = Path(times)
+    try:
+        text = p.read_text(errors="replace")
+    except OSError as exc:
+        raise TrajectoryError(f"{p}: cannot read step times ({exc.strerror or exc})") from exc
+    values: list[float] = []
+    for n, line in enumerate(text.splitlines(), 1):
+        s = line.split("#", 1)[0].split("%", 1)[0].strip()
+        if not s:
+            continue
+        try:
+            values.append(float(s.split()[0]))
+        except ValueError:
+            raise TrajectoryError(f"{p}:{n}: not a time: {s[:80]!r}") from None
+    t = np.asarray(values, np.float64)
+    idx = np.asarray(traj.timestamps, np.float64)
+    k = np.rint(idx).astype(np.int64)
+    if len(idx) and (not np.allclose(idx, k) or k.min() < 0 or k.max() >= len(t)):
+        raise TrajectoryError(f"{traj.source}: poses indexed {int(idx.min())}..{idx.max():g} "
+                              f"do not fit the {len(t)} step times of {p}")
+    return dataclasses.replace(traj, timestamps=t[k])

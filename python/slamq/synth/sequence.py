@@ -18,7 +18,12 @@ import numpy as np
 from slamq.errors import SlamqError
 from slamq.models import OccupancyMap
 
-__all__ = ["LaserSpec", "Sequence"]
+__all__ = ["EPOCH", "LaserSpec", "Sequence"]
+
+#: Seconds since 1970 added to a sequence's stamps in every file written from it (the
+#: sensor logs of :mod:`slamq.synth.writers` and the ground truth of
+#: :mod:`slamq.synth.truth`): one clock, a valid ROS time (2023-11-14 22:13:20 UTC).
+EPOCH = 1_700_000_000.0
 
 
 @dataclass(frozen=True)
