@@ -23,6 +23,20 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="run again the finished runs whose outcome was not ok")
     p.add_argument("--dry-run", action="store_true",
                    help="print the planned runs and their commands; run nothing")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="send each run to a Dask worker: a scheduler address "
+                   "(tcp://host:8786), or 'dask' for DASK_SCHEDULER_ADDRESS or else a local "
+                   "cluster of `parallel` worker processes (pip install 'slamq[dask]')")
+    p.add_argument("--outputs", choices=("auto", "shared", "return"), default="auto",
+                   help="with --scheduler: workers write runs into the shared output folder, "
+                   "or return them as bytes; auto (default) = shared when a worker sees it")
+    p.add_argument("--shard", metavar="I/N",
+                   help="run only the I-th (0-based) of N round-robin slices of the planned "
+                   "runs and score nothing; 'N' alone takes I from JOB_COMPLETION_INDEX or "
+                   "SLURM_ARRAY_TASK_ID")
+    p.add_argument("--merge", action="store_true",
+                   help="run nothing: score every finished run (the shards') into one "
+                   "results file, summary and report (a plain run merges too)")
     p.set_defaults(func=handle)
 
 
@@ -34,8 +48,22 @@ def handle(args: argparse.Namespace) -> int:
         print(f"{row['outcome']:<12} {row['algorithm']} {row['sequence']} #{row['iteration']}"
               f"  {row.get('wall', '-')} s  {row.get('reason', '')}", file=sys.stderr)
 
+    if args.shard or args.merge:
+        from slamq.cli.run_multi import shard_or_merge
+
+        return shard_or_merge(args, progress)
+    backend = None
+    if args.scheduler:
+        from slamq.runner.distributed import dask_backend
+
+        backend = dask_backend(args.scheduler, args.outputs)
+    if not args.dry_run:
+        from slamq.runner.config import load_config
+        from slamq.runner.shards import check_no_live_shard
+
+        check_no_live_shard(load_config(args.config))
     result = runner.run(args.config, retry_failed=args.retry_failed, dry_run=args.dry_run,
-                        progress=progress)
+                        progress=progress, backend=backend)
     if args.dry_run:
         for row in result["rows"]:
             cmd = row.get("command")

@@ -468,17 +468,23 @@ def _row(spec: RunSpec, key: str, result: dict[str, Any], attempts: int) -> dict
 
 
 def execute(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
-            progress: Any = None) -> list[dict[str, Any]]:
+            progress: Any = None, select: Any = None, backend: Any = None
+            ) -> list[dict[str, Any]]:
     """Run (or skip, when finished before) every planned run; returns one row per run.
 
     Ctrl-C (KeyboardInterrupt in the calling thread) stops every running group (SIGINT,
     SIGTERM, SIGKILL) and is raised again; interrupted runs leave no ``run.json``.
+    ``select`` (indices into :func:`plan`) keeps only those runs (a shard); ``backend``
+    (``backend(config, keyed, rows, todo, progress)``, e.g. Dask) runs ``todo`` instead of
+    the local slots.
     """
     config = load_config(config)
     if not dry_run:
         generate_missing([s.generated for s in config.sequences if s.generated],
                          parallel=config.parallel)
     specs = plan(config)
+    if select is not None:
+        specs = [specs[i] for i in select]
     keyed = [(s, *run_key(s, config)) for s in specs]
     rows: list[dict[str, Any] | None] = [None] * len(keyed)
     todo = []
@@ -498,6 +504,9 @@ def execute(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
         return [{**_row(s, k, {"outcome": "planned"}, 0), "command": p["command"]}
                 if rows[i] is None else rows[i]
                 for i, (s, k, p) in enumerate(keyed)]
+    if backend is not None:
+        backend(config, keyed, rows, todo, progress)
+        return [r for r in rows if r is not None]
     stop = threading.Event()
     slots: queue.Queue[int] = queue.Queue()
     for n in range(config.parallel):
@@ -572,13 +581,20 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
             runs="size", ok=lambda s: int((s == "ok").sum()))
         counts["failure_rate"] = 1 - counts["ok"] / counts["runs"]
         summary = summary.merge(counts.reset_index(), on=["algorithm", "sequence"], how="outer")
+    from slamq.runner.resources import resource_summary, write_scores
+
+    scores = write_scores(out, rows, results_path)
+    if summary is not None:
+        summary = resource_summary(summary, scores)
         spreadsheet_safe(summary).to_csv(out / "summary.csv", index=False)
     gifs = _gifs(rows)
     report = None
     if config.report and results_path.exists():
         from slamq.report import build_report
+        from slamq.report.resources import resources_page
 
         report = build_report(results_path, out / "report", title="slamq run report")
+        resources_page(scores, out / "report")
     return {"results": results_path, "records": len(records), "summary": summary,
             "gifs": gifs, "report": report}
 
@@ -608,7 +624,7 @@ def _gifs(rows: list[dict[str, Any]]) -> list[Path]:
 
 
 def run(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
-        progress: Any = None) -> dict[str, Any]:
+        progress: Any = None, backend: Any = None) -> dict[str, Any]:
     """Run a configuration end to end: the runs, the scores, the summary, GIFs, the report.
 
     Parameters
@@ -619,6 +635,9 @@ def run(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
         Run again the finished runs whose outcome was not ``ok``.
     dry_run : bool
         Only plan: the rows say ``planned`` (or the stored outcome) with their commands.
+    backend : callable, optional
+        Where the runs go instead of the local slots (see :func:`execute`;
+        :func:`slamq.runner.distributed.dask_backend`).
 
     Returns
     -------
@@ -637,7 +656,8 @@ def run(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
     ['planned']
     """
     cfg = load_config(config)
-    rows = execute(cfg, retry_failed=retry_failed, dry_run=dry_run, progress=progress)
+    rows = execute(cfg, retry_failed=retry_failed, dry_run=dry_run, progress=progress,
+                   backend=backend)
     if dry_run:
         return {"rows": rows, "results": None, "summary": None, "gifs": [], "report": None}
     cfg.output.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,214 @@
+"""The report's "Resources and parameters" page: scores against cost and against the swept
+parameters, mean +- std over iterations.
+
+From a frame with one row per run (``slamq run``'s ``scores.csv``: ``algorithm``,
+``program``, ``sequence``, ``wall_s``, ``cpu_s``, ``peak_rss_mb``, ``param.NAME`` and the
+metric columns), :func:`resources_page` writes ``resources.html`` beside the report's
+``index.html`` (and links it from there):
+
+- ATE RMSE and ground-truth-map F1 (those present) against CPU time and against peak
+  memory: a point per algorithm[variant] and sequence at the mean over iterations, with
+  std bars on both axes;
+- for every program with a swept parameter (``params: {particles: [5, 20, 50, 100]}``):
+  ATE, F1 (when present), CPU time, wall time and peak memory against the parameter's
+  value, one line per sequence (and per value of the other axes), mean +- std.
+"""
+
+from __future__ import annotations
+
+import html
+import re
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+__all__ = ["resources_page", "QUALITY", "COSTS"]
+
+#: Quality columns plotted (when present with a value): column -> label.
+QUALITY = {"ate_rmse": "ATE RMSE [m]", "gt_f1": "GT-map F1"}
+#: Cost columns: column -> label.
+COSTS = {"cpu_s": "CPU time [s]", "wall_s": "wall time [s]", "peak_rss_mb": "peak RSS [MiB]"}
+_DPI = 100
+_TAB10 = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+          "#7f7f7f", "#bcbd22", "#17becf")
+
+
+def _e(x: Any) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def _present(frame: pd.DataFrame, cols: dict[str, str]) -> dict[str, str]:
+    return {c: label for c, label in cols.items() if c in frame
+            and np.isfinite(pd.to_numeric(frame[c], errors="coerce")).any()}
+
+
+def _stats(frame: pd.DataFrame, by: list[str], cols: list[str]) -> pd.DataFrame:
+    num = frame[by + cols].copy()
+    for c in cols:
+        num[c] = pd.to_numeric(num[c], errors="coerce")
+    g = num.groupby(by, dropna=False, sort=True)[cols].agg(["mean", "std", "count"])
+    g.columns = [f"{c}_{s}" for c, s in g.columns]
+    return g.reset_index()
+
+
+def _quality_vs_cost(frame: pd.DataFrame, quality: dict[str, str], path: Path) -> None:
+    costs = {"cpu_s": COSTS["cpu_s"], "peak_rss_mb": COSTS["peak_rss_mb"]}
+    st = _stats(frame, ["algorithm", "sequence"], list(quality) + list(costs))
+    fig, axes = plt.subplots(len(quality), 2, figsize=(10, 3.6 * len(quality)), squeeze=False)
+    algos = sorted(st["algorithm"].astype(str).unique())
+    colour = {a: _TAB10[i % len(_TAB10)] for i, a in enumerate(algos)}
+    seqs = sorted(st["sequence"].astype(str).unique())
+    marker = {s: "os^Dv<>p*h"[i % 10] for i, s in enumerate(seqs)}
+    for r, (q, qlabel) in enumerate(quality.items()):
+        for c, (k, klabel) in enumerate(costs.items()):
+            ax = axes[r][c]
+            for _, row in st.iterrows():
+                if not np.isfinite(row[f"{q}_mean"]) or not np.isfinite(row[f"{k}_mean"]):
+                    continue
+                ax.errorbar(row[f"{k}_mean"], row[f"{q}_mean"],
+                            xerr=np.nan_to_num(row[f"{k}_std"]),
+                            yerr=np.nan_to_num(row[f"{q}_std"]), fmt=marker[str(row["sequence"])],
+                            color=colour[str(row["algorithm"])], capsize=3,
+                            label=f"{row['algorithm']} / {row['sequence']}")
+            ax.set_xlabel(klabel)
+            ax.set_ylabel(qlabel)
+            ax.grid(alpha=0.3)
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="lower center", ncol=min(3, len(labels)), fontsize=8,
+                   frameon=False)
+    fig.tight_layout(rect=(0, 0.06 + 0.02 * (len(handles) // 3), 1, 1))
+    with plt.rc_context({"text.parse_math": False}):
+        fig.savefig(path, dpi=_DPI)
+    plt.close(fig)
+
+
+def _numeric(values: pd.Series) -> bool:
+    return bool(pd.to_numeric(values, errors="coerce").notna().all())
+
+
+def _sweep(frame: pd.DataFrame, program: str, axis: str, others: list[str],
+           panels: dict[str, str], path: Path) -> None:
+    sub = frame[frame["program"] == program].copy()
+    x_numeric = _numeric(sub[axis])
+    sub["_x"] = pd.to_numeric(sub[axis], errors="coerce") if x_numeric else sub[axis].astype(str)
+    by = ["sequence", *others]
+    st = _stats(sub, [*by, "_x"], list(panels))
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.4 * len(panels), 3.3), squeeze=False)
+    groups = list(st.groupby(by, dropna=False, sort=True))
+    for gi, (key, g) in enumerate(groups):
+        key = key if isinstance(key, tuple) else (key,)
+        label = ", ".join(f"{n}={v}" if n != "sequence" else str(v) for n, v in zip(by, key))
+        g = g.sort_values("_x")
+        xs = g["_x"].to_numpy() if x_numeric else np.arange(len(g))
+        for ax, (col, clabel) in zip(axes[0], panels.items()):
+            ax.errorbar(xs, g[f"{col}_mean"], yerr=np.nan_to_num(g[f"{col}_std"]),
+                        marker="o", capsize=3, color=_TAB10[gi % len(_TAB10)], label=label)
+            ax.set_ylabel(clabel)
+            ax.set_xlabel(axis.removeprefix("param."))
+            if not x_numeric:
+                ax.set_xticks(xs, g["_x"].tolist())
+            ax.grid(alpha=0.3)
+    if x_numeric and len(sub["_x"].unique()) > 2 and \
+            sub["_x"].min() > 0 and sub["_x"].max() / sub["_x"].min() >= 10:
+        from matplotlib.ticker import FixedLocator, NullLocator
+
+        values = sorted(sub["_x"].unique())
+        for ax in axes[0]:
+            ax.set_xscale("log")
+            ax.xaxis.set_major_locator(FixedLocator(values))
+            ax.xaxis.set_minor_locator(NullLocator())
+            ax.set_xticklabels([f"{v:g}" for v in values])
+    axes[0][0].legend(fontsize=7, frameon=False)
+    fig.suptitle(f"{program}: mean ± std over iterations", fontsize=10)
+    fig.tight_layout()
+    with plt.rc_context({"text.parse_math": False}):
+        fig.savefig(path, dpi=_DPI)
+    plt.close(fig)
+
+
+def resources_page(frame: pd.DataFrame, out_dir: Any, *, link_from_index: bool = True
+                   ) -> Path | None:
+    """Write ``resources.html`` (and its figures under ``img/``) for a frame of runs.
+
+    Returns the page, or None when no run has resource figures.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> f = pd.DataFrame({"algorithm": [f"pf[particles={p}]" for p in (5, 5, 20, 20)],
+    ...     "program": "pf", "sequence": "s", "run": ["1", "2", "1", "2"],
+    ...     "param.particles": [5, 5, 20, 20], "wall_s": [1.0, 1.2, 3.0, 3.1],
+    ...     "cpu_s": [0.9, 1.0, 2.9, 3.0], "peak_rss_mb": [50, 52, 80, 81],
+    ...     "ate_rmse": [0.30, 0.34, 0.12, 0.10]})
+    >>> page = resources_page(f, d)
+    >>> page.name, sorted(p.name for p in (d / "img").iterdir())
+    ('resources.html', ['resources_quality_cost.png', 'resources_sweep_pf_particles.png'])
+    """
+    out = Path(out_dir)
+    if frame is None or frame.empty or not _present(frame, COSTS):
+        return None
+    (out / "img").mkdir(parents=True, exist_ok=True)
+    quality = _present(frame, QUALITY)
+    sections = []
+    if quality:
+        png = "img/resources_quality_cost.png"
+        _quality_vs_cost(frame, quality, out / png)
+        sections.append(
+            "<h2>Quality against cost</h2><p>" + " and ".join(quality.values()) + " against CPU "
+            "time and peak memory: one point per algorithm[variant] and sequence at the mean "
+            f"over iterations, bars one std.</p><img src=\"{png}\" alt=\"quality vs cost\">")
+    axes = [c for c in frame.columns if c.startswith("param.")]
+    panels = {**quality, **_present(frame, COSTS)}
+    for program in sorted(frame["program"].dropna().astype(str).unique()) \
+            if "program" in frame else []:
+        sub = frame[frame["program"] == program]
+        swept = [a for a in axes if sub[a].notna().any() and sub[a].nunique() > 1]
+        for axis in swept:
+            slug = re.sub(r"[^A-Za-z0-9_.-]+", "_", f"{program}_{axis[6:]}")
+            png = f"img/resources_sweep_{slug}.png"
+            _sweep(frame, program, axis, [a for a in swept if a != axis], panels, out / png)
+            sections.append(
+                f"<h2>{_e(program)}: {_e(axis[6:])}</h2><p>" + ", ".join(panels.values())
+                + f" against {_e(axis[6:])}, mean ± std over iterations.</p>"
+                f"<img src=\"{png}\" alt=\"{_e(program)} {_e(axis[6:])}\">")
+    table = _stats(frame, ["algorithm", "sequence"], list(panels))
+    rows = "".join(
+        "<tr>" + f"<td>{_e(r['algorithm'])}</td><td>{_e(r['sequence'])}</td>"
+        + "".join(f"<td>{r[f'{c}_mean']:.4g} ± {np.nan_to_num(r[f'{c}_std']):.2g}</td>"
+                  if np.isfinite(r[f"{c}_mean"]) else "<td>–</td>" for c in panels) + "</tr>"
+        for _, r in table.iterrows())
+    head = "".join(f"<th>{_e(v)}</th>" for v in panels.values())
+    body = (
+        "<p><a href=\"index.html\">&larr; report</a></p><h1>Resources and parameters</h1>"
+        "<p>Wall time, CPU time (the program and the descendants it waited for) and peak "
+        "resident memory of every run (its <code>run.json</code>; per run in "
+        "<code>scores.csv</code>).</p>"
+        f"<table><tr><th>algorithm</th><th>sequence</th>{head}</tr>{rows}</table>"
+        + "".join(sections))
+    page = out / "resources.html"
+    page.write_text(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+        "<title>Resources and parameters</title><style>body{font:15px/1.45 system-ui,"
+        "sans-serif;max-width:1180px;margin:0 auto;padding:18px 22px 60px;color:#222}"
+        "img{max-width:100%}table{border-collapse:collapse}td,th{border:1px solid #ddd;"
+        "padding:3px 8px;text-align:right}td:first-child,td:nth-child(2){text-align:left}"
+        f"</style></head><body>{body}</body></html>\n", encoding="utf-8")
+    index = out / "index.html"
+    if link_from_index and index.exists():
+        text = index.read_text(encoding="utf-8")
+        link = ("<p class=\"slamq-resources\"><a href=\"resources.html\">Resources and "
+                "parameters</a>: quality against CPU time and memory, and against each swept "
+                "parameter</p>")
+        if "slamq-resources" not in text:
+            anchor = "<main>" if "<main>" in text else "<body>"
+            index.write_text(text.replace(anchor, anchor + link, 1), encoding="utf-8")
+    return page

@@ -1,0 +1,154 @@
+"""``slamq run --shard I/N`` as separate processes, ``--merge`` (idempotent), the array-job
+environment variables, and the guard against a plain run while a shard runs."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import slamq_env
+
+from slamq.errors import ParamError, SlamqError
+from slamq.results import read_results
+from slamq.runner import load_config, runner, shards
+
+PY = sys.executable
+
+SLAM = """\
+import pathlib, sys
+out, n, it = pathlib.Path(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+w = h = 30
+img = bytearray([254]) * (w * h)
+for y in range(4, 4 + n + it):
+    img[y * w + 3:y * w + 27] = bytes([0]) * 24
+(out / "map.pgm").write_bytes(b"P5\\n%d %d\\n255\\n" % (w, h) + bytes(img))
+(out / "traj.txt").write_text("".join(f"{i} {i + 0.05 * n * it} 0 0 0 0 0 1\\n"
+                                      for i in range(6)))
+"""
+
+
+def _config(tmp: Path) -> dict:
+    (tmp / "slam.py").write_text(SLAM)
+    (tmp / "in.txt").write_text("input\n")
+    (tmp / "gt.txt").write_text("".join(f"{i} {i} 0 0 0 0 0 1\n" for i in range(6)))
+    return {"output": "out", "iterations": 3, "report": False, "parallel": 1,
+            "sequences": {"seq": {"input": "in.txt", "groundtruth": "gt.txt"}},
+            "algorithms": {
+                "fake": {"command": [PY, str(tmp / "slam.py"), "{out}", "{param.n}",
+                                     "{iteration}"],
+                         "params": {"n": [1, 3]},
+                         "outputs": {"map": {"path": "map.pgm", "format": "image"},
+                                     "trajectory": {"path": "traj.txt", "format": "tum"}}},
+                "other": {"command": [PY, str(tmp / "slam.py"), "{out}", "2", "{iteration}"],
+                          "outputs": {"map": {"path": "map.pgm", "format": "image"}}}}}
+
+
+def _yaml(tmp: Path, cfg: dict) -> Path:
+    import yaml
+
+    p = tmp / "run.yaml"
+    p.write_text(yaml.safe_dump(cfg))
+    return p
+
+
+def _cli(*args: str, env: dict | None = None) -> subprocess.Popen:
+    return subprocess.Popen([PY, "-m", "slamq", "run", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=slamq_env(env))
+
+
+def _table(out: Path) -> list[tuple]:
+    df = read_results(out / "results.jsonl").sort_values(["algorithm", "run"])
+    cols = ["algorithm", "sequence", "run", "occupied", "known", "ate_rmse"]
+    return [tuple(None if v != v else v for v in r) for r in df[cols].itertuples(index=False)]
+
+
+def _runs(out: Path) -> list[tuple]:
+    import csv
+
+    with open(out / "runs.csv") as f:
+        return sorted((r["algorithm"], r["iteration"], r["key"], r["outcome"])
+                      for r in csv.DictReader(f))
+
+
+def test_four_shards_as_processes_merged_equal_one_unsharded_run(tmp_path: Path) -> None:
+    cfg = _config(tmp_path)
+    path = _yaml(tmp_path, cfg)
+    whole = _cli(str(path))
+    out, err = whole.communicate(timeout=60)
+    assert whole.returncode == 0, err
+    want_runs, want_table = _runs(tmp_path / "out"), _table(tmp_path / "out")
+    assert len(want_runs) == 9
+    shutil.move(tmp_path / "out", tmp_path / "unsharded")
+    procs = [_cli(str(path), "--shard", f"{i}/4") for i in range(4)]
+    for i, p in enumerate(procs):
+        out, err = p.communicate(timeout=60)
+        assert p.returncode == 0, err
+        assert f"shard {i}/4:" in out
+    records = [json.loads((tmp_path / "out" / "shards" / f"{i}-of-4.json").read_text())
+               for i in range(4)]
+    keys = [r["key"] for rec in records for r in rec["runs"]]
+    assert sorted(len(rec["runs"]) for rec in records) == [2, 2, 2, 3]
+    assert len(keys) == len(set(keys)) == 9  # a partition of the plan
+    assert not (tmp_path / "out" / "results.jsonl").exists()  # shards score nothing
+    merged = _cli(str(path), "--merge")
+    out, err = merged.communicate(timeout=60)
+    assert merged.returncode == 0, err
+    assert "merged: 9 finished runs (9 ok)" in out
+    assert _runs(tmp_path / "out") == want_runs
+    assert _table(tmp_path / "out") == want_table
+    import pandas as pd
+
+    a, b = (pd.read_csv(tmp_path / d / "summary.csv") for d in ("out", "unsharded"))
+    timing = [c for c in a if c.startswith(("wall_s", "cpu_s", "peak_rss_mb"))]
+    assert timing  # the resources are summarised too, but differ between two executions
+    pd.testing.assert_frame_equal(a.drop(columns=timing), b.drop(columns=timing))
+    # merging again changes nothing; a plain run merges too and runs nothing again
+    first = (tmp_path / "out" / "results.jsonl").read_text()
+    result = shards.merge(path)
+    assert (tmp_path / "out" / "results.jsonl").read_text() == first
+    assert len(result["rows"]) == 9 and result["missing"] == []
+    rows = runner.execute(path)
+    assert all(r.get("skipped") for r in rows)
+
+
+def test_merge_names_the_missing_shard_and_a_plain_run_finishes_it(tmp_path: Path) -> None:
+    path = _yaml(tmp_path, _config(tmp_path))
+    for i in (0, 2):
+        shards.run_shard(path, (i, 3))
+    result = shards.merge(path)
+    assert len(result["rows"]) == 6
+    assert {s for s, _ in result["missing"]} == {"1/3"} and len(result["missing"]) == 3
+    assert len(read_results(tmp_path / "out" / "results.jsonl")) == 6
+    full = runner.run(path)  # the next plain run: runs shard 1's runs, scores all nine
+    assert sum(not r.get("skipped") for r in full["rows"]) == 3
+    assert len(read_results(tmp_path / "out" / "results.jsonl")) == 9
+
+
+def test_the_shard_index_from_array_job_environments(tmp_path: Path) -> None:
+    path = _yaml(tmp_path, _config(tmp_path))
+    p = _cli(str(path), "--shard", "3", env={"SLURM_ARRAY_TASK_ID": "3",
+                                               "SLURM_ARRAY_TASK_MIN": "1"})
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 0 and "shard 2/3:" in out, err
+    p = _cli(str(path), "--shard", "3", env={"JOB_COMPLETION_INDEX": "0"})
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 0 and "shard 0/3:" in out, err
+    with pytest.raises(ParamError, match="no shard index"):
+        shards.parse_shard("3", {})
+
+
+def test_a_plain_run_refuses_while_a_shard_runs(tmp_path: Path) -> None:
+    path = _yaml(tmp_path, _config(tmp_path))
+    cfg = load_config(path)
+    marker = cfg.output / "shards" / "1-of-2.running"
+    marker.parent.mkdir(parents=True)
+    marker.write_text("otherhost 123\n")
+    with pytest.raises(SlamqError, match="shard 1/2 is running"):
+        shards.check_no_live_shard(cfg)
+    p = _cli(str(path))
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 2 and "1-of-2.running" in err
