@@ -94,15 +94,15 @@ def compare(
 
     Examples
     --------
-    >>> import numpy as np, slamq
-    >>> gt = np.full((40, 40), 254, np.uint8)
-    >>> gt[10, 5:35] = 0; gt[10:30, 5] = 0               # two walls
-    >>> est = gt.copy(); est[10:30, 5] = 254              # the estimate lacks one
-    >>> c = slamq.compare(est, gt, align="origin")
-    >>> round(c.precision, 3), round(c.recall, 3), c.reverse
-    (1.0, 0.633, 0.0)
-    >>> c.ne > 0
-    True
+    >>> import numpy as np
+    >>> from slamq.models import OccupancyMap
+    >>> walls = np.full((40, 40), 254, np.uint8)
+    >>> walls[10, 5:35] = 0; walls[10:30, 5] = 0         # two walls: the ground truth
+    >>> half = walls.copy(); half[10:30, 5] = 254         # the estimate lacks one
+    >>> none = np.zeros(walls.shape, bool)                # no unknown cell
+    >>> c = compare(OccupancyMap(half, none), OccupancyMap(walls, none), align="origin")
+    >>> round(c.recall, 3), c.reverse, c.ne > 0
+    (0.633, 0.0, True)
     """
     for what, m in (("estimate", estimate), ("ground_truth", ground_truth)):
         if not isinstance(m, OccupancyMap):
