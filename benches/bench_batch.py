@@ -149,7 +149,7 @@ def per_map_costs(folder: Path) -> list[tuple[str, float]]:
         steps.setdefault(name, []).append(1000 * (time.perf_counter() - t0))
         return out
 
-    from slamq import _core
+    from slamq import native
     from slamq.models.quality import shade_source
 
     defaults = slamq.Params()
@@ -170,7 +170,7 @@ def per_map_costs(folder: Path) -> list[tuple[str, float]]:
             t0 = time.perf_counter()
             slamq.evaluate(m, threads=1)
             t1 = time.perf_counter()
-            _core.evaluate(m.values, m.unknown, defaults, 1, m.resolution, shade_source(m))
+            native.evaluate(m.values, m.unknown, defaults, 1, m.resolution, shade_source(m))
             t2 = time.perf_counter()
             full.append(t1 - t0)
             core.append(t2 - t1)

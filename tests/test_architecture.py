@@ -20,7 +20,7 @@ PACKAGE = Path(slamq.__file__).parent
 
 #: The layers, bottom first; a module may import its own layer and the layers below it.
 #: The top package (``slamq/__init__.py``) is above them all; no module imports it.
-LAYERS = ("version", "errors", "params", "native", "models", "sources", "metrics", "api",
+LAYERS = ("version", "lazy", "errors", "params", "native", "models", "sources", "metrics", "api",
           "results", "synth", "batch", "report", "runner", "cli")
 TOP = len(LAYERS)
 
@@ -221,3 +221,44 @@ def test_every_cli_option_of_a_parameter_comes_from_the_table() -> None:
             assert options[name].default == getattr(slamq.Params(), name)
             assert options[name].help.startswith(
                 slamq.Params.__dataclass_fields__[name].metadata["help"][:20])
+
+
+_TRACE = """
+import importlib.util, os, sys, threading
+root = os.path.dirname(importlib.util.find_spec("slamq").origin)
+ran = {}
+def hook(frame, event, arg):
+    name = frame.f_code.co_filename
+    if event == "call" and name.startswith(root + os.sep):
+        ran.setdefault(os.path.relpath(name, root), None)
+sys.setprofile(hook)
+threading.setprofile(hook)
+from slamq.cli import main
+code = main(["eval", sys.argv[1]])
+sys.setprofile(None)
+assert code == 0, code
+print("\\n".join(ran))
+"""
+
+
+def test_the_files_slamq_eval_runs_are_the_ones_the_readme_lists(test_data: Path) -> None:
+    """A profiler hook records every Python file of slamq whose code runs (module bodies
+    and functions) for ``slamq eval map.yaml``; the README's "What `slamq eval map.yaml`
+    runs" names exactly these."""
+    import re
+    import subprocess
+    import sys
+
+    from conftest import slamq_env
+
+    yaml = test_data / "slam_comparison_tools" / "test_results" / "office" / "gmapping_map.yaml"
+    proc = subprocess.run([sys.executable, "-c", _TRACE, str(yaml)], capture_output=True,
+                          text=True, env=slamq_env(), timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    ran = [line for line in proc.stdout.splitlines() if line.endswith(".py")]
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    section = readme.split("### What `slamq eval map.yaml` runs", 1)[1].split("In Rust", 1)[0]
+    listed = {name.removeprefix("python/slamq/")
+              for name in re.findall(r"`([\w/]+\.py)`", section) if not name.startswith("tests/")}
+    assert sorted(ran) == sorted(listed)
+    assert len(ran) == len(set(ran))

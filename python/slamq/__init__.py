@@ -11,7 +11,7 @@ package): :mod:`slamq.native` (the one caller of the Rust core) -> :mod:`slamq.m
 out) -> :mod:`slamq.api` (paths in: ``slamq.evaluate`` and friends) -> :mod:`slamq.results`
 -> :mod:`slamq.synth` -> :mod:`slamq.batch` -> :mod:`slamq.report` -> :mod:`slamq.runner`
 -> :mod:`slamq.cli`.
-Heavy parts (batch, bags, pbstream) are imported on first use.
+Every public name but the errors is imported on first use (:mod:`slamq.lazy`).
 
 >>> import numpy as np, slamq
 >>> slamq.evaluate(np.full((8, 8), 254, np.uint8)).occupied
@@ -20,10 +20,8 @@ Heavy parts (batch, bags, pbstream) are imported on first use.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from typing import TYPE_CHECKING
 
-from slamq.api import ate, ate_runs, compare, consensus, evaluate, rpe
 from slamq.errors import (
     BagError,
     ConformanceError,
@@ -34,13 +32,45 @@ from slamq.errors import (
     SlamqError,
     TrajectoryError,
 )
-from slamq.models import MapComparison, MapQuality, OccupancyMap, Trajectory
-from slamq.params import Params
-from slamq.sources import load_map, load_trajectory
-from slamq.version import __version__ as __version__
+from slamq.lazy import exports
 
-#: Public names imported on first use: name -> module.
+if TYPE_CHECKING:  # what the names below are, for type checkers (imported on first use)
+    from slamq import api, synth  # noqa: F401
+    from slamq.api import ate, ate_runs, compare, consensus, evaluate, rpe
+    from slamq.batch.engine import evaluate_many
+    from slamq.batch.runs import discover_runs
+    from slamq.metrics import reference  # noqa: F401
+    from slamq.models import MapComparison, MapQuality, OccupancyMap, Trajectory
+    from slamq.params import Params
+    from slamq.results.formats import read_results
+    from slamq.results.summary import summarize
+    from slamq.results.validity import validate
+    from slamq.runner.runner import run
+    from slamq.sources.bag_maps import read_bag_maps, read_last_map
+    from slamq.sources.bag_poses import read_bag_trajectory
+    from slamq.sources.maps import load_map
+    from slamq.sources.pbstream import read_pbstream_trajectory
+    from slamq.sources.trajectories import load_trajectory
+    from slamq.version import __version__ as __version__
+
+#: Public names imported on first use (so that ``slamq eval`` runs only what it needs):
+#: name -> module.
 _LAZY = {
+    "__version__": "slamq.version",
+    "api": "slamq.api",
+    "evaluate": "slamq.api",
+    "compare": "slamq.api",
+    "consensus": "slamq.api",
+    "ate": "slamq.api",
+    "rpe": "slamq.api",
+    "ate_runs": "slamq.api",
+    "MapComparison": "slamq.models.comparison",
+    "MapQuality": "slamq.models.quality",
+    "OccupancyMap": "slamq.models.occupancy",
+    "Trajectory": "slamq.models.trajectory",
+    "Params": "slamq.params",
+    "load_map": "slamq.sources.maps",
+    "load_trajectory": "slamq.sources.trajectories",
     "discover_runs": "slamq.batch.runs",
     "evaluate_many": "slamq.batch.engine",
     "run": "slamq.runner.runner",
@@ -55,16 +85,7 @@ _LAZY = {
     "reference": "slamq.metrics.reference",
 }
 
-
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'slamq' has no attribute {name!r}")
-    mod = importlib.import_module(module)
-    value = mod if module.endswith("." + name) else getattr(mod, name)
-    globals()[name] = value
-    return value
-
+__getattr__, __dir__ = exports(globals(), _LAZY)
 
 __all__ = [
     "BagError",

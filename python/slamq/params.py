@@ -1,13 +1,30 @@
-"""The metric parameters of the spec (docs/spec.md sections 3 and 4): the one table.
+"""Every parameter slamq takes, in one schema: the map metrics' and every other family's.
 
-Every parameter is declared once, below, as a field of :class:`Params` with its default,
-range, unit and help text. Everything else is generated from this table: the keyword
-checks of :func:`slamq.evaluate` and :func:`slamq.metrics.reference.evaluate`, the
-``--log-threshold``-style options of every CLI command, the parameter list in
-:class:`Params`' docstring, the ``param_*`` columns of results files, and what the Rust
-core receives (it reads these attributes, rust/src/bindings/maps.rs). Adding a parameter means a
-field here, a field of the Rust struct in rust/src/params.rs, and its use in the metric
-(Rust and the reference function).
+* **map** (docs/spec.md sections 3 and 4): the fields of :class:`Params`, each with its
+  default, range, unit and help. Generated from them: the keyword checks of
+  :func:`slamq.evaluate` and :func:`slamq.metrics.reference.evaluate`, the
+  ``--log-threshold``-style options of every CLI command, the parameter list in
+  :class:`Params`' docstring, the ``param_*`` columns of results files (names and types),
+  and what the Rust core receives (it reads these attributes, rust/src/bindings/maps.rs).
+* **load**, **runtime**, **trajectory**, **compare**, **consensus**, **synth**: the rows of
+  :data:`SETTINGS` (``unknown_value``; ``threads``; ``max_dt``, ``offset``, the ATE / RPE
+  alignments, ``unsorted``; the ground-truth comparison's alignment, tolerance, occupied
+  threshold and distance cap; the consensus' quorum and radius; the generated worlds' kinds
+  and odometry noise presets). Function signatures,
+  option objects (:class:`slamq.batch.records.EvalOptions`) and CLI options
+  (:meth:`Setting.add_option`) take their defaults and choices from these rows.
+
+tests/test_params.py holds everything else to the schema: every function signature and
+every CLI option of the package that has a parameter of the schema has its default (and
+choices); the Rust core's defaults (``default_params()``, ``compare``'s keywords, hence
+``_core.pyi``, which tests/test_architecture.py keeps equal to the core) and its ranges
+(each map parameter just inside and just outside its range) are the schema's.
+
+Adding a parameter is one row here plus its use: for a map parameter, its field in the
+Rust ``Params`` (rust/src/params.rs, with the same default) and its read and range check
+in rust/src/bindings/maps.rs, then the metric (Rust and the reference function); for any
+other family, the keyword of the function that uses it (its default from the row) and, for
+a command, one ``add_option`` call.
 """
 
 from __future__ import annotations
@@ -24,7 +41,9 @@ from slamq.errors import ParamError
 __all__ = [
     "MAX_THREADS",
     "PARAM_NAMES",
+    "SETTINGS",
     "Params",
+    "Setting",
     "add_param_options",
     "check_threads",
     "param_help",
@@ -159,6 +178,142 @@ class Params:
 
 #: The parameter names, in table order.
 PARAM_NAMES: tuple[str, ...] = tuple(f.name for f in fields(Params))
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One row of the schema outside the map metrics: a parameter of one family.
+
+    Attributes
+    ----------
+    family : str
+        ``"load"``, ``"runtime"``, ``"trajectory"``, ``"compare"``, ``"consensus"`` or
+        ``"synth"``.
+    name : str
+        The row's name (also the keyword or option it is, unless noted in ``help``).
+    default : Any
+        The default every function, option object and CLI option uses.
+    help : str
+        One line for ``--help`` and docstrings.
+    unit : str
+        Unit of a number ("" for none).
+    type : type
+        ``float``, ``int`` or ``str``.
+    low, high : float or None
+        The range of a number (inclusive; None: unbounded).
+    high_open : bool
+        ``high`` itself is out of range (``[low, high)``).
+    choices : tuple of str or None
+        The values a ``str`` setting takes.
+
+    Examples
+    --------
+    >>> SETTINGS.max_dt.default, SETTINGS.ate_align.choices
+    (0.01, ('se2', 'se3', 'sim3', 'origin', 'none'))
+    """
+
+    family: str
+    name: str
+    default: Any
+    help: str
+    unit: str = ""
+    type: type = float
+    low: float | None = None
+    high: float | None = None
+    choices: tuple[str, ...] | None = None
+    high_open: bool = False
+
+    def help_line(self) -> str:
+        """The help text with the unit and default (``%`` escaped for argparse).
+
+        Examples
+        --------
+        >>> SETTINGS.offset.help_line()
+        'seconds added to the estimate timestamps (s; default 0.0)'
+        """
+        unit = f"{self.unit}; " if self.unit else ""
+        return f"{self.help} ({unit}default {self.default})".replace("%", "%%")
+
+    def add_option(self, parser: Any, *flags: str, dest: str | None = None,
+                   metavar: str | None = None, note: str = "") -> None:
+        """Add this setting to an argparse parser as ``--name`` (or ``flags``), with the
+        schema's type, default, choices and help (``note``: what the command adds)."""
+        flags = flags or ("--" + self.name.replace("_", "-"),)
+        text = self.help_line() + (f"; {note}" if note else "")
+        kwargs: dict[str, Any] = {"default": self.default, "help": text}
+        if dest is not None:
+            kwargs["dest"] = dest
+        if self.choices is not None:
+            kwargs["choices"] = self.choices
+        else:
+            kwargs["type"] = self.type
+            if metavar is not None:
+                kwargs["metavar"] = metavar
+        parser.add_argument(*flags, **kwargs)
+
+
+class _Rows(dict):
+    """The schema's rows by name, also as attributes (``SETTINGS.max_dt``)."""
+
+    def __getattr__(self, name: str) -> Setting:
+        try:
+            return self[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+_TRAJECTORY_ALIGNMENTS = ("se2", "se3", "sim3", "origin", "none")
+_MAP_ALIGNMENTS = ("origin", "icp", "search")
+
+#: Every parameter outside the map metrics, by name (the map metrics': :class:`Params`).
+SETTINGS = _Rows((s.name, s) for s in (
+    Setting("load", "unknown_value", None,
+            "treat pixels equal to this value as unknown, and nothing else", "", int, 0, 255),
+    Setting("runtime", "threads", None, "cap on worker threads (default: every core)", "",
+            int, 1, MAX_THREADS),
+    Setting("trajectory", "max_dt", 0.01, "largest time difference of associated poses",
+            "s", float, 0.0, None),
+    Setting("trajectory", "offset", 0.0, "seconds added to the estimate timestamps", "s"),
+    Setting("trajectory", "ate_align", "se2",
+            "alignment of each estimate onto the ground truth for ATE: se2 = rotation about "
+            "z + planar translation; se3/sim3/origin as evo -a/-as/--align_origin; none",
+            type=str, choices=_TRAJECTORY_ALIGNMENTS),
+    Setting("trajectory", "rpe_align", "none",
+            "alignment of each estimate onto the ground truth for RPE (as ate_align)",
+            type=str, choices=_TRAJECTORY_ALIGNMENTS),
+    Setting("trajectory", "trajectory_format", None,
+            "file format of a trajectory (default: guessed from the file)", type=str,
+            choices=("tum", "kitti", "euroc", "csv", "bag", "pbstream")),
+    Setting("trajectory", "unsorted", "error",
+            "timestamps going backwards (a restarted log): fail, keep the last run of the "
+            "log, or sort", type=str, choices=("error", "last", "sort")),
+    Setting("compare", "compare_align", "icp",
+            "alignment with the ground-truth map: icp, the files' frames refined by trimmed "
+            "ICP; origin, the frames only; search, a coarse rotation search first, for maps "
+            "saved in an arbitrary frame", type=str, choices=_MAP_ALIGNMENTS),
+    Setting("compare", "tolerance", None,
+            "matching distance for precision/recall (default: tolerance_cells cells of the "
+            "ground truth)", "m", float, 0.0, None),
+    Setting("compare", "tolerance_cells", 2.0,
+            "the default matching distance, in cells of the ground truth's grid", "cells",
+            float, 0.0, None),
+    Setting("compare", "occupied_threshold", 0.5,
+            "a known cell is occupied when (255 - v) / 255 is above this", "", float, 0.0,
+            1.0, high_open=True),
+    Setting("compare", "max_distance", None,
+            "distances to the ground truth above this count as this (bounds NE for partial "
+            "maps)", "m", float, 0.0, None),
+    Setting("synth", "world_kind", "office",
+            "kind of generated building (slamq.synth.KINDS says what each is)", type=str,
+            choices=("office", "loop", "corridor", "hall", "symmetric", "mixed")),
+    Setting("synth", "noise", "low", "odometry noise preset (slamq.synth.NOISE)", type=str,
+            choices=("none", "low", "high")),
+    Setting("consensus", "quorum", 0.5,
+            "a consensus cell is occupied when more than this share of the voters has a wall "
+            "near it", "", float, 0.0, 1.0, high_open=True),
+    Setting("consensus", "radius", 1, "cells of slack between the maps' walls once aligned",
+            "cells", int, 0, None),
+))
 
 
 def param_help(name: str) -> str:

@@ -25,7 +25,6 @@ from slamq.errors import SlamqError
 from slamq.metrics import reference
 from slamq.report import build_report
 from slamq.report.data import evaluate_map, load_results
-from slamq.report.frames import build_timeline, find_snapshots, write_timeline_gif
 from slamq.report.overlays import CORNER_RGB, draw_overlay
 from slamq.report.plots import metric_figure
 from slamq.report.ranking import (
@@ -35,6 +34,8 @@ from slamq.report.ranking import (
     rank_sequence,
     summarize,
 )
+from slamq.report.timeline import build_timeline, write_timeline_gif
+from slamq.sources.snapshots import find_snapshots
 
 FREE, WALL, UNKNOWN = 254, 0, 205
 

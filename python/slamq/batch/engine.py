@@ -42,6 +42,7 @@ from slamq import native
 from slamq.batch.records import EvalOptions, evaluate_run
 from slamq.batch.runs import Discovery, Run
 from slamq.errors import ParamError
+from slamq.params import SETTINGS
 from slamq.results.columns import settings_difference
 from slamq.results.formats import results_format
 from slamq.results.store import ResultsFile, digest64, key_digest
@@ -74,12 +75,12 @@ def evaluate_many(
     chunk_size: int | None = None,
     out: None | str | os.PathLike[str] = None,
     progress: ProgressFn | None = None,
-    ate_align: str = "se2",
-    ate_max_dt: float = 0.01,
-    ate_unsorted: str = "error",
-    gt_align: str = "icp",
-    gt_tolerance: float | None = None,
-    gt_max_distance: float | None = None,
+    ate_align: str = SETTINGS.ate_align.default,
+    ate_max_dt: float = SETTINGS.max_dt.default,
+    ate_unsorted: str = SETTINGS.unsorted.default,
+    gt_align: str = SETTINGS.compare_align.default,
+    gt_tolerance: float | None = SETTINGS.tolerance.default,
+    gt_max_distance: float | None = SETTINGS.max_distance.default,
     **params: Any,
 ) -> Iterator[dict[str, Any]]:
     """Evaluate many maps; yield one record per map, in input order.

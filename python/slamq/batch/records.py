@@ -18,7 +18,7 @@ from typing import Any
 from slamq.batch.runs import Run, is_ground_truth
 from slamq.errors import MapError, ParamError, SlamqError
 from slamq.models.comparison import COMPARISON_FIGURES
-from slamq.params import Params
+from slamq.params import SETTINGS, Params
 from slamq.results.columns import ATE_STATS, columns
 from slamq.results.store import digest64
 from slamq.sources.files import (
@@ -154,31 +154,35 @@ class EvalOptions:
     _EVAL_KEYS = frozenset({"unknown_value", "curve", "verify"})
 
     def __init__(
-        self, params: dict[str, Any] | None = None, *, ate_align: str = "se2",
-        ate_max_dt: float = 0.01, ate_unsorted: str = "error", gt_align: str = "icp",
-        gt_tolerance: float | None = None, gt_max_distance: float | None = None,
+        self, params: dict[str, Any] | None = None, *,
+        ate_align: str = SETTINGS.ate_align.default,
+        ate_max_dt: float = SETTINGS.max_dt.default,
+        ate_unsorted: str = SETTINGS.unsorted.default,
+        gt_align: str = SETTINGS.compare_align.default,
+        gt_tolerance: float | None = SETTINGS.tolerance.default,
+        gt_max_distance: float | None = SETTINGS.max_distance.default,
     ) -> None:
         params = dict(params or {})
         extra = {k: params.pop(k) for k in list(params) if k in self._EVAL_KEYS}
         self.params = Params.from_kwargs(**params)
         uv = extra.get("unknown_value")
-        bad_uv = isinstance(uv, bool) or not isinstance(uv, int) or not 0 <= uv <= 255
+        lo, hi = SETTINGS.unknown_value.low, SETTINGS.unknown_value.high
+        bad_uv = isinstance(uv, bool) or not isinstance(uv, int) or not lo <= uv <= hi
         if uv is not None and bad_uv:
-            raise ParamError(f"unknown_value must be an integer in 0..255, got {uv!r}")
+            raise ParamError(f"unknown_value must be an integer in {lo}..{hi}, got {uv!r}")
         self.unknown_value: int | None = uv
         self.curve = bool(extra.get("curve", False))
         self.verify = bool(extra.get("verify", False))
         self.ate_align = str(ate_align)
         self.ate_max_dt = float(ate_max_dt)
-        if ate_unsorted not in ("error", "last", "sort"):
+        if ate_unsorted not in SETTINGS.unsorted.choices:
             raise ParamError(
                 f"ate_unsorted must be 'error', 'last' or 'sort', not {ate_unsorted!r}"
             )
         self.ate_unsorted = ate_unsorted
-        from slamq.metrics.compare import ALIGN_MODES
-
-        if gt_align not in ALIGN_MODES:
-            raise ParamError(f"gt_align must be one of {', '.join(ALIGN_MODES)}, "
+        if gt_align not in SETTINGS.compare_align.choices:
+            raise ParamError(f"gt_align must be one of "
+                             f"{', '.join(SETTINGS.compare_align.choices)}, "
                              f"got {gt_align!r}")
         for name, value in (("gt_tolerance", gt_tolerance),
                             ("gt_max_distance", gt_max_distance)):

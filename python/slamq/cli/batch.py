@@ -24,6 +24,7 @@ from slamq.cli.common import (
     need_extra,
     stdout_console,
 )
+from slamq.params import SETTINGS
 
 __all__ = ["add_parser"]
 
@@ -50,8 +51,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--out", "-o", metavar="FILE", default=None,
                    help="results file, .parquet or .jsonl (default: results.parquet, or "
                    "DIR/results.parquet with --report DIR)")
-    p.add_argument("--threads", type=int, default=None,
-                   help="worker threads (default: all CPUs; with Dask: per chunk in a worker)")
+    SETTINGS.threads.add_option(p, note="with Dask: per chunk in a worker")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    default=os.environ.get("DASK_SCHEDULER_ADDRESS") or None,
                    help="Dask scheduler (tcp://host:8786) to send chunks of maps to; 'dask' "
@@ -63,14 +63,9 @@ def add_parser(subparsers: Any) -> None:
                    help="keep the enclosed-area curve in the records")
     p.add_argument("--verify", action="store_true",
                    help="also run slamq.metrics.reference (slow) on every map")
-    p.add_argument("--align", default="se2", choices=("se2", "se3", "sim3", "origin", "none"),
-                   help="trajectory alignment for ATE (default %(default)s)")
-    p.add_argument("--max-dt", type=float, default=0.01,
-                   help="pose association window for ATE, seconds (default %(default)s)")
-    p.add_argument("--unsorted", default="error", choices=("error", "last", "sort"),
-                   help="trajectories whose timestamps go backwards (restarted logs): "
-                   "report an ATE error (default), keep the rows after the last restart, "
-                   "or sort them")
+    SETTINGS.ate_align.add_option(p, "--align", dest="align")
+    SETTINGS.max_dt.add_option(p)
+    SETTINGS.unsorted.add_option(p, note="error: an ATE error in the record")
     add_compare_options(p, "gt-")  # each map against its sequence's ground-truth map
     p.add_argument("--report", metavar="DIR", default=None,
                    help="then write the HTML report of the results to DIR (slamq report)")

@@ -84,8 +84,9 @@ def add_map_options(parser: argparse.ArgumentParser) -> None:
 
 def add_unknown_value_option(parser: argparse.ArgumentParser) -> None:
     """``--unknown-value`` (eval, batch, timeline through :func:`add_map_options`; compare)."""
-    parser.add_argument("--unknown-value", type=int, default=None,
-                        help="treat pixels equal to this value as unknown, and nothing else")
+    from slamq.params import SETTINGS
+
+    SETTINGS.unknown_value.add_option(parser)
 
 
 def add_table_output_options(parser: argparse.ArgumentParser) -> None:
@@ -102,16 +103,21 @@ def add_table_output_options(parser: argparse.ArgumentParser) -> None:
 def add_compare_options(parser: argparse.ArgumentParser, prefix: str = "") -> None:
     """``--align``, ``--tolerance``, ``--max-distance`` of the ground-truth map comparison
     (docs/spec.md section 7); ``prefix`` ``"gt-"`` gives batch's ``--gt-align`` etc."""
-    parser.add_argument(f"--{prefix}align", choices=("icp", "origin", "search"), default="icp",
-                        help="alignment with the ground-truth map: icp (default), the files' "
-                        "frames refined by trimmed ICP; origin, the frames only; search, a "
-                        "coarse rotation search first, for maps saved in an arbitrary frame")
-    parser.add_argument(f"--{prefix}tolerance", type=float, default=None, metavar="M",
-                        help="matching distance for precision/recall, metres (default: 2 "
-                        "cells of the ground truth)")
-    parser.add_argument(f"--{prefix}max-distance", type=float, default=None, metavar="M",
-                        help="count distances to the ground truth above M metres as M "
-                        "(bounds NE for partial maps)")
+    from slamq.params import SETTINGS
+
+    dest = prefix.replace("-", "_")
+    SETTINGS.compare_align.add_option(parser, f"--{prefix}align", dest=f"{dest}align")
+    SETTINGS.tolerance.add_option(parser, f"--{prefix}tolerance", dest=f"{dest}tolerance",
+                                  metavar="M")
+    SETTINGS.max_distance.add_option(parser, f"--{prefix}max-distance",
+                                     dest=f"{dest}max_distance", metavar="M")
+
+
+def add_threads_option(parser: argparse.ArgumentParser) -> None:
+    """``--threads`` (eval, compare, batch, timeline)."""
+    from slamq.params import SETTINGS
+
+    SETTINGS.threads.add_option(parser)
 
 
 def add_verbosity_options(parser: argparse.ArgumentParser) -> None:

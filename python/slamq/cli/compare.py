@@ -18,6 +18,7 @@ from typing import IO, Any
 from slamq.cli.common import (
     add_compare_options,
     add_table_output_options,
+    add_threads_option,
     add_unknown_value_option,
     error_line,
     exit_code,
@@ -49,14 +50,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--gt", required=True, metavar="GT",
                    help="the ground-truth map (YAML + image, image, or bag)")
     add_compare_options(p)
-    p.add_argument("--occupied-threshold", type=float, default=0.5, metavar="P",
-                   help="occupied: occupancy probability above P (default 0.5: values < 128)")
+    from slamq.params import SETTINGS
+
+    SETTINGS.occupied_threshold.add_option(p, metavar="P")
     add_table_output_options(p)
     p.add_argument("--overlay", metavar="DIR",
                    help="write one PNG per map: the aligned estimate over the ground truth, "
                    "matched walls green, missing walls red, ghost walls blue")
     add_unknown_value_option(p)
-    p.add_argument("--threads", type=int, default=None, help="cap on worker threads")
+    add_threads_option(p)
     p.set_defaults(func=handle)
 
 

@@ -16,6 +16,7 @@ from slamq.cli.common import (
     Progress,
     add_map_options,
     add_table_output_options,
+    add_threads_option,
     error_line,
     exit_code,
 )
@@ -41,7 +42,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="keep the enclosed-area curve over the unknown value")
     p.add_argument("--verify", action="store_true",
                    help="also run slamq.metrics.reference (slow) and fail on any difference")
-    p.add_argument("--threads", type=int, default=None, help="cap on worker threads")
+    add_threads_option(p)
     add_map_options(p)
     p.set_defaults(func=handle)
 
@@ -51,7 +52,6 @@ def handle(args: argparse.Namespace) -> int:
     from slamq.errors import ParamError, SlamqError
     from slamq.metrics.evaluate import evaluate
     from slamq.params import check_threads, params_from_args
-    from slamq.results.formats import write_csv, write_json
     from slamq.results.table import print_table
     from slamq.sources.walk import discover_maps
 
@@ -95,10 +95,13 @@ def handle(args: argparse.Namespace) -> int:
 
         for msg in comparability_warnings(pd.DataFrame([q.to_dict() for q in results])):
             print(f"slamq: warning: {msg.split(': ', 1)[1]}", file=sys.stderr)
-    if args.json:
-        write_json(sys.stdout if args.json == "-" else args.json, results)
-    if args.csv:
-        write_csv(sys.stdout if args.csv == "-" else args.csv, results)
+    if args.json or args.csv:  # the file formats only when a file is asked for
+        from slamq.results.formats import write_csv, write_json
+
+        if args.json:
+            write_json(sys.stdout if args.json == "-" else args.json, results)
+        if args.csv:
+            write_csv(sys.stdout if args.csv == "-" else args.csv, results)
     return exit_code(len(results), failed, unexpected, args.paths)
 
 

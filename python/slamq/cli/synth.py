@@ -25,7 +25,7 @@ WRITER_FORMATS = ("rawlog", "carmen", "rosbag1", "rosbag2", "mcap")
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     """Register ``slamq synth``."""
-    from slamq.synth import KINDS, NOISE
+    from slamq.params import SETTINGS  # not slamq.synth: every command's parser runs this
 
     s = subparsers.add_parser(
         "synth", help="generate worlds and simulated drives with exact ground truth",
@@ -37,10 +37,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                        description="Draw a seeded procedural building and save it as "
                        "DIR/NAME.yaml + .pgm (0 wall, 254 free, 205 unknown), NAME.json "
                        "(its rooms and features) and NAME_transparent.png (glass walls). "
-                       "Kinds: " + "; ".join(f"{k}: {v}" for k, v in KINDS.items()))
+                       "Kinds: " + ", ".join(SETTINGS.world_kind.choices)
+                       + " (slamq.synth.KINDS describes them).")
     w.add_argument("--seed", type=int, default=0, help="seed (default 0)")
-    w.add_argument("--kind", choices=[*sorted(KINDS), "all"], default="office",
-                   help="kind of building (default office; all: the kinds in turn)")
+    w.add_argument("--kind", choices=[*sorted(SETTINGS.world_kind.choices), "all"],
+                   default=SETTINGS.world_kind.default,
+                   help=SETTINGS.world_kind.help_line() + "; all: the kinds in turn")
     w.add_argument("--count", type=int, default=1,
                    help="this many worlds, seeds SEED, SEED+1, ... (default 1)")
     w.add_argument("--size", type=float, nargs=2, metavar=("W", "H"), default=None,
@@ -60,7 +62,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                        "odom.tum, sequence.json (format truth) and the other --formats.")
     q.add_argument("world", help="the world: a map_server YAML")
     q.add_argument("--seed", type=int, default=0, help="seed of the drive and the noise")
-    q.add_argument("--noise", choices=list(NOISE), default="low", help="odometry noise")
+    SETTINGS.noise.add_option(q)
     q.add_argument("--out", required=True, metavar="DIR", help="output folder")
     q.add_argument("--formats", default="truth",
                    help="comma-separated: truth, npz (the whole sequence), and the sensor "

@@ -7,7 +7,14 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from slamq.cli.common import EXIT_BAD_INPUT, EXIT_OK, add_map_options, error_line, need_extra
+from slamq.cli.common import (
+    EXIT_BAD_INPUT,
+    EXIT_OK,
+    add_map_options,
+    add_threads_option,
+    error_line,
+    need_extra,
+)
 
 
 def add_parser(subparsers: Any) -> None:
@@ -31,7 +38,7 @@ def add_parser(subparsers: Any) -> None:
     p.add_argument("--duration-ms", type=int, default=200,
                    help="GIF frame time (default %(default)s)")
     p.add_argument("--no-frames", action="store_true", help="do not write PNG frames")
-    p.add_argument("--threads", type=int, default=None, help="cap on worker threads")
+    add_threads_option(p)
     add_map_options(p)
     p.set_defaults(func=handle)
 

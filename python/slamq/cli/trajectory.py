@@ -27,9 +27,8 @@ __all__ = ["add_parser"]
 _STATS = ("rmse", "mean", "median", "std", "min", "max")
 
 
-def _common_options(p: argparse.ArgumentParser, default_align: str) -> None:
-    from slamq.metrics.align import ALIGNMENTS
-    from slamq.sources.trajectories import FORMATS
+def _common_options(p: argparse.ArgumentParser, command: str) -> None:
+    from slamq.params import SETTINGS
 
     p.add_argument("gt", metavar="GT",
                    help="ground-truth trajectory (file or bag), or a paired pose log "
@@ -43,16 +42,10 @@ def _common_options(p: argparse.ArgumentParser, default_align: str) -> None:
     p.add_argument("--by-index", action="store_true",
                    help="accept tables without a time column, pairing poses by row number "
                    "(refused otherwise)")
-    p.add_argument("--align", "-a", choices=ALIGNMENTS, default=default_align,
-                   help="alignment of each estimate onto GT (default %(default)s; se2 = "
-                   "rotation about z + planar translation; se3/sim3/origin as evo -a/-as/"
-                   "--align_origin)")
-    p.add_argument("--max-dt", type=float, default=0.01, metavar="S",
-                   help="largest time difference of associated poses, s (default %(default)s)")
-    p.add_argument("--offset", type=float, default=0.0, metavar="S",
-                   help="seconds added to the estimate timestamps (default %(default)s)")
-    p.add_argument("--format", choices=FORMATS, default=None,
-                   help="file format of GT and EST (default: guessed)")
+    SETTINGS[f"{command}_align"].add_option(p, "--align", "-a", dest="align")
+    SETTINGS.max_dt.add_option(p, metavar="S")
+    SETTINGS.offset.add_option(p, metavar="S")
+    SETTINGS.trajectory_format.add_option(p, "--format", dest="format")
     p.add_argument("--columns", metavar="MAP", default=None,
                    help="table columns, 'role=name,...' or positional 't,x,y,yaw' "
                    "(roles t x y z yaw qw qx qy qz), for GT and EST")
@@ -61,9 +54,7 @@ def _common_options(p: argparse.ArgumentParser, default_align: str) -> None:
                    "(e.g. t=timestamp_sec,x=gt_x,y=gt_y)")
     p.add_argument("--topic", default=None, help="bag topic of the estimates")
     p.add_argument("--gt-topic", default=None, help="bag topic of the ground truth")
-    p.add_argument("--unsorted", choices=("error", "last", "sort"), default="error",
-                   help="timestamps going backwards: fail (default), keep the last run of "
-                   "a restarted log, or sort")
+    SETTINGS.unsorted.add_option(p)
     p.add_argument("--json", metavar="FILE", help="write the results as JSON")
     p.add_argument("--per-pose", action="store_true",
                    help="include the per-pose errors in the JSON")
@@ -79,7 +70,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "estimate; for several estimates also the RMSE mean and std over the runs. "
         "Equal to evo_ape for se3 (-a), sim3 (-as), origin and none.",
     )
-    _common_options(p, "se2")
+    _common_options(p, "ate")
     p.set_defaults(func=handle_ate)
 
     p = subparsers.add_parser(
@@ -88,7 +79,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description="Relative pose error as evo_rpe: pose pairs DELTA frames or metres "
         "apart, translation (m) or rotation angle error of the relative motion.",
     )
-    _common_options(p, "none")
+    _common_options(p, "rpe")
     p.add_argument("--delta", type=float, default=1,
                    help="pair distance in --unit (default %(default)s)")
     p.add_argument("--unit", choices=("frames", "m"), default="frames",

@@ -16,29 +16,3 @@ arrays into models and calls them. They reach the Rust core through :mod:`slamq.
   (:mod:`~slamq.metrics.sync`) and alignment (:mod:`~slamq.metrics.align`).
 """
 
-from __future__ import annotations
-
-from slamq.metrics.align import ALIGNMENTS, Alignment, estimate_alignment, umeyama
-from slamq.metrics.ate import ErrorResult, RunsResult, ate, ate_runs, rpe
-from slamq.metrics.compare import compare
-from slamq.metrics.consensus import Consensus, consensus
-from slamq.metrics.evaluate import evaluate
-from slamq.metrics.sync import associate, matching_indices
-
-__all__ = [
-    "ALIGNMENTS",
-    "Alignment",
-    "ErrorResult",
-    "RunsResult",
-    "associate",
-    "ate",
-    "compare",
-    "Consensus",
-    "consensus",
-    "ate_runs",
-    "estimate_alignment",
-    "evaluate",
-    "matching_indices",
-    "rpe",
-    "umeyama",
-]

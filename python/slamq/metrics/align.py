@@ -17,6 +17,7 @@ import numpy as np
 from slamq import native
 from slamq.errors import TrajectoryError
 from slamq.models.trajectory import matrix_to_quat, quat_multiply, quat_to_matrix
+from slamq.params import SETTINGS
 
 __all__ = [
     "ALIGNMENTS", "Alignment", "umeyama", "umeyama_solve", "estimate_alignment",
@@ -24,7 +25,7 @@ __all__ = [
 ]
 
 #: Alignment names accepted by :func:`slamq.ate` and ``rpe``.
-ALIGNMENTS = ("se2", "se3", "sim3", "origin", "none")
+ALIGNMENTS = SETTINGS.ate_align.choices
 
 
 @dataclass(frozen=True)

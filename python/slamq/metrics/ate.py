@@ -29,6 +29,7 @@ from slamq.metrics.align import (
 )
 from slamq.metrics.sync import associate, matching_indices_numpy
 from slamq.models.trajectory import Trajectory, quat_multiply, quat_rotate
+from slamq.params import SETTINGS
 
 __all__ = [
     "ErrorResult", "RunsResult", "ate", "ate_numpy", "rpe", "ate_runs", "STAT_NAMES",
@@ -210,9 +211,9 @@ def ate(
     gt: Trajectory,
     est: Trajectory,
     *,
-    align: str = "se2",
-    max_dt: float = 0.01,
-    offset: float = 0.0,
+    align: str = SETTINGS.ate_align.default,
+    max_dt: float = SETTINGS.max_dt.default,
+    offset: float = SETTINGS.offset.default,
 ) -> ErrorResult:
     """Absolute trajectory error: position differences after association and alignment.
 
@@ -315,9 +316,9 @@ def ate_numpy(
     gt: Trajectory,
     est: Trajectory,
     *,
-    align: str = "se2",
-    max_dt: float = 0.01,
-    offset: float = 0.0,
+    align: str = SETTINGS.ate_align.default,
+    max_dt: float = SETTINGS.max_dt.default,
+    offset: float = SETTINGS.offset.default,
 ) -> ErrorResult:
     """:func:`ate` in numpy (association, Umeyama, errors, statistics): the numpy twin the
     Rust passes of :func:`ate` are tested against. Same arguments, result and errors.
@@ -377,9 +378,9 @@ def rpe(
     delta: float = 1,
     unit: str = "frames",
     relation: str = "trans",
-    align: str = "none",
-    max_dt: float = 0.01,
-    offset: float = 0.0,
+    align: str = SETTINGS.rpe_align.default,
+    max_dt: float = SETTINGS.max_dt.default,
+    offset: float = SETTINGS.offset.default,
     pairs_from: str = "est",
 ) -> ErrorResult:
     """Relative pose error between pose pairs ``delta`` apart (evo's ``evo_rpe``).
@@ -496,9 +497,9 @@ def ate_runs(
     gt: Trajectory,
     ests: Sequence[Trajectory],
     *,
-    align: str = "se2",
-    max_dt: float = 0.01,
-    offset: float = 0.0,
+    align: str = SETTINGS.ate_align.default,
+    max_dt: float = SETTINGS.max_dt.default,
+    offset: float = SETTINGS.offset.default,
 ) -> RunsResult:
     """ATE of repeated runs against one ground truth: per-run RMSE, mean and std.
 

@@ -16,14 +16,14 @@ from typing import Any
 from slamq import native
 from slamq.errors import MapError, ParamError
 from slamq.models import MapComparison, OccupancyMap
-from slamq.params import check_threads
+from slamq.params import SETTINGS, check_threads
 
 __all__ = ["ALIGN_MODES", "DEFAULT_TOLERANCE_CELLS", "compare"]
 
-#: The alignments :func:`compare` knows.
-ALIGN_MODES = ("origin", "icp", "search")
+#: The alignments :func:`compare` knows (the schema's ``compare_align`` choices).
+ALIGN_MODES = SETTINGS.compare_align.choices
 #: The default matching distance, in cells of the ground truth's grid.
-DEFAULT_TOLERANCE_CELLS = 2.0
+DEFAULT_TOLERANCE_CELLS = SETTINGS.tolerance_cells.default
 
 
 def _number(name: str, value: Any, positive: bool = False) -> float:
@@ -46,8 +46,8 @@ def compare(
     ground_truth: OccupancyMap,
     *,
     tolerance: float | None = None,
-    occupied_threshold: float = 0.5,
-    align: str = "icp",
+    occupied_threshold: float = SETTINGS.occupied_threshold.default,
+    align: str = SETTINGS.compare_align.default,
     max_distance: float | None = None,
     cells: bool = False,
     threads: int | None = None,
@@ -94,15 +94,15 @@ def compare(
 
     Examples
     --------
-    >>> import numpy as np, slamq
-    >>> gt = np.full((40, 40), 254, np.uint8)
-    >>> gt[10, 5:35] = 0; gt[10:30, 5] = 0               # two walls
-    >>> est = gt.copy(); est[10:30, 5] = 254              # the estimate lacks one
-    >>> c = slamq.compare(est, gt, align="origin")
-    >>> round(c.precision, 3), round(c.recall, 3), c.reverse
-    (1.0, 0.633, 0.0)
-    >>> c.ne > 0
-    True
+    >>> import numpy as np
+    >>> from slamq.models import OccupancyMap
+    >>> walls = np.full((40, 40), 254, np.uint8)
+    >>> walls[10, 5:35] = 0; walls[10:30, 5] = 0         # two walls: the ground truth
+    >>> half = walls.copy(); half[10:30, 5] = 254         # the estimate lacks one
+    >>> none = np.zeros(walls.shape, bool)                # no unknown cell
+    >>> c = compare(OccupancyMap(half, none), OccupancyMap(walls, none), align="origin")
+    >>> round(c.recall, 3), c.reverse, c.ne > 0
+    (0.633, 0.0, True)
     """
     for what, m in (("estimate", estimate), ("ground_truth", ground_truth)):
         if not isinstance(m, OccupancyMap):

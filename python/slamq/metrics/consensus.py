@@ -30,6 +30,7 @@ import numpy as np
 from slamq.errors import ParamError
 from slamq.metrics.compare import compare
 from slamq.models import MapComparison, OccupancyMap
+from slamq.params import SETTINGS
 
 __all__ = ["Consensus", "consensus"]
 
@@ -87,8 +88,9 @@ def _aligned(est: OccupancyMap, ref: OccupancyMap, align: str, threads: int | No
     return (flags & 1) != 0, (flags & 16) != 0
 
 
-def consensus(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *, quorum: float = 0.5,
-              radius: int = 1, align: str = "icp", base: str | None = None,
+def consensus(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
+              quorum: float = SETTINGS.quorum.default, radius: int = SETTINGS.radius.default,
+              align: str = SETTINGS.compare_align.default, base: str | None = None,
               tolerance: float | None = None, threads: int | None = None) -> Consensus:
     """Score each of several maps of one place against the consensus of the others.
 

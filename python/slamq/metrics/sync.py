@@ -16,12 +16,14 @@ import numpy as np
 from slamq import native
 from slamq.errors import TrajectoryError
 from slamq.models.trajectory import Trajectory
+from slamq.params import SETTINGS
 
 __all__ = ["matching_indices", "matching_indices_numpy", "associate"]
 
 
 def matching_indices(
-    stamps_1: np.ndarray, stamps_2: np.ndarray, max_dt: float = 0.01, offset_2: float = 0.0
+    stamps_1: np.ndarray, stamps_2: np.ndarray, max_dt: float = SETTINGS.max_dt.default,
+    offset_2: float = SETTINGS.offset.default
 ) -> tuple[np.ndarray, np.ndarray]:
     """Indices ``(i1, i2)`` of the best match in ``stamps_2 + offset_2`` of each stamp_1.
 
@@ -44,7 +46,8 @@ def matching_indices(
 
 
 def matching_indices_numpy(
-    stamps_1: np.ndarray, stamps_2: np.ndarray, max_dt: float = 0.01, offset_2: float = 0.0
+    stamps_1: np.ndarray, stamps_2: np.ndarray, max_dt: float = SETTINGS.max_dt.default,
+    offset_2: float = SETTINGS.offset.default
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`matching_indices` in numpy: the numpy twin the Rust core is tested against.
 
@@ -74,8 +77,8 @@ def associate(
     gt: Trajectory,
     est: Trajectory,
     *,
-    max_dt: float = 0.01,
-    offset: float = 0.0,
+    max_dt: float = SETTINGS.max_dt.default,
+    offset: float = SETTINGS.offset.default,
     matcher: Callable[..., tuple[np.ndarray, np.ndarray]] = matching_indices,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Pairs of indices ``(gt_index, est_index)`` of the associated poses.

@@ -8,9 +8,24 @@
 
 from __future__ import annotations
 
-from slamq.models.comparison import MapComparison
-from slamq.models.occupancy import OccupancyMap
-from slamq.models.quality import MapQuality
-from slamq.models.trajectory import Trajectory
+from typing import TYPE_CHECKING
+
+from slamq.lazy import exports
+
+if TYPE_CHECKING:
+    from slamq.models.comparison import MapComparison
+    from slamq.models.occupancy import OccupancyMap
+    from slamq.models.quality import MapQuality
+    from slamq.models.trajectory import Trajectory
+
+#: Public names, imported on first use: name -> module.
+_WHERE = {
+    "MapComparison": "slamq.models.comparison",
+    "MapQuality": "slamq.models.quality",
+    "OccupancyMap": "slamq.models.occupancy",
+    "Trajectory": "slamq.models.trajectory",
+}
+
+__getattr__, __dir__ = exports(globals(), _WHERE)
 
 __all__ = ["MapComparison", "MapQuality", "OccupancyMap", "Trajectory"]

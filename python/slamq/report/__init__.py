@@ -9,9 +9,9 @@ animation of the map being built when snapshots exist). Nothing is fetched from 
 network; the folder can be zipped, mailed or served as it is.
 
 Modules: :mod:`~slamq.report.ranking` (directions, ranking, formatting),
-:mod:`~slamq.report.plots`, :mod:`~slamq.report.overlays`, :mod:`~slamq.report.frames`
-(animations), :mod:`~slamq.report.trajectory`, :mod:`~slamq.report.site` (the pages),
-:mod:`~slamq.report.cli`.
+:mod:`~slamq.report.plots`, :mod:`~slamq.report.overlays`, :mod:`~slamq.report.timeline`
+(timelines: ``slamq timeline`` and the animations), :mod:`~slamq.report.trajectory`,
+:mod:`~slamq.report.site` (the pages).
 """
 
 from __future__ import annotations

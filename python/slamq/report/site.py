@@ -366,7 +366,9 @@ def _gt_config(config: Any) -> tuple[str, float | None, float | None]:
         gt = json.loads(config)["gt"]
         return str(gt[0]), gt[1], gt[2]
     except (TypeError, ValueError, KeyError, IndexError):
-        return "icp", None, None
+        from slamq.params import SETTINGS
+
+        return SETTINGS.compare_align.default, None, None
 
 
 def _trajectory_section(rec: dict, grid: Any, out: Path, mp: _MapPage) -> str:
@@ -388,7 +390,8 @@ def _trajectory_section(rec: dict, grid: Any, out: Path, mp: _MapPage) -> str:
 
 
 def _building_section(rec: dict, out: Path, mp: _MapPage, params: Any) -> str:
-    from slamq.report.frames import bag_maps, build_timeline, find_snapshots, write_timeline_gif
+    from slamq.report.timeline import bag_maps, build_timeline, write_timeline_gif
+    from slamq.sources.snapshots import find_snapshots
 
     path = Path(rec["map"])
     sources: list[Any] = []

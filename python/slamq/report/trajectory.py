@@ -59,7 +59,10 @@ def ate_options(record: dict) -> tuple[str, float, str]:
     >>> ate_options({})
     ('se2', 0.01, 'error')
     """
-    align, max_dt, unsorted = "se2", 0.01, "error"
+    from slamq.params import SETTINGS
+
+    align, max_dt, unsorted = (SETTINGS.ate_align.default, SETTINGS.max_dt.default,
+                               SETTINGS.unsorted.default)
     try:
         a, d, u = json.loads(record.get("config") or "{}").get("ate")
         align, max_dt, unsorted = str(a), _number(d, max_dt), str(u)

@@ -13,9 +13,27 @@
 
 from __future__ import annotations
 
-from slamq.results.formats import read_records, read_results, write_csv, write_json
-from slamq.results.store import ResultsFile
-from slamq.results.summary import summarize, summary_table
+from typing import TYPE_CHECKING
+
+from slamq.lazy import exports
+
+if TYPE_CHECKING:
+    from slamq.results.formats import read_records, read_results, write_csv, write_json
+    from slamq.results.store import ResultsFile
+    from slamq.results.summary import summarize, summary_table
+
+#: Public names, imported on first use: name -> module.
+_WHERE = {
+    "ResultsFile": "slamq.results.store",
+    "read_records": "slamq.results.formats",
+    "read_results": "slamq.results.formats",
+    "summarize": "slamq.results.summary",
+    "summary_table": "slamq.results.summary",
+    "write_csv": "slamq.results.formats",
+    "write_json": "slamq.results.formats",
+}
+
+__getattr__, __dir__ = exports(globals(), _WHERE)
 
 __all__ = [
     "ResultsFile",

@@ -18,11 +18,13 @@ import csv
 import json
 import math
 from collections.abc import Iterator, Sequence
+from dataclasses import fields
 from pathlib import Path
 from typing import IO, Any
 
 from slamq.errors import MapError, ParamError, SlamqError
 from slamq.models import MapQuality
+from slamq.params import Params
 from slamq.results.columns import (
     ATE_COLUMNS,
     GT_COLUMNS,
@@ -46,16 +48,17 @@ __all__ = [
 _JSONL = (".jsonl", ".ndjson")
 _PARQUET = (".parquet", ".pq")
 
+#: The ``param_*`` columns of the map parameters, by type (from the schema, slamq.params).
+_PARAM_COLUMNS = {t: {f"param_{f.name}" for f in fields(Params) if f.type == t}
+                  for t in ("int", "float")}
 _INT_COLUMNS = {
     "unknown_value", "height", "width", "total", "known", "unknown", "occupied", "free",
     "corners", "corners_canonical", "enclosed_areas", "enclosed_unknown_value",
-    "param_min_dot_area",
-    "param_sweep_step", "param_min_area", "ate_n", "gt_truncated", "gt_outside",
-}
+    "ate_n", "gt_truncated", "gt_outside",
+} | _PARAM_COLUMNS["int"]
 #: Float columns that are NaN when a map has no known cell (null in JSON).
 _FLOAT_COLUMNS = {"occupied_fraction", "proportion", "threshold", "seconds",
-                  "param_log_threshold", "param_harris_k", "param_harris_quality",
-                  "param_canonical_resolution", "wall_angle", "known_box_m2"} | {
+                  "wall_angle", "known_box_m2"} | _PARAM_COLUMNS["float"] | {
     f"ate_{s}" for s in ("rmse", "mean", "median", "std", "min", "max")} | {
     c for c in GT_COLUMNS if c not in ("gt_map", "gt_error", "gt_truncated", "gt_outside")}
 _STR_COLUMNS = {

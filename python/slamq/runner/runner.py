@@ -602,8 +602,8 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
 def _gifs(rows: list[dict[str, Any]]) -> list[Path]:
     """A ``building.gif`` per run from its collected snapshots (the report's renderer)."""
     from slamq.report.animation import render_frames, write_gif
-    from slamq.report.frames import find_snapshots
     from slamq.sources.maps import load_map
+    from slamq.sources.snapshots import find_snapshots
 
     made = []
     for r in rows:

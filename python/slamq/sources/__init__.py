@@ -16,12 +16,31 @@ a bag is read.
 
 from __future__ import annotations
 
-from slamq.sources.files import is_bag
-from slamq.sources.grids import from_occupancy_grid
-from slamq.sources.maps import load_map
-from slamq.sources.pbstream import read_pbstream_trajectory
-from slamq.sources.trajectories import FORMATS, load_trajectory, parse_columns
-from slamq.sources.walk import discover_maps
+from typing import TYPE_CHECKING
+
+from slamq.lazy import exports
+
+if TYPE_CHECKING:
+    from slamq.sources.files import is_bag
+    from slamq.sources.grids import from_occupancy_grid
+    from slamq.sources.maps import load_map
+    from slamq.sources.pbstream import read_pbstream_trajectory
+    from slamq.sources.trajectories import FORMATS, load_trajectory, parse_columns
+    from slamq.sources.walk import discover_maps
+
+#: Public names, imported on first use: name -> module.
+_WHERE = {
+    "FORMATS": "slamq.sources.trajectories",
+    "discover_maps": "slamq.sources.walk",
+    "from_occupancy_grid": "slamq.sources.grids",
+    "is_bag": "slamq.sources.files",
+    "load_map": "slamq.sources.maps",
+    "load_trajectory": "slamq.sources.trajectories",
+    "parse_columns": "slamq.sources.trajectories",
+    "read_pbstream_trajectory": "slamq.sources.pbstream",
+}
+
+__getattr__, __dir__ = exports(globals(), _WHERE)
 
 __all__ = [
     "FORMATS",

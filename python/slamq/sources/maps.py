@@ -46,7 +46,6 @@ from slamq.sources.files import (
     is_bag,
     stat_path,
 )
-from slamq.sources.grids import from_occupancy_grid
 from slamq.sources.images import Image, decode_image, read_image_file, split_channels
 from slamq.sources.mapserver import image_map, load_yaml_map, reapply
 
@@ -156,6 +155,8 @@ def _load(
             if source.ndim != 2:
                 raise fail(where, f"an int8 OccupancyGrid array must be 2-D, got "
                                    f"{source.ndim}-D (use from_occupancy_grid for flat data)")
+            from slamq.sources.grids import from_occupancy_grid  # only for grid arrays
+
             grid = from_occupancy_grid(source, resolution=res, origin=org, source=where)
             return reapply(grid, unknown_value, None, None)
         if source.dtype != np.uint8:

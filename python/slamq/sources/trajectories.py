@@ -18,12 +18,13 @@ import numpy as np
 from slamq import native
 from slamq.errors import TrajectoryError
 from slamq.models.trajectory import Trajectory, yaw_to_quat
+from slamq.params import SETTINGS
 from slamq.sources.files import PathLike, is_bag
 
 __all__ = ["load_trajectory", "parse_columns", "FORMATS", "ROLES"]
 
 #: Formats :func:`load_trajectory` reads (``None`` = guess from the name and content).
-FORMATS = ("tum", "kitti", "euroc", "csv", "bag", "pbstream")
+FORMATS = SETTINGS.trajectory_format.choices
 #: Column roles of the generic table reader.
 ROLES = ("t", "x", "y", "z", "yaw", "qw", "qx", "qy", "qz")
 Columns = Mapping[str, Union[str, int]]
@@ -553,7 +554,7 @@ def load_trajectory(
             raise TrajectoryError(
                 f"{path}: unknown trajectory format {format!r} (one of {', '.join(FORMATS)})"
             )
-    if unsorted not in ("error", "last", "sort"):
+    if unsorted not in SETTINGS.unsorted.choices:
         raise TrajectoryError(f"unsorted must be 'error', 'last' or 'sort', not {unsorted!r}")
     if not path.exists():
         raise TrajectoryError(f"{path}: no such file")

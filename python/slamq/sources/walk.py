@@ -5,8 +5,8 @@ Rules
 * A folder's maps are its map YAML files (``.yaml``/``.yml`` with an ``image`` field; one
   that cannot be parsed counts too, so that loading it says why) and its images
   (:data:`~slamq.sources.files.IMAGE_SUFFIXES`) that no YAML in the folder names.
-* Numbered snapshots (``map_0001.pgm``: a name ending in three or more digits, with
-  another map of the same name before the digits beside it) are frames of the map being
+* Numbered snapshots (``map_0001.pgm``: the rule of :mod:`slamq.sources.snapshots`, with
+  another map of the same series beside it) are frames of the map being
   built, not maps: they are left out beside a non-numbered map, and a folder holding only
   snapshots gives its last one (by name). A lone dated name (``4_07_2022.yaml``) is a map.
 * Folders are searched recursively; hidden entries (``.name``) and ROS 2 bag folders are
@@ -20,7 +20,6 @@ Rules
 from __future__ import annotations
 
 import os
-import re
 import stat
 from collections import Counter
 from collections.abc import Iterable, Iterator
@@ -38,11 +37,10 @@ from slamq.sources.files import (
     resolve_image,
     stat_path,
 )
+from slamq.sources.snapshots import SNAPSHOT, series
 
 __all__ = ["discover_maps", "folder_maps", "walk_folders", "yaml_image"]
 
-#: A map name ending in three or more digits: a snapshot of a map being built.
-SNAPSHOT = re.compile(r"^(.*?)[_-]?(\d{3,})$")
 
 #: What :func:`read_yaml` gives for a YAML that cannot be read or parsed.
 UNREADABLE = object()
@@ -121,19 +119,13 @@ def folder_maps(folder: Path, files: list[Path] | None = None) -> list[Path]:
 
     images = [p for p in files if p.suffix.lower() in IMAGE_SUFFIXES and not named(p)]
     maps = sorted(yamls + images)
-    series = Counter(_series(p) for p in maps)
-    snaps = [p for p in maps if SNAPSHOT.match(p.stem) and series[_series(p)] > 1]
+    counts = Counter(series(p) for p in maps)
+    snaps = [p for p in maps if SNAPSHOT.match(p.stem) and counts[series(p)] > 1]
     if snaps and len(snaps) < len(maps):
         maps = [p for p in maps if p not in snaps]
     elif snaps and len(snaps) == len(maps) and len(maps) > 1:
         maps = [maps[-1]]
     return maps
-
-
-def _series(path: Path) -> str:
-    """The name a snapshot shares with the other frames of its map (``map_0001`` -> ``map``)."""
-    m = SNAPSHOT.match(path.stem)
-    return m.group(1) if m else path.stem
 
 
 def walk_folders(root: Path) -> Iterator[tuple[Path, list[Path], list[Path]]]:

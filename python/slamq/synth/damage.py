@@ -44,7 +44,8 @@ import numpy as np
 import pandas as pd
 
 from slamq.errors import ParamError
-from slamq.metrics import compare, evaluate
+from slamq.metrics.compare import compare
+from slamq.metrics.evaluate import evaluate
 from slamq.models import OccupancyMap
 from slamq.results import validity
 from slamq.sources import load_map
