@@ -323,10 +323,16 @@ def study_benchmark(df: pd.DataFrame, *, permutations: int = 1000,
     runs = pd.DataFrame({
         "runs": g.size(), "ok": g["outcome"].apply(lambda s: int((s == "ok").sum())),
         "ate_mean": g["ate_rmse"].mean(), "ate_std": g["ate_rmse"].std(),
+        "ate_median": g["ate_rmse"].median(),
         "f1_mean": g["gt_f1"].mean(), "f1_std": g["gt_f1"].std(),
         "broken": g["broken"].sum(),
     }).reset_index()
-    tables = {"runs": runs, "pooled": _pooled_rows(ok, permutations, seed)}
+    best = ok.loc[ok.groupby("sequence")["ate_rmse"].idxmin().dropna(), "algorithm"]
+    runs["best_ate_share"] = [float((best == a).mean()) if len(best) else float("nan")
+                              for a in runs["algorithm"]]
+    broken = df.pivot_table(index="kind", columns="noise", values="broken", aggfunc="sum",
+                            fill_value=0)
+    tables = {"runs": runs, "broken": broken, "pooled": _pooled_rows(ok, permutations, seed)}
     for by in ("kind", "noise", "world"):
         parts = []
         for value, part in ok.groupby(by):
@@ -365,12 +371,24 @@ def markdown_benchmark(tables: dict[str, pd.DataFrame], command: str) -> str:
     ``<!-- benchmark:end -->``)."""
     lines = [f"Regenerate with `{command}`.", "",
              "### Runs", "",
-             "| algorithm | odometry noise | runs | ok | broken | ATE RMSE (m) | GT-map F1 |",
-             "|---|---|---|---|---|---|---|"]
+             "ATE RMSE and GT-map F1: mean ± std over the runs; median ATE; best ATE: the share "
+             "of all sequences on which the algorithm had the lowest ATE.", "",
+             "| algorithm | odometry noise | runs | ok | broken | ATE RMSE (m) | median ATE (m) "
+             "| GT-map F1 | best ATE |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in tables["runs"].itertuples():
         lines.append(f"| {r.algorithm} | {r.noise} | {r.runs} | {r.ok} | {int(r.broken)} | "
                      f"{_fmt(r.ate_mean, '.3f')} ± {_fmt(r.ate_std, '.3f')} | "
-                     f"{_fmt(r.f1_mean)} ± {_fmt(r.f1_std)} |")
+                     f"{_fmt(r.ate_median, '.3f')} | {_fmt(r.f1_mean)} ± {_fmt(r.f1_std)} | "
+                     f"{_fmt(r.best_ate_share)} |")
+    b = tables["broken"]
+    if not b.empty:
+        lines += ["", "Broken runs by world kind and odometry noise (3 programs x 3 seeds x "
+                  "the worlds of the kind):", "",
+                  "| world kind | " + " | ".join(str(c) for c in b.columns) + " |",
+                  "|---|" + "---|" * len(b.columns)]
+        for kind, row in b.iterrows():
+            lines.append(f"| {kind} | " + " | ".join(str(int(v)) for v in row) + " |")
     lines += ["", "### Each metric against the truth, pooled over every sequence", "",
               "Spearman agreement (+1: the metric orders a sequence's maps as the truth does) "
               "/ pairwise concordance (0.5 = chance) / permutation p.", "",
