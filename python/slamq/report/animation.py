@@ -200,7 +200,9 @@ def write_gif(
             pad = np.full((h, w, 3), 255, np.uint8)
             pad[: a.shape[0], : a.shape[1]] = a
             a = pad
-        images.append(Image.fromarray(a).convert("P", palette=Image.Palette.ADAPTIVE))
+        # fast octree quantisation: 4-5x faster than the adaptive (median cut) palette on map
+        # frames (40 frames of 400 x 350: 0.30 -> 0.07 s), which have a few hundred colours
+        images.append(Image.fromarray(a).quantize(colors=256, method=Image.Quantize.FASTOCTREE))
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     images[0].save(

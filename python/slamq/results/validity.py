@@ -49,14 +49,35 @@ MIN_MAPS = 3
 
 
 def _ranks(x: np.ndarray) -> np.ndarray:
-    return pd.Series(x).rank(method="average").to_numpy()
+    """Average ranks (1-based; ties share the mean of their positions), as pandas'
+    ``rank(method="average")`` of finite values.
+
+    >>> _ranks(np.array([3.0, 1.0, 3.0, 2.0])).tolist()
+    [3.5, 1.0, 3.5, 2.0]
+    """
+    x = np.asarray(x, dtype=float)
+    order = np.argsort(x, kind="stable")
+    xs = x[order]
+    starts = np.r_[True, xs[1:] != xs[:-1]]
+    first = np.flatnonzero(starts)
+    last = np.r_[first[1:], len(x)] - 1
+    ranks = np.empty(len(x))
+    ranks[order] = ((first + last) / 2.0 + 1.0)[np.cumsum(starts) - 1]
+    return ranks
+
+
+def _centred_ranks(x: np.ndarray) -> np.ndarray:
+    r = _ranks(x)
+    return r - r.mean()
+
+
+def _spearman_centred(ra: np.ndarray, rb: np.ndarray) -> float:
+    den = float(np.sqrt((ra * ra).sum() * (rb * rb).sum()))
+    return float((ra * rb).sum() / den) if den > 0 else float("nan")
 
 
 def _spearman(a: np.ndarray, b: np.ndarray) -> float:
-    ra, rb = _ranks(a), _ranks(b)
-    ra, rb = ra - ra.mean(), rb - rb.mean()
-    den = float(np.sqrt((ra * ra).sum() * (rb * rb).sum()))
-    return float((ra * rb).sum() / den) if den > 0 else float("nan")
+    return _spearman_centred(_centred_ranks(a), _centred_ranks(b))
 
 
 def _concordance(a: np.ndarray, b: np.ndarray) -> tuple[int, int]:
@@ -154,7 +175,11 @@ def validate(results: Any, *, truths: tuple[str, ...] | None = None,
 
 
 def _pooled(groups: list[tuple[np.ndarray, np.ndarray]]) -> float:
-    rhos = [(_spearman(a, b), len(a)) for a, b in groups]
+    return _pooled_centred([(_centred_ranks(a), _centred_ranks(b)) for a, b in groups])
+
+
+def _pooled_centred(groups: list[tuple[np.ndarray, np.ndarray]]) -> float:
+    rhos = [(_spearman_centred(ra, rb), len(ra)) for ra, rb in groups]
     rhos = [(r, n) for r, n in rhos if np.isfinite(r)]
     if not rhos:
         return float("nan")
@@ -165,11 +190,26 @@ def _p_value(groups: list[tuple[np.ndarray, np.ndarray]], rng: np.random.Generat
              permutations: int) -> float:
     if permutations <= 0:
         return float("nan")
-    observed = abs(_pooled(groups))
+    # Ranks are taken once: the ranks of a shuffled column are its ranks shuffled the same
+    # way, and rng.permutation(n) draws the same order as rng.permutation(b) did (one
+    # shuffle of n items), so the p-values are those of shuffling the values themselves.
+    centred = [(_centred_ranks(a), _centred_ranks(b)) for a, b in groups]
+    observed = abs(_pooled_centred(centred))
     if not np.isfinite(observed):
         return float("nan")
-    hits = 0
-    for _ in range(permutations):
-        shuffled = [(a, rng.permutation(b)) for a, b in groups]
-        hits += abs(_pooled(shuffled)) >= observed - 1e-12
+    # the shuffles drawn in the order the loop over them would draw them, then every
+    # shuffle's agreement at once (a group whose ranks do not vary has none in any shuffle)
+    orders = [np.empty((permutations, len(rb)), dtype=np.intp) for _, rb in centred]
+    for k in range(permutations):
+        for g, (_, rb) in enumerate(centred):
+            orders[g][k] = rng.permutation(len(rb))
+    total: Any = 0
+    count = 0
+    for (ra, rb), order in zip(centred, orders):
+        den = float(np.sqrt((ra * ra).sum() * (rb * rb).sum()))
+        if not den > 0:
+            continue
+        total = total + (rb[order] * ra).sum(axis=1) / den * len(ra)
+        count += len(ra)
+    hits = int((np.abs(total / count) >= observed - 1e-12).sum())
     return (1 + hits) / (1 + permutations)
