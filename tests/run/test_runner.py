@@ -307,3 +307,25 @@ def test_an_index_timed_trajectory_gets_its_times_from_a_file(tmp_path: Path) ->
     cfg["algorithms"]["icp"]["outputs"]["trajectory"]["times"] = 5
     with pytest.raises(Exception, match=r"outputs.trajectory.times must be a path"):
         runner.run(cfg)
+
+
+def test_a_report_without_the_report_extra_is_refused_before_any_run(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # matplotlib and Pillow hidden as on a plain `pip install .`; the runs would take hours
+    # before the report failed
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name in ("matplotlib", "PIL") else
+                        real(name, *a))
+    counter = tmp_path / "count"
+    cfg = _config(tmp_path, {"fast": {"command": f"echo x >> {counter}"}}, parallel=1)
+    cfg["report"] = True
+    from slamq.errors import SlamqError
+
+    with pytest.raises(SlamqError, match=r"pip install 'slamq\[report\]', or set report"):
+        runner.run(cfg)
+    assert not counter.exists()
+    cfg["report"] = False  # runs and scores; no GIFs without Pillow
+    assert [r["outcome"] for r in runner.run(cfg)["rows"]] == ["ok"]

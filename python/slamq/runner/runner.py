@@ -599,8 +599,25 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
             "gifs": gifs, "report": report}
 
 
+def _need_report_extra(cfg: RunConfig) -> None:
+    """The report (``report: true``) draws with matplotlib and Pillow, the ``report`` extra:
+    say so before anything runs."""
+    import importlib.util
+
+    missing = [m for m in ("matplotlib", "PIL") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise SlamqError(f"{cfg.source}: report: true needs the 'report' extra "
+                         f"({', '.join(missing)} not installed): pip install 'slamq[report]', "
+                         "or set report: false")
+
+
 def _gifs(rows: list[dict[str, Any]]) -> list[Path]:
-    """A ``building.gif`` per run from its collected snapshots (the report's renderer)."""
+    """A ``building.gif`` per run from its collected snapshots (the report's renderer);
+    none without Pillow (the ``report`` extra)."""
+    import importlib.util
+
+    if importlib.util.find_spec("PIL") is None:
+        return []
     from slamq.report.animation import render_frames, write_gif
     from slamq.sources.maps import load_map
     from slamq.sources.snapshots import find_snapshots
@@ -656,6 +673,8 @@ def run(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
     ['planned']
     """
     cfg = load_config(config)
+    if cfg.report and not dry_run:
+        _need_report_extra(cfg)  # before the runs, not after hours of them
     rows = execute(cfg, retry_failed=retry_failed, dry_run=dry_run, progress=progress,
                    backend=backend)
     if dry_run:
