@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -70,44 +69,24 @@ def test_bad_input_exits_2_naming_the_file(tmp_path: Path, capsys, argv, message
     assert err.startswith("slamq: error:") and message in err
 
 
-@pytest.mark.skipif(importlib.util.find_spec("slamq.synth.writers") is not None,
-                    reason="the writers are installed")
-def test_sensor_log_formats_need_the_writers(tmp_path: Path, capsys) -> None:
-    main(["synth", "world", "--size", "8", "6", "--out", str(tmp_path / "w")])
-    assert main(["synth", "sequence", str(tmp_path / "w" / "office_0.yaml"), "--out",
-                 str(tmp_path / "o"), "--formats", "truth,rawlog"]) == 2
-    assert "slamq.synth.writers" in capsys.readouterr().err
-    assert not (tmp_path / "o").exists()  # nothing simulated before the check
+def test_the_help_names_the_writers_formats() -> None:
+    from slamq.cli.synth import WRITER_FORMATS
+    from slamq.synth.writers import FORMATS
+
+    assert WRITER_FORMATS == tuple(FORMATS)
 
 
-def test_sensor_log_formats_go_to_the_writers(tmp_path: Path, monkeypatch, capsys) -> None:
-    """A stand-in for slamq.synth.writers (another branch): FORMATS and write()."""
-    import importlib.machinery
-    import sys
-    import types
-
-    import slamq.synth
-
-    calls = []
-    mod = types.ModuleType("slamq.synth.writers")
-    mod.__spec__ = importlib.machinery.ModuleSpec("slamq.synth.writers", None)
-    mod.FORMATS = ("rawlog", "carmen")
-
-    def write(seq, folder, formats):
-        calls.append((len(seq), list(formats)))
-        p = Path(folder) / "run.rawlog"
-        p.write_text("x")
-        return {"rawlog": p}
-
-    mod.write = write
-    monkeypatch.setitem(sys.modules, "slamq.synth.writers", mod)
-    monkeypatch.setattr(slamq.synth, "writers", mod, raising=False)
+def test_sensor_log_formats_go_to_the_writers(tmp_path: Path, capsys) -> None:
     main(["synth", "world", "--size", "8", "6", "--out", str(tmp_path / "w")])
     world = str(tmp_path / "w" / "office_0.yaml")
     assert main(["synth", "sequence", world, "--out", str(tmp_path / "o"), "--beams", "31",
-                 "--formats", "truth,rawlog", "--length", "8"]) == 0
-    assert calls and calls[0][1] == ["rawlog"] and (tmp_path / "o" / "run.rawlog").is_file()
-    assert "rawlog: " in capsys.readouterr().out
-    assert main(["synth", "sequence", world, "--out", str(tmp_path / "o"),
-                 "--formats", "mcap"]) == 2
-    assert "unknown format 'mcap': one of truth, npz, rawlog, carmen" in capsys.readouterr().err
+                 "--formats", "truth,rawlog,carmen", "--length", "8"]) == 0
+    out = capsys.readouterr().out
+    assert "rawlog: " in out and "carmen: " in out
+    assert sorted(p.suffix for p in (tmp_path / "o").glob("*.rawlog")) == [".rawlog"]
+    assert len(list((tmp_path / "o").glob("*.log"))) == 1
+    assert main(["synth", "sequence", world, "--out", str(tmp_path / "o2"),
+                 "--formats", "truth,video"]) == 2
+    assert "unknown format 'video': one of truth, npz, rawlog, carmen, rosbag1" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "o2").exists()  # nothing simulated before the check

@@ -3,14 +3,13 @@
 ``world`` draws a seeded procedural building (:func:`slamq.synth.world`) and saves it as a
 map_server map; ``sequence`` drives a simulated robot through a world (any map_server map)
 and writes its ground truth (:func:`slamq.synth.write_truth`) and, with ``--formats``, the
-sensor logs SLAM programs read (``slamq.synth.writers``, imported only when such a format
-is asked for).
+sensor logs SLAM programs read (:mod:`slamq.synth.writers`, imported only when such a format
+is asked for: every command's parser imports this module).
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import math
 from pathlib import Path
 
@@ -19,7 +18,8 @@ from slamq.errors import SlamqError
 
 #: Formats this module writes itself; the others come from ``slamq.synth.writers.FORMATS``.
 OWN_FORMATS = ("truth", "npz")
-#: The sensor-log formats ``slamq.synth.writers`` is to provide.
+#: The sensor-log formats of ``slamq.synth.writers.FORMATS``, named here for ``--help`` so
+#: that building the parser does not import the writers (tests/synth: equal).
 WRITER_FORMATS = ("rawlog", "carmen", "rosbag1", "rosbag2", "mcap")
 
 
@@ -120,23 +120,15 @@ def _folder(out: str) -> Path:
 
 def parse_formats(text: str) -> list[str]:
     """The asked formats, checked: a :class:`~slamq.errors.SlamqError` names an unknown
-    one, or a sensor-log format when ``slamq.synth.writers`` is not there. The writers
-    module is imported only when a format other than ``truth`` and ``npz`` is asked for;
-    its ``FORMATS`` then says which it writes."""
+    one. The writers module is imported only when a format other than ``truth`` and
+    ``npz`` is asked for; its ``FORMATS`` says which it writes."""
     names = list(dict.fromkeys(f.strip().lower() for f in text.split(",") if f.strip()))
     if not names:
         raise SlamqError("--formats: no format given")
     logs = [n for n in names if n not in OWN_FORMATS]
     if not logs:
         return names
-    if importlib.util.find_spec("slamq.synth.writers") is None:
-        unknown = [n for n in logs if n not in WRITER_FORMATS]
-        if unknown:
-            raise SlamqError(f"--formats: unknown format {unknown[0]!r}: one of "
-                             f"{', '.join(OWN_FORMATS + WRITER_FORMATS)}")
-        raise SlamqError(f"--formats: {', '.join(logs)} needs slamq.synth.writers, which "
-                         "this installation does not have")
-    from slamq.synth import writers  # another branch's module, only when asked for
+    from slamq.synth import writers
 
     known = tuple(writers.FORMATS)
     for n in logs:
@@ -171,7 +163,7 @@ def handle_sequence(args: argparse.Namespace) -> int:
         files["npz"] = save_sequence(seq, out / "sequence.npz")
     logs = [f for f in formats if f not in OWN_FORMATS]
     if logs:
-        from slamq.synth import writers  # checked by parse_formats
+        from slamq.synth import writers
 
         files.update(writers.write(seq, out, logs))
     print(f"{seq.name}: {len(seq)} scans x {seq.laser.beams} beams, "
