@@ -5,7 +5,7 @@ planned drive, times:
 
 - the Rust ray caster (``slamq.synth.sensors.cast``) with 1 and 2 threads, beams per second
   (best of ``--repeat``), 1081 beams over 270 degrees, 20 m range;
-- its numpy reference (``cast_numpy``, the same walk) on a subset of the scans, beams per
+- its numpy twin (``cast_numpy``, the same walk) on a subset of the scans, beams per
   second, and the ratio in this run; the two results are checked equal to 1e-9 m;
 - ``slamq.synth.simulate`` for ``--scans`` scans of ``--beams`` beams (drive planning, ray
   casting, range and odometry noise), seconds, with 1 thread and every core.
@@ -92,11 +92,11 @@ def main() -> None:
     print(f"| Rust, 1 thread | {t1:.3f} | {beams / t1 / 1e6:.2f} M | {beams / t1 / np_rate:.0f}x |")
     print(f"| Rust, 2 threads | {t2:.3f} | {beams / t2 / 1e6:.2f} M | "
           f"{beams / t2 / np_rate:.0f}x |")
-    print(f"| numpy reference ({sub.shape[0]} scans) | {t_np:.3f} | {np_rate / 1e6:.3f} M | 1x |")
+    print(f"| numpy twin ({sub.shape[0]} scans) | {t_np:.3f} | {np_rate / 1e6:.3f} M | 1x |")
     print()
     print(f"2 / 1 threads: {t1 / t2:.2f}x; 1 thread by CPU time: {beams / cpu1 / 1e6:.2f} M "
           f"beams per CPU second; load average {os.getloadavg()[0]:.1f}; "
-          f"Rust == numpy reference (1e-9 m): {same}")
+          f"Rust == numpy twin (1e-9 m): {same}")
     print()
     print(f"simulate, {poses.shape[0]} scans x {angles.size} beams (given the drive): "
           f"{t_sim1:.3f} s on 1 thread, {t_simall:.3f} s on every core; planning the drive "

@@ -10,7 +10,7 @@
 //! `(x, y, yaw)` of the lower-left corner of the lower-left cell (ROS map_server). Poses
 //! are `(x, y, yaw)` in the world frame; beam angles are relative to the pose's heading.
 //!
-//! `python/slamq/synth/sensors.py`'s `cast_numpy` is this module's reference: the same
+//! `python/slamq/synth/sensors.py`'s `cast_numpy` is this module's numpy twin: the same
 //! walk, the same floating-point operations in the same order, on numpy arrays.
 
 use rayon::prelude::*;

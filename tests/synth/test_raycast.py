@@ -1,4 +1,4 @@
-"""The simulator's laser: the Rust ray caster against its numpy reference, thread counts,
+"""The simulator's laser: the Rust ray caster against its numpy twin, thread counts,
 geometry, and bad input."""
 
 from __future__ import annotations

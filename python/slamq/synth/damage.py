@@ -63,7 +63,7 @@ SEVERITIES: dict[str, tuple[float, ...]] = {
     "rotation": (0.0, 1.0, 2.0, 5.0, 10.0, 20.0),
     "specks": (0.0, 0.001, 0.002, 0.005, 0.01, 0.02),
 }
-#: Reference columns of the study: the plan as ground truth (lower is better).
+#: Ground-truth columns of the study: the plan as ground truth (lower is better).
 PLAN_FIGURES = ("plan_f1_loss", "plan_chamfer")
 _SUB = 3  # sub-samples per cell side when drawing
 

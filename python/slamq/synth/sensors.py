@@ -2,7 +2,7 @@
 controllable noise.
 
 - :func:`cast` (the Rust core, ``rust/src/raycast.rs``) and :func:`cast_numpy` (its plain
-  numpy reference, the same walk): the exact distance from the laser to where each beam
+  numpy twin, the same walk): the exact distance from the laser to where each beam
   enters the first cell that stops it, ``inf`` beyond the maximum range.
 - :func:`laser_scans`: a :class:`~slamq.synth.LaserSpec`'s scans along a path, with its
   seeded range noise and minimum range.
@@ -129,7 +129,7 @@ def cast(world: OccupancyMap, poses: Any, angles: Any, max_range: float,
 
 
 def cast_numpy(world: OccupancyMap, poses: Any, angles: Any, max_range: float) -> np.ndarray:
-    """The reference of :func:`cast`: the same Amanatides-Woo walk in numpy, all beams of a
+    """The numpy twin of :func:`cast`: the same Amanatides-Woo walk in numpy, all beams of a
     scan at once (slow; for tests and benchmarks).
 
     Examples
