@@ -58,6 +58,9 @@ def test_a_recipe_expands_into_named_sequences_with_their_ground_truth(tmp_path:
     ({"worlds": [{"kind": "office", "floor": 2}]}, "worlds[0] must be"),
     ({"worlds": 1, "input": "video"}, "input must be one of"),
     ({"worlds": 1, "groundtruth_map": "blurry"}, "groundtruth_map must be visible or gt"),
+    ({"worlds": 1, "laser": {"colour": 1}}, "laser: unknown keys colour"),
+    ({"worlds": 1, "drive": {"wings": 2}}, "drive: unknown keys wings"),
+    ({"worlds": 1, "drive": 3}, "drive must be a mapping"),
 ])
 def test_a_bad_recipe_is_refused_naming_the_key(tmp_path: Path, synth: dict,
                                                 words: str) -> None:

@@ -27,6 +27,9 @@ only the walls the laser hit, or ``gt_map.yaml``), so every ok run has ``ate_*``
 
 from __future__ import annotations
 
+import functools
+import hashlib
+import inspect
 import json
 import os
 from collections.abc import Iterable
@@ -93,23 +96,27 @@ _INPUT_SUFFIX = {"rawlog": ".rawlog", "carmen": ".log", "rosbag1": ".bag", "rosb
                  "mcap": "_mcap"}
 
 
-_DIGEST: list[str] = []
-
-
+@functools.cache
 def generator_digest() -> str:
     """SHA-1 of the source of every module that makes a generated sequence's files (the
     worlds, the drive, the sensors, the truth, the writers): a folder made by other code is
     generated again."""
-    if not _DIGEST:
-        import hashlib
+    here = Path(__file__).parent
+    h = hashlib.sha1(usedforsecurity=False)
+    for f in sorted([*here.glob("*.py"), *here.glob("writers/*.py")]):
+        if f.name not in ("benchmark.py", "damage.py", "__main__.py"):
+            h.update(f.name.encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()[:16]
 
-        here = Path(__file__).parent
-        h = hashlib.sha1(usedforsecurity=False)
-        for f in sorted([*here.glob("*.py"), *here.glob("writers/*.py")]):
-            if f.name not in ("benchmark.py", "damage.py", "__main__.py"):
-                h.update(f.name.encode() + b"\0" + f.read_bytes())
-        _DIGEST.append(h.hexdigest()[:16])
-    return _DIGEST[0]
+
+def _keywords(value: Any, known: Iterable[str], where: str) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise ParamError(f"{where} must be a mapping")
+    unknown = set(value) - set(known)
+    if unknown:
+        raise ParamError(f"{where}: unknown keys {', '.join(sorted(unknown))} "
+                         f"(known: {', '.join(sorted(known))})")
+    return dict(value)
 
 
 def _list(value: Any, where: str) -> list[Any]:
@@ -193,9 +200,13 @@ def expand(name: str, doc: Any, output: Path, base: Path, where: str) -> list[Ge
     gt_map = str(doc.get("groundtruth_map", "visible"))
     if gt_map not in ("visible", "gt"):
         raise ParamError(f"{where}.groundtruth_map must be visible or gt, got {gt_map!r}")
-    for key in ("laser", "drive"):
-        if not isinstance(doc.get(key, {}), dict):
-            raise ParamError(f"{where}.{key} must be a mapping")
+    from slamq.synth.drive import drive
+    from slamq.synth.sequence import LaserSpec
+
+    laser = _keywords(doc.get("laser", {}), LaserSpec.__dataclass_fields__, f"{where}.laser")
+    options = _keywords(doc.get("drive", {}),
+                        [p for p in inspect.signature(drive).parameters
+                         if p not in ("world", "seed")], f"{where}.drive")
     out = []
     for w in worlds:
         for noise in noises:
@@ -203,8 +214,7 @@ def expand(name: str, doc: Any, output: Path, base: Path, where: str) -> list[Ge
                 label = f"{name}-{_world_label(w)}-{noise}-s{seed}"
                 recipe = {"world": w, "noise": noise, "seed": seed, "input": fmt,
                           "formats": formats, "groundtruth_map": gt_map,
-                          "laser": dict(doc.get("laser", {})),
-                          "drive": dict(doc.get("drive", {}))}
+                          "laser": laser, "drive": options}
                 out.append(Generated(label, output / "sequences" / label, recipe))
     return out
 
