@@ -50,6 +50,8 @@ def _row_of(func: Any, name: str) -> str | None:
         mod, qual = func.__module__, func.__qualname__
         if mod.endswith(("compare", "consensus")) or qual in ("compare", "consensus"):
             return "compare_align"
+        if mod.endswith("agreement") or qual == "agreement":
+            return "agreement_align"
         if qual.startswith("rpe"):
             return "rpe_align"
         if qual.startswith(("ate", "ate_runs")):
@@ -90,7 +92,7 @@ def test_every_keyword_of_the_schema_has_its_default() -> None:
     assert wrong == []
     # the scan does find the keywords (the test would pass vacuously otherwise)
     assert {"max_dt", "offset", "ate_align", "rpe_align", "unsorted", "compare_align",
-            "occupied_threshold", "quorum", "radius"} <= seen
+            "occupied_threshold", "quorum", "radius", "agreement_align", "min_support"} <= seen
 
 
 def test_every_cli_option_of_the_schema_has_its_default_and_choices() -> None:

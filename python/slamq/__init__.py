@@ -36,7 +36,7 @@ from slamq.lazy import exports
 
 if TYPE_CHECKING:  # what the names below are, for type checkers (imported on first use)
     from slamq import api, synth  # noqa: F401
-    from slamq.api import ate, ate_runs, compare, consensus, evaluate, rpe
+    from slamq.api import agreement, ate, ate_runs, compare, consensus, evaluate, rpe
     from slamq.batch.engine import evaluate_many
     from slamq.batch.runs import discover_runs
     from slamq.metrics import reference  # noqa: F401
@@ -61,6 +61,7 @@ _LAZY = {
     "evaluate": "slamq.api",
     "compare": "slamq.api",
     "consensus": "slamq.api",
+    "agreement": "slamq.api",
     "ate": "slamq.api",
     "rpe": "slamq.api",
     "ate_runs": "slamq.api",
@@ -101,6 +102,7 @@ __all__ = [
     "SlamqError",
     "Trajectory",
     "TrajectoryError",
+    "agreement",
     "ate",
     "ate_runs",
     "compare",

@@ -30,6 +30,8 @@ from slamq.metrics.ate import ate as ate_of
 from slamq.metrics.ate import ate_runs as ate_runs_of
 from slamq.metrics.ate import rpe as rpe_of
 from slamq.metrics.compare import compare as compare_of
+from slamq.metrics.agreement import Agreement
+from slamq.metrics.agreement import agreement as agreement_of
 from slamq.metrics.consensus import Consensus
 from slamq.metrics.consensus import consensus as consensus_of
 from slamq.metrics.evaluate import evaluate as evaluate_of
@@ -37,7 +39,7 @@ from slamq.models import MapComparison, MapQuality, OccupancyMap, Trajectory
 from slamq.sources.maps import load_map
 from slamq.sources.trajectories import load_trajectory
 
-__all__ = ["MapSource", "TrajLike", "ate", "ate_runs", "compare", "consensus", "evaluate",
+__all__ = ["MapSource", "TrajLike", "agreement", "ate", "ate_runs", "compare", "consensus", "evaluate",
            "rpe"]
 
 #: What the map functions accept: a path, an :class:`OccupancyMap`, or a numpy image array.
@@ -181,6 +183,36 @@ def consensus(maps: Mapping[str, MapSource] | Sequence[MapSource],
     named = (dict(maps) if isinstance(maps, Mapping)
              else {str(i): m for i, m in enumerate(maps)})
     return consensus_of({str(k): _load(v, None) for k, v in named.items()}, **options)
+
+
+@_like(agreement_of, [_param("maps")])
+def agreement(maps: Mapping[str, MapSource] | Sequence[MapSource],
+              **options: Any) -> Agreement:
+    """Each of several maps of one place (files, arrays or models) scored by the others.
+
+    Parameters
+    ----------
+    maps : mapping of name to map, or sequence of maps
+        At least 2 maps, anything :func:`slamq.load_map` reads; a sequence is named
+        ``"0"``, ``"1"``...
+    **options
+        Every keyword of :func:`slamq.metrics.agreement.agreement`.
+
+    Returns
+    -------
+    Agreement
+
+    Examples
+    --------
+    >>> import numpy as np, slamq
+    >>> img = np.full((30, 30), 254, np.uint8); img[5, 5:25] = 0; img[5:25, 5] = 0
+    >>> a = slamq.agreement([img, img, img], align="origin")
+    >>> a.support["0"], a.majority
+    (1.0, True)
+    """
+    named = (dict(maps) if isinstance(maps, Mapping)
+             else {str(i): m for i, m in enumerate(maps)})
+    return agreement_of({str(k): _load(v, None) for k, v in named.items()}, **options)
 
 
 def _trajectory(x: TrajLike, what: str) -> Trajectory:

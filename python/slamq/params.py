@@ -187,8 +187,8 @@ class Setting:
     Attributes
     ----------
     family : str
-        ``"load"``, ``"runtime"``, ``"trajectory"``, ``"compare"``, ``"consensus"`` or
-        ``"synth"``.
+        ``"load"``, ``"runtime"``, ``"trajectory"``, ``"compare"``, ``"consensus"``,
+        ``"agreement"`` or ``"synth"``.
     name : str
         The row's name (also the keyword or option it is, unless noted in ``help``).
     default : Any
@@ -313,6 +313,13 @@ SETTINGS = _Rows((s.name, s) for s in (
             "near it", "", float, 0.0, 1.0, high_open=True),
     Setting("consensus", "radius", 1, "cells of slack between the maps' walls once aligned",
             "cells", int, 0, None),
+    Setting("agreement", "agreement_align", "register",
+            "how maps of one place are put in one frame for slamq.agreement: register (global "
+            "search, then ICP), or as compare's align", type=str,
+            choices=("register",) + _MAP_ALIGNMENTS),
+    Setting("agreement", "min_support", 0.6,
+            "the support (median consistency with the other maps) a map needs to count as "
+            "confirmed", "", float, 0.0, 1.0),
 ))
 
 

@@ -40,10 +40,14 @@ from slamq.report.ranking import COMPLETE_SHARE, known_share
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_resolutions
 
-__all__ = ["COMPLETE_SHARE", "CLEAR_MARGIN", "sequence_verdict", "write_verdicts"]
+__all__ = ["AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "sequence_verdict", "write_verdicts"]
 
 #: Corners: a runner-up within this relative margin of the best means no clear winner.
 CLEAR_MARGIN = 0.25
+#: Without ground truth: a map whose support (median consistency with the other maps) is
+#: below this share of the sequence's best support disagrees with the others and is never
+#: named best; the maps at or above it are confirmed equally (corners break that tie).
+AGREEMENT_SHARE = 0.9
 
 _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
@@ -64,7 +68,90 @@ def _means(block: pd.DataFrame, key: str) -> pd.Series:
     return values[np.isfinite(values.to_numpy(dtype=float))]
 
 
-def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
+def _corner_key(block: pd.DataFrame, names: list[str]) -> tuple[str | None, pd.Series]:
+    """The corner column that orders ``names``: plain corners when the maps share one
+    resolution and orientation, else corners_canonical; None when neither is there."""
+    part = block.loc[[a for a in names if a in block.index]]
+    differ = (len(distinct_resolutions(part.get("resolution_mean", []))) > 1
+              or angle_spread(part.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG)
+    for key in (("corners_canonical",) if differ else ("corners", "corners_canonical")):
+        means = _means(part, key)
+        if len(means) == len(part):
+            return key, means
+    return None, pd.Series(dtype=float)
+
+
+def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, Any],
+                       partial: set[str], warnings: list[str]) -> dict[str, Any]:
+    """The verdict without ground truth, from the maps' agreement and defect flags."""
+    info = {str(a): e for a, e in evidence["algorithms"].items() if a in block.index}
+    warnings.extend(evidence.get("notes", []))
+    flagged: dict[str, str] = {}
+    for a, e in info.items():
+        if not e["placed"]:
+            flagged[a] = "could not be registered with the other maps"
+        elif e["flagged_runs"] and 2 * e["flagged_runs"] >= e["runs"]:
+            kinds = sorted({d["kind"] for ds in e["defects"].values() for d in ds})
+            flagged[a] = f"defects: {', '.join(kinds)}"
+    support = {a: e["support"] for a, e in info.items() if math.isfinite(e["support"])}
+    complete = {a: e["completeness"] for a, e in info.items()
+                if math.isfinite(e["completeness"])}
+    top = max(support.values()) if support else math.nan
+    for a, v in support.items():
+        if a not in flagged and v < AGREEMENT_SHARE * top:
+            flagged[a] = (f"its walls disagree with the other maps (support {v:.2f}, best "
+                          f"{top:.2f})")
+    most = max(complete.values()) if complete else math.nan
+    partial = set(partial)
+    for a, v in complete.items():
+        if v < COMPLETE_SHARE * most:
+            partial.add(a)
+            warnings.append(f"{a}'s map knows {100 * v / most:.0f}% of the area the other "
+                            "maps agree exists: a partial map, never named best")
+    for a in sorted(flagged):
+        warnings.append(f"{a} is never named best: {flagged[a]}")
+    candidates = sorted((a for a in support if a not in flagged and a not in partial),
+                        key=lambda a: (-support[a], a))
+    key, corners = _corner_key(block, candidates)
+    if key is not None and len(candidates) > 1:
+        candidates.sort(key=lambda a: (float(corners[a]), a))
+    rest = sorted((a for a in support if a not in candidates),
+                  key=lambda a: (a in flagged, -support[a], a))
+    ranking = candidates + rest
+    unranked = sorted(str(a) for a in block.index if str(a) not in support)
+    if unranked:
+        warnings.append(f"not ranked, no agreement figure: {', '.join(unranked)}")
+    basis = ["agreement"] + ([key] if key and len(candidates) > 1 else [])
+    why = None
+    if len(support) < 3:
+        why = ("fewer than three maps take part: two maps that differ cannot tell which "
+               "of them is right")
+        if len(support) == 2 and len(candidates) == 1 and any(
+                flagged.get(a, "").startswith("defects") for a in support):
+            why = None  # one map is flagged on its own: the other is named
+    elif not evidence["majority"]:
+        why = ("the maps disagree among themselves (most of them are not confirmed by the "
+               "others): the evidence does not say which is right")
+    if why is None and not candidates:
+        why = "every map is flagged or partial"
+    if why is not None:
+        return {"sequence": str(sequence), "best": None, "ranking": ranking,
+                "basis": basis, "confidence": f"none: {why}", "warnings": warnings}
+    confidence = ("medium: no ground truth; the maps confirm each other, and the named map "
+                  "is confirmed by them and has no defect flag")
+    if key is not None and len(candidates) > 1:
+        confidence += (f"; among the {len(candidates)} maps they confirm equally, {key} "
+                       "decide")
+        first, second = float(corners[candidates[0]]), float(corners[candidates[1]])
+        if second <= first * (1 + CLEAR_MARGIN):
+            confidence += (f"; no clear winner: {candidates[0]} and {candidates[1]} are "
+                           f"within {int(CLEAR_MARGIN * 100)}% ({first:g} and {second:g})")
+    return {"sequence": str(sequence), "best": candidates[0], "ranking": ranking,
+            "basis": basis, "confidence": confidence, "warnings": warnings}
+
+
+def sequence_verdict(summary: pd.DataFrame, sequence: str,
+                     evidence: dict[str, Any] | None = None) -> dict[str, Any]:
     """The verdict on one sequence of a report summary.
 
     Parameters
@@ -72,6 +159,10 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
     summary : pandas.DataFrame
         :func:`slamq.report.ranking.summarize` output (index sequence, algorithm).
     sequence : str
+    evidence : dict, optional
+        :func:`slamq.report.evidence.sequence_evidence` of the sequence: without ground
+        truth, the verdict then rests on the maps' agreement and defect flags. Without it,
+        on corners alone (low confidence).
 
     Returns
     -------
@@ -92,6 +183,12 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
     ('a', ['a', 'b'], ['ate_rmse'])
     >>> sequence_verdict(summarize(df.drop(columns="ate_rmse")), "s")["ranking"]
     ['b', 'a', 'c']
+    >>> ev = {"majority": True, "notes": [], "algorithms": {
+    ...     a: {"support": s, "completeness": 1.0, "placed": True, "runs": 1,
+    ...         "flagged_runs": 0, "defects": {}} for a, s in zip("abc", [0.9, 0.5, 0.88])}}
+    >>> v = sequence_verdict(summarize(df.drop(columns="ate_rmse")), "s", ev)
+    >>> v["best"], v["ranking"], v["basis"]
+    ('c', ['c', 'a', 'b'], ['agreement', 'corners'])
     """
     block = summary.xs(sequence, level="sequence") if len(summary) else summary
     refs = [a for a in block.index if str(a).lower() in GROUND_TRUTH_ALGORITHMS]
@@ -99,6 +196,8 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
     warnings: list[str] = []
     share = known_share(block)  # by area: comparable across resolutions; else cells
     partial = {a for a, s in share.items() if s < COMPLETE_SHARE}
+    if evidence is not None and not any(len(_means(block, k)) >= 2 for k, *_ in _BASES[:2]):
+        return _agreement_verdict(block, sequence, evidence, set(), warnings)
     for a in sorted(partial):
         warnings.append(f"{a}'s map knows {100 * share[a]:.0f}% of the area of the most "
                         "complete map: a partial map, never named best")

@@ -1,0 +1,249 @@
+"""``slamq.agreement``: several maps of one place as evidence about each other, without
+ground truth (docs/spec.md section 9).
+
+Every ordered pair of maps is compared once (:func:`slamq.compare` with its per-cell
+flags, after the maps have been placed in one frame): map *i* is laid on map *j*'s grid.
+Only where the *other* map looked counts, so that a map is not blamed for walls the other
+never saw:
+
+- ``support(i, j)``: the share of *i*'s walls lying in *j*'s known area (grown by the
+  tolerance) that have a wall of *j* within the tolerance;
+- ``recall(i, j)``: the share of *j*'s walls lying in *i*'s known area (grown likewise)
+  that have a wall of *i* within the tolerance;
+- ``consistency(i, j)``: their harmonic mean, averaged over the two directions of the pair
+  (so it is symmetric);
+- ``covers(i, j)``: the share of *j*'s known cells that *i* knows.
+
+Per map: ``support`` is the median of its consistencies with the other maps, and
+``completeness`` the median of ``covers(i, j)`` (area the other maps agree exists that this
+map knows; cells a map knows outside every other map, such as a superposed copy, do not
+count). A map whose walls the others do not confirm has a low support; a map that saw less
+has a low completeness, not a low support.
+
+A map can only be judged by maps that agree with each other: ``majority`` says whether more
+than half of the maps have a support of at least ``min_support``. When it is False the
+maps disagree among themselves (most of them broken, or not of one place) and the numbers
+do not say which map is right.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from slamq.errors import ParamError
+from slamq.metrics.compare import compare
+from slamq.models import OccupancyMap
+from slamq.params import SETTINGS
+
+__all__ = ["Agreement", "agreement"]
+
+_E, _G, _EM, _GM, _EK, _GF = 1, 2, 4, 8, 16, 32
+
+
+@dataclass(frozen=True)
+class Agreement:
+    """Several maps of one place scored by each other.
+
+    Attributes
+    ----------
+    names : list of str
+        The maps, in the order given.
+    support : dict of str to float
+        Per map, the median consistency with the other maps, in [0, 1] (NaN when no
+        other map overlaps it).
+    completeness : dict of str to float
+        Per map, the median share of another map's known area that it knows, in [0, 1].
+    consistency : numpy.ndarray
+        ``consistency[i, j]``, symmetric, NaN on the diagonal and where two maps do not
+        overlap.
+    placed : dict of str to bool
+        Whether each map could be placed in the common frame (a map that could not has
+        NaN figures).
+    majority : bool
+        More than half of the maps have a support of at least ``min_support``.
+    min_support : float
+        The support a map needs to count as confirmed.
+    notes : list of str
+        Plain sentences on what went wrong (maps not placed, no majority).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import agreement
+    >>> img = np.full((40, 40), 254, np.uint8); img[5, 5:35] = 0; img[5:35, 5] = 0
+    >>> bad = img.copy(); bad[20, 10:35] = 0; bad[5:35, 5] = 254    # ghost in, wall out
+    >>> a = agreement({"a": img, "b": img, "c": bad}, align="origin")
+    >>> a.support["a"] > a.support["c"], a.majority
+    (True, True)
+    """
+
+    names: list[str]
+    support: dict[str, float]
+    completeness: dict[str, float]
+    consistency: np.ndarray
+    placed: dict[str, bool]
+    majority: bool
+    min_support: float
+    notes: list[str] = field(default_factory=list)
+
+    def table(self) -> list[dict[str, Any]]:
+        """One dict per map: ``name``, ``support``, ``completeness``, ``placed``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from slamq import agreement
+        >>> img = np.full((20, 20), 254, np.uint8); img[5, 2:18] = 0; img[5:15, 2] = 0
+        >>> [r["support"] for r in agreement([img, img, img], align="origin").table()]
+        [1.0, 1.0, 1.0]
+        """
+        return [{"name": n, "support": self.support[n],
+                 "completeness": self.completeness[n], "placed": self.placed[n]}
+                for n in self.names]
+
+
+def _grow(mask: np.ndarray, cells: int) -> np.ndarray:
+    if cells <= 0 or not mask.any():
+        return mask
+    import cv2  # on first use: importing OpenCV takes a while
+
+    k = np.ones((2 * cells + 1, 2 * cells + 1), np.uint8)
+    return cv2.dilate(mask.astype(np.uint8), k) != 0
+
+
+def _share(num: int, den: int) -> float:
+    return num / den if den else math.nan
+
+
+def _pair(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | None,
+          threads: int | None) -> tuple[float, float, float]:
+    """(support, recall, covers) of ``est`` laid on ``ref``'s grid."""
+    c = compare(est, ref, align=align, tolerance=tolerance, cells=True, threads=threads)
+    f = c.cells
+    assert f is not None
+    grow = max(1, int(math.ceil(c.tolerance / c.resolution)))
+    e, g = (f & _E) != 0, (f & _G) != 0
+    ref_known = _grow((f & (_G | _GF)) != 0, grow)
+    est_known = _grow((f & (_EK | _E)) != 0, grow)
+    e_in, g_in = e & ref_known, g & est_known
+    support = _share(int(np.count_nonzero(e_in & ((f & _EM) != 0))),
+                     int(np.count_nonzero(e_in)))
+    recall = _share(int(np.count_nonzero(g_in & ((f & _GM) != 0))),
+                    int(np.count_nonzero(g_in)))
+    ref_cells = (f & (_G | _GF)) != 0
+    covers = _share(int(np.count_nonzero(ref_cells & ((f & (_EK | _E)) != 0))),
+                    int(np.count_nonzero(ref_cells)))
+    return support, recall, covers
+
+
+def _f(p: float, r: float) -> float:
+    if not (math.isfinite(p) and math.isfinite(r)):
+        return math.nan
+    return 0.0 if p + r == 0 else 2 * p * r / (p + r)
+
+
+def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
+              align: str = SETTINGS.agreement_align.default,
+              min_support: float = SETTINGS.min_support.default,
+              tolerance: float | None = None, threads: int | None = None) -> Agreement:
+    """Score each of several maps of one place by how far the others confirm it.
+
+    Parameters
+    ----------
+    maps : mapping of name to map, or sequence of maps
+        At least 2 maps (:func:`slamq.agreement` takes paths and image arrays too); a
+        sequence is named ``"0"``, ``"1"``...
+    align : {"register", "icp", "origin", "search"}, default "register"
+        How the maps are placed in one frame: ``register`` by :func:`slamq.register`
+        (global search, then ICP; a map it cannot place gets NaN figures), the others as
+        in :func:`slamq.compare` (``icp`` for maps known to share a frame, such as runs
+        of one recorded sequence).
+    min_support : float, default 0.6
+        The support a map needs to count as confirmed by the others (``majority``).
+    tolerance : float, optional
+        Matching distance, metres (default: :func:`slamq.compare`'s, 2 cells).
+    threads : int, optional
+        Cap on the Rust worker threads.
+
+    Returns
+    -------
+    Agreement
+
+    Raises
+    ------
+    slamq.ParamError
+        Fewer than 2 maps, or a parameter out of range.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import agreement
+    >>> img = np.full((30, 30), 254, np.uint8); img[5, 5:25] = 0; img[5:25, 5] = 0
+    >>> img[24, 5:25] = 0
+    >>> shifted = np.roll(img, 6, axis=1); shifted[:, :6] = 254   # a displaced copy...
+    >>> doubled = np.minimum(img, shifted)                         # ...superposed
+    >>> a = agreement([img, img, doubled], align="origin")
+    >>> a.support["0"] > a.support["2"]
+    True
+    """
+    named = (dict(maps) if isinstance(maps, Mapping)
+             else {str(i): m for i, m in enumerate(maps)})
+    if len(named) < 2:
+        raise ParamError(f"agreement needs at least 2 maps, got {len(named)}")
+    if align not in SETTINGS.agreement_align.choices:
+        raise ParamError(f"align must be one of {', '.join(SETTINGS.agreement_align.choices)}"
+                         f", got {align!r}")
+    if not (isinstance(min_support, (int, float)) and 0 <= min_support <= 1):
+        raise ParamError(f"min_support must be in [0, 1], got {min_support!r}")
+    loaded = {str(k): v for k, v in named.items()}
+    for k, v in loaded.items():
+        if not isinstance(v, OccupancyMap):
+            raise ParamError(f"agreement takes OccupancyMaps, not {type(v).__name__} as "
+                             f"{k!r}; slamq.agreement reads files and arrays")
+    names = list(loaded)
+    notes: list[str] = []
+    placed = dict.fromkeys(names, True)
+    pair_align = align
+    if align == "register":
+        from slamq.metrics.register import place_all
+
+        loaded, placed, why = place_all(loaded, threads=threads)
+        notes.extend(why)
+        pair_align = "icp"
+    n = len(names)
+    sup = np.full((n, n), math.nan)
+    rec = np.full((n, n), math.nan)
+    cov = np.full((n, n), math.nan)
+    for i, a in enumerate(names):
+        for j, b in enumerate(names):
+            if i == j or not (placed[a] and placed[b]):
+                continue
+            sup[i, j], rec[i, j], cov[i, j] = _pair(loaded[a], loaded[b], pair_align,
+                                                    tolerance, threads)
+    cons = np.full((n, n), math.nan)
+    for i in range(n):
+        for j in range(n):
+            if i != j:
+                one, two = _f(sup[i, j], rec[i, j]), _f(sup[j, i], rec[j, i])
+                vals = [v for v in (one, two) if math.isfinite(v)]
+                cons[i, j] = float(np.mean(vals)) if vals else math.nan
+
+    def median(row: np.ndarray) -> float:
+        row = row[np.isfinite(row)]
+        return float(np.median(row)) if len(row) else math.nan
+
+    support = {a: median(cons[i]) for i, a in enumerate(names)}
+    completeness = {a: median(cov[i]) for i, a in enumerate(names)}
+    confirmed = sum(1 for a in names if support[a] >= min_support)
+    majority = confirmed * 2 > n
+    if not majority:
+        notes.append(f"only {confirmed} of {n} maps agree with the others (support >= "
+                     f"{min_support:g}): the maps disagree among themselves")
+    return Agreement(names=names, support=support, completeness=completeness,
+                     consistency=cons, placed=placed, majority=majority,
+                     min_support=float(min_support), notes=notes)

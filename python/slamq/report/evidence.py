@@ -1,0 +1,118 @@
+"""The evidence the no-ground-truth verdict weighs: what the maps of one sequence say about
+each other (:func:`slamq.agreement`) and what is wrong with each of them on its own
+(:func:`slamq.metrics.defects.detect_defects`).
+
+:func:`sequence_evidence` loads the maps of one sequence (at most ``runs_per_algorithm``
+runs of each algorithm, the first by run number: the pairwise comparison grows with the
+square of the maps), scores them against each other and runs the defect detectors, and
+sums that up per algorithm for :func:`slamq.report.verdict.sequence_verdict`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from slamq.errors import SlamqError
+from slamq.metrics.agreement import agreement
+from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
+from slamq.sources import load_map
+
+__all__ = ["RUNS_PER_ALGORITHM", "sequence_evidence"]
+
+#: At most this many runs of each algorithm take part in the agreement of a sequence.
+RUNS_PER_ALGORITHM = 3
+
+
+def _median(values: list[float]) -> float:
+    vals = [v for v in values if math.isfinite(v)]
+    return float(np.median(vals)) if vals else math.nan
+
+
+def sequence_evidence(ok: pd.DataFrame, sequence: str, *, align: str = "register",
+                      runs_per_algorithm: int = RUNS_PER_ALGORITHM,
+                      defects: bool = True, threads: int | None = None) -> dict[str, Any]:
+    """Cross-map agreement and defect flags of the maps of one sequence, per algorithm.
+
+    Parameters
+    ----------
+    ok : pandas.DataFrame
+        Successful result rows (``map``, ``algorithm``, ``sequence``, ``run``).
+    sequence : str
+    align : str, default "register"
+        How the maps are put in one frame (:func:`slamq.agreement`'s ``align``).
+    runs_per_algorithm : int, default 3
+        At most this many runs of each algorithm take part.
+    defects : bool, default True
+        Run the defect detectors.
+    threads : int, optional
+        Cap on the Rust worker threads.
+
+    Returns
+    -------
+    dict
+        ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
+        "defects"}}, "majority": bool, "maps": int, "notes": [str]}``. ``defects`` maps a
+        run's map path to its defects (dicts of :meth:`Defect.to_dict`); an algorithm's
+        support and completeness are the medians over its runs.
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd, tempfile, pathlib
+    >>> from PIL import Image
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> img = np.full((60, 60), 254, np.uint8); img[10, 10:50] = 0; img[10:50, 10] = 0
+    >>> img[49, 10:50] = 0; img[10:50, 49] = 0
+    >>> for name in "abc": Image.fromarray(img).save(d / f"{name}.pgm")
+    >>> ok = pd.DataFrame({"map": [str(d / f"{n}.pgm") for n in "abc"], "sequence": "s",
+    ...                    "algorithm": list("abc"), "run": 1})
+    >>> e = sequence_evidence(ok, "s", align="origin", defects=False)
+    >>> e["majority"], e["algorithms"]["a"]["support"]
+    (True, 1.0)
+    """
+    sub = ok[(ok["sequence"] == sequence)
+             & ~ok["algorithm"].astype(str).str.lower().isin(GROUND_TRUTH_ALGORITHMS)]
+    sub = sub.sort_values(["algorithm", "run"], kind="stable")
+    picked = sub.groupby("algorithm", sort=True).head(runs_per_algorithm)
+    maps: dict[str, Any] = {}
+    owner: dict[str, str] = {}
+    notes: list[str] = []
+    for rec in picked.itertuples():
+        key = f"{rec.algorithm}#{rec.run}"
+        try:
+            maps[key] = load_map(rec.map)
+        except SlamqError as exc:
+            notes.append(f"{rec.map}: not used as evidence ({exc})")
+            continue
+        owner[key] = str(rec.algorithm)
+    found: dict[str, list[dict[str, Any]]] = {}
+    if defects:
+        from slamq.metrics.defects import detect_defects  # on first use
+
+        for key, m in maps.items():
+            found[key] = [d.to_dict() for d in detect_defects(m)]
+    if len(maps) >= 2:
+        agree = agreement(maps, align=align, threads=threads)
+        support, complete, placed = agree.support, agree.completeness, agree.placed
+        majority = agree.majority
+        notes.extend(agree.notes)
+    else:
+        support = complete = dict.fromkeys(maps, math.nan)
+        placed = dict.fromkeys(maps, False)
+        majority = False
+    algorithms: dict[str, dict[str, Any]] = {}
+    for alg in sorted(set(owner.values())):
+        keys = [k for k in maps if owner[k] == alg]
+        algorithms[alg] = {
+            "support": _median([support[k] for k in keys]),
+            "completeness": _median([complete[k] for k in keys]),
+            "placed": all(placed[k] for k in keys),
+            "runs": len(keys),
+            "flagged_runs": sum(1 for k in keys if found.get(k)),
+            "defects": {str(maps[k].source): found.get(k, []) for k in keys},
+        }
+    return {"algorithms": algorithms, "majority": bool(majority), "maps": len(maps),
+            "notes": notes}

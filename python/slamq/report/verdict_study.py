@@ -1,0 +1,206 @@
+"""How far the no-ground-truth verdict can be trusted: measured on the ground-truth
+benchmark with the ground truth hidden, and on real folders ranked by eye
+(docs/validity.md, "The verdict without ground truth").
+
+``python -m slamq.report.verdict_study --benchmark OUTPUT --real MAPS docs/by_eye.csv
+--markdown docs/validity.md`` regenerates the tables.
+
+- :func:`benchmark_verdicts`: every sequence of a ``slamq run`` output with generated
+  ground truth (:mod:`slamq.synth.benchmark`): the verdict computed from the maps alone
+  (every ``ate_*`` and ``gt_*`` column dropped) against the trajectory error.
+- :func:`folder_verdicts`: folders of real maps of one place: the verdict against the
+  by-eye classes of a CSV (``folder, map, class, broken``; class 1 best).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from slamq.report.evidence import sequence_evidence
+from slamq.report.ranking import summarize
+from slamq.report.verdict import sequence_verdict
+
+__all__ = ["benchmark_verdicts", "by_eye_agreement", "folder_verdicts", "markdown", "main"]
+
+BEGIN, END = "<!-- verdict-study:begin -->", "<!-- verdict-study:end -->"
+
+
+def _hidden(df: pd.DataFrame) -> pd.DataFrame:
+    """The rows with every ground-truth column dropped."""
+    return df.drop(columns=[c for c in df.columns
+                            if c.startswith(("ate_", "gt_", "groundtruth"))])
+
+
+def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
+                       align: str = "register", defects: bool = True) -> pd.DataFrame:
+    """The verdict of each benchmark sequence with the ground truth hidden.
+
+    Parameters
+    ----------
+    output : path
+        A ``slamq run`` output folder of generated sequences (``examples/benchmark.yaml``).
+    sequences : iterable of str, optional
+        Only these sequences.
+    align : str, default "register"
+        How the maps are put in one frame (:func:`slamq.agreement`).
+    defects : bool, default True
+        Run the defect detectors (False: agreement alone).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per sequence: ``sequence``, ``best`` (None: abstained), ``ate_rank`` of the
+        named algorithm (1 best), ``ate_ratio`` (its ATE over the best), ``broken_named``,
+        ``reason``.
+    """
+    from slamq.synth.benchmark import load_benchmark
+
+    df = load_benchmark(Path(output))
+    df = df[df["outcome"] == "ok"]
+    if sequences is not None:
+        df = df[df["sequence"].isin(set(sequences))]
+    hidden = _hidden(df)
+    summary = summarize(hidden)
+    rows = []
+    for seq, block in df.groupby("sequence", sort=True):
+        ev = sequence_evidence(hidden, str(seq), align=align, defects=defects)
+        v = sequence_verdict(summary, str(seq), ev)
+        ate = block.groupby("algorithm")["ate_rmse"].mean()
+        best = v["best"]
+        rank = float(ate.rank()[best]) if best in ate.index else math.nan
+        ratio = float(ate[best] / ate.min()) if best in ate.index else math.nan
+        broken = bool(block.loc[block["algorithm"] == best, "broken"].any()) if best else False
+        rows.append({"sequence": seq, "best": best, "ate_rank": rank, "ate_ratio": ratio,
+                     "broken_named": broken, "reason": v["confidence"]})
+    return pd.DataFrame(rows)
+
+
+def folder_verdicts(root: Path, by_eye: Path, *, align: str = "register",
+                    defects: bool = True) -> tuple[pd.DataFrame, dict[str, dict[str, Any]]]:
+    """The verdict on each folder of real maps listed in a by-eye CSV.
+
+    Parameters
+    ----------
+    root : path
+        The folder the CSV's ``folder`` column is relative to (``../shared/data/maps``).
+    by_eye : path
+        CSV with ``folder, map, class, broken`` (class 1 best; broken 1 or 0).
+    align : str, default "register"
+    defects : bool, default True
+
+    Returns
+    -------
+    (pandas.DataFrame, dict)
+        The by-eye table with the scored maps' rows, and the verdict per folder.
+    """
+    import slamq
+
+    eye = pd.read_csv(by_eye)
+    records = []
+    for r in eye.itertuples():
+        path = Path(root) / r.folder / r.map
+        q = slamq.evaluate(str(path))
+        records.append({"map": str(path), "sequence": r.folder, "algorithm": r.map, "run": 1,
+                        **q.to_dict()})
+    ok = pd.DataFrame(records)
+    summary = summarize(ok)
+    verdicts = {}
+    for folder in eye["folder"].unique():
+        ev = sequence_evidence(ok, folder, align=align, defects=defects)
+        verdicts[folder] = sequence_verdict(summary, folder, ev)
+    return eye, verdicts
+
+
+def by_eye_agreement(eye: pd.DataFrame, folder: str, ranking: Sequence[str]
+                     ) -> tuple[int, int]:
+    """(concordant, counted) pairs of a ranking against the by-eye classes of one folder:
+    pairs of maps in different classes, concordant when the better class comes first."""
+    cls = dict(zip(eye.loc[eye["folder"] == folder, "map"],
+                   eye.loc[eye["folder"] == folder, "class"]))
+    pos = {m: i for i, m in enumerate(ranking)}
+    good = total = 0
+    names = [m for m in cls if m in pos]
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if cls[a] == cls[b]:
+                continue
+            total += 1
+            better, worse = (a, b) if cls[a] < cls[b] else (b, a)
+            good += pos[better] < pos[worse]
+    return good, total
+
+
+def markdown(bench: pd.DataFrame | None, eye: pd.DataFrame | None,
+             verdicts: dict[str, dict[str, Any]] | None, command: str) -> str:
+    """The tables of docs/validity.md's verdict section."""
+    out = [f"Regenerate: `{command}`\n"]
+    if bench is not None and len(bench):
+        out.append("\n**Benchmark, ground truth hidden** (one row per set of sequences):\n\n"
+                   "| sequences | n | named in ATE top two | abstained | named a run > 3x "
+                   "the best ATE (broken) |\n|---|---|---|---|---|\n")
+        seed = bench["sequence"].str.rsplit("-", n=1).str[1]
+        groups = [("seed 0 (tuning)", seed == "s0"), ("seeds 1-2 (held out)", seed != "s0"),
+                  ("all", seed == seed)]
+        for label, mask in groups:
+            b = bench[mask]
+            if not len(b):
+                continue
+            top2 = int((b["ate_rank"] <= 2).sum())
+            out.append(f"| {label} | {len(b)} | {top2} ({100 * top2 / len(b):.0f}%) | "
+                       f"{int(b['best'].isna().sum())} | {int(b['broken_named'].sum())} |\n")
+    if eye is not None and verdicts:
+        out.append("\n**Real folders, against the by-eye classes** (held out):\n\n"
+                   "| folder | named best | its class | broken named | pairs concordant | "
+                   "ranking | confidence |\n|---|---|---|---|---|---|---|\n")
+        good_all = total_all = 0
+        for folder, v in verdicts.items():
+            sub = eye[eye["folder"] == folder].set_index("map")
+            best = v["best"]
+            good, total = by_eye_agreement(eye, folder, v["ranking"])
+            good_all += good
+            total_all += total
+            cls = "-" if best is None else str(sub.loc[best, "class"])
+            broken = "-" if best is None else ("**yes**" if sub.loc[best, "broken"] else "no")
+            share = f"{good}/{total}" if total else "-"
+            out.append(f"| {folder} | {best or 'none (abstains)'} | {cls} | {broken} | "
+                       f"{share} | {', '.join(v['ranking'])} | {v['confidence']} |\n")
+        if total_all:
+            out.append(f"\nPooled: {good_all}/{total_all} pairs concordant "
+                       f"({good_all / total_all:.2f}).\n")
+    return "".join(out)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m slamq.report.verdict_study``: the verdict-validation tables."""
+    from slamq.synth.damage import print_or_write_section
+
+    ap = argparse.ArgumentParser(prog="python -m slamq.report.verdict_study",
+                                 description=__doc__.split("\n\n")[0])
+    ap.add_argument("--benchmark", type=Path, help="a slamq run output of generated sequences")
+    ap.add_argument("--align", default="register",
+                    help="how the benchmark's maps are put in one frame (default register)")
+    ap.add_argument("--real", nargs=2, type=Path, metavar=("MAPS", "BY_EYE_CSV"),
+                    help="the real maps' root folder and the by-eye classes")
+    ap.add_argument("--no-defects", action="store_true",
+                    help="agreement alone, without the defect detectors")
+    ap.add_argument("--markdown", type=Path, help="write into this file's section")
+    a = ap.parse_args(argv)
+    bench = (benchmark_verdicts(a.benchmark, align=a.align, defects=not a.no_defects)
+             if a.benchmark else None)
+    eye, verdicts = (folder_verdicts(*a.real, defects=not a.no_defects) if a.real
+                     else (None, None))
+    command = "python -m slamq.report.verdict_study " + " ".join(
+        (sys.argv[1:] if argv is None else list(argv)))
+    return print_or_write_section(markdown(bench, eye, verdicts, command), a.markdown,
+                                  BEGIN, END)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
