@@ -25,13 +25,13 @@ from pathlib import Path
 from typing import Any, TypeVar, Union
 
 from slamq.errors import OutOfMemoryError, SlamqError
+from slamq.metrics.agreement import Agreement
+from slamq.metrics.agreement import agreement as agreement_of
 from slamq.metrics.ate import ErrorResult, RunsResult
 from slamq.metrics.ate import ate as ate_of
 from slamq.metrics.ate import ate_runs as ate_runs_of
 from slamq.metrics.ate import rpe as rpe_of
 from slamq.metrics.compare import compare as compare_of
-from slamq.metrics.agreement import Agreement
-from slamq.metrics.agreement import agreement as agreement_of
 from slamq.metrics.consensus import Consensus
 from slamq.metrics.consensus import consensus as consensus_of
 from slamq.metrics.evaluate import evaluate as evaluate_of
@@ -39,8 +39,8 @@ from slamq.models import MapComparison, MapQuality, OccupancyMap, Trajectory
 from slamq.sources.maps import load_map
 from slamq.sources.trajectories import load_trajectory
 
-__all__ = ["MapSource", "TrajLike", "agreement", "ate", "ate_runs", "compare", "consensus", "evaluate",
-           "rpe"]
+__all__ = ["MapSource", "TrajLike", "agreement", "ate", "ate_runs", "compare", "consensus",
+           "evaluate", "rpe"]
 
 #: What the map functions accept: a path, an :class:`OccupancyMap`, or a numpy image array.
 MapSource = Union[str, os.PathLike, OccupancyMap, Any]

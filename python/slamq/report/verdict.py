@@ -40,7 +40,8 @@ from slamq.report.ranking import COMPLETE_SHARE, known_share
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_resolutions
 
-__all__ = ["AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "sequence_verdict", "write_verdicts"]
+__all__ = ["AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "sequence_verdict",
+           "write_verdicts"]
 
 #: Corners: a runner-up within this relative margin of the best means no clear winner.
 CLEAR_MARGIN = 0.25

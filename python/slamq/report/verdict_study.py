@@ -197,7 +197,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     eye, verdicts = (folder_verdicts(*a.real, defects=not a.no_defects) if a.real
                      else (None, None))
     command = "python -m slamq.report.verdict_study " + " ".join(
-        (sys.argv[1:] if argv is None else list(argv)))
+        sys.argv[1:] if argv is None else list(argv))
     return print_or_write_section(markdown(bench, eye, verdicts, command), a.markdown,
                                   BEGIN, END)
 
