@@ -28,7 +28,8 @@ from slamq.report.ranking import (
     rank_sequence,
     summarize,
 )
-from slamq.report.verdict import verdict_sentence, write_verdicts
+from slamq.report.evidence import sequence_evidence
+from slamq.report.verdict import needs_evidence, verdict_sentence, write_verdicts
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import spreadsheet_safe
 
@@ -175,7 +176,8 @@ def build_report(
     summary = summarize(ok)
     sequences = sorted(ok["sequence"].unique()) if len(ok) else []
     rankings = {s: rank_sequence(summary, s) for s in sequences}
-    verdicts = {v["sequence"]: v for v in write_verdicts(summary, sequences, out)}
+    evidence = {s: sequence_evidence(ok, s) for s in sequences if needs_evidence(summary, s)}
+    verdicts = {v["sequence"]: v for v in write_verdicts(summary, sequences, out, evidence)}
 
     pages: dict[int, _MapPage] = {}
     gallery: dict[tuple[str, str], list[int]] = {}

@@ -40,8 +40,8 @@ from slamq.report.ranking import COMPLETE_SHARE, known_share
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_resolutions
 
-__all__ = ["AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "sequence_verdict",
-           "write_verdicts"]
+__all__ = ["AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "needs_evidence",
+           "sequence_verdict", "write_verdicts"]
 
 #: Corners: a runner-up within this relative margin of the best means no clear winner.
 CLEAR_MARGIN = 0.25
@@ -262,6 +262,7 @@ def verdict_sentence(v: dict[str, Any]) -> str:
     's: a is best by ATE RMSE (of 2; confidence high: ...).'
     """
     names = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
+             "agreement": "agreement with the other maps",
              "corners_canonical": "canonical corners"}
     if v["best"] is None:
         why = "; ".join(v["warnings"][:1]) or v["confidence"]
@@ -271,9 +272,30 @@ def verdict_sentence(v: dict[str, Any]) -> str:
             f"confidence {v['confidence']}).")
 
 
-def write_verdicts(summary: pd.DataFrame, sequences: list[str], out_dir: Path
+def needs_evidence(summary: pd.DataFrame, sequence: str) -> bool:
+    """Whether a sequence is judged without ground truth (no two algorithms with an ATE or
+    a GT-map F1) and has at least two algorithms: then the maps' agreement decides.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from slamq.report.ranking import summarize
+    >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "corners": [3, 4]})
+    >>> needs_evidence(summarize(df), "s")
+    True
+    """
+    block = summary.xs(sequence, level="sequence") if len(summary) else summary
+    block = block.drop(index=[a for a in block.index
+                              if str(a).lower() in GROUND_TRUTH_ALGORITHMS])
+    return len(block) >= 2 and not any(len(_means(block, k)) >= 2 for k, *_ in _BASES[:2])
+
+
+def write_verdicts(summary: pd.DataFrame, sequences: list[str], out_dir: Path,
+                   evidence: dict[str, dict[str, Any]] | None = None
                    ) -> list[dict[str, Any]]:
-    """Write ``verdict.json`` (a list, one verdict per sequence) and return the verdicts."""
-    verdicts = [sequence_verdict(summary, s) for s in sequences]
+    """Write ``verdict.json`` (a list, one verdict per sequence) and return the verdicts;
+    ``evidence`` maps a sequence to its :func:`slamq.report.evidence.sequence_evidence`."""
+    evidence = evidence or {}
+    verdicts = [sequence_verdict(summary, s, evidence.get(s)) for s in sequences]
     (Path(out_dir) / "verdict.json").write_text(json.dumps(verdicts, indent=1) + "\n")
     return verdicts

@@ -1,0 +1,92 @@
+"""slamq.agreement: maps of one place as evidence about each other (docs/spec.md section 9)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import slamq
+from slamq.errors import ParamError
+from slamq.models import OccupancyMap
+from slamq.synth.damage import degrade, floor_plan
+
+
+@pytest.fixture(scope="module")
+def plan() -> OccupancyMap:
+    return floor_plan(5)
+
+
+def test_identical_maps_confirm_each_other_fully(plan: OccupancyMap) -> None:
+    a = slamq.agreement({"a": plan, "b": plan, "c": plan}, align="origin")
+    assert a.support == {"a": 1.0, "b": 1.0, "c": 1.0}
+    assert a.completeness == {"a": 1.0, "b": 1.0, "c": 1.0}
+    assert a.majority and a.notes == []
+    assert np.isnan(np.diag(a.consistency)).all()
+    assert np.allclose(a.consistency, a.consistency.T, equal_nan=True)
+
+
+@pytest.mark.parametrize(("kind", "severity", "margin"), [
+    ("doubling", 0.8, 0.05), ("drift", 8.0, 0.05), ("specks", 0.02, 0.02)])
+def test_a_damaged_map_is_the_least_supported(plan: OccupancyMap, kind: str,
+                                              severity: float, margin: float) -> None:
+    bad = degrade(plan, kind, severity, seed=1)
+    a = slamq.agreement({"a": plan, "b": plan, "bad": bad}, align="icp")
+    assert a.support["bad"] < a.support["a"] - margin
+    assert a.support["a"] == a.support["b"]
+
+
+def test_a_turned_map_is_not_damage(plan: OccupancyMap) -> None:
+    turned = degrade(plan, "rotation", 10.0)  # the whole map turned: only its frame differs
+    a = slamq.agreement({"a": plan, "b": plan, "t": turned}, align="icp")
+    assert a.support["t"] > 0.95
+
+
+def test_a_partial_map_is_supported_but_incomplete(plan: OccupancyMap) -> None:
+    half = plan.values.copy()
+    unknown = plan.unknown.copy()
+    w = half.shape[1] // 2
+    half[:, w:] = 205
+    unknown[:, w:] = True
+    part = OccupancyMap(half, unknown, plan.resolution, plan.origin, source="half")
+    a = slamq.agreement({"a": plan, "b": plan, "half": part}, align="origin")
+    assert a.support["half"] > 0.95  # what it has is right...
+    assert a.completeness["half"] < 0.7 < a.completeness["a"]  # ...but it saw less
+
+
+def test_maps_that_all_disagree_have_no_majority(plan: OccupancyMap) -> None:
+    maps = {k: degrade(plan, "doubling", 1.6, seed=s) for k, s in (("x", 1), ("y", 2),
+                                                                     ("z", 3))}
+    maps = {k: degrade(m, "specks", 0.05, seed=9) for k, m in maps.items()}
+    a = slamq.agreement(maps, align="origin", min_support=0.9)
+    assert not a.majority
+    assert any("disagree among themselves" in n for n in a.notes)
+
+
+def test_arrays_and_paths_are_read(tmp_path) -> None:
+    img = np.full((30, 30), 254, np.uint8)
+    img[5, 5:25] = 0
+    img[5:25, 5] = 0
+    from PIL import Image
+
+    Image.fromarray(img).save(tmp_path / "m.pgm")
+    a = slamq.agreement([img, str(tmp_path / "m.pgm")], align="origin")
+    assert a.names == ["0", "1"] and a.support["0"] == 1.0
+
+
+def test_bad_arguments_are_refused(plan: OccupancyMap) -> None:
+    with pytest.raises(ParamError, match="at least 2 maps"):
+        slamq.agreement([plan])
+    with pytest.raises(ParamError, match="align must be one of"):
+        slamq.agreement([plan, plan], align="nope")
+    with pytest.raises(ParamError, match="min_support"):
+        slamq.agreement([plan, plan], min_support=2)
+
+
+def test_a_map_without_walls_has_no_support_figure(plan: OccupancyMap) -> None:
+    blank = OccupancyMap(np.full(plan.shape, 254, np.uint8), np.zeros(plan.shape, bool),
+                         plan.resolution, plan.origin, source="blank")
+    a = slamq.agreement({"a": plan, "b": plan, "blank": blank}, align="origin")
+    assert a.support["a"] == 1.0
+    assert math.isnan(a.support["blank"]) or a.support["blank"] < 0.5
