@@ -160,3 +160,69 @@ def test_turned_maps_are_ranked_by_canonical_corners_or_not_at_all() -> None:
     same = verdict(algorithm=["a", "b"], corners=[100, 30], corners_canonical=[10, 90],
                    wall_angle=[44.8, -44.9])
     assert same["basis"] == ["corners"] and same["best"] == "b"
+
+
+def _evidence(support: dict, *, completeness: dict | None = None, defects: tuple = (),
+              unplaced: tuple = (), majority: bool = True) -> dict:
+    return {"majority": majority, "notes": [], "maps": len(support), "algorithms": {
+        a: {"support": s, "completeness": (completeness or {}).get(a, 1.0),
+            "placed": a not in unplaced, "runs": 1, "flagged_runs": int(a in defects),
+            "defects": {f"{a}.pgm": [{"kind": "superposed", "score": 1.0,
+                                      "bbox": [0, 0, 1, 1], "note": ""}]
+                        if a in defects else []}}
+        for a, s in support.items()}}
+
+
+def agreement_verdict(evidence: dict, **columns) -> dict:
+    df = pd.DataFrame({"sequence": "s", **columns})
+    return sequence_verdict(summarize(df), "s", evidence)
+
+
+def test_without_ground_truth_agreement_flags_and_corners_only_order_confirmed_maps() -> None:
+    ev = _evidence({"a": 0.90, "b": 0.88, "c": 0.50, "d": 0.89}, defects=("d",))
+    v = agreement_verdict(ev, algorithm=list("abcd"), corners=[300, 200, 10, 5])
+    # c has the fewest corners but the others do not confirm it; d is flagged on its own
+    assert v["best"] == "b" and v["ranking"][:2] == ["b", "a"]
+    assert set(v["ranking"][2:]) == {"c", "d"}
+    assert v["basis"] == ["agreement", "corners"]
+    assert any("c is never named best: its walls disagree" in w for w in v["warnings"])
+    assert any("d is never named best: defects: superposed" in w for w in v["warnings"])
+    assert verdict_sentence(v).startswith("s: b is best by agreement with the other maps")
+
+
+def test_without_ground_truth_a_partial_or_unplaced_map_is_never_best() -> None:
+    ev = _evidence({"a": 0.9, "b": 0.9, "c": 0.9, "e": 0.9},
+                   completeness={"a": 0.5, "b": 0.95, "c": 0.9, "e": 0.9}, unplaced=("e",))
+    v = agreement_verdict(ev, algorithm=list("abce"), corners=[1, 50, 60, 0])
+    assert v["best"] == "b"
+    assert any("a's map knows 53% of the area the other maps agree exists" in w
+               for w in v["warnings"])
+    assert any("e is never named best: could not be registered" in w for w in v["warnings"])
+
+
+@pytest.mark.parametrize("case", ["two maps", "no majority", "all flagged"])
+def test_without_ground_truth_the_verdict_abstains_and_says_why(case: str) -> None:
+    if case == "two maps":
+        ev, algs, why = _evidence({"a": 0.9, "b": 0.9}), ["a", "b"], "fewer than three maps"
+    elif case == "no majority":
+        ev = _evidence({"a": 0.4, "b": 0.5, "c": 0.45}, majority=False)
+        algs, why = ["a", "b", "c"], "disagree among themselves"
+    else:
+        ev = _evidence({"a": 0.9, "b": 0.9, "c": 0.9}, defects=("a", "b", "c"))
+        algs, why = ["a", "b", "c"], "every map is flagged or partial"
+    v = agreement_verdict(ev, algorithm=algs, corners=list(range(10, 10 + len(algs))))
+    assert v["best"] is None and why in v["confidence"]
+    assert verdict_sentence(v).startswith("s: no algorithm is named best")
+
+
+def test_of_two_maps_one_flagged_on_its_own_the_other_is_named() -> None:
+    ev = _evidence({"a": 0.7, "b": 0.7}, defects=("a",))
+    v = agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])
+    assert v["best"] == "b"
+
+
+def test_ground_truth_still_decides_when_evidence_is_given() -> None:
+    ev = _evidence({"a": 0.9, "b": 0.2, "c": 0.9})
+    v = agreement_verdict(ev, algorithm=list("abc"), corners=[1, 2, 3],
+                          ate_rmse=[0.5, 0.1, 0.3])
+    assert v["best"] == "b" and v["basis"] == ["ate_rmse"]

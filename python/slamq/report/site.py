@@ -20,6 +20,7 @@ import pandas as pd
 
 from slamq.errors import SlamqError
 from slamq.report.data import ResultsLike, evaluate_map, load_results, params_of, usable
+from slamq.report.evidence import sequence_evidence
 from slamq.report.ranking import (
     METRICS,
     SequenceRanking,
@@ -28,7 +29,6 @@ from slamq.report.ranking import (
     rank_sequence,
     summarize,
 )
-from slamq.report.evidence import sequence_evidence
 from slamq.report.verdict import needs_evidence, verdict_sentence, write_verdicts
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import spreadsheet_safe
