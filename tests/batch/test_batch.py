@@ -656,6 +656,53 @@ def test_shipped_fixtures_find_their_pose_logs(test_data: Path) -> None:
         assert runs[alg].groundtruth == runs[alg].trajectory
 
 
+def test_manifest_pairs_a_paired_pose_log_and_counts_every_map_without_ate(
+        test_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A manifest row whose trajectory is a paired pose log (estimate and ground truth in
+    one file, as slam_comparison_tools ships) gets the ATE `slamq ate LOG.csv` prints, and
+    the batch's last line counts every evaluated map without ATE, with the reason."""
+    from slamq.metrics.ate import ate
+    from slamq.sources.trajectories import load_pair
+
+    maps = test_data / "slam_comparison_tools" / "test_results" / "office"
+    logs = test_data / "trajectories" / "slam_comparison_tools" / "office"
+    gt_map = test_data / "slam_comparison_tools" / "ground_truths" / "office_ground_truth.yaml"
+    manifest = tmp_path / "runs.csv"
+    manifest.write_text(
+        "algorithm,sequence,run,map,trajectory,groundtruth\n"
+        f"gmapping,office,0,{maps / 'gmapping_map.yaml'},{logs / 'gmapping_pose_log.csv'},\n"
+        f"cartographer,office,0,{maps / 'cartographer_map.yaml'},"
+        f"{logs / 'cartographer_pose_log.csv'},\n"
+        f"slam_toolbox,office,0,{maps / 'slam_toolbox_map.yaml'},,\n"   # no trajectory
+        f"ground_truth,office,0,{gt_map},,\n")                           # a reference map
+    runs = {r.algorithm: r for r in read_manifest(manifest)}
+    assert runs["gmapping"].groundtruth == runs["gmapping"].trajectory
+    assert runs["slam_toolbox"].groundtruth is None
+    out = tmp_path / "r.jsonl"
+    assert cli_main(["batch", str(manifest), "--out", str(out), "--no-progress", "-q"]) == 0
+    recs = {r["algorithm"]: r for r in map(json.loads, out.read_text().splitlines())}
+    for alg in ("gmapping", "cartographer"):
+        est, gt = load_pair(logs / f"{alg}_pose_log.csv", logs / f"{alg}_pose_log.csv")
+        assert recs[alg]["ate_rmse"] == pytest.approx(ate(gt, est, align="se2").rmse,
+                                                      rel=1e-12)
+        assert recs[alg]["ate_error"] is None
+    # the same number `slamq ate LOG.csv` prints
+    assert cli_main(["ate", str(logs / "gmapping_pose_log.csv")]) == 0
+    printed = capsys.readouterr().out.splitlines()[-1].split()
+    assert float(printed[2]) == pytest.approx(recs["gmapping"]["ate_rmse"], abs=1e-6)
+    assert recs["gmapping"]["ate_rmse"] < 0.05 < recs["cartographer"]["ate_rmse"]
+    # a manifest row without ground truth is counted, never "0 without ATE"
+    (runs_ := manifest.with_name("more.csv")).write_text(
+        "algorithm,sequence,run,map,trajectory,groundtruth\n"
+        f"lidar_rtabmap,office,0,{maps / 'lidar_rtabmap_map.yaml'},"
+        f"{test_data / 'trajectories' / 'NOTICE.md'},\n")  # not a pose log: no ground truth
+    assert cli_main(["batch", str(manifest), str(runs_), "--out", str(tmp_path / "b.jsonl"),
+                     "--no-progress", "-q"]) == 0
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert ("5 map(s) evaluated, 0 already in" in last and "0 failed, 3 without ATE "
+            "(1 no ground truth, 1 no trajectory, 1 reference map)" in last), last
+
+
 @needs_core
 def test_ros2_bag_folder_as_a_map(tmp_path: Path) -> None:
     pytest.importorskip("rosbags")

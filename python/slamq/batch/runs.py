@@ -41,7 +41,9 @@ followed once.
 * **Manifest** (``.csv``): columns ``algorithm, sequence, run, map, trajectory,
   groundtruth, gt_map`` (only ``map`` required; others may be blank), paths relative to
   the manifest's folder, ``#`` lines are comments, spaces after commas are ignored. A
-  ``gt_map`` cell sets that run's ground-truth map (it wins over a reference run).
+  ``gt_map`` cell sets that run's ground-truth map (it wins over a reference run). A
+  ``trajectory`` cell naming a paired pose log with a blank ``groundtruth`` is paired
+  with itself.
 """
 
 from __future__ import annotations
@@ -422,7 +424,10 @@ def read_manifest(path: PathLike) -> list[Run]:
     ``algorithm``, ``sequence``, ``run``, ``trajectory``, ``groundtruth``, ``gt_map`` (the
     sequence's ground-truth map). Blank
     algorithm defaults to the flat-layout name of the map, blank sequence to the map's
-    folder name, blank run to ``"0"``; blank trajectory/groundtruth mean none. Lines
+    folder name, blank run to ``"0"``; blank trajectory/groundtruth mean none, except that
+    a trajectory that is a paired pose log (a CSV whose header names ``gt_x`` and
+    ``slam_x``/``est_x``, as slam_comparison_tools writes) with a blank groundtruth is its
+    own ground truth, as in ``slamq ate LOG.csv``. Lines
     starting with ``#`` are comments. A map file that does not exist is kept: the batch
     reports it as a failed row.
 
@@ -471,6 +476,8 @@ def read_manifest(path: PathLike) -> list[Run]:
         run_id = cells.get("run") or "0"
         traj = _resolve(base, cells["trajectory"]) if cells.get("trajectory") else None
         gt = _resolve(base, cells["groundtruth"]) if cells.get("groundtruth") else None
+        if gt is None and traj is not None and _is_paired_log(traj):
+            gt = traj  # a paired pose log is its own ground truth, as in `slamq ate LOG`
         gt_map = _resolve(base, cells["gt_map"]) if cells.get("gt_map") else None
         run = Run(map_path, algorithm, sequence, run_id, traj, gt, layout="manifest",
                   gt_map=gt_map)

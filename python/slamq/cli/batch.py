@@ -111,7 +111,7 @@ def handle(args: argparse.Namespace) -> int:
     params = params_from_args(args).to_dict()
     params.update(unknown_value=args.unknown_value, curve=args.curve, verify=args.verify)
     failed = 0
-    ate_failed = 0
+    no_ate: dict[str, int] = {}  # why an evaluated map has no ATE -> how many
     evaluated = 0
     total = 0
     seen = 0  # maps evaluated or skipped
@@ -135,9 +135,12 @@ def handle(args: argparse.Namespace) -> int:
                 if rec.get("error"):
                     failed += 1
                     progress.line(f"slamq: error: {rec['error']}")
-                elif rec.get("ate_error"):
-                    ate_failed += 1
-                    progress.line(f"slamq: warning: no ATE: {rec['ate_error']}")
+                else:
+                    why = _why_no_ate(rec)
+                    if why is not None:
+                        no_ate[why] = no_ate.get(why, 0) + 1
+                    if rec.get("ate_error"):
+                        progress.line(f"slamq: warning: no ATE: {rec['ate_error']}")
         except SlamqError as exc:
             error_line("", exc)
             return EXIT_BAD_INPUT
@@ -149,7 +152,7 @@ def handle(args: argparse.Namespace) -> int:
     skipped = seen - evaluated
     print(
         f"slamq batch: {evaluated} map(s) evaluated, {skipped} already in {out}, "
-        f"{failed} failed, {ate_failed} without ATE; results in {out}",
+        f"{failed} failed, {_no_ate_text(no_ate)}; results in {out}",
         file=sys.stderr,
     )
     if total == 0 and seen == 0:
@@ -162,6 +165,49 @@ def handle(args: argparse.Namespace) -> int:
 
         print(f"report written: {build_report(out, args.report)}")
     return EXIT_BAD_INPUT if failed else EXIT_OK
+
+
+def _why_no_ate(rec: dict) -> str | None:
+    """Why an evaluated map's record has no ATE (None when it has one).
+
+    Examples
+    --------
+    >>> _why_no_ate({"ate_rmse": 0.1}) is None
+    True
+    >>> _why_no_ate({"trajectory": "est.txt", "groundtruth": None})
+    'no ground truth'
+    """
+    import math
+
+    rmse = rec.get("ate_rmse")
+    if isinstance(rmse, (int, float)) and math.isfinite(rmse):
+        return None
+    if rec.get("ate_error"):
+        return "ATE failed"
+    from slamq.batch.runs import is_ground_truth
+
+    if is_ground_truth(str(rec.get("algorithm", ""))):
+        return "reference map"
+    if not rec.get("trajectory"):
+        return "no trajectory"
+    if not rec.get("groundtruth"):
+        return "no ground truth"
+    return "ATE failed"
+
+
+def _no_ate_text(no_ate: dict[str, int]) -> str:
+    """``"3 without ATE (2 no trajectory, 1 reference map)"``, or ``"0 without ATE"``.
+
+    Examples
+    --------
+    >>> _no_ate_text({"no trajectory": 2, "ATE failed": 1})
+    '3 without ATE (1 ATE failed, 2 no trajectory)'
+    """
+    total = sum(no_ate.values())
+    if not total:
+        return "0 without ATE"
+    why = ", ".join(f"{n} {k}" for k, n in sorted(no_ate.items()))
+    return f"{total} without ATE ({why})"
 
 
 def _print_runs(runs: list) -> None:
