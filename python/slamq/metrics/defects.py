@@ -110,13 +110,50 @@ def _check(name: str, value: Any) -> float:
     return x
 
 
-def _masks(m: OccupancyMap, occupied_threshold: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(occupied, free)`` bool masks: a known cell is occupied when (255 - v) / 255 is above
-    ``occupied_threshold`` (as :func:`slamq.compare`)."""
+def _masks(m: OccupancyMap, occupied_threshold: float
+           ) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+    """``(occupied, free, (row0, col0))``: bool masks of the known cells' bounding box (with
+    a 2-cell margin) and where it starts. A known cell is occupied when (255 - v) / 255 is
+    above ``occupied_threshold`` (as :func:`slamq.compare`)."""
     thr = _check("occupied_threshold", occupied_threshold)
     known = ~m.unknown
-    occ = known & (m.values.astype(np.float32) < 255.0 * (1.0 - thr))
-    return occ, known & ~occ
+    r0, c0, r1, c1 = _known_box(known)
+    known = known[r0:r1, c0:c1]
+    occ = known & (m.values[r0:r1, c0:c1] < 255.0 * (1.0 - thr))
+    return occ, known & ~occ, (r0, c0)
+
+
+def _known_box(known: np.ndarray) -> tuple[int, int, int, int]:
+    rows = np.flatnonzero(known.any(axis=1))
+    cols = np.flatnonzero(known.any(axis=0))
+    if not len(rows):
+        return (0, 0, known.shape[0], known.shape[1])
+    h, w = known.shape
+    return (max(0, int(rows[0]) - 2), max(0, int(cols[0]) - 2), min(h, int(rows[-1]) + 3),
+            min(w, int(cols[-1]) + 3))
+
+
+def _shift(bbox: tuple[int, int, int, int], off: tuple[int, int]
+           ) -> tuple[int, int, int, int]:
+    return (bbox[0] + off[1], bbox[1] + off[0], bbox[2] + off[1], bbox[3] + off[0])
+
+
+#: Directions are measured on a grid of about this many metres per cell (finer maps are
+#: pooled), so the measuring window is the same size in metres on every map.
+_ORIENTATION_GRID = 0.05
+
+
+def _coarse(occ: np.ndarray, res: float) -> tuple[np.ndarray, float, int]:
+    """``occ`` max-pooled to about :data:`_ORIENTATION_GRID` per cell, its resolution and
+    the pooling factor."""
+    f = max(1, int(round(_ORIENTATION_GRID / res)))
+    if f == 1:
+        return occ, res, 1
+    h, w = occ.shape
+    pad = np.zeros((-(-h // f) * f, -(-w // f) * f), bool)
+    pad[:h, :w] = occ
+    return pad.reshape(pad.shape[0] // f, f, pad.shape[1] // f, f).any(axis=(1, 3)), \
+        res * f, f
 
 
 def _where(m: OccupancyMap, bbox: tuple[int, int, int, int]) -> tuple[float, float]:
@@ -201,8 +238,13 @@ def dominant_direction(m: OccupancyMap, *,
     >>> round(dominant_direction(degrade(floor_plan(1), "rotation", 7)))
     7
     """
-    occ, _ = _masks(m, occupied_threshold)
-    angle, weight = _orientation(occ, _res(m))
+    occ, _, _ = _masks(m, occupied_threshold)
+    return _dominant(occ, _res(m))
+
+
+def _dominant(occ: np.ndarray, res: float) -> float:
+    c, cres, _ = _coarse(occ, res)
+    angle, weight = _orientation(c, cres)
     return float((np.argmax(_histogram(angle, weight)) + 0.5) * 90.0 / _BINS)
 
 
@@ -249,12 +291,12 @@ def superposed(m: OccupancyMap, *,
     length_min = _check("superposed_min_length", superposed_min_length)
     mixed_min = _check("superposed_min_mixed", superposed_min_mixed)
     square_min = _check("superposed_min_square", superposed_min_square)
-    occ, _ = _masks(m, occupied_threshold)
+    occ, _, off = _masks(m, occupied_threshold)
     ev = _superposed_evidence(occ, _res(m), sep)
     if not ev or ev["share"] < share_min or ev["length"] < length_min \
             or ev["mixed"] < mixed_min or ev["square"] < square_min:
         return []
-    bbox = ev["bbox"]
+    bbox = _shift(ev["bbox"], off)
     note = (f"second wall direction {ev['a2']:.1f} deg beside {ev['a1']:.1f} deg (mod 90): "
             f"{ev['share']:.2f} of the main peak, {ev['length']:.1f} m of wall, "
             f"{ev['mixed']:.0%} of it among main-direction walls")
@@ -263,6 +305,7 @@ def superposed(m: OccupancyMap, *,
 
 def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, Any]:
     """The numbers :func:`superposed` decides on (empty when there is no second peak)."""
+    occ, res, f = _coarse(occ, res)
     angle, weight = _orientation(occ, res)
     hist = _histogram(angle, weight)
     centres = (np.arange(_BINS) + 0.5) * 90.0 / _BINS
@@ -315,6 +358,7 @@ def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, A
                 min(h, (int(r.max()) + 1) * tile))
     else:
         bbox = (0, 0, w, h)
+    bbox = (bbox[0] * f, bbox[1] * f, bbox[2] * f, bbox[3] * f)
     return {"a1": a1, "a2": a2, "share": share, "length": length, "mixed": mixed_share,
             "square": square, "bbox": bbox}
 
@@ -322,9 +366,8 @@ def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, A
 # ---------------------------------------------------------------------------- doubled walls
 
 
-def _pairs(occ: np.ndarray, free: np.ndarray, gmin: int, gmax: int
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """Gap-centre mask and gap length of occupied-free-occupied runs down the columns."""
+def _pairs(occ: np.ndarray, free: np.ndarray, gmin: int, gmax: int) -> np.ndarray:
+    """The gap centres (uint8 mask) of occupied-free-occupied runs down the columns."""
     h, w = occ.shape
     rows = np.arange(h, dtype=np.int32)[:, None]
     last = np.maximum.accumulate(np.where(occ, rows, -1), axis=0)  # last occupied <= r
@@ -342,11 +385,8 @@ def _pairs(occ: np.ndarray, free: np.ndarray, gmin: int, gmax: int
     keep = nfree == gap[r, c]  # every gap cell free (seen by the laser)
     r, c, g = r[keep], c[keep], gap[r, c][keep]
     centre = np.zeros((h, w), np.uint8)
-    glen = np.zeros((h, w), np.uint8)
-    mid = r - (g + 1) // 2
-    centre[mid, c] = 1
-    glen[mid, c] = g.astype(np.uint8)
-    return centre, glen
+    centre[r - (g + 1) // 2, c] = 1
+    return centre
 
 
 def _rotate(mask: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
@@ -394,14 +434,13 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
     gmax_m = _check("doubled_max_gap", doubled_max_gap)
     min_len = _check("doubled_min_length", doubled_min_length)
     min_run = _check("doubled_min_run", doubled_min_run)
-    occ, free = _masks(m, occupied_threshold)
+    occ, free, off = _masks(m, occupied_threshold)
     res = _res(m)
     gmin = max(1, int(round(gmin_m / res)))
     gmax = max(gmin, int(round(gmax_m / res)))
     if gmax > 250:
         raise ParamError(f"doubled_max_gap is {gmax} cells; at most 250")
-    angle, weight = _orientation(occ, res)
-    a = float((np.argmax(_histogram(angle, weight)) + 0.5) * 90.0 / _BINS)
+    a = _dominant(occ, res)
     a = a - 90.0 if a > 45.0 else a
     turn = abs(a) > 1.0
     if turn:
@@ -416,21 +455,17 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
     boxes = []
     for axis in (0, 1):
         oo, ff = (o, f) if axis == 0 else (o.T, f.T)
-        centre, glen = _pairs(np.ascontiguousarray(oo), np.ascontiguousarray(ff), gmin, gmax)
-        # stretches: pairs of one gap (+-1) in a row along the wall, bridging 2-cell holes
-        for g in range(gmin, gmax + 1):
-            sel = ((glen >= g - 1) & (glen <= g + 1) & (centre > 0)).astype(np.uint8)
-            if not sel.any():
-                continue
-            sel = cv2.dilate(sel, np.ones((3, 1), np.uint8))  # gap centres differ by one
-            sel = cv2.morphologyEx(sel, cv2.MORPH_CLOSE, np.ones((1, 5), np.uint8))
-            n, lab, stats, _ = cv2.connectedComponentsWithStats(sel, connectivity=8)
-            for k in range(1, n):
-                x, y, bw, bh, _ = stats[k]
-                if bw >= run:
-                    total += bw * res / 3.0  # each stretch is seen at g-1, g and g+1
-                    boxes.append((x, y, x + bw, y + bh) if axis == 0 else
-                                 (y, x, y + bh, x + bw))
+        centre = _pairs(np.ascontiguousarray(oo), np.ascontiguousarray(ff), gmin, gmax)
+        # stretches: gap centres in a row along the wall (one cell up or down), bridging
+        # holes of up to 4 cells
+        sel = cv2.dilate(centre, np.ones((3, 1), np.uint8))
+        sel = cv2.morphologyEx(sel, cv2.MORPH_CLOSE, np.ones((1, 5), np.uint8))
+        n, _, stats, _ = cv2.connectedComponentsWithStats(sel, connectivity=8)
+        for k in range(1, n):
+            x, y, bw, bh, _ = stats[k]
+            if bw >= run:
+                total += bw * res
+                boxes.append((x, y, x + bw, y + bh) if axis == 0 else (y, x, y + bh, x + bw))
     if total < min_len or not boxes:
         return []
     b = np.array(boxes, float)
@@ -439,11 +474,11 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
     if back is not None:
         corners = corners @ back[:, :2].T + back[:, 2]
     h, w = occ.shape
-    bbox = (int(max(0, corners[:, 0].min())), int(max(0, corners[:, 1].min())),
-            int(min(w, math.ceil(corners[:, 0].max()))),
-            int(min(h, math.ceil(corners[:, 1].max()))))
+    bbox = _shift((int(max(0, corners[:, 0].min())), int(max(0, corners[:, 1].min())),
+                   int(min(w, math.ceil(corners[:, 0].max()))),
+                   int(min(h, math.ceil(corners[:, 1].max())))), off)
     note = (f"{total:.1f} m of parallel wall pairs {gmin}-{gmax} cells apart "
-            f"({len(boxes) // 3 or 1} stretches of at least {min_run:g} m)")
+            f"({len(boxes)} stretches of at least {min_run:g} m)")
     return [Defect("doubled_walls", round(total, 3), bbox, _where(m, bbox), note)]
 
 
@@ -477,7 +512,7 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
     """
     thick_m = _check("smeared_min_thickness", smeared_min_thickness)
     area_min = _check("smeared_min_area", smeared_min_area)
-    occ, _ = _masks(m, occupied_threshold)
+    occ, _, off = _masks(m, occupied_threshold)
     res = _res(m)
     closed = cv2.morphologyEx(occ.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
     dt = cv2.distanceTransform(closed, cv2.DIST_L2, 3)
@@ -502,7 +537,7 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
     area = float(np.count_nonzero(mask)) * res * res
     if area < area_min:
         return []
-    bbox = _box(mask)
+    bbox = _shift(_box(mask), off)
     note = (f"{area:.2f} m2 of wall thicker than {thick_m:g} m in "
             f"{int(keep.sum())} blobs that are not solid objects")
     return [Defect("smeared", round(area, 4), bbox, _where(m, bbox), note)]
