@@ -521,17 +521,21 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
         return []
     n, lab, stats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)
     keep = np.zeros(n, bool)
+    axis = None
     for k in range(1, n):
         x, y, bw, bh, area = stats[k]
         if area < 3:
             continue
-        pts = cv2.findNonZero((lab[y:y + bh, x:x + bw] == k).astype(np.uint8))
-        (_, _), (rw, rh), _ = cv2.minAreaRect(pts)
-        rect = (rw + 1.0) * (rh + 1.0)
-        fill = area / rect
+        blob = (lab[y:y + bh, x:x + bw] == k).astype(np.uint8)
+        (_, _), (rw, rh), _ = cv2.minAreaRect(cv2.findNonZero(blob))
+        fill = area / ((rw + 1.0) * (rh + 1.0))
         round_ = min(rw, rh) + 1.0 >= 0.8 * (max(rw, rh) + 1.0)
         if fill >= 0.8 or (round_ and fill >= 0.7):
             continue  # a solid object: furniture, a pillar
+        if axis is None:
+            axis = _dominant(occ, res)
+        if _rectilinear(blob, axis) >= 0.85:
+            continue  # boxes side by side or against a wall, square to the building
         keep[k] = True
     mask = keep[lab]
     area = float(np.count_nonzero(mask)) * res * res
@@ -541,6 +545,22 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
     note = (f"{area:.2f} m2 of wall thicker than {thick_m:g} m in "
             f"{int(keep.sum())} blobs that are not solid objects")
     return [Defect("smeared", round(area, 4), bbox, _where(m, bbox), note)]
+
+
+def _rectilinear(blob: np.ndarray, axis: float) -> float:
+    """The share of a blob's outline (a polygon within one cell) that runs along the
+    building's directions (``axis`` and its perpendicular, within 10 degrees)."""
+    contours, _ = cv2.findContours(blob, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    along = total = 0.0
+    for c in contours:
+        poly = cv2.approxPolyDP(c, 1.0, True).reshape(-1, 2).astype(float)
+        d = np.roll(poly, -1, axis=0) - poly
+        length = np.hypot(d[:, 0], d[:, 1])
+        # image rows point down: a segment's direction counter-clockwise is atan2(-dy, dx)
+        ang = np.degrees(np.arctan2(-d[:, 1], d[:, 0]))
+        along += float(length[_circ(ang, axis) <= 10.0].sum())
+        total += float(length.sum())
+    return along / total if total else 1.0
 
 
 # ---------------------------------------------------------------------------- fragmented
