@@ -229,8 +229,8 @@ def _circ(a: np.ndarray | float, b: float) -> np.ndarray | float:
 
 def dominant_direction(m: OccupancyMap, *,
                        occupied_threshold: float = _S.occupied_threshold.default) -> float:
-    """The main wall direction of a map, degrees in ``[0, 90)`` (the peak of the
-    length-weighted orientation histogram modulo 90 degrees).
+    """The main wall direction of a map, degrees counter-clockwise in ``[0, 90)`` (the peak
+    of the length-weighted orientation histogram modulo 90 degrees).
 
     Examples
     --------
@@ -239,10 +239,11 @@ def dominant_direction(m: OccupancyMap, *,
     7
     """
     occ, _, _ = _masks(m, occupied_threshold)
-    return _dominant(occ, _res(m))
+    return float((90.0 - _dominant(occ, _res(m))) % 90.0)
 
 
 def _dominant(occ: np.ndarray, res: float) -> float:
+    """The main wall direction as measured in the image (rows down), ``[0, 90)``."""
     c, cres, _ = _coarse(occ, res)
     angle, weight = _orientation(c, cres)
     return float((np.argmax(_histogram(angle, weight)) + 0.5) * 90.0 / _BINS)
@@ -440,14 +441,14 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
     gmax = max(gmin, int(round(gmax_m / res)))
     if gmax > 250:
         raise ParamError(f"doubled_max_gap is {gmax} cells; at most 250")
-    a = _dominant(occ, res)
+    a = _dominant(occ, res)  # measured in the image (rows down): clockwise as seen
     a = a - 90.0 if a > 45.0 else a
     turn = abs(a) > 1.0
     if turn:
-        # image rows point down: a wall at +a degrees (counter-clockwise) is level after
-        # turning the image by -a
-        o, back = _rotate(occ, -a)
-        f, _ = _rotate(free, -a)
+        # a wall turned clockwise by a (as seen) is level after turning the image by a
+        # counter-clockwise (cv2's positive angle)
+        o, back = _rotate(occ, a)
+        f, _ = _rotate(free, a)
     else:
         o, f, back = occ, free, None
     run = max(2, int(round(min_run / res)))
@@ -652,16 +653,13 @@ def detect_defects(m: OccupancyMap, detectors: Iterable[str] | None = None,
     if unknown:
         raise ParamError(f"unknown detector(s) {', '.join(unknown)}; known: "
                          f"{', '.join(DETECTORS)}")
-    taken = set()
+    known = {p for fn in DETECTORS.values() for p in inspect.signature(fn).parameters}
+    extra = sorted(set(settings) - known)
+    if extra:
+        raise ParamError(f"unknown setting(s) {', '.join(extra)} for the defect detectors")
     out: list[Defect] = []
     for name in names:
         fn = DETECTORS[name]
         params = inspect.signature(fn).parameters
-        kw = {k: v for k, v in settings.items() if k in params}
-        taken |= set(kw)
-        out.extend(fn(m, **kw))
-    extra = sorted(set(settings) - taken)
-    if extra:
-        raise ParamError(f"unknown setting(s) {', '.join(extra)} for the detectors "
-                         f"{', '.join(names)}")
+        out.extend(fn(m, **{k: v for k, v in settings.items() if k in params}))
     return out
