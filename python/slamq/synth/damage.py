@@ -20,6 +20,10 @@ run with one kind of failure would have built:
 - ``superposed``: a failed loop closure with a heading error. The half of the map revisited
   last (larger x) is drawn a second time, rotated by the severity (degrees, seeded sign)
   about its centre, over the first copy.
+- ``kinks``: heading jumps of scan matching. The map is cut across x into three parts;
+  each part after the first is turned by the severity (degrees, seeded sign) about the
+  middle of its cut, on top of the turns before it: a corridor that bends where it should
+  run straight, the parts overlapping only at the cuts.
 - ``smear``: pose uncertainty while mapping. The walls of the half of the map seen last are
   drawn at headings spread evenly over the severity (degrees) about a pivot at that half's
   centre: walls fan out into wedges that grow with the distance from the pivot.
@@ -61,7 +65,8 @@ __all__ = ["DEGRADATIONS", "SEVERITIES", "STUDIED", "degrade", "floor_plan", "re
 
 #: The kinds of damage and the unit of their severity.
 DEGRADATIONS = {"drift": "deg per 10 m", "doubling": "m", "rotation": "deg",
-                "specks": "share of free cells", "superposed": "deg", "smear": "deg"}
+                "specks": "share of free cells", "superposed": "deg", "smear": "deg",
+                "kinks": "deg"}
 #: The default severities of each series (0 = the plan itself).
 SEVERITIES: dict[str, tuple[float, ...]] = {
     "drift": (0.0, 0.5, 1.0, 2.0, 4.0, 8.0),
@@ -70,9 +75,10 @@ SEVERITIES: dict[str, tuple[float, ...]] = {
     "specks": (0.0, 0.001, 0.002, 0.005, 0.01, 0.02),
     "superposed": (0.0, 2.0, 5.0, 10.0, 20.0, 45.0),
     "smear": (0.0, 2.0, 5.0, 10.0, 20.0, 30.0),
+    "kinks": (0.0, 2.0, 5.0, 10.0, 20.0, 30.0),
 }
 #: The degradations the metric study (:func:`records`, ``python -m slamq.synth``) runs by
-#: default; ``superposed`` and ``smear`` were added for the defect detectors
+#: default; ``superposed``, ``smear`` and ``kinks`` were added for the defect detectors
 #: (:mod:`slamq.synth.defects_study`).
 STUDIED = ("drift", "doubling", "rotation", "specks")
 #: Ground-truth columns of the study: the plan as ground truth (lower is better).
@@ -261,7 +267,7 @@ def degrade(plan: OccupancyMap, kind: str, severity: float, *, seed: int = 0
     ----------
     plan : OccupancyMap
         The floor plan (:func:`floor_plan`, or a map: cells below 128 are walls).
-    kind : {"drift", "doubling", "rotation", "specks", "superposed", "smear"}
+    kind : {"drift", "doubling", "rotation", "specks", "superposed", "smear", "kinks"}
         The damage (module docstring); severity in the unit of :data:`DEGRADATIONS`.
     severity : float
         0 gives the plan back, cell for cell.
@@ -329,6 +335,27 @@ def degrade(plan: OccupancyMap, kind: str, severity: float, *, seed: int = 0
             return u + shift[0], v + shift[1]
         return _draw(plan, [(occ, free, unk, ident),
                             (occ & late, free & late, unk & late, moved)], label)
+    if kind == "kinks":
+        sign = 1.0 if rng.random() < 0.5 else -1.0
+        a = sign * math.radians(severity)
+        cuts = [u0 + (u1 - u0) * k / 3.0 for k in (1, 2)]
+        col = [int(round(c / res)) for c in cuts]
+        parts = []
+        for k in range(3):
+            band = np.zeros_like(known)
+            band[:, (col[k - 1] if k else 0):(col[k] if k < 2 else None)] = True
+            parts.append(band)
+
+        def chain(k: int) -> Warp:
+            def warp(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                for j in reversed(range(k)):  # the turn at the last cut first
+                    du, dv = u - cuts[j], v - vc
+                    u, v = (cuts[j] + math.cos(a) * du - math.sin(a) * dv,
+                            vc + math.sin(a) * du + math.cos(a) * dv)
+                return u, v
+            return warp
+        return _draw(plan, [(occ & b, free & b, unk & b, chain(k))
+                            for k, b in enumerate(parts)], label)
     if kind in ("superposed", "smear"):
         late = np.zeros_like(known)
         late[:, int(round(uc / res)):] = True
