@@ -258,18 +258,22 @@ def superposed(m: OccupancyMap, *,
                superposed_min_length: float = _S.superposed_min_length.default,
                superposed_min_mixed: float = _S.superposed_min_mixed.default,
                superposed_min_square: float = _S.superposed_min_square.default,
+               superposed_split_share: float = _S.superposed_split_share.default,
                occupied_threshold: float = _S.occupied_threshold.default) -> list[Defect]:
     """Rotated copies laid over each other: a second wall direction in the same places.
 
     The wall-orientation histogram (structure tensor of the occupied mask, modulo 90
     degrees, weighted by wall length) must have a second peak at least
     ``superposed_min_separation`` degrees from the first, holding at least
-    ``superposed_min_share`` of the first peak's height (above the histogram's median) and
-    ``superposed_min_length`` metres of wall, running both ways (the second direction and
-    its perpendicular, the lesser at least ``superposed_min_square`` of the greater: a lone
-    diagonal wall runs one way); and at least ``superposed_min_mixed`` of that second
-    direction's walls must lie in 2 m tiles that also hold walls of the first direction (a
-    rotated copy overlaps the original; an angled wing lies beside it). Walls turned by less
+    ``superposed_min_length`` metres of wall (occupied cells of that direction times the
+    cell size), and either hold at least ``superposed_min_share`` of the first peak's height
+    (above the histogram's median), running both ways (the second direction and its
+    perpendicular, the lesser at least ``superposed_min_square`` of the greater: a lone
+    diagonal wall runs one way) with at least ``superposed_min_mixed`` of its walls in 2 m
+    tiles that also hold walls of the first direction (a rotated copy laid over the
+    original), or hold at least ``superposed_split_share`` of it wherever it lies (parts of
+    the map turned against each other: scan matching that jumped). The second rule also flags a real
+    building with a strong second direction (a wing at an angle, as strong as the rest). Walls turned by less
     than about 5 degrees are not told apart (a local direction is measured over about ten
     cells); :func:`doubled_walls` sees such copies as wedge-shaped wall pairs.
 
@@ -293,14 +297,20 @@ def superposed(m: OccupancyMap, *,
     mixed_min = _check("superposed_min_mixed", superposed_min_mixed)
     square_min = _check("superposed_min_square", superposed_min_square)
     occ, _, off = _masks(m, occupied_threshold)
+    split_min = _check("superposed_split_share", superposed_split_share)
     ev = _superposed_evidence(occ, _res(m), sep)
-    if not ev or ev["share"] < share_min or ev["length"] < length_min \
-            or ev["mixed"] < mixed_min or ev["square"] < square_min:
+    if not ev or ev["length"] < length_min:
+        return []
+    laid_over = ev["share"] >= share_min and ev["mixed"] >= mixed_min \
+        and ev["square"] >= square_min
+    split = ev["share"] >= split_min
+    if not (laid_over or split):
         return []
     bbox = _shift(ev["bbox"], off)
+    how = (f"{ev['mixed']:.0%} of it among main-direction walls" if laid_over else
+           "the parts of the map turned against each other")
     note = (f"second wall direction {ev['a2']:.1f} deg beside {ev['a1']:.1f} deg (mod 90): "
-            f"{ev['share']:.2f} of the main peak, {ev['length']:.1f} m of wall, "
-            f"{ev['mixed']:.0%} of it among main-direction walls")
+            f"{ev['share']:.2f} of the main peak, {ev['length']:.1f} m of wall, {how}")
     return [Defect("superposed", round(ev["share"], 4), bbox, _where(m, bbox), note)]
 
 
@@ -337,9 +347,11 @@ def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, A
     one = float(wb[in_b & ((d180 <= band) | (d180 >= 180.0 - band))].sum())
     other = float(wb.sum()) - one
     square = min(one, other) / max(one, other, 1e-9)
-    # the second direction's walls above the histogram's floor, in metres
-    length = float(wb.sum()) * (1.0 - base / max(float(hist[i2]), 1e-9)) \
-        / _weight_per_cell() * res
+    # the second direction's walls above the histogram's floor, in metres of one-cell wall
+    # (occupied cells of that direction times the cell size: a thin, broken wall counts
+    # what it holds)
+    cells = float(np.count_nonzero(occ & in_b & (weight > 0.05 * _weight_per_cell())))
+    length = cells * (1.0 - base / max(float(hist[i2]), 1e-9)) * res
     tile = max(4, int(round(2.0 / res)))
     h, w = occ.shape
     th, tw = -(-h // tile), -(-w // tile)
@@ -404,6 +416,11 @@ def _rotate(mask: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
     return out.astype(bool), cv2.invertAffineTransform(fwd)
 
 
+#: doubled_walls: a gap of one cell is quantisation, not a second wall, whatever the
+#: resolution; smeared: a wall this many cells thick is still drawn by sensor noise.
+_MIN_GAP_CELLS, _MIN_THICK_CELLS = 2, 6
+
+
 def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_gap.default,
                   doubled_max_gap: float = _S.doubled_max_gap.default,
                   doubled_min_length: float = _S.doubled_min_length.default,
@@ -414,7 +431,7 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
     The map is turned to its main wall direction; down every column and along every row,
     an occupied cell, ``doubled_min_gap``..``doubled_max_gap`` free cells (all seen free:
     the two sides of one real wall have unknown cells between them), then occupied again is
-    one pair. Pairs with the same gap (within one cell) that run along a wall for at least
+    one pair (the gap is at least 2 cells on any grid). Pairs with the same gap (within one cell) that run along a wall for at least
     ``doubled_min_run`` metres are a doubled stretch; the map is flagged when the stretches
     add up to ``doubled_min_length`` metres.
 
@@ -437,7 +454,7 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
     min_run = _check("doubled_min_run", doubled_min_run)
     occ, free, off = _masks(m, occupied_threshold)
     res = _res(m)
-    gmin = max(1, int(round(gmin_m / res)))
+    gmin = max(_MIN_GAP_CELLS, int(round(gmin_m / res)))
     gmax = max(gmin, int(round(gmax_m / res)))
     if gmax > 250:
         raise ParamError(f"doubled_max_gap is {gmax} cells; at most 250")
@@ -458,9 +475,9 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
         oo, ff = (o, f) if axis == 0 else (o.T, f.T)
         centre = _pairs(np.ascontiguousarray(oo), np.ascontiguousarray(ff), gmin, gmax)
         # stretches: gap centres in a row along the wall (one cell up or down), bridging
-        # holes of up to 4 cells
+        # holes of one cell
         sel = cv2.dilate(centre, np.ones((3, 1), np.uint8))
-        sel = cv2.morphologyEx(sel, cv2.MORPH_CLOSE, np.ones((1, 5), np.uint8))
+        sel = cv2.morphologyEx(sel, cv2.MORPH_CLOSE, np.ones((1, 3), np.uint8))
         n, _, stats, _ = cv2.connectedComponentsWithStats(sel, connectivity=8)
         for k in range(1, n):
             x, y, bw, bh, _ = stats[k]
@@ -493,7 +510,8 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
 
     The occupied mask (closed by one cell, so a fuzzy band of occupied and free cells counts
     as one blob) is measured by its distance transform: the cells deeper than half of
-    ``smeared_min_thickness`` form thick cores. A core that is a solid rectangle or disc
+    ``smeared_min_thickness`` (and than 3 cells: noise alone draws walls a few cells thick
+    on a coarse grid) form thick cores. A core that is a solid rectangle or disc
     (its area at least 0.8 of its rotated bounding rectangle's, or 0.75 and nearly round:
     furniture, pillars) is an object, not a smear. The map is flagged when the other cores
     cover ``smeared_min_area`` square metres.
@@ -517,7 +535,7 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
     res = _res(m)
     closed = cv2.morphologyEx(occ.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
     dt = cv2.distanceTransform(closed, cv2.DIST_L2, 3)
-    core = (dt >= thick_m / 2.0 / res).astype(np.uint8)
+    core = (dt >= max(thick_m / res, _MIN_THICK_CELLS) / 2.0).astype(np.uint8)
     if not core.any():
         return []
     n, lab, stats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)

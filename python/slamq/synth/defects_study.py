@@ -1,11 +1,11 @@
 """How well the defect detectors of :mod:`slamq.metrics.defects` work: precision and recall
 on three labelled sets, none of which the thresholds were tuned on.
 
-- **synthetic** (held out): :func:`~slamq.synth.damage.floor_plan` seeds 500.. and
-  :func:`~slamq.synth.world.worlds` from seed 500, clean and damaged by
-  :func:`~slamq.synth.damage.degrade` (damage seeds 500..); the thresholds were tuned on
-  plan seeds 100-105 and worlds from seed 100 (seeds 300.. were a first held-out set, used
-  up: docs/validity.md says how). :data:`EXPECTED` is what docs/validity.md
+- **synthetic** (held out): :func:`~slamq.synth.damage.floor_plan` seeds 700.. and
+  :func:`~slamq.synth.world.worlds` from seed 700, clean and damaged by
+  :func:`~slamq.synth.damage.degrade` (damage seeds 700..); the thresholds were tuned on
+  plan seeds 100-105 and worlds from seed 100 (seeds 300.. and 500.. were held-out sets of
+  earlier versions, used up: docs/validity.md says how). :data:`EXPECTED` is what docs/validity.md
   wrote down before any detector ran: per damage, which detector must fire (``"fires"``),
   must stay silent (``"silent"``) or may do either (not counted).
 - **benchmark**: the 360 maps of ``examples/benchmark.yaml`` (real MRPT SLAM programs on
@@ -58,6 +58,10 @@ EXPECTED: dict[tuple[str, float], dict[str, str]] = {
     ("doubling", 30.0): {"doubled_walls": _S, "smeared": _S, "fragmented": _F},
     ("smear", 10.0): {"smeared": _F, "fragmented": _S},
     ("smear", 20.0): {"smeared": _F, "fragmented": _S},
+    # added with v2 (after the first measurement on real maps): parts turned against each
+    # other, as scan matching that jumped leaves them
+    ("kinks", 10.0): {"superposed": _F, "fragmented": _S},
+    ("kinks", 20.0): {"superposed": _F, "fragmented": _S},
 }
 
 #: Real maps with a defect seen by eye (MANIFEST.md), relative to the maps folder, and the
@@ -128,7 +132,7 @@ def flags(m: OccupancyMap, timing: dict[str, float] | None = None) -> dict[str, 
     return out
 
 
-def synthetic_records(plans: int = 10, seed: int = 500, n_worlds: int = 12
+def synthetic_records(plans: int = 10, seed: int = 700, n_worlds: int = 12
                       ) -> pd.DataFrame:
     """One row per held-out synthetic map: ``base`` (plan or world), ``damage``,
     ``severity`` and :func:`flags`."""
@@ -192,17 +196,22 @@ def benchmark_records(output: Path) -> pd.DataFrame:
 
 def benchmark_table(df: pd.DataFrame) -> pd.DataFrame:
     """Per detector (and any of them): maps flagged, precision (flagged maps that are
-    broken), recall (broken maps flagged), flags on unbroken maps."""
+    broken), recall (broken maps flagged), flags on unbroken maps, and flags on the map
+    with the lowest ATE of its sequence (what would keep the verdict from naming it)."""
     out = []
+    best = df.loc[df.groupby("sequence")["ate_rmse"].idxmin()]
     for det in [*DETECTORS, "any"]:
-        fired = df[list(DETECTORS)].notna().any(axis=1) if det == "any" else df[det].notna()
+        def fired_in(d: pd.DataFrame) -> pd.Series:
+            return d[list(DETECTORS)].notna().any(axis=1) if det == "any" else d[det].notna()
+        fired = fired_in(df)
         tp = int((fired & df["broken"]).sum())
         fp = int((fired & ~df["broken"]).sum())
         fn = int((~fired & df["broken"]).sum())
         prec, rec = _pr(tp, fp, fn)
         out.append({"detector": det, "flagged": tp + fp, "precision": prec, "recall": rec,
                     "flags_on_unbroken": fp, "unbroken": int((~df["broken"]).sum()),
-                    "broken": int(df["broken"].sum())})
+                    "broken": int(df["broken"].sum()),
+                    "best_flagged": int(fired_in(best).sum()), "sequences": len(best)})
     return pd.DataFrame(out)
 
 
@@ -279,15 +288,26 @@ def markdown(syn: pd.DataFrame | None, bench: pd.DataFrame | None,
                          f"{int(r.tp + r.fn)}) | {int(r.fp)}/{int(r.negatives)} |")
         lines.append("")
     if bench is not None:
-        t = benchmark_table(bench)
+        seed = bench["sequence"].str.extract(r"-s(\d+)$")[0]
+        parts = [("all", bench)] if seed.isna().all() else [
+            ("simulation seed 0 (v2 was adjusted on these)", bench[seed == "0"]),
+            ("simulation seeds 1-2 (held out)", bench[seed != "0"])]
         lines += [f"**Benchmark** ({len(bench)} MRPT maps, {int(bench['broken'].sum())} "
                   "broken by ATE): precision = flagged maps that are broken, recall = broken "
-                  "maps flagged.", "",
-                  "| detector | flagged | precision | recall | flags on unbroken maps |",
-                  "|---|---|---|---|---|"]
-        for r in t.itertuples():
-            lines.append(f"| {r.detector} | {r.flagged} | {_f(r.precision)} | "
-                         f"{_f(r.recall)} | {r.flags_on_unbroken}/{r.unbroken} |")
+                  "maps flagged; the last column counts the sequences whose lowest-ATE map is "
+                  "flagged (the verdict would pass it over).", ""]
+        for title, part in parts:
+            if not len(part):
+                continue
+            t = benchmark_table(part)
+            lines += [f"{title}:", "",
+                      "| detector | flagged | precision | recall | flags on unbroken maps | "
+                      "lowest-ATE map flagged |", "|---|---|---|---|---|---|"]
+            for r in t.itertuples():
+                lines.append(f"| {r.detector} | {r.flagged} | {_f(r.precision)} | "
+                             f"{_f(r.recall)} | {r.flags_on_unbroken}/{r.unbroken} | "
+                             f"{r.best_flagged}/{r.sequences} |")
+            lines.append("")
         by = bench.assign(any=bench[list(DETECTORS)].notna().any(axis=1)).groupby(
             ["algorithm", "broken"])["any"].agg(["sum", "count"])
         lines += ["", "Flagged by any detector, per program: " + "; ".join(
@@ -330,7 +350,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                                  description=main.__doc__)
     ap.add_argument("--plans", type=int, default=10, help="held-out floor plans")
     ap.add_argument("--worlds", type=int, default=12, help="held-out generated worlds")
-    ap.add_argument("--seed", type=int, default=500,
+    ap.add_argument("--seed", type=int, default=700,
                     help="first seed of the held-out plans, worlds and damage")
     ap.add_argument("--no-synthetic", action="store_true")
     ap.add_argument("--benchmark", type=Path, help="a `slamq run` output folder")
