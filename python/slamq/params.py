@@ -6,11 +6,12 @@
   ``--log-threshold``-style options of every CLI command, the parameter list in
   :class:`Params`' docstring, the ``param_*`` columns of results files (names and types),
   and what the Rust core receives (it reads these attributes, rust/src/bindings/maps.rs).
-* **load**, **runtime**, **trajectory**, **compare**, **consensus**, **synth**, **defects**: the rows of
-  :data:`SETTINGS` (``unknown_value``; ``threads``; ``max_dt``, ``offset``, the ATE / RPE
-  alignments, ``unsorted``; the ground-truth comparison's alignment, tolerance, occupied
-  threshold and distance cap; the consensus' quorum and radius; the generated worlds' kinds
-  and odometry noise presets; the defect detectors' thresholds, :mod:`slamq.metrics.defects`). Function signatures,
+* **load**, **runtime**, **trajectory**, **compare**, **consensus**, **synth**,
+  **defects**: the rows of :data:`SETTINGS` (``unknown_value``; ``threads``; ``max_dt``,
+  ``offset``, the ATE / RPE alignments, ``unsorted``; the ground-truth comparison's
+  alignment, tolerance, occupied threshold and distance cap; the consensus' quorum and
+  radius; the generated worlds' kinds and odometry noise presets; the thresholds of the
+  defect detectors, :mod:`slamq.metrics.defects`). Function signatures,
   option objects (:class:`slamq.batch.records.EvalOptions`) and CLI options
   (:meth:`Setting.add_option`) take their defaults and choices from these rows.
 

@@ -272,10 +272,11 @@ def superposed(m: OccupancyMap, *,
     diagonal wall runs one way) with at least ``superposed_min_mixed`` of its walls in 2 m
     tiles that also hold walls of the first direction (a rotated copy laid over the
     original), or hold at least ``superposed_split_share`` of it wherever it lies (parts of
-    the map turned against each other: scan matching that jumped). The second rule also flags a real
-    building with a strong second direction (a wing at an angle, as strong as the rest). Walls turned by less
-    than about 5 degrees are not told apart (a local direction is measured over about ten
-    cells); :func:`doubled_walls` sees such copies as wedge-shaped wall pairs.
+    the map turned against each other: scan matching that jumped). The second rule also
+    flags a real building with a strong second direction (a wing at an angle, as strong as
+    the rest). Walls turned by less than about 5 degrees are not told apart (a local
+    direction is measured over about ten cells); :func:`doubled_walls` sees such copies as
+    wedge-shaped wall pairs.
 
     Returns
     -------
@@ -379,11 +380,17 @@ def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, A
 # ---------------------------------------------------------------------------- doubled walls
 
 
-def _pairs(occ: np.ndarray, free: np.ndarray, gmin: int, gmax: int) -> np.ndarray:
-    """The gap centres (uint8 mask) of occupied-free-occupied runs down the columns."""
+def _pairs(occ: np.ndarray, free: np.ndarray, gmin: int, gmax: int, thick: int
+           ) -> np.ndarray:
+    """The gap centres (uint8 mask) of occupied-free-occupied runs down the columns whose
+    two occupied runs are at most ``thick`` cells thick (two thin walls, not the holes of
+    one thick, noisy wall)."""
     h, w = occ.shape
     rows = np.arange(h, dtype=np.int32)[:, None]
     last = np.maximum.accumulate(np.where(occ, rows, -1), axis=0)  # last occupied <= r
+    # last non-occupied cell <= r, and first non-occupied cell >= r
+    gap_above = np.maximum.accumulate(np.where(occ, -1, rows), axis=0)
+    gap_below = np.minimum.accumulate(np.where(occ, h, rows)[::-1], axis=0)[::-1]
     cf = np.cumsum(free, axis=0, dtype=np.int32)
     # top edge of an occupied run at r: r - 1 is free; the run above ends at last[r - 1]
     edge = np.zeros_like(occ)
@@ -396,7 +403,9 @@ def _pairs(occ: np.ndarray, free: np.ndarray, gmin: int, gmax: int) -> np.ndarra
     p = prev[r, c]
     nfree = cf[r - 1, c] - cf[p, c]
     keep = nfree == gap[r, c]  # every gap cell free (seen by the laser)
-    r, c, g = r[keep], c[keep], gap[r, c][keep]
+    r, c, g, p = r[keep], c[keep], gap[r, c][keep], p[keep]
+    thin = (p - gap_above[p, c] <= thick) & (gap_below[r, c] - r <= thick)
+    r, c, g = r[thin], c[thin], g[thin]
     centre = np.zeros((h, w), np.uint8)
     centre[r - (g + 1) // 2, c] = 1
     return centre
@@ -419,6 +428,9 @@ def _rotate(mask: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
 #: doubled_walls: a gap of one cell is quantisation, not a second wall, whatever the
 #: resolution; smeared: a wall this many cells thick is still drawn by sensor noise.
 _MIN_GAP_CELLS, _MIN_THICK_CELLS = 2, 6
+#: doubled_walls: each wall of a pair is at most this thick (metres, and at least this
+#: many cells): a doubled wall is two thin walls; a thick band with holes is one noisy wall.
+_THIN_WALL, _MIN_WALL_CELLS = 0.2, 3
 
 
 def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_gap.default,
@@ -431,7 +443,10 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
     The map is turned to its main wall direction; down every column and along every row,
     an occupied cell, ``doubled_min_gap``..``doubled_max_gap`` free cells (all seen free:
     the two sides of one real wall have unknown cells between them), then occupied again is
-    one pair (the gap is at least 2 cells on any grid). Pairs with the same gap (within one cell) that run along a wall for at least
+    one pair (the gap is at least 2 cells on any grid; each wall of the pair at most 0.2 m
+    and 3 cells thick, so the holes of one thick, noisy wall are not a pair). Pairs in a row
+    along a wall (the
+    gap centre moving by one cell at most, holes of one cell bridged) for at least
     ``doubled_min_run`` metres are a doubled stretch; the map is flagged when the stretches
     add up to ``doubled_min_length`` metres.
 
@@ -469,11 +484,13 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
     else:
         o, f, back = occ, free, None
     run = max(2, int(round(min_run / res)))
+    thick = max(_MIN_WALL_CELLS, int(round(_THIN_WALL / res)))
     total = 0.0
     boxes = []
     for axis in (0, 1):
         oo, ff = (o, f) if axis == 0 else (o.T, f.T)
-        centre = _pairs(np.ascontiguousarray(oo), np.ascontiguousarray(ff), gmin, gmax)
+        centre = _pairs(np.ascontiguousarray(oo), np.ascontiguousarray(ff), gmin, gmax,
+                        thick)
         # stretches: gap centres in a row along the wall (one cell up or down), bridging
         # holes of one cell
         sel = cv2.dilate(centre, np.ones((3, 1), np.uint8))

@@ -134,8 +134,15 @@ def flags(m: OccupancyMap, timing: dict[str, float] | None = None) -> dict[str, 
 
 def synthetic_records(plans: int = 10, seed: int = 700, n_worlds: int = 12
                       ) -> pd.DataFrame:
-    """One row per held-out synthetic map: ``base`` (plan or world), ``damage``,
-    ``severity`` and :func:`flags`."""
+    """One row per held-out synthetic map: ``base`` (plan or world), ``seed``, ``damage``,
+    ``severity`` and :func:`flags`; every base gets every damage of :data:`EXPECTED`.
+
+    Examples
+    --------
+    >>> df = synthetic_records(plans=1, n_worlds=0)
+    >>> len(df) == len(EXPECTED), bool(df.loc[df["damage"] == "clean", "superposed"].isna().all())
+    (True, True)
+    """
     bases = [floor_plan(seed + k) for k in range(plans)] + worlds(n_worlds, seed=seed)
     rows = []
     for k, base in enumerate(bases):
@@ -147,7 +154,17 @@ def synthetic_records(plans: int = 10, seed: int = 700, n_worlds: int = 12
 
 
 def synthetic_table(df: pd.DataFrame) -> pd.DataFrame:
-    """Per detector and damage row: how often it fired, and against :data:`EXPECTED`."""
+    """Per detector and damage row: how often it fired, and against :data:`EXPECTED`.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"damage": ["clean", "doubling"], "severity": [0.0, 0.3],
+    ...                    **{d: [None, None] for d in DETECTORS}})
+    >>> df.loc[1, "doubled_walls"] = 12.5
+    >>> t = synthetic_table(df)
+    >>> t[t["detector"] == "doubled_walls"][["expected", "fired"]].values.tolist()
+    [['silent', 0], ['fires', 1]]
+    """
     rows = []
     for (damage, sev), part in df.groupby(["damage", "severity"], sort=False):
         exp = EXPECTED.get((damage, sev), {})
@@ -166,7 +183,17 @@ def _pr(tp: int, fp: int, fn: int) -> tuple[float, float]:
 
 def synthetic_summary(table: pd.DataFrame) -> pd.DataFrame:
     """Per detector: precision and recall over the rows where :data:`EXPECTED` says fires
-    or silent."""
+    or silent.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"damage": ["clean", "doubling"], "severity": [0.0, 0.3],
+    ...                    **{d: [None, None] for d in DETECTORS}})
+    >>> df.loc[1, "doubled_walls"] = 12.5
+    >>> s = synthetic_summary(synthetic_table(df)).set_index("detector")
+    >>> float(s.loc["doubled_walls", "precision"]), float(s.loc["doubled_walls", "recall"])
+    (1.0, 1.0)
+    """
     out = []
     for det, t in table.groupby("detector", sort=False):
         pos, neg = t[t["expected"] == _F], t[t["expected"] == _S]
@@ -179,7 +206,9 @@ def synthetic_summary(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def benchmark_records(output: Path) -> pd.DataFrame:
-    """:func:`flags` of every map of a benchmark run folder, with ``broken``."""
+    """:func:`flags` of every map of a benchmark run folder (:func:`~slamq.synth.benchmark.
+    load_benchmark`), with ``broken``, ``kind`` and ``ate_rmse``; runs without a map are
+    left out. Reads every map: minutes for the 360-map benchmark."""
     from slamq.sources import load_map
     from slamq.synth.benchmark import load_benchmark
 
@@ -197,13 +226,22 @@ def benchmark_records(output: Path) -> pd.DataFrame:
 def benchmark_table(df: pd.DataFrame) -> pd.DataFrame:
     """Per detector (and any of them): maps flagged, precision (flagged maps that are
     broken), recall (broken maps flagged), flags on unbroken maps, and flags on the map
-    with the lowest ATE of its sequence (what would keep the verdict from naming it)."""
+    with the lowest ATE of its sequence (what would keep the verdict from naming it).
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"sequence": ["a", "a"], "ate_rmse": [0.05, 0.9],
+    ...                    "broken": [False, True], **{d: [None, 3.0] for d in DETECTORS}})
+    >>> t = benchmark_table(df).set_index("detector")
+    >>> float(t.loc["any", "precision"]), int(t.loc["any", "best_flagged"])
+    (1.0, 0)
+    """
     out = []
     best = df.loc[df.groupby("sequence")["ate_rmse"].idxmin()]
+    def fired_in(d: pd.DataFrame, det: str) -> pd.Series:
+        return d[list(DETECTORS)].notna().any(axis=1) if det == "any" else d[det].notna()
     for det in [*DETECTORS, "any"]:
-        def fired_in(d: pd.DataFrame) -> pd.Series:
-            return d[list(DETECTORS)].notna().any(axis=1) if det == "any" else d[det].notna()
-        fired = fired_in(df)
+        fired = fired_in(df, det)
         tp = int((fired & df["broken"]).sum())
         fp = int((fired & ~df["broken"]).sum())
         fn = int((~fired & df["broken"]).sum())
@@ -211,13 +249,20 @@ def benchmark_table(df: pd.DataFrame) -> pd.DataFrame:
         out.append({"detector": det, "flagged": tp + fp, "precision": prec, "recall": rec,
                     "flags_on_unbroken": fp, "unbroken": int((~df["broken"]).sum()),
                     "broken": int(df["broken"].sum()),
-                    "best_flagged": int(fired_in(best).sum()), "sequences": len(best)})
+                    "best_flagged": int(fired_in(best, det).sum()), "sequences": len(best)})
     return pd.DataFrame(out)
 
 
 def real_records(root: Path, timing: dict[str, float] | None = None) -> pd.DataFrame:
     """:func:`flags` of the labelled real maps under ``root`` (../shared/data/maps); maps
-    that are absent are left out."""
+    that are absent are left out (a folder without them gives an empty table).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> len(real_records(tempfile.mkdtemp()))
+    0
+    """
     from slamq.sources import load_map
 
     rows = []
@@ -236,7 +281,17 @@ def real_records(root: Path, timing: dict[str, float] | None = None) -> pd.DataF
 def real_table(df: pd.DataFrame) -> pd.DataFrame:
     """Per detector (and any): precision (flags on defective maps / all flags), recall (of
     the defective maps where the detector is expected, those it flags), flags on clean
-    maps."""
+    maps.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"label": ["defective", "clean"], "expected": ["superposed", ""],
+    ...                    **{d: [None, None] for d in DETECTORS}})
+    >>> df.loc[0, "superposed"] = 0.6
+    >>> t = real_table(df).set_index("detector")
+    >>> float(t.loc["superposed", "recall"]), int(t.loc["any", "flags_on_clean"])
+    (1.0, 0)
+    """
     out = []
     clean = df["label"] == "clean"
     for det in [*DETECTORS, "any"]:
@@ -261,7 +316,14 @@ def _f(x: float) -> str:
 def markdown(syn: pd.DataFrame | None, bench: pd.DataFrame | None,
              real: pd.DataFrame | None, timing: dict[str, float] | None, mcells: float,
              command: str) -> str:
-    """The tables of docs/validity.md's "Defect detectors" section."""
+    """The tables of docs/validity.md's "Defect detectors" section (each part left out when
+    its frame is None).
+
+    Examples
+    --------
+    >>> print(markdown(None, None, None, None, 0.0, "cmd").splitlines()[0])
+    Regenerate with `cmd`.
+    """
     lines = [f"Regenerate with `{command}`.", ""]
     if syn is not None:
         table = synthetic_table(syn)
