@@ -6,11 +6,12 @@
   ``--log-threshold``-style options of every CLI command, the parameter list in
   :class:`Params`' docstring, the ``param_*`` columns of results files (names and types),
   and what the Rust core receives (it reads these attributes, rust/src/bindings/maps.rs).
-* **load**, **runtime**, **trajectory**, **compare**, **consensus**, **synth**: the rows of
-  :data:`SETTINGS` (``unknown_value``; ``threads``; ``max_dt``, ``offset``, the ATE / RPE
-  alignments, ``unsorted``; the ground-truth comparison's alignment, tolerance, occupied
-  threshold and distance cap; the consensus' quorum and radius; the generated worlds' kinds
-  and odometry noise presets). Function signatures,
+* **load**, **runtime**, **trajectory**, **compare**, **consensus**, **synth**,
+  **defects**: the rows of :data:`SETTINGS` (``unknown_value``; ``threads``; ``max_dt``,
+  ``offset``, the ATE / RPE alignments, ``unsorted``; the ground-truth comparison's
+  alignment, tolerance, occupied threshold and distance cap; the consensus' quorum and
+  radius; the generated worlds' kinds and odometry noise presets; the thresholds of the
+  defect detectors, :mod:`slamq.metrics.defects`). Function signatures,
   option objects (:class:`slamq.batch.records.EvalOptions`) and CLI options
   (:meth:`Setting.add_option`) take their defaults and choices from these rows.
 
@@ -188,7 +189,7 @@ class Setting:
     ----------
     family : str
         ``"load"``, ``"runtime"``, ``"trajectory"``, ``"compare"``, ``"consensus"``,
-        ``"agreement"`` or ``"synth"``.
+        ``"agreement"``, ``"synth"`` or ``"defects"``.
     name : str
         The row's name (also the keyword or option it is, unless noted in ``help``).
     default : Any
@@ -320,6 +321,49 @@ SETTINGS = _Rows((s.name, s) for s in (
     Setting("agreement", "min_support", 0.6,
             "the support (median consistency with the other maps) a map needs to count as "
             "confirmed", "", float, 0.0, 1.0),
+    Setting("defects", "superposed_min_separation", 5.0,
+            "superposed: the second wall direction is at least this far from the first "
+            "(modulo 90 degrees)", "deg", float, 0.0, 45.0),
+    Setting("defects", "superposed_min_share", 0.1,
+            "superposed: the second direction's peak holds at least this share of the "
+            "first's (above the histogram's median)", "", float, 0.0, 1.0),
+    Setting("defects", "superposed_min_length", 8.0,
+            "superposed: at least this much wall runs in the second direction", "m",
+            float, 0.0, None),
+    Setting("defects", "superposed_min_mixed", 0.15,
+            "superposed: at least this share of the second direction's walls lies in 2 m "
+            "tiles that hold main-direction walls too", "", float, 0.0, 1.0),
+    Setting("defects", "superposed_min_square", 0.2,
+            "superposed: the second direction has walls both ways (the lesser of it and its "
+            "perpendicular at least this share of the greater; a lone diagonal wall has "
+            "one way)", "", float, 0.0, 1.0),
+    Setting("defects", "superposed_split_share", 0.5,
+            "superposed: a second direction this strong (share of the first peak) flags the "
+            "map wherever its walls lie (parts turned against each other)", "", float, 0.0,
+            1.0),
+    Setting("defects", "doubled_min_gap", 0.1,
+            "doubled_walls: smallest free gap between two parallel walls", "m", float,
+            0.0, None),
+    Setting("defects", "doubled_max_gap", 0.5,
+            "doubled_walls: largest free gap between two parallel walls", "m", float, 0.0,
+            None),
+    Setting("defects", "doubled_min_run", 1.0,
+            "doubled_walls: a stretch of parallel pairs counts when it runs this long", "m",
+            float, 0.0, None),
+    Setting("defects", "doubled_min_length", 4.0,
+            "doubled_walls: the map is flagged when the stretches add up to this", "m",
+            float, 0.0, None),
+    Setting("defects", "smeared_min_thickness", 0.4,
+            "smeared: occupied blobs thicker than this (distance transform) are smears "
+            "unless solid rectangles or discs", "m", float, 0.0, None),
+    Setting("defects", "smeared_min_area", 2.0,
+            "smeared: the map is flagged when the thick cores cover this much", "m2",
+            float, 0.0, None),
+    Setting("defects", "fragment_min_area", 4.0,
+            "fragmented: a disconnected piece of the known area counts from this size",
+            "m2", float, 0.0, None),
+    Setting("defects", "fragment_min_share", 0.05,
+            "fragmented: ... and from this share of the known area", "", float, 0.0, 1.0),
 ))
 
 

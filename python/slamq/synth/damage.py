@@ -17,6 +17,16 @@ run with one kind of failure would have built:
   map is as good as the original: the ideal metric does not move.
 - ``specks``: the severity's share of the free cells turned occupied, at seeded places
   (scan noise, moving people).
+- ``superposed``: a failed loop closure with a heading error. The half of the map revisited
+  last (larger x) is drawn a second time, rotated by the severity (degrees, seeded sign)
+  about its centre, over the first copy.
+- ``kinks``: heading jumps of scan matching. The map is cut across x into three parts;
+  each part after the first is turned by the severity (degrees, seeded sign) about the
+  middle of its cut, on top of the turns before it: a corridor that bends where it should
+  run straight, the parts overlapping only at the cuts.
+- ``smear``: pose uncertainty while mapping. The walls of the half of the map seen last are
+  drawn at headings spread evenly over the severity (degrees) about a pivot at that half's
+  centre: walls fan out into wedges that grow with the distance from the pivot.
 
 Each map is drawn by forward-mapping 3 x 3 sub-samples of every cell (a cell takes the
 class of most of the sub-samples landing in it, so walls keep their thickness), so
@@ -50,19 +60,27 @@ from slamq.models import OccupancyMap
 from slamq.results import validity
 from slamq.sources import load_map
 
-__all__ = ["DEGRADATIONS", "SEVERITIES", "degrade", "floor_plan", "records", "series",
+__all__ = ["DEGRADATIONS", "SEVERITIES", "STUDIED", "degrade", "floor_plan", "records", "series",
            "study"]
 
 #: The kinds of damage and the unit of their severity.
 DEGRADATIONS = {"drift": "deg per 10 m", "doubling": "m", "rotation": "deg",
-                "specks": "share of free cells"}
+                "specks": "share of free cells", "superposed": "deg", "smear": "deg",
+                "kinks": "deg"}
 #: The default severities of each series (0 = the plan itself).
 SEVERITIES: dict[str, tuple[float, ...]] = {
     "drift": (0.0, 0.5, 1.0, 2.0, 4.0, 8.0),
     "doubling": (0.0, 0.1, 0.2, 0.4, 0.8, 1.6),
     "rotation": (0.0, 1.0, 2.0, 5.0, 10.0, 20.0),
     "specks": (0.0, 0.001, 0.002, 0.005, 0.01, 0.02),
+    "superposed": (0.0, 2.0, 5.0, 10.0, 20.0, 45.0),
+    "smear": (0.0, 2.0, 5.0, 10.0, 20.0, 30.0),
+    "kinks": (0.0, 2.0, 5.0, 10.0, 20.0, 30.0),
 }
+#: The degradations the metric study (:func:`records`, ``python -m slamq.synth``) runs by
+#: default; ``superposed``, ``smear`` and ``kinks`` were added for the defect detectors
+#: (:mod:`slamq.synth.defects_study`).
+STUDIED = ("drift", "doubling", "rotation", "specks")
 #: Ground-truth columns of the study: the plan as ground truth (lower is better).
 PLAN_FIGURES = ("plan_f1_loss", "plan_chamfer")
 _SUB = 3  # sub-samples per cell side when drawing
@@ -249,12 +267,12 @@ def degrade(plan: OccupancyMap, kind: str, severity: float, *, seed: int = 0
     ----------
     plan : OccupancyMap
         The floor plan (:func:`floor_plan`, or a map: cells below 128 are walls).
-    kind : {"drift", "doubling", "rotation", "specks"}
+    kind : {"drift", "doubling", "rotation", "specks", "superposed", "smear", "kinks"}
         The damage (module docstring); severity in the unit of :data:`DEGRADATIONS`.
     severity : float
         0 gives the plan back, cell for cell.
     seed : int, default 0
-        Direction of the doubling, places of the specks.
+        Direction of the doubling, places of the specks, sign of the superposed rotation.
 
     Returns
     -------
@@ -317,6 +335,52 @@ def degrade(plan: OccupancyMap, kind: str, severity: float, *, seed: int = 0
             return u + shift[0], v + shift[1]
         return _draw(plan, [(occ, free, unk, ident),
                             (occ & late, free & late, unk & late, moved)], label)
+    if kind == "kinks":
+        sign = 1.0 if rng.random() < 0.5 else -1.0
+        a = sign * math.radians(severity)
+        cuts = [u0 + (u1 - u0) * k / 3.0 for k in (1, 2)]
+        col = [int(round(c / res)) for c in cuts]
+        parts = []
+        for k in range(3):
+            band = np.zeros_like(known)
+            band[:, (col[k - 1] if k else 0):(col[k] if k < 2 else None)] = True
+            parts.append(band)
+
+        def chain(k: int) -> Warp:
+            def warp(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                for j in reversed(range(k)):  # the turn at the last cut first
+                    du, dv = u - cuts[j], v - vc
+                    u, v = (cuts[j] + math.cos(a) * du - math.sin(a) * dv,
+                            vc + math.sin(a) * du + math.cos(a) * dv)
+                return u, v
+            return warp
+        return _draw(plan, [(occ & b, free & b, unk & b, chain(k))
+                            for k, b in enumerate(parts)], label)
+    if kind in ("superposed", "smear"):
+        late = np.zeros_like(known)
+        late[:, int(round(uc / res)):] = True
+        lr, lc = np.nonzero(known & late)
+        pu = (lc.min() + lc.max() + 1) / 2 * res if len(lc) else uc
+        pv = (h - (lr.min() + lr.max() + 1) / 2) * res if len(lr) else vc
+        sign = 1.0 if rng.random() < 0.5 else -1.0
+
+        def turned(a: float) -> Warp:
+            def rot(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                du, dv = u - pu, v - pv
+                return (pu + math.cos(a) * du - math.sin(a) * dv,
+                        pv + math.sin(a) * du + math.cos(a) * dv)
+            return rot
+        if kind == "superposed":
+            return _draw(plan, [(occ, free, unk, ident),
+                                (occ & late, free & late, unk & late,
+                                 turned(sign * math.radians(severity)))], label)
+        # smear: the late walls at headings 0..severity, 0.5 degree apart at most
+        steps = max(1, int(math.ceil(severity / 0.5)))
+        none = np.zeros_like(known)
+        layers = [(occ, free, unk, ident)] + [
+            (occ & late, none, none, turned(sign * math.radians(severity) * k / steps))
+            for k in range(1, steps + 1)]
+        return _draw(plan, layers, label)
     # specks
     fr, fc = np.nonzero(free)
     n = int(round(severity * len(fr)))
@@ -350,8 +414,8 @@ def records(plans: Sequence[OccupancyMap] | int = 3, *,
     plans : int or sequence of OccupancyMap, default 3
         Floor plans, or how many procedural ones (seeds ``seed``, ``seed + 1``...).
     severities : dict, optional
-        Severities per degradation (default :data:`SEVERITIES`; a degradation left out is
-        not studied).
+        Severities per degradation (default :data:`SEVERITIES` of the :data:`STUDIED`
+        degradations; a degradation left out is not studied).
     seed : int, default 0
     align : str, default "search"
         How the maps are aligned onto the plan for ``plan_f1_loss`` / ``plan_chamfer``.
@@ -373,7 +437,7 @@ def records(plans: Sequence[OccupancyMap] | int = 3, *,
     """
     if isinstance(plans, int):
         plans = [floor_plan(seed + k) for k in range(plans)]
-    sev = SEVERITIES if severities is None else severities
+    sev = {k: SEVERITIES[k] for k in STUDIED} if severities is None else severities
     rows = []
     for k, plan in enumerate(plans):
         for kind, values in sev.items():

@@ -1,0 +1,700 @@
+"""Defect detectors on one map: named SLAM failures, each flag with a place.
+
+The paper's metrics (corners, occupied fraction, enclosed areas) are single numbers that
+cannot say *what* is wrong with a map nor where, and they cannot see that a map is made of
+two copies of the building. These detectors look for four typical failures of a SLAM run in
+one occupancy grid, without ground truth (docs/validity.md, "Defect detectors", says how
+well each one works on synthetic damage, on the ground-truth benchmark and on real maps):
+
+- ``superposed``: two copies of (a part of) the building laid over each other at an angle
+  (a failed loop closure, scan matching that diverged): a second strong wall direction
+  (the wall-orientation histogram modulo 90 degrees, weighted by wall length, has two peaks
+  more than ``superposed_min_separation`` apart) whose walls lie in the same places as the
+  walls of the main direction (a building with an angled wing has its second direction
+  somewhere else).
+- ``doubled_walls``: parallel wall pairs a few cells apart (occupied, a gap of
+  ``doubled_min_gap``..``doubled_max_gap`` free cells, occupied, across the walls) over a
+  substantial wall length: a copy shifted by a few centimetres.
+- ``smeared``: smeared or fan-shaped walls: occupied blobs and wedges thicker than
+  ``smeared_min_thickness`` (distance transform of the occupied mask) that are not a solid
+  rectangular or round object (furniture, pillars).
+- ``fragmented``: the known area split into several sizeable disconnected pieces.
+
+Every detector takes an :class:`~slamq.OccupancyMap` and returns a list of
+:class:`Defect` (empty when it sees nothing); :func:`detect_defects` runs them all. The
+thresholds are rows of :data:`slamq.params.SETTINGS` (family ``defects``), in metres where
+they are lengths: a map without a resolution is read as 0.05 m per cell.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from slamq.errors import ParamError
+from slamq.models import OccupancyMap
+from slamq.params import SETTINGS
+
+__all__ = ["DETECTORS", "Defect", "detect_defects", "doubled_walls", "fragmented",
+           "smeared", "superposed"]
+
+#: Metres per cell assumed for a map without a resolution.
+DEFAULT_RESOLUTION = 0.05
+_S = SETTINGS
+
+
+@dataclass(frozen=True)
+class Defect:
+    """One flag of a defect detector.
+
+    Attributes
+    ----------
+    kind : str
+        The detector: ``"superposed"``, ``"doubled_walls"``, ``"smeared"`` or
+        ``"fragmented"``.
+    score : float
+        How strong the evidence is, in the detector's unit (``note`` says it); the flag was
+        raised because it passed the detector's threshold.
+    bbox : tuple of int
+        ``(col0, row0, col1, row1)``: where, in the map image's pixel coordinates (row 0 at
+        the top), the end exclusive.
+    where_m : tuple of float
+        ``(x, y)`` of the box's centre in the map frame, metres.
+    note : str
+        One line for people: what was seen, with the numbers.
+
+    Examples
+    --------
+    >>> d = Defect("fragmented", 0.4, (0, 0, 10, 20), (0.25, 0.5), "2 pieces")
+    >>> d.to_dict()["bbox"], d.to_dict()["kind"]
+    ([0, 0, 10, 20], 'fragmented')
+    """
+
+    kind: str
+    score: float
+    bbox: tuple[int, int, int, int]
+    where_m: tuple[float, float]
+    note: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"kind", "score", "bbox", "where_m", "note"}`` with plain lists and floats."""
+        d = asdict(self)
+        d["bbox"] = [int(v) for v in self.bbox]
+        d["where_m"] = [float(v) for v in self.where_m]
+        d["score"] = float(self.score)
+        return d
+
+
+# ---------------------------------------------------------------------------- helpers
+
+
+def _res(m: OccupancyMap) -> float:
+    return float(m.resolution) if m.resolution else DEFAULT_RESOLUTION
+
+
+def _check(name: str, value: Any) -> float:
+    s = _S[name]
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ParamError(f"{name} must be a number, got {value!r}") from None
+    if isinstance(value, bool) or not math.isfinite(x) or (
+            s.low is not None and x < s.low) or (s.high is not None and x > s.high):
+        raise ParamError(f"{name} must be a finite number in [{s.low}, {s.high}], got "
+                         f"{value!r}")
+    return x
+
+
+def _masks(m: OccupancyMap, occupied_threshold: float
+           ) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+    """``(occupied, free, (row0, col0))``: bool masks of the known cells' bounding box (with
+    a 2-cell margin) and where it starts. A known cell is occupied when (255 - v) / 255 is
+    above ``occupied_threshold`` (as :func:`slamq.compare`)."""
+    thr = _check("occupied_threshold", occupied_threshold)
+    known = ~m.unknown
+    r0, c0, r1, c1 = _known_box(known)
+    known = known[r0:r1, c0:c1]
+    occ = known & (m.values[r0:r1, c0:c1] < 255.0 * (1.0 - thr))
+    return occ, known & ~occ, (r0, c0)
+
+
+def _known_box(known: np.ndarray) -> tuple[int, int, int, int]:
+    rows = np.flatnonzero(known.any(axis=1))
+    cols = np.flatnonzero(known.any(axis=0))
+    if not len(rows):
+        return (0, 0, known.shape[0], known.shape[1])
+    h, w = known.shape
+    return (max(0, int(rows[0]) - 2), max(0, int(cols[0]) - 2), min(h, int(rows[-1]) + 3),
+            min(w, int(cols[-1]) + 3))
+
+
+def _shift(bbox: tuple[int, int, int, int], off: tuple[int, int]
+           ) -> tuple[int, int, int, int]:
+    return (bbox[0] + off[1], bbox[1] + off[0], bbox[2] + off[1], bbox[3] + off[0])
+
+
+#: Directions are measured on a grid of about this many metres per cell (finer maps are
+#: pooled), so the measuring window is the same size in metres on every map.
+_ORIENTATION_GRID = 0.05
+
+
+def _coarse(occ: np.ndarray, res: float) -> tuple[np.ndarray, float, int]:
+    """``occ`` max-pooled to about :data:`_ORIENTATION_GRID` per cell, its resolution and
+    the pooling factor."""
+    f = max(1, int(round(_ORIENTATION_GRID / res)))
+    if f == 1:
+        return occ, res, 1
+    h, w = occ.shape
+    pad = np.zeros((-(-h // f) * f, -(-w // f) * f), bool)
+    pad[:h, :w] = occ
+    return pad.reshape(pad.shape[0] // f, f, pad.shape[1] // f, f).any(axis=(1, 3)), \
+        res * f, f
+
+
+def _where(m: OccupancyMap, bbox: tuple[int, int, int, int]) -> tuple[float, float]:
+    """Map-frame metres of the centre of a pixel box."""
+    res = _res(m)
+    h = m.shape[0]
+    c = (bbox[0] + bbox[2]) / 2.0
+    r = (bbox[1] + bbox[3]) / 2.0
+    u, v = c * res, (h - r) * res
+    x0, y0, yaw = m.origin
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    return (round(x0 + cy * u - sy * v, 3), round(y0 + sy * u + cy * v, 3))
+
+
+def _box(mask: np.ndarray) -> tuple[int, int, int, int]:
+    rows = np.flatnonzero(mask.any(axis=1))
+    cols = np.flatnonzero(mask.any(axis=0))
+    if not len(rows):
+        return (0, 0, 0, 0)
+    return (int(cols[0]), int(rows[0]), int(cols[-1]) + 1, int(rows[-1]) + 1)
+
+
+def _orientation(occ: np.ndarray, res: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell: the local wall direction modulo 180 degrees (``[0, 180)``, the gradient's
+    direction: 0 for a wall along the rows' normal... i.e. 90 for a level wall) and its
+    weight (the anisotropic energy of the structure tensor, about proportional to wall
+    length). The mask is blurred first (sigma 2 cells) so that the staircase of a turned
+    wall reads as its slope."""
+    img = cv2.GaussianBlur(occ.astype(np.float32), (0, 0), 2.0)
+    gx = cv2.Sobel(img, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(img, cv2.CV_32F, 0, 1, ksize=3)
+    sigma = 3.0
+    jxx = cv2.GaussianBlur(gx * gx, (0, 0), sigma)
+    jyy = cv2.GaussianBlur(gy * gy, (0, 0), sigma)
+    jxy = cv2.GaussianBlur(gx * gy, (0, 0), sigma)
+    d = jxx - jyy
+    weight = cv2.magnitude(d, 2.0 * jxy)
+    angle = cv2.phase(d, 2.0 * jxy, angleInDegrees=True)  # [0, 360): twice the angle
+    return angle * 0.5, weight
+
+
+_PER_CELL: float | None = None
+
+
+def _weight_per_cell() -> float:
+    """The orientation weight of one cell of length of a straight two-cell wall (the
+    histogram's unit: divided by it, a weight is a wall length in cells)."""
+    global _PER_CELL
+    if _PER_CELL is None:
+        occ = np.zeros((64, 400), bool)
+        occ[31:33, 50:350] = True
+        _, w = _orientation(occ, 0.05)
+        _PER_CELL = float(w[:, 100:300].sum() / 200.0)
+    return _PER_CELL
+
+
+_BINS = 180  # 0.5 degree bins over [0, 90)
+
+
+def _histogram(angle: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    b = np.minimum((np.mod(angle, 90.0) * (_BINS / 90.0)).astype(np.int64), _BINS - 1)
+    sel = weight > 1e-3 * (float(weight.max()) if weight.size else 0.0)
+    hist = np.bincount(b[sel], weights=weight[sel], minlength=_BINS)
+    k = np.exp(-0.5 * (np.arange(-6, 7) / 2.0) ** 2)  # sigma 1 degree
+    k /= k.sum()
+    return np.convolve(np.concatenate([hist[-6:], hist, hist[:6]]), k, "valid")
+
+
+def _circ(a: np.ndarray | float, b: float) -> np.ndarray | float:
+    d = np.abs(np.asarray(a) - b) % 90.0
+    return np.minimum(d, 90.0 - d)
+
+
+def dominant_direction(m: OccupancyMap, *,
+                       occupied_threshold: float = _S.occupied_threshold.default) -> float:
+    """The main wall direction of a map, degrees counter-clockwise in ``[0, 90)`` (the peak
+    of the length-weighted orientation histogram modulo 90 degrees).
+
+    Examples
+    --------
+    >>> from slamq.synth import degrade, floor_plan
+    >>> round(dominant_direction(degrade(floor_plan(1), "rotation", 7)))
+    7
+    """
+    occ, _, _ = _masks(m, occupied_threshold)
+    return float((90.0 - _dominant(occ, _res(m))) % 90.0)
+
+
+def _dominant(occ: np.ndarray, res: float) -> float:
+    """The main wall direction as measured in the image (rows down), ``[0, 90)``."""
+    c, cres, _ = _coarse(occ, res)
+    angle, weight = _orientation(c, cres)
+    return float((np.argmax(_histogram(angle, weight)) + 0.5) * 90.0 / _BINS)
+
+
+# ---------------------------------------------------------------------------- superposed
+
+
+def superposed(m: OccupancyMap, *,
+               superposed_min_separation: float = _S.superposed_min_separation.default,
+               superposed_min_share: float = _S.superposed_min_share.default,
+               superposed_min_length: float = _S.superposed_min_length.default,
+               superposed_min_mixed: float = _S.superposed_min_mixed.default,
+               superposed_min_square: float = _S.superposed_min_square.default,
+               superposed_split_share: float = _S.superposed_split_share.default,
+               occupied_threshold: float = _S.occupied_threshold.default) -> list[Defect]:
+    """Rotated copies laid over each other: a second wall direction in the same places.
+
+    The wall-orientation histogram (structure tensor of the occupied mask, modulo 90
+    degrees, weighted by wall length) must have a second peak at least
+    ``superposed_min_separation`` degrees from the first, holding at least
+    ``superposed_min_length`` metres of wall (occupied cells of that direction times the
+    cell size), and either hold at least ``superposed_min_share`` of the first peak's height
+    (above the histogram's median), running both ways (the second direction and its
+    perpendicular, the lesser at least ``superposed_min_square`` of the greater: a lone
+    diagonal wall runs one way) with at least ``superposed_min_mixed`` of its walls in 2 m
+    tiles that also hold walls of the first direction (a rotated copy laid over the
+    original), or hold at least ``superposed_split_share`` of it wherever it lies (parts of
+    the map turned against each other: scan matching that jumped). The second rule also
+    flags a real building with a strong second direction (a wing at an angle, as strong as
+    the rest). Walls turned by less than about 5 degrees are not told apart (a local
+    direction is measured over about ten cells); :func:`doubled_walls` sees such copies as
+    wedge-shaped wall pairs.
+
+    Returns
+    -------
+    list of Defect
+        At most one: score = the second direction's share of the first's peak, the box
+        around the tiles where both directions meet.
+
+    Examples
+    --------
+    >>> from slamq.synth import degrade, floor_plan
+    >>> [d.kind for d in superposed(degrade(floor_plan(3), "superposed", 10, seed=3))]
+    ['superposed']
+    >>> superposed(degrade(floor_plan(3), "rotation", 10))
+    []
+    """
+    sep = _check("superposed_min_separation", superposed_min_separation)
+    share_min = _check("superposed_min_share", superposed_min_share)
+    length_min = _check("superposed_min_length", superposed_min_length)
+    mixed_min = _check("superposed_min_mixed", superposed_min_mixed)
+    square_min = _check("superposed_min_square", superposed_min_square)
+    occ, _, off = _masks(m, occupied_threshold)
+    split_min = _check("superposed_split_share", superposed_split_share)
+    ev = _superposed_evidence(occ, _res(m), sep)
+    if not ev or ev["length"] < length_min:
+        return []
+    laid_over = ev["share"] >= share_min and ev["mixed"] >= mixed_min \
+        and ev["square"] >= square_min
+    split = ev["share"] >= split_min
+    if not (laid_over or split):
+        return []
+    bbox = _shift(ev["bbox"], off)
+    how = (f"{ev['mixed']:.0%} of it among main-direction walls" if laid_over else
+           "the parts of the map turned against each other")
+    note = (f"second wall direction {ev['a2']:.1f} deg beside {ev['a1']:.1f} deg (mod 90): "
+            f"{ev['share']:.2f} of the main peak, {ev['length']:.1f} m of wall, {how}")
+    return [Defect("superposed", round(ev["share"], 4), bbox, _where(m, bbox), note)]
+
+
+def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, Any]:
+    """The numbers :func:`superposed` decides on (empty when there is no second peak)."""
+    occ, res, f = _coarse(occ, res)
+    angle, weight = _orientation(occ, res)
+    hist = _histogram(angle, weight)
+    centres = (np.arange(_BINS) + 0.5) * 90.0 / _BINS
+    i1 = int(np.argmax(hist))
+    a1 = float(centres[i1])
+    base = float(np.median(hist))
+    h1 = float(hist[i1]) - base
+    if h1 <= 0:
+        return {}
+    local_max = (hist >= np.roll(hist, 1)) & (hist >= np.roll(hist, -1))
+    cand = np.flatnonzero(local_max & (_circ(centres, a1) >= sep))
+    if not len(cand):
+        return {}
+    i2 = int(cand[np.argmax(hist[cand])])
+    a2 = float(centres[i2])
+    # the valley between the peaks (the shorter arc), so a shoulder is not a peak
+    lo, hi = sorted((i1, i2))
+    arc = hist[lo:hi + 1] if hi - lo <= _BINS // 2 else np.concatenate([hist[hi:],
+                                                                       hist[:lo + 1]])
+    prominence = float(hist[i2]) - max(float(arc.min()), base)
+    share = prominence / h1
+    band = 1.5
+    in_b = _circ(angle, a2) <= band
+    wa = np.where(_circ(angle, a1) <= band, weight, 0.0).astype(np.float32)
+    wb = np.where(in_b, weight, 0.0).astype(np.float32)
+    # both ways: the second direction and its perpendicular (angle modulo 180)
+    d180 = np.abs(np.mod(angle - a2, 180.0))
+    one = float(wb[in_b & ((d180 <= band) | (d180 >= 180.0 - band))].sum())
+    other = float(wb.sum()) - one
+    square = min(one, other) / max(one, other, 1e-9)
+    # the second direction's walls above the histogram's floor, in metres of one-cell wall
+    # (occupied cells of that direction times the cell size: a thin, broken wall counts
+    # what it holds)
+    cells = float(np.count_nonzero(occ & in_b & (weight > 0.05 * _weight_per_cell())))
+    length = cells * (1.0 - base / max(float(hist[i2]), 1e-9)) * res
+    tile = max(4, int(round(2.0 / res)))
+    h, w = occ.shape
+    th, tw = -(-h // tile), -(-w // tile)
+
+    def tiles(x: np.ndarray) -> np.ndarray:
+        pad = np.zeros((th * tile, tw * tile), np.float32)
+        pad[:h, :w] = x
+        return pad.reshape(th, tile, tw, tile).sum(axis=(1, 3))
+    ta, tb = tiles(wa), tiles(wb)
+    per_tile = _weight_per_cell() * tile * 0.3  # 0.3 m of wall in the tile
+    mixed = (tb >= per_tile) & (ta >= per_tile) & (ta >= 0.25 * tb) & (tb >= 0.25 * ta)
+    mixed_share = float(tb[mixed].sum() / max(float(tb.sum()), 1e-9))
+    where = mixed if mixed.any() else tb >= per_tile
+    if where.any():
+        r, c = np.nonzero(where)
+        bbox = (int(c.min()) * tile, int(r.min()) * tile, min(w, (int(c.max()) + 1) * tile),
+                min(h, (int(r.max()) + 1) * tile))
+    else:
+        bbox = (0, 0, w, h)
+    bbox = (bbox[0] * f, bbox[1] * f, bbox[2] * f, bbox[3] * f)
+    return {"a1": a1, "a2": a2, "share": share, "length": length, "mixed": mixed_share,
+            "square": square, "bbox": bbox}
+
+
+# ---------------------------------------------------------------------------- doubled walls
+
+
+def _pairs(occ: np.ndarray, free: np.ndarray, gmin: int, gmax: int, thick: int
+           ) -> np.ndarray:
+    """The gap centres (uint8 mask) of occupied-free-occupied runs down the columns whose
+    two occupied runs are at most ``thick`` cells thick (two thin walls, not the holes of
+    one thick, noisy wall)."""
+    h, w = occ.shape
+    rows = np.arange(h, dtype=np.int32)[:, None]
+    last = np.maximum.accumulate(np.where(occ, rows, -1), axis=0)  # last occupied <= r
+    # last non-occupied cell <= r, and first non-occupied cell >= r
+    gap_above = np.maximum.accumulate(np.where(occ, -1, rows), axis=0)
+    gap_below = np.minimum.accumulate(np.where(occ, h, rows)[::-1], axis=0)[::-1]
+    cf = np.cumsum(free, axis=0, dtype=np.int32)
+    # top edge of an occupied run at r: r - 1 is free; the run above ends at last[r - 1]
+    edge = np.zeros_like(occ)
+    edge[1:] = occ[1:] & free[:-1]
+    prev = np.full((h, w), -1, np.int32)
+    prev[1:] = last[:-1]
+    gap = rows - prev - 1
+    ok = edge & (prev >= 0) & (gap >= gmin) & (gap <= gmax)
+    r, c = np.nonzero(ok)
+    p = prev[r, c]
+    nfree = cf[r - 1, c] - cf[p, c]
+    keep = nfree == gap[r, c]  # every gap cell free (seen by the laser)
+    r, c, g, p = r[keep], c[keep], gap[r, c][keep], p[keep]
+    thin = (p - gap_above[p, c] <= thick) & (gap_below[r, c] - r <= thick)
+    r, c, g = r[thin], c[thin], g[thin]
+    centre = np.zeros((h, w), np.uint8)
+    centre[r - (g + 1) // 2, c] = 1
+    return centre
+
+
+def _rotate(mask: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """``mask`` turned by ``angle`` degrees about its centre (nearest cell, grown to hold
+    it), and the 2x3 matrix back from the turned image to the original."""
+    h, w = mask.shape
+    a = math.radians(angle)
+    nw = int(math.ceil(abs(w * math.cos(a)) + abs(h * math.sin(a))))
+    nh = int(math.ceil(abs(w * math.sin(a)) + abs(h * math.cos(a))))
+    fwd = cv2.getRotationMatrix2D((w / 2.0, h / 2.0), angle, 1.0)
+    fwd[0, 2] += (nw - w) / 2.0
+    fwd[1, 2] += (nh - h) / 2.0
+    out = cv2.warpAffine(mask.astype(np.uint8), fwd, (nw, nh), flags=cv2.INTER_NEAREST)
+    return out.astype(bool), cv2.invertAffineTransform(fwd)
+
+
+#: doubled_walls: a gap of one cell is quantisation, not a second wall, whatever the
+#: resolution; smeared: a wall this many cells thick is still drawn by sensor noise.
+_MIN_GAP_CELLS, _MIN_THICK_CELLS = 2, 6
+#: doubled_walls: each wall of a pair is at most this thick (metres, and at least this
+#: many cells): a doubled wall is two thin walls; a thick band with holes is one noisy wall.
+_THIN_WALL, _MIN_WALL_CELLS = 0.2, 3
+
+
+def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_gap.default,
+                  doubled_max_gap: float = _S.doubled_max_gap.default,
+                  doubled_min_length: float = _S.doubled_min_length.default,
+                  doubled_min_run: float = _S.doubled_min_run.default,
+                  occupied_threshold: float = _S.occupied_threshold.default) -> list[Defect]:
+    """Parallel wall pairs a few cells apart: a copy of the walls shifted a little.
+
+    The map is turned to its main wall direction; down every column and along every row,
+    an occupied cell, ``doubled_min_gap``..``doubled_max_gap`` free cells (all seen free:
+    the two sides of one real wall have unknown cells between them), then occupied again is
+    one pair (the gap is at least 2 cells on any grid; each wall of the pair at most 0.2 m
+    and 3 cells thick, so the holes of one thick, noisy wall are not a pair). Pairs in a row
+    along a wall (the
+    gap centre moving by one cell at most, holes of one cell bridged) for at least
+    ``doubled_min_run`` metres are a doubled stretch; the map is flagged when the stretches
+    add up to ``doubled_min_length`` metres.
+
+    Returns
+    -------
+    list of Defect
+        At most one: score = doubled wall length in metres, box around the stretches.
+
+    Examples
+    --------
+    >>> from slamq.synth import degrade, floor_plan
+    >>> [d.kind for d in doubled_walls(degrade(floor_plan(3), "doubling", 0.3, seed=3))]
+    ['doubled_walls']
+    >>> doubled_walls(floor_plan(3))
+    []
+    """
+    gmin_m = _check("doubled_min_gap", doubled_min_gap)
+    gmax_m = _check("doubled_max_gap", doubled_max_gap)
+    min_len = _check("doubled_min_length", doubled_min_length)
+    min_run = _check("doubled_min_run", doubled_min_run)
+    occ, free, off = _masks(m, occupied_threshold)
+    res = _res(m)
+    gmin = max(_MIN_GAP_CELLS, int(round(gmin_m / res)))
+    gmax = max(gmin, int(round(gmax_m / res)))
+    if gmax > 250:
+        raise ParamError(f"doubled_max_gap is {gmax} cells; at most 250")
+    a = _dominant(occ, res)  # measured in the image (rows down): clockwise as seen
+    a = a - 90.0 if a > 45.0 else a
+    turn = abs(a) > 1.0
+    if turn:
+        # a wall turned clockwise by a (as seen) is level after turning the image by a
+        # counter-clockwise (cv2's positive angle)
+        o, back = _rotate(occ, a)
+        f, _ = _rotate(free, a)
+    else:
+        o, f, back = occ, free, None
+    run = max(2, int(round(min_run / res)))
+    thick = max(_MIN_WALL_CELLS, int(round(_THIN_WALL / res)))
+    total = 0.0
+    boxes = []
+    for axis in (0, 1):
+        oo, ff = (o, f) if axis == 0 else (o.T, f.T)
+        centre = _pairs(np.ascontiguousarray(oo), np.ascontiguousarray(ff), gmin, gmax,
+                        thick)
+        # stretches: gap centres in a row along the wall (one cell up or down), bridging
+        # holes of one cell
+        sel = cv2.dilate(centre, np.ones((3, 1), np.uint8))
+        sel = cv2.morphologyEx(sel, cv2.MORPH_CLOSE, np.ones((1, 3), np.uint8))
+        n, _, stats, _ = cv2.connectedComponentsWithStats(sel, connectivity=8)
+        for k in range(1, n):
+            x, y, bw, bh, _ = stats[k]
+            if bw >= run:
+                total += bw * res
+                boxes.append((x, y, x + bw, y + bh) if axis == 0 else (y, x, y + bh, x + bw))
+    if total < min_len or not boxes:
+        return []
+    b = np.array(boxes, float)
+    corners = np.array([[b[:, 0].min(), b[:, 1].min()], [b[:, 2].max(), b[:, 1].min()],
+                        [b[:, 0].min(), b[:, 3].max()], [b[:, 2].max(), b[:, 3].max()]])
+    if back is not None:
+        corners = corners @ back[:, :2].T + back[:, 2]
+    h, w = occ.shape
+    bbox = _shift((int(max(0, corners[:, 0].min())), int(max(0, corners[:, 1].min())),
+                   int(min(w, math.ceil(corners[:, 0].max()))),
+                   int(min(h, math.ceil(corners[:, 1].max())))), off)
+    note = (f"{total:.1f} m of parallel wall pairs {gmin}-{gmax} cells apart "
+            f"({len(boxes)} stretches of at least {min_run:g} m)")
+    return [Defect("doubled_walls", round(total, 3), bbox, _where(m, bbox), note)]
+
+
+# ---------------------------------------------------------------------------- smeared
+
+
+def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_thickness.default,
+            smeared_min_area: float = _S.smeared_min_area.default,
+            occupied_threshold: float = _S.occupied_threshold.default) -> list[Defect]:
+    """Smeared or fan-shaped walls: thick occupied blobs and wedges.
+
+    The occupied mask (closed by one cell, so a fuzzy band of occupied and free cells counts
+    as one blob) is measured by its distance transform: the cells deeper than half of
+    ``smeared_min_thickness`` (and than 3 cells: noise alone draws walls a few cells thick
+    on a coarse grid) form thick cores. A core that is a solid rectangle or disc
+    (its area at least 0.8 of its rotated bounding rectangle's, or 0.75 and nearly round:
+    furniture, pillars) is an object, not a smear. The map is flagged when the other cores
+    cover ``smeared_min_area`` square metres.
+
+    Returns
+    -------
+    list of Defect
+        At most one: score = the thick cores' area in square metres, box around them.
+
+    Examples
+    --------
+    >>> from slamq.synth import degrade, floor_plan
+    >>> [d.kind for d in smeared(degrade(floor_plan(3), "smear", 10, seed=3))]
+    ['smeared']
+    >>> smeared(floor_plan(3))
+    []
+    """
+    thick_m = _check("smeared_min_thickness", smeared_min_thickness)
+    area_min = _check("smeared_min_area", smeared_min_area)
+    occ, _, off = _masks(m, occupied_threshold)
+    res = _res(m)
+    closed = cv2.morphologyEx(occ.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
+    dt = cv2.distanceTransform(closed, cv2.DIST_L2, 3)
+    core = (dt >= max(thick_m / res, _MIN_THICK_CELLS) / 2.0).astype(np.uint8)
+    if not core.any():
+        return []
+    n, lab, stats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)
+    keep = np.zeros(n, bool)
+    axis = None
+    for k in range(1, n):
+        x, y, bw, bh, area = stats[k]
+        if area < 3:
+            continue
+        blob = (lab[y:y + bh, x:x + bw] == k).astype(np.uint8)
+        (_, _), (rw, rh), _ = cv2.minAreaRect(cv2.findNonZero(blob))
+        fill = area / ((rw + 1.0) * (rh + 1.0))
+        round_ = min(rw, rh) + 1.0 >= 0.8 * (max(rw, rh) + 1.0)
+        if fill >= 0.8 or (round_ and fill >= 0.7):
+            continue  # a solid object: furniture, a pillar
+        if axis is None:
+            axis = _dominant(occ, res)
+        if _rectilinear(blob, axis) >= 0.85:
+            continue  # boxes side by side or against a wall, square to the building
+        keep[k] = True
+    mask = keep[lab]
+    area = float(np.count_nonzero(mask)) * res * res
+    if area < area_min:
+        return []
+    bbox = _shift(_box(mask), off)
+    note = (f"{area:.2f} m2 of wall thicker than {thick_m:g} m in "
+            f"{int(keep.sum())} blobs that are not solid objects")
+    return [Defect("smeared", round(area, 4), bbox, _where(m, bbox), note)]
+
+
+def _rectilinear(blob: np.ndarray, axis: float) -> float:
+    """The share of a blob's outline (a polygon within one cell) that runs along the
+    building's directions (``axis`` and its perpendicular, within 10 degrees)."""
+    contours, _ = cv2.findContours(blob, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    along = total = 0.0
+    for c in contours:
+        poly = cv2.approxPolyDP(c, 1.0, True).reshape(-1, 2).astype(float)
+        d = np.roll(poly, -1, axis=0) - poly
+        length = np.hypot(d[:, 0], d[:, 1])
+        # image rows point down: a segment's direction counter-clockwise is atan2(-dy, dx)
+        ang = np.degrees(np.arctan2(-d[:, 1], d[:, 0]))
+        along += float(length[_circ(ang, axis) <= 10.0].sum())
+        total += float(length.sum())
+    return along / total if total else 1.0
+
+
+# ---------------------------------------------------------------------------- fragmented
+
+
+def fragmented(m: OccupancyMap, *, fragment_min_area: float = _S.fragment_min_area.default,
+               fragment_min_share: float = _S.fragment_min_share.default) -> list[Defect]:
+    """The known area split into several sizeable disconnected pieces.
+
+    Known cells are joined across gaps of up to 0.2 m (unknown wall cells, thin unseen
+    strips), then labelled; a piece is sizeable when it holds at least
+    ``fragment_min_area`` square metres and ``fragment_min_share`` of the known area. The
+    map is flagged when there are two sizeable pieces or more.
+
+    Returns
+    -------
+    list of Defect
+        At most one: score = the known share outside the largest piece, box around the
+        other sizeable pieces.
+
+    Examples
+    --------
+    >>> from slamq.synth import degrade, floor_plan
+    >>> [d.kind for d in fragmented(degrade(floor_plan(3), "doubling", 30, seed=3))]
+    ['fragmented']
+    >>> fragmented(floor_plan(3))
+    []
+    """
+    area_min = _check("fragment_min_area", fragment_min_area)
+    share_min = _check("fragment_min_share", fragment_min_share)
+    res = _res(m)
+    known = (~m.unknown).astype(np.uint8)
+    total = int(known.sum())
+    if total == 0:
+        return []
+    k = max(1, int(round(0.1 / res)))
+    joined = cv2.dilate(known, np.ones((2 * k + 1, 2 * k + 1), np.uint8))
+    n, lab = cv2.connectedComponents(joined, connectivity=8)
+    counts = np.bincount(lab[known > 0], minlength=n)
+    counts[0] = 0
+    big = np.flatnonzero((counts * res * res >= area_min) & (counts >= share_min * total))
+    if len(big) < 2:
+        return []
+    order = big[np.argsort(-counts[big])]
+    others = np.isin(lab, order[1:]) & (known > 0)
+    share = 1.0 - float(counts[order[0]]) / total
+    bbox = _box(others)
+    note = (f"{len(big)} disconnected known pieces of at least {area_min:g} m2; "
+            f"{share:.0%} of the known area lies outside the largest")
+    return [Defect("fragmented", round(share, 4), bbox, _where(m, bbox), note)]
+
+
+#: The detectors by name, in the order :func:`detect_defects` runs them.
+DETECTORS = {"superposed": superposed, "doubled_walls": doubled_walls, "smeared": smeared,
+             "fragmented": fragmented}
+
+
+def detect_defects(m: OccupancyMap, detectors: Iterable[str] | None = None,
+                   **settings: Any) -> list[Defect]:
+    """Every detector's flags on one map.
+
+    Parameters
+    ----------
+    m : OccupancyMap
+    detectors : iterable of str, optional
+        Names of :data:`DETECTORS` to run (default all).
+    **settings
+        Thresholds (rows of :data:`slamq.params.SETTINGS`, family ``defects``, and
+        ``occupied_threshold``); each goes to the detectors that take it.
+
+    Returns
+    -------
+    list of Defect
+        Empty for a map in which no detector sees anything.
+
+    Examples
+    --------
+    >>> from slamq.synth import degrade, floor_plan
+    >>> detect_defects(floor_plan(2))
+    []
+    >>> [d.kind for d in detect_defects(degrade(floor_plan(2), "doubling", 30, seed=2),
+    ...                                 ["fragmented"])]
+    ['fragmented']
+    """
+    import inspect
+
+    names = list(DETECTORS) if detectors is None else list(detectors)
+    unknown = [n for n in names if n not in DETECTORS]
+    if unknown:
+        raise ParamError(f"unknown detector(s) {', '.join(unknown)}; known: "
+                         f"{', '.join(DETECTORS)}")
+    known = {p for fn in DETECTORS.values() for p in inspect.signature(fn).parameters}
+    extra = sorted(set(settings) - known)
+    if extra:
+        raise ParamError(f"unknown setting(s) {', '.join(extra)} for the defect detectors")
+    out: list[Defect] = []
+    for name in names:
+        fn = DETECTORS[name]
+        params = inspect.signature(fn).parameters
+        out.extend(fn(m, **{k: v for k, v in settings.items() if k in params}))
+    return out
