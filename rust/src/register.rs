@@ -26,7 +26,7 @@
 
 use crate::compare::Placed;
 use crate::edt::{filled, Columns, EdtError};
-use crate::icp::{icp, Target};
+use crate::icp::{icp, search, Target};
 use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
@@ -66,8 +66,8 @@ pub const MARGIN_FULL: f64 = 0.5;
 pub struct RegisterParams {
     /// Occupied: a known cell whose occupancy probability `(255 - v) / 255` is above this.
     pub occupied_threshold: f64,
-    /// A point agrees with a map when within this many metres of its walls; None: two
-    /// cells of the coarser map.
+    /// A point agrees with a map when within this many metres of its walls; None: the
+    /// larger of 0.2 m and two cells of the coarser map.
     pub tolerance: Option<f64>,
     /// Refused below this consistency (the worse of the two directions).
     pub min_inliers: f64,
@@ -875,6 +875,21 @@ pub fn register_prepared(
         candidates: refined.len(),
         tolerance: tol,
     })
+}
+
+/// The alignment `align="search"` used before this module (kept to measure against, by
+/// benches/bench_register.py): 36 rotations about the moving points' centroid moved onto
+/// the fixed walls' centroid, a short ICP from each, the best by trimmed RMS, then the full
+/// ICP.
+pub fn legacy_search(
+    moving: &Prepared,
+    fixed: &Prepared,
+    trim: f64,
+    max_iterations: usize,
+) -> Result<Se2, RegisterError> {
+    let target = Target::new(fixed.frame, &fixed.columns, &fixed.mask, &fixed.cells)?;
+    let start = search(&moving.points, &target, trim);
+    Ok(icp(&moving.points, &target, start, trim, max_iterations).map_or(start, |r| r.transform))
 }
 
 /// Register `moving` onto `fixed`: [`prepare`] both, then [`register_prepared`].
