@@ -36,11 +36,21 @@ from slamq.lazy import exports
 
 if TYPE_CHECKING:  # what the names below are, for type checkers (imported on first use)
     from slamq import api, synth  # noqa: F401
-    from slamq.api import agreement, ate, ate_runs, compare, consensus, evaluate, rpe
+    from slamq.api import (
+        agreement,
+        ate,
+        ate_runs,
+        compare,
+        consensus,
+        evaluate,
+        register,
+        register_many,
+        rpe,
+    )
     from slamq.batch.engine import evaluate_many
     from slamq.batch.runs import discover_runs
     from slamq.metrics import reference  # noqa: F401
-    from slamq.models import MapComparison, MapQuality, OccupancyMap, Trajectory
+    from slamq.models import MapComparison, MapQuality, OccupancyMap, Registration, Trajectory
     from slamq.params import Params
     from slamq.results.formats import read_results
     from slamq.results.summary import summarize
@@ -62,12 +72,15 @@ _LAZY = {
     "compare": "slamq.api",
     "consensus": "slamq.api",
     "agreement": "slamq.api",
+    "register": "slamq.api",
+    "register_many": "slamq.api",
     "ate": "slamq.api",
     "rpe": "slamq.api",
     "ate_runs": "slamq.api",
     "MapComparison": "slamq.models.comparison",
     "MapQuality": "slamq.models.quality",
     "OccupancyMap": "slamq.models.occupancy",
+    "Registration": "slamq.models.registration",
     "Trajectory": "slamq.models.trajectory",
     "Params": "slamq.params",
     "load_map": "slamq.sources.maps",
@@ -99,6 +112,7 @@ __all__ = [
     "OutOfMemoryError",
     "ParamError",
     "Params",
+    "Registration",
     "SlamqError",
     "Trajectory",
     "TrajectoryError",
@@ -110,6 +124,8 @@ __all__ = [
     "discover_runs",
     "evaluate",
     "evaluate_many",
+    "register",
+    "register_many",
     "run",
     "load_map",
     "load_trajectory",

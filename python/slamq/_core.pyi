@@ -145,6 +145,90 @@ def compare(
     threads: int = 0,
 ) -> tuple[RawComparison, npt.NDArray[np.uint8] | None]: ...
 
+class RawRegistration:
+    """One registration of a map onto another of the same place (SPEC section 7a):
+    moving world -> fixed world, and how far to trust it."""
+
+    @property
+    def ok(self) -> bool: ...
+    @property
+    def reason(self) -> str: ...
+    @property
+    def theta(self) -> float: ...
+    @property
+    def tx(self) -> float: ...
+    @property
+    def ty(self) -> float: ...
+    @property
+    def inliers(self) -> float: ...
+    @property
+    def inliers_moving(self) -> float: ...
+    @property
+    def inliers_fixed(self) -> float: ...
+    @property
+    def overlap(self) -> float: ...
+    @property
+    def overlap_moving(self) -> float: ...
+    @property
+    def overlap_fixed(self) -> float: ...
+    @property
+    def score(self) -> float: ...
+    @property
+    def runner_up_score(self) -> float: ...
+    @property
+    def runner_up(self) -> tuple[float, float, float] | None: ...
+    @property
+    def margin(self) -> float: ...
+    @property
+    def confidence(self) -> float: ...
+    @property
+    def icp_rms(self) -> float: ...
+    @property
+    def icp_iterations(self) -> int: ...
+    @property
+    def rotations(self) -> int: ...
+    @property
+    def candidates(self) -> int: ...
+    @property
+    def tolerance(self) -> float: ...
+
+# Maps of one place onto each other (rust/src/register.rs); slamq.register is the entry.
+def register(
+    moving_values: npt.NDArray[np.uint8],
+    moving_unknown: npt.NDArray[np.bool_],
+    moving_frame: tuple[float, float, float, float],
+    fixed_values: npt.NDArray[np.uint8],
+    fixed_unknown: npt.NDArray[np.bool_],
+    fixed_frame: tuple[float, float, float, float],
+    occupied_threshold: float = 0.5,
+    tolerance: float | None = None,
+    min_inliers: float = 0.6,
+    min_overlap: float = 0.1,
+    min_margin: float = 0.05,
+    threads: int = 0,
+) -> RawRegistration: ...
+def register_many(
+    maps: list[
+        tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_], tuple[float, float, float, float]]
+    ],
+    occupied_threshold: float = 0.5,
+    tolerance: float | None = None,
+    min_inliers: float = 0.6,
+    min_overlap: float = 0.1,
+    min_margin: float = 0.05,
+    threads: int = 0,
+) -> list[tuple[tuple[int, int], RawRegistration]]: ...
+def legacy_search(
+    moving_values: npt.NDArray[np.uint8],
+    moving_unknown: npt.NDArray[np.bool_],
+    moving_frame: tuple[float, float, float, float],
+    fixed_values: npt.NDArray[np.uint8],
+    fixed_unknown: npt.NDArray[np.bool_],
+    fixed_frame: tuple[float, float, float, float],
+    occupied_threshold: float = 0.5,
+    threads: int = 0,
+) -> tuple[float, float, float]: ...
+
 # Ground truth on demand: the simulator's laser (rust/src/raycast.rs);
 # slamq.synth.sensors.cast is the Python entry, cast_numpy its reference.
 def raycast(

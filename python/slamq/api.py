@@ -4,7 +4,8 @@ one metric runs on them.
 This is the one edge between reading and measuring: :mod:`slamq.sources` turns a path
 into an :class:`~slamq.OccupancyMap` or a :class:`~slamq.Trajectory`, and the metric of
 :mod:`slamq.metrics` (which takes models only and never reads a file) computes the
-numbers. ``slamq.evaluate``, ``slamq.compare``, ``slamq.consensus``, ``slamq.ate``,
+numbers. ``slamq.evaluate``, ``slamq.compare``, ``slamq.consensus``, ``slamq.register``,
+``slamq.register_many``, ``slamq.ate``,
 ``slamq.rpe`` and ``slamq.ate_runs`` are the functions below; each takes every keyword of
 its metric (same names, same defaults: the metric's signature is this one's).
 
@@ -35,12 +36,14 @@ from slamq.metrics.compare import compare as compare_of
 from slamq.metrics.consensus import Consensus
 from slamq.metrics.consensus import consensus as consensus_of
 from slamq.metrics.evaluate import evaluate as evaluate_of
-from slamq.models import MapComparison, MapQuality, OccupancyMap, Trajectory
+from slamq.metrics.register import register as register_of
+from slamq.metrics.register import register_many as register_many_of
+from slamq.models import MapComparison, MapQuality, OccupancyMap, Registration, Trajectory
 from slamq.sources.maps import load_map
 from slamq.sources.trajectories import load_trajectory
 
 __all__ = ["MapSource", "TrajLike", "agreement", "ate", "ate_runs", "compare", "consensus",
-           "evaluate", "rpe"]
+           "evaluate", "register", "register_many", "rpe"]
 
 #: What the map functions accept: a path, an :class:`OccupancyMap`, or a numpy image array.
 MapSource = Union[str, os.PathLike, OccupancyMap, Any]
@@ -201,6 +204,23 @@ def agreement(maps: Mapping[str, MapSource] | Sequence[MapSource],
     Returns
     -------
     Agreement
+@_like(register_of, [_param("moving"), _param("fixed"), _UNKNOWN])
+def register(moving: MapSource, fixed: MapSource, *, unknown_value: int | None = None,
+             **options: Any) -> Registration:
+    """Register a map onto another map of the same place (files, arrays or models).
+
+    Parameters
+    ----------
+    moving, fixed : path, OccupancyMap, or numpy array
+        The two maps (read with :func:`slamq.load_map`).
+    unknown_value : int, optional
+        Passed to :func:`slamq.load_map` for paths and arrays.
+    **options
+        Every keyword of :func:`slamq.metrics.register.register`.
+
+    Returns
+    -------
+    Registration
 
     Examples
     --------
@@ -213,6 +233,50 @@ def agreement(maps: Mapping[str, MapSource] | Sequence[MapSource],
     named = (dict(maps) if isinstance(maps, Mapping)
              else {str(i): m for i, m in enumerate(maps)})
     return agreement_of({str(k): _load(v, None) for k, v in named.items()}, **options)
+    >>> img = np.full((80, 100), 254, np.uint8)
+    >>> img[10, 10:90] = img[70, 10:90] = img[10:71, 10] = img[10:71, 90] = 0
+    >>> img[10:40, 50] = img[40, 30:51] = 0
+    >>> r = slamq.register(np.rot90(img), img)
+    >>> r.ok, round(abs(np.degrees(r.theta)))
+    (True, 90)
+    """
+    return register_of(_load(moving, unknown_value), _load(fixed, unknown_value), **options)
+
+
+@_like(register_many_of, [_param("maps"), _UNKNOWN])
+def register_many(maps: Mapping[str, MapSource] | Sequence[MapSource], *,
+                  unknown_value: int | None = None,
+                  **options: Any) -> dict[tuple[str, str], Registration]:
+    """Register every pair of several maps of one place (files, arrays or models).
+
+    Parameters
+    ----------
+    maps : mapping of name to map, or sequence of maps
+        Paths, :class:`OccupancyMap` objects or image arrays; a sequence is named ``"0"``,
+        ``"1"``...
+    unknown_value : int, optional
+        Passed to :func:`slamq.load_map` for paths and arrays.
+    **options
+        Every keyword of :func:`slamq.metrics.register.register_many`.
+
+    Returns
+    -------
+    dict of (moving, fixed) to Registration
+
+    Examples
+    --------
+    >>> import numpy as np, slamq
+    >>> img = np.full((80, 100), 254, np.uint8)
+    >>> img[10, 10:90] = img[70, 10:90] = img[10:71, 10] = img[10:71, 90] = 0
+    >>> img[10:40, 50] = img[40, 30:51] = 0
+    >>> regs = slamq.register_many({"a": img, "b": np.rot90(img)})
+    >>> sorted(regs), regs["b", "a"].ok
+    ([('a', 'b'), ('b', 'a')], True)
+    """
+    named = (dict(maps) if isinstance(maps, Mapping)
+             else {str(i): m for i, m in enumerate(maps)})
+    return register_many_of({str(k): _load(v, unknown_value) for k, v in named.items()},
+                            **options)
 
 
 def _trajectory(x: TrajLike, what: str) -> Trajectory:

@@ -12,6 +12,9 @@ Python asks of Rust (the typed signatures are in ``_core.pyi``):
   :func:`ate_moments`, :func:`ate_errors`;
 * the ground-truth comparison (bindings/comparison.rs): :func:`compare`,
   :class:`RawComparison`;
+* the registration of maps of one place (bindings/registration.rs): :func:`register`,
+  :func:`register_many`, :func:`legacy_search` (the previous search, for the benchmark),
+  :class:`RawRegistration`;
 * the simulator's laser (bindings/synth.rs): :func:`raycast`;
 * the runtime (bindings/runtime.rs): :func:`adopt_thread`.
 
@@ -29,6 +32,7 @@ from slamq._core import (
     WORK_BYTES_PER_CELL,
     RawComparison,
     RawQuality,
+    RawRegistration,
     adopt_thread,
     ate_errors,
     ate_moments,
@@ -36,18 +40,22 @@ from slamq._core import (
     default_params,
     evaluate,
     evaluate_many,
+    legacy_search,
     map_saver_shades,
     match_stamps,
     otsu_table,
     raycast,
     read_table,
     read_tum,
+    register,
+    register_many,
 )
 
 __all__ = [
     "WORK_BYTES_PER_CELL",
     "RawComparison",
     "RawQuality",
+    "RawRegistration",
     "adopt_thread",
     "ate_errors",
     "ate_moments",
@@ -55,10 +63,13 @@ __all__ = [
     "default_params",
     "evaluate",
     "evaluate_many",
+    "legacy_search",
     "map_saver_shades",
     "match_stamps",
     "otsu_table",
     "raycast",
     "read_table",
     "read_tum",
+    "register",
+    "register_many",
 ]

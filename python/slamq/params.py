@@ -12,6 +12,13 @@
   alignment, tolerance, occupied threshold and distance cap; the consensus' quorum and
   radius; the generated worlds' kinds and odometry noise presets; the thresholds of the
   defect detectors, :mod:`slamq.metrics.defects`). Function signatures,
+* **load**, **runtime**, **trajectory**, **compare**, **register**, **consensus**,
+  **synth**: the rows of
+  :data:`SETTINGS` (``unknown_value``; ``threads``; ``max_dt``, ``offset``, the ATE / RPE
+  alignments, ``unsorted``; the ground-truth comparison's alignment, tolerance, occupied
+  threshold and distance cap; the registration's refusal thresholds ``min_inliers``,
+  ``min_overlap``, ``min_margin``; the consensus' quorum and radius; the generated worlds' kinds
+  and odometry noise presets). Function signatures,
   option objects (:class:`slamq.batch.records.EvalOptions`) and CLI options
   (:meth:`Setting.add_option`) take their defaults and choices from these rows.
 
@@ -188,8 +195,8 @@ class Setting:
     Attributes
     ----------
     family : str
-        ``"load"``, ``"runtime"``, ``"trajectory"``, ``"compare"``, ``"consensus"``,
-        ``"agreement"``, ``"synth"`` or ``"defects"``.
+        ``"load"``, ``"runtime"``, ``"trajectory"``, ``"compare"``, ``"register"``,
+        ``"consensus"``, ``"agreement"``, ``"synth"`` or ``"defects"``.
     name : str
         The row's name (also the keyword or option it is, unless noted in ``help``).
     default : Any
@@ -304,6 +311,15 @@ SETTINGS = _Rows((s.name, s) for s in (
     Setting("compare", "max_distance", None,
             "distances to the ground truth above this count as this (bounds NE for partial "
             "maps)", "m", float, 0.0, None),
+    Setting("register", "min_inliers", 0.6,
+            "registration refused when the maps' walls agree less than this where they "
+            "overlap (the worse direction)", "", float, 0.0, 1.0),
+    Setting("register", "min_overlap", 0.1,
+            "registration refused when less than this share of either map's walls lands on "
+            "the other's known cells", "", float, 0.0, 1.0),
+    Setting("register", "min_margin", 0.05,
+            "registration refused when a distinct alignment scores within this share of the "
+            "best (an ambiguous, symmetric place)", "", float, 0.0, 1.0),
     Setting("synth", "world_kind", "office",
             "kind of generated building (slamq.synth.KINDS says what each is)", type=str,
             choices=("office", "loop", "corridor", "hall", "symmetric", "mixed")),

@@ -5,8 +5,9 @@
 
 use crate::edt::{filled, Columns, EdtError};
 use crate::grid::{Grid, BAND_ROWS};
-use crate::icp::{icp, search, Target};
+use crate::icp::{icp, Target};
 use crate::params::{Align, CompareParams};
+use crate::register::{register, RegisterError, RegisterParams};
 use crate::se2::{floor_i64, Affine, Frame, Se2};
 use rayon::prelude::*;
 use std::fmt;
@@ -163,8 +164,12 @@ fn occupied_points(p: &Placed, occ: &[bool; 256]) -> Result<Vec<(f64, f64)>, Com
 }
 
 /// The motion aligning the estimate, with the ICP's RMS, iterations and inliers.
+/// `Align::Search` starts the ICP from the global registration of the estimate onto the
+/// ground truth (SPEC section 7a; its transform even when it refuses, the identity when it
+/// found no candidate).
 fn align(
     points: &[(f64, f64)],
+    est: &Placed,
     gt: &Placed,
     g_columns: &Columns,
     g_mask: &[bool],
@@ -178,7 +183,19 @@ fn align(
     let start = match params.align {
         Align::Origin => Se2::IDENTITY,
         Align::Icp => Se2::IDENTITY,
-        Align::Search => search(points, &target, params.trim),
+        Align::Search => {
+            let p = RegisterParams {
+                occupied_threshold: params.occupied_threshold,
+                trim: params.trim,
+                ..RegisterParams::default()
+            };
+            register(est, gt, &p)
+                .map_err(|e| match e {
+                    RegisterError::Invalid(s) => CompareError::Invalid(s),
+                    RegisterError::Edt(e) => CompareError::Edt(e),
+                })?
+                .transform
+        }
     };
     Ok(
         match icp(points, &target, start, params.trim, params.max_iterations) {
@@ -448,8 +465,15 @@ pub fn compare(
     // nearest-cell queries of G (ICP correspondences, d(e, G))
     let g_columns = Columns::new(|i| g_mask[i], h, w)?;
     let points = occupied_points(estimate, &occ)?;
-    let (transform, icp_rms, icp_iterations, icp_inliers) =
-        align(&points, ground_truth, &g_columns, &g_mask, &g_list, params)?;
+    let (transform, icp_rms, icp_iterations, icp_inliers) = align(
+        &points,
+        estimate,
+        ground_truth,
+        &g_columns,
+        &g_mask,
+        &g_list,
+        params,
+    )?;
     let res = resample(estimate, ground_truth, &g_mask, &transform, &occ, &points)?;
     drop(points);
     let mut cells = res.cells;

@@ -22,6 +22,8 @@
 //! - [`se2`]: planar rigid motions, map frames, the closed-form rigid fit.
 //! - [`icp`]: trimmed SE(2) ICP onto a distance transform, and the coarse rotation search.
 //! - [`compare`]: a map against a ground-truth map, SPEC section 7.
+//! - [`register`]: global registration of two maps of one place (any rotation, other
+//!   resolution and extent), SPEC section 7a.
 //! - [`ate`]: the absolute trajectory error's passes over the poses (association, Umeyama
 //!   sums, errors, statistics); [`table`]: the numeric text table and TUM pose reader.
 //! - [`raycast`]: exact laser ray casting on a grid (Amanatides-Woo), the simulator's
@@ -51,6 +53,7 @@ pub mod params;
 pub mod pixels;
 pub mod proportion;
 pub mod raycast;
+pub mod register;
 pub mod se2;
 pub mod table;
 

@@ -4,6 +4,7 @@
 - :class:`Trajectory`: timestamped poses (SPEC section 6).
 - :class:`MapQuality`: the three map metrics of one map (SPEC sections 2-4).
 - :class:`MapComparison`: a map scored against a ground-truth map (SPEC section 7).
+- :class:`Registration`: one map registered onto another of the same place (SPEC 7a).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ if TYPE_CHECKING:
     from slamq.models.comparison import MapComparison
     from slamq.models.occupancy import OccupancyMap
     from slamq.models.quality import MapQuality
+    from slamq.models.registration import Registration
     from slamq.models.trajectory import Trajectory
 
 #: Public names, imported on first use: name -> module.
@@ -23,9 +25,10 @@ _WHERE = {
     "MapComparison": "slamq.models.comparison",
     "MapQuality": "slamq.models.quality",
     "OccupancyMap": "slamq.models.occupancy",
+    "Registration": "slamq.models.registration",
     "Trajectory": "slamq.models.trajectory",
 }
 
 __getattr__, __dir__ = exports(globals(), _WHERE)
 
-__all__ = ["MapComparison", "MapQuality", "OccupancyMap", "Trajectory"]
+__all__ = ["MapComparison", "MapQuality", "OccupancyMap", "Registration", "Trajectory"]

@@ -82,7 +82,12 @@ impl RawComparison {
 }
 
 /// A map's frame from `(resolution, x, y, yaw)`.
-fn frame(what: &str, f: (f64, f64, f64, f64), height: usize, width: usize) -> PyResult<Frame> {
+pub(super) fn frame(
+    what: &str,
+    f: (f64, f64, f64, f64),
+    height: usize,
+    width: usize,
+) -> PyResult<Frame> {
     let (resolution, x, y, yaw) = f;
     if !(resolution.is_finite() && resolution > 0.0) {
         return Err(PyValueError::new_err(format!(

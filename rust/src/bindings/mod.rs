@@ -7,12 +7,15 @@
 //! - [`loading`]: the loaders' fast paths: `map_saver_shades`, `read_table`, `read_tum`.
 //! - [`trajectory`]: `match_stamps`, `ate_moments`, `ate_errors`.
 //! - [`comparison`]: `compare` (a map against a ground-truth map; `RawComparison`).
+//! - [`registration`]: `register`, `register_many`, `legacy_search` (maps of one place onto each other;
+//!   `RawRegistration`).
 //! - [`synth`]: `raycast` (the simulator's laser, ground truth on demand).
 //! - [`runtime`]: the thread pools, fork handling, `adopt_thread`.
 
 mod comparison;
 mod loading;
 mod maps;
+mod registration;
 mod runtime;
 mod synth;
 mod trajectory;
@@ -70,6 +73,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(trajectory::ate_errors, m)?)?;
     m.add_function(wrap_pyfunction!(comparison::compare, m)?)?;
     m.add_class::<comparison::RawComparison>()?;
+    m.add_function(wrap_pyfunction!(registration::register, m)?)?;
+    m.add_function(wrap_pyfunction!(registration::register_many, m)?)?;
+    m.add_function(wrap_pyfunction!(registration::legacy_search, m)?)?;
+    m.add_class::<registration::RawRegistration>()?;
     m.add_function(wrap_pyfunction!(synth::raycast, m)?)?;
     m.add_function(wrap_pyfunction!(runtime::adopt_thread, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
