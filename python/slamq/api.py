@@ -204,6 +204,20 @@ def agreement(maps: Mapping[str, MapSource] | Sequence[MapSource],
     Returns
     -------
     Agreement
+
+    Examples
+    --------
+    >>> import numpy as np, slamq
+    >>> img = np.full((30, 30), 254, np.uint8); img[5, 5:25] = 0; img[5:25, 5] = 0
+    >>> a = slamq.agreement([img, img, img], align="origin")
+    >>> a.support["0"], a.majority
+    (1.0, True)
+    """
+    named = (dict(maps) if isinstance(maps, Mapping)
+             else {str(i): m for i, m in enumerate(maps)})
+    return agreement_of({str(k): _load(v, None) for k, v in named.items()}, **options)
+
+
 @_like(register_of, [_param("moving"), _param("fixed"), _UNKNOWN])
 def register(moving: MapSource, fixed: MapSource, *, unknown_value: int | None = None,
              **options: Any) -> Registration:
@@ -225,14 +239,6 @@ def register(moving: MapSource, fixed: MapSource, *, unknown_value: int | None =
     Examples
     --------
     >>> import numpy as np, slamq
-    >>> img = np.full((30, 30), 254, np.uint8); img[5, 5:25] = 0; img[5:25, 5] = 0
-    >>> a = slamq.agreement([img, img, img], align="origin")
-    >>> a.support["0"], a.majority
-    (1.0, True)
-    """
-    named = (dict(maps) if isinstance(maps, Mapping)
-             else {str(i): m for i, m in enumerate(maps)})
-    return agreement_of({str(k): _load(v, None) for k, v in named.items()}, **options)
     >>> img = np.full((80, 100), 254, np.uint8)
     >>> img[10, 10:90] = img[70, 10:90] = img[10:71, 10] = img[10:71, 90] = 0
     >>> img[10:40, 50] = img[40, 30:51] = 0
