@@ -40,7 +40,7 @@ from slamq.metrics.compare import compare
 from slamq.models import OccupancyMap
 from slamq.params import SETTINGS
 
-__all__ = ["Agreement", "agreement"]
+__all__ = ["Agreement", "agreement", "place_all"]
 
 _E, _G, _EM, _GM, _EK, _GF = 1, 2, 4, 8, 16, 32
 
@@ -141,6 +141,89 @@ def _pair(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | N
     return support, recall, covers
 
 
+def _moved(m: OccupancyMap, theta: float, tx: float, ty: float,
+           resolution: float) -> OccupancyMap:
+    """``m`` with its origin taken by the motion (theta, tx, ty) into another frame."""
+    x, y, yaw = m.origin
+    c, s = math.cos(theta), math.sin(theta)
+    return OccupancyMap(m.values, m.unknown, m.resolution or resolution,
+                        (c * x - s * y + tx, s * x + c * y + ty, yaw + theta), source=m.source)
+
+
+def place_all(maps: Mapping[str, OccupancyMap], *, threads: int | None = None
+              ) -> tuple[dict[str, OccupancyMap], dict[str, bool], list[str]]:
+    """Put several maps of one place in one frame by :func:`slamq.register_many`.
+
+    The base is the map with the most trusted registrations (ties: the highest summed
+    confidence, then the order given); every other map is moved into the base's frame by its
+    own registration onto the base, or, when that one is refused, through one other map
+    that both registrations trust. Maps without a resolution take the first resolution
+    given (else 1 m).
+
+    Parameters
+    ----------
+    maps : mapping of name to OccupancyMap
+    threads : int, optional
+
+    Returns
+    -------
+    (dict, dict, list of str)
+        The maps with their origins moved; per map whether it was placed; sentences about
+        the maps that were not.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq.models import OccupancyMap
+    >>> img = np.full((80, 100), 254, np.uint8)
+    >>> img[10, 10:90] = img[70, 10:90] = img[10:71, 10] = img[10:71, 90] = 0
+    >>> img[10:40, 50] = img[40, 30:51] = 0
+    >>> none = np.zeros(img.shape, bool)
+    >>> maps = {"a": OccupancyMap(img, none, 0.05), "b": OccupancyMap(img, none, 0.05,
+    ...                                                                (3.0, -1.0, 0.7))}
+    >>> moved, placed, notes = place_all(maps)
+    >>> placed, [round(v, 3) + 0.0 for v in moved["b"].origin]
+    ({'a': True, 'b': True}, [0.0, 0.0, 0.0])
+    """
+    from slamq.metrics.register import register_many
+
+    names = list(maps)
+    res = next((m.resolution for m in maps.values() if m.resolution), 1.0)
+    maps = {n: _moved(m, 0.0, 0.0, 0.0, res) for n, m in maps.items()}
+    regs = register_many(maps, threads=threads)
+
+    def trusted(n: str) -> tuple[int, float, int]:
+        ok = [regs[m, n] for m in names if m != n and regs[m, n].ok]
+        return (len(ok), sum(r.confidence for r in ok), -names.index(n))
+
+    base = max(names, key=trusted)
+    moved = {base: maps[base]}
+    placed = dict.fromkeys(names, False)
+    placed[base] = True
+    notes = []
+    for n in names:
+        if n == base:
+            continue
+        r = regs[n, base]
+        if r.ok:
+            moved[n] = _moved(maps[n], r.theta, r.tx, r.ty, res)
+            placed[n] = True
+            continue
+        for k in names:
+            if k in (n, base) or not (regs[n, k].ok and regs[k, base].ok):
+                continue
+            a, b = regs[n, k], regs[k, base]  # n -> k, then k -> base
+            c, s = math.cos(b.theta), math.sin(b.theta)
+            moved[n] = _moved(maps[n], a.theta + b.theta, c * a.tx - s * a.ty + b.tx,
+                              s * a.tx + c * a.ty + b.ty, res)
+            placed[n] = True
+            break
+        else:
+            moved[n] = maps[n]
+            notes.append(f"{n} could not be registered with the other maps ({r.reason})")
+    return moved, placed, notes
+
+
 def _f(p: float, r: float) -> float:
     if not (math.isfinite(p) and math.isfinite(r)):
         return math.nan
@@ -210,8 +293,6 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     placed = dict.fromkeys(names, True)
     pair_align = align
     if align == "register":
-        from slamq.metrics.register import place_all
-
         loaded, placed, why = place_all(loaded, threads=threads)
         notes.extend(why)
         pair_align = "icp"
