@@ -144,8 +144,11 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
         candidates.sort(key=lambda a: (float(corners[a]), a))
     rest = sorted((a for a in support if a not in candidates),
                   key=lambda a: (a in flagged, -support[a], a))
-    ranking = candidates + rest
-    unranked = sorted(str(a) for a in block.index if str(a) not in support)
+    # maps that could not be placed (no support figure) are flagged: ranked last
+    unplaced = sorted(a for a in info if a not in support and a in flagged)
+    ranking = candidates + rest + unplaced
+    unranked = sorted(str(a) for a in block.index
+                      if str(a) not in support and str(a) not in unplaced)
     if unranked:
         warnings.append(f"not ranked, no agreement figure: {', '.join(unranked)}")
     basis = ["agreement"] + ([key] if key and len(candidates) > 1 else [])
