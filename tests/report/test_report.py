@@ -165,15 +165,20 @@ def test_ranking_and_disagreement():
         "ate_rmse": [0.1, 0.5, np.nan], "occupied_fraction": [0.05, 0.04, 0.09],
         "corners": [100, 300, 200], "enclosed_areas": [2, 9, 2]})
     r = rank_sequence(summarize(df), "s")
-    assert r.order == ["a", "c", "b"]
+    # the verdict's order (ATE RMSE decides), then c, which has no ATE, unranked
+    assert r.order == ["a", "b", "c"] and r.ranked == ["a", "b"] and r.winner == "a"
     assert r.best["enclosed_areas"] == ["a", "c"]                       # a tie: both best
     assert [m.key for m in r.disagree] == ["occupied_fraction"]
-    # c has no ATE; a and b's ATE ranks are stretched to 1..3
-    assert r.ranks["ate_rmse"] == {"a": 1.0, "b": 3.0}
-    assert r.score["a"] == pytest.approx((1 + 2 + 1 + 1.5) / 4)
+    assert r.ranks["ate_rmse"] == {"a": 1.0, "b": 2.0}
+    assert not hasattr(r, "score")                    # no mean rank over metrics
     sentence = r.sentence()
-    assert sentence.startswith("s: a ranks best")
-    assert "disagree on occupied fraction (best: b)" in sentence
+    assert sentence.startswith("s: a is best by ATE RMSE (the verdict")
+    assert "lowest occupied fraction: b" in sentence and "mean rank" not in sentence
+    # the mean rank over the four metrics would have named b here; the verdict names a
+    df.loc[0, "ate_rmse"], df.loc[1, "ate_rmse"] = 0.5, 0.1
+    r = rank_sequence(summarize(df), "s")
+    assert r.winner == "b" and r.order == ["b", "a", "c"]
+    assert r.sentence().startswith("s: b is best by ATE RMSE")
 
 
 def test_ranking_flags_partial_maps_and_single_algorithm():
@@ -381,7 +386,7 @@ def test_reference_maps_are_shown_but_not_ranked() -> None:
     r = rank_sequence(report_summary(df), "s")
     assert r.order == ["a", "b"]
     assert r.ground_truths == ["ground_truth"]
-    assert "ground_truth" not in r.score and r.winner == "a"
+    assert "ground_truth" not in r.ranked and r.winner == "a"
 
 
 def test_user_strings_are_escaped_and_never_read_as_mathtext(tmp_path) -> None:
@@ -421,7 +426,7 @@ def test_tables_are_exported_as_markdown_and_latex(site):
     assert tex.startswith("\\begin{tabular}") and tex.rstrip().endswith("\\end{tabular}")
     assert "$\\pm$" in tex and "±" not in tex
     page = index.read_text(encoding="utf-8")
-    assert 'href="tables.md"' in page and "red ring: a counted corner" in page
+    assert 'href="tables.md"' in page and "The maps as they are" in page
 
 
 def test_ground_truth_columns_ranked_and_overlay_on_detail_pages(tmp_path):

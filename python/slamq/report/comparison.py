@@ -13,9 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from slamq.errors import SlamqError
-from slamq.models import MapComparison
+from slamq.models import MapComparison, OccupancyMap
 
-__all__ = ["COMPARISON_COLOURS", "comparison_image", "write_comparison_png"]
+__all__ = ["COMPARISON_COLOURS", "comparison_image", "ground_truth_layer",
+           "write_comparison_png"]
 
 #: RGB of each kind of cell, painted in this order (later ones on top).
 COMPARISON_COLOURS: dict[str, tuple[int, int, int]] = {
@@ -91,3 +92,94 @@ def write_comparison_png(path: str | os.PathLike[str], comparison: MapComparison
     if not cv2.imwrite(str(path), np.ascontiguousarray(img[:, :, ::-1])):
         raise SlamqError(f"{path}: cannot write the overlay PNG")
     return path
+
+
+def ground_truth_layer(
+    comparison: MapComparison,
+    estimate: OccupancyMap,
+    ground_truth: OccupancyMap,
+    *,
+    offset: tuple[int, int],
+    shape: tuple[int, int],
+    scale: int,
+) -> np.ndarray:
+    """The comparison drawn in the *estimate's* picture, as a transparent layer: the
+    ground truth's walls moved into the estimate's frame by the inverse of the fitted
+    motion (green where the estimate has them, red where it lacks them) and the estimate's
+    walls the ground truth lacks (blue), with :data:`COMPARISON_COLOURS`.
+
+    Parameters
+    ----------
+    comparison : MapComparison
+        ``slamq.compare(estimate, ground_truth, cells=True)``.
+    estimate, ground_truth : OccupancyMap
+        The two maps compared (their frames place the cells).
+    offset : tuple of int
+        ``(row, col)`` of the estimate cell at the picture's top-left corner.
+    shape : tuple of int
+        ``(rows, cols)`` of estimate cells the picture shows.
+    scale : int
+        Pixels per estimate cell.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(rows*scale, cols*scale, 4)`` uint8 RGBA, transparent where nothing is drawn.
+
+    Examples
+    --------
+    >>> import numpy as np, slamq
+    >>> gt = np.full((20, 20), 254, np.uint8); gt[5, 2:18] = 0
+    >>> est = np.full((20, 20), 254, np.uint8)            # the estimate lacks the wall
+    >>> e, g = slamq.OccupancyMap(est, est == 205), slamq.OccupancyMap(gt, gt == 205)
+    >>> c = slamq.compare(e, g, align="origin", cells=True)
+    >>> layer = ground_truth_layer(c, e, g, offset=(0, 0), shape=(20, 20), scale=1)
+    >>> layer[5, 3].tolist(), int(layer[6, 3, 3])
+    ([220, 0, 0, 255], 0)
+    """
+    cells = comparison.cells
+    if cells is None:
+        raise SlamqError("the comparison has no cells: call slamq.compare(..., cells=True)")
+    res_g = ground_truth.resolution or estimate.resolution or 1.0
+    res_e = estimate.resolution or ground_truth.resolution or 1.0
+    hg = cells.shape[0]
+    he = estimate.values.shape[0]
+    rows, cols = shape
+    layer = np.zeros((rows * scale, cols * scale, 4), np.uint8)
+    side = max(1, int(round(res_g / res_e * scale)))
+    # T (estimate world -> ground-truth world) is p -> R(dyaw) p + (dx, dy); its inverse
+    # takes the ground truth's cell centres into the estimate's world
+    yaw = np.radians(comparison.dyaw)
+    for kind, mask in (
+        ("ghost", ((cells & _E) != 0) & ((cells & _E_OK) == 0)),
+        ("matched", ((cells & _G) != 0) & ((cells & _G_OK) != 0)),
+        ("missing", ((cells & _G) != 0) & ((cells & _G_OK) == 0)),
+    ):
+        r, c = np.nonzero(mask)
+        if not len(r):
+            continue
+        # ground-truth cell centres in the ground truth's world
+        gx, gy, gyaw = ground_truth.origin
+        mx, my = (c + 0.5) * res_g, (hg - r - 0.5) * res_g
+        wx = np.cos(gyaw) * mx - np.sin(gyaw) * my + gx
+        wy = np.sin(gyaw) * mx + np.cos(gyaw) * my + gy
+        # T^-1: into the estimate's world
+        px, py = wx - comparison.dx, wy - comparison.dy
+        ex = np.cos(yaw) * px + np.sin(yaw) * py
+        ey = -np.sin(yaw) * px + np.cos(yaw) * py
+        # into the estimate's map frame, then its (fractional) cells, then pixels
+        ox, oy, oyaw = estimate.origin
+        qx, qy = ex - ox, ey - oy
+        lx = np.cos(oyaw) * qx + np.sin(oyaw) * qy
+        ly = -np.sin(oyaw) * qx + np.cos(oyaw) * qy
+        col = lx / res_e - 0.5
+        row = he - ly / res_e - 0.5
+        x0 = np.rint((col - offset[1] + 0.5) * scale - side / 2).astype(np.int64)
+        y0 = np.rint((row - offset[0] + 0.5) * scale - side / 2).astype(np.int64)
+        rgba = np.array(COMPARISON_COLOURS[kind] + (255,), np.uint8)
+        for dy in range(side):
+            for dx in range(side):
+                yy, xx = y0 + dy, x0 + dx
+                keep = (yy >= 0) & (yy < layer.shape[0]) & (xx >= 0) & (xx < layer.shape[1])
+                layer[yy[keep], xx[keep]] = rgba
+    return layer

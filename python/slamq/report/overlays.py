@@ -1,4 +1,5 @@
-"""Maps drawn for people: north up, corners ringed, counted enclosed areas coloured.
+"""Maps drawn for people: north up, corners ringed, counted enclosed areas coloured; also
+as separate layers (the plain map, the regions) for the report's detail pages.
 
 The corners and regions come from :mod:`slamq.metrics.reference` (``corner_points`` and
 ``enclosed_labels``), so the picture shows exactly what the numbers counted: one ring per
@@ -50,6 +51,11 @@ class Overlay:
         The unknown value ``u`` the regions were taken at.
     offset : tuple of int
         ``(row, col)`` of the map cell at the image's top-left corner.
+    plain : numpy.ndarray or None
+        The same crop and scale without anything drawn on it (RGB): the map itself.
+    regions : numpy.ndarray or None
+        ``(h*scale, w*scale, 4)`` uint8 RGBA: the enclosed regions' colours, transparent
+        elsewhere (a layer to put over ``plain``).
     """
 
     image: np.ndarray
@@ -58,6 +64,13 @@ class Overlay:
     labels: np.ndarray
     unknown_value: int
     offset: tuple[int, int] = (0, 0)
+    plain: np.ndarray | None = None
+    regions: np.ndarray | None = None
+
+    @property
+    def cells(self) -> tuple[int, int]:
+        """``(rows, cols)`` of map cells the image shows."""
+        return self.image.shape[0] // self.scale, self.image.shape[1] // self.scale
 
     @property
     def n_corners(self) -> int:
@@ -69,9 +82,10 @@ class Overlay:
         """Number of enclosed regions coloured."""
         return int(self.labels.max()) if self.labels.size else 0
 
-    def save(self, path: str, *, max_size: int | None = None) -> None:
-        """Write the image as PNG, shrunk to at most ``max_size`` pixels a side."""
-        img = Image.fromarray(self.image)
+    def save(self, path: str, *, max_size: int | None = None, which: str = "image") -> None:
+        """Write the image (or ``which="plain"`` / ``"regions"``) as PNG, shrunk to at
+        most ``max_size`` pixels a side."""
+        img = Image.fromarray(getattr(self, which))
         if max_size and max(img.size) > max_size:
             img.thumbnail((max_size, max_size), Image.Resampling.LANCZOS)
         img.save(path, optimize=False)
@@ -169,20 +183,26 @@ def draw_overlay(
     labels = np.asarray(reference.enclosed_labels(grid, int(unknown_value), params), np.int32)
     corners = np.asarray(reference.corner_points(grid, params), float).reshape(-1, 2)
     n = int(labels.max()) if labels.size else 0
+    r0, r1, c0, c1 = known_box(grid)
+    plain = np.clip(np.rint(base[r0:r1, c0:c1]), 0, 255).astype(np.uint8)
+    regions = np.zeros(plain.shape[:2] + (4,), np.uint8)
     if n:
         palette = np.array(REGION_PALETTE, np.float32)
         lut = np.zeros((n + 1, 3), np.float32)
         lut[1:] = palette[(np.arange(n) % len(palette))]
         mask = labels > 0
         base[mask] = (1 - alpha) * base[mask] + alpha * lut[labels[mask]]
-    r0, r1, c0, c1 = known_box(grid)
+        crop = labels[r0:r1, c0:c1]
+        regions[crop > 0, :3] = lut[crop[crop > 0]].astype(np.uint8)
+        regions[crop > 0, 3] = int(round(255 * alpha))
     rgb = np.clip(np.rint(base[r0:r1, c0:c1]), 0, 255).astype(np.uint8)
     # keep exact pure red for the rings only
     red = (rgb[:, :, 0] == 255) & (rgb[:, :, 1] == 0) & (rgb[:, :, 2] == 0)
     rgb[red] = (254, 0, 0)
     scale = _scale_for(rgb.shape[:2], target_size)
     if scale > 1:
-        rgb = np.repeat(np.repeat(rgb, scale, axis=0), scale, axis=1)
+        rgb, plain, regions = (np.repeat(np.repeat(a, scale, axis=0), scale, axis=1)
+                               for a in (rgb, plain, regions))
     img = Image.fromarray(rgb)
     draw = ImageDraw.Draw(img)
     size = max(img.size)
@@ -194,5 +214,5 @@ def draw_overlay(
                      outline=CORNER_RGB, width=width)
     return Overlay(
         image=np.asarray(img), scale=scale, corners=corners, labels=labels,
-        unknown_value=int(unknown_value), offset=(r0, c0),
+        unknown_value=int(unknown_value), offset=(r0, c0), plain=plain, regions=regions,
     )

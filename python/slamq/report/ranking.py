@@ -169,23 +169,30 @@ def _finite(frame: pd.DataFrame, key: str) -> np.ndarray:
 
 @dataclass
 class SequenceRanking:
-    """The ranking of the algorithms on one sequence.
+    """The ranking of the algorithms on one sequence: the verdict's order
+    (:mod:`slamq.report.verdict`), with every metric's own ranks beside it for reference.
 
     Attributes
     ----------
     sequence : str
     order : list of str
-        Algorithms, best first.
-    score : dict
-        Mean rank over the metrics each algorithm has (1 = best).
+        Algorithms in table order: the verdict's ranking (best first), then the algorithms
+        it could not rank (without the figure it ranks by), by name.
+    ranked : list of str
+        The verdict's ranking alone.
+    winner : str or None
+        The verdict's best algorithm (None when it names none).
+    verdict : dict
+        The sequence's verdict (:func:`slamq.report.verdict.sequence_verdict`).
     ranks : dict
-        ``ranks[metric_key][algorithm]`` = rank on that metric (ties share the mean rank).
+        ``ranks[metric_key][algorithm]`` = rank on that metric alone (ties share the mean
+        rank), shown for reference; the verdict decides.
     best : dict
         ``best[metric_key]`` = the algorithms with the best mean on that metric.
     metrics : list of Metric
         The metrics that had values on this sequence.
     disagree : list of Metric
-        Metrics whose best algorithm is not the overall winner.
+        Metrics whose best algorithm is not the verdict's.
     partial : list of str
         Algorithms whose maps know less than 80% of the area of the sequence's most complete
         map (``known_area_m2``; known cells when a map has no resolution; paper III.A).
@@ -198,7 +205,9 @@ class SequenceRanking:
 
     sequence: str
     order: list[str]
-    score: dict[str, float]
+    ranked: list[str]
+    winner: str | None
+    verdict: dict
     ranks: dict[str, dict[str, float]]
     best: dict[str, list[str]]
     metrics: list[Metric]
@@ -208,12 +217,13 @@ class SequenceRanking:
     coverage: dict[str, float] = field(default_factory=dict)
 
     @property
-    def winner(self) -> str | None:
-        """The best-ranked algorithm (None when nothing was ranked)."""
-        return self.order[0] if self.order else None
+    def basis(self) -> str | None:
+        """The column the verdict ranks by (None when it ranks nothing)."""
+        return self.verdict["basis"][0] if self.verdict.get("basis") else None
 
     def sentence(self) -> str:
-        """One plain-text sentence: who ranks best and where the metrics disagree.
+        """One plain-text sentence: the verdict, and the columns that would order
+        differently (they do not decide).
 
         Examples
         --------
@@ -221,22 +231,26 @@ class SequenceRanking:
         >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "corners": [1, 9],
         ...                    "occupied_fraction": [0.2, 0.1], "enclosed_areas": [0, 3]})
         >>> print(rank_sequence(summarize(df), "s").sentence())  # doctest: +NORMALIZE_WHITESPACE
-        s: a ranks best (mean rank 1.33 of 2, over 3 metrics); the metrics disagree on
-        occupied fraction (best: b).
+        s: a is best by corners (the verdict; the table is in its order); columns that do
+        not decide order differently (lowest occupied fraction: b).
         """
-        n_alg = len(self.order)
-        if n_alg == 0:
+        from slamq.report.verdict import basis_name, verdict_sentence
+
+        if not self.order:
             return f"{self.sequence}: no successful run to rank."
-        if n_alg == 1:
+        if len(self.order) == 1:
             return f"{self.sequence}: only {self.order[0]} ran here; nothing to compare."
-        lead = (
-            f"{self.sequence}: {self.winner} ranks best (mean rank "
-            f"{self.score[self.winner]:.3g} of {n_alg}, over {len(self.metrics)} metrics)"
-        )
-        if not self.disagree:
-            return lead + f"; all {len(self.metrics)} metrics agree."
-        parts = [f"{m.label} (best: {', '.join(self.best[m.key])})" for m in self.disagree]
-        return lead + "; the metrics disagree on " + _join(parts) + "."
+        if self.winner is None:
+            return verdict_sentence(self.verdict)
+        lead = (f"{self.sequence}: {self.winner} is best by {basis_name(self.basis)} "
+                "(the verdict; the table is in its order)")
+        others = [m for m in self.disagree if m.key not in self.verdict["basis"]]
+        if not others:
+            return lead + "."
+        parts = [f"{'highest' if m.higher else 'lowest'} {m.label}: "
+                 f"{', '.join(self.best[m.key])}" for m in others]
+        return (lead + "; columns that do not decide order differently (" + "; ".join(parts)
+                + ").")
 
 
 def _join(parts: list[str]) -> str:
@@ -245,24 +259,27 @@ def _join(parts: list[str]) -> str:
     return ", ".join(parts[:-1]) + " and " + parts[-1]
 
 
-def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
-    """Rank the algorithms of one sequence: mean rank over the metrics, lower is better.
+def rank_sequence(summary: pd.DataFrame, sequence: str, verdict: dict | None = None
+                  ) -> SequenceRanking:
+    """Rank the algorithms of one sequence as its verdict does, with each metric's own
+    ranks beside it.
 
-    On each metric with values, algorithms are ranked by their mean over runs (1 = best:
-    the lowest, or the highest for a ``higher`` metric; ties share the average rank; an
-    algorithm without a value on a metric is not ranked on it, and the ranks of those that
-    have it are stretched to span 1..N).
-    Ground-truth maps (:data:`~slamq.results.columns.GROUND_TRUTH_ALGORITHMS`) are left out
-    of the ranking.
-    The overall score is the mean of an algorithm's ranks; ties are broken
-    by the ATE RMSE rank, then by name. A metric "disagrees" when its best algorithm(s) do
-    not include the overall winner.
+    The order is the verdict's ranking (:func:`slamq.report.verdict.sequence_verdict`: by
+    ATE RMSE when there is ground truth, else GT F1, else corners), then the algorithms it
+    could not rank, by name. On each metric with values, algorithms are also ranked by
+    their mean over runs (1 = best: the lowest, or the highest for a ``higher`` metric;
+    ties share the average rank) for reference; no mean over metrics is formed (occupied
+    fraction, proportion and enclosed areas never decide). Ground-truth maps
+    (:data:`~slamq.results.columns.GROUND_TRUTH_ALGORITHMS`) are left out. A metric
+    "disagrees" when its best algorithm(s) do not include the verdict's best.
 
     Parameters
     ----------
     summary : pandas.DataFrame
         The output of :func:`summarize`.
     sequence : str
+    verdict : dict, optional
+        The sequence's verdict, when already computed.
 
     Returns
     -------
@@ -274,9 +291,13 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
     >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "corners": [5, 9],
     ...                    "occupied_fraction": [0.1, 0.2], "enclosed_areas": [0, 3]})
     >>> r = rank_sequence(summarize(df), "s")
-    >>> r.order, r.disagree
-    (['a', 'b'], [])
+    >>> r.order, r.winner, r.disagree
+    (['a', 'b'], 'a', [])
     """
+    from slamq.report.verdict import sequence_verdict
+
+    if verdict is None:
+        verdict = sequence_verdict(summary, sequence)
     block = summary.xs(sequence, level="sequence") if len(summary) else summary
     ground_truths = [str(a) for a in block.index
                      if str(a).lower() in GROUND_TRUTH_ALGORITHMS]
@@ -295,27 +316,19 @@ def rank_sequence(summary: pd.DataFrame, sequence: str) -> SequenceRanking:
             continue
         used.append(m)
         r = means.rank(method="average", ascending=not m.higher)
-        # stretch to 1..N when only some of the N algorithms have this metric (e.g. ATE),
-        # so that lacking a metric neither helps nor hurts
-        if 1 < len(means) < len(algorithms):
-            r = 1 + (r - 1) * (len(algorithms) - 1) / (len(means) - 1)
         ranks[m.key] = {str(a): float(v) for a, v in r.items()}
         top = means.max() if m.higher else means.min()
         best[m.key] = sorted(str(a) for a, v in means.items() if v == top)
-    score: dict[str, float] = {}
-    for a in algorithms:
-        mine = [ranks[m.key][a] for m in used if a in ranks[m.key]]
-        score[a] = float(np.mean(mine)) if mine else math.inf
-    ate = ranks.get("ate_rmse", {})
-    order = sorted(algorithms, key=lambda a: (score[a], ate.get(a, math.inf), a))
-    winner = order[0] if order else None
+    ranked = [a for a in verdict["ranking"] if a in algorithms]
+    order = ranked + sorted(a for a in algorithms if a not in ranked)
+    winner = verdict["best"]
     disagree = [m for m in used if winner is not None and winner not in best[m.key]]
     coverage = known_share(block.loc[[a for a in block.index if str(a) in algorithms]])
     partial = sorted(a for a, v in coverage.items() if v < COMPLETE_SHARE)
     return SequenceRanking(
-        sequence=str(sequence), order=order, score=score, ranks=ranks, best=best,
-        metrics=used, disagree=disagree, partial=partial, ground_truths=ground_truths,
-        coverage=coverage,
+        sequence=str(sequence), order=order, ranked=ranked, winner=winner, verdict=verdict,
+        ranks=ranks, best=best, metrics=used, disagree=disagree, partial=partial,
+        ground_truths=ground_truths, coverage=coverage,
     )
 
 

@@ -2,12 +2,23 @@
 
 Everything the pages use is in the output folder (PNG/GIF files and inline CSS); nothing is
 fetched from the network and no script is needed, so the site opens from ``file://``.
+
+The gallery shows each map itself (a thumbnail of the plain map). A map's detail page draws
+what was counted on it as layers over the plain map, each switched on and off by a checkbox
+(CSS only): the counted corners, the counted enclosed areas, the comparison with the
+sequence's ground-truth map (when there is one) and the map's defects. Defects are boxes
+``{"kind": str, "bbox": [col0, row0, col1, row1], "note": str}`` in the map's cells
+(row 0 at the top, as the map's image; ``col1`` and ``row1`` exclusive, as
+``values[row0:row1, col0:col1]``), taken from the record's ``defects`` field (a JSON list,
+or a list) and from ``build_report(..., defects_for=f)``, which calls ``f(map)`` with each
+loaded :class:`~slamq.OccupancyMap` (``map.source`` is its path).
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 import html
+import json
 import math
 import re
 from collections.abc import Callable, Iterable
@@ -28,7 +39,7 @@ from slamq.report.ranking import (
     rank_sequence,
     summarize,
 )
-from slamq.report.verdict import verdict_sentence, write_verdicts
+from slamq.report.verdict import basis_name, verdict_sentence, write_verdicts
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import spreadsheet_safe
 
@@ -49,6 +60,7 @@ h3{font-size:1.05em;margin:1.1em 0 .4em}
 table{border-collapse:collapse;background:#fff;margin:.4em 0}
 th,td{border:1px solid #ddd;padding:4px 9px;text-align:left}
 th{background:#f0f0f0;font-weight:600}
+th.basis{background:#d8ead8}
 td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
 td.best{background:#d8f0d8;font-weight:700}
 td.best::after{content:" \\2605";color:#2a7a2a}
@@ -69,6 +81,26 @@ summary{cursor:pointer;color:#0a58ca}
 .swatch{display:inline-block;width:13px;height:13px;background:#1f77b4;opacity:.75;
  vertical-align:middle}
 .big img{max-width:100%;height:auto;border:1px solid #ccc}
+.thumb{position:relative;display:inline-block}
+.badge{display:inline-block;font-size:.75em;font-weight:600;border-radius:9px;padding:1px 7px;
+ background:#2a7a2a;color:#fff;vertical-align:middle}
+.thumb .badge{position:absolute;right:4px;top:4px;background:#b02a2a}
+.layers{margin-top:.2em}
+.layers label{margin:0 16px 0 3px;cursor:pointer;white-space:nowrap;line-height:2}
+.layers input{vertical-align:middle;margin:0}
+.layers input:disabled+label{color:#999;cursor:default}
+.layers label .swatch,.layers label .ring{margin-right:2px}
+.stack{position:relative;display:block;width:fit-content;max-width:100%;line-height:0;
+ margin-top:6px}
+.stack img.base{display:block;max-width:100%;height:auto;border:1px solid #ccc}
+.stack .layer{position:absolute;left:1px;top:1px;width:calc(100% - 2px);
+ height:calc(100% - 2px);pointer-events:none}
+.stack svg.layer text{font-family:system-ui,sans-serif;font-weight:700}
+#show-corners:not(:checked)~.stack .layer-corners,
+#show-regions:not(:checked)~.stack .layer-regions,
+#show-gt:not(:checked)~.stack .layer-gt,
+#show-defects:not(:checked)~.stack .layer-defects{display:none}
+table.defects td{font-size:.9em}
 .top{display:flex;gap:24px;align-items:flex-start;flex-wrap:wrap}
 .mapcol{flex:1;min-width:420px}
 .files{font-size:.85em;padding-left:1.2em;word-break:break-all}
@@ -112,6 +144,7 @@ class _MapPage:
     full: str = ""
     gif: str = ""
     notes: list[str] = field(default_factory=list)
+    defects: list[dict] = field(default_factory=list)
 
 
 def build_report(
@@ -123,6 +156,7 @@ def build_report(
     gifs: bool = True,
     trajectories: bool = True,
     progress: Callable[[int, int], None] | None = None,
+    defects_for: Callable[[Any], list[dict]] | None = None,
 ) -> Path:
     """Write the evaluation report for a results file and return the path of index.html.
 
@@ -144,6 +178,12 @@ def build_report(
         Draw each run's trajectory over its map, coloured by ATE, when it has one.
     progress : callable, optional
         ``progress(done, total)`` after each detail page (the slow part).
+    defects_for : callable, optional
+        ``defects_for(map)`` with each loaded map (an :class:`~slamq.OccupancyMap`;
+        ``map.source`` is its path) returns a list of defects, ``{"kind": str, "bbox":
+        [col0, row0, col1, row1], "note": str}`` in the map's cells (``col1``, ``row1``
+        exclusive); drawn as a layer of the map's detail page, after the defects of the
+        record's own ``defects`` field (a JSON string or a list).
 
     Returns
     -------
@@ -174,23 +214,22 @@ def build_report(
     ok = frame[~frame["error"].map(usable)].copy()
     summary = summarize(ok)
     sequences = sorted(ok["sequence"].unique()) if len(ok) else []
-    rankings = {s: rank_sequence(summary, s) for s in sequences}
     verdicts = {v["sequence"]: v for v in write_verdicts(summary, sequences, out)}
+    rankings = {s: rank_sequence(summary, s, verdicts[s]) for s in sequences}
 
     pages: dict[int, _MapPage] = {}
     gallery: dict[tuple[str, str], list[int]] = {}
     for seq in sequences:
         sub = ok[ok["sequence"] == seq]
         for alg, group in sub.groupby("algorithm", sort=True):
-            picks = _best_worst(group)
-            gallery[(seq, str(alg))] = picks
+            gallery[(seq, str(alg))] = _best_worst(group, verdicts[seq]["basis"])
     wanted = set(ok.index) if details == "all" else {i for v in gallery.values() for i in v}
     for i in sorted(wanted):
         rec = ok.loc[i].to_dict()
         slug = f"{i:04d}-{_slug(rec['sequence'])}-{_slug(rec['algorithm'])}-{_slug(rec['run'])}"
         pages[i] = _MapPage(i, rec, slug, page=f"maps/{slug}.html")
     for done, mp in enumerate(pages.values(), 1):
-        _detail_page(mp, out, gifs=gifs, trajectories=trajectories)
+        _detail_page(mp, out, gifs=gifs, trajectories=trajectories, defects_for=defects_for)
         if progress is not None:
             progress(done, len(pages))
 
@@ -218,36 +257,44 @@ def _mixed_settings(frame: pd.DataFrame) -> str:
             "map again with one setting, or write the batch to another results file.</p>")
 
 
-def _run_scores(group: pd.DataFrame) -> pd.Series:
-    """Mean rank of each run within its (sequence, algorithm) over the metrics it has."""
-    ranks = []
-    for m in METRICS:
-        if m.key in group:
-            v = pd.to_numeric(group[m.key], errors="coerce")
-            if v.notna().any():
-                ranks.append(v.rank(method="average", ascending=not m.higher))
-    if not ranks:
-        return pd.Series(0.0, index=group.index)
-    return pd.concat(ranks, axis=1).mean(axis=1, skipna=True).fillna(math.inf)
+#: Columns a gallery orders an algorithm's runs by: the verdict's basis first, then these.
+_RUN_ORDER = ("ate_rmse", "gt_f1", "corners_canonical", "corners")
 
 
-def _best_worst(group: pd.DataFrame) -> list[int]:
-    """Indices of the best and the worst run (one index when they are the same run)."""
-    scores = _run_scores(group)
-    order = sorted(scores.index, key=lambda i: (scores[i], str(group.loc[i, "run"])))
+def _run_key(group: pd.DataFrame, basis: Iterable[str] = ()) -> str | None:
+    """The column the runs of ``group`` are ordered by: the verdict's basis when the runs
+    have it, else the first of :data:`_RUN_ORDER` they have."""
+    for key in [*basis, *_RUN_ORDER]:
+        if key in group and pd.to_numeric(group[key], errors="coerce").notna().any():
+            return key
+    return None
+
+
+def _best_worst(group: pd.DataFrame, basis: Iterable[str] = ()) -> list[int]:
+    """Indices of the best and the worst run by the verdict's basis column (one index when
+    they are the same run); runs without the figure come last."""
+    key = _run_key(group, basis)
+    if key is None:
+        order = sorted(group.index, key=lambda i: str(group.loc[i, "run"]))
+    else:
+        higher = _METRIC_HELP[key].higher if key in _METRIC_HELP else False
+        v = pd.to_numeric(group[key], errors="coerce")
+        order = sorted(group.index, key=lambda i: (
+            math.isnan(v[i]), (-v[i] if higher else v[i]) if not math.isnan(v[i]) else 0.0,
+            str(group.loc[i, "run"])))
     return [order[0]] if len(order) == 1 else [order[0], order[-1]]
 
 
 # ----------------------------------------------------------------------------- detail pages
 
 
-def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool) -> None:
+def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool,
+                 defects_for: Callable[[Any], list[dict]] | None = None) -> None:
     from slamq.report.overlays import draw_overlay
     from slamq.report.plots import curve_figure
     from slamq.sources import load_map
 
     rec = mp.record
-    out / "img"
     sections: list[str] = []
     grid = None
     quality = None
@@ -263,21 +310,16 @@ def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool) -> 
         ov = draw_overlay(grid, u, params)
         mp.full = f"img/{mp.slug}.png"
         mp.thumb = f"img/{mp.slug}_thumb.png"
-        ov.save(str(out / mp.full))
-        ov.save(str(out / mp.thumb), max_size=230)
+        ov.save(str(out / mp.full), which="plain")
+        ov.save(str(out / mp.thumb), max_size=230, which="plain")
         for key, drawn in (("corners", ov.n_corners), ("enclosed_areas", ov.n_regions)):
             if usable(rec.get(key)) and int(rec[key]) != drawn:
                 mp.notes.append(
                     f"the results file says {key} = {int(rec[key])}, the map as loaded now "
                     f"gives {drawn} (file changed, or other parameters?)")
-        sections.append(
-            "<div class=\"mapcol\"><h2>The map</h2><p class=\"legend\">"
-            "<span><i class=\"ring\"></i> "
-            f"{ov.n_corners} corners</span><span><i class=\"swatch\"></i> {ov.n_regions} "
-            f"enclosed areas, counted with unknown cells set to u = {u}</span>"
-            "<span>unknown cells: grey; north up</span></p>"
-            f"<p class=\"big\"><a href=\"../{mp.full}\"><img src=\"../{mp.full}\" "
-            f"alt=\"map with corners and enclosed areas\"></a></p></div>")
+        mp.defects = _defects(rec, grid, defects_for, mp.notes)
+        gt = _compare_gt(rec, grid, mp)
+        sections.append(_map_layers(mp, out, ov, u, grid, gt))
         curve_png = f"img/{mp.slug}_curve.png"
         curve_figure(list(quality.curve), list(params.sweep_values),
                      int(quality.enclosed_unknown_value), out / curve_png)
@@ -285,7 +327,7 @@ def _detail_page(mp: _MapPage, out: Path, *, gifs: bool, trajectories: bool) -> 
             "<h2>Enclosed areas over the unknown value</h2><p>The sweep of SPEC section 4 "
             "(paper III.C): unknown cells take every value u; the metric is the maximum.</p>"
             f"<p><img src=\"../{curve_png}\" alt=\"enclosed-area curve\"></p>")
-        sections.append(_ground_truth_section(rec, out, mp))
+        sections.append(_ground_truth_section(gt, out, mp))
         if trajectories:
             sections.append(_trajectory_section(rec, grid, out, mp))
         if gifs:
@@ -327,35 +369,172 @@ def _fmt_cell(x: Any) -> str:
     return str(x)
 
 
-def _ground_truth_section(rec: dict, out: Path, mp: _MapPage) -> str:
-    """The map aligned over its sequence's ground-truth map (docs/spec.md section 7)."""
+def _compare_gt(rec: dict, grid: Any, mp: _MapPage) -> tuple[Any, Any] | None:
+    """``(comparison, ground-truth map)`` of the record's map against its sequence's
+    ground-truth map with the batch's settings (docs/spec.md section 7), else None."""
     if not usable(rec.get("gt_map")) or usable(rec.get("gt_error")):
-        return ""
+        return None
     from slamq.api import compare
-    from slamq.report.comparison import COMPARISON_COLOURS, write_comparison_png
+    from slamq.sources import load_map
 
     cfg = _gt_config(rec.get("config"))
     try:
-        c = compare(rec["map"], rec["gt_map"], align=cfg[0], tolerance=cfg[1],
-                    max_distance=cfg[2], cells=True)
+        gt = load_map(rec["gt_map"])
+        c = compare(grid, gt, align=cfg[0], tolerance=cfg[1], max_distance=cfg[2],
+                    cells=True)
     except (SlamqError, OSError, ValueError) as exc:
         mp.notes.append(f"ground-truth overlay not drawn: {exc}")
+        return None
+    return c, gt
+
+
+_GT_KINDS = (("matched", "ground-truth walls the map has"),
+             ("missing", "ground-truth walls the map lacks"),
+             ("ghost", "walls only the map has"))
+
+
+def _gt_swatches() -> str:
+    from slamq.report.comparison import COMPARISON_COLOURS
+
+    return "".join(
+        f"<span><i class=\"swatch\" style=\"background:rgb{COMPARISON_COLOURS[k]}\"></i> "
+        f"{label}</span>" for k, label in _GT_KINDS)
+
+
+def _ground_truth_section(gt: tuple[Any, Any] | None, out: Path, mp: _MapPage) -> str:
+    """The map aligned over its sequence's ground-truth map, on the ground truth's grid."""
+    if gt is None:
         return ""
+    from slamq.report.comparison import write_comparison_png
+
+    c = gt[0]
     png = f"img/{mp.slug}_gt.png"
     write_comparison_png(out / png, c)
-    swatch = "".join(
-        f"<span><i class=\"swatch\" style=\"background:rgb{COMPARISON_COLOURS[k]}\"></i> "
-        f"{label}</span>" for k, label in (
-            ("matched", "walls both maps have"), ("missing", "ground-truth walls the map "
-                                                  "lacks"), ("ghost", "walls only the map has")))
     return (
         "<h2>Against the ground-truth map</h2><p>The map aligned (" + _e(c.align) +
         f": dx {c.dx:+.3f} m, dy {c.dy:+.3f} m, dyaw {c.dyaw:+.2f}&deg;) and resampled onto "
         f"the ground truth's grid; a wall matches within {c.tolerance:.3g} m. F1 "
-        f"{c.f1:.3f}, chamfer {c.chamfer:.3f} m (docs/spec.md section 7).</p>"
-        f"<p class=\"legend\">{swatch}</p>"
+        f"{c.f1:.3f}, chamfer {c.chamfer:.3f} m (docs/spec.md section 7). The same "
+        "comparison is the <i>ground truth</i> layer of the map above, in the map's own "
+        "frame.</p>"
+        f"<p class=\"legend\">{_gt_swatches()}</p>"
         f"<p class=\"big\"><a href=\"../{png}\"><img src=\"../{png}\" "
         "alt=\"map over the ground truth\"></a></p>")
+
+
+def _defects(rec: dict, grid: Any, defects_for: Callable[[Any], list[dict]] | None,
+             notes: list[str]) -> list[dict]:
+    """The map's defects: the record's ``defects`` field (a JSON string or a list), then
+    ``defects_for(grid)``; a malformed entry becomes a note on the page."""
+    found: list[Any] = []
+    raw = rec.get("defects")
+    if isinstance(raw, str) and raw.strip():
+        try:
+            raw = json.loads(raw)
+        except ValueError as exc:
+            notes.append(f"defects field is not JSON: {exc}")
+            raw = None
+    if isinstance(raw, (list, tuple, np.ndarray)):
+        found.extend(raw)
+    elif usable(raw) and not isinstance(raw, str):
+        notes.append(f"defects field is not a list: {str(raw)[:80]}")
+    if defects_for is not None:
+        try:
+            found.extend(defects_for(grid) or [])
+        except Exception as exc:  # noqa: BLE001 - a failing detector is a note, never a crash
+            notes.append(f"defects_for failed: {type(exc).__name__}: {exc}")
+    good = []
+    for i, d in enumerate(found):
+        try:
+            bbox = [float(v) for v in d["bbox"]]
+            if len(bbox) != 4 or not all(map(math.isfinite, bbox)):
+                raise ValueError("bbox needs 4 finite numbers")
+            good.append({"kind": str(d.get("kind", "defect")), "bbox": bbox,
+                         "note": str(d.get("note", ""))})
+        except (TypeError, KeyError, ValueError, AttributeError) as exc:
+            notes.append(f"defect {i} ignored ({exc}): {str(d)[:80]}")
+    return good
+
+
+_DEFECT_COLOURS = ("#ff00ff", "#ff8800", "#00c8ff", "#ffd400", "#8a2be2", "#00b050")
+
+
+def _map_layers(mp: _MapPage, out: Path, ov: Any, u: int, grid: Any,
+                gt: tuple[Any, Any] | None) -> str:
+    """The map with its layers (corners, enclosed areas, ground truth, defects), each
+    shown or hidden by a checkbox (CSS only: ``#show-X:not(:checked) ~ .stack .layer-X``)."""
+    from PIL import Image
+
+    rows, cols = ov.cells
+    r0, c0 = ov.offset
+    h, w = ov.plain.shape[:2]
+    view = f"{c0} {r0} {cols} {rows}"  # SVG user units = map cells
+    layers: list[str] = []
+    toggles: list[str] = []
+
+    def toggle(key: str, label: str, on: bool, enabled: bool = True) -> None:
+        toggles.append(
+            f"<input type=\"checkbox\" id=\"show-{key}\" data-layer=\"{key}\""
+            f"{' checked' if on and enabled else ''}{'' if enabled else ' disabled'}>"
+            f"<label for=\"show-{key}\">{label}</label>")
+
+    if ov.n_regions:
+        png = f"img/{mp.slug}_regions.png"
+        Image.fromarray(ov.regions).save(out / png)
+        layers.append(f"<img class=\"layer layer-regions\" src=\"../{png}\" alt=\"\">")
+    toggle("regions", f"<i class=\"swatch\"></i> {ov.n_regions} enclosed areas "
+           f"(unknown cells set to u = {u})", True, ov.n_regions > 0)
+    radius = max(1.5, max(rows, cols) / 110.0)
+    rings = "".join(f"<circle cx=\"{cc + 0.5:.6g}\" cy=\"{rr + 0.5:.6g}\" r=\"{radius:.4g}\"/>"
+                    for rr, cc in ov.corners)
+    layers.append(
+        f"<svg class=\"layer layer-corners\" viewBox=\"{view}\" preserveAspectRatio=\"none\">"
+        f"<g fill=\"none\" stroke=\"red\" stroke-width=\"{radius / 3:.4g}\">{rings}</g></svg>")
+    toggle("corners", f"<i class=\"ring\"></i> {ov.n_corners} corners", True,
+           ov.n_corners > 0)
+    if gt is not None:
+        from slamq.report.comparison import ground_truth_layer
+
+        png = f"img/{mp.slug}_gtlayer.png"
+        Image.fromarray(ground_truth_layer(gt[0], grid, gt[1], offset=(r0, c0),
+                                           shape=(rows, cols), scale=ov.scale)).save(out / png)
+        layers.append(f"<img class=\"layer layer-gt\" src=\"../{png}\" alt=\"\">")
+        toggle("gt", f"ground truth (F1 {gt[0].f1:.3f})", False)
+    if mp.defects:
+        size = max(rows, cols) / 45.0
+        boxes = []
+        for i, d in enumerate(mp.defects):
+            a, b, c, e = d["bbox"]
+            colour = _DEFECT_COLOURS[i % len(_DEFECT_COLOURS)]
+            boxes.append(
+                f"<g class=\"defect\" data-kind=\"{_e(d['kind'])}\"><title>{_e(d['kind'])}: "
+                f"{_e(d['note'])}</title><rect x=\"{a:.6g}\" y=\"{b:.6g}\" "
+                f"width=\"{max(c - a, 0.5):.6g}\" height=\"{max(e - b, 0.5):.6g}\" "
+                f"fill=\"none\" stroke=\"{colour}\" stroke-width=\"{size / 6:.4g}\"/>"
+                f"<text x=\"{a:.6g}\" y=\"{max(b - size / 4, r0 + size):.6g}\" "
+                f"font-size=\"{size:.4g}\" fill=\"{colour}\" stroke=\"#000\" "
+                f"stroke-width=\"{size / 14:.4g}\" paint-order=\"stroke\">{i + 1} "
+                f"{_e(d['kind'])}</text></g>")
+        layers.append(
+            f"<svg class=\"layer layer-defects\" viewBox=\"{view}\" "
+            f"preserveAspectRatio=\"none\">{''.join(boxes)}</svg>")
+    toggle("defects", f"{len(mp.defects)} defects", True, bool(mp.defects))
+    legend = (f"<p class=\"legend gt-legend\">ground-truth layer: {_gt_swatches()}</p>"
+              if gt is not None else "")
+    table = ""
+    if mp.defects:
+        table = ("<table class=\"defects\"><tr><th>#</th><th>kind</th><th>cells [col0, row0,"
+                 " col1, row1]</th><th>note</th></tr>" + "".join(
+                     f"<tr><td>{i + 1}</td><td>{_e(d['kind'])}</td><td>"
+                     f"{_e(', '.join(format_value(v) for v in d['bbox']))}</td>"
+                     f"<td>{_e(d['note'])}</td></tr>" for i, d in enumerate(mp.defects))
+                 + "</table>")
+    return (
+        "<div class=\"mapcol\"><h2>The map</h2><p class=\"sub\">unknown cells grey, occupied "
+        "black, free white; north up. Layers:</p><div class=\"layers\">"
+        f"{''.join(toggles)}<div class=\"stack\"><a href=\"../{mp.full}\"><img class=\"base\" "
+        f"src=\"../{mp.full}\" width=\"{w}\" height=\"{h}\" alt=\"the map\"></a>"
+        f"{''.join(layers)}</div></div>{legend}{table}</div>")
 
 
 def _gt_config(config: Any) -> tuple[str, float | None, float | None]:
@@ -462,8 +641,8 @@ def _index_body(
         f"{_dt.datetime.now().strftime('%Y-%m-%d %H:%M')} by slamq {__version__}.</p>",
         warning,
         "<section class=\"verdict\" id=\"verdict\"><b>In one sentence per sequence</b> "
-        "(also in <a href=\"verdict.json\">verdict.json</a>; the tables below rank every "
-        "metric, for reference)<ul>",
+        "(also in <a href=\"verdict.json\">verdict.json</a>; the tables below follow it and "
+        "show every metric for reference)<ul>",
     ]
     for s in sequences:
         v = verdicts[s]
@@ -547,17 +726,17 @@ def _how_to_read() -> str:
         f"<li><b>{_e(m.heading)}</b>: {m.direction} &mdash; {_e(m.why)}.</li>" for m in METRICS)
     return (
         "<details id=\"how\"><summary>How to read this page</summary><ul>" + items +
-        "<li><b>Ranking</b>: on each metric the algorithms are ranked by their mean over runs "
-        "(1 = best: the lowest, or the highest for GT F1; ties share the rank; when only some "
-        "algorithms have a metric, such as ATE, their ranks are stretched to 1..N); an "
-        "algorithm's score is its mean rank over the metrics it has; ties go to the better ATE "
-        "RMSE. &#9733; marks the best value per column. A metric <i>disagrees</i> when its best"
-        " algorithm is not the overall winner.</li><li>The map metrics compare maps of one "
-        "sequence with similar coverage (paper III.A, III.B): a map that covers much less "
-        "ground looks good on all three. Such maps are flagged.</li>"
-        "<li>Gallery: the best and the worst run of each algorithm (by mean rank among its "
-        "runs). Red rings: the counted corners; coloured: the counted enclosed areas. Click "
-        "a map for its detail page.</li></ul></details>")
+        "<li><b>Ranking</b>: each table is in the verdict's order (verdict.json): by ATE RMSE "
+        "when the sequence has ground truth, else by GT F1, else by corners; the column that "
+        "decides is marked <i>decides</i>. The other columns are shown for reference and "
+        "decide nothing. &#9733; marks the best value per column. Algorithms without the "
+        "deciding figure are listed last, unranked (&ndash;).</li><li>The map metrics "
+        "compare maps of one sequence with similar coverage (paper III.A, III.B): a map that "
+        "covers much less ground looks good on all three. Such maps are flagged.</li>"
+        "<li>Gallery: each algorithm's runs at both ends of the deciding column, drawn plain."
+        " Click a map for its detail page, where the counted corners, the counted enclosed "
+        "areas, the comparison with a ground-truth map and any defects are layers to switch "
+        "on and off.</li></ul></details>")
 
 
 def _sequence_section(
@@ -570,17 +749,24 @@ def _sequence_section(
 ) -> str:
     block = summary.xs(seq, level="sequence")
     metrics = ranking.metrics
-    head = "".join(f"<th>{_e(m.heading)}</th>" for m in metrics)
+    basis = ranking.verdict.get("basis", [])
+    decides = basis[0] if basis else None
+    head = "".join(
+        f"<th class=\"basis\">{_e(m.heading)}<br><small>decides</small></th>"
+        if m.key == decides else f"<th>{_e(m.heading)}</th>" for m in metrics)
     head += "<th title=\"mean known area relative to the most complete map of the sequence\">"
     head += "known area</th>"
     rows = []
-    for place, alg in enumerate(ranking.order + ranking.ground_truths, start=1):
-        ranked = alg in ranking.score
+    place = 0
+    for alg in ranking.order + ranking.ground_truths:
         row = block.loc[alg]
+        reference = alg in ranking.ground_truths
+        ranked = alg in ranking.ranked
+        place += ranked
         cells = []
         for m in metrics:
             mean, std, n = row[f"{m.key}_mean"], row[f"{m.key}_std"], int(row[f"{m.key}_n"])
-            best = (ranked and alg in ranking.best.get(m.key, [])
+            best = (not reference and alg in ranking.best.get(m.key, [])
                     and len(ranking.ranks[m.key]) > 1)
             cells.append(
                 f"<td class=\"num{_BEST if best else ''}\" data-metric=\"{m.key}\" "
@@ -591,16 +777,16 @@ def _sequence_section(
             f"<td class=\"num{' warn' if alg in ranking.partial else ''}\" "
             f"data-known-share=\"{'' if cov is None else repr(cov)}\">"
             f"{'–' if cov is None else f'{100 * cov:.0f}%'}</td>")
-        rank = str(place) if ranked else "ref."
-        score = format_value(ranking.score[alg]) if ranked else "reference map, not ranked"
+        rank = "ref." if reference else str(place) if ranked else "–"
+        title = (" title=\"reference map, not ranked\"" if reference else "" if ranked else
+                 f" title=\"not ranked: no {_e(decides or 'figure to rank by')}\"")
         rows.append(
-            f"<tr data-algorithm=\"{_e(alg)}\"{_WINNER if place == 1 and ranked else ''}>"
-            f"<td class=\"num\">{rank}</td><td class=\"alg\">{_e(alg)}</td>"
-            f"<td class=\"num\">{int(row['n'])}</td>{''.join(cells)}"
-            f"<td class=\"num\">{_e(score)}</td></tr>")
+            f"<tr data-algorithm=\"{_e(alg)}\"{_WINNER if alg == ranking.winner else ''}>"
+            f"<td class=\"num\"{title}>{rank}</td><td class=\"alg\">{_e(alg)}</td>"
+            f"<td class=\"num\">{int(row['n'])}</td>{''.join(cells)}</tr>")
     parts = [
         f"<h2 id=\"seq-{_slug(seq)}\">{_e(seq)}</h2>",
-        f"<p>{_e(ranking.sentence())}</p>",
+        f"<p class=\"ranking-sentence\">{_e(ranking.sentence())}</p>",
     ]
     from slamq.results.summary import comparability_warnings
 
@@ -615,35 +801,50 @@ def _sequence_section(
             "(paper III.A), so compare it with care; it is never named best.</p>")
     parts.append(
         f"<table class=\"ranking\" data-sequence=\"{_e(seq)}\"><tr><th>rank</th>"
-        f"<th>algorithm</th><th>runs</th>{head}<th>mean rank</th></tr>"
-        + "".join(rows) + "</table>")
+        f"<th>algorithm</th><th>runs</th>{head}</tr>" + "".join(rows) + "</table>")
     parts.append(
-        "<h3>Maps: best and worst run per algorithm</h3>"
-        "<p class=\"legend\"><span style=\"color:#f00\">&#9711;</span> red ring: a counted "
-        "corner (docs/spec.md section 3); coloured fill: one enclosed free region counted "
-        "at the unknown value where the count peaks (section 4); grey: unknown cells; "
-        "black: occupied; white: free.</p><div class=\"gallery\">")
+        "<h3>Maps: each algorithm's runs at both ends of the deciding column</h3>"
+        "<p class=\"legend\">The maps as they are: grey unknown, black occupied, white "
+        "free. Click one for its detail page, with the counted corners (docs/spec.md "
+        "section 3), enclosed areas (section 4), ground-truth comparison and defects as "
+        "layers.</p><div class=\"gallery\">")
     for alg in ranking.order + ranking.ground_truths:
         picks = gallery.get((seq, alg), [])
+        group = ok.loc[picks] if picks else ok.iloc[:0]
+        key = _run_key(group, basis)
         figs = []
-        for which, i in zip(("best", "worst") if len(picks) > 1 else ("",), picks):
-            figs.append(_thumb(pages.get(i), ok.loc[i], which))
-        parts.append(f"<div class=\"card\"><h4>{_e(alg)}</h4><div class=\"pair\">"
-                     + "".join(figs) + "</div></div>")
+        ends = ("first", "last") if len(picks) > 1 else ("",)
+        for which, i in zip(ends, picks):
+            figs.append(_thumb(pages.get(i), ok.loc[i], which, key))
+        badge = (f" <span class=\"badge\">best by {_e(basis_name(decides))}</span>"
+                 if alg == ranking.winner else "")
+        parts.append(f"<div class=\"card\" data-algorithm=\"{_e(alg)}\"><h4>{_e(alg)}{badge}"
+                     "</h4><div class=\"pair\">" + "".join(figs) + "</div></div>")
     parts.append("</div>")
     parts.append(_runs_table(ok[ok["sequence"] == seq], pages, metrics))
     return "".join(parts)
 
 
-def _thumb(mp: _MapPage | None, rec: pd.Series, which: str) -> str:
-    label = f"{which}: run {rec['run']}" if which else f"run {rec['run']}"
+def _thumb(mp: _MapPage | None, rec: pd.Series, which: str, key: str | None = None) -> str:
+    """A gallery figure: the plain map (a badge when it has defects), its run and numbers.
+    ``which`` is "first" / "last" (the ends of the run order by ``key``) or ""."""
+    label = f"run {rec['run']}"
+    if which and key is not None:
+        higher = _METRIC_HELP[key].higher if key in _METRIC_HELP else False
+        low = (which == "first") != higher
+        name = _METRIC_HELP[key].label if key in _METRIC_HELP else basis_name(key)
+        label += f" ({'lowest' if low else 'highest'} {name})"
     nums = ", ".join(f"{m.label} {format_value(_num(rec.get(m.key)))}" for m in METRICS
                      if usable(rec.get(m.key)) and math.isfinite(_num(rec.get(m.key))))
     if mp is None or not mp.thumb:
         why = "; ".join(mp.notes) if mp else "no detail page"
         return f"<figure><figcaption>{_e(label)}<br>{_e(nums)}<br>{_e(why)}</figcaption></figure>"
-    return (f"<figure><a class=\"detail\" href=\"{mp.page}\"><img src=\"{mp.thumb}\" "
-            f"alt=\"{_e(label)}\"></a><figcaption><a href=\"{mp.page}\">{_e(label)}</a> "
+    badge = (f"<span class=\"badge\" title=\"{_e('; '.join(d['kind'] for d in mp.defects))}\">"
+             f"{len(mp.defects)} defect{'s' if len(mp.defects) != 1 else ''}</span>"
+             if mp.defects else "")
+    return (f"<figure><a class=\"detail\" href=\"{mp.page}\"><span class=\"thumb\">"
+            f"<img src=\"{mp.thumb}\" alt=\"{_e(label)}\">{badge}</span></a><figcaption>"
+            f"<a href=\"{mp.page}\">{_e(label)}</a> "
             f"&middot; <a href=\"{mp.full}\">full size</a><br>{_e(nums)}</figcaption></figure>")
 
 

@@ -40,7 +40,10 @@ from slamq.report.ranking import COMPLETE_SHARE, known_share
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_resolutions
 
-__all__ = ["COMPLETE_SHARE", "CLEAR_MARGIN", "sequence_verdict", "write_verdicts"]
+__all__ = [
+    "COMPLETE_SHARE", "CLEAR_MARGIN", "basis_name", "sequence_verdict", "verdict_sentence",
+    "write_verdicts",
+]
 
 #: Corners: a runner-up within this relative margin of the best means no clear winner.
 CLEAR_MARGIN = 0.25
@@ -152,6 +155,21 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str) -> dict[str, Any]:
             "confidence": "none: nothing to rank", "warnings": warnings}
 
 
+_BASIS_NAMES = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
+                "corners_canonical": "canonical corners"}
+
+
+def basis_name(key: str | None) -> str:
+    """How the page names a verdict's basis column.
+
+    Examples
+    --------
+    >>> basis_name("ate_rmse"), basis_name("corners_canonical")
+    ('ATE RMSE', 'canonical corners')
+    """
+    return _BASIS_NAMES.get(str(key), str(key))
+
+
 def verdict_sentence(v: dict[str, Any]) -> str:
     """The verdict as the report's one sentence.
 
@@ -161,12 +179,10 @@ def verdict_sentence(v: dict[str, Any]) -> str:
     ...                   "basis": ["ate_rmse"], "confidence": "high: ...", "warnings": []})
     's: a is best by ATE RMSE (of 2; confidence high: ...).'
     """
-    names = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
-             "corners_canonical": "canonical corners"}
     if v["best"] is None:
         why = "; ".join(v["warnings"][:1]) or v["confidence"]
         return f"{v['sequence']}: no algorithm is named best ({why})."
-    basis = names.get(v["basis"][0], v["basis"][0])
+    basis = basis_name(v["basis"][0])
     return (f"{v['sequence']}: {v['best']} is best by {basis} (of {len(v['ranking'])}; "
             f"confidence {v['confidence']}).")
 
