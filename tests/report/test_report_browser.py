@@ -143,3 +143,72 @@ def test_gallery_links_open_detail_pages(browser, report):
     assert page.url == index.as_uri()
     assert problems == []
     page.close()
+
+
+@pytest.fixture(scope="module")
+def office_report(tmp_path_factory):
+    """The shipped slam_comparison_tools office world (five SLAM maps and a ground-truth
+    map), with a hand-made defect on every map through the report's defects_for hook."""
+    import slamq
+
+    data = REPO / "tests" / "data" / "slam_comparison_tools"
+    root = tmp_path_factory.mktemp("office")
+    recs = list(slamq.evaluate_many(data, threads=2))
+
+    def defects_for(grid):
+        h, w = grid.shape
+        return [{"kind": "test box", "bbox": [w // 4, h // 4, w // 2, h // 2],
+                 "note": "hand-made"}]
+
+    return build_report(recs, root / "site", gifs=False, trajectories=False,
+                        defects_for=defects_for)
+
+
+_LAYER_STATE = (
+    "() => Object.fromEntries(Array.from(document.querySelectorAll('.stack .layer')).map("
+    "e => [e.classList[1].replace('layer-', ''), getComputedStyle(e).display !== 'none']))")
+_BOXES = (
+    "() => { const b = document.querySelector('.stack img.base').getBoundingClientRect();"
+    " return Array.from(document.querySelectorAll('.stack .layer')).filter("
+    "e => getComputedStyle(e).display !== 'none').map(e => {"
+    " const r = e.getBoundingClientRect(); return [r.left - b.left, r.top - b.top,"
+    " r.width - b.width, r.height - b.height]; }); }")
+
+
+def test_gallery_is_plain_maps_and_layers_toggle(browser, office_report):
+    """Thumbnails are small plain maps; on a detail page each layer (enclosed areas,
+    corners, ground truth, defects) lies exactly over the map and its checkbox shows and
+    hides it, in a real browser without a server."""
+    page, problems = _open(browser, office_report.as_uri())
+    sizes = page.evaluate(
+        "() => Array.from(document.querySelectorAll('.gallery img')).map("
+        "i => [i.naturalWidth, i.naturalHeight])")
+    assert len(sizes) == 6 and all(0 < max(s) <= 230 for s in sizes)
+    assert page.locator(".gallery .thumb .badge").count() == 6       # "1 defect" each
+    ARTIFACTS.mkdir(exist_ok=True)
+    page.locator(".gallery").first.screenshot(path=str(ARTIFACTS / "report_gallery.png"))
+    url = next(u for u in page.evaluate(
+        "() => Array.from(document.querySelectorAll('.gallery a.detail')).map(a => a.href)")
+        if "gmapping" in u)
+    page.goto(url, wait_until="load")
+    assert _broken_images(page) == []
+    assert page.evaluate(_LAYER_STATE) == {"regions": True, "corners": True, "gt": False,
+                                           "defects": True}
+    boxes = page.evaluate(_BOXES)                    # every layer covers the map exactly
+    assert len(boxes) == 3 and all(abs(v) < 0.5 for box in boxes for v in box), boxes
+    assert page.locator(".layer-defects text").text_content() == "1 test box"
+    page.locator(".mapcol").screenshot(path=str(ARTIFACTS / "report_layers_default.png"))
+    page.check("#show-gt")
+    boxes = page.evaluate(_BOXES)
+    assert len(boxes) == 4 and all(abs(v) < 0.5 for box in boxes for v in box), boxes
+    for key in ("regions", "corners", "defects"):
+        page.uncheck(f"#show-{key}")
+    assert page.evaluate(_LAYER_STATE) == {"regions": False, "corners": False, "gt": True,
+                                           "defects": False}
+    page.locator(".mapcol").screenshot(path=str(ARTIFACTS / "report_layers_gt_only.png"))
+    page.uncheck("#show-gt")
+    assert not any(page.evaluate(_LAYER_STATE).values())
+    page.click("label[for=show-corners]")            # the label toggles too
+    assert page.evaluate(_LAYER_STATE)["corners"] is True
+    assert problems == []
+    page.close()

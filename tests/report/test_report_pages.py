@@ -187,6 +187,7 @@ def test_gallery_shows_plain_maps_and_detail_pages_have_layers(tmp_path: Path) -
     page = next((site / "maps").glob("*.html")).read_text(encoding="utf-8")
     for key in ("regions", "corners", "defects"):
         assert f'<input type="checkbox" id="show-{key}" data-layer="{key}" checked>' in page
+        assert f'<label for="show-{key}">' in page
     assert 'id="show-gt"' not in page                 # no ground truth, no such layer
     # the base image is the plain map at the overlay's scale and crop
     ov = draw_overlay(grid, q.enclosed_unknown_value)

@@ -86,20 +86,20 @@ summary{cursor:pointer;color:#0a58ca}
  background:#2a7a2a;color:#fff;vertical-align:middle}
 .thumb .badge{position:absolute;right:4px;top:4px;background:#b02a2a}
 .layers{margin-top:.2em}
-.layers label{margin:0 16px 0 3px;cursor:pointer;white-space:nowrap;line-height:2}
-.layers input{vertical-align:middle;margin:0}
-.layers input:disabled+label{color:#999;cursor:default}
+.layers label{margin:0 18px 0 0;cursor:pointer;white-space:nowrap;line-height:2}
+.layers input{vertical-align:middle;margin:0 4px 0 0}
+.layers label:has(input:disabled){color:#999;cursor:default}
 .layers label .swatch,.layers label .ring{margin-right:2px}
 .stack{position:relative;display:block;width:fit-content;max-width:100%;line-height:0;
- margin-top:6px}
-.stack img.base{display:block;max-width:100%;height:auto;border:1px solid #ccc}
-.stack .layer{position:absolute;left:1px;top:1px;width:calc(100% - 2px);
- height:calc(100% - 2px);pointer-events:none}
+ margin-top:6px;outline:1px solid #ccc}
+.stack a{display:block}
+.stack img.base{display:block;max-width:100%;height:auto}
+.stack .layer{position:absolute;left:0;top:0;width:100%;height:100%;pointer-events:none}
 .stack svg.layer text{font-family:system-ui,sans-serif;font-weight:700}
-#show-corners:not(:checked)~.stack .layer-corners,
-#show-regions:not(:checked)~.stack .layer-regions,
-#show-gt:not(:checked)~.stack .layer-gt,
-#show-defects:not(:checked)~.stack .layer-defects{display:none}
+.layers:has(#show-corners:not(:checked)) .layer-corners,
+.layers:has(#show-regions:not(:checked)) .layer-regions,
+.layers:has(#show-gt:not(:checked)) .layer-gt,
+.layers:has(#show-defects:not(:checked)) .layer-defects{display:none}
 table.defects td{font-size:.9em}
 .top{display:flex;gap:24px;align-items:flex-start;flex-wrap:wrap}
 .mapcol{flex:1;min-width:420px}
@@ -462,7 +462,8 @@ _DEFECT_COLOURS = ("#ff00ff", "#ff8800", "#00c8ff", "#ffd400", "#8a2be2", "#00b0
 def _map_layers(mp: _MapPage, out: Path, ov: Any, u: int, grid: Any,
                 gt: tuple[Any, Any] | None) -> str:
     """The map with its layers (corners, enclosed areas, ground truth, defects), each
-    shown or hidden by a checkbox (CSS only: ``#show-X:not(:checked) ~ .stack .layer-X``)."""
+    shown or hidden by a checkbox (CSS only: ``.layers:has(#show-X:not(:checked))
+    .layer-X``)."""
     from PIL import Image
 
     rows, cols = ov.cells
@@ -474,9 +475,9 @@ def _map_layers(mp: _MapPage, out: Path, ov: Any, u: int, grid: Any,
 
     def toggle(key: str, label: str, on: bool, enabled: bool = True) -> None:
         toggles.append(
-            f"<input type=\"checkbox\" id=\"show-{key}\" data-layer=\"{key}\""
-            f"{' checked' if on and enabled else ''}{'' if enabled else ' disabled'}>"
-            f"<label for=\"show-{key}\">{label}</label>")
+            f"<label for=\"show-{key}\"><input type=\"checkbox\" id=\"show-{key}\" "
+            f"data-layer=\"{key}\"{' checked' if on and enabled else ''}"
+            f"{'' if enabled else ' disabled'}>{label}</label>")
 
     if ov.n_regions:
         png = f"img/{mp.slug}_regions.png"
@@ -518,7 +519,8 @@ def _map_layers(mp: _MapPage, out: Path, ov: Any, u: int, grid: Any,
         layers.append(
             f"<svg class=\"layer layer-defects\" viewBox=\"{view}\" "
             f"preserveAspectRatio=\"none\">{''.join(boxes)}</svg>")
-    toggle("defects", f"{len(mp.defects)} defects", True, bool(mp.defects))
+    toggle("defects", f"{len(mp.defects)} defect{'' if len(mp.defects) == 1 else 's'}", True,
+           bool(mp.defects))
     legend = (f"<p class=\"legend gt-legend\">ground-truth layer: {_gt_swatches()}</p>"
               if gt is not None else "")
     table = ""
@@ -532,8 +534,9 @@ def _map_layers(mp: _MapPage, out: Path, ov: Any, u: int, grid: Any,
     return (
         "<div class=\"mapcol\"><h2>The map</h2><p class=\"sub\">unknown cells grey, occupied "
         "black, free white; north up. Layers:</p><div class=\"layers\">"
-        f"{''.join(toggles)}<div class=\"stack\"><a href=\"../{mp.full}\"><img class=\"base\" "
-        f"src=\"../{mp.full}\" width=\"{w}\" height=\"{h}\" alt=\"the map\"></a>"
+        f"<p class=\"toggles\">{' '.join(toggles)}</p><div class=\"stack\">"
+        f"<a href=\"../{mp.full}\"><img class=\"base\" src=\"../{mp.full}\" width=\"{w}\" "
+        f"height=\"{h}\" alt=\"the map\"></a>"
         f"{''.join(layers)}</div></div>{legend}{table}</div>")
 
 
