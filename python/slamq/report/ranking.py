@@ -33,6 +33,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from slamq.report.verdict import (
+    COMPLETE_SHARE,
+    basis_name,
+    known_share,
+    sequence_verdict,
+    verdict_sentence,
+)
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 
 __all__ = [
@@ -118,9 +125,6 @@ METRICS: tuple[Metric, ...] = (
     ),
 )
 
-#: A map knowing less area than this share of the sequence's most complete map is partial
-#: (the verdict uses the same rule).
-COMPLETE_SHARE = 0.8
 
 
 def summarize(ok: pd.DataFrame) -> pd.DataFrame:
@@ -234,8 +238,6 @@ class SequenceRanking:
         s: a is best by corners (the verdict; the table is in its order); columns that do
         not decide order differently (lowest occupied fraction: b).
         """
-        from slamq.report.verdict import basis_name, verdict_sentence
-
         if not self.order:
             return f"{self.sequence}: no successful run to rank."
         if len(self.order) == 1:
@@ -294,8 +296,6 @@ def rank_sequence(summary: pd.DataFrame, sequence: str, verdict: dict | None = N
     >>> r.order, r.winner, r.disagree
     (['a', 'b'], 'a', [])
     """
-    from slamq.report.verdict import sequence_verdict
-
     if verdict is None:
         verdict = sequence_verdict(summary, sequence)
     block = summary.xs(sequence, level="sequence") if len(summary) else summary
@@ -330,27 +330,6 @@ def rank_sequence(summary: pd.DataFrame, sequence: str, verdict: dict | None = N
         ranks=ranks, best=best, metrics=used, disagree=disagree, partial=partial,
         ground_truths=ground_truths, coverage=coverage,
     )
-
-
-def known_share(block: pd.DataFrame) -> dict[str, float]:
-    """Each algorithm's mean known area relative to the most complete map of the block
-    (``known_area_m2_mean``, or ``known_mean`` when some map has no resolution); empty when
-    fewer than two algorithms have it.
-
-    Examples
-    --------
-    >>> import pandas as pd
-    >>> known_share(pd.DataFrame({"known_area_m2_mean": [50.0, 100.0]}, index=["a", "b"]))
-    {'a': 0.5, 'b': 1.0}
-    """
-    def col(name: str) -> pd.Series:
-        return pd.to_numeric(block.get(name, pd.Series(dtype=float)), errors="coerce")
-
-    area = col("known_area_m2_mean").dropna()
-    known = area if len(area) == len(block) else col("known_mean").dropna()
-    if len(known) < 2 or known.max() <= 0:
-        return {}
-    return {str(a): float(v / known.max()) for a, v in known.items()}
 
 
 def format_value(x: float) -> str:

@@ -36,14 +36,17 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from slamq.report.ranking import COMPLETE_SHARE, known_share
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_resolutions
 
 __all__ = [
-    "COMPLETE_SHARE", "CLEAR_MARGIN", "basis_name", "sequence_verdict", "verdict_sentence",
-    "write_verdicts",
+    "COMPLETE_SHARE", "CLEAR_MARGIN", "basis_name", "known_share", "sequence_verdict",
+    "verdict_sentence", "write_verdicts",
 ]
+
+#: A map knowing less area than this share of the sequence's most complete map is partial:
+#: never named best (the ranking tables flag it too).
+COMPLETE_SHARE = 0.8
 
 #: Corners: a runner-up within this relative margin of the best means no clear winner.
 CLEAR_MARGIN = 0.25
@@ -57,6 +60,27 @@ _BASES = (
     ("corners", False, None, False,
      "low: corners separate broken maps from good ones; they do not order good maps"),
 )
+
+
+def known_share(block: pd.DataFrame) -> dict[str, float]:
+    """Each algorithm's mean known area relative to the most complete map of the block
+    (``known_area_m2_mean``, or ``known_mean`` when some map has no resolution); empty when
+    fewer than two algorithms have it.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> known_share(pd.DataFrame({"known_area_m2_mean": [50.0, 100.0]}, index=["a", "b"]))
+    {'a': 0.5, 'b': 1.0}
+    """
+    def col(name: str) -> pd.Series:
+        return pd.to_numeric(block.get(name, pd.Series(dtype=float)), errors="coerce")
+
+    area = col("known_area_m2_mean").dropna()
+    known = area if len(area) == len(block) else col("known_mean").dropna()
+    if len(known) < 2 or known.max() <= 0:
+        return {}
+    return {str(a): float(v / known.max()) for a, v in known.items()}
 
 
 def _means(block: pd.DataFrame, key: str) -> pd.Series:
