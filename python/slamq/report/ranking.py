@@ -226,8 +226,9 @@ class SequenceRanking:
         return self.verdict["basis"][0] if self.verdict.get("basis") else None
 
     def sentence(self) -> str:
-        """One plain-text sentence: the verdict, and the columns that would order
-        differently (they do not decide).
+        """One plain-text sentence: the verdict, and the other columns whose best value
+        belongs to another algorithm (shown for reference; only a tie-breaker of the
+        verdict's, such as GT F1 after ATE RMSE, decides anything among them).
 
         Examples
         --------
@@ -235,8 +236,8 @@ class SequenceRanking:
         >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "corners": [1, 9],
         ...                    "occupied_fraction": [0.2, 0.1], "enclosed_areas": [0, 3]})
         >>> print(rank_sequence(summarize(df), "s").sentence())  # doctest: +NORMALIZE_WHITESPACE
-        s: a is best by corners (the verdict; the table is in its order); columns that do
-        not decide order differently (lowest occupied fraction: b).
+        s: a is best by corners (the verdict; the table is in its order); other columns
+        order differently (lowest occupied fraction: b).
         """
         if not self.order:
             return f"{self.sequence}: no successful run to rank."
@@ -246,13 +247,12 @@ class SequenceRanking:
             return verdict_sentence(self.verdict)
         lead = (f"{self.sequence}: {self.winner} is best by {basis_name(self.basis)} "
                 "(the verdict; the table is in its order)")
-        others = [m for m in self.disagree if m.key not in self.verdict["basis"]]
+        others = [m for m in self.disagree if m.key != self.basis]
         if not others:
             return lead + "."
         parts = [f"{'highest' if m.higher else 'lowest'} {m.label}: "
                  f"{', '.join(self.best[m.key])}" for m in others]
-        return (lead + "; columns that do not decide order differently (" + "; ".join(parts)
-                + ").")
+        return lead + "; other columns order differently (" + "; ".join(parts) + ")."
 
 
 def _join(parts: list[str]) -> str:
