@@ -19,8 +19,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="folder to write the site to")
     p.add_argument("--title", default="slamq evaluation report", help="page title")
     p.add_argument("--details", choices=("all", "gallery"), default="all",
-                   help="detail pages for every map, or only for the gallery's best/worst "
-                   "runs (faster on huge batches; default %(default)s)")
+                   help="detail pages for every map, or only for the gallery's runs (each "
+                   "algorithm's two ends of the deciding column; faster on huge batches; "
+                   "default %(default)s)")
     p.add_argument("--no-gifs", action="store_true",
                    help="skip map-building animations from snapshots")
     p.add_argument("--no-trajectories", action="store_true",

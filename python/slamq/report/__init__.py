@@ -1,14 +1,17 @@
 """The evaluation report: one static HTML site from a results file.
 
 ``slamq report RESULTS --out DIR`` (or :func:`build_report`) writes ``DIR/index.html``:
-a one-sentence verdict per sequence, per-sequence tables (mean +- std over runs, best value
-per column marked, a ranking), plots per metric, a gallery of each algorithm's best and
-worst map with the counted corners and enclosed areas drawn on them, and a detail page per
-map (numbers, overlays, the enclosed-area curve, the trajectory coloured by ATE, and an
-animation of the map being built when snapshots exist). Nothing is fetched from the
-network; the folder can be zipped, mailed or served as it is.
+a one-sentence verdict per sequence (``verdict.json``), per-sequence tables in the verdict's
+order (mean +- std over runs, the deciding column and the best value per column marked),
+plots per metric, a gallery of each algorithm's maps at both ends of the deciding column
+(the plain maps), and a detail page per map (the map with its counted corners, enclosed
+areas, ground-truth comparison and defects as layers switched by checkboxes, numbers, the
+enclosed-area curve, the trajectory coloured by ATE, and an animation of the map being
+built when snapshots exist). Nothing is fetched from the network; the folder can be zipped,
+mailed or served as it is.
 
-Modules: :mod:`~slamq.report.ranking` (directions, ranking, formatting),
+Modules: :mod:`~slamq.report.ranking` (directions, the tables' order, formatting),
+:mod:`~slamq.report.verdict` (who is best, on what basis),
 :mod:`~slamq.report.plots`, :mod:`~slamq.report.overlays`, :mod:`~slamq.report.timeline`
 (timelines: ``slamq timeline`` and the animations), :mod:`~slamq.report.trajectory`,
 :mod:`~slamq.report.site` (the pages).

@@ -170,8 +170,9 @@ def build_report(
     title : str
         Page title.
     details : {"all", "gallery"}
-        Detail pages for every successful map, or only for the gallery's best/worst runs
-        (for very large batches: each detail page loads and re-draws its map).
+        Detail pages for every successful map, or only for the gallery's runs (each
+        algorithm's two ends of the deciding column; for very large batches: each detail
+        page loads and re-draws its map).
     gifs : bool
         Animate map building when a run folder holds ``map_0001.pgm``-style snapshots.
     trajectories : bool
