@@ -43,6 +43,7 @@ from slamq.report.verdict import (
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 
 __all__ = [
+    "CANONICAL",
     "METRICS",
     "Metric",
     "SequenceRanking",
@@ -127,6 +128,15 @@ METRICS: tuple[Metric, ...] = (
 
 
 
+#: Shown (and marked as deciding) only where the verdict ranks by it: when the maps differ
+#: in resolution or orientation (:mod:`slamq.report.verdict`).
+CANONICAL = Metric(
+    "corners_canonical", "canonical corners", "", True,
+    "docs/spec.md section 3a: the corners of the map turned to its walls' direction and "
+    "resampled to one resolution, comparable between maps saved differently",
+)
+
+
 def summarize(ok: pd.DataFrame) -> pd.DataFrame:
     """:func:`slamq.results.summarize` of successful records, indexed for the report.
 
@@ -194,7 +204,8 @@ class SequenceRanking:
     best : dict
         ``best[metric_key]`` = the algorithms with the best mean on that metric.
     metrics : list of Metric
-        The metrics that had values on this sequence.
+        The metrics that had values on this sequence (with :data:`CANONICAL` when the
+        verdict ranks by it).
     disagree : list of Metric
         Metrics whose best algorithm is not the verdict's.
     partial : list of str
@@ -306,7 +317,8 @@ def rank_sequence(summary: pd.DataFrame, sequence: str, verdict: dict | None = N
     ranks: dict[str, dict[str, float]] = {}
     best: dict[str, list[str]] = {}
     used: list[Metric] = []
-    for m in METRICS:
+    shown = METRICS + ((CANONICAL,) if verdict["basis"][:1] == [CANONICAL.key] else ())
+    for m in shown:
         col = f"{m.key}_mean"
         if col not in block:
             continue

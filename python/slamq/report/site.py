@@ -33,6 +33,7 @@ from slamq.errors import SlamqError
 from slamq.report.data import ResultsLike, evaluate_map, load_results, params_of, usable
 from slamq.report.evidence import sequence_evidence
 from slamq.report.ranking import (
+    CANONICAL,
     METRICS,
     SequenceRanking,
     format_mean_std,
@@ -111,7 +112,7 @@ a{color:#0a58ca}
 
 _WINNER = ' class="winner"'
 _BEST = " best"
-_METRIC_HELP = {m.key: m for m in METRICS}
+_METRIC_HELP = {m.key: m for m in (*METRICS, CANONICAL)}
 _SLUG = re.compile(r"[^A-Za-z0-9_.-]+")
 
 
@@ -840,7 +841,8 @@ def _thumb(mp: _MapPage | None, rec: pd.Series, which: str, key: str | None = No
         low = (which == "first") != higher
         name = _METRIC_HELP[key].label if key in _METRIC_HELP else basis_name(key)
         label += f" ({'lowest' if low else 'highest'} {name})"
-    nums = ", ".join(f"{m.label} {format_value(_num(rec.get(m.key)))}" for m in METRICS
+    shown = METRICS + ((CANONICAL,) if key == CANONICAL.key else ())
+    nums = ", ".join(f"{m.label} {format_value(_num(rec.get(m.key)))}" for m in shown
                      if usable(rec.get(m.key)) and math.isfinite(_num(rec.get(m.key))))
     if mp is None or not mp.thumb:
         why = "; ".join(mp.notes) if mp else "no detail page"
