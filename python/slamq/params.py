@@ -330,10 +330,11 @@ SETTINGS = _Rows((s.name, s) for s in (
             "near it", "", float, 0.0, 1.0, high_open=True),
     Setting("consensus", "radius", 1, "cells of slack between the maps' walls once aligned",
             "cells", int, 0, None),
-    Setting("agreement", "agreement_align", "register",
-            "how maps of one place are put in one frame for slamq.agreement: register (global "
-            "search, then ICP), or as compare's align", type=str,
-            choices=("register",) + _MAP_ALIGNMENTS),
+    Setting("agreement", "agreement_align", "auto",
+            "how maps of one place are laid over each other for slamq.agreement: auto (the "
+            "files' frames refined by ICP or the global registration, whichever fits better), "
+            "register (all into one base map's frame), or as compare's align", type=str,
+            choices=("auto", "register") + _MAP_ALIGNMENTS),
     Setting("agreement", "min_support", 0.6,
             "the support (median consistency with the other maps) a map needs to count as "
             "confirmed", "", float, 0.0, 1.0),

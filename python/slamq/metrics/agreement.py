@@ -224,6 +224,44 @@ def place_all(maps: Mapping[str, OccupancyMap], *, threads: int | None = None
     return moved, placed, notes
 
 
+def _auto(maps: dict[str, OccupancyMap], names: list[str], sup: np.ndarray, rec: np.ndarray,
+          cov: np.ndarray, placed: dict[str, bool], notes: list[str],
+          tolerance: float | None, threads: int | None) -> None:
+    """``align="auto"``: each ordered pair placed by the files' frames refined by ICP or by
+    the pair's global registration, whichever fits better (fills the arrays in place)."""
+    from slamq.errors import MapError
+    from slamq.metrics.register import register_many
+
+    res = next((m.resolution for m in maps.values() if m.resolution), 1.0)
+    maps = {n: _moved(m, 0.0, 0.0, 0.0, res) for n, m in maps.items()}
+    try:
+        regs = register_many(maps, threads=threads)
+    except MapError as exc:
+        regs = {}
+        notes.append(f"no global registration ({exc}): the files' frames only")
+    bar = SETTINGS.min_inliers.default
+    fits = dict.fromkeys(names, False)
+    for i, a in enumerate(names):
+        for j, b in enumerate(names):
+            if i == j:
+                continue
+            best = _pair(maps[a], maps[b], "icp", tolerance, threads)
+            fits[a] |= min(best[0], best[1]) >= bar
+            r = regs.get((a, b))
+            if r is not None and r.ok:
+                fits[a] = True
+                moved = _pair(_moved(maps[a], r.theta, r.tx, r.ty, res), maps[b], "icp",
+                              tolerance, threads)
+                if _f(moved[0], moved[1]) > _f(best[0], best[1]):
+                    best = moved
+            sup[i, j], rec[i, j], cov[i, j] = best
+    for a in names:
+        if not fits[a]:
+            placed[a] = False
+            notes.append(f"{a} could not be placed with the other maps (neither its frame nor "
+                         "a trusted registration fits any of them)")
+
+
 def _f(p: float, r: float) -> float:
     if not (math.isfinite(p) and math.isfinite(r)):
         return math.nan
@@ -241,11 +279,13 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     maps : mapping of name to map, or sequence of maps
         At least 2 maps (:func:`slamq.agreement` takes paths and image arrays too); a
         sequence is named ``"0"``, ``"1"``...
-    align : {"register", "icp", "origin", "search"}, default "register"
-        How the maps are placed in one frame: ``register`` by :func:`slamq.register`
-        (global search, then ICP; a map it cannot place gets NaN figures), the others as
-        in :func:`slamq.compare` (``icp`` for maps known to share a frame, such as runs
-        of one recorded sequence).
+    align : {"auto", "register", "icp", "origin", "search"}, default "auto"
+        How each pair of maps is laid over each other: ``auto``, by the files' frames
+        refined by ICP or by :func:`slamq.register_many`'s registration, whichever fits
+        better (maps of one recording share its first pose; maps saved in unrelated frames
+        need the registration); ``register``, all maps moved into one base map's frame by
+        the registration (a map it cannot place gets NaN figures); the others as in
+        :func:`slamq.compare`.
     min_support : float, default 0.6
         The support a map needs to count as confirmed by the others (``majority``).
     tolerance : float, optional
@@ -300,12 +340,15 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     sup = np.full((n, n), math.nan)
     rec = np.full((n, n), math.nan)
     cov = np.full((n, n), math.nan)
-    for i, a in enumerate(names):
-        for j, b in enumerate(names):
-            if i == j or not (placed[a] and placed[b]):
-                continue
-            sup[i, j], rec[i, j], cov[i, j] = _pair(loaded[a], loaded[b], pair_align,
-                                                    tolerance, threads)
+    if align == "auto":
+        _auto(loaded, names, sup, rec, cov, placed, notes, tolerance, threads)
+    else:
+        for i, a in enumerate(names):
+            for j, b in enumerate(names):
+                if i == j or not (placed[a] and placed[b]):
+                    continue
+                sup[i, j], rec[i, j], cov[i, j] = _pair(loaded[a], loaded[b], pair_align,
+                                                        tolerance, threads)
     cons = np.full((n, n), math.nan)
     for i in range(n):
         for j in range(n):

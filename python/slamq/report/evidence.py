@@ -18,6 +18,7 @@ import pandas as pd
 
 from slamq.errors import SlamqError
 from slamq.metrics.agreement import agreement
+from slamq.params import SETTINGS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
 
@@ -32,7 +33,8 @@ def _median(values: list[float]) -> float:
     return float(np.median(vals)) if vals else math.nan
 
 
-def sequence_evidence(ok: pd.DataFrame, sequence: str, *, align: str = "register",
+def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
+                      align: str = SETTINGS.agreement_align.default,
                       runs_per_algorithm: int = RUNS_PER_ALGORITHM,
                       defects: bool = True, threads: int | None = None) -> dict[str, Any]:
     """Cross-map agreement and defect flags of the maps of one sequence, per algorithm.
@@ -42,7 +44,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *, align: str = "register
     ok : pandas.DataFrame
         Successful result rows (``map``, ``algorithm``, ``sequence``, ``run``).
     sequence : str
-    align : str, default "register"
+    align : str, default "auto"
         How the maps are put in one frame (:func:`slamq.agreement`'s ``align``).
     runs_per_algorithm : int, default 3
         At most this many runs of each algorithm take part.

@@ -23,6 +23,7 @@ from typing import Any
 
 import pandas as pd
 
+from slamq.params import SETTINGS
 from slamq.report.evidence import sequence_evidence
 from slamq.report.ranking import summarize
 from slamq.report.verdict import sequence_verdict
@@ -44,7 +45,8 @@ def _hidden(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
-                       align: str = "register", defects: bool = True) -> pd.DataFrame:
+                       align: str = SETTINGS.agreement_align.default,
+                       defects: bool = True) -> pd.DataFrame:
     """The verdict of each benchmark sequence with the ground truth hidden.
 
     Parameters
@@ -53,7 +55,7 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
         A ``slamq run`` output folder of generated sequences (``examples/benchmark.yaml``).
     sequences : iterable of str, optional
         Only these sequences.
-    align : str, default "register"
+    align : str, default "auto"
         How the maps are put in one frame (:func:`slamq.agreement`).
     defects : bool, default True
         Run the defect detectors (False: agreement alone).
@@ -87,8 +89,9 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
     return pd.DataFrame(rows)
 
 
-def folder_verdicts(root: Path, by_eye: Path, *, align: str = "register",
-                    defects: bool = True) -> tuple[pd.DataFrame, dict[str, dict[str, Any]]]:
+def folder_verdicts(root: Path, by_eye: Path, *,
+                    align: str = SETTINGS.agreement_align.default, defects: bool = True
+                    ) -> tuple[pd.DataFrame, dict[str, dict[str, Any]]]:
     """The verdict on each folder of real maps listed in a by-eye CSV.
 
     Parameters
@@ -97,7 +100,7 @@ def folder_verdicts(root: Path, by_eye: Path, *, align: str = "register",
         The folder the CSV's ``folder`` column is relative to (``../shared/data/maps``).
     by_eye : path
         CSV with ``folder, map, class, broken`` (class 1 best; broken 1 or 0).
-    align : str, default "register"
+    align : str, default "auto"
     defects : bool, default True
 
     Returns
@@ -196,8 +199,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--benchmark", type=Path, nargs="+",
                     help="slamq run outputs of generated sequences")
-    ap.add_argument("--align", default="register",
-                    help="how the benchmark's maps are put in one frame (default register)")
+    ap.add_argument("--align", default="auto",
+                    help="how the maps are laid over each other (slamq.agreement's align)")
     ap.add_argument("--real", nargs=2, type=Path, metavar=("MAPS", "BY_EYE_CSV"),
                     help="the real maps' root folder and the by-eye classes")
     ap.add_argument("--no-defects", action="store_true",
