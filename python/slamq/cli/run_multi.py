@@ -28,6 +28,9 @@ def shard_or_merge(args: argparse.Namespace, progress: Callable[[dict], Any]) ->
         return EXIT_OK
     result = shards.merge(args.config)
     print(f"merged: {len(result['rows'])} finished runs ({_counts(result['rows'])})")
+    from slamq.cli.run import print_stages
+
+    print_stages(result)
     if result["missing"]:
         by: dict[Any, int] = {}
         for s, _ in result["missing"]:
@@ -41,7 +44,9 @@ def shard_or_merge(args: argparse.Namespace, progress: Callable[[dict], Any]) ->
     if result["results"] is not None:
         print(f"results: {result['results']}")
     if result["report"] is not None:
-        print(f"report written: {result['report']}")
+        from slamq.cli.run import _report_state
+
+        print(f"report {_report_state(result)}: {result['report']}")
     return EXIT_OK
 
 
