@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -53,11 +54,13 @@ def _stages(out: Path) -> dict[str, dict]:
 
 
 def _mtimes(out: Path) -> dict[str, int]:
-    files = [out / "report" / "index.html", *sorted(out.glob("fake/*/seq/*/building.gif"))]
+    files = [out / "report" / "index.html", *sorted(out.glob("fake/*/seq/*/building.gif")),
+             *sorted((out / "report" / "maps").glob("*.html"))]
     return {str(f.relative_to(out)): f.stat().st_mtime_ns for f in files}
 
 
-def test_an_unchanged_rerun_skips_scoring_gifs_and_report(tmp_path: Path) -> None:
+def test_a_rerun_redoes_only_what_depends_on_a_changed_file(tmp_path: Path) -> None:
+    # --- an unchanged rerun: nothing scored, drawn or written
     cfg = _config(tmp_path)
     out = tmp_path / "out"
     first = runner.run(cfg)
@@ -79,12 +82,7 @@ def test_an_unchanged_rerun_skips_scoring_gifs_and_report(tmp_path: Path) -> Non
     assert (out / "results.jsonl").read_bytes() == results
     assert again["records"] == 0 and again["report"] == out / "report" / "index.html"
 
-
-def test_a_changed_map_is_rescored_and_the_report_rebuilt(tmp_path: Path) -> None:
-    cfg = _config(tmp_path)
-    out = tmp_path / "out"
-    runner.run(cfg)
-    before = _mtimes(out)
+    # --- a changed map is scored again and the report rebuilt
     old = {r["run"]: r for r in read_results(out / "results.jsonl").to_dict("records")}
     # one run's final map gets an extra wall: only that run is scored again
     import cv2
@@ -98,6 +96,8 @@ def test_a_changed_map_is_rescored_and_the_report_rebuilt(tmp_path: Path) -> Non
     assert (s["score"]["done"], s["score"]["skipped"]) == (1, 1)
     assert s["score"]["why"] == {"fake seq #2": ["map changed"]}
     assert s["report"]["done"] == 1 and "results changed" in s["report"]["message"]
+    # only the changed map's detail page is drawn again
+    assert (s["report"]["pages_drawn"], s["report"]["pages_kept"]) == (1, 1)
     assert (s["gifs"]["done"], s["gifs"]["skipped"]) == (0, 2)  # snapshots unchanged
     new = {r["run"]: r for r in read_results(out / "results.jsonl").to_dict("records")}
     assert len(new) == 2
@@ -105,6 +105,10 @@ def test_a_changed_map_is_rescored_and_the_report_rebuilt(tmp_path: Path) -> Non
     assert new["2"]["hash"] != old["2"]["hash"] and new["2"]["occupied"] > old["2"]["occupied"]
     after = _mtimes(out)
     assert after["report/index.html"] > before["report/index.html"]
+    pages = sorted(k for k in after if k.startswith("report/maps/"))
+    assert len(pages) == 2 and pages == sorted(k for k in before if k.startswith("report/maps/"))
+    assert after[pages[0]] == before[pages[0]]  # run 1's page: kept
+    assert after[pages[1]] > before[pages[1]]  # run 2's page: drawn again
     assert {k: v for k, v in after.items() if k.endswith(".gif")} == \
         {k: v for k, v in before.items() if k.endswith(".gif")}
     # a changed snapshot redraws that run's GIF (and the report, which animates them)
@@ -117,12 +121,29 @@ def test_a_changed_map_is_rescored_and_the_report_rebuilt(tmp_path: Path) -> Non
     assert (s["score"]["done"], s["gifs"]["done"], s["gifs"]["skipped"]) == (0, 1, 1)
     assert s["gifs"]["why"] == {"fake seq #2": ["snapshots changed"]}
     assert s["report"]["done"] == 1 and "snapshots changed" in s["report"]["message"]
+    assert (s["report"]["pages_drawn"], s["report"]["pages_kept"]) == (1, 1)
     # the report deleted: written again, nothing scored
     (out / "report" / "index.html").unlink()
     runner.run(cfg)
     s = _stages(out)
     assert s["score"]["done"] == 0 and s["report"]["done"] == 1
     assert (out / "report" / "index.html").is_file()
+    # slamq run says what it skipped and why
+    import yaml
+    from conftest import slamq_env
+
+    cfg.pop("base_dir")  # a config file's folder is its base
+    (tmp_path / "run.yaml").write_text(yaml.safe_dump(cfg))
+    proc = subprocess.run([sys.executable, "-m", "slamq", "run", str(tmp_path / "run.yaml")],
+                          capture_output=True, text=True, env=slamq_env(), timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert "scores: 0 of 2 maps scored; 2 skipped (map, trajectory, ground truth, settings " \
+        "and slamq version as when they were scored)" in lines
+    assert "GIFs: 0 of 2 made; 2 skipped (snapshots as when they were drawn)" in lines
+    assert "report: skipped (results, scores, maps, snapshots and slamq version as when it " \
+        "was written)" in lines
+    assert f"report unchanged: {out / 'report' / 'index.html'}" in lines
 
 
 def test_other_settings_or_another_slamq_version_redo_everything(tmp_path: Path) -> None:
@@ -148,6 +169,7 @@ def test_other_settings_or_another_slamq_version_redo_everything(tmp_path: Path)
     assert (s["score"]["done"], s["gifs"]["done"], s["report"]["done"]) == (2, 2, 1)
     assert set(map(tuple, s["score"]["why"].values())) == {("new slamq version",)}
     assert "new slamq version" in s["report"]["message"]
+    assert s["report"]["pages_drawn"] == 2  # the records were scored again
     # a deleted results file: every run scored again
     (out / "results.jsonl").unlink()
     runner.run(_config(tmp_path, harris_k=0.05))

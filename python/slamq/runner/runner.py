@@ -680,6 +680,7 @@ def _score_changed(config: RunConfig, runs: list[Any], results_path: Path, stamp
                     rf.append(chunk)
                     chunk = []
             rf.append(chunk)
+        _keep_order(results_path, runs)
         for run in todo:
             item = json.dumps([str(x) for x in run.key])
             stamps.put("score", item, run_stamps[item])
@@ -705,6 +706,30 @@ def _need_report_extra(cfg: RunConfig) -> None:
         raise SlamqError(f"{cfg.source}: report: true needs the 'report' extra "
                          f"({', '.join(missing)} not installed): pip install 'slamq[report]', "
                          "or set report: false")
+
+
+def _keep_order(results_path: Path, runs: list[Any]) -> None:
+    """Put the records of ``results_path`` (JSON Lines) back in the order of ``runs`` (a
+    re-scored run's record was appended last), so that the report's pages keep their
+    names; records of runs not planned any more stay, after them. Rewritten atomically,
+    only when the order changed."""
+    from slamq.results.formats import dumps_record, iter_jsonl
+
+    order = {tuple(str(x) for x in r.key): i for i, r in enumerate(runs)}
+    records = list(iter_jsonl(results_path))
+
+    def position(ir: tuple[int, dict[str, Any]]) -> tuple[int, int]:
+        i, rec = ir
+        key = tuple(str(rec.get(k)) for k in ("algorithm", "sequence", "run", "map"))
+        return (order[key], 0) if key in order else (len(order), i)
+
+    ranked = sorted(enumerate(records), key=position)
+    if [i for i, _ in ranked] == list(range(len(records))):
+        return
+    tmp = results_path.with_name(results_path.name + ".tmp")
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write("".join(dumps_record(rec) for _, rec in ranked))
+    os.replace(tmp, results_path)
 
 
 def _gifs(rows: list[dict[str, Any]], stamps: Any, output: Path
@@ -794,12 +819,20 @@ def _report(config: RunConfig, scores: Any, results_path: Path, stamps: Any,
              "title": "other title"}
     stamps.drop("report", "report")
     stamps.save()
-    report = build_report(results_path, out / "report", title=title)
+    report = build_report(results_path, out / "report", title=title, reuse=True)
     resources_page(scores, out / "report")
     stamps.put("report", "report", {"inputs": new, "index": file_digest(report)})
     stamps.save()
-    message = f"report: written ({', '.join(names.get(w, w) for w in why)})"
-    return report, log_stage(out, "report", 1, 0, message, why=why)
+    try:  # how many detail pages build_report drew and kept
+        pages = json.loads((out / "report" / ".pages.json").read_text())
+        drawn, reused = int(pages["drawn"]), int(pages["reused"])
+    except (OSError, ValueError, KeyError, TypeError):
+        drawn, reused = 0, 0
+    message = (f"report: written ({', '.join(names.get(w, w) for w in why)}); "
+               f"{drawn} detail pages drawn, {reused} kept (their map, files and record "
+               "unchanged)")
+    return report, log_stage(out, "report", 1, 0, message, why=why, pages_drawn=drawn,
+                             pages_kept=reused)
 
 
 def run(config: Any, *, retry_failed: bool = False, dry_run: bool = False,

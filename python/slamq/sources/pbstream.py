@@ -14,7 +14,9 @@ time): only the fields a reader needs are kept (trajectory nodes and poses here;
 grids in :mod:`slamq.sources.pbstream_map`), everything else is skipped as it streams by,
 a record inflating past :data:`MAX_RECORD_BYTES` is refused there, and a field declaring
 more than that budget is refused before a byte of it is read. A 1 MB file whose record
-inflates to 1 GiB thus costs a few MiB of memory, not the budget. Field numbers, from Cartographer's ``.proto`` files:
+inflates to 1 GiB thus costs a few MiB of memory, not the budget.
+
+Field numbers, from Cartographer's ``.proto`` files:
 
 ======================================  ====================================================
 message (file)                          fields read
