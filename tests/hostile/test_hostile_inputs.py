@@ -260,32 +260,6 @@ def test_real_images_of_those_formats_still_load(tmp_path: Path, ext: str) -> No
     assert np.array_equal(slamq.load_map(p).values, img)
 
 
-def _pbstream_bomb(shape: str) -> bytes:
-    """A ~1 MB pbstream whose second record inflates to 1 GiB (see the test below)."""
-    import gzip
-
-    from _pbencode import f_varint, gzip_repeated, raw_stream, varint
-
-    mib = 1 << 20
-
-    def field(number: int, size: int) -> bytes:  # `size` bytes in all, zeros inside
-        head = varint(number << 3 | 2)
-        return head + varint(size - len(head) - 3) + bytes(size - len(head) - 3)
-
-    header = gzip.compress(f_varint(1, 2))
-    if shape == "zeros":  # no header: 1 GiB of zero bytes (field number 0)
-        return raw_stream(gzip_repeated([(bytes(mib), 1024)]))
-    if shape == "skipped":  # 1,024 fields of 1 MiB that no reader keeps
-        return raw_stream(header, gzip_repeated([(field(5, mib), 1024)]))
-    if shape == "declared":  # a pose graph that says it is 1 GiB long
-        return raw_stream(header, gzip_repeated([(b"\x0a" + varint(1 << 30), 1),
-                                                 (bytes(mib), 1024)]))
-    # a 200 MiB pose graph of 200 trajectories holding only unknown fields, then 824 MiB
-    trajectory = b"\x22" + varint(mib - 4) + field(9, mib - 4)
-    return raw_stream(header, gzip_repeated([(b"\x0a" + varint(200 * mib), 1),
-                                             (trajectory, 200), (field(5, mib), 824)]))
-
-
 @pytest.mark.parametrize(("shape", "trajectory_error", "map_error"), [
     ("zeros", "corrupt pbstream (field number 0)", "corrupt pbstream (field number 0)"),
     ("skipped", "a pbstream record inflates past 268435456 bytes",
@@ -299,8 +273,10 @@ def test_a_pbstream_record_that_inflates_to_1_gib_is_refused_in_bounded_memory(
     # Records are inflated and parsed as a stream: only the fields a reader needs are kept
     # (nodes, poses, a grid's cells), so a bomb costs a few MiB of memory, never the 256 MiB
     # budget (542 MB when the record was inflated whole, then copied).
+    from _pbencode import pbstream_bomb
+
     p = tmp_path / "bomb.pbstream"
-    p.write_bytes(_pbstream_bomb(shape))
+    p.write_bytes(pbstream_bomb(shape))
     assert p.stat().st_size < 1100 * 1024
     out = _run_limited(
         "import slamq\n"

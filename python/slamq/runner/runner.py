@@ -829,8 +829,8 @@ def _report(config: RunConfig, scores: Any, results_path: Path, stamps: Any,
     except (OSError, ValueError, KeyError, TypeError):
         drawn, reused = 0, 0
     message = (f"report: written ({', '.join(names.get(w, w) for w in why)}); "
-               f"{drawn} detail pages drawn, {reused} kept (their map, files and record "
-               "unchanged)")
+               f"detail pages: {drawn} drawn, {reused} kept (record, map, trajectory, "
+               "ground truth and snapshots as when they were drawn)")
     return report, log_stage(out, "report", 1, 0, message, why=why, pages_drawn=drawn,
                              pages_kept=reused)
 

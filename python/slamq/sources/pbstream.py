@@ -300,8 +300,9 @@ def _walk(rec: _Record, spec: dict[int, Any]
     length-delimited field (``(path, _BEGIN, None)`` and ``(path, _END, None)`` around its
     fields, read with that dict); an int keeps its value (varints and fixed fields;
     length-delimited ones of at most that many bytes, as a memoryview); ``0`` reports a
-    length-delimited field without reading it (``value`` None). Other fields are skipped,
-    never kept.
+    length-delimited field without reading it (``value`` None); ``(cap, dict)`` keeps a
+    length-delimited field of at most ``cap`` bytes whole (faster to parse in memory) and
+    descends into a longer one. Other fields are skipped, never kept.
     """
     # the messages being read, innermost last: (end offset or None, spec, path)
     stack: list[tuple[int | None, dict[int, Any], tuple[int, ...]]] = [(None, spec, ())]
@@ -330,6 +331,8 @@ def _walk(rec: _Record, spec: dict[int, Any]
             if size > MAX_RECORD_BYTES - pos:  # refused before a byte of it is read
                 raise _WireError(f"a field of {size} bytes at byte {pos} of its record "
                                  f"runs past the record budget of {MAX_RECORD_BYTES} bytes")
+            if isinstance(todo, tuple):  # (cap, spec): kept whole up to cap, else walked
+                todo = todo[0] if size <= todo[0] else todo[1]
             if isinstance(todo, dict):
                 path = (*path, number)
                 end, spec = pos + size, todo
@@ -382,7 +385,7 @@ def _records(f: BinaryIO, path: Path) -> Iterator[_Record]:
 
 
 #: A trajectory's fields: 3 trajectory_id (a varint), 1 node (kept: a few dozen bytes)
-_TRAJECTORY = {3: 0, 1: SMALL}
+_TRAJECTORY = (16 << 20, {3: 0, 1: SMALL})  # kept whole up to 16 MiB (~150,000 nodes)
 
 
 def _node(buf: memoryview) -> tuple[int, int, list, list]:
@@ -414,9 +417,23 @@ def _trajectories(events: Iterator[tuple[tuple[int, ...], int, Any]],
                 tid, nodes = None, []
             elif wire == _END:
                 raw.append((tid, nodes))
+            elif wire == _LEN:  # a trajectory kept whole
+                raw.append(_trajectory(value))
         elif where == id_at and wire == _VARINT:
             tid = _signed(value, 32)
     return raw
+
+
+def _trajectory(buf: memoryview) -> tuple[int | None, list]:
+    """``(trajectory_id or None, nodes)`` of a Trajectory message held in memory."""
+    tid: int | None = None
+    nodes = []
+    for number, wire, value in _fields(buf):
+        if number == 3 and wire == _VARINT:
+            tid = _signed(value, 32)  # type: ignore[arg-type]
+        elif number == 1 and wire == _LEN:
+            nodes.append(_node(value))  # type: ignore[arg-type]
+    return tid, nodes
 
 
 def _pose_graph_trajectories(path: Path) -> list[tuple[int | None, list]]:
