@@ -268,11 +268,12 @@ class _Record:
                 raise _WireError("varint longer than 10 bytes")
 
     def read(self, n: int) -> memoryview:
-        """The next ``n`` inflated bytes (one copy: the bytes kept)."""
+        """The next ``n`` inflated bytes, copied: what is kept never pins a whole step of
+        the inflated stream."""
         off = self._off
         if off + n <= len(self._buf):
             self._off = off + n
-            return memoryview(self._buf)[off:off + n]
+            return memoryview(self._buf[off:off + n])
         kept = bytearray()
         while len(kept) < n:
             if self._off >= len(self._buf):
@@ -443,12 +444,13 @@ def _pose_graph_trajectories(path: Path) -> list[tuple[int | None, list]]:
         first = next(records, None)
         if first is None:
             raise TrajectoryError(f"{path}: empty pbstream (no records)")
-        # the header (only field 1, a varint), or a legacy stream's PoseGraph
-        events = list(_walk(first, {1: 0, 4: _TRAJECTORY}))
-        top = [(w[0], wire, v) for w, wire, v in events if len(w) == 1 and wire != _END]
+        # the header (only field 1, a varint), or a legacy stream's PoseGraph: its
+        # trajectories are read on the way, and dropped if it is a header after all
+        top: list[tuple[int, int, Any]] = []
+        raw = _trajectories(_noting_top(_walk(first, {1: 0, 4: _TRAJECTORY}), top), (4,))
         is_header = bool(top) and all(n == 1 and wire == _VARINT for n, wire, _ in top)
         if not is_header:
-            return _trajectories(iter(events), (4,))  # legacy: the PoseGraph comes first
+            return raw  # legacy: the PoseGraph comes first
         version = top[0][2]
         if version not in (1, 2):
             raise TrajectoryError(
@@ -460,22 +462,29 @@ def _pose_graph_trajectories(path: Path) -> list[tuple[int | None, list]]:
         stream = _walk(second, {1: {4: _TRAJECTORY}})
         for where, wire, _ in stream:
             if where == (1,) and wire == _BEGIN:  # the first pose_graph field only
-                graph = _first_message(stream, (1,))
-                return _trajectories(iter(graph), (1, 4))
+                return _trajectories(_until_end(stream, (1,)), (1, 4))
         raise TrajectoryError(
             f"{path}: the record after the header is not a PoseGraph (stream order corrupt)"
         )
 
 
-def _first_message(stream: Iterator[tuple[tuple[int, ...], int, Any]],
-                   at: tuple[int, ...]) -> list[tuple[tuple[int, ...], int, Any]]:
+def _noting_top(stream: Iterator[tuple[tuple[int, ...], int, Any]],
+                top: list[tuple[int, int, Any]]
+                ) -> Iterator[tuple[tuple[int, ...], int, Any]]:
+    """``stream`` passed on, noting each top-level field ``(number, wire, value)``."""
+    for where, wire, value in stream:
+        if len(where) == 1 and wire != _END:
+            top.append((where[0], _LEN if wire == _BEGIN else wire, value))
+        yield where, wire, value
+
+
+def _until_end(stream: Iterator[tuple[tuple[int, ...], int, Any]], at: tuple[int, ...]
+               ) -> Iterator[tuple[tuple[int, ...], int, Any]]:
     """The events of the message begun at ``at``, up to its end (the rest unread)."""
-    out = []
     for where, wire, value in stream:
         if where == at and wire == _END:
-            return out
-        out.append((where, wire, value))
-    return out
+            return
+        yield where, wire, value
 
 
 def read_pbstream_poses(
