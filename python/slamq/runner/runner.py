@@ -634,7 +634,9 @@ def _score_changed(config: RunConfig, runs: list[Any], results_path: Path, stamp
     from slamq.runner.cache import changes, file_digest, log_stage, map_digest, stamp
     from slamq.version import __version__
 
-    settings = stamp(config.evaluate)
+    # what changes a record (not where or how fast it is computed)
+    settings = stamp({k: v for k, v in config.evaluate.items()
+                      if k not in ("threads", "executor", "chunk_size")})
     digests: dict[str, str | None] = {}
 
     def once(kind: str, path: Any) -> str | None:
