@@ -9,8 +9,10 @@ temporary folder; then, on that same folder, each in a fresh ``slamq run`` proce
   same folder is scored by both. It re-evaluates the maps for the report, redraws every
   detail page and rewrites the report.
 - ``after baseline``: this slamq's rerun right after a baseline one, which rewrote
-  ``runs.csv``, ``scores.csv``, the summary and the report (with the same content: the
-  stamps are digests of content, so nothing is redone).
+  ``runs.csv``, ``scores.csv``, the summary and the report: what it rewrote with the same
+  content counts as unchanged (the stamps are digests of content); an ``index.html`` that
+  differs from the one this slamq wrote (the report's date) makes it write the index
+  again, keeping every detail page.
 - ``nothing changed``: this slamq's rerun right after one of its own: nothing scored,
   drawn or written.
 - ``one map changed`` (once, at the end): one run's map image gets a wall more: that map
