@@ -167,8 +167,8 @@ def test_other_settings_or_another_slamq_version_redo_everything(tmp_path: Path)
     runner.run(_config(tmp_path, harris_k=0.05))
     s = _stages(out)
     assert (s["score"]["done"], s["gifs"]["done"], s["report"]["done"]) == (2, 2, 1)
-    assert set(map(tuple, s["score"]["why"].values())) == {("new slamq version",)}
-    assert "new slamq version" in s["report"]["message"]
+    assert set(map(tuple, s["score"]["why"].values())) == {("slamq version changed",)}
+    assert "slamq version changed" in s["report"]["message"]
     assert s["report"]["pages_drawn"] == 2  # the records were scored again
     # a deleted results file: every run scored again
     (out / "results.jsonl").unlink()

@@ -619,7 +619,7 @@ def _why(reasons: dict[str, list[str]], limit: int = 3) -> str:
 _INPUT_NAMES = {"new": "not done before", "record": "no stored record (or it failed)",
                 "map": "map changed", "trajectory": "trajectory changed",
                 "groundtruth": "ground truth changed", "gt_map": "ground-truth map changed",
-                "settings": "evaluate settings changed", "version": "new slamq version",
+                "settings": "evaluate settings changed", "version": "slamq version changed",
                 "place": "other paths or names", "snapshots": "snapshots changed",
                 "gif": "GIF missing", "size": "other frame size"}
 
@@ -817,7 +817,7 @@ def _report(config: RunConfig, scores: Any, results_path: Path, stamps: Any,
     names = {"results": "results changed", "scores": "scores.csv changed",
              "runs": "a map, trajectory or ground truth changed",
              "snapshots": "snapshots changed", "index": "report/index.html missing or "
-             "edited", "new": "not written before", "version": "new slamq version",
+             "edited", "new": "not written before", "version": "slamq version changed",
              "title": "other title"}
     stamps.drop("report", "report")
     stamps.save()
@@ -858,7 +858,9 @@ def run(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
     dict
         ``rows`` (one per run), ``results`` (the batch results file), ``summary``
         (DataFrame: mean ± std per algorithm[variant] and sequence, plus ``runs``, ``ok``,
-        ``failure_rate``), ``gifs``, ``report`` (index.html or None).
+        ``failure_rate``), ``gifs``, ``report`` (index.html or None), ``records`` (maps
+        scored now), ``stages`` (per stage: ``done``, ``skipped``, ``message`` saying why;
+        see :func:`score`).
 
     Examples
     --------
