@@ -153,3 +153,69 @@ def write(tmp_path, *records: bytes):
     p = tmp_path / "map.pbstream"
     p.write_bytes(stream(f_varint(1, 2), *records))
     return p
+
+
+def gzip_repeated(parts: list[tuple[bytes, int]]) -> bytes:
+    """A gzip member of ``b"".join(data * times for data, times in parts)``, made fast:
+    each distinct part is deflated once after a full flush (which resets the compressor,
+    so every repetition compresses to the same bytes) and the copies are concatenated.
+    1 GiB of zeros takes about 1 MB."""
+    import zlib
+
+    c = zlib.compressobj(9, zlib.DEFLATED, -15)
+    body = bytearray()
+    crc = size = 0
+    for data, times in parts:
+        if times <= 0:
+            continue
+        first = c.compress(data) + c.flush(zlib.Z_FULL_FLUSH)
+        body += first
+        if times > 1:
+            again = c.compress(data) + c.flush(zlib.Z_FULL_FLUSH)
+            body += again
+            if times > 2:
+                check = c.compress(data) + c.flush(zlib.Z_FULL_FLUSH)
+                assert check == again, "a full flush did not reset the compressor"
+                body += again * (times - 2)
+        for _ in range(times):
+            crc = zlib.crc32(data, crc)
+        size += len(data) * times
+    body += c.flush()
+    return (b"\x1f\x8b\x08\x00\x00\x00\x00\x00\x02\xff" + bytes(body)
+            + struct.pack("<II", crc, size & 0xFFFFFFFF))
+
+
+def raw_stream(*members: bytes) -> bytes:
+    """A pbstream of already compressed records."""
+    return struct.pack("<Q", PBSTREAM_MAGIC) + b"".join(
+        struct.pack("<Q", len(m)) + m for m in members)
+
+
+#: The decompression bombs of :func:`pbstream_bomb`.
+BOMB_SHAPES = ("zeros", "skipped", "declared", "trajectories")
+
+
+def pbstream_bomb(shape: str) -> bytes:
+    """A ~1 MB pbstream whose record inflates to 1 GiB: ``zeros`` (no header, 1 GiB of zero
+    bytes), ``skipped`` (a header, then 1,024 fields of 1 MiB that no reader keeps),
+    ``declared`` (a pose graph that says it is 1 GiB long), ``trajectories`` (a 200 MiB pose
+    graph of 200 trajectories holding only unknown fields, then 824 MiB of other fields)."""
+    mib = 1 << 20
+
+    def field(number: int, size: int) -> bytes:  # `size` bytes in all, zeros inside
+        head = varint(number << 3 | 2)
+        return head + varint(size - len(head) - 3) + bytes(size - len(head) - 3)
+
+    header = gzip.compress(f_varint(1, 2))
+    if shape == "zeros":
+        return raw_stream(gzip_repeated([(bytes(mib), 1024)]))
+    if shape == "skipped":
+        return raw_stream(header, gzip_repeated([(field(5, mib), 1024)]))
+    if shape == "declared":
+        return raw_stream(header, gzip_repeated([(b"\x0a" + varint(1 << 30), 1),
+                                                 (bytes(mib), 1024)]))
+    if shape != "trajectories":
+        raise ValueError(f"no bomb {shape!r}: {BOMB_SHAPES}")
+    trajectory = b"\x22" + varint(mib - 4) + field(9, mib - 4)
+    return raw_stream(header, gzip_repeated([(b"\x0a" + varint(200 * mib), 1),
+                                             (trajectory, 200), (field(5, mib), 824)]))

@@ -197,3 +197,24 @@ def test_node_times_outside_universal_time_are_refused(tmp_path, ticks):
     with pytest.raises(TrajectoryError, match="map.pbstream: trajectory 0: node time .* is "
                                               "not a universal time"):
         read_pbstream_trajectory(p)
+
+
+@pytest.mark.parametrize("version", [2, "legacy"])
+def test_a_trajectory_walked_as_a_stream_reads_as_one_kept_whole(tmp_path, version,
+                                                                  monkeypatch):
+    # trajectories up to 16 MiB are parsed in memory, longer ones field by field as they
+    # stream by: both give the same poses (the cap set to 0 forces the stream here)
+    from slamq.sources import pbstream
+
+    graph = pose_graph([trajectory(0, encoded_nodes(NODES0)),
+                        trajectory(1, encoded_nodes(NODES1))])
+    data = stream(graph) if version == "legacy" else full_stream(version)
+    p = write(tmp_path, data)
+    whole = pbstream.read_pbstream_poses(p)
+    monkeypatch.setattr(pbstream, "_TRAJECTORY", (0, pbstream._TRAJECTORY[1]))
+    walked = pbstream.read_pbstream_poses(p)
+    assert sorted(walked) == sorted(whole) == [0, 1]
+    for k in whole:
+        for a, b in zip(whole[k], walked[k]):
+            assert np.array_equal(a, b)
+    check(read_pbstream_trajectory(p), NODES0)

@@ -74,9 +74,13 @@ def handle(args: argparse.Namespace) -> int:
     for row in result["rows"]:
         counts[row["outcome"]] = counts.get(row["outcome"], 0) + 1
     print("runs: " + ", ".join(f"{n} {k}" for k, n in sorted(counts.items())))
+    from slamq.cli.run_multi import print_stages, report_state
+
+    print_stages(result)
     if result["summary"] is not None:
         print(f"summary: {result['results'].parent / 'summary.csv'}")
     print(f"results: {result['results']}")
     if result["report"] is not None:
-        print(f"report written: {result['report']}")
+        print(f"report {report_state(result)}: {result['report']}")
     return EXIT_OK
+

@@ -28,6 +28,7 @@ def shard_or_merge(args: argparse.Namespace, progress: Callable[[dict], Any]) ->
         return EXIT_OK
     result = shards.merge(args.config)
     print(f"merged: {len(result['rows'])} finished runs ({_counts(result['rows'])})")
+    print_stages(result)
     if result["missing"]:
         by: dict[Any, int] = {}
         for s, _ in result["missing"]:
@@ -41,7 +42,7 @@ def shard_or_merge(args: argparse.Namespace, progress: Callable[[dict], Any]) ->
     if result["results"] is not None:
         print(f"results: {result['results']}")
     if result["report"] is not None:
-        print(f"report written: {result['report']}")
+        print(f"report {report_state(result)}: {result['report']}")
     return EXIT_OK
 
 
@@ -50,3 +51,29 @@ def _counts(rows: list[dict]) -> str:
     for row in rows:
         counts[row["outcome"]] = counts.get(row["outcome"], 0) + 1
     return ", ".join(f"{n} {k}" for k, n in sorted(counts.items())) or "none"
+
+
+def print_stages(result: dict) -> None:
+    """One line per scoring stage (scores, GIFs, report): what it did, skipped and why.
+
+    Examples
+    --------
+    >>> print_stages({"stages": [{"stage": "gifs", "done": 0, "message": "GIFs: none"}]})
+    GIFs: none
+    """
+    for stage in result.get("stages") or []:
+        print(stage["message"])
+
+
+def report_state(result: dict) -> str:
+    """``written``, or ``unchanged`` when the report stage skipped it.
+
+    Examples
+    --------
+    >>> report_state({"stages": [{"stage": "report", "done": 0, "message": ""}]})
+    'unchanged'
+    """
+    for stage in result.get("stages") or []:
+        if stage["stage"] == "report" and not stage["done"]:
+            return "unchanged"
+    return "written"

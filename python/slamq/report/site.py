@@ -159,6 +159,7 @@ def build_report(
     trajectories: bool = True,
     progress: Callable[[int, int], None] | None = None,
     defects_for: Callable[[Any], list[dict]] | None = None,
+    reuse: bool = False,
 ) -> Path:
     """Write the evaluation report for a results file and return the path of index.html.
 
@@ -187,6 +188,13 @@ def build_report(
         [col0, row0, col1, row1], "note": str}`` in the map's cells (``col1``, ``row1``
         exclusive); drawn as a layer of the map's detail page, after the defects of the
         record's own ``defects`` field (a JSON string or a list).
+    reuse : bool
+        Keep the detail pages (and their pictures) of an earlier build into ``out_dir``
+        whose inputs did not change: the record, the page's name, ``gifs`` and
+        ``trajectories``, the content of the map, trajectory, ground truth and snapshots
+        the page draws, and slamq's version (kept in ``out_dir/.pages.json``, which also
+        says how many pages were ``drawn`` and ``reused``). The index page is always
+        written.
 
     Returns
     -------
@@ -232,10 +240,27 @@ def build_report(
         rec = ok.loc[i].to_dict()
         slug = f"{i:04d}-{_slug(rec['sequence'])}-{_slug(rec['algorithm'])}-{_slug(rec['run'])}"
         pages[i] = _MapPage(i, rec, slug, page=f"maps/{slug}.html")
+    kept = _read_page_cache(out) if reuse else {}
+    fresh: dict[str, dict[str, Any]] = {}
     for done, mp in enumerate(pages.values(), 1):
-        _detail_page(mp, out, gifs=gifs, trajectories=trajectories, defects_for=defects_for)
+        digest = _page_digest(mp, gifs=gifs, trajectories=trajectories) if reuse else ""
+        old = kept.get(mp.page)
+        if old is not None and old.get("digest") == digest and all(
+                (out / f).is_file() for f in (mp.page, *old.get("files", []))):
+            mp.thumb, mp.full, mp.gif = old["thumb"], old["full"], old["gif"]
+            mp.notes = list(old["notes"])
+        else:
+            _detail_page(mp, out, gifs=gifs, trajectories=trajectories,
+                         defects_for=defects_for)
+            old = None
+        if reuse:
+            fresh[mp.page] = {"digest": digest, "thumb": mp.thumb, "full": mp.full,
+                              "gif": mp.gif, "notes": mp.notes, "reused": old is not None,
+                              "files": [f for f in (mp.thumb, mp.full, mp.gif) if f]}
         if progress is not None:
             progress(done, len(pages))
+    if reuse:
+        _write_page_cache(out, fresh)
 
     plots = _plots(ok, out, sequences)
     body = _index_body(title, frame, ok, failed, summary, sequences, rankings, verdicts,
@@ -245,6 +270,69 @@ def build_report(
     write_tables(summary, out)
     spreadsheet_safe(summary.reset_index()).to_csv(out / "summary.csv", index=False)
     return index
+
+
+_PAGE_CACHE = ".pages.json"
+
+
+def _read_page_cache(out: Path) -> dict[str, dict[str, Any]]:
+    import json
+
+    try:
+        data = json.loads((out / _PAGE_CACHE).read_text())
+        pages = data["pages"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+    return pages if isinstance(pages, dict) else {}
+
+
+def _write_page_cache(out: Path, pages: dict[str, dict[str, Any]]) -> None:
+    import json
+    import os
+
+    reused = sum(1 for p in pages.values() if p["reused"])
+    data = {"drawn": len(pages) - reused, "reused": reused, "pages": pages}
+    tmp = out / (_PAGE_CACHE + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1, default=str))
+    os.replace(tmp, out / _PAGE_CACHE)
+
+
+def _page_digest(mp: _MapPage, *, gifs: bool, trajectories: bool) -> str:
+    """Stamp of everything a detail page is drawn from (see ``reuse`` of
+    :func:`build_report`)."""
+    import hashlib
+    import json
+
+    from slamq.batch.records import content_hash
+    from slamq.sources.snapshots import find_snapshots
+    from slamq.version import __version__
+
+    def map_digest(p: Any) -> str | None:
+        try:
+            return content_hash(p) if usable(p) else None
+        except (OSError, SlamqError):
+            return None
+
+    def file_digest(p: Any) -> str | None:
+        if not usable(p):
+            return None
+        try:
+            return hashlib.sha1(Path(p).read_bytes(), usedforsecurity=False).hexdigest()
+        except OSError:
+            return None
+
+    rec = mp.record
+    snaps: list[Any] = []
+    if gifs and usable(rec.get("map")):
+        snaps = [[q.name, map_digest(q)] for q in find_snapshots(Path(rec["map"]).parent)]
+    blob = json.dumps(
+        {"record": rec, "slug": mp.slug, "page": mp.page, "gifs": gifs,
+         "trajectories": trajectories, "version": __version__,
+         "map": map_digest(rec.get("map")), "gt_map": map_digest(rec.get("gt_map")),
+         "trajectory": file_digest(rec.get("trajectory")),
+         "groundtruth": file_digest(rec.get("groundtruth")), "snapshots": snaps},
+        sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:32]
 
 
 def _mixed_settings(frame: pd.DataFrame) -> str:

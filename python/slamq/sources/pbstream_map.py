@@ -41,15 +41,20 @@ from slamq.models import OccupancyMap
 from slamq.sources.files import MAX_CELLS, PathLike
 from slamq.sources.grids import from_occupancy_grid
 from slamq.sources.pbstream import (
+    _BEGIN,
+    _END,
     _I32,
     _LEN,
     _VARINT,
+    MAX_RECORD_BYTES,
+    SMALL,
     _double,
     _doubles,
     _fields,
     _records,
     _rigid3d,
     _signed,
+    _walk,
     _WireError,
 )
 
@@ -95,33 +100,43 @@ def _packed_varints(buf: memoryview) -> np.ndarray:
     return np.add.reduceat((b & 0x7F).astype(np.int64) << shift, starts)
 
 
+#: What a record is read for, streamed (nothing else is kept): SerializedData 1 pose_graph
+#: {4 trajectory {3 trajectory_id, 2 submap (pose, index)}}, 3 submap {1 submap_id,
+#: 2 submap_2d {1 local_pose, 4 grid {1 limits, 2 cells, 3 known_cells_box, 5 tsdf_2d,
+#: 6/7 correspondence cost bounds}}, 3 submap_3d}. Only a grid's cells may be large.
+_GRID = {1: SMALL, 2: MAX_RECORD_BYTES, 3: SMALL, 5: 0, 6: 0, 7: 0}
+_SUBMAP = {1: SMALL, 2: {1: SMALL, 4: _GRID}, 3: 0}
+_MAP_RECORD = {1: {4: {3: 0, 2: SMALL}}, 3: _SUBMAP}
+
+
 class _Submap:
-    def __init__(self, buf: memoryview, where: str) -> None:
+    def __init__(self, events: list, where: str) -> None:
+        """``events``: the streamed fields of one Submap message, paths relative to it."""
         self.key = (0, 0)
         self.local = (0.0, 0.0, 0.0)
-        grid: memoryview | None = None
-        for n, w, v in _fields(buf):
-            if n == 1 and w == _LEN:
+        grid: list | None = None
+        for path, w, v in events:
+            if path == (1,) and w == _LEN:
                 ids = {k: _signed(x, 32) for k, ww, x in _fields(v)  # type: ignore[arg-type]
                        if ww == _VARINT}
                 self.key = (ids.get(1, 0), ids.get(2, 0))
-            elif n == 3 and w == _LEN:
+            elif path == (3,) and w == _LEN:
                 raise MapError(f"{where}: a 3D submap: only 2D submaps are rasterised")
-            elif n == 2 and w == _LEN:
-                for m, ww, x in _fields(v):  # type: ignore[arg-type]
-                    if m == 1 and ww == _LEN:
-                        self.local = _pose2d(x)  # type: ignore[arg-type]
-                    elif m == 4 and ww == _LEN:
-                        grid = x  # type: ignore[assignment]
+            elif path == (2, 1) and w == _LEN:
+                self.local = _pose2d(v)
+            elif path == (2, 4) and w == _BEGIN:
+                grid = []  # the last grid message counts
+            elif len(path) == 3 and path[:2] == (2, 4) and grid is not None:
+                grid.append((path[2], w, v))
         if grid is None:
             raise MapError(f"{where}: submap {self.key} has no 2D grid")
         self._grid(grid, where)
 
-    def _grid(self, buf: memoryview, where: str) -> None:
+    def _grid(self, fields: list, where: str) -> None:
         res, mx, my, nx, ny = 0.0, 0.0, 0.0, 0, 0
         cells = np.zeros(0, np.int64)
         box: dict[int, int] = {}
-        for n, w, v in _fields(buf):
+        for n, w, v in fields:
             if n == 1 and w == _LEN:
                 for m, ww, x in _fields(v):  # type: ignore[arg-type]
                     if m == 1:
@@ -183,25 +198,29 @@ def _texture(values: np.ndarray) -> np.ndarray:
     return np.stack([intensity, alpha, observed], axis=-1).astype(np.int64)
 
 
-def _submap_poses(graph: memoryview) -> dict[tuple[int, int], tuple[float, float, float]]:
+def _submap_poses(graph: list) -> dict[tuple[int, int], tuple[float, float, float]]:
+    """``{(trajectory id, submap index): pose}`` from the streamed fields of a PoseGraph
+    (paths relative to it); a trajectory without id is numbered by its order."""
     out = {}
-    trajectories = [v for n, w, v in _fields(graph) if n == 4 and w == _LEN]
-    for i, traj in enumerate(trajectories):
-        tid: int | None = None
-        subs = []
-        for n, w, v in _fields(traj):  # type: ignore[arg-type]
-            if n == 3 and w == _VARINT:
-                tid = _signed(v, 32)  # type: ignore[arg-type]
-            elif n == 2 and w == _LEN:
-                index, pose = 0, (0.0, 0.0, 0.0)
-                for m, ww, x in _fields(v):  # type: ignore[arg-type]
-                    if m == 2 and ww == _VARINT:
-                        index = _signed(x, 32)  # type: ignore[arg-type]
-                    elif m == 1 and ww == _LEN:
-                        pose = _pose2d(x)  # type: ignore[arg-type]
-                subs.append((index, pose))
-        for index, pose in subs:
-            out[(i if tid is None else tid, index)] = pose
+    i = -1
+    tid: int | None = None
+    subs: list = []
+    for path, w, v in graph:
+        if path == (4,) and w == _BEGIN:
+            i, tid, subs = i + 1, None, []
+        elif path == (4, 3) and w == _VARINT:
+            tid = _signed(v, 32)
+        elif path == (4, 2) and w == _LEN:
+            index, pose = 0, (0.0, 0.0, 0.0)
+            for m, ww, x in _fields(v):
+                if m == 2 and ww == _VARINT:
+                    index = _signed(x, 32)  # type: ignore[arg-type]
+                elif m == 1 and ww == _LEN:
+                    pose = _pose2d(x)  # type: ignore[arg-type]
+            subs.append((index, pose))
+        elif path == (4,) and w == _END:
+            for index, pose in subs:
+                out[(i if tid is None else tid, index)] = pose
     return out
 
 
@@ -237,15 +256,27 @@ def read_pbstream_map(path: PathLike, *, resolution: float | None = None) -> Occ
     if not p.is_file():
         raise MapError(f"{where}: no such file")
     submaps: list[_Submap] = []
-    graph: memoryview | None = None
+    graph: list | None = None  # the first pose graph's fields (submap poses only)
+    graphs = 0
+    sub: list | None = None
     try:
         with open(p, "rb") as f:
-            for record in _records(f, p):
-                for n, w, v in _fields(memoryview(record)):
-                    if n == 1 and w == _LEN and graph is None:
-                        graph = v  # type: ignore[assignment]
-                    elif n == 3 and w == _LEN:
-                        submaps.append(_Submap(v, where))  # type: ignore[arg-type]
+            for record in _records(f, p):  # each streamed: only small fields and cells kept
+                for path, w, v in _walk(record, _MAP_RECORD):
+                    if path[0] == 1:
+                        if path == (1,) and w == _BEGIN:
+                            graphs += 1
+                            if graphs == 1:
+                                graph = []
+                        elif graphs == 1 and len(path) > 1 and graph is not None:
+                            graph.append((path[1:], w, v))
+                    elif path == (3,) and w == _BEGIN:
+                        sub = []
+                    elif path == (3,) and w == _END and sub is not None:
+                        submaps.append(_Submap(sub, where))
+                        sub = None
+                    elif sub is not None and len(path) > 1:
+                        sub.append((path[1:], w, v))
     except TrajectoryError as exc:  # the stream reader's errors, as a map error
         raise MapError(str(exc)) from None
     except _WireError as exc:
