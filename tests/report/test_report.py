@@ -326,13 +326,15 @@ def test_site_has_tables_gallery_plots_and_details(site):
     assert len(re.findall(r'<a class="detail" href="maps/[^"]+\.html">', html)) == 12
     assert "missing.yaml: no such file" in html                          # failed map listed
     # the verdict names the winner of each sequence (only one algorithm has trajectories:
-    # no ground truth to rank by, so corners decide, with low confidence), and
-    # verdict.json says the same
+    # no ground truth to rank by, so the maps' agreement decides and corners order the
+    # maps it confirms equally), and verdict.json says the same
     verdicts = {v["sequence"]: v for v in json.loads((out / "verdict.json").read_text())}
     for seq in ("office", "lab"):
-        assert re.search(rf'#seq-{seq}">{seq}</a>: <b>good</b> is best by corners', html)
-        assert verdicts[seq]["best"] == "good" and verdicts[seq]["basis"] == ["corners"]
-        assert verdicts[seq]["confidence"].startswith("low")
+        assert re.search(rf'#seq-{seq}">{seq}</a>: <b>good</b> is best by agreement with the '
+                         'other maps', html)
+        assert verdicts[seq]["best"] == "good"
+        assert verdicts[seq]["basis"] == ["agreement", "corners"]
+        assert verdicts[seq]["confidence"].startswith("medium")
         assert set(verdicts[seq]) == {"sequence", "best", "ranking", "basis", "confidence",
                                       "warnings"}
     # the first-listed table cell equals the results file

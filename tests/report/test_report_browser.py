@@ -88,7 +88,11 @@ def test_index_loads_clean_and_matches_results(browser, report):
         "td => ({seq: td.closest('table').dataset.sequence, "
         "alg: td.closest('tr').dataset.algorithm, metric: td.dataset.metric, "
         "mean: td.dataset.mean, std: td.dataset.std, n: td.dataset.n, text: td.innerText}))")
-    assert len(cells) == 2 * 3 * 4                  # sequences x algorithms x metrics
+    # sequences x algorithms x (4 metrics + the agreement the verdict rests on)
+    assert len(cells) == 2 * 3 * 5
+    agreement = [c for c in cells if c["metric"] == "agreement"]
+    assert len(agreement) == 6 and all(0 < float(c["mean"]) <= 1 for c in agreement)
+    cells = [c for c in cells if c["metric"] != "agreement"]  # not a column of the results
     shares = page.evaluate(
         "() => Array.from(document.querySelectorAll('table.ranking td[data-known-share]'))"
         ".map(td => td.innerText)")

@@ -282,14 +282,17 @@ def test_ground_truth_layer_on_the_detail_pages(office_site: Path) -> None:
 
 
 def test_the_deciding_canonical_corners_are_a_column_of_the_table(tmp_path: Path) -> None:
-    """Maps saved at different resolutions are ranked by corners_canonical (the verdict);
-    the table then shows that column, marked as deciding, and the section says so."""
+    """Maps saved at different resolutions are ordered by corners_canonical among the maps
+    their agreement confirms (the verdict); the table then shows that column, marked as
+    deciding, and the section says so."""
     recs = []
-    for alg, res in (("fine", 0.05), ("coarse", 0.1)):
+    for alg, scale in (("fine", 2), ("coarse", 1), ("other", 1)):
         for run in range(2):
-            yaml = write_map(tmp_path / alg / f"run{run}", rooms_image(2, seed=run,
-                                                                     extra_boxes=run))
-            yaml.write_text(yaml.read_text().replace("resolution: 0.05", f"resolution: {res}"))
+            img = rooms_image(2, seed=run, extra_boxes=run + (alg == "other"))
+            img = np.kron(img, np.ones((scale, scale), np.uint8))  # the same walls, finer
+            yaml = write_map(tmp_path / alg / f"run{run}", img)
+            yaml.write_text(yaml.read_text().replace("resolution: 0.05",
+                                                     f"resolution: {0.05 / scale}"))
             q = slamq.evaluate(str(yaml))
             rec = {k: v for k, v in q.to_dict().items() if k != "curve"}
             rec.update(map=str(yaml), algorithm=alg, sequence="s", run=run, error=None)
@@ -297,9 +300,10 @@ def test_the_deciding_canonical_corners_are_a_column_of_the_table(tmp_path: Path
     index = build_report(recs, tmp_path / "site", gifs=False, trajectories=False,
                          details="gallery")
     (v,) = json.loads((index.parent / "verdict.json").read_text())
-    assert v["basis"] == ["corners_canonical"] and v["best"] is not None
+    assert v["basis"] == ["agreement", "corners_canonical"] and v["best"] is not None
     html = index.read_text(encoding="utf-8")
-    assert '<th class="basis">canonical corners<br><small>decides</small></th>' in html
-    assert len(re.findall(r'data-metric="corners_canonical"', html)) == 2
-    assert f"{v['best']} is best by canonical corners (the verdict" in html
+    assert '<th class="basis">agreement<br><small>decides</small></th>' in html
+    assert len(re.findall(r'data-metric="corners_canonical"', html)) == 3
+    assert len(re.findall(r'data-metric="agreement"', html)) == 3
+    assert f"{v['best']} is best by agreement with the other maps (the verdict" in html
     assert check_best_sentences(index.parent) >= 3

@@ -43,6 +43,7 @@ from slamq.report.verdict import (
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 
 __all__ = [
+    "AGREEMENT",
     "CANONICAL",
     "METRICS",
     "Metric",
@@ -134,6 +135,14 @@ CANONICAL = Metric(
     "corners_canonical", "canonical corners", "", True,
     "docs/spec.md section 3a: the corners of the map turned to its walls' direction and "
     "resampled to one resolution, comparable between maps saved differently",
+)
+#: Without ground truth: the median consistency of a map's walls with the other maps' of
+#: the sequence (slamq.agreement); a column of the table when the verdict rests on it.
+AGREEMENT = Metric(
+    "agreement", "agreement", "", False,
+    "docs/spec.md section 9: the median consistency of the map's walls with the other maps "
+    "of the sequence, once laid over each other (no ground truth needed); a map under 0.9 of "
+    "the best, or flagged by a defect detector, is never named best", higher=True,
 )
 
 
@@ -317,7 +326,7 @@ def rank_sequence(summary: pd.DataFrame, sequence: str, verdict: dict | None = N
     ranks: dict[str, dict[str, float]] = {}
     best: dict[str, list[str]] = {}
     used: list[Metric] = []
-    shown = METRICS + ((CANONICAL,) if verdict["basis"][:1] == [CANONICAL.key] else ())
+    shown = METRICS + tuple(m for m in (AGREEMENT, CANONICAL) if m.key in verdict["basis"])
     for m in shown:
         col = f"{m.key}_mean"
         if col not in block:

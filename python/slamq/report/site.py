@@ -11,7 +11,8 @@ sequence's ground-truth map (when there is one) and the map's defects. Defects a
 (row 0 at the top, as the map's image; ``col1`` and ``row1`` exclusive, as
 ``values[row0:row1, col0:col1]``), taken from the record's ``defects`` field (a JSON list,
 or a list) and from ``build_report(..., defects_for=f)``, which calls ``f(map)`` with each
-loaded :class:`~slamq.OccupancyMap` (``map.source`` is its path).
+loaded :class:`~slamq.OccupancyMap` (``map.source`` is its path); by default ``f`` runs
+:func:`slamq.metrics.defects.detect_defects`, the detectors the verdict reads.
 """
 
 from __future__ import annotations
@@ -187,7 +188,8 @@ def build_report(
         ``map.source`` is its path) returns a list of defects, ``{"kind": str, "bbox":
         [col0, row0, col1, row1], "note": str}`` in the map's cells (``col1``, ``row1``
         exclusive); drawn as a layer of the map's detail page, after the defects of the
-        record's own ``defects`` field (a JSON string or a list).
+        record's own ``defects`` field (a JSON string or a list). Default: the defect
+        detectors the verdict reads (:func:`slamq.metrics.defects.detect_defects`).
     reuse : bool
         Keep the detail pages (and their pictures) of an earlier build into ``out_dir``
         whose inputs did not change: the record, the page's name, ``gifs`` and
@@ -214,6 +216,8 @@ def build_report(
     >>> build_report(recs, d / "site").name
     'index.html'
     """
+    if defects_for is None:
+        defects_for = _detected_defects
     if details not in ("all", "gallery"):
         raise SlamqError(f"details must be 'all' or 'gallery', got {details!r}")
     frame = load_results(results)
@@ -227,6 +231,7 @@ def build_report(
     sequences = sorted(ok["sequence"].unique()) if len(ok) else []
     evidence = {s: sequence_evidence(ok, s) for s in sequences if needs_evidence(summary, s)}
     verdicts = {v["sequence"]: v for v in write_verdicts(summary, sequences, out, evidence)}
+    _add_agreement(summary, evidence)
     rankings = {s: rank_sequence(summary, s, verdicts[s]) for s in sequences}
 
     pages: dict[int, _MapPage] = {}
@@ -512,6 +517,28 @@ def _ground_truth_section(gt: tuple[Any, Any] | None, out: Path, mp: _MapPage) -
         f"<p class=\"legend\">{_gt_swatches()}</p>"
         f"<p class=\"big\"><a href=\"../{png}\"><img src=\"../{png}\" "
         "alt=\"map over the ground truth\"></a></p>")
+
+
+def _add_agreement(summary: pd.DataFrame, evidence: dict[str, dict[str, Any]]) -> None:
+    """The agreement figure of each algorithm as a summary column (``agreement_mean``,
+    ``_std``, ``_n``), so that the table shows what the verdict rested on."""
+    if not evidence or not len(summary):
+        return
+    summary["agreement_mean"] = math.nan
+    summary["agreement_std"] = math.nan
+    summary["agreement_n"] = 0
+    for seq, ev in evidence.items():
+        for alg, e in ev["algorithms"].items():
+            if (seq, alg) in summary.index and math.isfinite(e["support"]):
+                summary.loc[(seq, alg), ["agreement_mean", "agreement_n"]] = (
+                    e["support"], e["runs"])
+
+
+def _detected_defects(grid: Any) -> list[dict]:
+    """The defect detectors' flags on a map, as the detail page draws them."""
+    from slamq.metrics.defects import detect_defects  # on first use
+
+    return [d.to_dict() for d in detect_defects(grid)]
 
 
 def _defects(rec: dict, grid: Any, defects_for: Callable[[Any], list[dict]] | None,
