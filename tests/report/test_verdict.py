@@ -11,6 +11,7 @@ import pytest
 from conftest import comparison_tools_runs
 
 import slamq
+from slamq.report.evidence import sequence_evidence
 from slamq.report.ranking import summarize
 from slamq.report.verdict import sequence_verdict, verdict_sentence
 
@@ -71,7 +72,8 @@ def test_on_slam_comparison_tools_the_verdict_never_names_a_broken_map(shared_da
         gt_map = maps / "ground_truths" / f"{world}_ground_truth.yaml"
         q = slamq.evaluate(y)
         c = slamq.compare(y, gt_map)
-        rows.append({"sequence": world, "algorithm": alg, "corners": q.corners,
+        rows.append({"sequence": world, "algorithm": alg, "map": str(y), "run": 1,
+                     "corners": q.corners,
                      "corners_canonical": q.corners_canonical,
                      "wall_angle": q.wall_angle,
                      "occupied_fraction": q.occupied_fraction,
@@ -97,6 +99,17 @@ def test_on_slam_comparison_tools_the_verdict_never_names_a_broken_map(shared_da
         plain = sequence_verdict(summarize(part.drop(columns=[
             "ate_rmse", "gt_f1", "gt_chamfer", "wall_angle"])), world)
         assert plain["basis"] == ["corners"]
+        # with the maps' agreement and defect flags (the report's verdict without ground
+        # truth): slam_toolbox (ATE second of five) where most maps agree; in abstract,
+        # where three of five maps are broken, it abstains and says why
+        hidden = part.drop(columns=["ate_rmse", "gt_f1", "gt_chamfer"])
+        agreed = sequence_verdict(summarize(hidden), world, sequence_evidence(hidden, world))
+        assert agreed["basis"][0] == "agreement" and "cartographer" != agreed["best"]
+        assert agreed["ranking"][-1] == "cartographer", agreed
+        if world == "abstract":
+            assert agreed["best"] is None and "disagree among themselves" in agreed["confidence"]
+        else:
+            assert agreed["best"] == "slam_toolbox" and agreed["best"] in top2, agreed
 
 
 @pytest.mark.parametrize("key", ["proportion", "occupied_fraction", "enclosed_areas"])
