@@ -108,4 +108,4 @@ def test_docs_hold_the_study_and_its_command() -> None:
     doc = (Path(__file__).parents[1] / "docs" / "validity.md").read_text()
     section = doc.split(synth.damage.BEGIN)[1].split(synth.damage.END)[0]
     assert "Regenerate with `python -m slamq.synth" in section
-    assert all(f"| {k} (" in section for k in synth.DEGRADATIONS)
+    assert all(f"| {k} (" in section for k in synth.damage.STUDIED)

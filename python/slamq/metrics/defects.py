@@ -214,9 +214,9 @@ _BINS = 180  # 0.5 degree bins over [0, 90)
 
 
 def _histogram(angle: np.ndarray, weight: np.ndarray) -> np.ndarray:
-    b = np.minimum((np.mod(angle, 90.0) * (_BINS / 90.0)).astype(np.int64), _BINS - 1)
     sel = weight > 1e-3 * (float(weight.max()) if weight.size else 0.0)
-    hist = np.bincount(b[sel], weights=weight[sel], minlength=_BINS)
+    b = np.minimum((np.mod(angle[sel], 90.0) * (_BINS / 90.0)).astype(np.int64), _BINS - 1)
+    hist = np.bincount(b, weights=weight[sel], minlength=_BINS)
     k = np.exp(-0.5 * (np.arange(-6, 7) / 2.0) ** 2)  # sigma 1 degree
     k /= k.sum()
     return np.convolve(np.concatenate([hist[-6:], hist, hist[:6]]), k, "valid")
@@ -318,7 +318,13 @@ def superposed(m: OccupancyMap, *,
 def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, Any]:
     """The numbers :func:`superposed` decides on (empty when there is no second peak)."""
     occ, res, f = _coarse(occ, res)
-    angle, weight = _orientation(occ, res)
+    angle2d, weight2d = _orientation(occ, res)
+    h, w = occ.shape
+    # from here on only the cells near walls (weight above a floor), as flat arrays
+    wmax = float(weight2d.max()) if weight2d.size else 0.0
+    sel = np.flatnonzero(weight2d.ravel() > 1e-3 * wmax)
+    angle = angle2d.ravel()[sel]
+    weight = weight2d.ravel()[sel]
     hist = _histogram(angle, weight)
     centres = (np.arange(_BINS) + 0.5) * 90.0 / _BINS
     i1 = int(np.argmax(hist))
@@ -341,8 +347,8 @@ def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, A
     share = prominence / h1
     band = 1.5
     in_b = _circ(angle, a2) <= band
-    wa = np.where(_circ(angle, a1) <= band, weight, 0.0).astype(np.float32)
-    wb = np.where(in_b, weight, 0.0).astype(np.float32)
+    wa = np.where(_circ(angle, a1) <= band, weight, 0.0)
+    wb = np.where(in_b, weight, 0.0)
     # both ways: the second direction and its perpendicular (angle modulo 180)
     d180 = np.abs(np.mod(angle - a2, 180.0))
     one = float(wb[in_b & ((d180 <= band) | (d180 >= 180.0 - band))].sum())
@@ -351,17 +357,14 @@ def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, A
     # the second direction's walls above the histogram's floor, in metres of one-cell wall
     # (occupied cells of that direction times the cell size: a thin, broken wall counts
     # what it holds)
-    cells = float(np.count_nonzero(occ & in_b & (weight > 0.05 * _weight_per_cell())))
+    cells = float(np.count_nonzero(occ.ravel()[sel] & in_b
+                                   & (weight > 0.05 * _weight_per_cell())))
     length = cells * (1.0 - base / max(float(hist[i2]), 1e-9)) * res
     tile = max(4, int(round(2.0 / res)))
-    h, w = occ.shape
     th, tw = -(-h // tile), -(-w // tile)
-
-    def tiles(x: np.ndarray) -> np.ndarray:
-        pad = np.zeros((th * tile, tw * tile), np.float32)
-        pad[:h, :w] = x
-        return pad.reshape(th, tile, tw, tile).sum(axis=(1, 3))
-    ta, tb = tiles(wa), tiles(wb)
+    tidx = (sel // w) // tile * tw + (sel % w) // tile
+    ta = np.bincount(tidx, weights=wa, minlength=th * tw).reshape(th, tw)
+    tb = np.bincount(tidx, weights=wb, minlength=th * tw).reshape(th, tw)
     per_tile = _weight_per_cell() * tile * 0.3  # 0.3 m of wall in the tile
     mixed = (tb >= per_tile) & (ta >= per_tile) & (ta >= 0.25 * tb) & (tb >= 0.25 * ta)
     mixed_share = float(tb[mixed].sum() / max(float(tb.sum()), 1e-9))
@@ -382,33 +385,33 @@ def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, A
 
 def _pairs(occ: np.ndarray, free: np.ndarray, gmin: int, gmax: int, thick: int
            ) -> np.ndarray:
-    """The gap centres (uint8 mask) of occupied-free-occupied runs down the columns whose
-    two occupied runs are at most ``thick`` cells thick (two thin walls, not the holes of
-    one thick, noisy wall)."""
+    """The gap centres (uint8 mask) of occupied-free-occupied runs down the columns: an
+    occupied cell, ``g`` free cells above it (``gmin <= g <= gmax``), then an occupied cell,
+    both occupied runs at most ``thick`` cells thick (two thin walls, not the holes of one
+    thick, noisy wall). Shifted boolean planes, one per gap length and thickness step."""
     h, w = occ.shape
-    rows = np.arange(h, dtype=np.int32)[:, None]
-    last = np.maximum.accumulate(np.where(occ, rows, -1), axis=0)  # last occupied <= r
-    # last non-occupied cell <= r, and first non-occupied cell >= r
-    gap_above = np.maximum.accumulate(np.where(occ, -1, rows), axis=0)
-    gap_below = np.minimum.accumulate(np.where(occ, h, rows)[::-1], axis=0)[::-1]
-    cf = np.cumsum(free, axis=0, dtype=np.int32)
-    # top edge of an occupied run at r: r - 1 is free; the run above ends at last[r - 1]
-    edge = np.zeros_like(occ)
-    edge[1:] = occ[1:] & free[:-1]
-    prev = np.full((h, w), -1, np.int32)
-    prev[1:] = last[:-1]
-    gap = rows - prev - 1
-    ok = edge & (prev >= 0) & (gap >= gmin) & (gap <= gmax)
-    r, c = np.nonzero(ok)
-    p = prev[r, c]
-    nfree = cf[r - 1, c] - cf[p, c]
-    keep = nfree == gap[r, c]  # every gap cell free (seen by the laser)
-    r, c, g, p = r[keep], c[keep], gap[r, c][keep], p[keep]
-    thin = (p - gap_above[p, c] <= thick) & (gap_below[r, c] - r <= thick)
-    r, c, g = r[thin], c[thin], g[thin]
-    centre = np.zeros((h, w), np.uint8)
-    centre[r - (g + 1) // 2, c] = 1
-    return centre
+    nonocc = ~occ
+    thin_dn = np.zeros((h, w), bool)  # a non-occupied cell within thick cells below
+    thin_up = np.zeros((h, w), bool)  # ... above
+    for k in range(1, min(thick, h - 1) + 1):
+        thin_dn[:h - k] |= nonocc[k:]
+        thin_up[k:] |= nonocc[:h - k]
+    ok_dn = occ & thin_dn  # the lower wall's top cell at r
+    ok_up = occ & thin_up  # the upper wall's bottom cell at p
+    centre = np.zeros((h, w), bool)
+    allfree = free.copy()  # cells r-1 .. r-g all free, stored at row r
+    allfree[1:] = free[:-1]
+    allfree[0] = False
+    for g in range(1, min(gmax, h - 2) + 1):
+        if g > 1:
+            allfree[g:] &= free[:h - g]
+            allfree[:g] = False
+        if g < gmin:
+            continue
+        cand = allfree[g + 1:] & ok_dn[g + 1:] & ok_up[:h - g - 1]  # rows r = g+1 ..
+        half = (g + 1) // 2
+        centre[g + 1 - half:h - half] |= cand
+    return centre.view(np.uint8)
 
 
 def _rotate(mask: np.ndarray, angle: float) -> tuple[np.ndarray, np.ndarray]:
@@ -495,7 +498,11 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
         # holes of one cell
         sel = cv2.dilate(centre, np.ones((3, 1), np.uint8))
         sel = cv2.morphologyEx(sel, cv2.MORPH_CLOSE, np.ones((1, 3), np.uint8))
-        n, _, stats, _ = cv2.connectedComponentsWithStats(sel, connectivity=8)
+        r0, c0, r1, c1 = _known_box(sel > 0)  # label only where there are pairs
+        n, _, stats, _ = cv2.connectedComponentsWithStats(
+            np.ascontiguousarray(sel[r0:r1, c0:c1]), connectivity=8)
+        stats[:, 0] += c0
+        stats[:, 1] += r0
         for k in range(1, n):
             x, y, bw, bh, _ = stats[k]
             if bw >= run:

@@ -3,8 +3,10 @@
 Two kinds of it:
 
 - :mod:`slamq.synth.damage`: map series with a made, known severity of damage (drift, wall
-  doubling, rotation, specks) drawn from a floor plan, and the study of how each
-  no-reference metric follows the severity (``python -m slamq.synth``).
+  doubling, rotation, specks; and superposed copies, smears and kinks for the defect
+  detectors) drawn from a floor plan, and the study of how each no-reference metric follows
+  the severity (``python -m slamq.synth``); :mod:`slamq.synth.defects_study`, the defect
+  detectors' precision and recall (``python -m slamq.synth.defects_study``).
 - Ground truth on demand: generated worlds, a planned drive through them, simulated laser
   and odometry, and the sensor logs real SLAM programs read, beside the exact map and path
   (:mod:`slamq.synth.sequence` holds the sequence every part of it passes along):

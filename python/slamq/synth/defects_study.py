@@ -332,8 +332,9 @@ def markdown(syn: pd.DataFrame | None, bench: pd.DataFrame | None,
         lines += [f"**Synthetic, held out** (plan seeds {seed}.., worlds from seed {seed}, "
                   f"damage seeds {seed}..; "
                   f"{syn['base'].nunique()} bases). Per damage, maps flagged / maps, "
-                  "**bold** where the pre-registration says the detector fires, plain where "
-                  "it must stay silent, *italic* where either is allowed:", "",
+                  "**bold** where the pre-registration says the detector fires (the kinks rows "
+                  "were added with v2), plain where it must stay silent, *italic* where "
+                  "either is allowed:", "",
                   "| damage | " + " | ".join(DETECTORS) + " |",
                   "|---|" + "---|" * len(DETECTORS)]
         for (damage, sev), part in table.groupby(["damage", "severity"], sort=False):
