@@ -297,8 +297,9 @@ SETTINGS = _Rows((s.name, s) for s in (
             "log, or sort", type=str, choices=("error", "last", "sort")),
     Setting("compare", "compare_align", "icp",
             "alignment with the ground-truth map: icp, the files' frames refined by trimmed "
-            "ICP; origin, the frames only; search, a coarse rotation search first, for maps "
-            "saved in an arbitrary frame", type=str, choices=_MAP_ALIGNMENTS),
+            "ICP; origin, the frames only; search, from the global registration (any "
+            "rotation), for maps saved in an arbitrary frame", type=str,
+            choices=_MAP_ALIGNMENTS),
     Setting("compare", "tolerance", None,
             "matching distance for precision/recall (default: tolerance_cells cells of the "
             "ground truth)", "m", float, 0.0, None),

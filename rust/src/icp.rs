@@ -1,6 +1,7 @@
 //! Trimmed SE(2) ICP of a map's occupied cells onto a ground truth whose distance transform
 //! gives every cell's nearest occupied cell (SPEC section 7), and the coarse rotation search
-//! that starts it for maps saved in an arbitrary frame.
+//! that started it for maps saved in an arbitrary frame before `register.rs` (kept as the
+//! baseline of benches/bench_register.py).
 //!
 //! Each point is paired with the nearest occupied target cell (the distance transform's
 //! label of the cell the point falls in). Where the target's occupied cells around that
@@ -459,7 +460,9 @@ const SEARCH_POINTS: usize = 2000;
 /// ICP iterations of each trial.
 const SEARCH_ITERATIONS: usize = 20;
 
-/// Coarse search: for every rotation in steps of [`SEARCH_STEP_DEG`] about the points'
+/// The former start of `align="search"` (now [`crate::register`]; kept as its benchmark's
+/// baseline, `register::legacy_search`). Coarse search: for every rotation in steps of
+/// [`SEARCH_STEP_DEG`] about the points'
 /// centroid, moved onto the target's occupied centroid, a short trimmed ICP on a subsample;
 /// the start with the lowest trimmed RMS (first one on ties) is returned.
 pub fn search(points: &[(f64, f64)], target: &Target, trim: f64) -> Se2 {

@@ -71,8 +71,9 @@ def compare(
         A known cell is occupied when its occupancy probability ``(255 - v) / 255`` is above
         this (0.5: values below 128).
     align : {"icp", "origin", "search"}, default "icp"
-        ``origin``: the maps' frames only. ``icp``: refined by trimmed ICP. ``search``: a
-        coarse rotation search first, for maps saved in an arbitrary frame.
+        ``origin``: the maps' frames only. ``icp``: refined by trimmed ICP. ``search``: the ICP
+        starts from the global registration (:func:`slamq.register`, docs/spec.md 7a),
+        for maps saved in an arbitrary frame.
     max_distance : float, optional
         Distances above this many metres count as ``max_distance`` (``truncated`` says how
         many), so that a half-built map's ``ne`` stays bounded.
