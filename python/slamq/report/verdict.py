@@ -2,28 +2,31 @@
 sure that is — written to ``verdict.json`` and said in the report's first box.
 
 The paper's map metrics are computed exactly as it defines them, but measured against
-ground truth on slam_comparison_tools (3 worlds x 5 algorithms; :mod:`slamq.results.validity`)
-their pairwise concordance with the trajectory error differs widely (README, "What the
-numbers mean"): corners 0.73, occupied fraction and proportion 0.50 (chance), enclosed areas
-0.27 (inverted). The
-ground-truth map figures agree far better (Spearman with ATE, pooled: GT F1 -0.86, GT
-chamfer +0.90). So the verdict ranks by, in this order:
+ground truth (slam_comparison_tools, and the 360-run generated benchmark of docs/validity.md)
+none of them orders good maps reliably, and corners cannot see a missing wall. The
+ground-truth figures agree with each other far better. So the verdict ranks by, in order:
 
 1. the ATE RMSE, when at least two algorithms of the sequence have one (ground truth);
 2. else the GT F1 against the sequence's ground-truth map (ties: GT chamfer);
-3. else corners alone, which separate broken maps from good ones but do not order good
-   maps — said as the confidence, and as "no clear winner" when the runner-up is within
-   25% of the best. When the maps differ in resolution or orientation (wall angles more
-   than 1 degree apart modulo 90), ``corners_canonical`` (SPEC 3a: corners of each map
-   turned to its walls' direction and resampled to one resolution) replaces corners.
+3. else, when :func:`slamq.report.evidence.sequence_evidence` is given (the report computes
+   it), the maps' agreement with each other and the defect detectors (docs/spec.md section
+   9): an algorithm whose maps could not be placed with the others, whose runs carry a
+   defect flag (at least half of them), or whose support is under ``AGREEMENT_SHARE`` of the
+   best is never named; one whose completeness is under ``COMPLETE_SHARE`` of the highest
+   is partial, never named; corners (``corners_canonical`` when the maps differ in
+   resolution or orientation) only order the maps the agreement confirms equally. It
+   abstains, saying why, with fewer than three maps (unless one of two is flagged), when
+   the maps disagree among themselves (no majority confirmed), or when every map is flagged;
+4. else (no maps to compare: a summary alone) corners alone, low confidence, as before:
+   they separate broken maps from good ones but do not order good maps ("no clear winner"
+   within 25%); a map knowing less than 80% of the area of the most complete one is never
+   named best.
 
 Occupied fraction, proportion and enclosed areas never decide. A reference map (a ground
-truth beside the runs) is never ranked. A map knowing less than 80% of the area of the
-sequence's most complete map (``known_area_m2``; known cells when a map has no resolution)
-is never named best (a half-explored map scores "best" on every paper metric); it is ranked
-after the complete ones and named in the warnings. The maps ranked by plain corners share
-one resolution and orientation. An algorithm without the basis figure is not ranked (rows scored on
-different figures are never mixed).
+truth beside the runs) is never ranked. An algorithm without the basis figure is not ranked
+(rows scored on different figures are never mixed). How far the verdict without ground
+truth can be trusted, on tuning and held-out data: docs/validity.md, "The verdict without
+ground truth" (``python -m slamq.report.verdict_study``).
 """
 
 from __future__ import annotations
