@@ -65,7 +65,8 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
     pandas.DataFrame
         One row per sequence: ``sequence``, ``best`` (None: abstained), ``ate_rank`` of the
         named algorithm (1 best), ``ate_ratio`` (its ATE over the best), ``broken_named``,
-        ``reason``.
+        ``reason``, and the same for the old rule (corners alone): ``old_best``,
+        ``old_ate_rank``, ``old_broken_named``.
     """
     from slamq.synth.benchmark import load_benchmark
 
@@ -84,8 +85,12 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
         rank = float(ate.rank()[best]) if best in ate.index else math.nan
         ratio = float(ate[best] / ate.min()) if best in ate.index else math.nan
         broken = bool(block.loc[block["algorithm"] == best, "broken"].any()) if best else False
+        old = sequence_verdict(summary, str(seq))["best"]  # corners alone: the old rule
         rows.append({"sequence": seq, "best": best, "ate_rank": rank, "ate_ratio": ratio,
-                     "broken_named": broken, "reason": v["confidence"]})
+                     "broken_named": broken, "reason": v["confidence"], "old_best": old,
+                     "old_ate_rank": float(ate.rank()[old]) if old in ate.index else math.nan,
+                     "old_broken_named": bool(block.loc[block["algorithm"] == old,
+                                                        "broken"].any()) if old else False})
     return pd.DataFrame(rows)
 
 
@@ -150,7 +155,8 @@ def markdown(bench: pd.DataFrame | None, eye: pd.DataFrame | None,
     """The tables of docs/validity.md's verdict section."""
     out = [f"Regenerate: `{command}`\n"]
     if bench is not None and len(bench):
-        out.append("\n**Benchmark, ground truth hidden** (one row per set of sequences):\n\n"
+        out.append("\n**Benchmark, ground truth hidden** (one row per set of sequences; the "
+                   "old rule, corners alone, in brackets):\n\n"
                    "| sequences | n | named in ATE top two | abstained | named a run > 3x "
                    "the best ATE (broken) |\n|---|---|---|---|---|\n")
         seed = bench["sequence"].str.rsplit("-", n=1).str[1]
@@ -161,8 +167,11 @@ def markdown(bench: pd.DataFrame | None, eye: pd.DataFrame | None,
             if not len(b):
                 continue
             top2 = int((b["ate_rank"] <= 2).sum())
-            out.append(f"| {label} | {len(b)} | {top2} ({100 * top2 / len(b):.0f}%) | "
-                       f"{int(b['best'].isna().sum())} | {int(b['broken_named'].sum())} |\n")
+            old2 = int((b["old_ate_rank"] <= 2).sum())
+            out.append(f"| {label} | {len(b)} | {top2} ({100 * top2 / len(b):.0f}%) "
+                       f"[{old2} ({100 * old2 / len(b):.0f}%)] | "
+                       f"{int(b['best'].isna().sum())} [{int(b['old_best'].isna().sum())}] | "
+                       f"{int(b['broken_named'].sum())} [{int(b['old_broken_named'].sum())}] |\n")
         bad = bench[bench["broken_named"] | (bench["ate_rank"] > 2)]
         if len(bad):
             out.append("\nSequences where the named algorithm is not in the ATE top two or is "
