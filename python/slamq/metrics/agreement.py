@@ -40,7 +40,7 @@ from slamq.metrics.compare import compare
 from slamq.models import OccupancyMap
 from slamq.params import SETTINGS
 
-__all__ = ["Agreement", "agreement", "place_all"]
+__all__ = ["MISSING_MIN_LENGTH", "Agreement", "agreement", "missing_walls", "place_all"]
 
 _E, _G, _EM, _GM, _EK, _GF = 1, 2, 4, 8, 16, 32
 
@@ -70,6 +70,10 @@ class Agreement:
         The support a map needs to count as confirmed.
     notes : list of str
         Plain sentences on what went wrong (maps not placed, no majority).
+    missing : dict of str to numpy.ndarray
+        Per placed map, on its own grid (its image's cells): where more than half of the
+        other maps have a wall that none of its walls matches and it sees free space
+        (missing walls, leaks); :func:`missing_walls` makes flags of them.
 
     Examples
     --------
@@ -90,6 +94,7 @@ class Agreement:
     majority: bool
     min_support: float
     notes: list[str] = field(default_factory=list)
+    missing: dict[str, np.ndarray] = field(default_factory=dict)
 
     def table(self) -> list[dict[str, Any]]:
         """One dict per map: ``name``, ``support``, ``completeness``, ``placed``.
@@ -107,6 +112,77 @@ class Agreement:
                 for n in self.names]
 
 
+#: A stretch of missing wall is flagged from this length on, metres (chosen on the synthetic
+#: "gap" damage of slamq.synth.damage; docs/validity.md).
+MISSING_MIN_LENGTH = 0.5
+
+
+def missing_walls(agree: Agreement, maps: Mapping[str, OccupancyMap], *,
+                  min_length: float = MISSING_MIN_LENGTH) -> dict[str, list[Any]]:
+    """Flags of missing walls and leaks: per map, the largest stretch of walls that most of
+    the other maps have where this map sees free space, when it runs at least
+    ``min_length`` metres (the longer side of the stretch's bounding box).
+
+    Parameters
+    ----------
+    agree : Agreement
+        :func:`agreement` of ``maps``.
+    maps : mapping of name to OccupancyMap
+        The same maps.
+    min_length : float, default 0.5
+        Metres of missing wall (one 8-connected stretch) from which a map is flagged.
+
+    Returns
+    -------
+    dict of str to list of Defect
+        ``kind="missing_walls"`` (:class:`slamq.metrics.defects.Defect`), at most one per map.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq.models import OccupancyMap
+    >>> img = np.full((60, 60), 254, np.uint8); img[10, 5:55] = 0; img[50, 5:55] = 0
+    >>> img[10:51, 5] = 0; img[10:51, 54] = 0; img[10:51, 30] = 0
+    >>> gap = img.copy(); gap[15:45, 30] = 254                 # an inner wall not there
+    >>> none = np.zeros(img.shape, bool)
+    >>> maps = {k: OccupancyMap(v, none, 0.05) for k, v in
+    ...         {"a": img, "b": img, "gap": gap}.items()}
+    >>> flags = missing_walls(agreement(maps, align="origin"), maps)
+    >>> [d.kind for d in flags["gap"]], flags["a"]
+    (['missing_walls'], [])
+    """
+    import cv2
+
+    from slamq.metrics.defects import Defect
+
+    out: dict[str, list[Any]] = {n: [] for n in agree.names}
+    for name, mask in agree.missing.items():
+        m = maps[name]
+        res = m.resolution or 0.05
+        if not mask.any():
+            continue
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), 8)
+        if n <= 1:
+            continue
+        extent = np.maximum(stats[1:, cv2.CC_STAT_WIDTH], stats[1:, cv2.CC_STAT_HEIGHT])
+        k = 1 + int(np.argmax(extent))
+        length = float(extent[k - 1]) * res
+        if length < min_length:
+            continue
+        x, y, w, h = (int(v) for v in stats[k, :4])
+        rows = m.shape[0]
+        cx, cy = x + w / 2, y + h / 2
+        ox, oy, yaw = m.origin
+        u, v = cx * res, (rows - cy) * res
+        where = (ox + math.cos(yaw) * u - math.sin(yaw) * v,
+                 oy + math.sin(yaw) * u + math.cos(yaw) * v)
+        out[name].append(Defect(
+            "missing_walls", length, (x, y, x + w, y + h), where,
+            f"{length:.1f} m of wall that most of the other maps have, where this map sees "
+            "free space (a missing wall or a leak)"))
+    return out
+
+
 def _grow(mask: np.ndarray, cells: int) -> np.ndarray:
     if cells <= 0 or not mask.any():
         return mask
@@ -121,8 +197,10 @@ def _share(num: int, den: int) -> float:
 
 
 def _pair(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | None,
-          threads: int | None) -> tuple[float, float, float]:
-    """(support, recall, covers) of ``est`` laid on ``ref``'s grid."""
+          threads: int | None) -> tuple[float, float, float, np.ndarray]:
+    """(support, recall, covers, missing) of ``est`` laid on ``ref``'s grid; ``missing``:
+    the cells of ``ref``'s grid where ``est`` has a wall that no wall of ``ref`` matches
+    and ``ref`` sees free space."""
     c = compare(est, ref, align=align, tolerance=tolerance, cells=True, threads=threads)
     f = c.cells
     assert f is not None
@@ -138,7 +216,8 @@ def _pair(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | N
     ref_cells = (f & (_G | _GF)) != 0
     covers = _share(int(np.count_nonzero(ref_cells & ((f & (_EK | _E)) != 0))),
                     int(np.count_nonzero(ref_cells)))
-    return support, recall, covers
+    missing = e & ((f & _EM) == 0) & ((f & _GF) != 0)
+    return support, recall, covers, missing
 
 
 def _moved(m: OccupancyMap, theta: float, tx: float, ty: float,
@@ -225,7 +304,7 @@ def place_all(maps: Mapping[str, OccupancyMap], *, threads: int | None = None
 
 
 def _auto(maps: dict[str, OccupancyMap], names: list[str], sup: np.ndarray, rec: np.ndarray,
-          cov: np.ndarray, placed: dict[str, bool], notes: list[str],
+          cov: np.ndarray, placed: dict[str, bool], notes: list[str], votes: dict,
           tolerance: float | None, threads: int | None) -> None:
     """``align="auto"``: each ordered pair placed by the files' frames refined by ICP or by
     the pair's global registration, whichever fits better (fills the arrays in place)."""
@@ -254,7 +333,8 @@ def _auto(maps: dict[str, OccupancyMap], names: list[str], sup: np.ndarray, rec:
                               tolerance, threads)
                 if _f(moved[0], moved[1]) > _f(best[0], best[1]):
                     best = moved
-            sup[i, j], rec[i, j], cov[i, j] = best
+            sup[i, j], rec[i, j], cov[i, j] = best[:3]
+            votes[b] = votes.get(b, 0) + best[3].astype(np.int16)
     for a in names:
         if not fits[a]:
             placed[a] = False
@@ -340,15 +420,19 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     sup = np.full((n, n), math.nan)
     rec = np.full((n, n), math.nan)
     cov = np.full((n, n), math.nan)
+    votes: dict[str, np.ndarray] = {}
     if align == "auto":
-        _auto(loaded, names, sup, rec, cov, placed, notes, tolerance, threads)
+        _auto(loaded, names, sup, rec, cov, placed, notes, votes, tolerance, threads)
     else:
         for i, a in enumerate(names):
             for j, b in enumerate(names):
                 if i == j or not (placed[a] and placed[b]):
                     continue
-                sup[i, j], rec[i, j], cov[i, j] = _pair(loaded[a], loaded[b], pair_align,
-                                                        tolerance, threads)
+                *figs, miss = _pair(loaded[a], loaded[b], pair_align, tolerance, threads)
+                sup[i, j], rec[i, j], cov[i, j] = figs
+                votes[b] = votes.get(b, 0) + miss.astype(np.int16)
+    voters = max(1, sum(placed.values()) - 1)
+    missing = {b: v * 2 > voters for b, v in votes.items() if placed[b]}
     cons = np.full((n, n), math.nan)
     for i in range(n):
         for j in range(n):
@@ -370,4 +454,4 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
                      f"{min_support:g}): the maps disagree among themselves")
     return Agreement(names=names, support=support, completeness=completeness,
                      consistency=cons, placed=placed, majority=majority,
-                     min_support=float(min_support), notes=notes)
+                     min_support=float(min_support), notes=notes, missing=missing)

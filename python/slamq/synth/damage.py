@@ -66,7 +66,7 @@ __all__ = ["DEGRADATIONS", "SEVERITIES", "STUDIED", "degrade", "floor_plan", "re
 #: The kinds of damage and the unit of their severity.
 DEGRADATIONS = {"drift": "deg per 10 m", "doubling": "m", "rotation": "deg",
                 "specks": "share of free cells", "superposed": "deg", "smear": "deg",
-                "kinks": "deg"}
+                "kinks": "deg", "gap": "m"}
 #: The default severities of each series (0 = the plan itself).
 SEVERITIES: dict[str, tuple[float, ...]] = {
     "drift": (0.0, 0.5, 1.0, 2.0, 4.0, 8.0),
@@ -76,10 +76,12 @@ SEVERITIES: dict[str, tuple[float, ...]] = {
     "superposed": (0.0, 2.0, 5.0, 10.0, 20.0, 45.0),
     "smear": (0.0, 2.0, 5.0, 10.0, 20.0, 30.0),
     "kinks": (0.0, 2.0, 5.0, 10.0, 20.0, 30.0),
+    "gap": (0.0, 0.5, 1.0, 2.0, 4.0, 8.0),
 }
 #: The degradations the metric study (:func:`records`, ``python -m slamq.synth``) runs by
 #: default; ``superposed``, ``smear`` and ``kinks`` were added for the defect detectors
-#: (:mod:`slamq.synth.defects_study`).
+#: (:mod:`slamq.synth.defects_study`), ``gap`` for the missing-wall flags of
+#: :func:`slamq.metrics.agreement.missing_walls`.
 STUDIED = ("drift", "doubling", "rotation", "specks")
 #: Ground-truth columns of the study: the plan as ground truth (lower is better).
 PLAN_FIGURES = ("plan_f1_loss", "plan_chamfer")
@@ -267,7 +269,7 @@ def degrade(plan: OccupancyMap, kind: str, severity: float, *, seed: int = 0
     ----------
     plan : OccupancyMap
         The floor plan (:func:`floor_plan`, or a map: cells below 128 are walls).
-    kind : {"drift", "doubling", "rotation", "specks", "superposed", "smear", "kinks"}
+    kind : {"drift", "doubling", "rotation", "specks", "superposed", "smear", "kinks", "gap"}
         The damage (module docstring); severity in the unit of :data:`DEGRADATIONS`.
     severity : float
         0 gives the plan back, cell for cell.
@@ -335,6 +337,18 @@ def degrade(plan: OccupancyMap, kind: str, severity: float, *, seed: int = 0
             return u + shift[0], v + shift[1]
         return _draw(plan, [(occ, free, unk, ident),
                             (occ & late, free & late, unk & late, moved)], label)
+    if kind == "gap":
+        # a stretch of walls gone, seen as free space: the walls within a square of side
+        # `severity` metres about a wall cell drawn at random (a leak, a missing wall)
+        wr, wc = np.nonzero(occ)
+        if severity == 0 or not len(wr):
+            return _draw(plan, [(occ, free, unk, ident)], label)
+        k = int(rng.integers(len(wr)))
+        half = int(round(severity / res / 2))
+        gone = np.zeros_like(occ)
+        gone[max(0, wr[k] - half):wr[k] + half + 1, max(0, wc[k] - half):wc[k] + half + 1] = True
+        gone &= occ
+        return _draw(plan, [(occ & ~gone, free | gone, unk, ident)], label)
     if kind == "kinks":
         sign = 1.0 if rng.random() < 0.5 else -1.0
         a = sign * math.radians(severity)
