@@ -236,23 +236,6 @@ fn resample(
     let (eh, ew) = (est.grid.height as i64, est.grid.width as i64);
     let eg = &est.grid;
     let band = BAND_ROWS * w;
-    // per estimate cell, the flags a ground-truth cell takes from it: 0 (unknown), or
-    // ESTIMATE_KNOWN plus ESTIMATE when occupied; so that the loop below is branch-free
-    // (known and unknown, free and occupied cells alternate unpredictably along a row)
-    // (one cell at least: cells outside read cell 0, masked)
-    let mut state = filled(eg.values.len().max(1), 0u8)?;
-    state
-        .par_chunks_mut(band.max(1))
-        .zip(eg.values.par_chunks(band.max(1)))
-        .zip(eg.unknown.par_chunks(band.max(1)))
-        .for_each(|((s, v), u)| {
-            for ((s, &v), &u) in s.iter_mut().zip(v).zip(u) {
-                let known = u8::from(!u);
-                *s = known * (flag::ESTIMATE_KNOWN | (u8::from(occ[v as usize]) * flag::ESTIMATE));
-            }
-        });
-    let state = &state[..];
-    let ew_usize = eg.width;
     // per band: the cells of E found, free cells, covered free cells
     let parts: Vec<(Vec<u32>, u64, u64)> = cells
         .par_chunks_mut(band)
@@ -260,9 +243,6 @@ fn resample(
         .enumerate()
         .map(|(b, (chunk, (gm, un)))| {
             let mut list = band_list(chunk.len())?;
-            // the cells of E of one row, then appended to the band's list
-            let mut row_list = band_list(w)?;
-            row_list.resize(w, 0);
             let (mut free, mut covered) = (0u64, 0u64);
             for (k, row) in chunk.chunks_mut(w).enumerate() {
                 let r = b * BAND_ROWS + k;
@@ -272,28 +252,26 @@ fn resample(
                 let (mut er, mut ec) = (fixed(er0), fixed(ec0));
                 let (sr, sc) = (fixed(m.m[0][1]), fixed(m.m[1][1]));
                 let (gm, un) = (&gm[k * w..(k + 1) * w], &un[k * w..(k + 1) * w]);
-                let mut n = 0usize;
-                let at0 = (r * w) as u32;
                 for (c, ((cell, &g), &u)) in row.iter_mut().zip(gm).zip(un).enumerate() {
                     let (ir, ic) = (er >> 32, ec >> 32);
-                    let is_free = u8::from(!u & !g);
-                    // negative positions wrap to large ones: outside
-                    let inside = (ir as u64) < eh as u64 && (ic as u64) < ew as u64;
-                    let i = if inside {
-                        ir as usize * ew_usize + ic as usize
-                    } else {
-                        0
-                    };
-                    let st = state[i] & 0u8.wrapping_sub(u8::from(inside));
-                    *cell = (is_free * flag::GROUND_TRUTH_FREE) | st;
-                    covered += u64::from(is_free & u8::from(st != 0));
-                    free += u64::from(is_free);
-                    row_list[n] = at0 + c as u32;
-                    n += usize::from(st & flag::ESTIMATE != 0);
+                    let is_free = !u && !g;
+                    let mut f = (is_free as u8) * flag::GROUND_TRUTH_FREE;
+                    if ir >= 0 && ic >= 0 && ir < eh && ic < ew {
+                        let i = ir as usize * eg.width + ic as usize;
+                        if !eg.unknown[i] {
+                            let occupied = occ[eg.values[i] as usize];
+                            f |= flag::ESTIMATE_KNOWN | ((occupied as u8) * flag::ESTIMATE);
+                            covered += is_free as u64;
+                            if occupied {
+                                list.push((r * w + c) as u32);
+                            }
+                        }
+                    }
+                    free += is_free as u64;
+                    *cell = f;
                     er = er.saturating_add(sr);
                     ec = ec.saturating_add(sc);
                 }
-                list.extend_from_slice(&row_list[..n]);
             }
             Ok((list, free, covered))
         })
