@@ -6,9 +6,13 @@
 //!
 //! Both steps read the box packed one `u16` per cell (`pack_box`). The resample has a fast
 //! path for up to 4 x 4 samples per output cell (one gather per sample, addresses in float
-//! arithmetic that vectorises) beside the general one; the blur rows and the fast resample
-//! run as AVX2 copies of themselves when the processor has it (runtime detection; the same
-//! operations, so the same results). The tests compare every path.
+//! arithmetic that vectorises) beside the general one; output tiles (32 x 32, and 8 x 8
+//! inside them on the fast path) whose samples all fall on unknown 8 x 8 blocks of the box
+//! are left unknown, and those whose samples all fall on known blocks of one value take that
+//! value, without sampling. The blur rows, the wall angle's `g^4/|g|^3` terms and the fast
+//! resample run as AVX2 copies of themselves when the processor has it (runtime detection;
+//! the same operations, so the same results). The tests compare every path with each other
+//! and the resample with a literal one.
 
 use crate::border::reflect101;
 use crate::corners::count_corners;
