@@ -23,6 +23,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import sys
 import time
@@ -43,12 +44,15 @@ MAPS = (
 )
 
 
+CLOCK = time.perf_counter
+
+
 def best(fn, repeat: int) -> float:
     times = []
     for _ in range(repeat):
-        t = time.perf_counter()
+        t = CLOCK()
         fn()
-        times.append(time.perf_counter() - t)
+        times.append(CLOCK() - t)
     return min(times)
 
 
@@ -57,11 +61,18 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--dense", action="store_true",
                     help="the dense 1-Mcell crops of bench.py --dense, at 0.05 m")
+    ap.add_argument("--cpu", action="store_true",
+                    help="time CPU seconds of the process (time.process_time) instead of "
+                         "wall-clock: on a loaded machine")
     ap.add_argument("--data", type=Path,
                     default=Path(__file__).resolve().parent.parent.parent / "shared" / "data")
     args = ap.parse_args()
+    global CLOCK
+    if args.cpu:
+        CLOCK = time.process_time
     print(f"- machine: {platform.machine()}, Python {platform.python_version()}; one thread; "
-          f"minimum of {args.repeat} runs")
+          f"minimum of {args.repeat} runs; {'CPU' if args.cpu else 'wall-clock'} time; "
+          f"load average {' '.join(f'{x:.1f}' for x in os.getloadavg())}")
     print()
     if args.dense:
         return dense(args.repeat)
@@ -100,8 +111,9 @@ def dense(repeat: int) -> int:
     from bench import dense_maps
 
     print("| dense crop (0.05 m) | canonical Mcells | wall angle | plain ms "
-          "| with canonical ms | canonical step ms |")
-    print("|---|---:|---:|---:|---:|---:|")
+          "| with canonical ms | canonical step ms | default / plain |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    per_mcell, ratios = [], []
     for label, crop in dense_maps():
         if crop.shape != (1000, 1000):
             continue  # the whole graded maps of bench.py --dense
@@ -111,9 +123,15 @@ def dense(repeat: int) -> int:
                      repeat)
         full = best(lambda m=m: slamq.evaluate(m, threads=1), repeat)
         q = slamq.evaluate(m)
+        per_mcell.append(full * 1e3 / (m.values.size / 1e6))
+        ratios.append(full / plain)
         print(f"| {label} | {0 if canon is None else canon.values.size / 1e6:.2f} | "
-              f"{q.wall_angle:+.1f} | {plain * 1e3:.1f} | {full * 1e3:.1f} | "
-              f"{max(full - plain, 0.0) * 1e3:.1f} |")
+              f"{q.wall_angle:+.1f} | {plain * 1e3:.2f} | {full * 1e3:.2f} | "
+              f"{max(full - plain, 0.0) * 1e3:.2f} | {full / plain:.2f} |")
+    if per_mcell:
+        print(f"\ndefaults: mean {sum(per_mcell) / len(per_mcell):.2f} ms/Mcell, worst "
+              f"{max(per_mcell):.2f}; default / plain: mean "
+              f"{sum(ratios) / len(ratios):.2f}, worst {max(ratios):.2f}")
     return 0
 
 

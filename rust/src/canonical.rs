@@ -6,9 +6,13 @@
 //!
 //! Both steps read the box packed one `u16` per cell (`pack_box`). The resample has a fast
 //! path for up to 4 x 4 samples per output cell (one gather per sample, addresses in float
-//! arithmetic that vectorises) beside the general one; the blur rows and the fast resample
-//! run as AVX2 copies of themselves when the processor has it (runtime detection; the same
-//! operations, so the same results). The tests compare every path.
+//! arithmetic that vectorises) beside the general one; output tiles (32 x 32, and 8 x 8
+//! inside them on the fast path) whose samples all fall on unknown 8 x 8 blocks of the box
+//! are left unknown, and those whose samples all fall on known blocks of one value take that
+//! value, without sampling. The blur rows, the wall angle's `g^4/|g|^3` terms and the fast
+//! resample run as AVX2 copies of themselves when the processor has it (runtime detection;
+//! the same operations, so the same results). The tests compare every path with each other
+//! and the resample with a literal one.
 
 use crate::border::reflect101;
 use crate::corners::count_corners;
@@ -240,9 +244,31 @@ fn sobel_terms_row([up, mid, down]: [&[i32]; 3], s: &mut SobelRows) -> (i64, i64
     let (mut sre, mut sim) = (0i64, 0i64);
     for (xs, ys) in s.gx.chunks(TERMS_PER_SUM).zip(s.gy.chunks(TERMS_PER_SUM)) {
         // four partial sums, so that the loop vectorises (exact in any order)
-        let (mut re4, mut im4) = ([0.0f64; 4], [0.0f64; 4]);
-        let (xq, yq) = (xs.chunks_exact(4), ys.chunks_exact(4));
-        let (xr, yr) = (xq.remainder(), yq.remainder());
+        let (re4, im4) = angle_sums(xs, ys, true);
+        sre += re4.iter().map(|&v| v as i64).sum::<i64>();
+        sim += im4.iter().map(|&v| v as i64).sum::<i64>();
+    }
+    (sre, sim)
+}
+
+/// Four partial sums (lanes) of the [`angle_terms`] of `xs`, `ys` (at most
+/// [`TERMS_PER_SUM`] cells: exact in any order); with AVX2 when `best` and the processor has
+/// it (the same terms).
+fn angle_sums(xs: &[i32], ys: &[i32], best: bool) -> ([f64; 4], [f64; 4]) {
+    let (xq, yq) = (xs.chunks_exact(4), ys.chunks_exact(4));
+    let (xr, yr) = (xq.remainder(), yq.remainder());
+    let (mut re4, mut im4) = ([0.0f64; 4], [0.0f64; 4]);
+    #[cfg(target_arch = "x86_64")]
+    let simd = best && has_avx2();
+    #[cfg(not(target_arch = "x86_64"))]
+    let simd = best && false;
+    if simd {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: the processor has AVX2, checked just above
+            (re4, im4) = unsafe { angle_sums_avx2(xs, ys) };
+        }
+    } else {
         for (x4, y4) in xq.zip(yq) {
             // most cells of a map have no gradient (unknown canvas, open floor): their
             // terms are 0
@@ -255,15 +281,61 @@ fn sobel_terms_row([up, mid, down]: [&[i32]; 3], s: &mut SobelRows) -> (i64, i64
                 im4[l] += b;
             }
         }
-        for (&x, &y) in xr.iter().zip(yr) {
-            let (a, b) = angle_terms(f64::from(x), f64::from(y));
-            re4[0] += a;
-            im4[0] += b;
-        }
-        sre += re4.iter().map(|&v| v as i64).sum::<i64>();
-        sim += im4.iter().map(|&v| v as i64).sum::<i64>();
     }
-    (sre, sim)
+    for (&x, &y) in xr.iter().zip(yr) {
+        let (a, b) = angle_terms(f64::from(x), f64::from(y));
+        re4[0] += a;
+        im4[0] += b;
+    }
+    (re4, im4)
+}
+
+/// The four lanes' sums of [`angle_terms`] over the whole groups of four of `xs`, `ys` (the
+/// caller adds the remainder), with AVX2: the same float64 operations in the same order
+/// (no FMA), four cells at a time, so the same terms; groups without a gradient skipped.
+///
+/// # Safety
+/// The processor must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn angle_sums_avx2(xs: &[i32], ys: &[i32]) -> ([f64; 4], [f64; 4]) {
+    use std::arch::x86_64::*;
+    let (mut re, mut im) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+    let zero = _mm256_setzero_pd();
+    let (one, two) = (_mm256_set1_pd(1.0), _mm256_set1_pd(2.0));
+    let magic = _mm256_set1_pd(6_755_399_441_055_744.0);
+    for (x4, y4) in xs.chunks_exact(4).zip(ys.chunks_exact(4)) {
+        // SAFETY: 16 bytes of each chunk of four i32
+        let (xi, yi) = unsafe {
+            (
+                _mm_loadu_si128(x4.as_ptr() as *const __m128i),
+                _mm_loadu_si128(y4.as_ptr() as *const __m128i),
+            )
+        };
+        if _mm_testz_si128(_mm_or_si128(xi, yi), _mm_or_si128(xi, yi)) != 0 {
+            continue; // no gradient: terms 0
+        }
+        let (x, y) = (_mm256_cvtepi32_pd(xi), _mm256_cvtepi32_pd(yi));
+        let (xx, yy) = (_mm256_mul_pd(x, x), _mm256_mul_pd(y, y));
+        let r2 = _mm256_add_pd(xx, yy);
+        let a = _mm256_sub_pd(xx, yy);
+        let b = _mm256_mul_pd(two, _mm256_mul_pd(x, y));
+        let wr = _mm256_mul_pd(r2, _mm256_sqrt_pd(r2));
+        // a zero gradient divides its zero numerators by 1
+        let w = _mm256_blendv_pd(one, wr, _mm256_cmp_pd::<_CMP_GT_OQ>(r2, zero));
+        let num_re = _mm256_sub_pd(_mm256_mul_pd(a, a), _mm256_mul_pd(b, b));
+        let num_im = _mm256_mul_pd(two, _mm256_mul_pd(a, b));
+        let rint = |v: __m256d| _mm256_sub_pd(_mm256_add_pd(v, magic), magic);
+        re = _mm256_add_pd(re, rint(_mm256_div_pd(num_re, w)));
+        im = _mm256_add_pd(im, rint(_mm256_div_pd(num_im, w)));
+    }
+    let (mut r4, mut i4) = ([0.0f64; 4], [0.0f64; 4]);
+    // SAFETY: 32 bytes into each [f64; 4]
+    unsafe {
+        _mm256_storeu_pd(r4.as_mut_ptr(), re);
+        _mm256_storeu_pd(i4.as_mut_ptr(), im);
+    }
+    (r4, i4)
 }
 
 /// The dominant wall direction modulo 90 degrees of the known bounding box, radians in
@@ -398,6 +470,32 @@ fn half_up_mean_of_4(t: u32, k: u32) -> u32 {
 /// turned square, so the gathers stay in cache (row by row over a wide turned map, every
 /// sample was a cache miss).
 const TILE: usize = 32;
+
+/// Sub-tiles of `SUB x SUB` cells of the fast path, told unknown, one-valued or neither.
+const SUB: usize = 8;
+
+/// A block of the box whose cells are all unknown ([`map_in_with`]'s block codes; a block of
+/// known cells of one value has that value, 0..=255).
+const BLOCK_UNKNOWN: u16 = 256;
+/// A block of the box with cells of different values or knowledge.
+const BLOCK_MIXED: u16 = 257;
+
+/// Rows `rows` and columns `cols` of output rows `vblock` / `ublock` (`big_w` cells each)
+/// set known, with value `v` (0..=255).
+fn fill(
+    vblock: &mut [u8],
+    ublock: &mut [bool],
+    big_w: usize,
+    rows: std::ops::Range<usize>,
+    cols: std::ops::Range<usize>,
+    v: u16,
+) {
+    for r in rows {
+        let (a, b) = (r * big_w + cols.start, r * big_w + cols.end);
+        vblock[a..b].fill(v as u8);
+        ublock[a..b].fill(false);
+    }
+}
 
 /// The resample's fast path (SPEC 3a.3 for at most 4 x 4 samples per output cell): what an
 /// output tile needs of the geometry, the same floats as the general path's.
@@ -599,21 +697,42 @@ fn map_in_with(
     let (w1, h1) = (wf - 1.0, hf - 1.0);
     let (stride, base) = (grid.width, r0 * grid.width + c0);
     let need = (n * n) as u32;
-    // which BLOCK x BLOCK blocks of the box hold a known cell: an output tile whose samples
-    // all fall in blocks without one is unknown, and is skipped (most of a turned, partly
-    // explored map's canonical grid)
+    // per BLOCK x BLOCK block of the box, what its cells are: all unknown
+    // ([`BLOCK_UNKNOWN`]), all known with one value (that value), or neither
+    // ([`BLOCK_MIXED`]). An output tile whose samples all fall in unknown blocks is unknown
+    // and skipped (most of a turned, partly explored map's canonical grid); one whose
+    // samples all fall in blocks of one value v is v (every sample known: the mean is v),
+    // filled without sampling (open floor)
     const BLOCK: usize = 8;
     let (bh, bw) = (h.div_ceil(BLOCK), w.div_ceil(BLOCK));
-    let mut known_block = filled(bh * bw, false)?;
-    known_block
+    let mut block_code = filled(bh * bw, 0u16)?;
+    block_code
         .par_chunks_mut(bw)
         .enumerate()
         .for_each(|(br, out)| {
+            // per column, the least and greatest key of the block row's cells (an unknown
+            // cell's key BLOCK_UNKNOWN, a known one's its value), then per block
+            let (mut lo_c, mut hi_c) = (vec![u16::MAX; w], vec![0u16; w]);
             for r in br * BLOCK..((br + 1) * BLOCK).min(h) {
-                let row = &grid.unknown[base + r * stride..base + r * stride + w];
-                for (o, cells) in out.iter_mut().zip(row.chunks(BLOCK)) {
-                    *o |= cells.iter().any(|&u| !u);
+                let at = base + r * stride;
+                let (vals, unk) = (&grid.values[at..at + w], &grid.unknown[at..at + w]);
+                for (((lo, hi), &v), &u) in lo_c.iter_mut().zip(&mut hi_c).zip(vals).zip(unk) {
+                    let key = u16::from(v) | (u16::from(u) * BLOCK_UNKNOWN);
+                    let key = key.min(BLOCK_UNKNOWN);
+                    *lo = (*lo).min(key);
+                    *hi = (*hi).max(key);
                 }
+            }
+            let lo: Vec<u16> = lo_c
+                .chunks(BLOCK)
+                .map(|c| c.iter().copied().min().unwrap_or(0))
+                .collect();
+            let hi: Vec<u16> = hi_c
+                .chunks(BLOCK)
+                .map(|c| c.iter().copied().max().unwrap_or(0))
+                .collect();
+            for ((o, &lo), &hi) in out.iter_mut().zip(&lo).zip(&hi) {
+                *o = if lo == hi { lo } else { BLOCK_MIXED };
             }
         });
     // the box cell (row, column) under sample (k, m) of output cell (i, j): the address
@@ -627,10 +746,11 @@ fn map_in_with(
             px.max(0.0).min(w1) as i64 as usize,
         )
     };
-    // a tile (output rows i0..i1, columns j0..j1) of which every sample is unknown: its
-    // samples lie in the bounding box of its four corner samples (the map is affine), taken
-    // one cell wider against rounding
-    let all_unknown = |i0: usize, i1: usize, j0: usize, j1: usize| {
+    // what the samples of a tile (output rows i0..i1, columns j0..j1) fall on: one block
+    // code for all (BLOCK_UNKNOWN or a value), or BLOCK_MIXED. The samples lie in the
+    // bounding box of the tile's four corner samples (the map is affine), taken one cell
+    // wider against rounding
+    let tile_code = |i0: usize, i1: usize, j0: usize, j1: usize| -> u16 {
         let corners = [
             cell_of(i0, 0, j0, 0),
             cell_of(i0, 0, j1 - 1, n - 1),
@@ -645,11 +765,20 @@ fn map_in_with(
         };
         let (y0, y1) = span(corners.map(|c| c.0), h - 1);
         let (x0, x1) = span(corners.map(|c| c.1), w - 1);
-        (y0 / BLOCK..=y1 / BLOCK).all(|br| {
-            known_block[br * bw + x0 / BLOCK..=br * bw + x1 / BLOCK]
+        let first = block_code[(y0 / BLOCK) * bw + x0 / BLOCK];
+        if first == BLOCK_MIXED {
+            return BLOCK_MIXED;
+        }
+        let same = (y0 / BLOCK..=y1 / BLOCK).all(|br| {
+            block_code[br * bw + x0 / BLOCK..=br * bw + x1 / BLOCK]
                 .iter()
-                .all(|&k| !k)
-        })
+                .all(|&k| k == first)
+        });
+        if same {
+            first
+        } else {
+            BLOCK_MIXED
+        }
     };
     // the fast path, when an output cell's packed samples sum without carrying into the
     // count (at most 16 of them, 16 * 255 < 4096) and a box cell's index is exact in a
@@ -690,11 +819,50 @@ fn map_in_with(
             for j0 in (0..big_w).step_by(TILE) {
                 let j1 = (j0 + TILE).min(big_w);
                 let cells = j1 - j0;
-                if all_unknown(t * TILE, t * TILE + rows, j0, j1) {
-                    continue; // left unknown, as allocated
+                let i0 = t * TILE;
+                match tile_code(i0, i0 + rows, j0, j1) {
+                    BLOCK_UNKNOWN => continue, // left unknown, as allocated
+                    BLOCK_MIXED => {}
+                    v => {
+                        fill(vblock, ublock, big_w, 0..rows, j0..j1, v);
+                        continue;
+                    }
                 }
                 if fast {
-                    fast_tile.run(vblock, ublock, t * TILE, j0, j1);
+                    // SUB x SUB sub-tiles: the unknown and one-valued ones as above, runs of
+                    // the others along a row of sub-tiles sampled together
+                    for s0 in (0..rows).step_by(SUB) {
+                        let s1 = (s0 + SUB).min(rows);
+                        let (vrows, urows) = (
+                            &mut vblock[s0 * big_w..s1 * big_w],
+                            &mut ublock[s0 * big_w..s1 * big_w],
+                        );
+                        let mut run: Option<usize> = None;
+                        for c0 in (j0..j1).step_by(SUB).chain([j1]) {
+                            let code = if c0 < j1 {
+                                tile_code(i0 + s0, i0 + s1, c0, (c0 + SUB).min(j1))
+                            } else {
+                                BLOCK_UNKNOWN // flushes the last run
+                            };
+                            if code == BLOCK_MIXED {
+                                run.get_or_insert(c0);
+                                continue;
+                            }
+                            if let Some(start) = run.take() {
+                                fast_tile.run(vrows, urows, i0 + s0, start, c0);
+                            }
+                            if c0 < j1 && code != BLOCK_UNKNOWN {
+                                fill(
+                                    vrows,
+                                    urows,
+                                    big_w,
+                                    0..s1 - s0,
+                                    c0..(c0 + SUB).min(j1),
+                                    code,
+                                );
+                            }
+                        }
+                    }
                     continue;
                 }
                 for r in 0..rows {
@@ -946,6 +1114,133 @@ mod tests {
             }
         }
         assert!(checked > 150, "{checked}");
+    }
+
+    /// SPEC 3a.3 literally: every sample of every output cell, no tiles, no skipping.
+    fn literal_canonical(g: &Grid, angle: f64, f: f64) -> CanonicalMap {
+        let (r0, r1, c0, c1) = known_bounds(g).unwrap();
+        let (h, w) = (r1 - r0, c1 - c0);
+        let (c, s) = (angle.cos(), angle.sin());
+        let half = |a: f64, b: f64| ((a.abs() * w as f64 + b.abs() * h as f64) / (2.0 * f)).ceil();
+        let (big_w, big_h) = (2 * (half(c, s) as usize + 2), 2 * (half(s, c) as usize + 2));
+        let n = (f.ceil() as usize).max(2);
+        let mut out = CanonicalMap {
+            values: vec![0; big_w * big_h],
+            unknown: vec![true; big_w * big_h],
+            height: big_h,
+            width: big_w,
+        };
+        for i in 0..big_h {
+            for j in 0..big_w {
+                let (mut t, mut k) = (0u64, 0u64);
+                for a in 0..n {
+                    for b in 0..n {
+                        let qy =
+                            ((i as f64 - (big_h / 2) as f64) + (a as f64 + 0.5) / n as f64) * f;
+                        let qx =
+                            ((j as f64 - (big_w / 2) as f64) + (b as f64 + 0.5) / n as f64) * f;
+                        let px = (c * qx - s * qy) + (w / 2) as f64;
+                        let py = (s * qx + c * qy) + (h / 2) as f64;
+                        let y = py.floor().clamp(0.0, (h - 1) as f64) as usize;
+                        let x = px.floor().clamp(0.0, (w - 1) as f64) as usize;
+                        let at = (r0 + y) * g.width + c0 + x;
+                        if !g.unknown[at] {
+                            t += u64::from(g.values[at]);
+                            k += 1;
+                        }
+                    }
+                }
+                if 2 * k >= (n * n) as u64 {
+                    out.values[i * big_w + j] = ((2 * t + k) / (2 * k)) as u8;
+                    out.unknown[i * big_w + j] = false;
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn the_resample_equals_the_literal_one_on_maps_with_open_areas() {
+        // large one-valued and unknown areas (the tiles filled or skipped without sampling),
+        // beside noise, walls and a frontier
+        for seed in 0..12u64 {
+            let (h, w) = (
+                150 + (seed as usize * 37) % 90,
+                170 + (seed as usize * 53) % 80,
+            );
+            let (noise, nu) = random_map(h, w, seed + 7);
+            let mut v = vec![254u8; h * w];
+            let mut u = vec![false; h * w];
+            for r in 0..h {
+                for c in 0..w {
+                    let i = r * w + c;
+                    if c > w * 2 / 3 || (r < 20 && c < 60) {
+                        u[i] = true; // unexplored
+                    } else if (r / 16 + c / 24) % 5 == 0 {
+                        (v[i], u[i]) = (noise[i], nu[i]); // busy patches
+                    } else if r % 41 == 3 || c % 57 == 5 {
+                        v[i] = 0; // walls
+                    } else if (r + c) % 97 < 30 {
+                        v[i] = 200; // another open shade
+                    }
+                }
+            }
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            let b = known_bounds(&g).unwrap();
+            let packed = pack_box(&g, b).unwrap();
+            for (k, res) in [0.05, 0.07, 0.035, 0.1, 0.02].into_iter().enumerate() {
+                let a =
+                    [0.0, 0.3, -std::f64::consts::FRAC_PI_4, 0.05, -0.2][(seed as usize + k) % 5];
+                let want = literal_canonical(&g, a, 0.07 / res);
+                for path in [Path::Best, Path::Baseline, Path::General] {
+                    let got = map_in_with(&g, &packed, b, a, Some(res), 0.07, path)
+                        .unwrap()
+                        .unwrap();
+                    assert_eq!(
+                        got, want,
+                        "{path:?}: seed {seed}, resolution {res}, angle {a}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn angle_sums_are_the_same_on_every_path() {
+        // gradients of every size up to the largest (4 * 255 * 256^2), zero runs, ties
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let big = 4 * 255 * 65536i64;
+        for len in [0usize, 1, 3, 4, 5, 8, 17, 64, 1001] {
+            let mut gen = |n: u64| -> Vec<i32> {
+                (0..len)
+                    .map(|_| match next() % 6 {
+                        0 => 0,
+                        1 => ((next() % (2 * big as u64 + 1)) as i64 - big) as i32,
+                        2 => (next() % 9) as i32 - 4,
+                        _ => ((next() % (2 * n + 1)) as i64 - n as i64) as i32,
+                    })
+                    .collect()
+            };
+            let (xs, ys) = (gen(3000), gen(70_000));
+            let scalar = angle_sums(&xs, &ys, false);
+            let best = angle_sums(&xs, &ys, true);
+            assert_eq!(
+                scalar.0.map(f64::to_bits),
+                best.0.map(f64::to_bits),
+                "{len}"
+            );
+            assert_eq!(
+                scalar.1.map(f64::to_bits),
+                best.1.map(f64::to_bits),
+                "{len}"
+            );
+        }
     }
 
     #[test]

@@ -568,6 +568,41 @@ mod tests {
         }
     }
 
+    /// The column pass literally: per column, the nearest set row (ties: the one above).
+    fn literal_columns(mask: &[bool], h: usize, w: usize) -> Vec<u32> {
+        let mut out = vec![NONE; h * w];
+        for c in 0..w {
+            for r in 0..h {
+                let mut best: Option<(usize, usize)> = None;
+                for q in 0..h {
+                    if mask[q * w + c] {
+                        let d = r.abs_diff(q);
+                        if best.is_none_or(|(bd, _)| d < bd) {
+                            best = Some((d, q));
+                        }
+                    }
+                }
+                if let Some((_, q)) = best {
+                    out[r * w + c] = q as u32;
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn column_pass_equals_the_literal_one() {
+        let mut next = rng(11);
+        for case in 0..60 {
+            let h = 1 + (next() % 30) as usize;
+            let w = 1 + (next() % 200) as usize;
+            let density = [1u64, 5, 30, 90][case % 4];
+            let mask: Vec<bool> = (0..h * w).map(|_| next() % 100 < density).collect();
+            let got = column_pass(&|i| mask[i], h, w).unwrap();
+            assert_eq!(got, literal_columns(&mask, h, w), "{h} x {w}");
+        }
+    }
+
     #[test]
     fn single_cell_and_empty() {
         let mut mask = vec![false; 7 * 5];
