@@ -90,3 +90,27 @@ def test_a_map_without_walls_has_no_support_figure(plan: OccupancyMap) -> None:
     a = slamq.agreement({"a": plan, "b": plan, "blank": blank}, align="origin")
     assert a.support["a"] == 1.0
     assert math.isnan(a.support["blank"]) or a.support["blank"] < 0.5
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_wall_missing_in_one_map_is_flagged_where_it_is(seed: int) -> None:
+    from slamq.metrics.agreement import missing_walls
+
+    plan = floor_plan(seed)
+    gap = degrade(plan, "gap", 2.0, seed=seed)
+    maps = {"a": plan, "b": degrade(plan, "specks", 0.001, seed=seed), "gap": gap}
+    flags = missing_walls(slamq.agreement(maps, align="icp"), maps)
+    assert flags["a"] == [] and flags["b"] == []
+    (d,) = flags["gap"]
+    assert d.kind == "missing_walls" and d.score >= 1.0
+    # the box lies on the walls the damage removed
+    removed = (plan.values < 128) & (gap.values[: plan.shape[0], : plan.shape[1]] >= 128)
+    c0, r0, c1, r1 = d.bbox
+    assert removed[r0:r1, c0:c1].sum() >= 0.8 * removed.sum()
+
+
+def test_clean_copies_have_no_missing_walls(plan: OccupancyMap) -> None:
+    from slamq.metrics.agreement import missing_walls
+
+    maps = {"a": plan, "b": degrade(plan, "drift", 0.5), "c": degrade(plan, "specks", 0.002)}
+    assert all(v == [] for v in missing_walls(slamq.agreement(maps, align="icp"), maps).values())
