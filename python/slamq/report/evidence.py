@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from slamq.errors import SlamqError
-from slamq.metrics.agreement import agreement, missing_walls
+from slamq.metrics.agreement import agreement
 from slamq.params import SETTINGS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
@@ -57,12 +57,9 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     -------
     dict
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
-        "defects", "missing_walls"}}, "majority": bool, "maps": int, "notes": [str]}``.
-        ``defects`` maps a run's map path to its defects (dicts of :meth:`Defect.to_dict`),
-        ``missing_walls`` to its :func:`slamq.metrics.agreement.missing_walls` flags (shown
-        on the report's detail pages; not part of the verdict's rule: they were added after
-        its held-out runs); an algorithm's support and completeness are the medians over its
-        runs.
+        "defects"}}, "majority": bool, "maps": int, "notes": [str]}``. ``defects`` maps a
+        run's map path to its defects (dicts of :meth:`Defect.to_dict`); an algorithm's
+        support and completeness are the medians over its runs.
 
     Examples
     --------
@@ -102,15 +99,12 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     if len(maps) >= 2:
         agree = agreement(maps, align=align, threads=threads)
         support, complete, placed = agree.support, agree.completeness, agree.placed
-        missing = {k: [d.to_dict() for d in v]
-                   for k, v in missing_walls(agree, maps).items()}
         majority = agree.majority
         notes.extend(agree.notes)
     else:
         support = complete = dict.fromkeys(maps, math.nan)
         placed = dict.fromkeys(maps, False)
         majority = False
-        missing = {}
     algorithms: dict[str, dict[str, Any]] = {}
     for alg in sorted(set(owner.values())):
         keys = [k for k in maps if owner[k] == alg]
@@ -121,7 +115,6 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "runs": len(keys),
             "flagged_runs": sum(1 for k in keys if found.get(k)),
             "defects": {str(maps[k].source): found.get(k, []) for k in keys},
-            "missing_walls": {str(maps[k].source): missing.get(k, []) for k in keys},
         }
     return {"algorithms": algorithms, "majority": bool(majority), "maps": len(maps),
             "notes": notes}

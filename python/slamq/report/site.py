@@ -230,10 +230,6 @@ def build_report(
     summary = summarize(ok)
     sequences = sorted(ok["sequence"].unique()) if len(ok) else []
     evidence = {s: sequence_evidence(ok, s) for s in sequences if needs_evidence(summary, s)}
-    if defects_for is _detected_defects:  # and the missing walls the other maps show
-        extra = {path: found for ev in evidence.values() for e in ev["algorithms"].values()
-                 for path, found in e.get("missing_walls", {}).items() if found}
-        defects_for = _with_missing(extra)
     verdicts = {v["sequence"]: v for v in write_verdicts(summary, sequences, out, evidence)}
     _add_agreement(summary, evidence)
     rankings = {s: rank_sequence(summary, s, verdicts[s]) for s in sequences}
@@ -536,13 +532,6 @@ def _add_agreement(summary: pd.DataFrame, evidence: dict[str, dict[str, Any]]) -
             if (seq, alg) in summary.index and math.isfinite(e["support"]):
                 summary.loc[(seq, alg), ["agreement_mean", "agreement_n"]] = (
                     e["support"], e["runs"])
-
-
-def _with_missing(extra: dict[str, list[dict]]) -> Callable[[Any], list[dict]]:
-    """The defect detectors' flags plus the missing walls found against the other maps."""
-    def flags(grid: Any) -> list[dict]:
-        return _detected_defects(grid) + list(extra.get(str(grid.source), []))
-    return flags
 
 
 def _detected_defects(grid: Any) -> list[dict]:
