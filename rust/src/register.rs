@@ -15,7 +15,8 @@
 //!    [`TRANSLATION_PEAKS`] shifts per rotation.
 //! 4. The [`REFINED`] best candidates by coarse score are refined by a short trimmed ICP on
 //!    a subsample and scored by the share of the moving points within the tolerance of a
-//!    fixed wall; the best is refined by the full ICP.
+//!    fixed wall times the consistency of the fixed walls that land on the moving map; the
+//!    best is refined by the full ICP.
 //! 5. Confidence: both maps' consistency where they overlap, their overlap, and the margin
 //!    to the best *distinct* runner-up; the registration is refused (`ok = false`, with a
 //!    reason) rather than forced when one of them is too low.
@@ -155,9 +156,9 @@ pub struct Registration {
     pub overlap: f64,
     pub overlap_moving: f64,
     pub overlap_fixed: f64,
-    /// Share of all moving points within the tolerance of a fixed wall, at the best
-    /// candidate and at the best distinct runner-up (NaN: none), on the candidates'
-    /// subsample.
+    /// At the best candidate and at the best distinct runner-up (NaN: none), on the
+    /// candidates' subsamples: the share of the moving points within the tolerance of a
+    /// fixed wall, times the consistency of the fixed points landing on the moving map.
     pub score: f64,
     pub runner_up_score: f64,
     pub runner_up: Option<Se2>,
@@ -758,6 +759,7 @@ pub fn register_prepared(
     candidates.truncate(REFINED);
     let target = Target::new(fixed.frame, &fixed.columns, &fixed.mask, &fixed.cells)?;
     let sample = subsample(&moving.points, SCORE_POINTS);
+    let back = subsample(&fixed.points, SCORE_POINTS);
     let n = sample.len() as f64;
     let refined: Vec<(f64, Se2)> = candidates
         .par_iter()
@@ -765,7 +767,15 @@ pub fn register_prepared(
             let t = icp(&sample, &target, start, params.trim, SHORT_ITERATIONS)
                 .map_or(start, |r| r.transform);
             let (_, near) = agreement(&sample, &t, fixed, tol);
-            (near as f64 / n, t)
+            // the fixed walls that land on the moving map's known cells must agree too: a
+            // turned copy that fits some walls puts others in the moving map's free space
+            let (landed, agree) = agreement(&back, &t.inverse(), moving, tol);
+            let consistent = if landed == 0 {
+                0.0
+            } else {
+                agree as f64 / landed as f64
+            };
+            (near as f64 / n * consistent, t)
         })
         .collect();
     let Some(best) =

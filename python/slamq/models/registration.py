@@ -44,9 +44,10 @@ class Registration:
         map's known cells) and ``overlap_fixed`` (the other way round).
     overlap_moving, overlap_fixed : float
     score, runner_up_score : float
-        Share of the moving walls within ``tolerance`` of a fixed wall at the best candidate
-        and at the best candidate that places the map elsewhere (NaN: none), each after a
-        short ICP, on a subsample.
+        At the best candidate and at the best one that places the map elsewhere (NaN:
+        none), each after a short ICP, on subsamples: the share of the moving walls within
+        ``tolerance`` of a fixed wall times the consistency of the fixed walls landing on
+        the moving map (docs/spec.md 7a).
     runner_up : tuple of float or None
         That runner-up's ``(theta, tx, ty)``.
     margin : float
