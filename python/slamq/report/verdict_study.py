@@ -113,13 +113,13 @@ def folder_verdicts(root: Path, by_eye: Path, *,
     (pandas.DataFrame, dict)
         The by-eye table with the scored maps' rows, and the verdict per folder.
     """
-    import slamq
+    from slamq.api import evaluate
 
     eye = pd.read_csv(by_eye)
     records = []
     for r in eye.itertuples():
         path = Path(root) / r.folder / r.map
-        q = slamq.evaluate(str(path))
+        q = evaluate(str(path))
         records.append({"map": str(path), "sequence": r.folder, "algorithm": r.map, "run": 1,
                         **q.to_dict()})
     ok = pd.DataFrame(records)
@@ -179,7 +179,8 @@ def markdown(bench: pd.DataFrame | None, eye: pd.DataFrame | None,
                            f"{r.sequence} ({r.best}, {r.ate_ratio:.1f}x the best ATE)"
                            for r in bad.itertuples()) + ".\n")
     if eye is not None and verdicts:
-        out.append("\n**Real folders, against the by-eye classes** (held out):\n\n"
+        out.append("\n**Real folders, against the by-eye classes** (ranked by eye before the "
+                   "rule existed; the first run on them is above):\n\n"
                    "| folder | named best | its class | broken named | pairs concordant | "
                    "ranking | confidence |\n|---|---|---|---|---|---|---|\n")
         good_all = total_all = 0
