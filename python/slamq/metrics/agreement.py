@@ -37,6 +37,7 @@ import numpy as np
 
 from slamq.errors import ParamError
 from slamq.metrics.compare import compare
+from slamq.metrics.several import named_maps
 from slamq.models import OccupancyMap
 from slamq.params import SETTINGS
 
@@ -394,20 +395,12 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     >>> a.support["0"] > a.support["2"]
     True
     """
-    named = (dict(maps) if isinstance(maps, Mapping)
-             else {str(i): m for i, m in enumerate(maps)})
-    if len(named) < 2:
-        raise ParamError(f"agreement needs at least 2 maps, got {len(named)}")
     if align not in SETTINGS.agreement_align.choices:
         raise ParamError(f"align must be one of {', '.join(SETTINGS.agreement_align.choices)}"
                          f", got {align!r}")
     if not (isinstance(min_support, (int, float)) and 0 <= min_support <= 1):
         raise ParamError(f"min_support must be in [0, 1], got {min_support!r}")
-    loaded = {str(k): v for k, v in named.items()}
-    for k, v in loaded.items():
-        if not isinstance(v, OccupancyMap):
-            raise ParamError(f"agreement takes OccupancyMaps, not {type(v).__name__} as "
-                             f"{k!r}; slamq.agreement reads files and arrays")
+    loaded = named_maps(maps, "agreement", 2)
     names = list(loaded)
     notes: list[str] = []
     placed = dict.fromkeys(names, True)

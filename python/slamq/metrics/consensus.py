@@ -29,6 +29,7 @@ import numpy as np
 
 from slamq.errors import ParamError
 from slamq.metrics.compare import compare
+from slamq.metrics.several import named_maps
 from slamq.models import MapComparison, OccupancyMap
 from slamq.params import SETTINGS
 
@@ -135,21 +136,13 @@ def consensus(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     >>> c.scores["0"].chamfer < c.scores["2"].chamfer
     True
     """
-    named = (dict(maps) if isinstance(maps, Mapping)
-             else {str(i): m for i, m in enumerate(maps)})
-    if len(named) < 3:
-        raise ParamError(f"consensus needs at least 3 maps, got {len(named)}")
+    loaded = named_maps(maps, "consensus", 3)
     if not 0 <= quorum < 1:
         raise ParamError(f"quorum must be in [0, 1), got {quorum!r}")
     if isinstance(radius, bool) or not isinstance(radius, int) or radius < 0:
         raise ParamError(f"radius must be an integer >= 0, got {radius!r}")
     import cv2  # on first use: importing OpenCV takes a while
 
-    loaded = {str(k): v for k, v in named.items()}
-    for k, v in loaded.items():
-        if not isinstance(v, OccupancyMap):
-            raise ParamError(f"consensus takes OccupancyMaps, not {type(v).__name__} as "
-                             f"{k!r}; slamq.consensus reads files and arrays")
     names = list(loaded)
     if base is None:
         mean_f1 = {}

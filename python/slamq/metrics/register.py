@@ -17,6 +17,7 @@ from typing import Any
 from slamq import native
 from slamq.errors import MapError, ParamError
 from slamq.metrics.compare import _number
+from slamq.metrics.several import named_maps
 from slamq.models import OccupancyMap, Registration
 from slamq.params import SETTINGS, check_threads
 
@@ -171,15 +172,7 @@ def register_many(
     >>> round(math.degrees(regs["b", "a"].theta), 1), round(math.degrees(regs["a", "b"].theta), 1)
     (-57.3, 57.3)
     """
-    named = (dict(maps) if isinstance(maps, Mapping)
-             else {str(i): m for i, m in enumerate(maps)})
-    if len(named) < 2:
-        raise ParamError(f"register_many needs at least 2 maps, got {len(named)}")
-    loaded = {str(k): v for k, v in named.items()}
-    for k, v in loaded.items():
-        if not isinstance(v, OccupancyMap):
-            raise ParamError(f"register_many takes OccupancyMaps, not {type(v).__name__} as "
-                             f"{k!r}; slamq.register_many reads files and arrays")
+    loaded = named_maps(maps, "register_many", 2)
     names = list(loaded)
     opts = _options(occupied_threshold, tolerance, min_inliers, min_overlap, min_margin,
                     threads)
