@@ -819,8 +819,11 @@ def _validity_section(ok: pd.DataFrame) -> str:
         "order), measured once: with the trajectory error on slam_comparison_tools (3 "
         "worlds x 5 algorithms), and with the damage in slamq's synthetic study (slamq.synth;"
         " for rotation the ideal is 0.5, no change). The verdict ranks by ground truth when "
-        "there is any, else by corners (corners_canonical when the maps differ in "
-        "resolution or orientation), never by the others.</p>"
+        "there is any; else by how far the other maps of the sequence confirm each map, "
+        "never naming a map they do not confirm or a defect detector flags, with corners "
+        "(corners_canonical when the maps differ in resolution or orientation) only ordering "
+        "the maps confirmed equally; never by the others (docs/validity.md, \"The verdict "
+        "without ground truth\").</p>"
         "<table class=\"validity shipped\"><tr><th>metric</th><th>vs ATE</th>"
         "<th>drift</th><th>wall doubling</th><th>rotation</th><th>specks</th></tr>"
         f"{shipped}</table>"]
