@@ -122,27 +122,16 @@ impl<'a> Target<'a> {
         let frame = &self.frame;
         let (h, w) = (frame.height as isize, frame.width as isize);
         let (r0, c0) = ((i as isize) / w, (i as isize) % w);
-        let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        for r in (r0 - LINE_WINDOW).max(0)..=(r0 + LINE_WINDOW).min(h - 1) {
-            for c in (c0 - LINE_WINDOW).max(0)..=(c0 + LINE_WINDOW).min(w - 1) {
-                if self.occupied[(r * w + c) as usize] {
-                    // window coordinates relative to the centre cell, in cells
-                    let (x, y) = ((c - c0) as f64, (r - r0) as f64);
-                    n += 1.0;
-                    sx += x;
-                    sy += y;
-                    sxx += x * x;
-                    sxy += x * y;
-                    syy += y * y;
-                }
-            }
-        }
-        let (mx, my) = (sx / n, sy / n);
-        let (a, b, d) = (sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my);
-        // eigenvalues of [[a, b], [b, d]]
-        let half = 0.5 * (a + d);
-        let root = (0.25 * (a - d) * (a - d) + b * b).sqrt();
-        let (big, small) = (half + root, half - root);
+        let Scatter {
+            n,
+            mx,
+            my,
+            a,
+            b,
+            d,
+            big,
+            small,
+        } = scatter(self.occupied, h, w, r0, c0, LINE_WINDOW);
         let centre = self.to_world.apply(r0 as f64, c0 as f64);
         // the centroid in world coordinates: the centre cell plus the offset
         let (ux, uy) = unit_steps(&self.to_world);
@@ -459,6 +448,63 @@ pub const SEARCH_STEP_DEG: f64 = 10.0;
 const SEARCH_POINTS: usize = 2000;
 /// ICP iterations of each trial.
 const SEARCH_ITERATIONS: usize = 20;
+
+/// The scatter of the occupied cells in the square window of half-size `half` around cell
+/// (`r0`, `c0`) of a `h` x `w` mask, in window coordinates relative to the centre cell
+/// (x = column, y = row, in cells): their count `n`, centroid (`mx`, `my`), covariance
+/// `[[a, b], [b, d]]` and its eigenvalues `big >= small`. Cells are summed row by row, so
+/// the figures are the same wherever they are asked for. With `n == 0` they are NaN.
+pub(crate) struct Scatter {
+    pub n: f64,
+    pub mx: f64,
+    pub my: f64,
+    pub a: f64,
+    pub b: f64,
+    pub d: f64,
+    pub big: f64,
+    pub small: f64,
+}
+
+/// [`Scatter`] of one window (a local line fit: ICP's point-to-line targets, the
+/// registration's wall directions).
+pub(crate) fn scatter(
+    occupied: &[bool],
+    h: isize,
+    w: isize,
+    r0: isize,
+    c0: isize,
+    half: isize,
+) -> Scatter {
+    let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for r in (r0 - half).max(0)..=(r0 + half).min(h - 1) {
+        let row = &occupied[(r * w) as usize..((r + 1) * w) as usize];
+        for c in (c0 - half).max(0)..=(c0 + half).min(w - 1) {
+            if row[c as usize] {
+                let (x, y) = ((c - c0) as f64, (r - r0) as f64);
+                n += 1.0;
+                sx += x;
+                sy += y;
+                sxx += x * x;
+                sxy += x * y;
+                syy += y * y;
+            }
+        }
+    }
+    let (mx, my) = (sx / n, sy / n);
+    let (a, b, d) = (sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my);
+    let mid = 0.5 * (a + d);
+    let root = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    Scatter {
+        n,
+        mx,
+        my,
+        a,
+        b,
+        d,
+        big: mid + root,
+        small: mid - root,
+    }
+}
 
 /// The former start of `align="search"` (now [`crate::register`]; kept as its benchmark's
 /// baseline, `register::legacy_search`). Coarse search: for every rotation in steps of

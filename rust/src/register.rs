@@ -27,7 +27,7 @@
 
 use crate::compare::Placed;
 use crate::edt::{filled, Columns, EdtError};
-use crate::icp::{icp, search, Target};
+use crate::icp::{icp, scatter, search, Scatter, Target};
 use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
@@ -305,30 +305,18 @@ fn directions(mask: &[bool], cells: &[u32], h: usize, w: usize, yaw: f64) -> [f6
             let mut hist = [0.0f64; 180];
             for &i in chunk {
                 let (r0, c0) = ((i as usize / w) as isize, (i as usize % w) as isize);
-                let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) =
-                    (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-                for r in (r0 - WINDOW).max(0)..=(r0 + WINDOW).min(h as isize - 1) {
-                    let row = &mask[r as usize * w..(r as usize + 1) * w];
-                    for c in (c0 - WINDOW).max(0)..=(c0 + WINDOW).min(w as isize - 1) {
-                        if row[c as usize] {
-                            let (x, y) = ((c - c0) as f64, (r - r0) as f64);
-                            n += 1.0;
-                            sx += x;
-                            sy += y;
-                            sxx += x * x;
-                            sxy += x * y;
-                            syy += y * y;
-                        }
-                    }
-                }
+                let Scatter {
+                    n,
+                    a,
+                    b,
+                    d,
+                    big,
+                    small,
+                    ..
+                } = scatter(mask, h as isize, w as isize, r0, c0, WINDOW);
                 if n < 3.0 {
                     continue;
                 }
-                let (mx, my) = (sx / n, sy / n);
-                let (a, b, d) = (sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my);
-                let half = 0.5 * (a + d);
-                let root = (0.25 * (a - d) * (a - d) + b * b).sqrt();
-                let (big, small) = (half + root, half - root);
                 if big <= 0.0 {
                     continue;
                 }

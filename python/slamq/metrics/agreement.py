@@ -193,6 +193,19 @@ def _grow(mask: np.ndarray, cells: int) -> np.ndarray:
     return cv2.dilate(mask.astype(np.uint8), k) != 0
 
 
+def finite_median(values: Any) -> float:
+    """The median of the finite values, NaN when there is none.
+
+    Examples
+    --------
+    >>> finite_median([1.0, float("nan"), 3.0]), finite_median([])
+    (2.0, nan)
+    """
+    row = np.asarray(values, dtype=float)
+    row = row[np.isfinite(row)]
+    return float(np.median(row)) if len(row) else math.nan
+
+
 def _share(num: int, den: int) -> float:
     return num / den if den else math.nan
 
@@ -221,13 +234,20 @@ def _pair(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | N
     return support, recall, covers, missing
 
 
-def _moved(m: OccupancyMap, theta: float, tx: float, ty: float,
-           resolution: float) -> OccupancyMap:
-    """``m`` with its origin taken by the motion (theta, tx, ty) into another frame."""
-    x, y, yaw = m.origin
-    c, s = math.cos(theta), math.sin(theta)
-    return OccupancyMap(m.values, m.unknown, m.resolution or resolution,
-                        (c * x - s * y + tx, s * x + c * y + ty, yaw + theta), source=m.source)
+def _resolved(maps: Mapping[str, OccupancyMap]) -> dict[str, OccupancyMap]:
+    """The maps, those without a resolution given the first one the others have (else 1 m),
+    so that every pair is measured in one unit."""
+    res = next((m.resolution for m in maps.values() if m.resolution), 1.0)
+    return {n: m if m.resolution else OccupancyMap(m.values, m.unknown, res, m.origin,
+                                                    source=m.source)
+            for n, m in maps.items()}
+
+
+def _moved(m: OccupancyMap, r: Any) -> OccupancyMap:
+    """``m`` with its origin taken by the registration ``r`` into the fixed map's frame."""
+    ((x, y),) = r.apply([m.origin[:2]])
+    return OccupancyMap(m.values, m.unknown, m.resolution,
+                        (float(x), float(y), m.origin[2] + r.theta), source=m.source)
 
 
 def place_all(maps: Mapping[str, OccupancyMap], *, threads: int | None = None
@@ -268,8 +288,7 @@ def place_all(maps: Mapping[str, OccupancyMap], *, threads: int | None = None
     from slamq.metrics.register import register_many
 
     names = list(maps)
-    res = next((m.resolution for m in maps.values() if m.resolution), 1.0)
-    maps = {n: _moved(m, 0.0, 0.0, 0.0, res) for n, m in maps.items()}
+    maps = _resolved(maps)
     regs = register_many(maps, threads=threads)
 
     def trusted(n: str) -> tuple[int, float, int]:
@@ -286,16 +305,13 @@ def place_all(maps: Mapping[str, OccupancyMap], *, threads: int | None = None
             continue
         r = regs[n, base]
         if r.ok:
-            moved[n] = _moved(maps[n], r.theta, r.tx, r.ty, res)
+            moved[n] = _moved(maps[n], r)
             placed[n] = True
             continue
         for k in names:
             if k in (n, base) or not (regs[n, k].ok and regs[k, base].ok):
                 continue
-            a, b = regs[n, k], regs[k, base]  # n -> k, then k -> base
-            c, s = math.cos(b.theta), math.sin(b.theta)
-            moved[n] = _moved(maps[n], a.theta + b.theta, c * a.tx - s * a.ty + b.tx,
-                              s * a.tx + c * a.ty + b.ty, res)
+            moved[n] = _moved(_moved(maps[n], regs[n, k]), regs[k, base])  # through k
             placed[n] = True
             break
         else:
@@ -312,8 +328,7 @@ def _auto(maps: dict[str, OccupancyMap], names: list[str], sup: np.ndarray, rec:
     from slamq.errors import MapError
     from slamq.metrics.register import register_many
 
-    res = next((m.resolution for m in maps.values() if m.resolution), 1.0)
-    maps = {n: _moved(m, 0.0, 0.0, 0.0, res) for n, m in maps.items()}
+    maps = _resolved(maps)
     try:
         regs = register_many(maps, threads=threads)
     except MapError as exc:
@@ -330,7 +345,7 @@ def _auto(maps: dict[str, OccupancyMap], names: list[str], sup: np.ndarray, rec:
             r = regs.get((a, b))
             if r is not None and r.ok:
                 fits[a] = True
-                moved = _pair(_moved(maps[a], r.theta, r.tx, r.ty, res), maps[b], "icp",
+                moved = _pair(_moved(maps[a], r), maps[b], "icp",
                               tolerance, threads)
                 if _f(moved[0], moved[1]) > _f(best[0], best[1]):
                     best = moved
@@ -434,12 +449,8 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
                 vals = [v for v in (one, two) if math.isfinite(v)]
                 cons[i, j] = float(np.mean(vals)) if vals else math.nan
 
-    def median(row: np.ndarray) -> float:
-        row = row[np.isfinite(row)]
-        return float(np.median(row)) if len(row) else math.nan
-
-    support = {a: median(cons[i]) for i, a in enumerate(names)}
-    completeness = {a: median(cov[i]) for i, a in enumerate(names)}
+    support = {a: finite_median(cons[i]) for i, a in enumerate(names)}
+    completeness = {a: finite_median(cov[i]) for i, a in enumerate(names)}
     confirmed = sum(1 for a in names if support[a] >= min_support)
     majority = confirmed * 2 > n
     if not majority:

@@ -13,11 +13,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
 from slamq.errors import SlamqError
-from slamq.metrics.agreement import agreement
+from slamq.metrics.agreement import agreement, finite_median
 from slamq.params import SETTINGS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
@@ -26,11 +25,6 @@ __all__ = ["RUNS_PER_ALGORITHM", "sequence_evidence"]
 
 #: At most this many runs of each algorithm take part in the agreement of a sequence.
 RUNS_PER_ALGORITHM = 3
-
-
-def _median(values: list[float]) -> float:
-    vals = [v for v in values if math.isfinite(v)]
-    return float(np.median(vals)) if vals else math.nan
 
 
 def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
@@ -109,8 +103,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     for alg in sorted(set(owner.values())):
         keys = [k for k in maps if owner[k] == alg]
         algorithms[alg] = {
-            "support": _median([support[k] for k in keys]),
-            "completeness": _median([complete[k] for k in keys]),
+            "support": finite_median([support[k] for k in keys]),
+            "completeness": finite_median([complete[k] for k in keys]),
             "placed": all(placed[k] for k in keys),
             "runs": len(keys),
             "flagged_runs": sum(1 for k in keys if found.get(k)),

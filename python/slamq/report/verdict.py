@@ -98,12 +98,30 @@ def _means(block: pd.DataFrame, key: str) -> pd.Series:
     return values[np.isfinite(values.to_numpy(dtype=float))]
 
 
+def _algorithms(summary: pd.DataFrame, sequence: str) -> pd.DataFrame:
+    """The summary rows of one sequence, reference maps (ground truths) left out."""
+    block = summary.xs(sequence, level="sequence") if len(summary) else summary
+    return block.drop(index=[a for a in block.index
+                             if str(a).lower() in GROUND_TRUTH_ALGORITHMS])
+
+
+def _ground_truth_decides(block: pd.DataFrame) -> bool:
+    """At least two algorithms have an ATE, or a GT-map F1: the ground truth ranks them."""
+    return any(len(_means(block, k)) >= 2 for k, *_ in _BASES[:2])
+
+
+def _differences(block: pd.DataFrame) -> tuple[bool, bool]:
+    """Whether the maps of ``block`` differ in resolution, and in orientation (wall angles
+    more than ``ANGLE_TOLERANCE_DEG`` apart modulo 90): then plain corners do not compare."""
+    return (len(distinct_resolutions(block.get("resolution_mean", []))) > 1,
+            angle_spread(block.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG)
+
+
 def _corner_key(block: pd.DataFrame, names: list[str]) -> tuple[str | None, pd.Series]:
     """The corner column that orders ``names``: plain corners when the maps share one
     resolution and orientation, else corners_canonical; None when neither is there."""
     part = block.loc[[a for a in names if a in block.index]]
-    differ = (len(distinct_resolutions(part.get("resolution_mean", []))) > 1
-              or angle_spread(part.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG)
+    differ = any(_differences(part))
     for key in (("corners_canonical",) if differ else ("corners", "corners_canonical")):
         means = _means(part, key)
         if len(means) == len(part):
@@ -112,7 +130,7 @@ def _corner_key(block: pd.DataFrame, names: list[str]) -> tuple[str | None, pd.S
 
 
 def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, Any],
-                       partial: set[str], warnings: list[str]) -> dict[str, Any]:
+                       warnings: list[str]) -> dict[str, Any]:
     """The verdict without ground truth, from the maps' agreement and defect flags."""
     info = {str(a): e for a, e in evidence["algorithms"].items() if a in block.index}
     warnings.extend(evidence.get("notes", []))
@@ -132,7 +150,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
             flagged[a] = (f"its walls disagree with the other maps (support {v:.2f}, best "
                           f"{top:.2f})")
     most = max(complete.values()) if complete else math.nan
-    partial = set(partial)
+    partial: set[str] = set()
     for a, v in complete.items():
         if v < COMPLETE_SHARE * most:
             partial.add(a)
@@ -223,19 +241,16 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
     >>> v["best"], v["ranking"], v["basis"]
     ('c', ['c', 'a', 'b'], ['agreement', 'corners'])
     """
-    block = summary.xs(sequence, level="sequence") if len(summary) else summary
-    refs = [a for a in block.index if str(a).lower() in GROUND_TRUTH_ALGORITHMS]
-    block = block.drop(index=refs)
+    block = _algorithms(summary, sequence)
     warnings: list[str] = []
+    if evidence is not None and not _ground_truth_decides(block):
+        return _agreement_verdict(block, sequence, evidence, warnings)
     share = known_share(block)  # by area: comparable across resolutions; else cells
     partial = {a for a, s in share.items() if s < COMPLETE_SHARE}
-    if evidence is not None and not any(len(_means(block, k)) >= 2 for k, *_ in _BASES[:2]):
-        return _agreement_verdict(block, sequence, evidence, set(), warnings)
     for a in sorted(partial):
         warnings.append(f"{a}'s map knows {100 * share[a]:.0f}% of the area of the most "
                         "complete map: a partial map, never named best")
-    res_differ = len(distinct_resolutions(block.get("resolution_mean", []))) > 1
-    turned = angle_spread(block.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG
+    res_differ, turned = _differences(block)
     differ = " and ".join(w for w, d in (("resolution", res_differ), ("orientation", turned))
                           if d)
     for key, higher, tie, tie_higher, confidence in _BASES:
@@ -329,10 +344,8 @@ def needs_evidence(summary: pd.DataFrame, sequence: str) -> bool:
     >>> needs_evidence(summarize(df), "s")
     True
     """
-    block = summary.xs(sequence, level="sequence") if len(summary) else summary
-    block = block.drop(index=[a for a in block.index
-                              if str(a).lower() in GROUND_TRUTH_ALGORITHMS])
-    return len(block) >= 2 and not any(len(_means(block, k)) >= 2 for k, *_ in _BASES[:2])
+    block = _algorithms(summary, sequence)
+    return len(block) >= 2 and not _ground_truth_decides(block)
 
 
 def write_verdicts(summary: pd.DataFrame, sequences: list[str], out_dir: Path,
