@@ -203,6 +203,24 @@ def test_without_ground_truth_agreement_flags_and_corners_only_order_confirmed_m
     assert verdict_sentence(v).startswith("s: b is best by agreement with the other maps")
 
 
+@pytest.mark.parametrize("differ", ["resolution", "orientation"])
+def test_corners_never_order_confirmed_maps_of_different_grids(differ: str) -> None:
+    # issue 25: corners only break ties between maps of one resolution and frame; the
+    # canonical count is not used either: the confirmed maps are ordered by support
+    ev = _evidence({"a": 0.90, "b": 0.95, "c": 0.93})
+    res = [0.05, 0.07, 0.05] if differ == "resolution" else [0.05, 0.05, 0.05]
+    angle = [0.0, 0.0, 0.0] if differ == "resolution" else [0.0, 12.0, 0.0]
+    v = agreement_verdict(ev, algorithm=list("abc"), corners=[10, 500, 300],
+                          corners_canonical=[10, 500, 300], resolution=res, wall_angle=angle)
+    assert v["best"] == "b" and v["ranking"] == ["b", "c", "a"], v
+    assert v["basis"] == ["agreement"]
+    assert "corners cannot compare them: their support orders them" in v["confidence"]
+    # the same maps on one grid: plain corners order them
+    same = agreement_verdict(ev, algorithm=list("abc"), corners=[10, 500, 300],
+                             resolution=[0.05] * 3, wall_angle=[0.0] * 3)
+    assert same["best"] == "a" and same["basis"] == ["agreement", "corners"]
+
+
 def test_without_ground_truth_a_partial_or_unplaced_map_is_never_best() -> None:
     ev = _evidence({"a": 0.9, "b": 0.9, "c": 0.9, "e": 0.9},
                    completeness={"a": 0.5, "b": 0.95, "c": 0.9, "e": 0.9}, unplaced=("e",))

@@ -13,8 +13,8 @@ ground-truth figures agree with each other far better. So the verdict ranks by, 
    9): an algorithm whose maps could not be placed with the others, whose runs carry a
    defect flag (at least half of them), or whose support is under ``AGREEMENT_SHARE`` of the
    best is never named; one whose completeness is under ``COMPLETE_SHARE`` of the highest
-   is partial, never named; corners (``corners_canonical`` when the maps differ in
-   resolution or orientation) only order the maps the agreement confirms equally. It
+   is partial, never named; plain corners only order the maps the agreement confirms
+   equally when they share one resolution and orientation (else their support does). It
    abstains, saying why, with fewer than three maps (unless one of two is flagged), when
    the maps disagree among themselves (no majority confirmed), or when every map is flagged;
 4. else (no maps to compare: a summary alone) corners alone, low confidence, as before:
@@ -118,14 +118,16 @@ def _differences(block: pd.DataFrame) -> tuple[bool, bool]:
 
 
 def _corner_key(block: pd.DataFrame, names: list[str]) -> tuple[str | None, pd.Series]:
-    """The corner column that orders ``names``: plain corners when the maps share one
-    resolution and orientation, else corners_canonical; None when neither is there."""
+    """The corner column that orders ``names``, the maps the agreement confirms equally:
+    plain corners when they share one resolution and orientation (issue 25: "corners only
+    break ties between unflagged maps of one resolution and frame"), else None (their
+    support orders them); None too when a map has no corner count."""
     part = block.loc[[a for a in names if a in block.index]]
-    differ = any(_differences(part))
-    for key in (("corners_canonical",) if differ else ("corners", "corners_canonical")):
-        means = _means(part, key)
-        if len(means) == len(part):
-            return key, means
+    if any(_differences(part)):
+        return None, pd.Series(dtype=float)
+    means = _means(part, "corners")
+    if len(means) == len(part):
+        return "corners", means
     return None, pd.Series(dtype=float)
 
 
@@ -190,6 +192,10 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                 "basis": basis, "confidence": f"none: {why}", "warnings": warnings}
     confidence = ("medium: no ground truth; the maps confirm each other, and the named map "
                   "is confirmed by them and has no defect flag")
+    if key is None and len(candidates) > 1:
+        confidence += (f"; the {len(candidates)} maps they confirm equally differ in "
+                       "resolution or orientation, so corners cannot compare them: their "
+                       "support orders them")
     if key is not None and len(candidates) > 1:
         confidence += (f"; among the {len(candidates)} maps they confirm equally, {key} "
                        "decide")
