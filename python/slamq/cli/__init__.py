@@ -1,6 +1,7 @@
 """The ``slamq`` command line: one module per command.
 
-``slamq eval`` (:mod:`slamq.cli.eval`), ``compare`` (:mod:`~slamq.cli.compare`), ``batch``
+``slamq eval`` (:mod:`slamq.cli.eval`), ``compare`` (:mod:`~slamq.cli.compare`), ``verdict``
+(:mod:`~slamq.cli.verdict`), ``batch``
 (:mod:`~slamq.cli.batch`), ``summary`` (:mod:`~slamq.cli.summary`), ``report``
 (:mod:`~slamq.cli.report`), ``ate`` / ``rpe`` (:mod:`~slamq.cli.trajectory`), ``timeline``
 (:mod:`~slamq.cli.timeline`), ``synth`` (:mod:`~slamq.cli.synth`). Each module has
@@ -35,6 +36,7 @@ from slamq.cli.common import (
 COMMANDS: tuple[str, ...] = (
     "slamq.cli.eval",
     "slamq.cli.compare",
+    "slamq.cli.verdict",
     "slamq.cli.batch",
     "slamq.cli.summary",
     "slamq.cli.validate",

@@ -363,3 +363,4 @@ def write_verdicts(summary: pd.DataFrame, sequences: list[str], out_dir: Path,
     verdicts = [sequence_verdict(summary, s, evidence.get(s)) for s in sequences]
     (Path(out_dir) / "verdict.json").write_text(json.dumps(verdicts, indent=1) + "\n")
     return verdicts
+

@@ -1,0 +1,106 @@
+"""``slamq verdict PATH...``: which of several maps of one place to trust, without ground
+truth.
+
+Follow it: :func:`handle` -> :func:`slamq.report.maps_verdict.maps_verdict` -> the three metrics
+of each map (:func:`slamq.evaluate`), their agreement with each other and the defect
+detectors (:func:`slamq.report.evidence.sequence_evidence`: :func:`slamq.agreement`,
+:func:`slamq.metrics.defects.detect_defects`), and the rule of docs/spec.md section 9
+(:func:`slamq.report.verdict.sequence_verdict`), the one the report's verdict uses.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from typing import Any
+
+from slamq.cli.common import add_threads_option, error_line, exit_code
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Register ``slamq verdict``."""
+    p = subparsers.add_parser(
+        "verdict",
+        help="which of several maps of one place to trust, without ground truth",
+        description="Name the best of several maps of one place (different SLAM programs "
+        "or settings), without ground truth: every map is laid over every other, maps the "
+        "others do not confirm or that a defect detector flags are never named, corners "
+        "only order the maps the others confirm equally on one grid, and the verdict "
+        "abstains, saying why, when the evidence is weak (docs/spec.md section 9; how far "
+        "it can be trusted: docs/validity.md). Folders are searched recursively as slamq "
+        "eval does.",
+    )
+    p.add_argument("paths", nargs="+", help="map files (YAML + image, or images) or folders")
+    p.add_argument("--json", metavar="FILE",
+                   help="write the verdict and the evidence as JSON ('-': standard output)")
+    p.add_argument("--no-defects", action="store_true",
+                   help="agreement alone, without the defect detectors")
+    add_threads_option(p)
+    p.set_defaults(func=handle)
+
+
+def handle(args: argparse.Namespace) -> int:
+    """Score every map found, then the verdict; a bad map is one error line and takes no
+    part, the others are still judged."""
+    from slamq.params import check_threads
+    from slamq.report.maps_verdict import maps_verdict
+    from slamq.report.verdict import verdict_sentence
+    from slamq.sources.walk import discover_maps
+
+    check_threads(args.threads, "--threads")
+    sources, problems = discover_maps(args.paths)
+    for where, reason in problems:
+        error_line(where, reason)
+    result = maps_verdict(sources, defects=not args.no_defects, threads=args.threads)
+    for where, reason in result["errors"]:
+        error_line(where, reason)
+    failed = len(problems) + len(result["errors"])
+    out = sys.stderr if args.json == "-" else sys.stdout
+    if result["verdict"] is not None and not args.quiet:
+        _print(result, out)
+        print(verdict_sentence(result["verdict"]), file=out)
+    if args.json and result["verdict"] is not None:
+        text = json.dumps({k: result[k] for k in ("verdict", "evidence", "maps")},
+                          indent=1, default=_plain)
+        if args.json == "-":
+            print(text)
+        else:
+            with open(args.json, "w", encoding="utf-8") as f:
+                f.write(text + "\n")
+    return exit_code(len(result["maps"]), failed, 0, args.paths)
+
+
+def _plain(x: Any) -> Any:
+    """JSON for numpy scalars."""
+    return x.item() if hasattr(x, "item") else str(x)
+
+
+def _fmt(x: Any, digits: int = 2) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    return f"{x:.{digits}f}" if isinstance(x, float) else str(x)
+
+
+def _print(result: dict[str, Any], out: Any) -> None:
+    """The maps in the verdict's order: rank, support, completeness, flags, corners."""
+    v, ev = result["verdict"], result["evidence"]
+    info = ev["algorithms"] if ev else {}
+    rows = [("rank", "map", "support", "complete", "corners", "canonical", "flags")]
+    order = list(v["ranking"]) + sorted(set(result["maps"]) - set(v["ranking"]))
+    for i, name in enumerate(order, 1):
+        e = info.get(name, {})
+        kinds = sorted({d["kind"] for ds in e.get("defects", {}).values() for d in ds})
+        if e and not e.get("placed", True):
+            kinds.insert(0, "not placed")
+        rank = str(i) if name in v["ranking"] else "-"
+        rows.append((rank, name, _fmt(e.get("support")), _fmt(e.get("completeness")),
+                     _fmt(result["maps"][name].get("corners"), 0),
+                     _fmt(result["maps"][name].get("corners_canonical"), 0),
+                     ", ".join(kinds) or "-"))
+    widths = [max(len(r[c]) for r in rows) for c in range(len(rows[0]))]
+    for r in rows:
+        print("  ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip(), file=out)
+    for w in v["warnings"]:
+        print(f"slamq: note: {w}", file=out)
