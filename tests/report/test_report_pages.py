@@ -281,10 +281,12 @@ def test_ground_truth_layer_on_the_detail_pages(office_site: Path) -> None:
         assert Image.open(site / png).size == Image.open(site / base).size
 
 
-def test_the_deciding_canonical_corners_are_a_column_of_the_table(tmp_path: Path) -> None:
-    """Maps saved at different resolutions are ordered by corners_canonical among the maps
-    their agreement confirms (the verdict); the table then shows that column, marked as
-    deciding, and the section says so."""
+def test_maps_of_different_resolutions_are_ordered_by_agreement_not_corners(
+        tmp_path: Path) -> None:
+    """Maps saved at different resolutions that their agreement confirms equally are ordered
+    by their support, not by corners (issue 25: corners only break ties between maps of one
+    resolution and frame); the table marks the agreement column as deciding and no corner
+    column, and the page says why."""
     recs = []
     for alg, scale in (("fine", 2), ("coarse", 1), ("other", 1)):
         for run in range(2):
@@ -300,10 +302,11 @@ def test_the_deciding_canonical_corners_are_a_column_of_the_table(tmp_path: Path
     index = build_report(recs, tmp_path / "site", gifs=False, trajectories=False,
                          details="gallery")
     (v,) = json.loads((index.parent / "verdict.json").read_text())
-    assert v["basis"] == ["agreement", "corners_canonical"] and v["best"] is not None
+    assert v["basis"] == ["agreement"] and v["best"] is not None, v
+    assert "corners cannot compare them: their support orders them" in v["confidence"]
     html = index.read_text(encoding="utf-8")
     assert '<th class="basis">agreement<br><small>decides</small></th>' in html
-    assert len(re.findall(r'data-metric="corners_canonical"', html)) == 3
+    assert not re.search(r'<th class="basis">[^<]*corners', html)
     assert len(re.findall(r'data-metric="agreement"', html)) == 3
     assert f"{v['best']} is best by agreement with the other maps (the verdict" in html
     assert check_best_sentences(index.parent) >= 3

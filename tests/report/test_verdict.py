@@ -243,7 +243,9 @@ def test_without_ground_truth_the_verdict_abstains_and_says_why(case: str) -> No
         algs, why = ["a", "b", "c"], "every map is flagged or partial"
     v = agreement_verdict(ev, algorithm=algs, corners=list(range(10, 10 + len(algs))))
     assert v["best"] is None and why in v["confidence"]
-    assert verdict_sentence(v).startswith("s: no algorithm is named best")
+    # the sentence gives the reason, not the first note
+    sentence = verdict_sentence(v)
+    assert sentence.startswith("s: no algorithm is named best (") and why in sentence
 
 
 def test_of_two_maps_one_flagged_on_its_own_the_other_is_named() -> None:

@@ -331,7 +331,11 @@ def verdict_sentence(v: dict[str, Any]) -> str:
     's: a is best by ATE RMSE (of 2; confidence high: ...).'
     """
     if v["best"] is None:
-        why = "; ".join(v["warnings"][:1]) or v["confidence"]
+        # the reason the verdict abstains is its confidence's ("none: why"), unless it only
+        # says there was nothing to rank: then the first warning says why
+        why = v["confidence"].removeprefix("none: ")
+        if why == "nothing to rank" and v["warnings"]:
+            why = v["warnings"][0]
         return f"{v['sequence']}: no algorithm is named best ({why})."
     basis = basis_name(v["basis"][0])
     return (f"{v['sequence']}: {v['best']} is best by {basis} (of {len(v['ranking'])}; "
