@@ -215,6 +215,12 @@ def test_corners_never_order_confirmed_maps_of_different_grids(differ: str) -> N
     assert v["best"] == "b" and v["ranking"] == ["b", "c", "a"], v
     assert v["basis"] == ["agreement"]
     assert "corners cannot compare them: their support orders them" in v["confidence"]
+    # the first rule (2026-11-25, kept to measure against): corners_canonical ordered them
+    df = pd.DataFrame({"sequence": "s", "algorithm": list("abc"), "corners": [10, 500, 300],
+                       "corners_canonical": [10, 500, 300], "resolution": res,
+                       "wall_angle": angle})
+    first = sequence_verdict(summarize(df), "s", ev, canonical_across_grids=True)
+    assert first["best"] == "a" and first["basis"] == ["agreement", "corners_canonical"]
     # the same maps on one grid: plain corners order them
     same = agreement_verdict(ev, algorithm=list("abc"), corners=[10, 500, 300],
                              resolution=[0.05] * 3, wall_angle=[0.0] * 3)

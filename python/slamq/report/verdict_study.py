@@ -67,8 +67,9 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
     pandas.DataFrame
         One row per sequence: ``sequence``, ``best`` (None: abstained), ``ate_rank`` of the
         named algorithm (1 best), ``ate_ratio`` (its ATE over the best), ``broken_named``,
-        ``reason``, and the same for the old rule (corners alone): ``old_best``,
-        ``old_ate_rank``, ``old_broken_named``.
+        ``reason``, and the same for the first rule of 2026-11-25 (``first_best``,
+        ``first_ate_rank``, ``first_broken_named``) and the old rule (corners alone):
+        ``old_best``, ``old_ate_rank``, ``old_broken_named``.
     """
     from slamq.synth.benchmark import load_benchmark
 
@@ -88,8 +89,15 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
         ratio = float(ate[best] / ate.min()) if best in ate.index else math.nan
         broken = bool(block.loc[block["algorithm"] == best, "broken"].any()) if best else False
         old = sequence_verdict(summary, str(seq))["best"]  # corners alone: the old rule
+        first = sequence_verdict(summary, str(seq), ev, canonical_across_grids=True)["best"]
         rows.append({"sequence": seq, "best": best, "ate_rank": rank, "ate_ratio": ratio,
-                     "broken_named": broken, "reason": v["confidence"], "old_best": old,
+                     "broken_named": broken, "reason": v["confidence"],
+                     "first_best": first,
+                     "first_ate_rank": float(ate.rank()[first]) if first in ate.index
+                     else math.nan,
+                     "first_broken_named": bool(block.loc[block["algorithm"] == first,
+                                                          "broken"].any()) if first else False,
+                     "old_best": old,
                      "old_ate_rank": float(ate.rank()[old]) if old in ate.index else math.nan,
                      "old_broken_named": bool(block.loc[block["algorithm"] == old,
                                                         "broken"].any()) if old else False})
@@ -113,7 +121,8 @@ def folder_verdicts(root: Path, by_eye: Path, *,
     Returns
     -------
     (pandas.DataFrame, dict)
-        The by-eye table with the scored maps' rows, and the verdict per folder.
+        The by-eye table with the scored maps' rows, and the verdict per folder (its
+        ``first_rule``: the verdict of the first rule of 2026-11-25 on the same evidence).
     """
     from slamq.api import evaluate
 
@@ -130,6 +139,8 @@ def folder_verdicts(root: Path, by_eye: Path, *,
     for folder in eye["folder"].unique():
         ev = sequence_evidence(ok, folder, align=align, defects=defects)
         verdicts[folder] = sequence_verdict(summary, folder, ev)
+        verdicts[folder]["first_rule"] = sequence_verdict(summary, folder, ev,
+                                                          canonical_across_grids=True)
     return eye, verdicts
 
 
@@ -160,7 +171,8 @@ def markdown(bench: pd.DataFrame | None, eye: pd.DataFrame | None,
         out.append("\n**Benchmark, ground truth hidden** (one row per set of sequences; the "
                    "old rule, corners alone, in brackets):\n\n"
                    "| sequences | n | named in ATE top two | abstained | named a run > 3x "
-                   "the best ATE (broken) |\n|---|---|---|---|---|\n")
+                   "the best ATE (broken) | first rule (2026-11-25): top two, broken |"
+                   "\n|---|---|---|---|---|---|\n")
         seed = bench["sequence"].str.rsplit("-", n=1).str[1]
         groups = [(label, seed.isin(seeds)) for label, seeds in BENCHMARK_SETS]
         groups.append(("all", seed == seed))
@@ -170,10 +182,13 @@ def markdown(bench: pd.DataFrame | None, eye: pd.DataFrame | None,
                 continue
             top2 = int((b["ate_rank"] <= 2).sum())
             old2 = int((b["old_ate_rank"] <= 2).sum())
+            first2 = int((b["first_ate_rank"] <= 2).sum())
             out.append(f"| {label} | {len(b)} | {top2} ({100 * top2 / len(b):.0f}%) "
                        f"[{old2} ({100 * old2 / len(b):.0f}%)] | "
                        f"{int(b['best'].isna().sum())} [{int(b['old_best'].isna().sum())}] | "
-                       f"{int(b['broken_named'].sum())} [{int(b['old_broken_named'].sum())}] |\n")
+                       f"{int(b['broken_named'].sum())} [{int(b['old_broken_named'].sum())}] | "
+                       f"{first2} ({100 * first2 / len(b):.0f}%), "
+                       f"{int(b['first_broken_named'].sum())} |\n")
         bad = bench[bench["broken_named"] | (bench["ate_rank"] > 2)]
         if len(bad):
             out.append("\nSequences where the named algorithm is not in the ATE top two or is "
@@ -185,13 +200,15 @@ def markdown(bench: pd.DataFrame | None, eye: pd.DataFrame | None,
                    "rule existed; the first run on them is above):\n\n"
                    "| folder | named best | its class | broken named | pairs concordant | "
                    "ranking | confidence |\n|---|---|---|---|---|---|---|\n")
-        good_all = total_all = 0
+        good_all = total_all = first_all = 0
         for folder, v in verdicts.items():
             sub = eye[eye["folder"] == folder].set_index("map")
             best = v["best"]
             good, total = by_eye_agreement(eye, folder, v["ranking"])
             good_all += good
             total_all += total
+            if "first_rule" in v:
+                first_all += by_eye_agreement(eye, folder, v["first_rule"]["ranking"])[0]
             cls = "-" if best is None else str(sub.loc[best, "class"])
             broken = "-" if best is None else ("**yes**" if sub.loc[best, "broken"] else "no")
             share = f"{good}/{total}" if total else "-"
@@ -199,7 +216,8 @@ def markdown(bench: pd.DataFrame | None, eye: pd.DataFrame | None,
                        f"{share} | {', '.join(v['ranking'])} | {v['confidence']} |\n")
         if total_all:
             out.append(f"\nPooled: {good_all}/{total_all} pairs concordant "
-                       f"({good_all / total_all:.2f}).\n")
+                       f"({good_all / total_all:.2f}); the first rule (2026-11-25) on the "
+                       f"same maps: {first_all}/{total_all} ({first_all / total_all:.2f}).\n")
     return "".join(out)
 
 
