@@ -660,7 +660,7 @@ def _map_layers(mp: _MapPage, out: Path, ov: Any, u: int, grid: Any,
     legend = (f"<p class=\"legend gt-legend\">ground-truth layer: {_gt_swatches()}</p>"
               if gt is not None else "")
     if mp.missing is not None:
-        layer, label, legend_missing = _missing_layer(mp.missing, view, rows, cols, r0)
+        layer, label, legend_missing = _missing_layer(mp.missing, (c0, r0, cols, rows))
         if layer:
             layers.append(layer)
         toggle("missing", label, False, bool(mp.missing))
@@ -685,33 +685,42 @@ def _map_layers(mp: _MapPage, out: Path, ov: Any, u: int, grid: Any,
 _MISSING_COLOUR = "#e00000"
 
 
-def _missing_layer(missing: list[dict], view: str, rows: int, cols: int, r0: int
+def _missing_layer(missing: list[dict], view: tuple[int, int, int, int]
                    ) -> tuple[str, str, str]:
     """``(svg, label, legend)`` of the missing-walls layer: dashed boxes in the map's own
     cells (the flags of :func:`slamq.metrics.agreement.missing_walls` are on the map's
     image grid, row 0 at the top, as the defects' boxes), each grown by a little so that
-    the stretch inside stays visible; the legend says what they are and that the verdict
-    does not read them."""
+    the stretch inside stays visible, and kept, with its label, inside the picture
+    (``view``: its first column and row, columns and rows); the legend says what they are
+    and that the verdict does not read them."""
+    c0, r0, cols, rows = view
     n = len(missing)
     size = max(rows, cols) / 45.0
-    pad = size / 5
+    pad, stroke = size / 5, size / 7
     boxes = []
     for i, d in enumerate(missing):
         a, b, c, e = (float(v) for v in d["bbox"])
         metres = float(d.get("score", math.nan))
         text = f"{i + 1} missing wall" + (f" ({metres:.1f} m)" if math.isfinite(metres)
                                           else "")
+        x1, y1 = max(a - pad, c0 + stroke / 2), max(b - pad, r0 + stroke / 2)
+        x2 = max(min(c + pad, c0 + cols - stroke / 2), x1 + 0.5)
+        y2 = max(min(e + pad, r0 + rows - stroke / 2), y1 + 0.5)
+        # the label above the box, else below it, else inside; right-aligned near the edge
+        wide = 0.6 * size * len(text)
+        anchor, tx = ("start", x1) if x1 + wide <= c0 + cols else ("end", x2)
+        ty = (y1 - size / 4 if y1 - size >= r0 else
+              y2 + size if y2 + size * 1.1 <= r0 + rows else y1 + size)
         boxes.append(
             f"<g class=\"missing\" data-bbox=\"{a:g} {b:g} {c:g} {e:g}\"><title>"
-            f"{_e(d.get('note', ''))}</title><rect x=\"{a - pad:.6g}\" y=\"{b - pad:.6g}\" "
-            f"width=\"{max(c - a, 0.5) + 2 * pad:.6g}\" "
-            f"height=\"{max(e - b, 0.5) + 2 * pad:.6g}\" "
-            f"fill=\"none\" stroke=\"{_MISSING_COLOUR}\" stroke-width=\"{size / 7:.4g}\" "
+            f"{_e(d.get('note', ''))}</title><rect x=\"{x1:.6g}\" y=\"{y1:.6g}\" "
+            f"width=\"{x2 - x1:.6g}\" height=\"{y2 - y1:.6g}\" fill=\"none\" "
+            f"stroke=\"{_MISSING_COLOUR}\" stroke-width=\"{stroke:.4g}\" "
             f"stroke-dasharray=\"{size / 3:.4g} {size / 5:.4g}\"/>"
-            f"<text x=\"{a - pad:.6g}\" y=\"{max(b - pad - size / 4, r0 + size):.6g}\" "
+            f"<text x=\"{tx:.6g}\" y=\"{ty:.6g}\" text-anchor=\"{anchor}\" "
             f"font-size=\"{size:.4g}\" fill=\"{_MISSING_COLOUR}\" stroke=\"#fff\" "
             f"stroke-width=\"{size / 10:.4g}\" paint-order=\"stroke\">{_e(text)}</text></g>")
-    svg = (f"<svg class=\"layer layer-missing\" viewBox=\"{view}\" "
+    svg = (f"<svg class=\"layer layer-missing\" viewBox=\"{c0} {r0} {cols} {rows}\" "
            f"preserveAspectRatio=\"none\">{''.join(boxes)}</svg>") if boxes else ""
     label = (f"<i class=\"dash\"></i> {n} missing wall{'' if n == 1 else 's'} "
              "(informational): walls most other maps of the sequence have where this map "
