@@ -2,7 +2,8 @@
 
 Checks: no console error and no failed request, every image decodes (non-zero natural
 size), the ranking tables hold the results file's numbers, gallery links open the detail
-pages; a screenshot of the page is saved under test-artifacts/ (git-ignored).
+pages, each layer of a detail page (the missing walls too) lies over the map and its
+checkbox shows and hides it; screenshots are saved under test-artifacts/ (git-ignored).
 """
 
 from __future__ import annotations
@@ -214,5 +215,57 @@ def test_gallery_is_plain_maps_and_layers_toggle(browser, office_report):
     assert not any(page.evaluate(_LAYER_STATE).values())
     page.click("label[for=show-corners]")            # the label toggles too
     assert page.evaluate(_LAYER_STATE)["corners"] is True
+    assert problems == []
+    page.close()
+
+
+@pytest.fixture(scope="module")
+def gap_report(tmp_path_factory):
+    """A sequence without ground truth in which one map has a 2 m gap the two others close
+    (test_report_pages.write_gap_sequence); the detail page of that map."""
+    from test_report_pages import write_gap_sequence
+
+    root = tmp_path_factory.mktemp("gap")
+    recs, own, _ = write_gap_sequence(root / "maps")
+    index = build_report(recs, root / "site", gifs=False, trajectories=False)
+    (page,) = (index.parent / "maps").glob("*-gap-*.html")
+    return page, own
+
+
+def test_missing_walls_layer_toggles_over_the_gap(browser, gap_report):
+    """The missing-walls layer is off at first; its checkbox (or its label) shows it, over
+    the map like the other layers, with its box on the gap's cells as the browser draws
+    them; unchecked it hides again."""
+    url, own = gap_report
+    page, problems = _open(browser, url.as_uri())
+    assert _broken_images(page) == []
+    assert page.evaluate(_LAYER_STATE) == {"regions": True, "corners": True,
+                                           "missing": False}
+    label = page.locator("label[for=show-missing]").inner_text()
+    assert "informational" in label and "not used by the verdict" in label
+    page.check("#show-missing")
+    assert page.evaluate(_LAYER_STATE) == {"regions": True, "corners": True,
+                                           "missing": True}
+    boxes = page.evaluate(_BOXES)
+    assert len(boxes) == 3 and all(abs(v) < 0.5 for box in boxes for v in box), boxes
+    # the box on screen, in the map's cells: the base picture spans the viewBox
+    x0, y0, w0, h0 = map(float, page.locator(".layer-missing").get_attribute(
+        "viewBox").split())
+    base = page.locator(".stack img.base").bounding_box()
+    rect = page.locator(".layer-missing rect").bounding_box()
+    sx, sy = w0 / base["width"], h0 / base["height"]
+    cells = ((rect["x"] - base["x"]) * sx + x0, (rect["y"] - base["y"]) * sy + y0,
+             rect["width"] * sx, rect["height"] * sy)
+    r, c = np.nonzero(own)
+    inside = (c + 0.5 >= cells[0]) & (c + 0.5 <= cells[0] + cells[2]) \
+        & (r + 0.5 >= cells[1]) & (r + 0.5 <= cells[1] + cells[3])
+    assert inside.mean() >= 0.8, cells
+    assert "missing wall" in page.locator(".layer-missing text").text_content()
+    ARTIFACTS.mkdir(exist_ok=True)
+    page.locator(".mapcol").screenshot(path=str(ARTIFACTS / "report_layers_missing.png"))
+    page.uncheck("#show-missing")
+    assert page.evaluate(_LAYER_STATE)["missing"] is False
+    page.click("label[for=show-missing]")             # the label toggles too
+    assert page.evaluate(_LAYER_STATE)["missing"] is True
     assert problems == []
     page.close()

@@ -1,7 +1,9 @@
 """What the report's pages say and draw, read back from the generated HTML: every sentence
 naming a best algorithm agrees with verdict.json, no mean rank over metrics is left, the
 gallery shows plain maps, and the detail pages draw corners, enclosed areas, the ground-truth
-comparison and defects as separate layers (issue 25 items 5 and 8)."""
+comparison and defects as separate layers (issue 25 items 5 and 8), and the missing walls
+against the other maps of a sequence without ground truth as an informational layer of its
+own, boxed in the map's own cells (issue 25 item 3)."""
 
 from __future__ import annotations
 
@@ -272,6 +274,8 @@ def test_ground_truth_layer_on_the_detail_pages(office_site: Path) -> None:
     of the map's picture); the reference map itself has none."""
     site = office_site
     pages = {p.name: p.read_text(encoding="utf-8") for p in (site / "maps").glob("*.html")}
+    # ground truth decides this sequence: no agreement, so no missing-walls layer
+    assert not any('id="show-missing"' in t for t in pages.values())
     with_gt = [n for n, t in pages.items() if 'id="show-gt"' in t]
     assert len(with_gt) == 5 and not any("ground_truth" in n for n in with_gt)
     for n in with_gt:
@@ -310,3 +314,120 @@ def test_maps_of_different_resolutions_are_ordered_by_agreement_not_corners(
     assert len(re.findall(r'data-metric="agreement"', html)) == 3
     assert f"{v['best']} is best by agreement with the other maps (the verdict" in html
     assert check_best_sentences(index.parent) >= 3
+
+
+#: Unknown cells padded around the gap map (top, left, bottom, right), its origin moved to
+#: match: its cells are not the other maps' cells.
+GAP_PAD = (60, 70, 30, 10)
+
+
+def write_gap_sequence(root: Path) -> tuple[list[dict], np.ndarray, np.ndarray]:
+    """One sequence without ground truth: a floor plan ("plain"), a specked copy and a copy
+    with the ``gap`` damage of slamq.synth (2 m of walls seen as free), the last saved with
+    :data:`GAP_PAD` unknown cells around it. Returns the records and the removed wall cells
+    in the gap map's own cells and in the plain map's cells (the same place in the world)."""
+    from slamq.synth import degrade, floor_plan
+
+    plan = floor_plan(0)
+    maps = {"plain": plan, "specks": degrade(plan, "specks", 0.001, seed=0),
+            "gap": degrade(plan, "gap", 2.0, seed=0)}
+    recs = []
+    for alg, m in maps.items():
+        top, left, bottom, right = GAP_PAD if alg == "gap" else (0, 0, 0, 0)
+        img = np.where(m.unknown, 205, m.values).astype(np.uint8)
+        img = np.pad(img, ((top, bottom), (left, right)), constant_values=205)
+        folder = root / alg
+        folder.mkdir(parents=True, exist_ok=True)
+        Image.fromarray(img).save(folder / "map.pgm")
+        ox, oy, yaw = m.origin
+        res = m.resolution
+        yaml = folder / "map.yaml"
+        yaml.write_text(f"image: map.pgm\nresolution: {res}\norigin: [{ox - left * res}, "
+                        f"{oy - bottom * res}, {yaw}]\nnegate: 0\noccupied_thresh: 0.65\n"
+                        "free_thresh: 0.196\n")
+        rec = {k: v for k, v in slamq.evaluate(str(yaml)).to_dict().items() if k != "curve"}
+        rec.update(map=str(yaml), algorithm=alg, sequence="hall", run=0, error=None)
+        recs.append(rec)
+    gap = maps["gap"]
+    assert gap.shape == plan.shape and gap.origin == plan.origin
+    removed = (plan.values < 128) & (gap.values >= 128)
+    assert removed.sum() > 50
+    top, left, bottom, right = GAP_PAD
+    own = np.pad(removed, ((top, bottom), (left, right)))
+    assert np.array_equal(own, (np.pad(plan.values, ((top, bottom), (left, right)),
+                                       constant_values=205) < 128)
+                          & (slamq.load_map(root / "gap" / "map.yaml").values >= 128))
+    return recs, own, removed
+
+
+@pytest.fixture(scope="module")
+def gap_site(tmp_path_factory) -> tuple[Path, list[dict], np.ndarray, np.ndarray]:
+    """The report of :func:`write_gap_sequence`, its records and the removed cells."""
+    root = tmp_path_factory.mktemp("gap")
+    recs, own, plain = write_gap_sequence(root / "maps")
+    site = build_report(recs, root / "site", gifs=False, trajectories=False).parent
+    return site, recs, own, plain
+
+
+def _inside(rect: tuple[float, float, float, float], cells: np.ndarray) -> float:
+    """Share of the ``True`` cells (their centres) inside ``rect`` = (x, y, w, h), in cells."""
+    x, y, w, h = rect
+    r, c = np.nonzero(cells)
+    return float(np.mean((c + 0.5 >= x) & (c + 0.5 <= x + w)
+                         & (r + 0.5 >= y) & (r + 0.5 <= y + h)))
+
+
+def test_missing_walls_layer_boxes_the_gap_the_other_maps_close(gap_site) -> None:
+    """The map with a 2 m gap the other two maps close gets a missing-walls layer (its own
+    checkbox, off at first, labelled as informational and not used by the verdict) whose
+    box lies over the removed walls in that map's own cells (padded: not the other maps'
+    cells); the other maps' pages have the checkbox, disabled, and no box; verdict.json is
+    the verdict without them."""
+    from slamq.report.data import load_results
+    from slamq.report.evidence import sequence_evidence
+    from slamq.report.ranking import summarize
+    from slamq.report.verdict import sequence_verdict
+
+    site, recs, own, plain = gap_site
+    pages = {p.name.split("-")[2]: p.read_text(encoding="utf-8")
+             for p in (site / "maps").glob("*.html")}
+    assert sorted(pages) == ["gap", "plain", "specks"]
+    page = pages["gap"]
+    assert '<input type="checkbox" id="show-missing" data-layer="missing">' in page  # off
+    label = re.search(r'<label for="show-missing">(.*?)</label>', page).group(1)
+    assert "1 missing wall (informational): walls most other maps of the sequence have " \
+        "where this map sees free space &mdash; not used by the verdict" in label
+    legend = re.search(r'<div class="legend missing-legend">(.*?)</div>', page).group(1)
+    assert "docs/validity.md" in legend and "Not used by the verdict" in legend
+    svg = re.search(r'<svg class="layer layer-missing" viewBox="([^"]+)".*?</svg>', page)
+    corners_view = re.search(r'<svg class="layer layer-corners" viewBox="([^"]+)"', page)
+    assert svg.group(1) == corners_view.group(1)       # one frame: the map's own cells
+    x0, y0, w0, h0 = map(float, svg.group(1).split())
+    (rect,) = [tuple(map(float, r)) for r in re.findall(
+        r'<rect x="([^"]+)" y="([^"]+)" width="([^"]+)" height="([^"]+)"', svg.group(0))]
+    x, y, w, h = rect
+    assert x0 <= x and y0 <= y and x + w <= x0 + w0 and y + h <= y0 + h0
+    assert _inside(rect, own) >= 0.8                    # over the gap, in this map's cells
+    assert _inside(rect, plain) == 0                    # not where the plain map has it
+    r, c = np.nonzero(own)
+    assert w * h <= 4 * (np.ptp(c) + 1) * (np.ptp(r) + 1)   # a box about the gap
+    (bbox,) = re.findall(r'<g class="missing" data-bbox="([^"]+)"', page)
+    a, b, cc, e = map(float, bbox.split())
+    assert x <= a and cc <= x + w and y <= b and e <= y + h
+    assert re.search(r"\d\.\d m of wall that most of the other maps have", legend)
+    for name in ("plain", "specks"):
+        assert '<input type="checkbox" id="show-missing" data-layer="missing" disabled>' \
+            in pages[name]
+        assert "0 missing walls" in pages[name] and '<svg class="layer layer-missing"' \
+            not in pages[name]
+    # the verdict does not read them: the same verdict with and without
+    ok = load_results(recs)
+    summary = summarize(ok)
+    ev = sequence_evidence(ok, "hall")
+    assert [d["kind"] for d in ev["missing_walls"][recs[2]["map"]]] == ["missing_walls"]
+    assert not any(ds for a in ev["algorithms"].values() for ds in a["defects"].values())
+    (v,) = json.loads((site / "verdict.json").read_text())
+    assert json.loads(json.dumps(sequence_verdict(summary, "hall", ev))) == v
+    assert sequence_verdict(summary, "hall", {**ev, "missing_walls": {}}) == \
+        sequence_verdict(summary, "hall", ev)
+    assert "missing" not in json.dumps(v)

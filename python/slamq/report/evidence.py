@@ -5,7 +5,10 @@ each other (:func:`slamq.agreement`) and what is wrong with each of them on its 
 :func:`sequence_evidence` loads the maps of one sequence (at most ``runs_per_algorithm``
 runs of each algorithm, the first by run number: the pairwise comparison grows with the
 square of the maps), scores them against each other and runs the defect detectors, and
-sums that up per algorithm for :func:`slamq.report.verdict.sequence_verdict`.
+sums that up per algorithm for :func:`slamq.report.verdict.sequence_verdict`. Beside it,
+for the detail pages only, the missing walls of each map against the others
+(:func:`slamq.metrics.agreement.missing_walls`, read off the same agreement): the verdict does
+not read them (docs/validity.md, "Missing walls against the other maps").
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from typing import Any
 import pandas as pd
 
 from slamq.errors import SlamqError
-from slamq.metrics.agreement import agreement, finite_median
+from slamq.metrics.agreement import agreement, finite_median, missing_walls
 from slamq.params import SETTINGS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
@@ -51,9 +54,14 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     -------
     dict
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
-        "defects"}}, "majority": bool, "maps": int, "notes": [str]}``. ``defects`` maps a
-        run's map path to its defects (dicts of :meth:`Defect.to_dict`); an algorithm's
-        support and completeness are the medians over its runs.
+        "defects"}}, "majority": bool, "maps": int, "notes": [str], "missing_walls":
+        {path: [dict]}}``. ``defects`` maps a run's map path to its defects (dicts of
+        :meth:`Defect.to_dict`); an algorithm's support and completeness are the medians
+        over its runs. ``missing_walls`` maps the path of each map placed with the others
+        (none when fewer than two maps) to its
+        :func:`~slamq.metrics.agreement.missing_walls` flags (``kind="missing_walls"``,
+        ``bbox`` in the map's own cells), for the report's pages: the verdict does not
+        read them.
 
     Examples
     --------
@@ -66,8 +74,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     >>> ok = pd.DataFrame({"map": [str(d / f"{n}.pgm") for n in "abc"], "sequence": "s",
     ...                    "algorithm": list("abc"), "run": 1})
     >>> e = sequence_evidence(ok, "s", align="origin", defects=False)
-    >>> e["majority"], e["algorithms"]["a"]["support"]
-    (True, 1.0)
+    >>> e["majority"], e["algorithms"]["a"]["support"], e["missing_walls"][str(d / "a.pgm")]
+    (True, 1.0, [])
     """
     sub = ok[(ok["sequence"] == sequence)
              & ~ok["algorithm"].astype(str).str.lower().isin(GROUND_TRUTH_ALGORITHMS)]
@@ -75,6 +83,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     picked = sub.groupby("algorithm", sort=True).head(runs_per_algorithm)
     maps: dict[str, Any] = {}
     owner: dict[str, str] = {}
+    paths: dict[str, str] = {}
+    gaps: dict[str, list[dict[str, Any]]] = {}
     notes: list[str] = []
     for rec in picked.itertuples():
         key = f"{rec.algorithm}#{rec.run}"
@@ -84,6 +94,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             notes.append(f"{rec.map}: not used as evidence ({exc})")
             continue
         owner[key] = str(rec.algorithm)
+        paths[key] = str(rec.map)
     found: dict[str, list[dict[str, Any]]] = {}
     if defects:
         from slamq.metrics.defects import detect_defects  # on first use
@@ -95,6 +106,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         support, complete, placed = agree.support, agree.completeness, agree.placed
         majority = agree.majority
         notes.extend(agree.notes)
+        missing = missing_walls(agree, maps)
+        gaps = {paths[k]: [d.to_dict() for d in missing[k]] for k in maps if placed[k]}
     else:
         support = complete = dict.fromkeys(maps, math.nan)
         placed = dict.fromkeys(maps, False)
@@ -111,4 +124,4 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "defects": {str(maps[k].source): found.get(k, []) for k in keys},
         }
     return {"algorithms": algorithms, "majority": bool(majority), "maps": len(maps),
-            "notes": notes}
+            "notes": notes, "missing_walls": gaps}

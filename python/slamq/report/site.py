@@ -6,7 +6,11 @@ fetched from the network and no script is needed, so the site opens from ``file:
 The gallery shows each map itself (a thumbnail of the plain map). A map's detail page draws
 what was counted on it as layers over the plain map, each switched on and off by a checkbox
 (CSS only): the counted corners, the counted enclosed areas, the comparison with the
-sequence's ground-truth map (when there is one) and the map's defects. Defects are boxes
+sequence's ground-truth map (when there is one), the map's defects and, in a sequence
+judged without ground truth, its missing walls against the other maps of the sequence
+(:func:`slamq.metrics.agreement.missing_walls` on the agreement the verdict computed: walls
+most other maps have where this map sees free space; informational, off at first, not used
+by the verdict, docs/validity.md "Missing walls against the other maps"). Defects are boxes
 ``{"kind": str, "bbox": [col0, row0, col1, row1], "note": str}`` in the map's cells
 (row 0 at the top, as the map's image; ``col1`` and ``row1`` exclusive, as
 ``values[row0:row1, col0:col1]``), taken from the record's ``defects`` field (a JSON list,
@@ -31,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from slamq.errors import SlamqError
+from slamq.metrics.agreement import MISSING_MIN_LENGTH
 from slamq.report.data import ResultsLike, evaluate_map, load_results, params_of, usable
 from slamq.report.evidence import sequence_evidence
 from slamq.report.ranking import (
@@ -102,8 +107,12 @@ summary{cursor:pointer;color:#0a58ca}
 .layers:has(#show-corners:not(:checked)) .layer-corners,
 .layers:has(#show-regions:not(:checked)) .layer-regions,
 .layers:has(#show-gt:not(:checked)) .layer-gt,
-.layers:has(#show-defects:not(:checked)) .layer-defects{display:none}
+.layers:has(#show-defects:not(:checked)) .layer-defects,
+.layers:has(#show-missing:not(:checked)) .layer-missing{display:none}
 table.defects td{font-size:.9em}
+.layers label[for=show-missing]{white-space:normal;display:inline-block}
+.dash{display:inline-block;width:13px;height:9px;border:2px dashed #e00000;
+ vertical-align:middle;margin-right:2px}
 .top{display:flex;gap:24px;align-items:flex-start;flex-wrap:wrap}
 .mapcol{flex:1;min-width:420px}
 .files{font-size:.85em;padding-left:1.2em;word-break:break-all}
@@ -148,6 +157,9 @@ class _MapPage:
     gif: str = ""
     notes: list[str] = field(default_factory=list)
     defects: list[dict] = field(default_factory=list)
+    #: Missing walls against the other maps of the sequence (None: the map took no part in
+    #: an agreement, e.g. its sequence has ground truth).
+    missing: list[dict] | None = None
 
 
 def build_report(
@@ -190,6 +202,8 @@ def build_report(
         exclusive); drawn as a layer of the map's detail page, after the defects of the
         record's own ``defects`` field (a JSON string or a list). Default: the defect
         detectors the verdict reads (:func:`slamq.metrics.defects.detect_defects`).
+        (The missing walls of a map against the other maps of its sequence are a layer of
+        their own, drawn in the sequences judged without ground truth.)
     reuse : bool
         Keep the detail pages (and their pictures) of an earlier build into ``out_dir``
         whose inputs did not change: the record, the page's name, ``gifs`` and
@@ -245,6 +259,9 @@ def build_report(
         rec = ok.loc[i].to_dict()
         slug = f"{i:04d}-{_slug(rec['sequence'])}-{_slug(rec['algorithm'])}-{_slug(rec['run'])}"
         pages[i] = _MapPage(i, rec, slug, page=f"maps/{slug}.html")
+        ev = evidence.get(rec["sequence"])
+        if ev is not None and usable(rec.get("map")):
+            pages[i].missing = ev.get("missing_walls", {}).get(str(rec["map"]))
     kept = _read_page_cache(out) if reuse else {}
     fresh: dict[str, dict[str, Any]] = {}
     for done, mp in enumerate(pages.values(), 1):
@@ -332,7 +349,7 @@ def _page_digest(mp: _MapPage, *, gifs: bool, trajectories: bool) -> str:
         snaps = [[q.name, map_digest(q)] for q in find_snapshots(Path(rec["map"]).parent)]
     blob = json.dumps(
         {"record": rec, "slug": mp.slug, "page": mp.page, "gifs": gifs,
-         "trajectories": trajectories, "version": __version__,
+         "trajectories": trajectories, "version": __version__, "missing": mp.missing,
          "map": map_digest(rec.get("map")), "gt_map": map_digest(rec.get("gt_map")),
          "trajectory": file_digest(rec.get("trajectory")),
          "groundtruth": file_digest(rec.get("groundtruth")), "snapshots": snaps},
@@ -580,8 +597,8 @@ _DEFECT_COLOURS = ("#ff00ff", "#ff8800", "#00c8ff", "#ffd400", "#8a2be2", "#00b0
 
 def _map_layers(mp: _MapPage, out: Path, ov: Any, u: int, grid: Any,
                 gt: tuple[Any, Any] | None) -> str:
-    """The map with its layers (corners, enclosed areas, ground truth, defects), each
-    shown or hidden by a checkbox (CSS only: ``.layers:has(#show-X:not(:checked))
+    """The map with its layers (corners, enclosed areas, ground truth, defects, missing
+    walls), each shown or hidden by a checkbox (CSS only: ``.layers:has(#show-X:not(:checked))
     .layer-X``)."""
     from PIL import Image
 
@@ -642,6 +659,12 @@ def _map_layers(mp: _MapPage, out: Path, ov: Any, u: int, grid: Any,
            bool(mp.defects))
     legend = (f"<p class=\"legend gt-legend\">ground-truth layer: {_gt_swatches()}</p>"
               if gt is not None else "")
+    if mp.missing is not None:
+        layer, label, legend_missing = _missing_layer(mp.missing, (c0, r0, cols, rows))
+        if layer:
+            layers.append(layer)
+        toggle("missing", label, False, bool(mp.missing))
+        legend += legend_missing
     table = ""
     if mp.defects:
         table = ("<table class=\"defects\"><tr><th>#</th><th>kind</th><th>cells [col0, row0,"
@@ -657,6 +680,64 @@ def _map_layers(mp: _MapPage, out: Path, ov: Any, u: int, grid: Any,
         f"<a href=\"../{mp.full}\"><img class=\"base\" src=\"../{mp.full}\" width=\"{w}\" "
         f"height=\"{h}\" alt=\"the map\"></a>"
         f"{''.join(layers)}</div></div>{legend}{table}</div>")
+
+
+_MISSING_COLOUR = "#e00000"
+
+
+def _missing_layer(missing: list[dict], view: tuple[int, int, int, int]
+                   ) -> tuple[str, str, str]:
+    """``(svg, label, legend)`` of the missing-walls layer: dashed boxes in the map's own
+    cells (the flags of :func:`slamq.metrics.agreement.missing_walls` are on the map's
+    image grid, row 0 at the top, as the defects' boxes), each grown by a little so that
+    the stretch inside stays visible, and kept, with its label, inside the picture
+    (``view``: its first column and row, columns and rows); the legend says what they are
+    and that the verdict does not read them."""
+    c0, r0, cols, rows = view
+    n = len(missing)
+    size = max(rows, cols) / 45.0
+    pad, stroke = size / 5, size / 7
+    boxes = []
+    for i, d in enumerate(missing):
+        a, b, c, e = (float(v) for v in d["bbox"])
+        metres = float(d.get("score", math.nan))
+        text = f"{i + 1} missing wall" + (f" ({metres:.1f} m)" if math.isfinite(metres)
+                                          else "")
+        x1, y1 = max(a - pad, c0 + stroke / 2), max(b - pad, r0 + stroke / 2)
+        x2 = max(min(c + pad, c0 + cols - stroke / 2), x1 + 0.5)
+        y2 = max(min(e + pad, r0 + rows - stroke / 2), y1 + 0.5)
+        # the label above the box, else below it, else inside; right-aligned near the edge
+        wide = 0.6 * size * len(text)
+        anchor, tx = ("start", x1) if x1 + wide <= c0 + cols else ("end", x2)
+        ty = (y1 - size / 4 if y1 - size >= r0 else
+              y2 + size if y2 + size * 1.1 <= r0 + rows else y1 + size)
+        boxes.append(
+            f"<g class=\"missing\" data-bbox=\"{a:g} {b:g} {c:g} {e:g}\"><title>"
+            f"{_e(d.get('note', ''))}</title><rect x=\"{x1:.6g}\" y=\"{y1:.6g}\" "
+            f"width=\"{x2 - x1:.6g}\" height=\"{y2 - y1:.6g}\" fill=\"none\" "
+            f"stroke=\"{_MISSING_COLOUR}\" stroke-width=\"{stroke:.4g}\" "
+            f"stroke-dasharray=\"{size / 3:.4g} {size / 5:.4g}\"/>"
+            f"<text x=\"{tx:.6g}\" y=\"{ty:.6g}\" text-anchor=\"{anchor}\" "
+            f"font-size=\"{size:.4g}\" fill=\"{_MISSING_COLOUR}\" stroke=\"#fff\" "
+            f"stroke-width=\"{size / 10:.4g}\" paint-order=\"stroke\">{_e(text)}</text></g>")
+    svg = (f"<svg class=\"layer layer-missing\" viewBox=\"{c0} {r0} {cols} {rows}\" "
+           f"preserveAspectRatio=\"none\">{''.join(boxes)}</svg>") if boxes else ""
+    label = (f"<i class=\"dash\"></i> {n} missing wall{'' if n == 1 else 's'} "
+             "(informational): walls most other maps of the sequence have where this map "
+             "sees free space &mdash; not used by the verdict")
+    rows_html = "".join(
+        f"<li>{i + 1}: cells [{_e(', '.join(format_value(v) for v in d['bbox']))}]; "
+        f"{_e(d.get('note', ''))}</li>" for i, d in enumerate(missing))
+    legend = (
+        "<div class=\"legend missing-legend\"><p><i class=\"dash\"></i> <b>Missing walls"
+        "</b> (informational): the longest stretch, from "
+        f"{MISSING_MIN_LENGTH:g} m, of walls that more than half of the other maps of the "
+        "sequence have (laid over this map as for the agreement) where this map sees free "
+        "space: a missing wall, or a leak through a gap the others close. Not used by the "
+        "verdict: doors open in one run and closed in another, and noise, flag many good "
+        "maps too (docs/validity.md, \"Missing walls against the other maps\").</p>"
+        + (f"<ul>{rows_html}</ul>" if rows_html else "") + "</div>")
+    return svg, label, legend
 
 
 def _gt_config(config: Any) -> tuple[str, float | None, float | None]:
@@ -860,7 +941,8 @@ def _how_to_read() -> str:
         "covers much less ground looks good on all three. Such maps are flagged.</li>"
         "<li>Gallery: each algorithm's runs at both ends of the deciding column, drawn plain."
         " Click a map for its detail page, where the counted corners, the counted enclosed "
-        "areas, the comparison with a ground-truth map and any defects are layers to switch "
+        "areas, the comparison with a ground-truth map, any defects and (without ground "
+        "truth) the walls the other maps have that the map lacks are layers to switch "
         "on and off.</li></ul></details>")
 
 
