@@ -7,7 +7,7 @@
 //! Both steps read the box packed one `u16` per cell (`pack_box`). The resample has a fast
 //! path for up to 4 x 4 samples per output cell (one gather per sample, addresses in float
 //! arithmetic that vectorises) beside the general one; output tiles (32 x 32, and 8 x 8
-//! inside them on the fast path) whose samples all fall on unknown 4 x 4 blocks of the box
+//! inside them on the fast path) whose samples all fall on unknown 8 x 8 blocks of the box
 //! are left unknown, and those whose samples all fall on known blocks of one value take that
 //! value, without sampling. The blur rows, the wall angle's `g^4/|g|^3` terms and the fast
 //! resample run as AVX2 copies of themselves when the processor has it (runtime detection;
@@ -763,7 +763,7 @@ fn resample(
     // and skipped (most of a turned, partly explored map's canonical grid); one whose
     // samples all fall in blocks of one value v is v (every sample known: the mean is v),
     // filled without sampling (open floor)
-    const BLOCK: usize = 4;
+    const BLOCK: usize = 8;
     let (bh, bw) = (h.div_ceil(BLOCK), w.div_ceil(BLOCK));
     let mut block_code = filled(bh * bw, 0u16)?;
     block_code
