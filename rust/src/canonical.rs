@@ -15,7 +15,7 @@
 //! and the resample with a literal one.
 
 use crate::border::reflect101;
-use crate::corners::count_corners;
+use crate::corners::count_corners_of_structure;
 use crate::grid::{known_bounds, Bounds, Grid};
 use crate::memory::{reserve_working_set, OutOfMemory};
 use crate::params::CornerParams;
@@ -59,8 +59,14 @@ fn pack_box(grid: &Grid, (r0, r1, c0, c1): Bounds) -> Result<Vec<u16>, OutOfMemo
     const ROWS: usize = 64; // per parallel task
                             // zero-padded to a power of two: the resample's gathers mask their indices instead of
                             // checking them
-    let mut out = filled((h * w).next_power_of_two(), 0u16)?;
-    out[..h * w]
+    let n = (h * w).next_power_of_two();
+    let mut out: Vec<u16> = Vec::new();
+    out.try_reserve_exact(n)
+        .map_err(|_| OutOfMemory { bytes: 2 * n })?;
+    // every cell written once (no zero fill first)
+    let spare = &mut out.spare_capacity_mut()[..n];
+    let (cells, padding) = spare.split_at_mut(h * w);
+    cells
         .par_chunks_mut(w * ROWS)
         .enumerate()
         .for_each(|(t, block)| {
@@ -68,10 +74,15 @@ fn pack_box(grid: &Grid, (r0, r1, c0, c1): Bounds) -> Result<Vec<u16>, OutOfMemo
                 let at = (r0 + t * ROWS + i) * grid.width + c0;
                 let (v, u) = (&grid.values[at..at + w], &grid.unknown[at..at + w]);
                 for ((o, &v), &u) in o.iter_mut().zip(v).zip(u) {
-                    *o = (u16::from(v) | KNOWN) * u16::from(!u);
+                    o.write((u16::from(v) | KNOWN) * u16::from(!u));
                 }
             }
         });
+    for p in padding {
+        p.write(0);
+    }
+    // SAFETY: the first n elements were all written just above
+    unsafe { out.set_len(n) };
     Ok(out)
 }
 
@@ -91,7 +102,7 @@ fn blur9_decimated(
     let (hd, wd) = (h.div_ceil(2), w.div_ceil(2));
     let mut out = filled(hd * wd, 0i32)?;
     out.par_chunks_mut(wd).enumerate().for_each_init(
-        || (vec![0u16; w], vec![0i32; w]),
+        || (vec![0u16; w], vec![0u16; w]),
         |(vert, full), (rd, o)| {
             let rows: [&[u16]; 9] = std::array::from_fn(|k| {
                 let rr = reflect101((2 * rd) as isize + k as isize - 4, h);
@@ -104,10 +115,10 @@ fn blur9_decimated(
 }
 
 /// One row of `D` ([`blur9_decimated`]) from the nine packed rows around it: the vertical
-/// taps into `vert` (`u16`), the horizontal ones at every column into `full` (`i32`), and
-/// every second of those into `o`. With AVX2 when the processor has it (integer arithmetic:
-/// the same result).
-fn blur_row(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]) {
+/// taps into `vert` (`u16`), split into its even and odd columns in `split` (`w` cells), and
+/// the horizontal taps at every second column into `o`. With AVX2 when the processor has it
+/// (integer arithmetic: the same result).
+fn blur_row(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [u16], o: &mut [i32]) {
     #[cfg(target_arch = "x86_64")]
     if has_avx2() {
         // SAFETY: the processor has AVX2, checked just above
@@ -119,12 +130,12 @@ fn blur_row(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn blur_row_avx2(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]) {
+fn blur_row_avx2(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [u16], o: &mut [i32]) {
     blur_row_in(rows, vert, full, o);
 }
 
 #[inline(always)]
-fn blur_row_in(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i32]) {
+fn blur_row_in(rows: [&[u16]; 9], vert: &mut [u16], split: &mut [u16], o: &mut [i32]) {
     let w = vert.len();
     // the symmetric taps 1, 8, 28, 56 | 70: four sums of a pair and the centre, exact in u16
     let [r0, r1, r2, r3, r4, r5, r6, r7, r8] = rows.map(|r| &r[..w]);
@@ -137,28 +148,41 @@ fn blur_row_in(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [i32], o: &mut [i
             + 70 * p(r4);
     }
     let tap = |x: usize, k: usize| i32::from(B9[k]) * i32::from(vert[x]);
+    // the horizontal taps only at the even columns D keeps: with the even and odd columns
+    // apart, the taps of x = 2 xd are shifted slices again (even columns x-4, x-2, .., x+4
+    // are ve[xd-2 ..= xd+2], odd ones x-3, .., x+3 are vo[xd-2 ..= xd+1])
+    let inner = (2usize, w.saturating_sub(3) / 2); // xd with 4 <= 2 xd and 2 xd + 4 < w
     if w >= 9 {
-        let v = |k: usize| &vert[k..w - 8 + k];
-        let (v0, v1, v2, v3, v4) = (v(0), v(1), v(2), v(3), v(4));
-        let (v5, v6, v7, v8) = (v(5), v(6), v(7), v(8));
-        for (x, f) in full[4..w - 4].iter_mut().enumerate() {
+        let (ve, vo) = split.split_at_mut(w.div_ceil(2));
+        for ((e, o), pair) in ve.iter_mut().zip(vo.iter_mut()).zip(vert.chunks_exact(2)) {
+            *e = pair[0];
+            *o = pair[1];
+        }
+        if w % 2 == 1 {
+            ve[w / 2] = vert[w - 1];
+        }
+        let n = inner.1 - inner.0;
+        let e = |k: usize| &ve[k..k + n];
+        let d = |k: usize| &vo[k..k + n];
+        let (e0, e1, e2, e3, e4) = (e(0), e(1), e(2), e(3), e(4));
+        let (d0, d1, d2, d3) = (d(0), d(1), d(2), d(3));
+        for (x, f) in o[inner.0..inner.1].iter_mut().enumerate() {
             let q = |s: &[u16]| i32::from(s[x]);
-            *f = (q(v0) + q(v8))
-                + 8 * (q(v1) + q(v7))
-                + 28 * (q(v2) + q(v6))
-                + 56 * (q(v3) + q(v5))
-                + 70 * q(v4);
+            *f = (q(e0) + q(e4))
+                + 8 * (q(d0) + q(d3))
+                + 28 * (q(e1) + q(e3))
+                + 56 * (q(d1) + q(d2))
+                + 70 * q(e2);
         }
     }
     for (xd, o) in o.iter_mut().enumerate() {
+        if w >= 9 && xd >= inner.0 && xd < inner.1 {
+            continue;
+        }
         let x = 2 * xd;
-        *o = if x >= 4 && x + 4 < w {
-            full[x]
-        } else {
-            (0..9)
-                .map(|k| tap(reflect101(x as isize + k as isize - 4, w), k))
-                .sum()
-        };
+        *o = (0..9)
+            .map(|k| tap(reflect101(x as isize + k as isize - 4, w), k))
+            .sum();
     }
 }
 
@@ -481,7 +505,7 @@ const BLOCK_UNKNOWN: u16 = 256;
 const BLOCK_MIXED: u16 = 257;
 
 /// Rows `rows` and columns `cols` of output rows `vblock` / `ublock` (`big_w` cells each)
-/// set known, with value `v` (0..=255).
+/// set known, with value `v` (0..=255); `ublock` empty: not asked for.
 fn fill(
     vblock: &mut [u8],
     ublock: &mut [bool],
@@ -493,7 +517,9 @@ fn fill(
     for r in rows {
         let (a, b) = (r * big_w + cols.start, r * big_w + cols.end);
         vblock[a..b].fill(v as u8);
-        ublock[a..b].fill(false);
+        if !ublock.is_empty() {
+            ublock[a..b].fill(false);
+        }
     }
 }
 
@@ -601,10 +627,7 @@ impl FastTile<'_> {
                 }
             }
             let row = r * big_w + j0;
-            let out = vblock[row..row + cells]
-                .iter_mut()
-                .zip(&mut ublock[row..row + cells]);
-            for ((v, u), &a) in out.zip(&sums[..cells]) {
+            for (v, &a) in vblock[row..row + cells].iter_mut().zip(&sums[..cells]) {
                 // the sum of the known samples' values, and their number; branch-free (known
                 // and unknown cells alternate unpredictably on a noisy map)
                 let (t, k) = (a & u32::from(VALUE), a >> KNOWN.trailing_zeros());
@@ -615,7 +638,11 @@ impl FastTile<'_> {
                     half_up_mean(t, k)
                 };
                 *v = (mean * u32::from(known)) as u8;
-                *u = !known;
+            }
+            if !ublock.is_empty() {
+                for (u, &a) in ublock[row..row + cells].iter_mut().zip(&sums[..cells]) {
+                    *u = 2 * (a >> KNOWN.trailing_zeros()) < self.need;
+                }
             }
         }
     }
@@ -651,12 +678,45 @@ enum Path {
 fn map_in_with(
     grid: &Grid,
     packed: &[u16],
-    (r0, r1, c0, c1): Bounds,
+    b: Bounds,
     angle: f64,
     resolution: Option<f64>,
     reference: f64,
     path: Path,
 ) -> Result<Option<CanonicalMap>, OutOfMemory> {
+    let r = resample(grid, packed, b, angle, resolution, reference, path, true)?;
+    Ok(r.map(|r| CanonicalMap {
+        values: r.values,
+        unknown: r.unknown,
+        height: r.height,
+        width: r.width,
+    }))
+}
+
+/// The canonical map, its values being its structure image (SPEC 3 step 1: the value of a
+/// known cell, 0 for an unknown one).
+struct Resampled {
+    /// The canonical map's values, 0 at unknown cells: its structure image.
+    values: Vec<u8>,
+    /// Its unknown mask, or empty when not asked for.
+    unknown: Vec<bool>,
+    height: usize,
+    width: usize,
+}
+
+/// SPEC 3a.3: the canonical map of the box `b` ([`map_in`]), by the resampling `path`; the
+/// unknown mask only when `want_unknown` (the corners need only the structure image).
+#[allow(clippy::too_many_arguments)]
+fn resample(
+    grid: &Grid,
+    packed: &[u16],
+    (r0, r1, c0, c1): Bounds,
+    angle: f64,
+    resolution: Option<f64>,
+    reference: f64,
+    path: Path,
+    want_unknown: bool,
+) -> Result<Option<Resampled>, OutOfMemory> {
     let (h, w) = (r1 - r0, c1 - c0);
     let f = match resolution {
         Some(res) => reference / res,
@@ -678,7 +738,7 @@ fn map_in_with(
     let (cx, cy) = ((w / 2) as f64, (h / 2) as f64);
     let (half_w, half_h) = ((big_w / 2) as f64, (big_h / 2) as f64);
     let mut values = filled(big_w * big_h, 0u8)?;
-    let mut unknown = filled(big_w * big_h, true)?;
+    let mut unknown = filled(if want_unknown { big_w * big_h } else { 0 }, true)?;
     // the sub-cell offsets, and per output column j and sub-column m the rotated x parts
     // c*qx and s*qx (the same float64 products as the reference's, computed once), laid out
     // m-major so that the address pass vectorises
@@ -806,9 +866,17 @@ fn map_in_with(
         need,
         path,
     };
+    // per tile row, its rows of the unknown mask (empty slices when not asked for)
+    let ublocks: Vec<&mut [bool]> = if want_unknown {
+        unknown.chunks_mut(big_w * TILE).collect()
+    } else {
+        (0..big_h.div_ceil(TILE))
+            .map(|_| Default::default())
+            .collect()
+    };
     values
         .par_chunks_mut(big_w * TILE)
-        .zip(unknown.par_chunks_mut(big_w * TILE))
+        .zip(ublocks.into_par_iter())
         .enumerate()
         .for_each(|(t, (vblock, ublock))| {
             let rows = vblock.len() / big_w;
@@ -833,10 +901,12 @@ fn map_in_with(
                     // the others along a row of sub-tiles sampled together
                     for s0 in (0..rows).step_by(SUB) {
                         let s1 = (s0 + SUB).min(rows);
-                        let (vrows, urows) = (
-                            &mut vblock[s0 * big_w..s1 * big_w],
-                            &mut ublock[s0 * big_w..s1 * big_w],
-                        );
+                        let vrows = &mut vblock[s0 * big_w..s1 * big_w];
+                        let urows: &mut [bool] = if ublock.is_empty() {
+                            &mut []
+                        } else {
+                            &mut ublock[s0 * big_w..s1 * big_w]
+                        };
                         let mut run: Option<usize> = None;
                         for c0 in (j0..j1).step_by(SUB).chain([j1]) {
                             let code = if c0 < j1 {
@@ -906,13 +976,15 @@ fn map_in_with(
                         if 2 * k >= u64::from(need) {
                             // the mean of the known samples, rounded half up
                             vblock[row + x] = ((2 * t + k) / (2 * k)) as u8;
-                            ublock[row + x] = false;
+                            if !ublock.is_empty() {
+                                ublock[row + x] = false;
+                            }
                         }
                     }
                 }
             }
         });
-    Ok(Some(CanonicalMap {
+    Ok(Some(Resampled {
         values,
         unknown,
         height: big_h,
@@ -947,13 +1019,16 @@ pub fn canonical_corners_in(
     };
     let packed = pack_box(grid, b)?;
     let angle = angle_in(&packed, b.1 - b.0, b.3 - b.2)?;
-    let map = map_in(
+    // the structure image of the canonical map is all the corners need (no unknown mask)
+    let map = resample(
         grid,
         &packed,
         b,
         angle,
         resolution,
         params.canonical_resolution,
+        Path::Best,
+        false,
     )?;
     drop(packed);
     let Some(map) = map else {
@@ -963,21 +1038,17 @@ pub fn canonical_corners_in(
         });
     };
     reserve_working_set(map.height * map.width)?;
-    let g = Grid {
-        values: &map.values,
-        unknown: &map.unknown,
-        height: map.height,
-        width: map.width,
-    };
+    let corners = count_corners_of_structure(&map.values, map.height, map.width, params);
     Ok(Canonical {
         angle,
-        corners: Some(count_corners(&g, params)),
+        corners: Some(corners),
     })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::corners::count_corners;
 
     fn room(n: usize) -> (Vec<u8>, Vec<bool>) {
         let mut v = vec![254u8; n * n];
@@ -1206,6 +1277,58 @@ mod tests {
     }
 
     #[test]
+    fn the_canonical_corners_equal_those_of_the_whole_canonical_map() {
+        // the resample's block codes let the corner step skip blocks of one value: the same
+        // count as SPEC 3 on the materialised canonical map, for any thread count
+        for seed in 0..10u64 {
+            let (h, w) = (
+                120 + (seed as usize * 29) % 90,
+                140 + (seed as usize * 41) % 80,
+            );
+            let (noise, nu) = random_map(h, w, seed + 3);
+            let mut v = vec![254u8; h * w];
+            let mut u = vec![false; h * w];
+            for r in 0..h {
+                for c in 0..w {
+                    let i = r * w + c;
+                    if c > w * 3 / 4 || (r < 15 && c < 50) {
+                        u[i] = true;
+                    } else if (r / 20 + c / 30) % 6 == 0 {
+                        (v[i], u[i]) = (noise[i], nu[i]);
+                    } else if r % 37 == 3 || c % 43 == 5 || (r + 2 * c) % 91 == 0 {
+                        v[i] = 0;
+                    }
+                }
+            }
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            for (k, res) in [None, Some(0.05), Some(0.1), Some(0.035), Some(0.02)]
+                .into_iter()
+                .enumerate()
+            {
+                let p = CornerParams {
+                    log_threshold: [0.1, 0.0, 0.1, -0.05, 0.3][k],
+                    ..CornerParams::default()
+                };
+                let angle = wall_angle(&g).unwrap();
+                let m = canonical_map(&g, angle, res, p.canonical_resolution)
+                    .unwrap()
+                    .unwrap();
+                let mg = Grid::new(&m.values, &m.unknown, m.height, m.width).unwrap();
+                let want = count_corners(&mg, &p);
+                for threads in [1, 2] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let got = pool.install(|| canonical_corners(&g, res, &p).unwrap());
+                    assert_eq!(got.corners, Some(want), "seed {seed} res {res:?}");
+                    assert_eq!(got.angle.to_bits(), angle.to_bits());
+                }
+            }
+        }
+    }
+
+    #[test]
     fn angle_sums_are_the_same_on_every_path() {
         // gradients of every size up to the largest (4 * 255 * 256^2), zero runs, ties
         let mut x = 0x2545_F491_4F6C_DD1Du64;
@@ -1265,7 +1388,7 @@ mod tests {
                     &packed[rr * w..(rr + 1) * w]
                 });
                 let mut baseline = vec![0i32; wd];
-                blur_row_in(rows, &mut vec![0u16; w], &mut vec![0i32; w], &mut baseline);
+                blur_row_in(rows, &mut vec![0u16; w], &mut vec![0u16; w], &mut baseline);
                 for cd in 0..wd {
                     let mut want = 0;
                     for i in 0..9 {
@@ -1341,6 +1464,7 @@ mod tests {
 #[cfg(test)]
 mod timing {
     use super::*;
+    use crate::corners::count_corners;
     #[test]
     #[ignore]
     fn time_steps() {

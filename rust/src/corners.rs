@@ -15,7 +15,7 @@
 //! before their runs are found; the corner blobs are counted from runs.
 
 use crate::border::reflect101;
-use crate::filter::{blur_row, laplacian_mask_row, structure_row};
+use crate::filter::{blur_row, laplacian_mask_row, structure_row, widen_row};
 use crate::grid::{bands, Grid, BAND_ROWS};
 use crate::label::{
     count_components, drop_small_runs, push_runs, Components, MaskRows, RowRuns, Run,
@@ -41,7 +41,18 @@ pub fn structure_mask(grid: &Grid, log_threshold: f64) -> Vec<u8> {
 /// Steps 1-4: the LoG structure mask (0/1 per cell) and its runs, each row's runs found
 /// right after the row is written (while it is in cache) instead of by a second scan.
 pub fn structure_mask_runs(grid: &Grid, log_threshold: f64) -> (Vec<u8>, RowRuns) {
-    let (h, w) = (grid.height, grid.width);
+    structure_mask_runs_by((grid.height, grid.width), log_threshold, &|r, row| {
+        structure_row(grid.value_row(r), grid.unknown_row(r), row)
+    })
+}
+
+/// [`structure_mask_runs`] of the `h x w` map whose structure image's row `r` is written by
+/// `s_row(r, row)`.
+fn structure_mask_runs_by(
+    (h, w): (usize, usize),
+    log_threshold: f64,
+    s_row: &(impl Fn(usize, &mut [u16]) + Sync),
+) -> (Vec<u8>, RowRuns) {
     let mut mask = vec![0u8; h * w];
     let Some(t) = integer_threshold(log_threshold * 255.0 * 256.0) else {
         let runs = RowRuns::concat(vec![(Vec::new(), vec![0; h])]);
@@ -63,7 +74,7 @@ pub fn structure_mask_runs(grid: &Grid, log_threshold: f64) -> (Vec<u8>, RowRuns
                 }
                 let mut s_any = Vec::with_capacity(end - base);
                 for (rr, row) in (base..end).zip(s_buf.chunks_exact_mut(w)) {
-                    structure_row(grid.value_row(rr), grid.unknown_row(rr), row);
+                    s_row(rr, row);
                     s_any.push(row.iter().any(|&x| x != 0));
                 }
                 let s_buf: &[u16] = s_buf;
@@ -667,8 +678,26 @@ pub fn corner_runs(
 
 /// Steps 1-8: the number of corners of a map.
 pub fn count_corners(grid: &Grid, params: &CornerParams) -> usize {
-    let (h, w) = (grid.height, grid.width);
-    let (mut mask, runs) = structure_mask_runs(grid, params.log_threshold);
+    let (mask, runs) = structure_mask_runs(grid, params.log_threshold);
+    corners_of_mask(mask, runs, (grid.height, grid.width), params)
+}
+
+/// Steps 1-8 of an `h x w` map given as its structure image `s` (SPEC 3 step 1: the value
+/// of a known cell, 0 for an unknown one): [`count_corners`] of any map with that image.
+pub fn count_corners_of_structure(s: &[u8], h: usize, w: usize, params: &CornerParams) -> usize {
+    let (mask, runs) = structure_mask_runs_by((h, w), params.log_threshold, &|r, row| {
+        widen_row(&s[r * w..(r + 1) * w], row)
+    });
+    corners_of_mask(mask, runs, (h, w), params)
+}
+
+/// Steps 5-8 from the structure mask and its runs.
+fn corners_of_mask(
+    mut mask: Vec<u8>,
+    runs: RowRuns,
+    (h, w): (usize, usize),
+    params: &CornerParams,
+) -> usize {
     let runs = drop_dots_runs(&mut mask, runs, h, w, params.min_dot_area);
     let corners = corner_runs(&mask, &runs, h, w, params);
     drop((mask, runs));
@@ -922,6 +951,40 @@ mod tests {
                     let (mask, _) = pool.install(|| structure_mask_runs(&g, t));
                     assert_eq!(mask, expect, "{h}x{w} t {t} threads {threads}");
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn corners_of_the_structure_image_are_those_of_the_map() {
+        let mut st = 19u64;
+        for (h, w) in [(1, 1), (3, 7), (70, 33), (130, 90)] {
+            let v: Vec<u8> = (0..h * w)
+                .map(|i| {
+                    st = st.wrapping_mul(6364136223846793005).wrapping_add(3);
+                    if (i / w) % 9 < 3 {
+                        254
+                    } else {
+                        [0u8, 128, 254, 254, 254, 200][(st >> 40) as usize % 6]
+                    }
+                })
+                .collect();
+            let u: Vec<bool> = v.iter().map(|&x| x == 128).collect();
+            let s: Vec<u8> = v
+                .iter()
+                .zip(&u)
+                .map(|(&x, &k)| if k { 0 } else { x })
+                .collect();
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            for lt in [0.1, 0.0, -0.05] {
+                let p = CornerParams {
+                    log_threshold: lt,
+                    ..CornerParams::default()
+                };
+                assert_eq!(
+                    count_corners_of_structure(&s, h, w, &p),
+                    count_corners(&g, &p)
+                );
             }
         }
     }

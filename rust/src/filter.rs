@@ -41,6 +41,31 @@ fn structure_row_in(values: &[u8], unknown: &[bool], out: &mut [u16]) {
     }
 }
 
+/// A row of one byte a cell widened to `u16` (a structure image given as bytes).
+#[inline]
+pub fn widen_row(values: &[u8], out: &mut [u16]) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: AVX2 is present
+        unsafe { widen_row_avx2(values, out) };
+        return;
+    }
+    widen_row_in(values, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn widen_row_avx2(values: &[u8], out: &mut [u16]) {
+    widen_row_in(values, out);
+}
+
+#[inline(always)]
+fn widen_row_in(values: &[u8], out: &mut [u16]) {
+    for (o, &v) in out.iter_mut().zip(values) {
+        *o = u16::from(v);
+    }
+}
+
 /// Row `r` of `G = sum b_i b_j S` over the 5x5 window (256 x OpenCV's `GaussianBlur(S, 5x5)`
 /// without rounding). `s_row(k)` returns row `k` of S; `vbuf` is scratch of the row width.
 /// Values stay below 65,281, so `u16` is exact.
