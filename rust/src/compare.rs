@@ -3,7 +3,7 @@
 //! what the figures need (matches within the tolerance, sums of distances, coverage).
 //! Ratios and metres are formed by the caller from these.
 
-use crate::edt::{filled, Columns, EdtError};
+use crate::edt::{filled, Columns, EdtError, NearestCell, Scratch, Sparse};
 use crate::grid::{Grid, BAND_ROWS};
 use crate::icp::{icp, Target};
 use crate::params::{Align, CompareParams};
@@ -142,25 +142,148 @@ fn check_params(p: &CompareParams) -> Result<(), CompareError> {
     }
 }
 
-/// World centres of the occupied cells of `p`, in row-major order.
-fn occupied_points(p: &Placed, occ: &[bool; 256]) -> Result<Vec<(f64, f64)>, CompareError> {
-    let g = &p.grid;
+/// World centres of the cells `cells` (row-major indices) of `p`.
+fn occupied_points(p: &Placed, cells: &[u32]) -> Result<Vec<(f64, f64)>, CompareError> {
+    let w = p.grid.width;
     let mut pts: Vec<(f64, f64)> = Vec::new();
+    pts.try_reserve_exact(cells.len())
+        .map_err(|_| EdtError::Alloc {
+            bytes: cells.len().saturating_mul(16),
+        })?;
     let to_world = p.frame.cell_to_world();
-    for r in 0..g.height {
-        for (c, (v, u)) in g.value_row(r).iter().zip(g.unknown_row(r)).enumerate() {
-            if !*u && occ[*v as usize] {
-                if pts.len() == pts.capacity() {
-                    let more = pts.capacity().max(1024);
-                    pts.try_reserve(more).map_err(|_| EdtError::Alloc {
-                        bytes: (pts.capacity() + more).saturating_mul(16),
-                    })?;
-                }
-                pts.push(to_world.apply(r as f64, c as f64));
-            }
-        }
-    }
+    pts.extend(cells.iter().map(|&i| {
+        let i = i as usize;
+        to_world.apply((i / w) as f64, (i % w) as f64)
+    }));
     Ok(pts)
+}
+
+/// Side of the square blocks [`Scan::known`] counts over.
+const BLOCK: usize = 8;
+
+/// One pass over a grid: its occupied cells and, per block of [`BLOCK`] x [`BLOCK`] cells,
+/// how many are known.
+struct Scan {
+    /// Occupied cells, row-major indices, ascending.
+    cells: Vec<u32>,
+    /// Known cells per block, row-major over the blocks (`blocks_wide` per block row).
+    known: Vec<u8>,
+    blocks_wide: usize,
+    /// Known cells in all.
+    known_cells: u64,
+}
+
+impl Scan {
+    /// The cells block `(bi, bj)` holds (fewer at the grid's lower and right edges).
+    #[inline]
+    fn block_cells(&self, bi: usize, bj: usize, height: usize, width: usize) -> u8 {
+        let rows = (height - bi * BLOCK).min(BLOCK);
+        let cols = (width - bj * BLOCK).min(BLOCK);
+        (rows * cols) as u8
+    }
+}
+
+/// The bytes of a slice of bools (0 or 1 each).
+#[inline]
+fn bytes(b: &[bool]) -> &[u8] {
+    // SAFETY: a bool is one byte holding 0 or 1, so every bool is a valid u8, and the
+    // slice keeps its length, alignment (1) and lifetime
+    unsafe { std::slice::from_raw_parts(b.as_ptr().cast::<u8>(), b.len()) }
+}
+
+/// The first eight bytes of `b` as a little-endian word (`b` holds at least eight).
+#[inline]
+fn word(b: &[u8]) -> u64 {
+    let mut a = [0u8; 8];
+    a.copy_from_slice(&b[..8]);
+    u64::from_le_bytes(a)
+}
+
+/// Whether a byte of `x` is below `n` (exact for `n <= 128`; larger `n`: byte by byte).
+#[inline]
+fn has_less(x: u64, n: usize) -> bool {
+    const ONES: u64 = 0x0101_0101_0101_0101;
+    if n <= 128 {
+        (x.wrapping_sub(ONES * n as u64) & !x & (ONES * 0x80)) != 0
+    } else {
+        x.to_le_bytes().iter().any(|&b| (b as usize) < n)
+    }
+}
+
+/// [`Scan`] of grid `g`, occupied meaning `occ[value]` for a known cell. Bands of rows in
+/// parallel, their lists joined in order.
+fn scan(g: &Grid, occ: &[bool; 256]) -> Result<Scan, CompareError> {
+    let (h, w) = (g.height, g.width);
+    // occupied values are a prefix of 0..=255: p = (255 - v) / 255 falls as v grows
+    let below = occ.iter().take_while(|&&o| o).count();
+    if occ[below..].iter().any(|&o| o) {
+        return Err(CompareError::Invalid(
+            "occupied values are not a prefix of 0..=255".into(),
+        ));
+    }
+    let bw = w.div_ceil(BLOCK);
+    let mut known = filled(h.div_ceil(BLOCK) * bw, 0u8)?;
+    let band = BAND_ROWS * w;
+    let parts: Vec<(Vec<u32>, u64)> = known
+        .par_chunks_mut((BAND_ROWS / BLOCK) * bw)
+        .zip(g.values.par_chunks(band).zip(g.unknown.par_chunks(band)))
+        .enumerate()
+        .map(|(b, (kn, (vals, unk)))| {
+            let mut list = Vec::new();
+            let mut total = 0u64;
+            for (k, (vr, ur)) in vals.chunks(w).zip(unk.chunks(w)).enumerate() {
+                let r = b * BAND_ROWS + k;
+                let krow = &mut kn[(k / BLOCK) * bw..(k / BLOCK + 1) * bw];
+                for (j, ((vc, uc), kc)) in vr
+                    .chunks(BLOCK)
+                    .zip(ur.chunks(BLOCK))
+                    .zip(krow.iter_mut())
+                    .enumerate()
+                {
+                    let (n, any) = if vc.len() == BLOCK {
+                        // eight cells at once: unknown flags are 0/1 bytes; an unknown
+                        // cell's value is taken as 255, never occupied here
+                        let u = word(bytes(uc));
+                        let v = word(vc);
+                        let v = v | (u * 0xFF);
+                        (BLOCK as u8 - u.count_ones() as u8, has_less(v, below))
+                    } else {
+                        let (mut n, mut any) = (0u8, false);
+                        for (&v, &u) in vc.iter().zip(uc) {
+                            n += (!u) as u8;
+                            any |= !u & ((v as usize) < below);
+                        }
+                        (n, any)
+                    };
+                    *kc += n;
+                    total += n as u64;
+                    if any {
+                        if list.len() + BLOCK > list.capacity() {
+                            list.try_reserve(list.capacity().max(1024)).map_err(|_| {
+                                EdtError::Alloc {
+                                    bytes: list.capacity().saturating_mul(8),
+                                }
+                            })?;
+                        }
+                        for (q, (&v, &u)) in vc.iter().zip(uc).enumerate() {
+                            if !u && (v as usize) < below {
+                                list.push((r * w + j * BLOCK + q) as u32);
+                            }
+                        }
+                    }
+                }
+            }
+            Ok((list, total))
+        })
+        .collect::<Result<_, EdtError>>()?;
+    let known_cells = parts.iter().map(|p| p.1).sum();
+    let cells = concat(parts.into_iter().map(|p| p.0).collect())?;
+    Ok(Scan {
+        cells,
+        known,
+        blocks_wide: bw,
+        known_cells,
+    })
 }
 
 /// The motion aligning the estimate, with the ICP's RMS, iterations and inliers.
@@ -171,7 +294,7 @@ fn align(
     points: &[(f64, f64)],
     est: &Placed,
     gt: &Placed,
-    g_columns: &Columns,
+    g_columns: &dyn NearestCell,
     g_mask: &[bool],
     g_list: &[u32],
     params: &CompareParams,
@@ -235,6 +358,219 @@ struct Resampled {
 #[inline]
 fn fixed(x: f64) -> i64 {
     (x * 4294967296.0).round() as i64
+}
+
+/// What the figures need of the resampling: the cells of E (in [`Resampled::e_list`]'s
+/// order), `outside`, the ground truth's free cells and those the estimate knows.
+struct Sampled {
+    e_list: Vec<u32>,
+    outside: u64,
+    free: u64,
+    covered: u64,
+}
+
+/// Side of the square tiles of ground-truth cells whose coverage [`resample_sparse`] counts
+/// at once when the estimate cells they sample are all known (or all unknown).
+const TILE: usize = 2 * BLOCK;
+
+/// [`resample`] without the per-cell flags, visiting only what the figures need (the same
+/// cells of E in the same order, the same counts): the ground-truth cells each occupied
+/// estimate cell holds the centre of, found from that estimate cell (its square mapped onto
+/// the ground truth's grid, each candidate tested with [`resample`]'s own fixed-point
+/// position); and the coverage per [`TILE`] x [`TILE`] tile of the ground truth: a tile
+/// whose samples all fall on known estimate blocks covers its free cells, one whose samples
+/// all fall on unknown blocks (or outside the estimate) none, the others cell by cell. None
+/// when the positions could overflow the fixed point (frames far apart): then [`resample`].
+#[allow(clippy::too_many_arguments)]
+fn resample_sparse(
+    est: &Placed,
+    ground_truth: &Placed,
+    g_scan: &Scan,
+    g_near: &Sparse,
+    e_scan: &Scan,
+    t: &Se2,
+    points: &[(f64, f64)],
+) -> Result<Option<Sampled>, CompareError> {
+    let gt = &ground_truth.frame;
+    let gu = ground_truth.grid.unknown;
+    let (h, w) = (gt.height, gt.width);
+    let eg = &est.grid;
+    let (eh, ew) = (eg.height as i64, eg.width as i64);
+    let m = gt_to_estimate(gt, &est.frame, t);
+    let Some(inv) = m.inverse() else {
+        return Ok(None);
+    };
+    // the estimate position of column 0 of every row, and one column's step, in 32.32
+    // fixed point exactly as `resample` steps them (no saturation: checked)
+    const LIMIT: i64 = 1 << 61;
+    let (sr, sc) = (fixed(m.m[0][1]), fixed(m.m[1][1]));
+    let span = |s: i64| (s.unsigned_abs() as u128) * (w as u128) < LIMIT as u128;
+    if !(span(sr) && span(sc)) {
+        return Ok(None);
+    }
+    let mut starts = Vec::new();
+    starts
+        .try_reserve_exact(h)
+        .map_err(|_| EdtError::Alloc { bytes: h * 16 })?;
+    for r in 0..h {
+        let (er0, ec0) = m.apply(r as f64, 0.0);
+        let (a, b) = (fixed(er0), fixed(ec0));
+        if a.abs() >= LIMIT || b.abs() >= LIMIT {
+            return Ok(None);
+        }
+        starts.push((a, b));
+    }
+    // the estimate cell holding the centre of ground-truth cell (r, c), as `resample` finds
+    #[inline]
+    fn at(starts: &[(i64, i64)], sr: i64, sc: i64, r: usize, c: usize) -> (i64, i64) {
+        let (a, b) = starts[r];
+        ((a + c as i64 * sr) >> 32, (b + c as i64 * sc) >> 32)
+    }
+    let known_at = |r: usize, c: usize| {
+        let (ir, ic) = at(&starts, sr, sc, r, c);
+        ir >= 0 && ic >= 0 && ir < eh && ic < ew && !eg.unknown[(ir * ew + ic) as usize]
+    };
+    // E: from each occupied estimate cell, the ground-truth cells whose centre it holds
+    let words = w.div_ceil(64);
+    let mut e_bits = filled(h * words, 0u64)?;
+    let ew_u = eg.width;
+    // a margin far above the rounding of the two affine maps (cells)
+    const EPS: f64 = 1e-3;
+    let (hm, wm) = ((h - 1) as i64, (w - 1) as i64);
+    for &i in &e_scan.cells {
+        let (er, ec) = ((i as usize / ew_u) as f64, (i as usize % ew_u) as f64);
+        let corners = [
+            inv.apply(er, ec),
+            inv.apply(er + 1.0, ec),
+            inv.apply(er, ec + 1.0),
+            inv.apply(er + 1.0, ec + 1.0),
+        ];
+        let (mut r0, mut r1, mut c0, mut c1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for (r, c) in corners {
+            r0 = r0.min(r);
+            r1 = r1.max(r);
+            c0 = c0.min(c);
+            c1 = c1.max(c);
+        }
+        // ceil(x - EPS) and floor(x + EPS), inline, clamped onto the grid
+        let (r0, r1) = ((-floor_i64(EPS - r0)).max(0), floor_i64(r1 + EPS).min(hm));
+        let (c0, c1) = ((-floor_i64(EPS - c0)).max(0), floor_i64(c1 + EPS).min(wm));
+        if !(r0 <= r1 && c0 <= c1) {
+            continue;
+        }
+        let (target_r, target_c) = (er as i64, ec as i64);
+        for r in r0 as usize..=r1 as usize {
+            for c in c0 as usize..=c1 as usize {
+                if at(&starts, sr, sc, r, c) == (target_r, target_c) {
+                    e_bits[r * words + c / 64] |= 1u64 << (c % 64);
+                }
+            }
+        }
+    }
+    let mut e_list = Vec::new();
+    let found: usize = e_bits.iter().map(|b| b.count_ones() as usize).sum();
+    e_list
+        .try_reserve_exact(found + points.len())
+        .map_err(|_| EdtError::Alloc {
+            bytes: (found + points.len()).saturating_mul(4),
+        })?;
+    for r in 0..h {
+        for (k, &word) in e_bits[r * words..(r + 1) * words].iter().enumerate() {
+            let mut b = word;
+            while b != 0 {
+                e_list.push((r * w + k * 64 + b.trailing_zeros() as usize) as u32);
+                b &= b - 1;
+            }
+        }
+    }
+    // the cells only the estimate's points mark (known from then on)
+    let gt_free = |i: usize| !gu[i] && !g_near.get_index(i);
+    let (mut outside, mut covered) = (0u64, 0u64);
+    let to_cell = gt.world_to_cell_affine().after(&t.affine());
+    for &(x, y) in points {
+        let (r, c) = to_cell.apply(x, y);
+        let (r, c) = (floor_i64(r), floor_i64(c));
+        if r >= 0 && c >= 0 && r < h as i64 && c < w as i64 {
+            let (r, c) = (r as usize, c as usize);
+            let (word, bit) = (r * words + c / 64, 1u64 << (c % 64));
+            if e_bits[word] & bit == 0 {
+                e_bits[word] |= bit;
+                let i = r * w + c;
+                e_list.push(i as u32);
+                covered += (!known_at(r, c) && gt_free(i)) as u64;
+            }
+        } else {
+            outside += 1;
+        }
+    }
+    // coverage, tile by tile
+    let (th, tw) = (h.div_ceil(TILE), w.div_ceil(TILE));
+    let mut g_in_tile = filled(th * tw, 0u32)?;
+    for &i in &g_scan.cells {
+        let i = i as usize;
+        g_in_tile[(i / w / TILE) * tw + (i % w) / TILE] += 1;
+    }
+    let ebw = e_scan.blocks_wide;
+    let (ebh, ebw_i) = (eg.height.div_ceil(BLOCK) as i64, ebw as i64);
+    let per = TILE / BLOCK;
+    for ti in 0..th {
+        let (r0, r1) = (ti * TILE, ((ti + 1) * TILE).min(h));
+        for tj in 0..tw {
+            let (c0, c1) = (tj * TILE, ((tj + 1) * TILE).min(w));
+            // the estimate cells the tile samples: per row, its two ends bound the rest
+            let (mut lo_r, mut hi_r, mut lo_c, mut hi_c) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
+            for r in r0..r1 {
+                for c in [c0, c1 - 1] {
+                    let (ir, ic) = at(&starts, sr, sc, r, c);
+                    lo_r = lo_r.min(ir);
+                    hi_r = hi_r.max(ir);
+                    lo_c = lo_c.min(ic);
+                    hi_c = hi_c.max(ic);
+                }
+            }
+            let mut unknown = lo_r < 0 || lo_c < 0 || hi_r >= eh || hi_c >= ew;
+            let mut known = false;
+            let (b0, b1) = (lo_r.max(0) / BLOCK as i64, hi_r.min(eh - 1) / BLOCK as i64);
+            let (k0, k1) = (lo_c.max(0) / BLOCK as i64, hi_c.min(ew - 1) / BLOCK as i64);
+            if lo_r < eh && hi_r >= 0 && lo_c < ew && hi_c >= 0 {
+                for bi in b0..=b1.min(ebh - 1) {
+                    for bj in k0..=k1.min(ebw_i - 1) {
+                        let (bi, bj) = (bi as usize, bj as usize);
+                        let n = e_scan.known[bi * ebw + bj];
+                        known |= n > 0;
+                        unknown |= n < e_scan.block_cells(bi, bj, eg.height, eg.width);
+                    }
+                }
+            }
+            if !known {
+                continue;
+            }
+            if !unknown {
+                // every sample known: the tile's free cells are covered
+                let mut k = 0u32;
+                for bi in ti * per..((ti + 1) * per).min(h.div_ceil(BLOCK)) {
+                    for bj in tj * per..((tj + 1) * per).min(g_scan.blocks_wide) {
+                        k += g_scan.known[bi * g_scan.blocks_wide + bj] as u32;
+                    }
+                }
+                covered += (k - g_in_tile[ti * tw + tj]) as u64;
+                continue;
+            }
+            for r in r0..r1 {
+                for c in c0..c1 {
+                    let i = r * w + c;
+                    covered += (gt_free(i) && known_at(r, c)) as u64;
+                }
+            }
+        }
+    }
+    let free = g_scan.known_cells - g_scan.cells.len() as u64;
+    Ok(Some(Sampled {
+        e_list,
+        outside,
+        free,
+        covered,
+    }))
 }
 
 fn resample(
@@ -365,30 +701,74 @@ struct Side {
     both: u64,
 }
 
+/// The other map of [`side`]'s distances: its set cells' bits, or its column pass when the
+/// queries are far from them (both give the same distances).
+enum Other<'a> {
+    Sparse(&'a Sparse),
+    Columns(&'a Columns),
+}
+
+/// Queries of [`Sparse`] cost a few times what those of [`Columns`] do once its column
+/// pass is made: past this many columns looked at per grid cell (estimated from a sample of
+/// the queries), the pass is made.
+const DENSE_VISITS_PER_CELL: f64 = 0.3;
+/// Queries in that sample.
+const SAMPLE: usize = 256;
+
+/// How [`side`] should query `near` for the cells of `list`: by the bits, or (queries far
+/// from its cells, e.g. maps far apart) by a column pass made here. The choice changes no
+/// result, only the time.
+fn plan(near: &Sparse, list: &[u32]) -> Result<Option<Columns>, EdtError> {
+    let (h, w) = (near.height, near.width);
+    if list.is_empty() {
+        return Ok(None);
+    }
+    let stride = list.len().div_ceil(SAMPLE).max(1);
+    let (mut asked, mut visits) = (0usize, 0usize);
+    for &i in list.iter().step_by(stride) {
+        let i = i as usize;
+        visits += near.distance(i / w, i % w).1;
+        asked += 1;
+    }
+    let expected = visits as f64 / asked as f64 * list.len() as f64;
+    if expected <= DENSE_VISITS_PER_CELL * (h * w) as f64 {
+        return Ok(None);
+    }
+    near.columns().map(Some)
+}
+
 /// For every cell of `list`, its distance to the other map (queries of `other`): matches
 /// within `tol2`, the sum of distances (truncated at `max`), how many cells `also` holds
 /// for, and (when `want`) the matched flag of every cell.
 fn side(
     list: &[u32],
-    other: &Columns,
+    other: Other,
     tol2: f64,
     max: Option<f64>,
     also: impl Fn(usize) -> bool + Sync,
     want: bool,
 ) -> (Side, Vec<bool>) {
     const CHUNK: usize = 4096;
-    let w = other.width;
+    let w = match other {
+        Other::Sparse(s) => s.width,
+        Other::Columns(c) => c.width,
+    };
     let parts: Vec<(Side, Vec<bool>)> = list
         .par_chunks(CHUNK)
         .map(|chunk| {
-            let mut scratch = other.scratch();
+            let mut scratch: Option<Scratch> = None;
             let mut s = Side::default();
             let mut matched = Vec::with_capacity(if want { chunk.len() } else { 0 });
             for &i in chunk {
                 let i = i as usize;
-                let sq = other
-                    .query(i / w, i % w, &mut scratch)
-                    .map_or(u32::MAX, |(_, d)| d);
+                let sq = match other {
+                    Other::Sparse(near) => near.distance(i / w, i % w).0,
+                    Other::Columns(cols) => {
+                        let scratch = scratch.get_or_insert_with(|| cols.scratch());
+                        cols.query(i / w, i % w, scratch).map(|(_, d)| d)
+                    }
+                }
+                .unwrap_or(u32::MAX);
                 let ok = sq != u32::MAX && sq as f64 <= tol2;
                 s.matched += ok as u64;
                 let (d, t) = distance(sq, max);
@@ -442,47 +822,98 @@ pub fn compare(
     let occ = occupied_table(params.occupied_threshold);
     let gt = &ground_truth.grid;
     let (h, w) = (gt.height, gt.width);
-    // G, and the ground truth's free cells
-    let mut g_mask = filled(h * w, false)?;
-    let band = BAND_ROWS * w;
-    let g_parts: Vec<Vec<u32>> = g_mask
-        .par_chunks_mut(band)
-        .zip(gt.values.par_chunks(band))
-        .zip(gt.unknown.par_chunks(band))
-        .enumerate()
-        .map(|(b, ((m, v), u))| {
-            let mut list = band_list(m.len())?;
-            for (i, ((m, v), u)) in m.iter_mut().zip(v).zip(u).enumerate() {
-                *m = !*u && occ[*v as usize];
-                if *m {
-                    list.push((b * band + i) as u32);
-                }
-            }
-            Ok(list)
-        })
-        .collect::<Result<_, EdtError>>()?;
-    let g_list = concat(g_parts)?;
+    // G (and how many cells of each block of the ground truth are known), the estimate's
+    // occupied cells
+    let g_scan = scan(gt, &occ)?;
+    let e_scan = scan(&estimate.grid, &occ)?;
     // nearest-cell queries of G (ICP correspondences, d(e, G))
-    let g_columns = Columns::new(|i| g_mask[i], h, w)?;
-    let points = occupied_points(estimate, &occ)?;
-    let (transform, icp_rms, icp_iterations, icp_inliers) = align(
-        &points,
-        estimate,
-        ground_truth,
-        &g_columns,
-        &g_mask,
-        &g_list,
-        params,
-    )?;
-    let res = resample(estimate, ground_truth, &g_mask, &transform, &occ, &points)?;
+    let g_near = Sparse::new(&g_scan.cells, h, w)?;
+    // G as a mask: the ICP's line fits, and the literal resampling
+    let need_mask = params.align != Align::Origin || want_cells;
+    let g_mask = if need_mask {
+        let mut m = filled(h * w, false)?;
+        for &i in &g_scan.cells {
+            m[i as usize] = true;
+        }
+        m
+    } else {
+        Vec::new()
+    };
+    let g_list = &g_scan.cells;
+    let points = occupied_points(estimate, &e_scan.cells)?;
+    // the ICP asks the nearest cell of G many times: its column pass pays off there
+    let g_columns = if params.align != Align::Origin {
+        Some(Columns::new(|i| g_mask[i], h, w)?)
+    } else {
+        None
+    };
+    let (transform, icp_rms, icp_iterations, icp_inliers) = match &g_columns {
+        Some(cols) => align(
+            &points,
+            estimate,
+            ground_truth,
+            cols,
+            &g_mask,
+            g_list,
+            params,
+        )?,
+        None => (Se2::IDENTITY, f64::NAN, 0, 0),
+    };
+    let sparse = if want_cells {
+        None
+    } else {
+        resample_sparse(
+            estimate,
+            ground_truth,
+            &g_scan,
+            &g_near,
+            &e_scan,
+            &transform,
+            &points,
+        )?
+    };
+    let (mut cells, res) = match sparse {
+        Some(r) => (Vec::new(), r),
+        None => {
+            let r = resample(estimate, ground_truth, &g_mask, &transform, &occ, &points)?;
+            (
+                r.cells,
+                Sampled {
+                    e_list: r.e_list,
+                    outside: r.outside,
+                    free: r.free,
+                    covered: r.covered,
+                },
+            )
+        }
+    };
     drop(points);
-    let mut cells = res.cells;
     let e_list = res.e_list;
-    let e_columns = Columns::new(|i| cells[i] & flag::ESTIMATE != 0, h, w)?;
+    let e_near = Sparse::new(&e_list, h, w)?;
+    let e_columns = plan(&e_near, g_list)?;
+    let g_far = match g_columns {
+        Some(_) => None,
+        None => plan(&g_near, &e_list)?,
+    };
     let tol2 = params.tolerance * params.tolerance;
     let max = params.max_distance;
-    let (gs, g_matched) = side(&g_list, &e_columns, tol2, max, |_| false, want_cells);
-    let (es, e_matched) = side(&e_list, &g_columns, tol2, max, |i| g_mask[i], want_cells);
+    let e_other = match &e_columns {
+        Some(c) => Other::Columns(c),
+        None => Other::Sparse(&e_near),
+    };
+    let (gs, g_matched) = side(g_list, e_other, tol2, max, |_| false, want_cells);
+    let g_other = match (&g_columns, &g_far) {
+        (Some(c), _) | (None, Some(c)) => Other::Columns(c),
+        (None, None) => Other::Sparse(&g_near),
+    };
+    let (es, e_matched) = side(
+        &e_list,
+        g_other,
+        tol2,
+        max,
+        |i| g_near.get_index(i),
+        want_cells,
+    );
     if want_cells {
         for (&i, &m) in g_list.iter().zip(&g_matched) {
             cells[i as usize] |= flag::GROUND_TRUTH | ((m as u8) * flag::GROUND_TRUTH_MATCHED);
@@ -684,6 +1115,94 @@ mod tests {
         assert!(c.truncated_reverse > 0 && c.sum_reverse <= 3.0 * c.estimate_occupied as f64);
     }
 
+    /// A small deterministic generator (xorshift).
+    fn rng(seed: u64) -> impl FnMut() -> u64 {
+        let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            s
+        }
+    }
+
+    #[test]
+    fn sparse_resampling_equals_the_literal_one() {
+        let mut next = rng(23);
+        let mut unit = move || (next() % 1_000_000) as f64 / 1_000_000.0;
+        for case in 0..120 {
+            let (h, w) = (
+                40 + (unit() * 90.0) as usize,
+                40 + (unit() * 120.0) as usize,
+            );
+            let (eh, ew) = (
+                30 + (unit() * 100.0) as usize,
+                30 + (unit() * 110.0) as usize,
+            );
+            let density = [0.0, 0.01, 0.05, 0.3][case % 4];
+            let mut rand = (0..eh * ew).map(|_| unit()).collect::<Vec<_>>().into_iter();
+            let (mut ev, mut eu) = map(eh, ew, building, |r, c| (r * 7 + c * 3) % 50 < 40);
+            for i in 0..eh * ew {
+                let x = rand.next().unwrap();
+                if x < density {
+                    ev[i] = (x * 2e4) as u8;
+                }
+                if case % 5 == 0 && i % 13 == 0 {
+                    eu[i] = !eu[i];
+                }
+            }
+            let (gv, mut gu) = map(h, w, building, |_, _| true);
+            if case % 2 == 1 {
+                for (i, u) in gu.iter_mut().enumerate() {
+                    *u = (i / w) % 17 < 3;
+                }
+            }
+            let est = Placed {
+                grid: Grid::new(&ev, &eu, eh, ew).unwrap(),
+                frame: frame(
+                    eh,
+                    ew,
+                    [0.05, 0.04, 0.07, 0.2, 0.013][case % 5],
+                    Se2 {
+                        theta: (unit() - 0.5) * [0.1, 1.0, 6.0][case % 3],
+                        tx: (unit() - 0.5) * 2.0,
+                        ty: (unit() - 0.5) * 2.0,
+                    },
+                ),
+            };
+            let gt = Placed {
+                grid: Grid::new(&gv, &gu, h, w).unwrap(),
+                frame: frame(h, w, 0.05, Se2::IDENTITY),
+            };
+            let occ = occupied_table(0.5);
+            let t = Se2 {
+                theta: (unit() - 0.5) * 0.2,
+                tx: (unit() - 0.5) * 0.5,
+                ty: (unit() - 0.5) * 0.5,
+            };
+            let g_scan = scan(&gt.grid, &occ).unwrap();
+            let e_scan = scan(&est.grid, &occ).unwrap();
+            let g_mask: Vec<bool> = (0..h * w).map(|i| !gu[i] && occ[gv[i] as usize]).collect();
+            let lit: Vec<u32> = (0..h * w)
+                .filter(|&i| g_mask[i])
+                .map(|i| i as u32)
+                .collect();
+            assert_eq!(g_scan.cells, lit);
+            let points = occupied_points(&est, &e_scan.cells).unwrap();
+            let g_near = Sparse::new(&g_scan.cells, h, w).unwrap();
+            let want = resample(&est, &gt, &g_mask, &t, &occ, &points).unwrap();
+            let got = resample_sparse(&est, &gt, &g_scan, &g_near, &e_scan, &t, &points)
+                .unwrap()
+                .unwrap();
+            assert_eq!(got.e_list, want.e_list, "case {case}");
+            assert_eq!(
+                (got.outside, got.free, got.covered),
+                (want.outside, want.free, want.covered),
+                "case {case}"
+            );
+        }
+    }
+
     #[test]
     fn same_result_for_any_thread_count() {
         let (h, w) = (120, 160);
@@ -714,5 +1233,12 @@ mod tests {
                 .install(|| compare(&est, &gt, &CompareParams::default(), true).unwrap())
         };
         assert_eq!(run(1), run(3));
+        // without the per-cell flags (the sparse resampling): the same counts
+        let mut with = run(1);
+        with.cells = None;
+        assert_eq!(
+            compare(&est, &gt, &CompareParams::default(), false).unwrap(),
+            with
+        );
     }
 }

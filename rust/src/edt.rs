@@ -68,7 +68,7 @@ pub(crate) fn filled<T: Clone>(n: usize, value: T) -> Result<Vec<T>, EdtError> {
 }
 
 /// Check the shape and the size limits.
-fn check(height: usize, width: usize, len: usize) -> Result<(), EdtError> {
+pub(crate) fn check(height: usize, width: usize, len: usize) -> Result<(), EdtError> {
     if height == 0 || width == 0 || height.checked_mul(width) != Some(len) {
         return Err(EdtError::Shape { height, width, len });
     }
@@ -414,8 +414,31 @@ impl Drop for Columns {
     }
 }
 
-/// Per-caller work space of [`Columns::query`] (the fallback's envelope).
-pub struct Scratch(Envelope);
+/// Per-caller work space of [`Columns::query`] (the fallback's envelope, and for
+/// [`Sparse`] the row of column-nearest cells it needs).
+pub struct Scratch {
+    env: Envelope,
+    row: Vec<u32>,
+}
+
+/// Nearest-set-cell queries, as [`Columns::query`] answers them (the same cell, the same
+/// squared distance): what the ICP's target needs.
+pub trait NearestCell: Sync {
+    /// Work space for [`NearestCell::query`]; one per thread.
+    fn scratch(&self) -> Scratch;
+    /// The nearest set cell of cell `(r, c)` (row-major index) and the squared distance to
+    /// it, or None when no cell is set.
+    fn query(&self, r: usize, c: usize, scratch: &mut Scratch) -> Option<(u32, u32)>;
+}
+
+impl NearestCell for Columns {
+    fn scratch(&self) -> Scratch {
+        Columns::scratch(self)
+    }
+    fn query(&self, r: usize, c: usize, scratch: &mut Scratch) -> Option<(u32, u32)> {
+        Columns::query(self, r, c, scratch)
+    }
+}
 
 impl Columns {
     /// The column pass of the mask whose set cells are those `set(index)` says.
@@ -434,7 +457,10 @@ impl Columns {
 
     /// Work space for [`Columns::query`]; one per thread.
     pub fn scratch(&self) -> Scratch {
-        Scratch(Envelope::new(self.width))
+        Scratch {
+            env: Envelope::new(self.width),
+            row: Vec::new(),
+        }
     }
 
     /// The nearest set cell of cell `(r, c)` (row-major index) and the squared distance to
@@ -443,61 +469,332 @@ impl Columns {
     pub fn query(&self, r: usize, c: usize, scratch: &mut Scratch) -> Option<(u32, u32)> {
         let w = self.width;
         let row = &self.near[r * w..(r + 1) * w];
-        let ri = r as i64;
-        let f = |q: usize| -> Option<u64> {
-            let n = row[q];
-            (n != NONE).then(|| {
-                let d = (ri - n as i64).unsigned_abs();
-                d * d
-            })
-        };
-        let (mut best, mut arg) = (u64::MAX, usize::MAX);
-        if let Some(v) = f(c) {
-            (best, arg) = (v, c);
+        scan_query(r, c, w, |q| row[q], Some(row), scratch)
+    }
+}
+
+/// [`Columns::query`] on the row of column-nearest cells `near(q)` (the row of the nearest
+/// set cell in column `q`, [`NONE`]: none) of row `r`; `whole` is that row when it is
+/// stored (else it is gathered into `scratch` when the envelope needs it).
+#[inline]
+fn scan_query(
+    r: usize,
+    c: usize,
+    w: usize,
+    near: impl Fn(usize) -> u32,
+    whole: Option<&[u32]>,
+    scratch: &mut Scratch,
+) -> Option<(u32, u32)> {
+    let ri = r as i64;
+    let f = |q: usize| -> Option<u64> {
+        let n = near(q);
+        (n != NONE).then(|| {
+            let d = (ri - n as i64).unsigned_abs();
+            d * d
+        })
+    };
+    let (mut best, mut arg) = (u64::MAX, usize::MAX);
+    if let Some(v) = f(c) {
+        (best, arg) = (v, c);
+    }
+    let mut k = 1usize;
+    loop {
+        let k2 = (k * k) as u64;
+        if k2 >= best || (k > c && c + k >= w) {
+            break;
         }
+        if k > SCAN {
+            // far from every set cell of this row's columns: the envelope
+            let Scratch { env, row: buf } = scratch;
+            let row: &[u32] = match whole {
+                Some(row) => row,
+                None => {
+                    buf.clear();
+                    buf.extend((0..w).map(&near));
+                    buf
+                }
+            };
+            let n = env.build(r, row);
+            if n == 0 {
+                return None;
+            }
+            let ci = c as i64;
+            let mut j = 0usize;
+            while j + 1 < n && env.g[j + 1] - env.g[j] < 2 * ci * (env.v[j + 1] - env.v[j]) {
+                j += 1;
+            }
+            let p = env.v[j];
+            let d = (env.g[j] - 2 * ci * p + ci * ci) as u32;
+            return Some(((row[p as usize] as usize * w + p as usize) as u32, d));
+        }
+        if k <= c {
+            if let Some(v) = f(c - k) {
+                if k2 + v < best {
+                    (best, arg) = (k2 + v, c - k);
+                }
+            }
+        }
+        if c + k < w {
+            if let Some(v) = f(c + k) {
+                if k2 + v < best {
+                    (best, arg) = (k2 + v, c + k);
+                }
+            }
+        }
+        k += 1;
+    }
+    if arg == usize::MAX {
+        return None;
+    }
+    // fits u32: checked against the diagonal
+    Some(((near(arg) as usize * w + arg) as u32, best as u32))
+}
+
+/// [`Columns`] without the column pass, for sparse masks (walls): the set cells as one bit
+/// each, column by column (64 rows a word), so that the nearest set cell of a column to a
+/// row, which the column pass stores, is found when a query asks for it (one or two words
+/// near walls). The queries are [`Columns::query`]'s on those values: the same answers,
+/// ties included; a query far from every set cell gathers its row's values for the
+/// envelope.
+pub struct Sparse {
+    pub height: usize,
+    pub width: usize,
+    /// 64-bit words per column.
+    words: usize,
+    bits: Vec<u64>,
+    /// Per column, the first and last set rows ([`NONE`]: none).
+    span: Vec<(u32, u32)>,
+}
+
+impl Sparse {
+    /// The mask of a `height x width` grid whose set cells are `cells` (row-major indices;
+    /// those beyond the grid are ignored).
+    pub fn new(cells: &[u32], height: usize, width: usize) -> Result<Self, EdtError> {
+        let n = height.saturating_mul(width);
+        check(height, width, n)?;
+        let words = height.div_ceil(64);
+        let mut bits = filled(width * words, 0u64)?;
+        let mut span = filled(width, (NONE, 0u32))?;
+        for &i in cells {
+            let i = i as usize;
+            if i < n {
+                let (r, c) = (i / width, i % width);
+                bits[c * words + r / 64] |= 1u64 << (r % 64);
+                let s = &mut span[c];
+                s.0 = s.0.min(r as u32);
+                s.1 = s.1.max(r as u32);
+            }
+        }
+        Ok(Sparse {
+            height,
+            width,
+            words,
+            bits,
+            span,
+        })
+    }
+
+    /// Whether cell `(r, c)` is set.
+    #[inline]
+    pub fn get(&self, r: usize, c: usize) -> bool {
+        self.bits[c * self.words + r / 64] >> (r % 64) & 1 != 0
+    }
+
+    /// Whether cell `i` (row-major) is set.
+    #[inline]
+    pub fn get_index(&self, i: usize) -> bool {
+        self.get(i / self.width, i % self.width)
+    }
+
+    /// The [`Columns`] of the same mask (the column pass).
+    pub fn columns(&self) -> Result<Columns, EdtError> {
+        let (h, w) = (self.height, self.width);
+        let mut mask = filled(h * w, false)?;
+        for c in 0..w {
+            for (k, &word) in self.bits[c * self.words..(c + 1) * self.words]
+                .iter()
+                .enumerate()
+            {
+                let mut b = word;
+                while b != 0 {
+                    mask[(k * 64 + b.trailing_zeros() as usize) * w + c] = true;
+                    b &= b - 1;
+                }
+            }
+        }
+        Columns::new(|i| mask[i], h, w)
+    }
+
+    /// The row of the set cell of column `c` nearest to row `r` (ties: the one above), or
+    /// [`NONE`]: what [`column_pass`] stores at `(r, c)`.
+    #[inline]
+    fn column_nearest(&self, r: usize, c: usize) -> u32 {
+        let col = &self.bits[c * self.words..(c + 1) * self.words];
+        let (wi, b) = (r / 64, r % 64);
+        // rows at or below r
+        let mut down = usize::MAX;
+        let x = col[wi] >> b;
+        if x != 0 {
+            down = x.trailing_zeros() as usize;
+        } else {
+            let mut base = 64 - b;
+            for &x in &col[wi + 1..] {
+                if x != 0 {
+                    down = base + x.trailing_zeros() as usize;
+                    break;
+                }
+                base += 64;
+            }
+        }
+        if down == 0 {
+            return r as u32;
+        }
+        // rows above r, no farther than `down`
+        let mut up = usize::MAX;
+        let x = col[wi] << (63 - b);
+        if x != 0 {
+            up = x.leading_zeros() as usize;
+        } else {
+            let mut base = b + 1;
+            for &x in col[..wi].iter().rev() {
+                if base > down {
+                    break;
+                }
+                if x != 0 {
+                    up = base + x.leading_zeros() as usize;
+                    break;
+                }
+                base += 64;
+            }
+        }
+        if up == usize::MAX && down == usize::MAX {
+            NONE
+        } else if up <= down {
+            (r - up) as u32
+        } else {
+            (r + down) as u32
+        }
+    }
+
+    /// The row distance from `r` to the nearest set cell of column `c` if it is at most
+    /// `limit` (else `usize::MAX`).
+    #[inline]
+    fn column_distance(&self, r: usize, c: usize, limit: usize) -> usize {
+        let (lo, hi) = self.span[c];
+        if lo == NONE {
+            return usize::MAX;
+        }
+        let (lo, hi) = (lo as usize, hi as usize);
+        let d = if r <= lo {
+            lo - r
+        } else if r >= hi {
+            r - hi
+        } else {
+            // between the first and the last set cell: one set at or below r, one above
+            let col = &self.bits[c * self.words..(c + 1) * self.words];
+            let (wi, b) = (r / 64, r % 64);
+            let x = col[wi] >> b;
+            let down = if x != 0 {
+                x.trailing_zeros() as usize
+            } else {
+                let mut base = 64 - b;
+                let mut j = wi + 1;
+                while col[j] == 0 && base <= limit {
+                    j += 1;
+                    base += 64;
+                }
+                base + col[j].trailing_zeros() as usize
+            };
+            if down == 0 {
+                return 0;
+            }
+            let x = col[wi] << (63 - b);
+            let up = if x != 0 {
+                x.leading_zeros() as usize
+            } else {
+                let mut base = b + 1;
+                let mut j = wi - 1;
+                while col[j] == 0 && base <= limit.min(down) {
+                    j -= 1;
+                    base += 64;
+                }
+                base + col[j].leading_zeros() as usize
+            };
+            up.min(down)
+        };
+        if d <= limit {
+            d
+        } else {
+            usize::MAX
+        }
+    }
+
+    /// The squared distance from cell `(r, c)` to the nearest set cell (None when no cell is
+    /// set): [`Columns::query`]'s, by its scan of the row's columns taken as far as needed
+    /// (no envelope: which cell is nearest does not matter here); and how many columns the
+    /// scan looked at.
+    #[inline]
+    pub fn distance(&self, r: usize, c: usize) -> (Option<u32>, usize) {
+        let w = self.width;
+        // rows farther than `limit` cannot beat `best` (limit >= sqrt(best): a bound, larger
+        // is safe)
+        let limit_of = |best: u64| {
+            if best == u64::MAX {
+                usize::MAX
+            } else {
+                (best as f64).sqrt() as usize + 1
+            }
+        };
+        let offer = |q: usize, k2: u64, limit: usize| -> u64 {
+            match self.column_distance(r, q, limit) {
+                usize::MAX => u64::MAX,
+                d => k2 + (d * d) as u64,
+            }
+        };
+        let mut best = offer(c, 0, usize::MAX);
+        let mut limit = limit_of(best);
         let mut k = 1usize;
         loop {
             let k2 = (k * k) as u64;
             if k2 >= best || (k > c && c + k >= w) {
                 break;
             }
-            if k > SCAN {
-                // far from every set cell of this row's columns: the envelope
-                let env = &mut scratch.0;
-                let n = env.build(r, row);
-                if n == 0 {
-                    return None;
-                }
-                let ci = c as i64;
-                let mut j = 0usize;
-                while j + 1 < n && env.g[j + 1] - env.g[j] < 2 * ci * (env.v[j + 1] - env.v[j]) {
-                    j += 1;
-                }
-                let p = env.v[j];
-                let d = (env.g[j] - 2 * ci * p + ci * ci) as u32;
-                return Some(((row[p as usize] as usize * w + p as usize) as u32, d));
-            }
+            let mut b = best;
             if k <= c {
-                if let Some(v) = f(c - k) {
-                    if k2 + v < best {
-                        (best, arg) = (k2 + v, c - k);
-                    }
-                }
+                b = b.min(offer(c - k, k2, limit));
             }
             if c + k < w {
-                if let Some(v) = f(c + k) {
-                    if k2 + v < best {
-                        (best, arg) = (k2 + v, c + k);
-                    }
-                }
+                b = b.min(offer(c + k, k2, limit));
+            }
+            if b < best {
+                best = b;
+                limit = limit_of(best);
             }
             k += 1;
         }
-        if arg == usize::MAX {
-            return None;
-        }
         // fits u32: checked against the diagonal
-        Some(((row[arg] as usize * w + arg) as u32, best as u32))
+        ((best != u64::MAX).then_some(best as u32), 2 * k - 1)
+    }
+}
+
+impl NearestCell for Sparse {
+    fn scratch(&self) -> Scratch {
+        Scratch {
+            env: Envelope::new(self.width),
+            row: Vec::new(),
+        }
+    }
+
+    #[inline]
+    fn query(&self, r: usize, c: usize, scratch: &mut Scratch) -> Option<(u32, u32)> {
+        scan_query(
+            r,
+            c,
+            self.width,
+            |q| self.column_nearest(r, q),
+            None,
+            scratch,
+        )
     }
 }
 
@@ -671,6 +968,46 @@ mod tests {
                         assert_eq!(sqdist_between(i, n as usize, w), sq);
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn sparse_queries_equal_the_column_pass() {
+        let mut next = rng(17);
+        for case in 0..160 {
+            let h = 1 + (next() % 150) as usize;
+            let w = 1 + (next() % 230) as usize;
+            // densities from empty to dense, and walls: rows and columns of set cells
+            let density = [0u64, 1, 3, 20, 300][case % 5];
+            let mut mask: Vec<bool> = (0..h * w).map(|_| next() % 1000 < density).collect();
+            if case % 3 == 0 {
+                let (r, c) = ((next() % h as u64) as usize, (next() % w as u64) as usize);
+                for q in 0..w {
+                    mask[r * w + q] = true;
+                }
+                for q in 0..h {
+                    mask[q * w + c] = q % 7 != 0;
+                }
+            }
+            let list: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+            let cols = Columns::new(|i| mask[i], h, w).unwrap();
+            let sparse = Sparse::new(&list, h, w).unwrap();
+            let dense = sparse.columns().unwrap();
+            let mut s1 = cols.scratch();
+            let mut s2 = NearestCell::scratch(&sparse);
+            let mut s3 = dense.scratch();
+            for i in 0..h * w {
+                let (r, c) = (i / w, i % w);
+                let want = cols.query(r, c, &mut s1);
+                assert_eq!(
+                    NearestCell::query(&sparse, r, c, &mut s2),
+                    want,
+                    "{h}x{w} {i}"
+                );
+                assert_eq!(dense.query(r, c, &mut s3), want);
+                assert_eq!(sparse.distance(r, c).0, want.map(|(_, d)| d));
+                assert_eq!(sparse.get(r, c), mask[i]);
             }
         }
     }

@@ -12,7 +12,7 @@
 //! Deterministic: correspondences are computed per point in fixed chunks; the trimmed set is
 //! chosen by (distance, point index), a total order; sums run in point order.
 
-use crate::edt::{Columns, EdtError, Scratch};
+use crate::edt::{EdtError, NearestCell, Scratch};
 use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 use std::sync::OnceLock;
@@ -63,8 +63,9 @@ pub struct Target<'a> {
     frame: Frame,
     to_cell: Affine,
     to_world: Affine,
-    /// Nearest-occupied-cell queries.
-    columns: &'a Columns,
+    /// Nearest-occupied-cell queries ([`crate::edt::Columns`] or [`crate::edt::Sparse`]:
+    /// the same answers).
+    columns: &'a dyn NearestCell,
     /// Which cells are occupied.
     occupied: &'a [bool],
     /// Occupied cells (row-major indices, ascending) and their local shapes (fitted on
@@ -80,7 +81,7 @@ impl<'a> Target<'a> {
     /// and the occupied cells.
     pub fn new(
         frame: Frame,
-        columns: &'a Columns,
+        columns: &'a dyn NearestCell,
         occupied: &'a [bool],
         cells: &'a [u32],
     ) -> Result<Self, EdtError> {
