@@ -948,6 +948,7 @@ pub fn compare(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::edt::tests::rng;
 
     /// A `h x w` map, free everywhere, with walls where `wall(r, c)`; unknown outside
     /// `known(r, c)`.
@@ -1113,17 +1114,6 @@ mod tests {
         };
         let c = compare(&est, &gt, &t, false).unwrap();
         assert!(c.truncated_reverse > 0 && c.sum_reverse <= 3.0 * c.estimate_occupied as f64);
-    }
-
-    /// A small deterministic generator (xorshift).
-    fn rng(seed: u64) -> impl FnMut() -> u64 {
-        let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-        move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            s
-        }
     }
 
     #[test]

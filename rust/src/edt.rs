@@ -818,11 +818,12 @@ pub fn brute_force(mask: &[bool], height: usize, width: usize) -> Vec<u32> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    /// A small deterministic generator (xorshift), so tests need no crate.
-    fn rng(seed: u64) -> impl FnMut() -> u64 {
+    /// A small deterministic generator (xorshift), so tests need no crate (also used by
+    /// compare.rs's tests).
+    pub(crate) fn rng(seed: u64) -> impl FnMut() -> u64 {
         let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
         move || {
             s ^= s << 13;

@@ -62,8 +62,8 @@ def handle(args: argparse.Namespace) -> int:
         _print(result, out)
         print(verdict_sentence(result["verdict"]), file=out)
     if args.json and result["verdict"] is not None:
-        text = json.dumps({k: result[k] for k in ("verdict", "evidence", "maps")},
-                          indent=1, default=_plain)
+        text = json.dumps(_jsonable({k: result[k] for k in ("verdict", "evidence", "maps")}),
+                          indent=1, allow_nan=False)
         if args.json == "-":
             print(text)
         else:
@@ -72,9 +72,16 @@ def handle(args: argparse.Namespace) -> int:
     return exit_code(len(result["maps"]), failed, 0, args.paths)
 
 
-def _plain(x: Any) -> Any:
-    """JSON for numpy scalars."""
-    return x.item() if hasattr(x, "item") else str(x)
+def _jsonable(x: Any) -> Any:
+    """Nested dicts and lists with every leaf through :func:`slamq.results.columns.json_value`
+    (NaN -> null: an unplaced map has no support)."""
+    from slamq.results.columns import json_value
+
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    return json_value(x)
 
 
 def _fmt(x: Any, digits: int = 2) -> str:

@@ -14,6 +14,7 @@ not read them (docs/validity.md, "Missing walls against the other maps").
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import pandas as pd
@@ -33,7 +34,8 @@ RUNS_PER_ALGORITHM = 3
 def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
                       align: str = SETTINGS.agreement_align.default,
                       runs_per_algorithm: int = RUNS_PER_ALGORITHM,
-                      defects: bool = True, threads: int | None = None) -> dict[str, Any]:
+                      defects: bool = True, threads: int | None = None,
+                      loaded: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Cross-map agreement and defect flags of the maps of one sequence, per algorithm.
 
     Parameters
@@ -49,6 +51,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         Run the defect detectors.
     threads : int, optional
         Cap on the Rust worker threads.
+    loaded : mapping, optional
+        Maps already in memory, by the ``map`` value of their row (read again otherwise).
 
     Returns
     -------
@@ -89,7 +93,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     for rec in picked.itertuples():
         key = f"{rec.algorithm}#{rec.run}"
         try:
-            maps[key] = load_map(rec.map)
+            maps[key] = loaded[rec.map] if loaded and rec.map in loaded else load_map(rec.map)
         except SlamqError as exc:
             notes.append(f"{rec.map}: not used as evidence ({exc})")
             continue

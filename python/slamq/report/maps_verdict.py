@@ -75,9 +75,11 @@ def maps_verdict(sources: Sequence[str | Path], *, names: Sequence[str] | None =
     if len(names) != len(paths):
         raise ValueError(f"{len(names)} names for {len(paths)} maps")
     records, metrics, errors = [], {}, []
+    loaded: dict[str, Any] = {}
     for path, name in zip(paths, names):
         try:
-            q = evaluate(load_map(path), threads=threads)
+            loaded[str(path)] = grid = load_map(path)
+            q = evaluate(grid, threads=threads)
         except SlamqError as exc:
             errors.append((str(path), str(exc)))
             continue
@@ -88,6 +90,6 @@ def maps_verdict(sources: Sequence[str | Path], *, names: Sequence[str] | None =
     if not records:
         return {"verdict": None, "evidence": None, "maps": metrics, "errors": errors}
     ok = pd.DataFrame(records)
-    evidence = sequence_evidence(ok, label, defects=defects, threads=threads)
+    evidence = sequence_evidence(ok, label, defects=defects, threads=threads, loaded=loaded)
     verdict = sequence_verdict(summarize(ok), label, evidence)
     return {"verdict": verdict, "evidence": evidence, "maps": metrics, "errors": errors}
