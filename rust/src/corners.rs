@@ -46,6 +46,53 @@ pub fn structure_mask_runs(grid: &Grid, log_threshold: f64) -> (Vec<u8>, RowRuns
     })
 }
 
+/// An empty column span (`lo >= hi`), the unit of [`union_span`].
+const EMPTY_SPAN: (usize, usize) = (usize::MAX, 0);
+
+/// How far G and L rows are computed beyond their S rows' nonzero columns: G is 0 more than
+/// 2 columns from them, and a slice that starts (ends) 4 columns before (after) them has
+/// zeros where its own reflect-101 ends read (G 2 columns in, L 1 column of G), so the
+/// slice's values equal the whole row's.
+const SPAN_MARGIN: usize = 4;
+
+/// The smallest span holding both spans (an empty one adds nothing).
+fn union_span(a: (usize, usize), b: (usize, usize)) -> (usize, usize) {
+    if b.0 >= b.1 {
+        a
+    } else {
+        (a.0.min(b.0), a.1.max(b.1))
+    }
+}
+
+/// `span` widened by [`SPAN_MARGIN`] each side, within `0..w` (empty stays empty).
+fn widen_span((lo, hi): (usize, usize), w: usize) -> (usize, usize) {
+    if lo >= hi {
+        EMPTY_SPAN
+    } else {
+        (lo.saturating_sub(SPAN_MARGIN), (hi + SPAN_MARGIN).min(w))
+    }
+}
+
+/// The columns `lo..hi` from a row's first nonzero cell to its last (empty when all zero),
+/// found 32 cells a step (an OR of each chunk vectorises).
+fn nonzero_span(row: &[u16]) -> (usize, usize) {
+    const C: usize = 32;
+    let any = |c: &[u16]| c.iter().fold(0u16, |a, &b| a | b) != 0;
+    let Some((i, c)) = row.chunks(C).enumerate().find(|(_, c)| any(c)) else {
+        return EMPTY_SPAN;
+    };
+    let lo = i * C + c.iter().position(|&x| x != 0).unwrap_or(0);
+    let hi = row
+        .chunks(C)
+        .enumerate()
+        .rev()
+        .find(|(_, c)| any(c))
+        .map_or(lo + 1, |(i, c)| {
+            i * C + c.iter().rposition(|&x| x != 0).unwrap_or(0) + 1
+        });
+    (lo, hi)
+}
+
 /// [`structure_mask_runs`] of the `h x w` map whose structure image's row `r` is written by
 /// `s_row(r, row)`.
 fn structure_mask_runs_by(
@@ -72,43 +119,87 @@ fn structure_mask_runs_by(
                 if s_buf.len() < (end - base) * w {
                     s_buf.resize((end - base) * w, 0);
                 }
-                let mut s_any = Vec::with_capacity(end - base);
+                // per S row, the columns of its nonzero cells (`lo..hi`, empty: `lo >= hi`):
+                // beyond them S is 0, and so are G and L more than 2 and 3 columns away
+                let mut s_span = Vec::with_capacity(end - base);
                 for (rr, row) in (base..end).zip(s_buf.chunks_exact_mut(w)) {
                     s_row(rr, row);
-                    s_any.push(row.iter().any(|&x| x != 0));
+                    s_span.push(nonzero_span(row));
                 }
                 let s_buf: &[u16] = s_buf;
                 let s_of = |k: usize| -> &[u16] { &s_buf[(k - base) * w..(k - base + 1) * w] };
-                // G rows r0-1 ..= r1 (reflect-mapped); a row whose five S rows are all zero
-                // is zero
+                // G rows r0-1 ..= r1 (reflect-mapped), each computed on the columns `ga..gb`
+                // of its five S rows' nonzero columns widened by SPAN_MARGIN (0 elsewhere); a
+                // row whose five S rows are all zero is zero
                 let ng = r1 - r0 + 2;
                 if g_buf.len() < ng * w {
                     g_buf.resize(ng * w, 0);
                 }
-                let mut g_any: Vec<bool> = Vec::with_capacity(ng);
+                let mut g_span: Vec<(usize, usize)> = Vec::with_capacity(ng);
                 for (k, g) in (r0 as isize - 1..r1 as isize + 1).zip(g_buf.chunks_exact_mut(w)) {
                     let gr = reflect101(k, h);
-                    let nonzero = (-2..=2).any(|j| s_any[reflect101(gr as isize + j, h) - base]);
-                    if nonzero {
-                        blur_row(&s_of, gr, h, vbuf, g);
+                    let span = (-2..=2)
+                        .map(|j| s_span[reflect101(gr as isize + j, h) - base])
+                        .fold(EMPTY_SPAN, union_span);
+                    let (ga, gb) = widen_span(span, w);
+                    if ga < gb {
+                        // the slice's own reflect-101 ends read zeros where the row's do
+                        // (SPAN_MARGIN), or are the row's ends
+                        blur_row(
+                            &|i| &s_of(i)[ga..gb],
+                            gr,
+                            h,
+                            &mut vbuf[ga..gb],
+                            &mut g[ga..gb],
+                        );
+                        g[..ga].fill(0);
+                        g[gb..].fill(0);
                     } else {
                         g.fill(0);
                     }
-                    g_any.push(nonzero);
+                    g_span.push((ga, gb));
                 }
                 let g_row = |i: usize| &g_buf[i * w..(i + 1) * w];
+                let outside = (0 > t) as u8; // the mask where L = 0
                 let mut runs = Vec::new();
                 let mut starts = Vec::with_capacity(r1 - r0);
                 for r in r0..r1 {
                     let i = r - r0 + 1;
                     let row_out = &mut out[(r - r0) * w..(r - r0 + 1) * w];
                     starts.push(runs.len());
-                    if !(g_any[i - 1] || g_any[i] || g_any[i + 1]) {
-                        row_out.fill((0 > t) as u8); // L = 0 everywhere on this row
-                    } else {
-                        laplacian_mask_row(g_row(i - 1), g_row(i), g_row(i + 1), t, row_out);
+                    // L is 0 outside the three G rows' columns (each already widened)
+                    let (la, lb) = g_span[i - 1..=i + 1]
+                        .iter()
+                        .copied()
+                        .filter(|&(a, b)| a < b)
+                        .fold(EMPTY_SPAN, union_span);
+                    if outside != 0 {
+                        row_out.fill(outside); // a fresh mask is 0 already
                     }
-                    push_runs(row_out, &mut runs);
+                    if la >= lb {
+                        if outside != 0 {
+                            push_runs(row_out, &mut runs);
+                        }
+                        continue;
+                    }
+                    let (up, mid, down) = (g_row(i - 1), g_row(i), g_row(i + 1));
+                    laplacian_mask_row(
+                        &up[la..lb],
+                        &mid[la..lb],
+                        &down[la..lb],
+                        t,
+                        &mut row_out[la..lb],
+                    );
+                    if outside != 0 {
+                        push_runs(row_out, &mut runs);
+                    } else {
+                        let first = runs.len();
+                        push_runs(&row_out[la..lb], &mut runs);
+                        for run in &mut runs[first..] {
+                            run.start += la as u32;
+                            run.end += la as u32;
+                        }
+                    }
                 }
                 (runs, starts)
             },
@@ -950,6 +1041,84 @@ mod tests {
                         .unwrap();
                     let (mask, _) = pool.install(|| structure_mask_runs(&g, t));
                     assert_eq!(mask, expect, "{h}x{w} t {t} threads {threads}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn structure_mask_of_partly_known_rows_equals_the_literal_filters() {
+        // known cells only in a band of columns per row (a turned box, strips at every
+        // distance from the edges, single cells): the filters run on those columns only
+        let mut st = 23u64;
+        let mut next = || {
+            st = st
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            st >> 33
+        };
+        for trial in 0..40 {
+            let (h, w) = (5 + next() as usize % 90, 1 + next() as usize % 140);
+            let (h, w) = if trial < 4 {
+                (h, [1, 2, 5, 9][trial])
+            } else {
+                (h, w)
+            };
+            let (mut v, mut u) = (vec![0u8; h * w], vec![true; h * w]);
+            let (cx, cy) = (next() as usize % w, next() as usize % h);
+            let radius = 1 + next() as usize % (w + h);
+            for r in 0..h {
+                for c in 0..w {
+                    let d = r.abs_diff(cy) + c.abs_diff(cx);
+                    let strip = trial % 3 == 0 && c.abs_diff(cx) <= trial % 7;
+                    if d <= radius || strip {
+                        let i = r * w + c;
+                        u[i] = next() % 13 == 0;
+                        v[i] = [0u8, 254, 254, 254, 200, 37][next() as usize % 6];
+                    }
+                }
+            }
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            for t in [0.1, 0.0, -0.05] {
+                let expect = naive_structure_mask(&g, t);
+                for threads in [1, 2] {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .unwrap();
+                    let (mask, runs) = pool.install(|| structure_mask_runs(&g, t));
+                    assert_eq!(
+                        mask, expect,
+                        "trial {trial} {h}x{w} t {t} threads {threads}"
+                    );
+                    let scan = RowRuns::of(
+                        &MaskRows {
+                            mask: &mask,
+                            width: w,
+                        },
+                        h,
+                        w,
+                    );
+                    assert_eq!(
+                        (&runs.runs, &runs.row_start),
+                        (&scan.runs, &scan.row_start),
+                        "trial {trial} runs"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn nonzero_span_finds_the_first_and_last_nonzero_cells() {
+        for n in [0usize, 1, 31, 32, 33, 100] {
+            assert!(nonzero_span(&vec![0u16; n]).0 >= nonzero_span(&vec![0u16; n]).1);
+            for a in 0..n {
+                for b in [a, (a + 40).min(n - 1), n - 1] {
+                    let mut row = vec![0u16; n];
+                    row[a] = 3;
+                    row[b] = 1;
+                    assert_eq!(nonzero_span(&row), (a, b + 1), "{n} {a} {b}");
                 }
             }
         }
