@@ -4,7 +4,9 @@
 //! Everything up to the Harris response is exact integer arithmetic; the response is one
 //! float64 formula, `R = (A*C - B*B) - k*(A + C)^2`, evaluated as `slamq.reference` does.
 //! Work is done in fixed row bands in parallel; the one full-size intermediate is the 0/1
-//! structure mask (one byte per cell). Dot removal hands the mask's surviving runs on. The
+//! structure mask (one byte per cell). The blur and the Laplacian of a row run only over the
+//! columns near its nonzero structure cells (unknown cells are 0 in S, so a map's unexplored
+//! margins cost a scan, not a filter). Dot removal hands the mask's surviving runs on. The
 //! Harris sums of a cell depend only on the 4x4 mask window around it, so they are tabulated
 //! once per process for all 65,536 windows (by class of equal sums); a row's window codes
 //! are built from four mask rows, only over the columns next to set structure cells, and
