@@ -465,8 +465,9 @@ struct Positive {
     /// The rank of every window cell of the band's rows, row-major, `u16::MAX` where no
     /// window was visited (above every cut): the pass over the ranks compares whole rows.
     ranks: Vec<u16>,
-    /// Whether a row's ranks were written.
-    touched: Vec<bool>,
+    /// Per row, the columns `lo..hi` holding every rank written and every directly
+    /// computed cell (empty, `lo >= hi`, when there are none): elsewhere no cell passes.
+    spans: Vec<(usize, usize)>,
 }
 
 impl Positive {
@@ -600,7 +601,7 @@ pub fn corner_runs(
                 direct: Vec::new(),
                 starts: Vec::with_capacity(r1 - r0 + 1),
                 ranks: vec![u16::MAX; (r1 - r0) * w],
-                touched: vec![false; r1 - r0],
+                spans: vec![(0, 0); r1 - r0],
             };
             let mut nib = vec![0u8; w];
             for r in r0..r1 {
@@ -618,6 +619,9 @@ pub fn corner_runs(
                 if first == usize::MAX {
                     continue; // A = B = C = 0 on the whole row
                 }
+                // every cell visited below (ranks, and the direct cells of row 0 and column
+                // 0) lies in [first - 2, last + 2)
+                pos.spans[r - r0] = (first.saturating_sub(2), (last + 2).min(w));
                 if r == 0 {
                     // the sums can be non-zero on columns [first - 2, last + 2) only
                     for x in first.saturating_sub(2)..(last + 2).min(w) {
@@ -662,7 +666,6 @@ pub fn corner_runs(
                         | (nib[x + 1] as u16) << 12
                 };
                 let inner_hi = xhi.min(w - 1);
-                pos.touched[r - r0] = true;
                 let row_ranks = &mut pos.ranks[(r - r0) * w..(r - r0 + 1) * w];
                 let mut min_rank = pos.min_rank;
                 let mut x = xlo;
@@ -754,14 +757,22 @@ pub fn corner_runs(
             for i in 0..r1 - r0 {
                 starts.push(out.len());
                 let direct = &pos.cells[pos.starts[i]..pos.starts[i + 1]];
-                if !pos.touched[i] && direct.is_empty() {
+                // only the row's span can pass (beyond it the ranks are empty)
+                let (lo, hi) = pos.spans[i];
+                if lo >= hi {
                     continue;
                 }
-                keep_row(&pos.ranks[i * w..(i + 1) * w], cut16, &mut keep);
+                let keep = &mut keep[lo..hi];
+                keep_row(&pos.ranks[i * w + lo..i * w + hi], cut16, keep);
                 for &(x, key) in direct {
-                    keep[x as usize] = (pos.direct[key as usize - nc] > threshold) as u8;
+                    keep[x as usize - lo] = (pos.direct[key as usize - nc] > threshold) as u8;
                 }
-                push_runs(&keep, &mut out);
+                let first = out.len();
+                push_runs(keep, &mut out);
+                for run in &mut out[first..] {
+                    run.start += lo as u32;
+                    run.end += lo as u32;
+                }
             }
             (out, starts)
         })
@@ -922,6 +933,15 @@ mod tests {
                 for r in 0..h {
                     if next() % 3 == 0 {
                         mask[r * w..(r + 1) * w].fill(0);
+                    }
+                }
+            }
+            if trial % 4 == 1 {
+                // set cells only in a band of columns (a map's known area): the rows' spans
+                let (a, b) = (next() % w, next() % w);
+                for (i, m) in mask.iter_mut().enumerate() {
+                    if i % w < a.min(b) || i % w > a.max(b) {
+                        *m = 0;
                     }
                 }
             }
