@@ -270,3 +270,41 @@ def test_a_worker_without_the_output_folder_returns_the_runs(tmp_path: Path) -> 
         own.close()
     assert {r["outcome"] for r in rows} == {"infrastructure"}
     assert "does not see the output folder" in rows[0]["reason"]
+
+
+def test_a_task_that_waits_for_a_slot_runs_once_a_worker_has_one(tmp_path: Path) -> None:
+    # a worker that declares no slamq_run slot gets one from the slots plugin only after it
+    # joined; the scheduler does not look at its no-worker tasks again when a worker's
+    # resources change, so a run submitted before the slot was known waited forever (seen:
+    # test_a_worker_without_the_output_folder_returns_the_runs hung on a loaded machine)
+    from distributed import Client
+
+    from slamq.runner.distributed import RESOURCE, _unstick
+
+    own = Cluster(tmp_path / "dask")
+    try:
+        own.add_worker("bare")
+        with Client(own.address, timeout=30) as c:
+            fut = c.submit(sum, [1, 2], resources={RESOURCE: 1}, pure=False)
+            key = fut.key
+
+            def state(dask_scheduler: object) -> str:
+                ts = dask_scheduler.tasks.get(key)  # type: ignore[attr-defined]
+                return "not yet" if ts is None else str(ts.state)
+
+            end = time.monotonic() + 30
+            while c.run_on_scheduler(state) != "no-worker":
+                assert time.monotonic() < end
+                time.sleep(0.05)
+
+            async def give_slot(dask_worker: object) -> None:
+                await dask_worker.set_resources(**{RESOURCE: 1})  # type: ignore[attr-defined]
+
+            c.run(give_slot)
+            time.sleep(0.5)
+            assert c.run_on_scheduler(state) == "no-worker"  # dask alone leaves it there
+            assert c.run_on_scheduler(_unstick()) == 1
+            assert fut.result(timeout=30) == 3
+            assert c.run_on_scheduler(_unstick()) == 0
+    finally:
+        own.close()

@@ -307,6 +307,44 @@ def _slots_plugin() -> Any:
     return SlamqRunSlots()
 
 
+def _unstick() -> Callable[[Any], int]:
+    """A function for ``client.run_on_scheduler``: send the tasks waiting in ``no-worker``
+    to a worker that can now run them; returns how many.
+
+    A worker that declares no ``slamq_run`` slot gets one from :func:`_slots_plugin` only
+    after it has joined, and the scheduler looks at its ``no-worker`` tasks again when a
+    worker joins, not when a worker's resources change (``Scheduler.add_resources``): a
+    task submitted before the slot was known would wait forever. This does what joining
+    does (``bulk_schedule_unrunnable_after_adding_worker``) for every worker with a slot.
+    It is defined in a function so that cloudpickle ships it by value: the scheduler need
+    not have slamq installed.
+    """
+    name = RESOURCE
+
+    def unstick(dask_scheduler: Any) -> int:
+        recs: dict[Any, str] = {}
+        for ws in list(dask_scheduler.workers.values()):
+            if name in (ws.resources or {}):
+                recs.update(dask_scheduler.bulk_schedule_unrunnable_after_adding_worker(ws))
+        if recs:
+            dask_scheduler.transitions(recs, stimulus_id=f"slamq-unstick-{time.time()}")
+        return len(recs)
+
+    return unstick
+
+
+def _keep_unstuck(client: Any, stop: threading.Event, every: float = 1.0) -> None:
+    """Run :func:`_unstick` on the scheduler every ``every`` seconds until ``stop`` is set
+    (a thread beside the loop that collects results). A scheduler without the internals it
+    uses, or gone, ends the thread: the loop reports a scheduler that went away."""
+    fn = _unstick()
+    while not stop.wait(every):
+        try:
+            client.run_on_scheduler(fn)
+        except Exception:  # noqa: BLE001 - other dask versions, or the scheduler is gone
+            return
+
+
 # ------------------------------------------------------------------------------------------
 # client side
 
@@ -411,8 +449,11 @@ def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[
     client, cluster = _connect(scheduler, config)
     address = getattr(client.scheduler, "address", scheduler)
     futures: dict[Any, int] = {}
+    stop = threading.Event()  # ends the thread that keeps tasks from waiting forever
     try:
         client.register_plugin(_slots_plugin(), name="slamq-run-slots")
+        threading.Thread(target=_keep_unstuck, args=(client, stop), daemon=True,
+                         name="slamq-dask-unstick").start()
         batch = token[:8]
         for i in todo:
             spec, key, pieces = keyed[i]
@@ -456,6 +497,7 @@ def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[
         except (OSError, TimeoutError) as exc:
             raise _gone_error(config, keyed, rows, todo, address) from exc
     finally:
+        stop.set()
         probe_path.unlink(missing_ok=True)
         try:
             client.close(timeout=5)
