@@ -843,7 +843,7 @@ pub fn compare(
     let points = occupied_points(estimate, &e_scan.cells)?;
     // the ICP asks the nearest cell of G many times: its column pass pays off there
     let g_columns = if params.align != Align::Origin {
-        Some(Columns::new(|i| g_mask[i], h, w)?)
+        Some(g_near.columns()?)
     } else {
         None
     };
