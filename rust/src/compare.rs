@@ -472,21 +472,16 @@ fn resample_sparse(
     // a margin far above the rounding of the two affine maps (cells)
     const EPS: f64 = 1e-3;
     let (hm, wm) = ((h - 1) as i64, (w - 1) as i64);
+    let ((a, b), (c, d)) = ((inv.m[0][0], inv.m[0][1]), (inv.m[1][0], inv.m[1][1]));
+    let lo = (a.min(0.0) + b.min(0.0), c.min(0.0) + d.min(0.0));
+    let hi = (a.max(0.0) + b.max(0.0), c.max(0.0) + d.max(0.0));
     for &i in &e_scan.cells {
         let (er, ec) = ((i as usize / ew_u) as f64, (i as usize % ew_u) as f64);
-        let corners = [
-            inv.apply(er, ec),
-            inv.apply(er + 1.0, ec),
-            inv.apply(er, ec + 1.0),
-            inv.apply(er + 1.0, ec + 1.0),
-        ];
-        let (mut r0, mut r1, mut c0, mut c1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for (r, c) in corners {
-            r0 = r0.min(r);
-            r1 = r1.max(r);
-            c0 = c0.min(c);
-            c1 = c1.max(c);
-        }
+        // the square's corners are (er, ec) mapped plus a combination of one row's and one
+        // column's step: its bounding box is that point plus the offsets' extremes (the
+        // rounding of this sum against mapping each corner is far below EPS)
+        let (pr, pc) = inv.apply(er, ec);
+        let (r0, r1, c0, c1) = (pr + lo.0, pr + hi.0, pc + lo.1, pc + hi.1);
         // ceil(x - EPS) and floor(x + EPS), inline, clamped onto the grid
         let (r0, r1) = ((-floor_i64(EPS - r0)).max(0), floor_i64(r1 + EPS).min(hm));
         let (c0, c1) = ((-floor_i64(EPS - c0)).max(0), floor_i64(c1 + EPS).min(wm));
