@@ -199,15 +199,56 @@ fn word(b: &[u8]) -> u64 {
     u64::from_le_bytes(a)
 }
 
-/// Whether a byte of `x` is below `n` (exact for `n <= 128`; larger `n`: byte by byte).
-#[inline]
-fn has_less(x: u64, n: usize) -> bool {
-    const ONES: u64 = 0x0101_0101_0101_0101;
-    if n <= 128 {
-        (x.wrapping_sub(ONES * n as u64) & !x & (ONES * 0x80)) != 0
-    } else {
-        x.to_le_bytes().iter().any(|&b| (b as usize) < n)
+const ONES: u64 = 0x0101_0101_0101_0101;
+
+/// Whether a byte of a word is below `n`: exact for `n <= 128` by the carry trick, larger
+/// `n` byte by byte.
+#[derive(Clone, Copy)]
+struct Less {
+    n: usize,
+    sub: u64,
+}
+
+impl Less {
+    fn new(n: usize) -> Self {
+        Less {
+            n,
+            sub: ONES.wrapping_mul(n as u64),
+        }
     }
+
+    #[inline]
+    fn any(self, x: u64) -> bool {
+        if self.n <= 128 {
+            (x.wrapping_sub(self.sub) & !x & (ONES * 0x80)) != 0
+        } else {
+            x.to_le_bytes().iter().any(|&b| (b as usize) < self.n)
+        }
+    }
+}
+
+/// Append to `list` the cells `base + q` of the run `vals`/`unknown` (unknown flags as 0/1
+/// bytes) that are known and occupied (value below `below`).
+#[inline(never)]
+fn push_run(
+    list: &mut Vec<u32>,
+    base: usize,
+    vals: &[u8],
+    unknown: &[u8],
+    below: usize,
+) -> Result<(), EdtError> {
+    if list.len() + vals.len() > list.capacity() {
+        list.try_reserve(list.capacity().max(1024))
+            .map_err(|_| EdtError::Alloc {
+                bytes: list.capacity().saturating_mul(8),
+            })?;
+    }
+    for (q, (&v, &u)) in vals.iter().zip(unknown).enumerate() {
+        if u == 0 && (v as usize) < below {
+            list.push((base + q) as u32);
+        }
+    }
+    Ok(())
 }
 
 /// [`Scan`] of grid `g`, occupied meaning `occ[value]` for a known cell. Bands of rows in
@@ -222,6 +263,9 @@ fn scan(g: &Grid, occ: &[bool; 256]) -> Result<Scan, CompareError> {
         ));
     }
     let bw = w.div_ceil(BLOCK);
+    let less = Less::new(below);
+    let push =
+        |list: &mut Vec<u32>, base: usize, v: &[u8], u: &[u8]| push_run(list, base, v, u, below);
     let mut known = filled(h.div_ceil(BLOCK) * bw, 0u8)?;
     let band = BAND_ROWS * w;
     let parts: Vec<(Vec<u32>, u64)> = known
@@ -234,44 +278,35 @@ fn scan(g: &Grid, occ: &[bool; 256]) -> Result<Scan, CompareError> {
             for (k, (vr, ur)) in vals.chunks(w).zip(unk.chunks(w)).enumerate() {
                 let r = b * BAND_ROWS + k;
                 let krow = &mut kn[(k / BLOCK) * bw..(k / BLOCK + 1) * bw];
-                for (j, ((vc, uc), kc)) in vr
-                    .chunks(BLOCK)
-                    .zip(ur.chunks(BLOCK))
-                    .zip(krow.iter_mut())
-                    .enumerate()
-                {
-                    let (n, any) = if vc.len() == BLOCK {
-                        // eight cells at once: unknown flags are 0/1 bytes; an unknown
-                        // cell's value is taken as 255, never occupied here
-                        let u = word(bytes(uc));
-                        let v = word(vc);
-                        let v = v | (u * 0xFF);
-                        (BLOCK as u8 - u.count_ones() as u8, has_less(v, below))
-                    } else {
-                        let (mut n, mut any) = (0u8, false);
-                        for (&v, &u) in vc.iter().zip(uc) {
-                            n += (!u) as u8;
-                            any |= !u & ((v as usize) < below);
-                        }
-                        (n, any)
-                    };
+                let (vs, us) = (vr.chunks_exact(BLOCK), bytes(ur).chunks_exact(BLOCK));
+                let (vt, ut) = (vs.remainder(), us.remainder());
+                let mut known_row = 0u64;
+                // eight cells at once: unknown flags are 0/1 bytes (their sum by one
+                // multiplication); an unknown cell's value is taken as 255, never
+                // occupied here
+                for (j, ((vc, uc), kc)) in vs.zip(us).zip(krow.iter_mut()).enumerate() {
+                    let u = word(uc);
+                    let n = BLOCK as u8 - (u.wrapping_mul(ONES) >> 56) as u8;
                     *kc += n;
-                    total += n as u64;
-                    if any {
-                        if list.len() + BLOCK > list.capacity() {
-                            list.try_reserve(list.capacity().max(1024)).map_err(|_| {
-                                EdtError::Alloc {
-                                    bytes: list.capacity().saturating_mul(8),
-                                }
-                            })?;
-                        }
-                        for (q, (&v, &u)) in vc.iter().zip(uc).enumerate() {
-                            if !u && (v as usize) < below {
-                                list.push((r * w + j * BLOCK + q) as u32);
-                            }
-                        }
+                    known_row += n as u64;
+                    if less.any(word(vc) | (u * 0xFF)) {
+                        push(&mut list, r * w + j * BLOCK, vc, uc)?;
                     }
                 }
+                if !vt.is_empty() {
+                    let j = w / BLOCK;
+                    let (mut n, mut any) = (0u8, false);
+                    for (&v, &u) in vt.iter().zip(ut) {
+                        n += (u == 0) as u8;
+                        any |= u == 0 && (v as usize) < below;
+                    }
+                    krow[j] += n;
+                    known_row += n as u64;
+                    if any {
+                        push(&mut list, r * w + j * BLOCK, vt, ut)?;
+                    }
+                }
+                total += known_row;
             }
             Ok((list, total))
         })
@@ -437,21 +472,16 @@ fn resample_sparse(
     // a margin far above the rounding of the two affine maps (cells)
     const EPS: f64 = 1e-3;
     let (hm, wm) = ((h - 1) as i64, (w - 1) as i64);
+    let ((a, b), (c, d)) = ((inv.m[0][0], inv.m[0][1]), (inv.m[1][0], inv.m[1][1]));
+    let lo = (a.min(0.0) + b.min(0.0), c.min(0.0) + d.min(0.0));
+    let hi = (a.max(0.0) + b.max(0.0), c.max(0.0) + d.max(0.0));
     for &i in &e_scan.cells {
         let (er, ec) = ((i as usize / ew_u) as f64, (i as usize % ew_u) as f64);
-        let corners = [
-            inv.apply(er, ec),
-            inv.apply(er + 1.0, ec),
-            inv.apply(er, ec + 1.0),
-            inv.apply(er + 1.0, ec + 1.0),
-        ];
-        let (mut r0, mut r1, mut c0, mut c1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for (r, c) in corners {
-            r0 = r0.min(r);
-            r1 = r1.max(r);
-            c0 = c0.min(c);
-            c1 = c1.max(c);
-        }
+        // the square's corners are (er, ec) mapped plus a combination of one row's and one
+        // column's step: its bounding box is that point plus the offsets' extremes (the
+        // rounding of this sum against mapping each corner is far below EPS)
+        let (pr, pc) = inv.apply(er, ec);
+        let (r0, r1, c0, c1) = (pr + lo.0, pr + hi.0, pc + lo.1, pc + hi.1);
         // ceil(x - EPS) and floor(x + EPS), inline, clamped onto the grid
         let (r0, r1) = ((-floor_i64(EPS - r0)).max(0), floor_i64(r1 + EPS).min(hm));
         let (c0, c1) = ((-floor_i64(EPS - c0)).max(0), floor_i64(c1 + EPS).min(wm));
@@ -843,7 +873,7 @@ pub fn compare(
     let points = occupied_points(estimate, &e_scan.cells)?;
     // the ICP asks the nearest cell of G many times: its column pass pays off there
     let g_columns = if params.align != Align::Origin {
-        Some(Columns::new(|i| g_mask[i], h, w)?)
+        Some(g_near.columns()?)
     } else {
         None
     };
@@ -1114,6 +1144,34 @@ mod tests {
         };
         let c = compare(&est, &gt, &t, false).unwrap();
         assert!(c.truncated_reverse > 0 && c.sum_reverse <= 3.0 * c.estimate_occupied as f64);
+    }
+
+    #[test]
+    fn scan_equals_a_literal_count() {
+        let mut next = rng(31);
+        for case in 0..60 {
+            let (h, w) = (1 + (next() % 90) as usize, 1 + (next() % 150) as usize);
+            let values: Vec<u8> = (0..h * w).map(|_| next() as u8).collect();
+            let unknown: Vec<bool> = (0..h * w).map(|_| next() % 7 < case as u64 % 4).collect();
+            let threshold = [0.0, 0.2, 0.5, 0.65, 0.9, 0.999][case % 6];
+            let occ = occupied_table(threshold);
+            let s = scan(&Grid::new(&values, &unknown, h, w).unwrap(), &occ).unwrap();
+            let cells: Vec<u32> = (0..h * w)
+                .filter(|&i| !unknown[i] && occ[values[i] as usize])
+                .map(|i| i as u32)
+                .collect();
+            assert_eq!(s.cells, cells, "{h} x {w}");
+            let bw = w.div_ceil(BLOCK);
+            let mut known = vec![0u8; h.div_ceil(BLOCK) * bw];
+            for i in 0..h * w {
+                known[(i / w / BLOCK) * bw + (i % w) / BLOCK] += (!unknown[i]) as u8;
+            }
+            assert_eq!(s.known, known, "{h} x {w}");
+            assert_eq!(
+                s.known_cells,
+                unknown.iter().filter(|&&u| !u).count() as u64
+            );
+        }
     }
 
     #[test]

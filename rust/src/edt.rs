@@ -606,23 +606,78 @@ impl Sparse {
         self.get(i / self.width, i % self.width)
     }
 
-    /// The [`Columns`] of the same mask (the column pass).
+    /// The set rows of column `c`, ascending.
+    #[inline]
+    fn rows_of(&self, c: usize) -> impl Iterator<Item = usize> + '_ {
+        self.bits[c * self.words..(c + 1) * self.words]
+            .iter()
+            .enumerate()
+            .flat_map(|(k, &word)| {
+                let mut b = word;
+                std::iter::from_fn(move || {
+                    (b != 0).then(|| {
+                        let t = b.trailing_zeros() as usize;
+                        b &= b - 1;
+                        k * 64 + t
+                    })
+                })
+            })
+    }
+
+    /// The [`Columns`] of the same mask: [`column_pass`]'s values, made from the bits. Down
+    /// a column the value changes only where the nearest set row passes from one set row
+    /// `a` to the next `b`, at row `(a + b) / 2 + 1` (ties go to the one above); so each row
+    /// is the row above copied, then those changes written (one per pair of consecutive
+    /// set cells in a column), instead of a visit of every cell.
     pub fn columns(&self) -> Result<Columns, EdtError> {
         let (h, w) = (self.height, self.width);
-        let mut mask = filled(h * w, false)?;
-        for c in 0..w {
-            for (k, &word) in self.bits[c * self.words..(c + 1) * self.words]
-                .iter()
-                .enumerate()
-            {
-                let mut b = word;
-                while b != 0 {
-                    mask[(k * 64 + b.trailing_zeros() as usize) * w + c] = true;
-                    b &= b - 1;
+        // row 0's values (the first set row of each column), and the changes per row
+        let mut first = filled(w, NONE)?;
+        let mut start = filled(h + 1, 0u32)?;
+        for (c, f) in first.iter_mut().enumerate() {
+            let mut prev = NONE;
+            for r in self.rows_of(c) {
+                if prev == NONE {
+                    *f = r as u32;
+                } else {
+                    start[(prev as usize + r) / 2 + 1] += 1;
                 }
+                prev = r as u32;
             }
         }
-        Columns::new(|i| mask[i], h, w)
+        let mut sum = 0u32;
+        for s in start.iter_mut() {
+            let n = *s;
+            *s = sum;
+            sum += n;
+        }
+        let mut fill = start.clone();
+        let mut change = filled(sum as usize, (0u32, 0u32))?;
+        for c in 0..w {
+            let mut prev = NONE;
+            for r in self.rows_of(c) {
+                if prev != NONE {
+                    let k = &mut fill[(prev as usize + r) / 2 + 1];
+                    change[*k as usize] = (c as u32, r as u32);
+                    *k += 1;
+                }
+                prev = r as u32;
+            }
+        }
+        let mut near = take_buffer(h * w)?;
+        near.extend_from_slice(&first);
+        for r in 1..h {
+            near.extend_from_within((r - 1) * w..r * w);
+            let row = &mut near[r * w..(r + 1) * w];
+            for &(c, v) in &change[start[r] as usize..start[r + 1] as usize] {
+                row[c as usize] = v;
+            }
+        }
+        Ok(Columns {
+            height: h,
+            width: w,
+            near,
+        })
     }
 
     /// The row of the set cell of column `c` nearest to row `r` (ties: the one above), or
@@ -898,6 +953,36 @@ pub(crate) mod tests {
             let mask: Vec<bool> = (0..h * w).map(|_| next() % 100 < density).collect();
             let got = column_pass(&|i| mask[i], h, w).unwrap();
             assert_eq!(got, literal_columns(&mask, h, w), "{h} x {w}");
+            let list: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+            let sparse = Sparse::new(&list, h, w).unwrap();
+            assert_eq!(
+                sparse.columns().unwrap().near,
+                got,
+                "{h} x {w} from the bits"
+            );
+        }
+    }
+
+    #[test]
+    fn column_pass_from_the_bits_on_tall_masks() {
+        // columns of several words, sparse and dense, empty columns, walls across
+        let mut next = rng(29);
+        for case in 0..40 {
+            let h = 1 + (next() % 260) as usize;
+            let w = 1 + (next() % 40) as usize;
+            let density = [0u64, 2, 10, 100, 600][case % 5];
+            let mut mask: Vec<bool> = (0..h * w).map(|_| next() % 1000 < density).collect();
+            if case % 4 == 1 {
+                let r = (next() % h as u64) as usize;
+                for q in 0..w {
+                    mask[r * w + q] = true;
+                }
+            }
+            let list: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+            let sparse = Sparse::new(&list, h, w).unwrap();
+            let want = column_pass(&|i| mask[i], h, w).unwrap();
+            assert_eq!(want, literal_columns(&mask, h, w), "{h} x {w}");
+            assert_eq!(sparse.columns().unwrap().near, want, "{h} x {w}");
         }
     }
 

@@ -166,25 +166,31 @@ impl<'a> Target<'a> {
         }
     }
 
-    /// The occupied target cell nearest to world point `(x, y)`, found through the cell
-    /// holding the point (clamped onto the grid for points outside it): its position in
-    /// `cells` and its centre.
+    /// The cell holding world point `(x, y)` (clamped onto the grid for points outside
+    /// it), row-major.
     #[inline]
-    fn nearest(&self, x: f64, y: f64, scratch: &mut Scratch) -> Option<(usize, (f64, f64))> {
+    fn cell_of(&self, x: f64, y: f64) -> usize {
         let (r, c) = self.to_cell.apply(x, y);
         let h = self.frame.height as i64 - 1;
         let w = self.frame.width as i64 - 1;
         let r = floor_i64(r).clamp(0, h) as usize;
         let c = floor_i64(c).clamp(0, w) as usize;
-        let (n, _) = self.columns.query(r, c, scratch)?;
-        let row = n as usize / self.frame.width;
+        r * self.frame.width + c
+    }
+
+    /// The occupied target cell nearest to cell `i` (from [`Target::cell_of`]): its position
+    /// in `cells` and its centre.
+    #[inline]
+    fn nearest(&self, i: usize, scratch: &mut Scratch) -> Option<(usize, (f64, f64))> {
+        let w = self.frame.width;
+        let (n, _) = self.columns.query(i / w, i % w, scratch)?;
+        let row = n as usize / w;
         let (a, b) = (
             self.row_start[row] as usize,
             self.row_start[row + 1] as usize,
         );
         let k = a + self.cells[a..b].binary_search(&n).ok()?;
         let n = n as usize;
-        let w = self.frame.width;
         Some((k, self.to_world.apply((n / w) as f64, (n % w) as f64)))
     }
 
@@ -217,16 +223,33 @@ fn unit_steps(to_world: &Affine) -> ((f64, f64), (f64, f64)) {
 /// in `Target::cells` (`usize::MAX`: none), and the moved point.
 type Pair = (f64, usize, (f64, f64));
 
+/// Per point, the target cell it fell in at the last iteration ([`usize::MAX`]: none yet)
+/// and that cell's [`Target::nearest`]: a point that stays in its cell (most, once the
+/// steps are small) needs no new query.
+type Memo = (usize, Option<(usize, (f64, f64))>);
+
 /// The correspondence of every point at `t`.
-fn correspondences(points: &[(f64, f64)], target: &Target, t: &Se2, out: &mut [Pair]) {
+fn correspondences(
+    points: &[(f64, f64)],
+    target: &Target,
+    t: &Se2,
+    out: &mut [Pair],
+    memo: &mut [Memo],
+) {
     let t = t.affine();
     out.par_chunks_mut(CHUNK)
+        .zip(memo.par_chunks_mut(CHUNK))
         .zip(points.par_chunks(CHUNK))
-        .for_each(|(o, p)| {
-            let mut scratch = target.columns.scratch();
-            for (slot, &(x, y)) in o.iter_mut().zip(p) {
+        .for_each(|((o, m), p)| {
+            let mut scratch: Option<Scratch> = None;
+            for ((slot, memo), &(x, y)) in o.iter_mut().zip(m).zip(p) {
                 let q = t.apply(x, y);
-                *slot = match target.nearest(q.0, q.1, &mut scratch) {
+                let cell = target.cell_of(q.0, q.1);
+                if memo.0 != cell {
+                    let scratch = scratch.get_or_insert_with(|| target.columns.scratch());
+                    *memo = (cell, target.nearest(cell, scratch));
+                }
+                *slot = match memo.1 {
                     Some((k, g)) => ((q.0 - g.0).powi(2) + (q.1 - g.1).powi(2), k, q),
                     None => (f64::INFINITY, usize::MAX, q),
                 };
@@ -394,6 +417,7 @@ fn run(
 ) -> Option<IcpResult> {
     let keep = (((1.0 - trim) * points.len() as f64).ceil() as usize).clamp(1, points.len());
     let mut res: Vec<Pair> = vec![(0.0, 0, (0.0, 0.0)); points.len()];
+    let mut memo: Vec<Memo> = vec![(usize::MAX, None); points.len()];
     let mut order = Vec::with_capacity(points.len());
     let mut t = start;
     let mut iterations = 0;
@@ -410,7 +434,7 @@ fn run(
         .fold(0.0, f64::max);
     let mut scratch = Vec::with_capacity(points.len());
     loop {
-        correspondences(points, target, &t, &mut res);
+        correspondences(points, target, &t, &mut res, &mut memo);
         trimmed(&res, keep, &mut order, &mut scratch);
         let rms = (order.iter().map(|&i| res[i as usize].0).sum::<f64>() / keep as f64).sqrt();
         let done = |t: Se2, iterations: usize| IcpResult {
@@ -430,7 +454,7 @@ fn run(
         let converged = turn * radius + shift < eps;
         t = delta.compose(&t);
         if converged {
-            correspondences(points, target, &t, &mut res);
+            correspondences(points, target, &t, &mut res, &mut memo);
             trimmed(&res, keep, &mut order, &mut scratch);
             let rms = (order.iter().map(|&i| res[i as usize].0).sum::<f64>() / keep as f64).sqrt();
             return Some(IcpResult {
