@@ -1056,29 +1056,31 @@ mod tests {
             let g = Grid::new(&v, &u, h, w).unwrap();
             for t in [0.1, 0.0, -0.05] {
                 let expect = naive_structure_mask(&g, t);
-                for threads in [1, 2] {
-                    let pool = rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads)
-                        .build()
-                        .unwrap();
-                    let (mask, _) = pool.install(|| structure_mask_runs(&g, t));
+                for (threads, (mask, _)) in masks_on_1_and_2_threads(&g, t) {
                     assert_eq!(mask, expect, "{h}x{w} t {t} threads {threads}");
                 }
             }
         }
     }
 
+    /// [`structure_mask_runs`] of `g` on a pool of 1 and of 2 threads.
+    fn masks_on_1_and_2_threads(g: &Grid, t: f64) -> Vec<(usize, (Vec<u8>, RowRuns))> {
+        [1, 2]
+            .map(|threads| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                (threads, pool.install(|| structure_mask_runs(g, t)))
+            })
+            .into()
+    }
+
     #[test]
     fn structure_mask_of_partly_known_rows_equals_the_literal_filters() {
         // known cells only in a band of columns per row (a turned box, strips at every
         // distance from the edges, single cells): the filters run on those columns only
-        let mut st = 23u64;
-        let mut next = || {
-            st = st
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            st >> 33
-        };
+        let mut next = crate::edt::tests::rng(23);
         for trial in 0..40 {
             let (h, w) = (5 + next() as usize % 90, 1 + next() as usize % 140);
             let (h, w) = if trial < 4 {
@@ -1103,12 +1105,7 @@ mod tests {
             let g = Grid::new(&v, &u, h, w).unwrap();
             for t in [0.1, 0.0, -0.05] {
                 let expect = naive_structure_mask(&g, t);
-                for threads in [1, 2] {
-                    let pool = rayon::ThreadPoolBuilder::new()
-                        .num_threads(threads)
-                        .build()
-                        .unwrap();
-                    let (mask, runs) = pool.install(|| structure_mask_runs(&g, t));
+                for (threads, (mask, runs)) in masks_on_1_and_2_threads(&g, t) {
                     assert_eq!(
                         mask, expect,
                         "trial {trial} {h}x{w} t {t} threads {threads}"
