@@ -1278,8 +1278,9 @@ mod tests {
 
     #[test]
     fn the_canonical_corners_equal_those_of_the_whole_canonical_map() {
-        // the resample's block codes let the corner step skip blocks of one value: the same
-        // count as SPEC 3 on the materialised canonical map, for any thread count
+        // the corners counted from the resample's structure image alone (no unknown mask
+        // built): the same count as SPEC 3 on the materialised canonical map, for any thread
+        // count
         for seed in 0..10u64 {
             let (h, w) = (
                 120 + (seed as usize * 29) % 90,

@@ -624,6 +624,13 @@ impl Sparse {
             })
     }
 
+    /// The consecutive set rows `(a, b)` of column `c`, top down.
+    #[inline]
+    fn pairs_of(&self, c: usize) -> impl Iterator<Item = (usize, usize)> + '_ {
+        let mut rows = self.rows_of(c).peekable();
+        std::iter::from_fn(move || Some((rows.next()?, *rows.peek()?)))
+    }
+
     /// The [`Columns`] of the same mask: [`column_pass`]'s values, made from the bits. Down
     /// a column the value changes only where the nearest set row passes from one set row
     /// `a` to the next `b`, at row `(a + b) / 2 + 1` (ties go to the one above); so each row
@@ -635,14 +642,9 @@ impl Sparse {
         let mut first = filled(w, NONE)?;
         let mut start = filled(h + 1, 0u32)?;
         for (c, f) in first.iter_mut().enumerate() {
-            let mut prev = NONE;
-            for r in self.rows_of(c) {
-                if prev == NONE {
-                    *f = r as u32;
-                } else {
-                    start[(prev as usize + r) / 2 + 1] += 1;
-                }
-                prev = r as u32;
+            *f = self.rows_of(c).next().map_or(NONE, |r| r as u32);
+            for (a, b) in self.pairs_of(c) {
+                start[(a + b) / 2 + 1] += 1;
             }
         }
         let mut sum = 0u32;
@@ -654,14 +656,10 @@ impl Sparse {
         let mut fill = start.clone();
         let mut change = filled(sum as usize, (0u32, 0u32))?;
         for c in 0..w {
-            let mut prev = NONE;
-            for r in self.rows_of(c) {
-                if prev != NONE {
-                    let k = &mut fill[(prev as usize + r) / 2 + 1];
-                    change[*k as usize] = (c as u32, r as u32);
-                    *k += 1;
-                }
-                prev = r as u32;
+            for (a, b) in self.pairs_of(c) {
+                let k = &mut fill[(a + b) / 2 + 1];
+                change[*k as usize] = (c as u32, b as u32);
+                *k += 1;
             }
         }
         let mut near = take_buffer(h * w)?;
