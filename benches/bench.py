@@ -232,7 +232,9 @@ def stage_table(m: slamq.OccupancyMap, runs: int) -> list[str]:
 
 
 def run_dense(runs: int, reference_check: bool, stages: bool) -> list[str]:
-    # the three metrics of the issue (and of the OpenCV pipeline): no canonical corners
+    # the three metrics of the issue (and of the OpenCV pipeline): no canonical corners (the
+    # default since 2026-11-27); slamq's time includes the wall angle, which evaluate always
+    # computes (0.15-0.31x the three metrics; rust/examples/stages times both)
     p = Params(canonical_resolution=0)
     cases = dense_maps()
     if not cases:
@@ -261,7 +263,7 @@ def run_dense(runs: int, reference_check: bool, stages: bool) -> list[str]:
     check = "OpenCV pipeline and reference" if reference_check else "OpenCV pipeline"
     table = [
         "### busy maps (issue 15): one thread, all three metrics, full sweep "
-        "(canonical corners off)",
+        "(canonical corners off; slamq also computes the wall angle)",
         "",
         f"minimum of {runs} runs (OpenCV: {max(1, runs // 3)}); every result equal to the "
         f"{check}; cold heap: the same after `malloc_trim(0)` before each call (freed heap "

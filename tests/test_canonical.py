@@ -20,7 +20,10 @@ import slamq
 from slamq import OccupancyMap
 from slamq.metrics import reference
 
-FAST = {"sweep_step": 256}  # one sweep value: these tests are about corners
+#: One sweep value (these tests are about corners) and corners_canonical on, at the
+#: reference resolution the spec validates (the default, 0, skips it).
+FAST = {"sweep_step": 256, "canonical_resolution": 0.07}
+CANON = slamq.Params(canonical_resolution=0.07)
 
 
 def turned(m: OccupancyMap, degrees: float) -> OccupancyMap:
@@ -65,7 +68,7 @@ def test_rust_equals_reference_on_shipped_and_turned_maps(test_data: Path) -> No
         m = slamq.load_map(path)
         for variant in (m, turned(m, 7.0), turned(m, -33.0), finer(m), coarser(m)):
             q = slamq.evaluate(variant, **FAST)
-            assert q.corners_canonical == reference.canonical_corner_count(variant), path
+            assert q.corners_canonical == reference.canonical_corner_count(variant, CANON), path
             assert q.wall_angle == math.degrees(reference.wall_angle(variant)), path
 
 
@@ -81,7 +84,7 @@ def test_rust_equals_reference_on_random_maps_and_any_thread_count() -> None:
         two = slamq.evaluate(m, threads=2, **FAST)
         assert (one.corners_canonical, one.wall_angle) == (two.corners_canonical,
                                                            two.wall_angle)
-        assert one.corners_canonical == reference.canonical_corner_count(m)
+        assert one.corners_canonical == reference.canonical_corner_count(m, CANON)
         want = math.degrees(reference.wall_angle(m))
         assert one.wall_angle == want or (math.isnan(want) and math.isnan(one.wall_angle))
 
@@ -98,7 +101,7 @@ def test_rust_equals_reference_on_hypothesis_maps(m: OccupancyMap, res: float | 
     if degrees:
         m = turned(m, degrees)
     q = slamq.evaluate(m, **FAST)
-    assert q.corners_canonical == reference.canonical_corner_count(m)
+    assert q.corners_canonical == reference.canonical_corner_count(m, CANON)
     want = math.degrees(reference.wall_angle(m))
     assert q.wall_angle == want
 
@@ -108,7 +111,7 @@ def test_axis_aligned_room_keeps_its_corners_and_turning_it_is_found() -> None:
     img[20, 20:140] = img[100, 20:140] = 0
     img[20:101, 20] = img[20:101, 139] = img[20:60, 80] = 0
     m = OccupancyMap(img, np.zeros_like(img, bool), resolution=0.05)
-    q = slamq.evaluate(m)
+    q = slamq.evaluate(m, canonical_resolution=0.07)
     assert abs(q.wall_angle) < 0.05
     assert q.corners_canonical == q.corners
     for deg in (3.0, 12.0, 30.0):
@@ -118,17 +121,21 @@ def test_axis_aligned_room_keeps_its_corners_and_turning_it_is_found() -> None:
         assert abs(((found + deg) + 45) % 90 - 45) < 0.5, (deg, found)
 
 
-def test_skipped_when_canonical_resolution_is_zero_and_too_large_is_null() -> None:
+def test_skipped_by_default_with_the_wall_angle_kept_and_too_large_is_null() -> None:
     img = np.full((30, 30), 254, np.uint8)
     img[10:20, 10:20] = 0
-    q = slamq.evaluate(img, canonical_resolution=0)
-    assert q.corners_canonical is None and math.isnan(q.wall_angle)
-    q = reference.evaluate(slamq.load_map(img), canonical_resolution=0, **FAST)
-    assert q.corners_canonical is None
+    img[5, 3:27] = 0
+    for q in (slamq.evaluate(img), slamq.evaluate(img, canonical_resolution=0),
+              reference.evaluate(slamq.load_map(img), sweep_step=256)):
+        # the default: no corners_canonical, but the wall angle the verdict needs
+        assert q.corners_canonical is None
+        assert q.wall_angle == math.degrees(reference.wall_angle(slamq.load_map(img)))
+    assert reference.canonical_map(slamq.load_map(img)) is None
+    assert reference.canonical_corner_count(slamq.load_map(img)) is None
     m = OccupancyMap(img, np.zeros_like(img, bool), resolution=500.0)  # 10^8 x finer
     q = slamq.evaluate(m, **FAST)
     assert q.corners_canonical is None and q.corners_canonical == (
-        reference.canonical_corner_count(m))
+        reference.canonical_corner_count(m, CANON))
     with pytest.raises(slamq.ParamError):
         slamq.evaluate(img, canonical_resolution=-1)
 

@@ -103,9 +103,11 @@ class Params:
         "corner mask: Harris response above harris_quality * max R",
     )
     canonical_resolution: float = _param(
-        0.07, 0.0, None, "m",
+        0.0, 0.0, None, "m",
         "corners_canonical: the map is turned to its dominant wall direction and resampled "
-        "to this resolution before its corners are counted; 0 skips corners_canonical",
+        "to this resolution before its corners are counted (0.07 is the reference the spec "
+        "validates); 0, the default, skips corners_canonical (the wall angle is computed "
+        "either way)",
     )
     # --- enclosed areas (spec section 4)
     sweep_step: int = _param(

@@ -368,7 +368,12 @@ unsafe fn angle_sums_avx2(xs: &[i32], ys: &[i32]) -> ([f64; 4], [f64; 4]) {
 /// and column (`D`), its 3x3 Sobel derivatives on that grid (reflect-101), and the sum of
 /// `g**4 / |g|**3` per cell, rounded to integers.
 pub fn wall_angle(grid: &Grid) -> Result<f64, OutOfMemory> {
-    match known_bounds(grid) {
+    wall_angle_in(grid, known_bounds(grid))
+}
+
+/// [`wall_angle`] with the known cells' bounding box already found ([`known_bounds`]).
+pub fn wall_angle_in(grid: &Grid, bounds: Option<Bounds>) -> Result<f64, OutOfMemory> {
+    match bounds {
         Some(b) => angle_in(&pack_box(grid, b)?, b.1 - b.0, b.3 - b.2),
         None => Ok(0.0),
     }
@@ -1002,7 +1007,8 @@ pub fn canonical_corners(
     canonical_corners_in(grid, known_bounds(grid), resolution, params)
 }
 
-/// [`canonical_corners`] with the known cells' bounding box already found
+/// [`canonical_corners`] (the wall angle alone, `corners` None, when
+/// `params.canonical_resolution` is 0) with the known cells' bounding box already found
 /// ([`known_bounds`]).
 pub fn canonical_corners_in(
     grid: &Grid,
@@ -1010,6 +1016,13 @@ pub fn canonical_corners_in(
     resolution: Option<f64>,
     params: &CornerParams,
 ) -> Result<Canonical, OutOfMemory> {
+    if params.canonical_resolution.is_nan() || params.canonical_resolution <= 0.0 {
+        // no reference resolution: the wall angle alone, as `evaluate` gives it
+        return Ok(Canonical {
+            angle: wall_angle_in(grid, bounds)?,
+            corners: None,
+        });
+    }
     // both steps work inside the box
     let Some(b) = bounds else {
         return Ok(Canonical {
@@ -1066,7 +1079,10 @@ mod tests {
         let g = Grid::new(&v, &u, 40, 40).unwrap();
         let a = wall_angle(&g).unwrap();
         assert!(a.abs() < 1e-3, "{a}");
-        let p = CornerParams::default();
+        let p = CornerParams {
+            canonical_resolution: 0.07,
+            ..CornerParams::default()
+        };
         let c = canonical_corners(&g, Some(0.05), &p).unwrap();
         assert_eq!(c.corners, Some(count_corners(&g, &p)));
     }
@@ -1078,7 +1094,11 @@ mod tests {
         let g = Grid::new(&v, &u, 3, 4).unwrap();
         assert_eq!(known_bounds(&g), None);
         assert_eq!(wall_angle(&g).unwrap(), 0.0);
-        let c = canonical_corners(&g, Some(0.05), &CornerParams::default()).unwrap();
+        let p = CornerParams {
+            canonical_resolution: 0.07,
+            ..CornerParams::default()
+        };
+        let c = canonical_corners(&g, Some(0.05), &p).unwrap();
         assert_eq!(c.corners, Some(0));
     }
 
@@ -1308,6 +1328,7 @@ mod tests {
             {
                 let p = CornerParams {
                     log_threshold: [0.1, 0.0, 0.1, -0.05, 0.3][k],
+                    canonical_resolution: 0.07,
                     ..CornerParams::default()
                 };
                 let angle = wall_angle(&g).unwrap();

@@ -1,6 +1,6 @@
 //! All three metrics of one map (SPEC sections 2-4, and 3a), and of many maps in parallel.
 
-use crate::canonical::canonical_corners_in;
+use crate::canonical::{canonical_corners_in, wall_angle_in};
 use crate::corners::count_corners;
 use crate::enclosed::sweep;
 use crate::grid::{known_bounds, Bounds, Grid};
@@ -14,8 +14,8 @@ use rayon::prelude::*;
 pub struct Quality {
     pub occupancy: Occupancy,
     pub corners: usize,
-    /// SPEC 3a: the dominant wall angle (radians, NaN when skipped) and `corners_canonical`
-    /// (`None` when skipped or too large).
+    /// SPEC 3a: the dominant wall angle (radians; always computed) and `corners_canonical`
+    /// (`None` when skipped, the default, or too large).
     pub wall_angle: f64,
     pub corners_canonical: Option<usize>,
     /// `count_u` for every swept `u`.
@@ -63,7 +63,8 @@ pub fn evaluate(
         let c = canonical_corners_in(grid, known_box, resolution, &params.corners)?;
         (c.angle, c.corners)
     } else {
-        (f64::NAN, None)
+        // SPEC 3a.2 alone: the verdict needs every map's orientation
+        (wall_angle_in(grid, known_box)?, None)
     };
     // the first of equal counts, as numpy's argmax
     let unknown_shade = (hist.unknown > 0).then(|| {

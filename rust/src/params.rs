@@ -15,8 +15,8 @@ pub struct CornerParams {
     pub harris_k: f64,
     /// Corner mask: `R > harris_quality * max R`.
     pub harris_quality: f64,
-    /// SPEC 3a: `corners_canonical` resamples to this resolution (metres per cell); 0 skips
-    /// it.
+    /// SPEC 3a: `corners_canonical` resamples to this resolution (metres per cell); 0 (the
+    /// default) skips it (the wall angle is computed either way).
     pub canonical_resolution: f64,
 }
 
@@ -27,7 +27,7 @@ impl Default for CornerParams {
             min_dot_area: 5,
             harris_k: 0.04,
             harris_quality: 0.01,
-            canonical_resolution: 0.07,
+            canonical_resolution: 0.0,
         }
     }
 }

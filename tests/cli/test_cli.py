@@ -154,8 +154,9 @@ def test_a_map_with_no_known_cell_gives_nan_ratios_and_zero_counts(
     blank.write_bytes(b"P5 4 3 255\n" + bytes([205] * 12))     # every cell unknown
     js, cs = tmp_path / "r.json", tmp_path / "r.csv"
     assert main(["eval", str(blank), "--json", str(js), "--csv", str(cs)]) == 0
-    row = capsys.readouterr().out.splitlines()[1].split()
-    assert row[-8:] == ["0", "0", "nan", "nan", "0", "0", "0", "0"]  # known .. at u
+    header, row = (line.split() for line in capsys.readouterr().out.splitlines()[:2])
+    assert row[-7:] == ["0", "0", "nan", "nan", "0", "0", "0"]  # known .. at u
+    assert "canonical" not in header  # corners_canonical is off by default: no column
     (rec,) = read_results(js)
     assert "NaN" not in js.read_text()                          # valid JSON: null
     q = slamq.evaluate(blank)
@@ -166,6 +167,9 @@ def test_a_map_with_no_known_cell_gives_nan_ratios_and_zero_counts(
     (crow,) = list(csv.DictReader(cs.open()))
     assert math.isnan(float(crow["proportion"])) and crow["known"] == "0"
     assert list(crow) == list(q.to_dict())
+    assert main(["eval", str(blank), "--canonical-resolution", "0.07"]) == 0
+    header, row = (line.split() for line in capsys.readouterr().out.splitlines()[:2])
+    assert header[-3:-1] == ["canonical", "enclosed_areas"] and row[-3] == "0"  # no known cell
 
 
 def test_csv_and_json_without_results_keep_the_columns(

@@ -91,7 +91,7 @@ def test_thread_counts_and_concurrent_callers_agree() -> None:
 
 def test_evaluate_many_matches_one_by_one() -> None:
     maps = [_room(30 + i, 40 + 2 * i) for i in range(5)]
-    p = slamq.Params(sweep_step=5)
+    p = slamq.Params(sweep_step=5, canonical_resolution=0.07)
     many = _core.evaluate_many([(v, u, 0.05) for v, u in maps], p, threads=2)
     assert many == [_core.evaluate(v, u, p, resolution=0.05) for v, u in maps]
     assert many != _core.evaluate_many([(v, u, 0.01) for v, u in maps], p)  # canonical

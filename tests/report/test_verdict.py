@@ -70,7 +70,7 @@ def test_on_slam_comparison_tools_the_verdict_never_names_a_broken_map(shared_da
     rows = []
     for world, alg, y, ate in comparison_tools_runs(shared_data):
         gt_map = maps / "ground_truths" / f"{world}_ground_truth.yaml"
-        q = slamq.evaluate(y)
+        q = slamq.evaluate(y, canonical_resolution=0.07)
         c = slamq.compare(y, gt_map)
         rows.append({"sequence": world, "algorithm": alg, "map": str(y), "run": 1,
                      "corners": q.corners,
@@ -99,6 +99,12 @@ def test_on_slam_comparison_tools_the_verdict_never_names_a_broken_map(shared_da
         plain = sequence_verdict(summarize(part.drop(columns=[
             "ate_rmse", "gt_f1", "gt_chamfer", "wall_angle"])), world)
         assert plain["basis"] == ["corners"]
+        # the defaults have no corners_canonical: then the turned maps are not ranked by
+        # corners at all (no best), and the warning says how to get the canonical count
+        default = sequence_verdict(summarize(part.drop(columns=[
+            "ate_rmse", "gt_f1", "gt_chamfer", "corners_canonical"])), world)
+        assert default["best"] is None and default["basis"] == ["corners"], default
+        assert "canonical_resolution=0.07" in " ".join(default["warnings"])
         # with the maps' agreement and defect flags (the report's verdict without ground
         # truth): slam_toolbox (ATE second of five) where most maps agree; in abstract,
         # where three of five maps are broken, it abstains and says why

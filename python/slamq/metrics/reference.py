@@ -440,19 +440,25 @@ def canonical_map(grid: OccupancyMap, params: Params | None = None) -> Occupancy
     edge, the edge cell: a fully known map gets no artificial frontier); the cell is the
     mean of the known samples rounded half up, ``(2 sum + k) // 2k``, or unknown when fewer
     than half the samples are known. None when the result would exceed
-    ``MAX_CANONICAL_CELLS`` cells; a map without known cells is returned as it is.
+    ``MAX_CANONICAL_CELLS`` cells, and when ``params.canonical_resolution`` is 0 (the
+    default: no canonical map); a map without known cells is returned as it is.
 
     Examples
     --------
     >>> import numpy as np
-    >>> from slamq import OccupancyMap
+    >>> from slamq import OccupancyMap, Params
     >>> img = np.full((30, 30), 254, np.uint8)
     >>> img[8, 4:26] = 0
-    >>> c = canonical_map(OccupancyMap(img, np.zeros_like(img, bool), resolution=0.05))
+    >>> m = OccupancyMap(img, np.zeros_like(img, bool), resolution=0.05)
+    >>> c = canonical_map(m, Params(canonical_resolution=0.07))
     >>> c.shape, c.resolution          # 30 x 30 cells of 0.05 m: 21.4 of 0.07 m, plus margin
     ((26, 26), 0.07)
+    >>> canonical_map(m) is None       # the default skips it
+    True
     """
     params = _params(params)
+    if not params.canonical_resolution > 0:
+        return None
     crop = _crop(grid)
     if crop is None:
         return grid
@@ -495,15 +501,17 @@ def canonical_map(grid: OccupancyMap, params: Params | None = None) -> Occupancy
 
 def canonical_corner_count(grid: OccupancyMap, params: Params | None = None) -> int | None:
     """``corners_canonical``: SPEC-3 corners of :func:`canonical_map` (SPEC 3a.4), or None
-    when the canonical map would be too large.
+    when the canonical map would be too large or ``params.canonical_resolution`` is 0 (the
+    default).
 
     Examples
     --------
     >>> import numpy as np
-    >>> from slamq import OccupancyMap
+    >>> from slamq import OccupancyMap, Params
     >>> img = np.full((40, 40), 254, np.uint8)
     >>> img[10:30, 10:30] = 0        # an upright square obstacle: as many as ``corners``
-    >>> canonical_corner_count(OccupancyMap(img, np.zeros_like(img, bool), resolution=0.05))
+    >>> m = OccupancyMap(img, np.zeros_like(img, bool), resolution=0.05)
+    >>> canonical_corner_count(m, Params(canonical_resolution=0.07))
     8
     """
     canonical = canonical_map(grid, params)
@@ -785,9 +793,8 @@ def evaluate(
         params=params,
         keep_curve=curve,
         resolution=grid.resolution,
-        corners_canonical=(canonical_corner_count(grid, params)
-                           if params.canonical_resolution > 0 else None),
-        wall_angle=wall_angle(grid) if params.canonical_resolution > 0 else math.nan,
+        corners_canonical=canonical_corner_count(grid, params),
+        wall_angle=wall_angle(grid),  # always: the verdict needs every map's orientation
         facts=map_facts(grid),
     )
 

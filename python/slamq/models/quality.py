@@ -139,12 +139,13 @@ class MapQuality:
         place saved at different resolutions compare on it, not on ``known``.
     corners_canonical : int or None
         SPEC section 3a: the corner count of the map turned to its dominant wall direction
-        and resampled to ``params.canonical_resolution`` (None when that is 0, or when the
-        canonical map would exceed 2**30 cells). Compare maps of different orientation or
-        resolution on this, not on ``corners``.
+        and resampled to ``params.canonical_resolution`` (None when that is 0, the default,
+        or when the canonical map would exceed 2**30 cells). Compare maps of different
+        orientation or resolution on this (``canonical_resolution=0.07``), not on
+        ``corners``.
     wall_angle : float
         The dominant wall direction modulo 90 degrees, in degrees in (-45, 45] (image axes:
-        positive turns +x towards +y, rows down); NaN when ``canonical_resolution`` is 0.
+        positive turns +x towards +y, rows down); always computed (SPEC 3a.2).
     saver, flags, known_box_m2 : str, str, float
         How the map was saved and loaded, and the area of its known cells' bounding box:
         see :func:`map_facts`. Maps ranked together should agree on these.

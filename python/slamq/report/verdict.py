@@ -310,7 +310,8 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
                                    f"{second:g} corners)")
             if key == "corners" and (res_differ or turned):
                 warnings.append("the maps differ in resolution or orientation: corners are "
-                                "not comparable")
+                                "not comparable (evaluate with canonical_resolution=0.07 "
+                                "to rank them by corners_canonical)")
                 best, confidence = None, "none: the maps are not comparable"
         return {"sequence": str(sequence), "best": best, "ranking": ranking,
                 "basis": [key] + ([tie] if tie and len(ties) else []),

@@ -130,7 +130,8 @@ def folder_verdicts(root: Path, by_eye: Path, *,
     records = []
     for r in eye.itertuples():
         path = Path(root) / r.folder / r.map
-        q = evaluate(str(path))
+        # corners_canonical on (off by default since 2026-11-27): the first rule ranks by it
+        q = evaluate(str(path), canonical_resolution=0.07)
         records.append({"map": str(path), "sequence": r.folder, "algorithm": r.map, "run": 1,
                         **q.to_dict()})
     ok = pd.DataFrame(records)

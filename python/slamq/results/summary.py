@@ -153,7 +153,7 @@ def comparability_warnings(records: Any) -> list[str]:
                 shown = ", ".join(f"{a:.1f}" for a in sorted(set(angles.round(1))))
                 out.append(f"{seq}: the maps are turned differently (wall angles {shown} deg "
                            "modulo 90): their corners are not comparable; compare "
-                           "corners_canonical")
+                           "corners_canonical (canonical_resolution=0.07)")
         if "saver" in part.columns:
             savers = sorted({str(x) for x in part["saver"] if isinstance(x, str) and x})
             if len(savers) > 1:

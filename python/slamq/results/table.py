@@ -13,7 +13,6 @@ from collections.abc import Sequence
 from typing import IO
 
 from slamq.models import MapQuality
-from slamq.params import Params
 
 __all__ = ["format_table", "print_table"]
 
@@ -34,10 +33,9 @@ _COLUMNS = (
 LEGEND = (
     "lower is better for occupied_fraction, corners and enclosed_areas (paper III); "
     "peak_at_u: the unknown value at which enclosed_areas peaks; proportion = occupied / "
-    "(free + unknown) depends on the canvas; canonical: corners of the map turned to its walls' "
-    "direction and resampled to canonical_resolution (default "
-    f"{Params().canonical_resolution:g} m; compare maps of different orientation or "
-    "resolution on it)"
+    "(free + unknown) depends on the canvas; canonical (with --canonical-resolution 0.07): "
+    "corners of the map turned to its walls' direction and resampled to that resolution "
+    "(compare maps of different orientation or resolution on it)"
 )
 
 
@@ -96,14 +94,17 @@ def format_table(results: Sequence[MapQuality]) -> str:
     ['<array>', '4x4', '16', '0', '0.0000']
     """
     names = short_names([q.source for q in results])
-    rows = [[h for h, _, _ in _COLUMNS]]
-    rows += [[_cell(q, key, names) for _, key, _ in _COLUMNS] for q in results]
-    widths = [max(len(r[i]) for r in rows) for i in range(len(_COLUMNS))]
+    # corners_canonical is off by default: its column only when a map has the count
+    columns = [c for c in _COLUMNS if c[1] != "corners_canonical"
+               or any(q.corners_canonical is not None for q in results)]
+    rows = [[h for h, _, _ in columns]]
+    rows += [[_cell(q, key, names) for _, key, _ in columns] for q in results]
+    widths = [max(len(r[i]) for r in rows) for i in range(len(columns))]
     lines = []
     for r in rows:
         parts = [
             (c.ljust(w) if align == "<" else c.rjust(w))
-            for c, w, (_, _, align) in zip(r, widths, _COLUMNS)
+            for c, w, (_, _, align) in zip(r, widths, columns)
         ]
         lines.append("  ".join(parts).rstrip())
     return "\n".join(lines)

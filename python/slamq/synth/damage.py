@@ -456,7 +456,8 @@ def records(plans: Sequence[OccupancyMap] | int = 3, *,
     for k, plan in enumerate(plans):
         for kind, values in sev.items():
             for s, m in series(plan, kind, values, seed=seed + k):
-                q = evaluate(m).to_dict()
+                # corners_canonical on (off by default): the study measures every metric
+                q = evaluate(m, canonical_resolution=0.07).to_dict()
                 c = compare(m, plan, align=align)
                 row: dict[str, Any] = {"degradation": kind, "sequence": f"{kind}/{k}",
                                        "plan": plan.source, "algorithm": f"{s:g}",
