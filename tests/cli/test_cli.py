@@ -154,9 +154,10 @@ def test_a_map_with_no_known_cell_gives_nan_ratios_and_zero_counts(
     blank.write_bytes(b"P5 4 3 255\n" + bytes([205] * 12))     # every cell unknown
     js, cs = tmp_path / "r.json", tmp_path / "r.csv"
     assert main(["eval", str(blank), "--json", str(js), "--csv", str(cs)]) == 0
-    header, row = (line.split() for line in capsys.readouterr().out.splitlines()[:2])
+    out = capsys.readouterr().out
+    header, row = (line.split() for line in out.splitlines()[:2])
     assert row[-7:] == ["0", "0", "nan", "nan", "0", "0", "0"]  # known .. at u
-    assert "canonical" not in header  # corners_canonical is off by default: no column
+    assert "canonical" not in out  # corners_canonical is off by default: no column, no legend
     (rec,) = read_results(js)
     assert "NaN" not in js.read_text()                          # valid JSON: null
     q = slamq.evaluate(blank)
@@ -168,8 +169,10 @@ def test_a_map_with_no_known_cell_gives_nan_ratios_and_zero_counts(
     assert math.isnan(float(crow["proportion"])) and crow["known"] == "0"
     assert list(crow) == list(q.to_dict())
     assert main(["eval", str(blank), "--canonical-resolution", "0.07"]) == 0
-    header, row = (line.split() for line in capsys.readouterr().out.splitlines()[:2])
+    out = capsys.readouterr().out
+    header, row = (line.split() for line in out.splitlines()[:2])
     assert header[-3:-1] == ["canonical", "enclosed_areas"] and row[-3] == "0"  # no known cell
+    assert "canonical: corners of the map turned" in " ".join(out.split())
 
 
 def test_csv_and_json_without_results_keep_the_columns(

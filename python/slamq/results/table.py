@@ -33,9 +33,12 @@ _COLUMNS = (
 LEGEND = (
     "lower is better for occupied_fraction, corners and enclosed_areas (paper III); "
     "peak_at_u: the unknown value at which enclosed_areas peaks; proportion = occupied / "
-    "(free + unknown) depends on the canvas; canonical (with --canonical-resolution 0.07): "
-    "corners of the map turned to its walls' direction and resampled to that resolution "
-    "(compare maps of different orientation or resolution on it)"
+    "(free + unknown) depends on the canvas"
+)
+#: Added to :data:`LEGEND` when the table has the canonical column.
+CANONICAL_LEGEND = (
+    "; canonical: corners of the map turned to its walls' direction and resampled to "
+    "canonical_resolution (compare maps of different orientation or resolution on it)"
 )
 
 
@@ -116,7 +119,8 @@ def print_table(
     """Print :func:`format_table` (and each map's enclosed-area curve when ``curve``)."""
     out = file or sys.stdout
     print(format_table(results), file=out)
-    print(textwrap.fill(LEGEND, width=100), file=out)
+    canonical = any(q.corners_canonical is not None for q in results)
+    print(textwrap.fill(LEGEND + (CANONICAL_LEGEND if canonical else ""), width=100), file=out)
     if curve:
         names = short_names([q.source for q in results])
         for q in results:
