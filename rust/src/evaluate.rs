@@ -1,6 +1,6 @@
 //! All three metrics of one map (SPEC sections 2-4, and 3a), and of many maps in parallel.
 
-use crate::canonical::{canonical_corners_in, wall_angle_in};
+use crate::canonical::canonical_corners_in;
 use crate::corners::count_corners;
 use crate::enclosed::sweep;
 use crate::grid::{known_bounds, Bounds, Grid};
@@ -59,13 +59,9 @@ pub fn evaluate(
     let corners = count_corners(grid, &params.corners);
     let curve = sweep(grid, &hist, &params.enclosed);
     let known_box = known_bounds(grid);
-    let (wall_angle, corners_canonical) = if params.corners.canonical_resolution > 0.0 {
-        let c = canonical_corners_in(grid, known_box, resolution, &params.corners)?;
-        (c.angle, c.corners)
-    } else {
-        // SPEC 3a.2 alone: the verdict needs every map's orientation
-        (wall_angle_in(grid, known_box)?, None)
-    };
+    // the wall angle always (the verdict needs every map's orientation), the canonical count
+    // only with a reference resolution
+    let canonical = canonical_corners_in(grid, known_box, resolution, &params.corners)?;
     // the first of equal counts, as numpy's argmax
     let unknown_shade = (hist.unknown > 0).then(|| {
         let top = hist.unknown_values.iter().copied().max().unwrap_or(0);
@@ -77,8 +73,8 @@ pub fn evaluate(
     Ok(Quality {
         occupancy,
         corners,
-        wall_angle,
-        corners_canonical,
+        wall_angle: canonical.angle,
+        corners_canonical: canonical.corners,
         curve,
         known_levels: hist.known.iter().filter(|&&c| c > 0).count(),
         unknown_shade,

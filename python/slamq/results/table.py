@@ -42,6 +42,12 @@ CANONICAL_LEGEND = (
 )
 
 
+def _has_canonical(results: Sequence[MapQuality]) -> bool:
+    """Whether a map has corners_canonical (off by default): then the table shows its
+    column and the legend explains it."""
+    return any(q.corners_canonical is not None for q in results)
+
+
 def _cell(q: MapQuality, key: str | None, names: dict[str, str]) -> str:
     if key is None:
         return f"{q.height}x{q.width}"
@@ -97,9 +103,8 @@ def format_table(results: Sequence[MapQuality]) -> str:
     ['<array>', '4x4', '16', '0', '0.0000']
     """
     names = short_names([q.source for q in results])
-    # corners_canonical is off by default: its column only when a map has the count
-    columns = [c for c in _COLUMNS if c[1] != "corners_canonical"
-               or any(q.corners_canonical is not None for q in results)]
+    canonical = _has_canonical(results)
+    columns = [c for c in _COLUMNS if c[1] != "corners_canonical" or canonical]
     rows = [[h for h, _, _ in columns]]
     rows += [[_cell(q, key, names) for _, key, _ in columns] for q in results]
     widths = [max(len(r[i]) for r in rows) for i in range(len(columns))]
@@ -119,8 +124,8 @@ def print_table(
     """Print :func:`format_table` (and each map's enclosed-area curve when ``curve``)."""
     out = file or sys.stdout
     print(format_table(results), file=out)
-    canonical = any(q.corners_canonical is not None for q in results)
-    print(textwrap.fill(LEGEND + (CANONICAL_LEGEND if canonical else ""), width=100), file=out)
+    legend = LEGEND + (CANONICAL_LEGEND if _has_canonical(results) else "")
+    print(textwrap.fill(legend, width=100), file=out)
     if curve:
         names = short_names([q.source for q in results])
         for q in results:
