@@ -331,20 +331,70 @@ fn band_histogram_table(vals: &[u8], unk: &[bool], sh: &[u8]) -> ([u64; 256], [u
 pub type Bounds = (usize, usize, usize, usize);
 
 /// The known cells' bounding box, or `None`.
+///
+/// Reads only what lies outside the box found so far: the all-unknown rows above and below
+/// it, and in each row between them the cells left of its first column and right of its
+/// last (a row's middle cannot widen the box), eight cells to a word ([`first_known`],
+/// [`last_known`]).
 pub fn known_bounds(grid: &Grid) -> Option<Bounds> {
     let w = grid.width;
-    let known_row = |r: usize| grid.unknown[r * w..(r + 1) * w].iter().any(|&u| !u);
-    let r0 = (0..grid.height).find(|&r| known_row(r))?;
-    let r1 = (0..grid.height).rev().find(|&r| known_row(r))? + 1;
+    let row = |r: usize| &grid.unknown[r * w..(r + 1) * w];
+    let r0 = (0..grid.height).find(|&r| first_known(row(r)).is_some())?;
+    let r1 = (r0..grid.height)
+        .rev()
+        .find(|&r| first_known(row(r)).is_some())?
+        + 1;
     let (mut c0, mut c1) = (w, 0);
     for r in r0..r1 {
-        let row = &grid.unknown[r * w..(r + 1) * w];
-        if let Some(first) = row.iter().position(|&u| !u) {
-            c0 = c0.min(first);
-            c1 = c1.max(w - row.iter().rev().position(|&u| !u).unwrap_or(0));
+        let cells = row(r);
+        if let Some(first) = first_known(&cells[..c0]) {
+            c0 = first;
+        }
+        // the last known cell is at or after the first
+        let from = c1.max(c0);
+        if let Some(last) = last_known(&cells[from..]) {
+            c1 = from + last + 1;
         }
     }
     Some((r0, r1, c0, c1))
+}
+
+/// Eight unknown flags (`true` is the byte 1), as one little-endian word.
+const ALL_UNKNOWN: u64 = 0x0101_0101_0101_0101;
+
+/// The eight flags at `c` as a little-endian word (byte `i` is cell `i`).
+#[inline]
+fn flags_word(c: &[bool]) -> u64 {
+    let b: [u8; 8] = std::array::from_fn(|i| u8::from(c[i]));
+    u64::from_le_bytes(b)
+}
+
+/// The index of the first known cell of `cells` (`false`), eight at a time.
+pub fn first_known(cells: &[bool]) -> Option<usize> {
+    let words = cells.chunks_exact(8);
+    let tail = words.remainder();
+    for (i, c) in words.enumerate() {
+        let known = flags_word(c) ^ ALL_UNKNOWN; // 1 in the bytes of known cells
+        if known != 0 {
+            return Some(8 * i + known.trailing_zeros() as usize / 8);
+        }
+    }
+    let start = cells.len() - tail.len();
+    tail.iter().position(|&u| !u).map(|i| start + i)
+}
+
+/// The index of the last known cell of `cells` (`false`), eight at a time.
+pub fn last_known(cells: &[bool]) -> Option<usize> {
+    let words = cells.rchunks_exact(8);
+    let head = words.remainder();
+    let n = cells.len();
+    for (i, c) in words.enumerate() {
+        let known = flags_word(c) ^ ALL_UNKNOWN;
+        if known != 0 {
+            return Some(n - 8 * (i + 1) + 7 - known.leading_zeros() as usize / 8);
+        }
+    }
+    head.iter().rposition(|&u| !u)
 }
 
 /// Value histogram of the known cells plus the unknown count.
@@ -392,6 +442,49 @@ mod tests {
             Grid::new(&v, &u, 3, 3),
             Err(GridError::Length { .. })
         ));
+    }
+
+    /// The box as the plain scan finds it.
+    fn plain_bounds(u: &[bool], h: usize, w: usize) -> Option<Bounds> {
+        let known: Vec<(usize, usize)> = (0..h * w)
+            .filter(|&i| !u[i])
+            .map(|i| (i / w, i % w))
+            .collect();
+        let r0 = known.iter().map(|k| k.0).min()?;
+        let r1 = known.iter().map(|k| k.0).max()? + 1;
+        let c0 = known.iter().map(|k| k.1).min()?;
+        let c1 = known.iter().map(|k| k.1).max()? + 1;
+        Some((r0, r1, c0, c1))
+    }
+
+    #[test]
+    fn known_bounds_equal_a_plain_scan_on_random_maps() {
+        let mut st = 11u64;
+        let mut next = || {
+            st = st
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            st >> 33
+        };
+        for trial in 0..400 {
+            let (h, w) = (1 + next() as usize % 40, 1 + next() as usize % 70);
+            // from no known cell to all known, and a few cells in one small rectangle
+            let pct = [0u64, 1, 3, 20, 100][trial % 5];
+            let mut u: Vec<bool> = (0..h * w).map(|_| next() % 1000 >= pct * 10).collect();
+            if trial % 7 == 0 {
+                u.fill(true);
+                let (r, c) = (next() as usize % h, next() as usize % w);
+                u[r * w + c] = false;
+            }
+            let v = vec![0u8; h * w];
+            let g = Grid::new(&v, &u, h, w).unwrap();
+            assert_eq!(known_bounds(&g), plain_bounds(&u, h, w), "trial {trial}");
+            for r in 0..h {
+                let row = &u[r * w..(r + 1) * w];
+                assert_eq!(first_known(row), row.iter().position(|&x| !x));
+                assert_eq!(last_known(row), row.iter().rposition(|&x| !x));
+            }
+        }
     }
 
     #[test]
