@@ -102,7 +102,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let res = Some(0.05);
         let cnames = [
             "canonical: known box",
-            "canonical: wall angle (with the known box and its packing)",
+            "canonical: wall angle (with the known box)",
             "canonical: resample (with the known box and its packing)",
             "canonical: corners of the canonical map",
         ];

@@ -4,15 +4,17 @@
 //! `slamq.metrics.reference.canonical_corner_count`; every step below is integer
 //! arithmetic or one float64 formula evaluated in the same order on both sides.
 //!
-//! Both steps read the box packed one `u16` per cell (`pack_box`). The resample has a fast
-//! path for up to 4 x 4 samples per output cell (one gather per sample, addresses in float
-//! arithmetic that vectorises) beside the general one; output tiles (32 x 32, and 8 x 8
-//! inside them on the fast path) whose samples all fall on unknown 8 x 8 blocks of the box
-//! are left unknown, and those whose samples all fall on known blocks of one value take that
-//! value, without sampling. The blur rows, the wall angle's `g^4/|g|^3` terms and the fast
-//! resample run as AVX2 copies of themselves when the processor has it (runtime detection;
-//! the same operations, so the same results). The tests compare every path with each other
-//! and the resample with a literal one.
+//! The wall angle reads the grid a few rows at a time (`angle_of_box`: neither the
+//! structure image nor its blur is ever whole in memory); the resample reads the box packed
+//! one `u16` per cell (`pack_box`). The resample has a fast path for up to 4 x 4 samples per
+//! output cell (one gather per sample, addresses in float arithmetic that vectorises) beside
+//! the general one; output tiles (32 x 32, and 8 x 8 inside them on the fast path) whose
+//! samples all fall on unknown 8 x 8 blocks of the box are left unknown, and those whose
+//! samples all fall on known blocks of one value take that value, without sampling. The
+//! wall angle's tasks (blur, Sobel and `g^4/|g|^3` terms) and the fast resample run as AVX2
+//! copies of themselves when the processor has it (runtime detection; the same operations,
+//! so the same results). The tests compare every path with each other and the resample with
+//! a literal one.
 
 use crate::border::reflect101;
 use crate::corners::count_corners_of_structure;
@@ -93,7 +95,9 @@ const B9: [u16; 9] = [1, 8, 28, 56, 70, 56, 28, 8, 1];
 /// unknown cells count 0; reflect-101 at the box's edges) at every second row and column
 /// (rows and columns 0, 2, 4, ...), `ceil(h/2) x ceil(w/2)`; exact in `i32` (at most
 /// 255 * 256^2). Each output row is one vertical pass over nine input rows, exact in `u16`
-/// (at most 255 * 256), then the decimated horizontal taps.
+/// (at most 255 * 256), then the decimated horizontal taps. (The wall angle computes the
+/// same rows a few at a time, [`angle_of_box`]; this whole image is the tests' baseline.)
+#[cfg(test)]
 fn blur9_decimated(
     packed: &[u16],
     h: usize,
@@ -114,10 +118,10 @@ fn blur9_decimated(
     Ok((out, hd, wd))
 }
 
-/// One row of `D` ([`blur9_decimated`]) from the nine packed rows around it: the vertical
-/// taps into `vert` (`u16`), split into its even and odd columns in `split` (`w` cells), and
-/// the horizontal taps at every second column into `o`. With AVX2 when the processor has it
-/// (integer arithmetic: the same result).
+/// [`blur_row_in`] with AVX2 when the processor has it (integer arithmetic: the same
+/// result); the tests' baseline [`blur9_decimated`] uses it ([`angle_task`] inlines
+/// [`blur_row_in`] into its own AVX2 copy).
+#[cfg(test)]
 fn blur_row(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [u16], o: &mut [i32]) {
     #[cfg(target_arch = "x86_64")]
     if has_avx2() {
@@ -128,12 +132,16 @@ fn blur_row(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [u16], o: &mut [i32]
     blur_row_in(rows, vert, full, o);
 }
 
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(test, target_arch = "x86_64"))]
 #[target_feature(enable = "avx2")]
 fn blur_row_avx2(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [u16], o: &mut [i32]) {
     blur_row_in(rows, vert, full, o);
 }
 
+/// One row of `D` ([`blur9_decimated`]) from the nine structure rows around it (packed
+/// cells, [`pack_box`], or plain values: the value bits are taken): the vertical taps into
+/// `vert` (`u16`), split into its even and odd columns in `split` (`w` cells), and the
+/// horizontal taps at every second column into `o`.
 #[inline(always)]
 fn blur_row_in(rows: [&[u16]; 9], vert: &mut [u16], split: &mut [u16], o: &mut [i32]) {
     let w = vert.len();
@@ -175,12 +183,12 @@ fn blur_row_in(rows: [&[u16]; 9], vert: &mut [u16], split: &mut [u16], o: &mut [
                 + 70 * q(e2);
         }
     }
-    for (xd, o) in o.iter_mut().enumerate() {
-        if w >= 9 && xd >= inner.0 && xd < inner.1 {
-            continue;
-        }
+    // the columns near the edges (all of them in a row narrower than 9)
+    let wd = o.len();
+    let (left, right) = if w >= 9 { inner } else { (wd, wd) };
+    for xd in (0..left).chain(right..wd) {
         let x = 2 * xd;
-        *o = (0..9)
+        o[xd] = (0..9)
             .map(|k| tap(reflect101(x as isize + k as isize - 4, w), k))
             .sum();
     }
@@ -232,7 +240,8 @@ struct SobelRows {
 /// The sums of the rounded angle terms (SPEC 3a.2) of one row of `D`, given its rows
 /// `[up, mid, down]` (reflect-101 already applied). The 3x3 Sobel derivatives are exact in
 /// `i32` (at most 4 * 255 * 256^2), so `gy` may be formed from the vertical differences.
-/// (An AVX2 copy of this was slower: the divisions and square roots bound it.)
+/// Inlined into its callers, so that in [`angle_task_avx2`] the integer loops are AVX2 too.
+#[inline(always)]
 fn sobel_terms_row([up, mid, down]: [&[i32]; 3], s: &mut SobelRows) -> (i64, i64) {
     let w = mid.len();
     for v in [&mut s.col, &mut s.dv, &mut s.gx, &mut s.gy] {
@@ -373,15 +382,152 @@ pub fn wall_angle(grid: &Grid) -> Result<f64, OutOfMemory> {
 
 /// [`wall_angle`] with the known cells' bounding box already found ([`known_bounds`]).
 pub fn wall_angle_in(grid: &Grid, bounds: Option<Bounds>) -> Result<f64, OutOfMemory> {
-    match bounds {
-        Some(b) => angle_in(&pack_box(grid, b)?, b.1 - b.0, b.3 - b.2),
-        None => Ok(0.0),
+    Ok(match bounds {
+        Some(b) => angle_of_box(grid, b),
+        None => 0.0,
+    })
+}
+
+/// Rows of `D` per parallel task of [`angle_of_box`].
+const ANGLE_TASK_ROWS: usize = 64;
+
+/// Rows of the structure image a task of [`angle_of_box`] holds: a power of two above the
+/// nine that one row of `D` reads, which lie within nine consecutive rows, so that they
+/// never share a slot.
+const STRUCTURE_SLOTS: usize = 16;
+
+/// One task's rows of the box's structure image (SPEC 3 step 1: a known cell's value, 0
+/// for an unknown one), row `i` in slot `i % STRUCTURE_SLOTS`, each made once.
+struct StructureRows {
+    cells: Vec<u16>,
+    held: [usize; STRUCTURE_SLOTS],
+}
+
+impl StructureRows {
+    fn new(w: usize) -> Self {
+        StructureRows {
+            cells: vec![0; STRUCTURE_SLOTS * w],
+            held: [usize::MAX; STRUCTURE_SLOTS],
+        }
+    }
+
+    /// Box rows `rows` (each below the box's height), made from the grid where not held.
+    #[inline(always)]
+    fn get(&mut self, grid: &Grid, (r0, _, c0, c1): Bounds, rows: [usize; 9]) -> [&[u16]; 9] {
+        let w = c1 - c0;
+        for i in rows {
+            let slot = i % STRUCTURE_SLOTS;
+            if self.held[slot] != i {
+                let at = (r0 + i) * grid.width + c0;
+                let (v, u) = (&grid.values[at..at + w], &grid.unknown[at..at + w]);
+                let out = &mut self.cells[slot * w..(slot + 1) * w];
+                for ((o, &v), &u) in out.iter_mut().zip(v).zip(u) {
+                    *o = u16::from(v) * u16::from(!u);
+                }
+                self.held[slot] = i;
+            }
+        }
+        let cells = &self.cells;
+        rows.map(|i| {
+            let slot = i % STRUCTURE_SLOTS;
+            &cells[slot * w..(slot + 1) * w]
+        })
     }
 }
 
-/// [`wall_angle`] of the packed box ([`pack_box`], `h x w`).
-fn angle_in(packed: &[u16], h: usize, w: usize) -> Result<f64, OutOfMemory> {
-    let (g2, h, w) = blur9_decimated(packed, h, w)?;
+/// [`wall_angle`] of the known box `b`: the rows of `D` ([`blur9_decimated`]'s image) and
+/// their Sobel terms made a few rows at a time, in tasks of [`ANGLE_TASK_ROWS`] rows of
+/// `D`, each reading its structure rows from the grid once ([`StructureRows`]) and keeping
+/// three rows of `D` (the one above its first row and the one below its last made again),
+/// so that neither the structure image nor `D` is ever whole in memory. The integer sums do
+/// not depend on the tasks.
+fn angle_of_box(grid: &Grid, b: Bounds) -> f64 {
+    let (h, w) = (b.1 - b.0, b.3 - b.2);
+    let (hd, wd) = (h.div_ceil(2), w.div_ceil(2));
+    let tasks = hd.div_ceil(ANGLE_TASK_ROWS);
+    let (re, im) = (0..tasks)
+        .into_par_iter()
+        .map_init(
+            || AngleScratch {
+                structure: StructureRows::new(w),
+                vert: vec![0u16; w],
+                split: vec![0u16; w],
+                ring: vec![0i32; 3 * wd],
+                sobel: SobelRows::default(),
+            },
+            |scratch, t| angle_task(grid, b, t, scratch),
+        )
+        .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
+    if re == 0 && im == 0 {
+        return 0.0;
+    }
+    (im as f64).atan2(re as f64) / 4.0
+}
+
+/// What one task of [`angle_of_box`] works in: its structure rows, the blur's two rows, three
+/// rows of `D` and the Sobel rows.
+struct AngleScratch {
+    structure: StructureRows,
+    vert: Vec<u16>,
+    split: Vec<u16>,
+    ring: Vec<i32>,
+    sobel: SobelRows,
+}
+
+/// The sums of the angle terms of rows `t * ANGLE_TASK_ROWS ..` of `D` (at most
+/// [`ANGLE_TASK_ROWS`] of them) in the known box `b`; with AVX2 when the processor has it
+/// (integer arithmetic and the same angle terms: the same sums).
+fn angle_task(grid: &Grid, b: Bounds, t: usize, scratch: &mut AngleScratch) -> (i64, i64) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        // SAFETY: the processor has AVX2, checked just above
+        return unsafe { angle_task_avx2(grid, b, t, scratch) };
+    }
+    angle_task_in(grid, b, t, scratch)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn angle_task_avx2(grid: &Grid, b: Bounds, t: usize, scratch: &mut AngleScratch) -> (i64, i64) {
+    angle_task_in(grid, b, t, scratch)
+}
+
+#[inline(always)]
+fn angle_task_in(grid: &Grid, b: Bounds, t: usize, scratch: &mut AngleScratch) -> (i64, i64) {
+    let (h, w) = (b.1 - b.0, b.3 - b.2);
+    let (hd, wd) = (h.div_ceil(2), w.div_ceil(2));
+    let (a, z) = (t * ANGLE_TASK_ROWS, ((t + 1) * ANGLE_TASK_ROWS).min(hd));
+    let AngleScratch {
+        structure,
+        vert,
+        split,
+        ring,
+        sobel,
+    } = scratch;
+    let (mut re, mut im) = (0i64, 0i64);
+    // rows a - 1 ..= z of D (reflect-101 at D's edges), in ring slots by their place; the
+    // Sobel terms of row k as soon as row k + 1 is made
+    for (n, k) in (a as isize - 1..=z as isize).enumerate() {
+        let rd = reflect101(k, hd);
+        let rows: [usize; 9] =
+            std::array::from_fn(|j| reflect101((2 * rd) as isize + j as isize - 4, h));
+        let o = &mut ring[(n % 3) * wd..(n % 3 + 1) * wd];
+        blur_row_in(structure.get(grid, b, rows), vert, split, o);
+        if n >= 2 {
+            let row = |m: usize| &ring[(m % 3) * wd..(m % 3 + 1) * wd];
+            let (r, i) = sobel_terms_row([row(n - 2), row(n - 1), row(n)], sobel);
+            re += r;
+            im += i;
+        }
+    }
+    (re, im)
+}
+
+/// [`wall_angle`] of the packed box ([`pack_box`], `h x w`), from the whole of `D`: the
+/// tests' baseline for [`angle_of_box`].
+#[cfg(test)]
+fn angle_in(packed: &[u16], h: usize, w: usize) -> f64 {
+    let (g2, h, w) = blur9_decimated(packed, h, w).unwrap();
     let (re, im) = g2
         .par_chunks(w)
         .enumerate()
@@ -394,9 +540,9 @@ fn angle_in(packed: &[u16], h: usize, w: usize) -> Result<f64, OutOfMemory> {
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     if re == 0 && im == 0 {
-        return Ok(0.0);
+        return 0.0;
     }
-    Ok((im as f64).atan2(re as f64) / 4.0)
+    (im as f64).atan2(re as f64) / 4.0
 }
 
 /// A canonical map: owned values and unknown mask.
@@ -1030,8 +1176,8 @@ pub fn canonical_corners_in(
             corners: Some(0),
         });
     };
+    let angle = angle_of_box(grid, b);
     let packed = pack_box(grid, b)?;
-    let angle = angle_in(&packed, b.1 - b.0, b.3 - b.2)?;
     // the structure image of the canonical map is all the corners need (no unknown mask)
     let map = resample(
         grid,
@@ -1423,6 +1569,45 @@ mod tests {
                     assert_eq!(d[rd * wd + cd], want, "{h} x {w} at ({rd}, {cd})");
                     assert_eq!(baseline[cd], want, "{h} x {w} at ({rd}, {cd})");
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn the_wall_angle_by_tasks_equals_the_one_from_the_whole_blur() {
+        // boxes of one to three tasks' rows, odd and even sizes, inside a larger grid
+        for seed in 0..24u64 {
+            let h = [1, 2, 9, 17, 128, 129, 131, 300][seed as usize % 8];
+            let w = [1, 3, 10, 57, 200][seed as usize % 5];
+            let (v, mut u) = random_map(h + 6, w + 4, seed + 7);
+            for r in 0..h + 6 {
+                for c in 0..w + 4 {
+                    if r < 3 || r >= h + 3 || c < 2 || c >= w + 2 {
+                        u[r * (w + 4) + c] = true;
+                    }
+                }
+            }
+            let g = Grid::new(&v, &u, h + 6, w + 4).unwrap();
+            let Some(b) = known_bounds(&g) else { continue };
+            let want = angle_in(&pack_box(&g, b).unwrap(), b.1 - b.0, b.3 - b.2);
+            assert_eq!(angle_of_box(&g, b).to_bits(), want.to_bits(), "{h} x {w}");
+            assert_eq!(wall_angle(&g).unwrap().to_bits(), want.to_bits());
+            // each task's sums: the AVX2 path (where there is one) and the baseline one
+            let (bh, bw) = (b.1 - b.0, b.3 - b.2);
+            let scratch = || AngleScratch {
+                structure: StructureRows::new(bw),
+                vert: vec![0u16; bw],
+                split: vec![0u16; bw],
+                ring: vec![0i32; 3 * bw.div_ceil(2)],
+                sobel: SobelRows::default(),
+            };
+            let (mut best, mut base) = (scratch(), scratch());
+            for t in 0..bh.div_ceil(2).div_ceil(ANGLE_TASK_ROWS) {
+                assert_eq!(
+                    angle_task(&g, b, t, &mut best),
+                    angle_task_in(&g, b, t, &mut base),
+                    "{h} x {w} task {t}"
+                );
             }
         }
     }
