@@ -13,7 +13,10 @@ clock starts (import time is paid once per process, not per map).
 
 ``--dense`` (issue 15): 1-Mcell dense crops of real maps as PGM + YAML, 1 vs 2 threads,
 with default parameters (canonical corners off) and with canonical corners on
-(``canonical_resolution=0.07``), and each map's time by step.
+(``canonical_resolution=0.07``), and each map's time by step. With the defaults it also
+runs two 1-thread processes at once on half the maps each: what 2 cores give without any
+sharing between threads, so "2 threads / two processes" is the part of the scaling the
+threads lose (GIL, allocator, pool), apart from what the machine loses.
 
     PYTHONPATH=python python benches/bench_batch.py            # 2,000 maps
     PYTHONPATH=python python benches/bench_batch.py --maps 400 # quicker
@@ -181,26 +184,62 @@ def per_map_costs(folder: Path) -> list[tuple[str, float]]:
                    "facts)", statistics.median(python))]
 
 
-def run_batch(src: Path, out: Path, threads: int, chunk: int,
-              params: dict | None = None) -> dict:
+def start_batch(src: Path, out: Path, threads: int, chunk: int,
+                params: dict | None = None) -> subprocess.Popen:
+    """``slamq batch`` of ``src`` in a fresh subprocess (see :func:`run_batch`)."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(
         [str(REPO / "python")] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else [])
     )
     if out.exists():
         out.unlink()
-    t0 = time.perf_counter()
-    proc = subprocess.run(
+    return subprocess.Popen(
         [sys.executable, "-c", CHILD, str(src), str(out), str(threads), str(chunk),
          json.dumps(params or {})],
-        env=env, capture_output=True, text=True, check=False,
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
+
+
+def finish_batch(proc: subprocess.Popen, t0: float) -> dict:
+    """What a batch started at ``t0`` reports: maps, failures, seconds in batch, CPU."""
+    stdout, stderr = proc.communicate()
     wall = time.perf_counter() - t0
     if proc.returncode != 0:
-        sys.exit(f"batch failed:\n{proc.stderr}")
-    res = json.loads(proc.stdout.strip().splitlines()[-1])
+        sys.exit(f"batch failed:\n{stderr}")
+    res = json.loads(stdout.strip().splitlines()[-1])
     res["wall"] = wall
     return res
+
+
+def run_batch(src: Path, out: Path, threads: int, chunk: int,
+              params: dict | None = None) -> dict:
+    t0 = time.perf_counter()
+    return finish_batch(start_batch(src, out, threads, chunk, params), t0)
+
+
+def run_two_processes(halves: tuple[Path, Path], tmp: Path, chunk: int,
+                      params: dict | None = None) -> dict:
+    """Two 1-thread batches at once, one per half of the maps: what 2 cores give with no
+    thread of one process waiting for another (no shared GIL, allocator or pool). The
+    result covers both halves: maps, and seconds until the later one finished its batch."""
+    t0 = time.perf_counter()
+    procs = [start_batch(h, tmp / f"half{i}.parquet", 1, chunk, params)
+             for i, h in enumerate(halves)]
+    res = [finish_batch(p, t0) for p in procs]
+    return {"n": sum(r["n"] for r in res), "failed": sum(r["failed"] for r in res),
+            "seconds": max(r["seconds"] for r in res), "wall": max(r["wall"] for r in res),
+            "cpu": sum(r["cpu"] for r in res), "main_cpu": sum(r["main_cpu"] for r in res)}
+
+
+def halves(folder: Path, dest: Path) -> tuple[Path, Path]:
+    """Two folders of symlinks to every other run of ``folder`` (same files, no copies)."""
+    runs = sorted(folder.glob("*/*/*"), key=lambda p: p.name)
+    out = (dest / "a", dest / "b")
+    for i, r in enumerate(runs):
+        link = out[i % 2] / r.relative_to(folder)
+        link.parent.mkdir(parents=True, exist_ok=True)
+        link.symlink_to(r, target_is_directory=True)
+    return out
 
 
 def subset(folder: Path, n: int, dest: Path) -> Path:
@@ -301,14 +340,21 @@ def dense(args: argparse.Namespace) -> None:
         print("| run | maps/s (in batch), median | range | ms per map | CPU s / wall s | "
               "main thread CPU ms per map | failed |")
         print("|---|---:|---:|---:|---:|---:|---:|")
+        split = halves(maps, tmp / "halves")
         for label, params in (("default", {}),
                               ("canonical_resolution=0.07", {"canonical_resolution": 0.07})):
-            ones, twos = [], []
+            ones, twos, procs = [], [], []
             for _ in range(args.repeat):
                 ones.append(run_batch(maps, tmp / "t1.parquet", 1, args.chunk_size, params))
                 twos.append(run_batch(maps, tmp / "t2.parquet", 2, args.chunk_size, params))
+                if label == "default":
+                    procs.append(run_two_processes(split, tmp, args.chunk_size, params))
             rows = []
-            for name, runs in ((f"{label}, 1 thread", ones), (f"{label}, 2 threads", twos)):
+            for name, runs in ((f"{label}, 1 thread", ones), (f"{label}, 2 threads", twos),
+                               (f"{label}, two 1-thread processes, half the maps each",
+                                procs)):
+                if not runs:
+                    continue
                 rates = sorted(r["n"] / r["seconds"] for r in runs)
                 r = sorted(runs, key=lambda r: r["n"] / r["seconds"])[len(runs) // 2]
                 rows.append(r)
@@ -316,12 +362,21 @@ def dense(args: argparse.Namespace) -> None:
                       f"{1000 * r['seconds'] / r['n']:.2f} | {r['cpu'] / r['wall']:.2f} | "
                       f"{1000 * r['main_cpu'] / r['n']:.3f} | "
                       f"{sum(x['failed'] for x in runs)} |")
-            t1, t2 = rows
+            t1, t2 = rows[:2]
             ratio = (t2["n"] / t2["seconds"]) / (t1["n"] / t1["seconds"])
             pairs = sorted((b["n"] / b["seconds"]) / (a["n"] / a["seconds"])
                            for a, b in zip(ones, twos))
             print(f"| {label}: 2 threads / 1 thread | {ratio:.2f}x (target >= 1.8x) | "
                   f"{pairs[0]:.2f}-{pairs[-1]:.2f}x | | | | |")
+            if procs:
+                tp = rows[2]
+                ceiling = (tp["n"] / tp["seconds"]) / (t1["n"] / t1["seconds"])
+                pairs = sorted((b["n"] / b["seconds"]) / (a["n"] / a["seconds"])
+                               for a, b in zip(procs, twos))
+                print(f"| {label}: two processes / 1 thread (what 2 cores allow) | "
+                      f"{ceiling:.2f}x | | | | | |")
+                print(f"| {label}: 2 threads / two processes | "
+                      f"{ratio / ceiling:.2f}x | {pairs[0]:.2f}-{pairs[-1]:.2f}x | | | | |")
             if label == "default":
                 first = t1
         costs = per_map_costs(maps)
@@ -331,7 +386,7 @@ def dense(args: argparse.Namespace) -> None:
               "|---|---:|---:|")
         for name, ms in costs:
             print(f"| {name} | {ms:.2f} | {100 * ms / per_map:.0f}% |")
-        rest = per_map - costs[0][1] - costs[1][1] - costs[3][1]
+        rest = per_map - costs[0][1] - costs[1][1] - costs[2][1]
         print(f"| the rest: discovery, records, Parquet, the thread pool (batch ms - hash - "
               f"decode - default metrics) | {rest:.2f} | {100 * rest / per_map:.0f}% |")
         print(f"\nload average before / after: {load0:.1f} / {os.getloadavg()[0]:.1f}")
