@@ -5,7 +5,7 @@
 
 use crate::edt::{filled, Columns, EdtError, NearestCell, Scratch, Sparse};
 use crate::grid::{Grid, BAND_ROWS};
-use crate::icp::{icp, Target};
+use crate::icp::{icp, Occupied, Target};
 use crate::params::{Align, CompareParams};
 use crate::register::{register, RegisterError, RegisterParams};
 use crate::se2::{floor_i64, Affine, Frame, Se2};
@@ -330,14 +330,14 @@ fn align(
     est: &Placed,
     gt: &Placed,
     g_columns: &dyn NearestCell,
-    g_mask: &[bool],
+    g_bits: &Sparse,
     g_list: &[u32],
     params: &CompareParams,
 ) -> Result<(Se2, f64, usize, usize), CompareError> {
     if params.align == Align::Origin {
         return Ok((Se2::IDENTITY, f64::NAN, 0, 0));
     }
-    let target = Target::new(gt.frame, g_columns, g_mask, g_list)?;
+    let target = Target::with(gt.frame, g_columns, Occupied::Bits(g_bits), g_list)?;
     let start = match params.align {
         Align::Origin => Se2::IDENTITY,
         Align::Icp => Se2::IDENTITY,
@@ -858,9 +858,8 @@ pub fn compare(
     let e_scan = scan(&estimate.grid, &occ)?;
     // nearest-cell queries of G (ICP correspondences, d(e, G))
     let g_near = Sparse::new(&g_scan.cells, h, w)?;
-    // G as a mask: the ICP's line fits, and the literal resampling
-    let need_mask = params.align != Align::Origin || want_cells;
-    let g_mask = if need_mask {
+    // G as a mask for the literal resampling (the ICP's line fits read `g_near`'s bits)
+    let g_mask = if want_cells {
         let mut m = filled(h * w, false)?;
         for &i in &g_scan.cells {
             m[i as usize] = true;
@@ -883,7 +882,7 @@ pub fn compare(
             estimate,
             ground_truth,
             cols,
-            &g_mask,
+            &g_near,
             g_list,
             params,
         )?,
