@@ -13,7 +13,7 @@
 //! chosen by (distance, point index), a total order; sums run in point order.
 
 use crate::edt::{EdtError, NearestCell, Scratch, Sparse};
-use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
+use crate::se2::{wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
@@ -194,9 +194,7 @@ impl<'a> Target<'a> {
         let (r, c) = self.to_cell.apply(x, y);
         let h = self.frame.height as i64 - 1;
         let w = self.frame.width as i64 - 1;
-        let r = floor_i64(r).clamp(0, h) as usize;
-        let c = floor_i64(c).clamp(0, w) as usize;
-        r * self.frame.width + c
+        floor_clamp(r, h) * self.frame.width + floor_clamp(c, w)
     }
 
     /// The occupied target cell nearest to cell `i` (from [`Target::cell_of`]): its position
@@ -232,6 +230,24 @@ impl<'a> Target<'a> {
         let n = self.cells.len() as f64;
         Some((sx / n, sy / n))
     }
+}
+
+/// `floor_i64(x).clamp(0, max)` (NaN: 0) for `0 <= max < 2^53`, without the saturating
+/// cast's range checks: the value is clamped first, where truncation is the floor. Below
+/// -2^63 `floor_i64` wraps to `i64::MAX` (so `max`), kept here.
+#[inline]
+fn floor_clamp(x: f64, max: i64) -> usize {
+    let top = max as f64;
+    let x = if x >= 0.0 {
+        x
+    } else if x < -9_223_372_036_854_775_808.0 {
+        top
+    } else {
+        0.0
+    };
+    let x = if x <= top { x } else { top };
+    // SAFETY: 0 <= x <= max < 2^53, finite, inside i64's range
+    unsafe { x.to_int_unchecked::<i64>() as usize }
 }
 
 /// World displacement of one column step and of one row step.
@@ -638,6 +654,46 @@ pub fn search(points: &[(f64, f64)], target: &Target, trim: f64) -> Se2 {
 mod tests {
     use super::*;
     use crate::edt::tests::rng;
+    use crate::se2::floor_i64;
+
+    /// `floor_clamp` is `floor_i64` clamped, on random, edge and special values.
+    #[test]
+    fn floor_clamp_equals_floor_i64_clamped() {
+        let mut next = rng(41);
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            f64::NAN,
+            -f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            1e300,
+            -1e300,
+            9.2e18,
+            -9.3e18,
+            0.999_999_999_999_999_9,
+            -1e-300,
+        ];
+        for _ in 0..20000 {
+            let m = (next() % 2000) as f64;
+            xs.push((next() % 4_000_000) as f64 / 1000.0 - m);
+            xs.push(f64::from_bits(next()));
+        }
+        for max in [0i64, 1, 7, 999, 1_000_000, (1 << 52) - 1] {
+            for &x in &xs {
+                let x2 = x + max as f64 * (x.abs() < 10.0) as i64 as f64;
+                for v in [x, x2, max as f64, max as f64 - 1e-9, max as f64 + 0.5] {
+                    assert_eq!(
+                        floor_clamp(v, max) as i64,
+                        floor_i64(v).clamp(0, max),
+                        "{v} {max}"
+                    );
+                }
+            }
+        }
+    }
 
     fn bits_of(s: &Scatter) -> [u64; 8] {
         [s.n, s.mx, s.my, s.a, s.b, s.d, s.big, s.small].map(f64::to_bits)
