@@ -5,7 +5,7 @@
 
 use crate::edt::{filled, Columns, EdtError, NearestCell, Scratch, Sparse};
 use crate::grid::{Grid, BAND_ROWS};
-use crate::icp::{icp, Target};
+use crate::icp::{icp, Occupied, Target};
 use crate::params::{Align, CompareParams};
 use crate::register::{register, RegisterError, RegisterParams};
 use crate::se2::{floor_i64, Affine, Frame, Se2};
@@ -251,6 +251,154 @@ fn push_run(
     Ok(())
 }
 
+/// One row of [`scan`]: append to `list` the known cells of `vals`/`unknown` (unknown
+/// flags as 0/1 bytes) with value below `below` (as `base + q`), add the known cells of
+/// each block to `krow`; returns the row's known cells. SSE2 (every x86-64) two blocks at
+/// a time, else [`scan_row_scalar`]: the same lists and counts.
+#[inline]
+fn scan_row(
+    vals: &[u8],
+    unknown: &[u8],
+    krow: &mut [u8],
+    below: usize,
+    list: &mut Vec<u32>,
+    base: usize,
+) -> Result<u64, EdtError> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        scan_row_sse2(vals, unknown, krow, below, list, base)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        scan_row_scalar(vals, unknown, krow, below, list, base)
+    }
+}
+
+/// [`scan_row`] eight cells at once, in plain integer arithmetic.
+fn scan_row_scalar(
+    vals: &[u8],
+    unknown: &[u8],
+    krow: &mut [u8],
+    below: usize,
+    list: &mut Vec<u32>,
+    base: usize,
+) -> Result<u64, EdtError> {
+    let less = Less::new(below);
+    let (vs, us) = (vals.chunks_exact(BLOCK), unknown.chunks_exact(BLOCK));
+    let (vt, ut) = (vs.remainder(), us.remainder());
+    let mut known_row = 0u64;
+    // eight cells at once: unknown flags are 0/1 bytes (their sum by one multiplication);
+    // an unknown cell's value is taken as 255, never occupied here
+    for (j, ((vc, uc), kc)) in vs.zip(us).zip(krow.iter_mut()).enumerate() {
+        let u = word(uc);
+        let n = BLOCK as u8 - (u.wrapping_mul(ONES) >> 56) as u8;
+        *kc += n;
+        known_row += n as u64;
+        if less.any(word(vc) | (u * 0xFF)) {
+            push_run(list, base + j * BLOCK, vc, uc, below)?;
+        }
+    }
+    if !vt.is_empty() {
+        let j = vals.len() / BLOCK;
+        known_row += scan_tail(vt, ut, &mut krow[j], below, list, base + j * BLOCK)?;
+    }
+    Ok(known_row)
+}
+
+/// The last, short block of a row (fewer than [`BLOCK`] cells), cell by cell.
+fn scan_tail(
+    vt: &[u8],
+    ut: &[u8],
+    kc: &mut u8,
+    below: usize,
+    list: &mut Vec<u32>,
+    base: usize,
+) -> Result<u64, EdtError> {
+    let (mut n, mut any) = (0u8, false);
+    for (&v, &u) in vt.iter().zip(ut) {
+        n += (u == 0) as u8;
+        any |= u == 0 && (v as usize) < below;
+    }
+    *kc += n;
+    if any {
+        push_run(list, base, vt, ut, below)?;
+    }
+    Ok(n as u64)
+}
+
+/// [`scan_row`] sixteen cells (two blocks) at once in SSE2: the unknown flags of each
+/// block summed by `psadbw`, the occupied known cells as a 16-bit mask (`v <= below - 1`
+/// unsigned, as `min(v, below - 1) == v`, and `u == 0`) whose set bits are pushed.
+#[cfg(target_arch = "x86_64")]
+fn scan_row_sse2(
+    vals: &[u8],
+    unknown: &[u8],
+    krow: &mut [u8],
+    below: usize,
+    list: &mut Vec<u32>,
+    base: usize,
+) -> Result<u64, EdtError> {
+    use std::arch::x86_64::*;
+    const PAIR: usize = 2 * BLOCK;
+    let n = vals.len().min(unknown.len());
+    let pairs = n / PAIR;
+    // SAFETY: SSE2 is part of x86-64; every load reads 16 bytes at `q * 16` with
+    // `q < pairs`, inside both slices (their common length is at least `pairs * 16`)
+    let (unknown_sum, done) = unsafe {
+        let zero = _mm_setzero_si128();
+        // below == 0: nothing is occupied (the mask is cleared by `keep`)
+        let top = _mm_set1_epi8(below.saturating_sub(1).min(255) as u8 as i8);
+        let keep: u32 = if below == 0 { 0 } else { 0xFFFF };
+        let mut sums = zero;
+        for q in 0..pairs {
+            let v = _mm_loadu_si128(vals.as_ptr().add(q * PAIR).cast());
+            let u = _mm_loadu_si128(unknown.as_ptr().add(q * PAIR).cast());
+            let sad = _mm_sad_epu8(u, zero);
+            sums = _mm_add_epi64(sums, sad);
+            let (u0, u1) = (
+                _mm_cvtsi128_si32(sad) as u8,
+                _mm_extract_epi16::<4>(sad) as u8,
+            );
+            let kc = &mut krow[2 * q..2 * q + 2];
+            kc[0] += BLOCK as u8 - u0;
+            kc[1] += BLOCK as u8 - u1;
+            let occ = _mm_and_si128(
+                _mm_cmpeq_epi8(_mm_min_epu8(v, top), v),
+                _mm_cmpeq_epi8(u, zero),
+            );
+            let mut m = _mm_movemask_epi8(occ) as u32 & keep;
+            if m != 0 {
+                if list.len() + PAIR > list.capacity() {
+                    list.try_reserve(list.capacity().max(1024))
+                        .map_err(|_| EdtError::Alloc {
+                            bytes: list.capacity().saturating_mul(8),
+                        })?;
+                }
+                let at = base + q * PAIR;
+                while m != 0 {
+                    list.push((at + m.trailing_zeros() as usize) as u32);
+                    m &= m - 1;
+                }
+            }
+        }
+        let hi = _mm_unpackhi_epi64(sums, sums);
+        (
+            _mm_cvtsi128_si64(_mm_add_epi64(sums, hi)) as u64,
+            pairs * PAIR,
+        )
+    };
+    let known_row = done as u64 - unknown_sum;
+    Ok(known_row
+        + scan_row_scalar(
+            &vals[done..n],
+            &unknown[done..n],
+            &mut krow[done / BLOCK..],
+            below,
+            list,
+            base + done,
+        )?)
+}
+
 /// [`Scan`] of grid `g`, occupied meaning `occ[value]` for a known cell. Bands of rows in
 /// parallel, their lists joined in order.
 fn scan(g: &Grid, occ: &[bool; 256]) -> Result<Scan, CompareError> {
@@ -263,9 +411,6 @@ fn scan(g: &Grid, occ: &[bool; 256]) -> Result<Scan, CompareError> {
         ));
     }
     let bw = w.div_ceil(BLOCK);
-    let less = Less::new(below);
-    let push =
-        |list: &mut Vec<u32>, base: usize, v: &[u8], u: &[u8]| push_run(list, base, v, u, below);
     let mut known = filled(h.div_ceil(BLOCK) * bw, 0u8)?;
     let band = BAND_ROWS * w;
     let parts: Vec<(Vec<u32>, u64)> = known
@@ -278,35 +423,7 @@ fn scan(g: &Grid, occ: &[bool; 256]) -> Result<Scan, CompareError> {
             for (k, (vr, ur)) in vals.chunks(w).zip(unk.chunks(w)).enumerate() {
                 let r = b * BAND_ROWS + k;
                 let krow = &mut kn[(k / BLOCK) * bw..(k / BLOCK + 1) * bw];
-                let (vs, us) = (vr.chunks_exact(BLOCK), bytes(ur).chunks_exact(BLOCK));
-                let (vt, ut) = (vs.remainder(), us.remainder());
-                let mut known_row = 0u64;
-                // eight cells at once: unknown flags are 0/1 bytes (their sum by one
-                // multiplication); an unknown cell's value is taken as 255, never
-                // occupied here
-                for (j, ((vc, uc), kc)) in vs.zip(us).zip(krow.iter_mut()).enumerate() {
-                    let u = word(uc);
-                    let n = BLOCK as u8 - (u.wrapping_mul(ONES) >> 56) as u8;
-                    *kc += n;
-                    known_row += n as u64;
-                    if less.any(word(vc) | (u * 0xFF)) {
-                        push(&mut list, r * w + j * BLOCK, vc, uc)?;
-                    }
-                }
-                if !vt.is_empty() {
-                    let j = w / BLOCK;
-                    let (mut n, mut any) = (0u8, false);
-                    for (&v, &u) in vt.iter().zip(ut) {
-                        n += (u == 0) as u8;
-                        any |= u == 0 && (v as usize) < below;
-                    }
-                    krow[j] += n;
-                    known_row += n as u64;
-                    if any {
-                        push(&mut list, r * w + j * BLOCK, vt, ut)?;
-                    }
-                }
-                total += known_row;
+                total += scan_row(vr, bytes(ur), krow, below, &mut list, r * w)?;
             }
             Ok((list, total))
         })
@@ -330,14 +447,14 @@ fn align(
     est: &Placed,
     gt: &Placed,
     g_columns: &dyn NearestCell,
-    g_mask: &[bool],
+    g_bits: &Sparse,
     g_list: &[u32],
     params: &CompareParams,
 ) -> Result<(Se2, f64, usize, usize), CompareError> {
     if params.align == Align::Origin {
         return Ok((Se2::IDENTITY, f64::NAN, 0, 0));
     }
-    let target = Target::new(gt.frame, g_columns, g_mask, g_list)?;
+    let target = Target::with(gt.frame, g_columns, Occupied::Bits(g_bits), g_list)?;
     let start = match params.align {
         Align::Origin => Se2::IDENTITY,
         Align::Icp => Se2::IDENTITY,
@@ -858,9 +975,8 @@ pub fn compare(
     let e_scan = scan(&estimate.grid, &occ)?;
     // nearest-cell queries of G (ICP correspondences, d(e, G))
     let g_near = Sparse::new(&g_scan.cells, h, w)?;
-    // G as a mask: the ICP's line fits, and the literal resampling
-    let need_mask = params.align != Align::Origin || want_cells;
-    let g_mask = if need_mask {
+    // G as a mask for the literal resampling (the ICP's line fits read `g_near`'s bits)
+    let g_mask = if want_cells {
         let mut m = filled(h * w, false)?;
         for &i in &g_scan.cells {
             m[i as usize] = true;
@@ -883,7 +999,7 @@ pub fn compare(
             estimate,
             ground_truth,
             cols,
-            &g_mask,
+            &g_near,
             g_list,
             params,
         )?,
@@ -1171,6 +1287,30 @@ mod tests {
                 s.known_cells,
                 unknown.iter().filter(|&&u| !u).count() as u64
             );
+        }
+    }
+
+    /// The SSE2 row scan gives the scalar one's list and counts, on random rows of every
+    /// length to 70 (pairs of blocks, an odd block, a short tail) and every threshold.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn scan_row_sse2_equals_scalar() {
+        let mut next = rng(37);
+        for case in 0..3000 {
+            let w = case % 71;
+            let below = [0usize, 1, 2, 77, 128, 129, 200, 255, 256][case % 9];
+            let vals: Vec<u8> = (0..w).map(|_| next() as u8).collect();
+            let unknown: Vec<u8> = (0..w)
+                .map(|_| (next() % 5 < case as u64 % 3) as u8)
+                .collect();
+            let bw = w.div_ceil(BLOCK);
+            let start: Vec<u8> = (0..bw).map(|_| (next() % 50) as u8).collect();
+            let base = (next() % 1000) as usize;
+            let (mut k1, mut k2) = (start.clone(), start.clone());
+            let (mut l1, mut l2) = (vec![7u32], vec![7u32]);
+            let n1 = scan_row_scalar(&vals, &unknown, &mut k1, below, &mut l1, base).unwrap();
+            let n2 = scan_row_sse2(&vals, &unknown, &mut k2, below, &mut l2, base).unwrap();
+            assert_eq!((n1, &k1, &l1), (n2, &k2, &l2), "w {w} below {below}");
         }
     }
 

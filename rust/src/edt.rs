@@ -600,6 +600,28 @@ impl Sparse {
         self.bits[c * self.words + r / 64] >> (r % 64) & 1 != 0
     }
 
+    /// The bits of column `c` from row `start` (may be negative) on, `len` (< 64) of them:
+    /// bit `k` is row `start + k`; rows outside the grid read as unset.
+    #[inline]
+    pub fn column_bits(&self, c: usize, start: isize, len: u32) -> u64 {
+        let col = &self.bits[c * self.words..(c + 1) * self.words];
+        let get = |k: isize| -> u64 {
+            if k < 0 {
+                0
+            } else {
+                col.get(k as usize).copied().unwrap_or(0)
+            }
+        };
+        let (k, off) = (start.div_euclid(64), start.rem_euclid(64) as u32);
+        let lo = get(k) >> off;
+        let hi = if off == 0 {
+            0
+        } else {
+            get(k + 1) << (64 - off)
+        };
+        (lo | hi) & ((1u64 << len) - 1)
+    }
+
     /// Whether cell `i` (row-major) is set.
     #[inline]
     pub fn get_index(&self, i: usize) -> bool {

@@ -12,8 +12,8 @@
 //! Deterministic: correspondences are computed per point in fixed chunks; the trimmed set is
 //! chosen by (distance, point index), a total order; sums run in point order.
 
-use crate::edt::{EdtError, NearestCell, Scratch};
-use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
+use crate::edt::{EdtError, NearestCell, Scratch, Sparse};
+use crate::se2::{wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 use std::sync::OnceLock;
 
@@ -57,6 +57,14 @@ struct Local {
     ny: f64,
 }
 
+/// Which target cells are occupied: a mask, or the bits of [`Sparse`] (the same cells:
+/// the same line fits).
+#[derive(Clone, Copy)]
+pub enum Occupied<'a> {
+    Mask(&'a [bool]),
+    Bits(&'a Sparse),
+}
+
 /// The target: the ground truth's frame, the distance transform of its occupied cells, and
 /// the local line of every occupied cell.
 pub struct Target<'a> {
@@ -67,7 +75,7 @@ pub struct Target<'a> {
     /// the same answers).
     columns: &'a dyn NearestCell,
     /// Which cells are occupied.
-    occupied: &'a [bool],
+    occupied: Occupied<'a>,
     /// Occupied cells (row-major indices, ascending) and their local shapes (fitted on
     /// first use: the ICP looks at a fraction of them).
     cells: &'a [u32],
@@ -83,6 +91,16 @@ impl<'a> Target<'a> {
         frame: Frame,
         columns: &'a dyn NearestCell,
         occupied: &'a [bool],
+        cells: &'a [u32],
+    ) -> Result<Self, EdtError> {
+        Self::with(frame, columns, Occupied::Mask(occupied), cells)
+    }
+
+    /// [`Target::new`] with the occupied cells given as a mask or as bits.
+    pub fn with(
+        frame: Frame,
+        columns: &'a dyn NearestCell,
+        occupied: Occupied<'a>,
         cells: &'a [u32],
     ) -> Result<Self, EdtError> {
         let mut row_start = vec![0u32; frame.height + 1];
@@ -132,7 +150,10 @@ impl<'a> Target<'a> {
             d,
             big,
             small,
-        } = scatter(self.occupied, h, w, r0, c0, LINE_WINDOW);
+        } = match self.occupied {
+            Occupied::Mask(m) => scatter(m, h, w, r0, c0, LINE_WINDOW),
+            Occupied::Bits(b) => scatter_bits(b, r0, c0, LINE_WINDOW),
+        };
         let centre = self.to_world.apply(r0 as f64, c0 as f64);
         // the centroid in world coordinates: the centre cell plus the offset
         let (ux, uy) = unit_steps(&self.to_world);
@@ -173,9 +194,7 @@ impl<'a> Target<'a> {
         let (r, c) = self.to_cell.apply(x, y);
         let h = self.frame.height as i64 - 1;
         let w = self.frame.width as i64 - 1;
-        let r = floor_i64(r).clamp(0, h) as usize;
-        let c = floor_i64(c).clamp(0, w) as usize;
-        r * self.frame.width + c
+        floor_clamp(r, h) * self.frame.width + floor_clamp(c, w)
     }
 
     /// The occupied target cell nearest to cell `i` (from [`Target::cell_of`]): its position
@@ -211,6 +230,24 @@ impl<'a> Target<'a> {
         let n = self.cells.len() as f64;
         Some((sx / n, sy / n))
     }
+}
+
+/// `floor_i64(x).clamp(0, max)` (NaN: 0) for `0 <= max < 2^53`, without the saturating
+/// cast's range checks: the value is clamped first, where truncation is the floor. Below
+/// -2^63 `floor_i64` wraps to `i64::MAX` (so `max`), kept here.
+#[inline]
+fn floor_clamp(x: f64, max: i64) -> usize {
+    let top = max as f64;
+    let x = if x >= 0.0 {
+        x
+    } else if x < -9_223_372_036_854_775_808.0 {
+        top
+    } else {
+        0.0
+    };
+    let x = if x <= top { x } else { top };
+    // SAFETY: 0 <= x <= max < 2^53, finite, inside i64's range
+    unsafe { x.to_int_unchecked::<i64>() as usize }
 }
 
 /// World displacement of one column step and of one row step.
@@ -515,6 +552,43 @@ pub(crate) fn scatter(
             }
         }
     }
+    scatter_of(n, sx, sy, sxx, sxy, syy)
+}
+
+/// [`scatter`] of the set cells of `bits`, read a column of the window at a time: the same
+/// figures (every sum is of small integers, exact in any order, and starts at +0, so no
+/// sum is -0).
+pub(crate) fn scatter_bits(bits: &Sparse, r0: isize, c0: isize, half: isize) -> Scatter {
+    let w = bits.width as isize;
+    let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let len = (2 * half + 1) as u32;
+    for c in (c0 - half).max(0)..=(c0 + half).min(w - 1) {
+        let mut m = bits.column_bits(c as usize, r0 - half, len);
+        if m == 0 {
+            continue;
+        }
+        let (mut k, mut ky, mut kyy) = (0i64, 0i64, 0i64);
+        while m != 0 {
+            let y = m.trailing_zeros() as i64 - half as i64;
+            m &= m - 1;
+            k += 1;
+            ky += y;
+            kyy += y * y;
+        }
+        let x = (c - c0) as f64;
+        let (k, ky, kyy) = (k as f64, ky as f64, kyy as f64);
+        n += k;
+        sx += x * k;
+        sy += ky;
+        sxx += x * x * k;
+        sxy += x * ky;
+        syy += kyy;
+    }
+    scatter_of(n, sx, sy, sxx, sxy, syy)
+}
+
+/// [`Scatter`] from the count and the sums of the window's cells.
+fn scatter_of(n: f64, sx: f64, sy: f64, sxx: f64, sxy: f64, syy: f64) -> Scatter {
     let (mx, my) = (sx / n, sy / n);
     let (a, b, d) = (sxx / n - mx * mx, sxy / n - mx * my, syy / n - my * my);
     let mid = 0.5 * (a + d);
@@ -574,4 +648,78 @@ pub fn search(points: &[(f64, f64)], target: &Target, trim: f64) -> Se2 {
         }
     }
     best.1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::edt::tests::rng;
+    use crate::se2::floor_i64;
+
+    /// `floor_clamp` is `floor_i64` clamped, on random, edge and special values.
+    #[test]
+    fn floor_clamp_equals_floor_i64_clamped() {
+        let mut next = rng(41);
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            f64::NAN,
+            -f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            1e300,
+            -1e300,
+            9.2e18,
+            -9.3e18,
+            0.999_999_999_999_999_9,
+            -1e-300,
+        ];
+        for _ in 0..20000 {
+            let m = (next() % 2000) as f64;
+            xs.push((next() % 4_000_000) as f64 / 1000.0 - m);
+            xs.push(f64::from_bits(next()));
+        }
+        for max in [0i64, 1, 7, 999, 1_000_000, (1 << 52) - 1] {
+            for &x in &xs {
+                let x2 = x + max as f64 * (x.abs() < 10.0) as i64 as f64;
+                for v in [x, x2, max as f64, max as f64 - 1e-9, max as f64 + 0.5] {
+                    assert_eq!(
+                        floor_clamp(v, max) as i64,
+                        floor_i64(v).clamp(0, max),
+                        "{v} {max}"
+                    );
+                }
+            }
+        }
+    }
+
+    fn bits_of(s: &Scatter) -> [u64; 8] {
+        [s.n, s.mx, s.my, s.a, s.b, s.d, s.big, s.small].map(f64::to_bits)
+    }
+
+    /// The window read from the bits gives the mask's figures bit for bit, at every cell of
+    /// random masks (edges, tall grids crossing 64-row words, sparse and dense).
+    #[test]
+    fn scatter_bits_equals_scatter() {
+        let mut next = rng(27);
+        for case in 0..60 {
+            let h = 1 + (next() % if case % 3 == 0 { 150 } else { 20 }) as usize;
+            let w = 1 + (next() % 20) as usize;
+            let density = 1 + next() % 6;
+            let mask: Vec<bool> = (0..h * w).map(|_| next() % 8 < density).collect();
+            let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+            let bits = Sparse::new(&cells, h, w).unwrap();
+            for half in [1isize, 2, 3] {
+                for r in 0..h as isize {
+                    for c in 0..w as isize {
+                        let a = scatter(&mask, h as isize, w as isize, r, c, half);
+                        let b = scatter_bits(&bits, r, c, half);
+                        assert_eq!(bits_of(&a), bits_of(&b), "{h}x{w} ({r}, {c}) half {half}");
+                    }
+                }
+            }
+        }
+    }
 }
