@@ -444,6 +444,17 @@ mod tests {
         ));
     }
 
+    /// A 64-bit linear congruential generator from `seed` (its high 31 bits per draw).
+    fn lcg(seed: u64) -> impl FnMut() -> u64 {
+        let mut st = seed;
+        move || {
+            st = st
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            st >> 33
+        }
+    }
+
     /// The box as the plain scan finds it.
     fn plain_bounds(u: &[bool], h: usize, w: usize) -> Option<Bounds> {
         let known: Vec<(usize, usize)> = (0..h * w)
@@ -459,13 +470,7 @@ mod tests {
 
     #[test]
     fn known_bounds_equal_a_plain_scan_on_random_maps() {
-        let mut st = 11u64;
-        let mut next = || {
-            st = st
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            st >> 33
-        };
+        let mut next = lcg(11);
         for trial in 0..400 {
             let (h, w) = (1 + next() as usize % 40, 1 + next() as usize % 70);
             // from no known cell to all known, and a few cells in one small rectangle
@@ -489,13 +494,7 @@ mod tests {
 
     #[test]
     fn histogram_equals_a_plain_count_on_random_maps() {
-        let mut st = 3u64;
-        let mut next = || {
-            st = st
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            st >> 33
-        };
+        let mut next = lcg(3);
         for trial in 0..60 {
             let (h, w) = (1 + next() as usize % 150, 1 + next() as usize % 90);
             // few keys (hot path), many keys (fallback), and shades unlike the values
