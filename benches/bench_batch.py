@@ -233,18 +233,14 @@ def run_two_processes(halves: tuple[Path, Path], tmp: Path, chunk: int,
 
 def halves(folder: Path, dest: Path) -> tuple[Path, Path]:
     """Two folders of symlinks to every other run of ``folder`` (same files, no copies)."""
-    runs = sorted(folder.glob("*/*/*"), key=lambda p: p.name)
-    out = (dest / "a", dest / "b")
-    for i, r in enumerate(runs):
-        link = out[i % 2] / r.relative_to(folder)
-        link.parent.mkdir(parents=True, exist_ok=True)
-        link.symlink_to(r, target_is_directory=True)
-    return out
+    return (subset(folder, None, dest / "a", start=0, step=2),
+            subset(folder, None, dest / "b", start=1, step=2))
 
 
-def subset(folder: Path, n: int, dest: Path) -> Path:
-    """A folder of symlinks to the first ``n`` runs (same files, no copies)."""
-    runs = sorted(folder.glob("*/*/*"), key=lambda p: p.name)[:n]
+def subset(folder: Path, n: int | None, dest: Path, start: int = 0, step: int = 1) -> Path:
+    """A folder of symlinks to the first ``n`` (None: all) of every ``step``-th run from
+    ``start`` (same files, no copies)."""
+    runs = sorted(folder.glob("*/*/*"), key=lambda p: p.name)[start::step][:n]
     for r in runs:
         link = dest / r.relative_to(folder)
         link.parent.mkdir(parents=True, exist_ok=True)

@@ -112,30 +112,10 @@ fn blur9_decimated(
                 let rr = reflect101((2 * rd) as isize + k as isize - 4, h);
                 &packed[rr * w..(rr + 1) * w]
             });
-            blur_row(rows, vert, full, o);
+            blur_row_in(rows, vert, full, o);
         },
     );
     Ok((out, hd, wd))
-}
-
-/// [`blur_row_in`] with AVX2 when the processor has it (integer arithmetic: the same
-/// result); the tests' baseline [`blur9_decimated`] uses it ([`angle_task`] inlines
-/// [`blur_row_in`] into its own AVX2 copy).
-#[cfg(test)]
-fn blur_row(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [u16], o: &mut [i32]) {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx2() {
-        // SAFETY: the processor has AVX2, checked just above
-        unsafe { blur_row_avx2(rows, vert, full, o) };
-        return;
-    }
-    blur_row_in(rows, vert, full, o);
-}
-
-#[cfg(all(test, target_arch = "x86_64"))]
-#[target_feature(enable = "avx2")]
-fn blur_row_avx2(rows: [&[u16]; 9], vert: &mut [u16], full: &mut [u16], o: &mut [i32]) {
-    blur_row_in(rows, vert, full, o);
 }
 
 /// One row of `D` ([`blur9_decimated`]) from the nine structure rows around it (packed
@@ -1535,7 +1515,7 @@ mod tests {
     }
 
     #[test]
-    fn the_decimated_blur_is_the_9x9_binomial_sum_on_every_path() {
+    fn the_decimated_blur_is_the_9x9_binomial_sum() {
         for seed in 0..30u64 {
             let (h, w) = (1 + (seed as usize * 5) % 23, 1 + (seed as usize * 11) % 29);
             let (v, u) = random_map(h, w, seed + 100);

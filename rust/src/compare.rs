@@ -4,7 +4,7 @@
 //! Ratios and metres are formed by the caller from these.
 
 use crate::edt::{filled, Columns, EdtError, NearestCell, Scratch, Sparse};
-use crate::grid::{Grid, BAND_ROWS};
+use crate::grid::{bytes, word, Grid, BAND_ROWS, ONES};
 use crate::icp::{icp, Occupied, Target};
 use crate::params::{Align, CompareParams};
 use crate::register::{register, RegisterError, RegisterParams};
@@ -182,24 +182,6 @@ impl Scan {
         (rows * cols) as u8
     }
 }
-
-/// The bytes of a slice of bools (0 or 1 each).
-#[inline]
-fn bytes(b: &[bool]) -> &[u8] {
-    // SAFETY: a bool is one byte holding 0 or 1, so every bool is a valid u8, and the
-    // slice keeps its length, alignment (1) and lifetime
-    unsafe { std::slice::from_raw_parts(b.as_ptr().cast::<u8>(), b.len()) }
-}
-
-/// The first eight bytes of `b` as a little-endian word (`b` holds at least eight).
-#[inline]
-fn word(b: &[u8]) -> u64 {
-    let mut a = [0u8; 8];
-    a.copy_from_slice(&b[..8]);
-    u64::from_le_bytes(a)
-}
-
-const ONES: u64 = 0x0101_0101_0101_0101;
 
 /// Whether a byte of a word is below `n`: exact for `n <= 128` by the carry trick, larger
 /// `n` byte by byte.

@@ -359,42 +359,51 @@ pub fn known_bounds(grid: &Grid) -> Option<Bounds> {
     Some((r0, r1, c0, c1))
 }
 
-/// Eight unknown flags (`true` is the byte 1), as one little-endian word.
-const ALL_UNKNOWN: u64 = 0x0101_0101_0101_0101;
-
-/// The eight flags at `c` as a little-endian word (byte `i` is cell `i`).
+/// The bytes of a slice of bools (0 or 1 each).
 #[inline]
-fn flags_word(c: &[bool]) -> u64 {
-    let b: [u8; 8] = std::array::from_fn(|i| u8::from(c[i]));
-    u64::from_le_bytes(b)
+pub(crate) fn bytes(b: &[bool]) -> &[u8] {
+    // SAFETY: a bool is one byte holding 0 or 1, so every bool is a valid u8, and the
+    // slice keeps its length, alignment (1) and lifetime
+    unsafe { std::slice::from_raw_parts(b.as_ptr().cast::<u8>(), b.len()) }
 }
+
+/// The first eight bytes of `b` as a little-endian word (`b` holds at least eight).
+#[inline]
+pub(crate) fn word(b: &[u8]) -> u64 {
+    let mut a = [0u8; 8];
+    a.copy_from_slice(&b[..8]);
+    u64::from_le_bytes(a)
+}
+
+/// A one in every byte of a word: eight `true` flags ([`bytes`], [`word`]).
+pub(crate) const ONES: u64 = 0x0101_0101_0101_0101;
 
 /// The index of the first known cell of `cells` (`false`), eight at a time.
 pub fn first_known(cells: &[bool]) -> Option<usize> {
-    let words = cells.chunks_exact(8);
+    let words = bytes(cells).chunks_exact(8);
     let tail = words.remainder();
     for (i, c) in words.enumerate() {
-        let known = flags_word(c) ^ ALL_UNKNOWN; // 1 in the bytes of known cells
+        let known = word(c) ^ ONES; // 1 in the bytes of known cells
         if known != 0 {
             return Some(8 * i + known.trailing_zeros() as usize / 8);
         }
     }
     let start = cells.len() - tail.len();
-    tail.iter().position(|&u| !u).map(|i| start + i)
+    tail.iter().position(|&u| u == 0).map(|i| start + i)
 }
 
 /// The index of the last known cell of `cells` (`false`), eight at a time.
 pub fn last_known(cells: &[bool]) -> Option<usize> {
-    let words = cells.rchunks_exact(8);
+    let words = bytes(cells).rchunks_exact(8);
     let head = words.remainder();
     let n = cells.len();
     for (i, c) in words.enumerate() {
-        let known = flags_word(c) ^ ALL_UNKNOWN;
+        let known = word(c) ^ ONES;
         if known != 0 {
             return Some(n - 8 * (i + 1) + 7 - known.leading_zeros() as usize / 8);
         }
     }
-    head.iter().rposition(|&u| !u)
+    head.iter().rposition(|&u| u == 0)
 }
 
 /// Value histogram of the known cells plus the unknown count.
