@@ -16,7 +16,10 @@ with default parameters (canonical corners off) and with canonical corners on
 (``canonical_resolution=0.07``), and each map's time by step. With the defaults it also
 runs two 1-thread processes at once on half the maps each: what 2 cores give without any
 sharing between threads, so "2 threads / two processes" is the part of the scaling the
-threads lose (GIL, allocator, pool), apart from what the machine loses.
+threads lose (GIL, allocator, pool), apart from what the machine loses. Each row also
+gives the seconds of the two steps that run on one thread whatever the thread count: the
+walk that finds the runs, and the results file's closing step (from the last record to the
+end: the Parquet file compacted); "the maps alone" is the 2 / 1-thread ratio without them.
 
     PYTHONPATH=python python benches/bench_batch.py            # 2,000 maps
     PYTHONPATH=python python benches/bench_batch.py --maps 400 # quicker
@@ -46,6 +49,7 @@ SIDE = 1000
 CHILD = r"""
 import json, resource, sys, time
 from slamq.batch import evaluate_many
+from slamq.batch.runs import Discovery
 # the modules a batch imports on first use, imported before the clock starts: library import
 # time (pyarrow alone is ~0.3 s) is paid once per process, not per map
 import cv2, pyarrow, pyarrow.parquet, yaml  # noqa: E401,F401
@@ -59,14 +63,22 @@ src, out, threads, chunk = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.a
 params = json.loads(sys.argv[5]) if len(sys.argv) > 5 else {}
 t0 = time.perf_counter()
 main0 = time.thread_time()
+# the walk that finds the runs (what evaluate_many does first when given a folder), timed
+# apart: it and the results file's closing step run on one thread, before and after the maps
+runs = Discovery(src)
+walk = time.perf_counter() - t0
 n = failed = 0
-for rec in evaluate_many(src, threads=threads, chunk_size=chunk, out=out, **params):
+last = t0
+for rec in evaluate_many(runs, threads=threads, chunk_size=chunk, out=out, **params):
     n += 1
     failed += rec["error"] is not None
-dt = time.perf_counter() - t0
+    last = time.perf_counter()
+end = time.perf_counter()
+dt = end - t0
 ru = resource.getrusage(resource.RUSAGE_SELF)
 print(json.dumps({"n": n, "failed": failed, "seconds": dt, "rss_mb": ru.ru_maxrss / 1024.0,
-                  "cpu": ru.ru_utime + ru.ru_stime, "main_cpu": time.thread_time() - main0}))
+                  "cpu": ru.ru_utime + ru.ru_stime, "main_cpu": time.thread_time() - main0,
+                  "walk": walk, "closing": end - last}))
 """
 
 
@@ -228,7 +240,8 @@ def run_two_processes(halves: tuple[Path, Path], tmp: Path, chunk: int,
     res = [finish_batch(p, t0) for p in procs]
     return {"n": sum(r["n"] for r in res), "failed": sum(r["failed"] for r in res),
             "seconds": max(r["seconds"] for r in res), "wall": max(r["wall"] for r in res),
-            "cpu": sum(r["cpu"] for r in res), "main_cpu": sum(r["main_cpu"] for r in res)}
+            "cpu": sum(r["cpu"] for r in res), "main_cpu": sum(r["main_cpu"] for r in res),
+            "walk": max(r["walk"] for r in res), "closing": max(r["closing"] for r in res)}
 
 
 def halves(folder: Path, dest: Path) -> tuple[Path, Path]:
@@ -334,8 +347,8 @@ def dense(args: argparse.Namespace) -> None:
               "alternating (so that a slow spell of the machine hits both); the ratio is that "
               "of the medians, the range that of the runs paired in order.\n")
         print("| run | maps/s (in batch), median | range | ms per map | CPU s / wall s | "
-              "main thread CPU ms per map | failed |")
-        print("|---|---:|---:|---:|---:|---:|---:|")
+              "main thread CPU ms per map | walk + closing, s | failed |")
+        print("|---|---:|---:|---:|---:|---:|---:|---:|")
         split = halves(maps, tmp / "halves")
         for label, params in (("default", {}),
                               ("canonical_resolution=0.07", {"canonical_resolution": 0.07})):
@@ -357,22 +370,30 @@ def dense(args: argparse.Namespace) -> None:
                 print(f"| {name} | {rates[len(rates) // 2]:.1f} | {rates[0]:.0f}-{rates[-1]:.0f} | "
                       f"{1000 * r['seconds'] / r['n']:.2f} | {r['cpu'] / r['wall']:.2f} | "
                       f"{1000 * r['main_cpu'] / r['n']:.3f} | "
+                      f"{r['walk']:.2f} + {r['closing']:.2f} | "
                       f"{sum(x['failed'] for x in runs)} |")
             t1, t2 = rows[:2]
             ratio = (t2["n"] / t2["seconds"]) / (t1["n"] / t1["seconds"])
             pairs = sorted((b["n"] / b["seconds"]) / (a["n"] / a["seconds"])
                            for a, b in zip(ones, twos))
             print(f"| {label}: 2 threads / 1 thread | {ratio:.2f}x (target >= 1.8x) | "
-                  f"{pairs[0]:.2f}-{pairs[-1]:.2f}x | | | | |")
+                  f"{pairs[0]:.2f}-{pairs[-1]:.2f}x | | | | | |")
+            # the walk and the closing step run on one thread whatever the thread count
+            apart = sorted((a["seconds"] - a["walk"] - a["closing"])
+                           / (b["seconds"] - b["walk"] - b["closing"])
+                           for a, b in zip(ones, twos))
+            print(f"| {label}: 2 threads / 1 thread, the maps alone (batch s - walk - "
+                  f"closing) | {apart[len(apart) // 2]:.2f}x | {apart[0]:.2f}-{apart[-1]:.2f}x "
+                  "| | | | | |")
             if procs:
                 tp = rows[2]
                 ceiling = (tp["n"] / tp["seconds"]) / (t1["n"] / t1["seconds"])
                 pairs = sorted((b["n"] / b["seconds"]) / (a["n"] / a["seconds"])
                                for a, b in zip(procs, twos))
                 print(f"| {label}: two processes / 1 thread (what 2 cores allow) | "
-                      f"{ceiling:.2f}x | | | | | |")
+                      f"{ceiling:.2f}x | | | | | | |")
                 print(f"| {label}: 2 threads / two processes | "
-                      f"{ratio / ceiling:.2f}x | {pairs[0]:.2f}-{pairs[-1]:.2f}x | | | | |")
+                      f"{ratio / ceiling:.2f}x | {pairs[0]:.2f}-{pairs[-1]:.2f}x | | | | | |")
             if label == "default":
                 first = t1
         costs = per_map_costs(maps)
