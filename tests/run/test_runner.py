@@ -147,6 +147,26 @@ def test_ctrl_c_or_sigterm_of_slamq_run_stops_every_group(tmp_path: Path, sig: i
     assert not (pid_file.parent.parent / "run.json").exists()
 
 
+def test_a_ctrl_c_as_the_runs_start_stops_every_run(tmp_path: Path) -> None:
+    # Each command sends the Ctrl-C itself once its child is up: to slamq, its meter's
+    # parent. A Ctrl-C that came while the pool was still starting its threads used to be
+    # lost (the runs went on to their end); wherever it lands now, every run is stopped.
+    cmd = ("sleep 60 & echo $! > {out}/child.pid; "
+           "kill -INT $(cut -d' ' -f4 /proc/$PPID/stat); wait")
+    cfg = _config(tmp_path, {name: {"command": cmd} for name in ("a", "b", "c")},
+                  parallel=3)
+    t0 = time.monotonic()
+    proc = _cli(["run", str(_yaml(tmp_path, cfg))])
+    _, err = proc.communicate(timeout=40)
+    assert proc.returncode == 130, err
+    assert time.monotonic() - t0 < 30, "the runs went on after the Ctrl-C"
+    pids = list((tmp_path / "out").glob("*/default/seq/1/out/child.pid"))
+    assert pids, err  # at least the run that sent the Ctrl-C had started
+    for pid_file in pids:
+        assert not _alive(int(pid_file.read_text())), pid_file
+        assert not (pid_file.parent.parent / "run.json").exists()
+
+
 def test_resume_after_sigkill(tmp_path: Path) -> None:
     counter = tmp_path / "count"
     cfg = _config(tmp_path, {

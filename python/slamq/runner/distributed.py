@@ -66,7 +66,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from slamq.errors import ParamError, SlamqError
-from slamq.runner import runner
+from slamq.runner import process, runner
 from slamq.runner.config import RunConfig
 
 __all__ = ["RESOURCE", "OUTPUTS", "SchedulerGone", "dask_backend", "execute_dask", "run_task",
@@ -455,13 +455,15 @@ def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[
         threading.Thread(target=_keep_unstuck, args=(client, stop), daemon=True,
                          name="slamq-dask-unstick").start()
         batch = token[:8]
-        for i in todo:
-            spec, key, pieces = keyed[i]
-            fut = client.submit(run_task, spec, key, pieces["command"], config,
-                                (str(probe_path), token), outputs, resources={RESOURCE: 1},
-                                pure=False, key=f"slamq-run-{batch}-{i}-{key[:12]}")
-            futures[fut] = i
         try:
+            # submitted inside the try: the first runs start while later ones are being
+            # submitted, and a Ctrl-C then must stop them too (it was lost: they went on)
+            for i in todo:
+                spec, key, pieces = keyed[i]
+                futures[client.submit(
+                    run_task, spec, key, pieces["command"], config, (str(probe_path), token),
+                    outputs, resources={RESOURCE: 1}, pure=False,
+                    key=f"slamq-run-{batch}-{i}-{key[:12]}")] = i
             for fut in as_completed(list(futures)):
                 i = futures.pop(fut)
                 try:
@@ -491,8 +493,9 @@ def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[
                     for stale in folder.parent.glob(f".{folder.name}.attempt-*"):
                         shutil.rmtree(stale, ignore_errors=True)
         except KeyboardInterrupt:
-            client.cancel(list(futures), force=True)
-            _wait_stopped(client, sum(config.grace) + 10)
+            with process.held_interrupts():  # a second Ctrl-C must not abandon the stopping
+                client.cancel(list(futures), force=True)
+                _wait_stopped(client, sum(config.grace) + 10)
             raise
         except (OSError, TimeoutError) as exc:
             raise _gone_error(config, keyed, rows, todo, address) from exc

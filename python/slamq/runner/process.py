@@ -19,11 +19,13 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["Child", "Exit", "start", "wait", "stop_group", "group_alive"]
+__all__ = ["Child", "Exit", "start", "wait", "stop_group", "group_alive", "held_interrupts"]
 
 #: Poll interval while waiting (seconds).
 POLL = 0.02
@@ -201,6 +203,34 @@ def _signal_group(pgid: int, sig: int) -> None:
         os.killpg(pgid, sig)
     except (ProcessLookupError, PermissionError):
         pass
+
+
+@contextmanager
+def held_interrupts() -> Iterator[None]:
+    """Ignore SIGINT and SIGTERM while the runs are being stopped after a first one.
+
+    Stopping is bounded (the grace periods, then SIGKILL), and a second Ctrl-C (or the
+    SIGTERM of a scheduler that follows its SIGINT) used to abandon it half-way, leaving
+    the runs' programs running. Outside the main thread, where Python cannot set a
+    handler, nothing changes. SIGKILL still ends everything at once.
+
+    Examples
+    --------
+    >>> import signal
+    >>> with held_interrupts():
+    ...     signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    True
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    sigs = (signal.SIGINT, signal.SIGTERM)
+    old = [signal.signal(s, signal.SIG_IGN) for s in sigs]
+    try:
+        yield
+    finally:
+        for s, handler in zip(sigs, old):
+            signal.signal(s, handler)
 
 
 def stop_group(child: Child | int, grace: tuple[float, float] = (5.0, 5.0)) -> str | None:

@@ -534,17 +534,20 @@ def execute(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
             slots.put(slot)
 
     pool = ThreadPoolExecutor(max_workers=config.parallel, thread_name_prefix="slamq-run")
-    futures = [pool.submit(work, i) for i in todo]
+    futures = []
     try:
+        # submitted inside the try: a run may start while the pool is still starting its
+        # threads, and a Ctrl-C then must stop it too (it was lost, and the run went on)
+        for i in todo:
+            futures.append(pool.submit(work, i))
         for f in futures:
             while not f.done():
                 time.sleep(0.05)
             f.result()
     except KeyboardInterrupt:
         stop.set()
-        for f in futures:
-            f.cancel()
-        pool.shutdown(wait=True)
+        with process.held_interrupts():  # a second Ctrl-C must not abandon the stopping
+            pool.shutdown(wait=True, cancel_futures=True)  # also one submitted as it came
         raise
     pool.shutdown(wait=True)
     return [r for r in rows if r is not None]
