@@ -167,6 +167,25 @@ def test_a_ctrl_c_as_the_runs_start_stops_every_run(tmp_path: Path) -> None:
         assert not (pid_file.parent.parent / "run.json").exists()
 
 
+def test_slamq_run_reaps_what_a_stopped_run_left_without_waiting_for_init(
+        tmp_path: Path) -> None:
+    # The shell dies at the SIGINT, its `sleep` (SIGINT ignored, as a background job)
+    # at the SIGTERM 0.5 s later. The sleep was an orphan: reparented to init, its zombie
+    # kept the group alive until init reaped it (1-2 s on this machine, never when slamq
+    # is a container's PID 1), so the stop went on to SIGKILL and its 2 s grace. slamq run
+    # adopts the orphans of its runs and reaps them: the group is gone at the SIGTERM.
+    cfg = _config(tmp_path, {"orphaner": {
+        "command": "sleep 60 & echo $! > {out}/child.pid; wait"}}, timeout=1.0)
+    proc = _cli(["run", str(_yaml(tmp_path, cfg))])
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    folder = tmp_path / "out" / "orphaner" / "default" / "seq" / "1"
+    row = json.loads((folder / "run.json").read_text())
+    assert row["outcome"] == "timeout", row
+    assert row["stopped_with"] == "SIGTERM", row
+    assert not _alive(int((folder / "out" / "child.pid").read_text()))
+
+
 def test_resume_after_sigkill(tmp_path: Path) -> None:
     counter = tmp_path / "count"
     cfg = _config(tmp_path, {

@@ -42,7 +42,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def handle(args: argparse.Namespace) -> int:
     """Run the config; print one line per run and where the results are."""
-    from slamq.runner import runner
+    from slamq.runner import process, runner
+
+    # the runs' orphans are reparented to this process, which reaps them as they end (a
+    # stopped run no longer waits for the container's init to reap them; see adopt_orphans)
+    process.adopt_orphans()
 
     def progress(row: dict) -> None:
         print(f"{row['outcome']:<12} {row['algorithm']} {row['sequence']} #{row['iteration']}"

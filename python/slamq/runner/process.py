@@ -25,7 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["Child", "Exit", "start", "wait", "stop_group", "group_alive", "held_interrupts"]
+__all__ = ["Child", "Exit", "adopt_orphans", "group_alive", "held_interrupts", "start",
+           "stop_group", "wait"]
 
 #: Poll interval while waiting (seconds).
 POLL = 0.02
@@ -187,6 +188,50 @@ def _metered(child: Child) -> tuple[float, float, int] | None:
                 pass
 
 
+#: ``prctl`` option (Linux >= 3.4): orphaned descendants are reparented to this process.
+_PR_SET_CHILD_SUBREAPER = 36
+
+
+def adopt_orphans() -> bool:
+    """Make this process the reaper of its orphaned descendants (Linux); True if it took.
+
+    A run's program may leave children behind (``sleep 60 &``, a ROS launch's nodes): when
+    their parent ends they are reparented to init, and a stopped group's last members stay
+    zombies until init reaps them. In a container, init may be slow to (this machine's
+    took 1-2 s) or never do it (``slamq run`` itself as PID 1, as in a Kubernetes job):
+    :func:`stop_group` then waited its whole SIGKILL grace for every stopped run, and the
+    zombies piled up. As their reaper, this process reaps them itself as they end (see
+    :func:`stop_group`). Called by the ``slamq run`` command for its own process; a program
+    that calls the runner as a library keeps its own behaviour unless it calls this.
+
+    Examples
+    --------
+    >>> adopt_orphans() in (True, False)
+    True
+    """
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        return int(libc.prctl(_PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def _reap_group(pgid: int) -> None:
+    """Reap the ended members of group ``pgid`` that are this process's children: the
+    orphans it adopted (:func:`adopt_orphans`, or as PID 1). Never a Child's leader before
+    :meth:`Child.poll` took its status (the caller's rule)."""
+    while True:
+        try:
+            if os.waitid(os.P_PGID, pgid, os.WEXITED | os.WNOHANG) is None:
+                return  # members left, none ended
+        except (ChildProcessError, OSError):
+            return  # no child of ours in the group
+
+
 def group_alive(pgid: int) -> bool:
     """Whether any process (zombies included) is left in process group ``pgid``."""
     try:
@@ -245,8 +290,8 @@ def stop_group(child: Child | int, grace: tuple[float, float] = (5.0, 5.0)) -> s
     pgid = child if isinstance(child, int) else child.pid
 
     def reap() -> None:
-        if not isinstance(child, int):
-            child.poll()
+        if isinstance(child, int) or child.poll() is not None:
+            _reap_group(pgid)  # adopted orphans: their zombies would keep the group alive
 
     last = None
     for sig, wait_s in ((signal.SIGINT, grace[0]), (signal.SIGTERM, grace[1]),
