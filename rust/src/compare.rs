@@ -644,19 +644,23 @@ fn resample_sparse(
     let per = TILE / BLOCK;
     for ti in 0..th {
         let (r0, r1) = (ti * TILE, ((ti + 1) * TILE).min(h));
+        // the extremes of the tile rows' starts
+        let (mut a_lo, mut a_hi, mut b_lo, mut b_hi) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
+        for &(a, b) in &starts[r0..r1] {
+            a_lo = a_lo.min(a);
+            a_hi = a_hi.max(a);
+            b_lo = b_lo.min(b);
+            b_hi = b_hi.max(b);
+        }
         for tj in 0..tw {
             let (c0, c1) = (tj * TILE, ((tj + 1) * TILE).min(w));
-            // the estimate cells the tile samples: per row, its two ends bound the rest
-            let (mut lo_r, mut hi_r, mut lo_c, mut hi_c) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
-            for r in r0..r1 {
-                for c in [c0, c1 - 1] {
-                    let (ir, ic) = at(&starts, sr, sc, r, c);
-                    lo_r = lo_r.min(ir);
-                    hi_r = hi_r.max(ir);
-                    lo_c = lo_c.min(ic);
-                    hi_c = hi_c.max(ic);
-                }
-            }
+            // the estimate cells the tile samples: a sample is its row's start plus a column
+            // step term, so the extremes are the starts' plus the step terms' (at the tile's
+            // first or last column), exactly; the floor (a shift) keeps the order
+            let (x0, x1) = (c0 as i64 * sr, (c1 - 1) as i64 * sr);
+            let (y0, y1) = (c0 as i64 * sc, (c1 - 1) as i64 * sc);
+            let (lo_r, hi_r) = ((a_lo + x0.min(x1)) >> 32, (a_hi + x0.max(x1)) >> 32);
+            let (lo_c, hi_c) = ((b_lo + y0.min(y1)) >> 32, (b_hi + y0.max(y1)) >> 32);
             let mut unknown = lo_r < 0 || lo_c < 0 || hi_r >= eh || hi_c >= ew;
             let mut known = false;
             let (b0, b1) = (lo_r.max(0) / BLOCK as i64, hi_r.min(eh - 1) / BLOCK as i64);
@@ -685,12 +689,7 @@ fn resample_sparse(
                 covered += (k - g_in_tile[ti * tw + tj]) as u64;
                 continue;
             }
-            for r in r0..r1 {
-                for c in c0..c1 {
-                    let i = r * w + c;
-                    covered += (gt_free(i) && known_at(r, c)) as u64;
-                }
-            }
+            covered += tile_covered(&starts, sr, sc, (r0, r1), (c0, c1), gu, g_near, eg);
         }
     }
     let free = g_scan.known_cells - g_scan.cells.len() as u64;
@@ -700,6 +699,45 @@ fn resample_sparse(
         free,
         covered,
     }))
+}
+
+/// The free cells of the ground-truth tile `rows` x `cols` whose sample (the estimate cell
+/// holding its centre: `starts[r]` plus `c` column steps `(sr, sc)`, in 32.32 fixed point)
+/// is a known cell of `eg`, cell by cell: the positions stepped along each row (exact
+/// integer steps, as [`resample_sparse`]'s `at`), G's bits read a column of the tile at a
+/// time (at most [`TILE`] rows, one word: tiles start at multiples of [`TILE`]).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn tile_covered(
+    starts: &[(i64, i64)],
+    sr: i64,
+    sc: i64,
+    (r0, r1): (usize, usize),
+    (c0, c1): (usize, usize),
+    gu: &[bool],
+    g_near: &Sparse,
+    eg: &Grid,
+) -> u64 {
+    let (eh, ew) = (eg.height as i64, eg.width as i64);
+    let w = g_near.width;
+    let mut g_cols = [0u64; TILE];
+    for (c, g) in (c0..c1).zip(g_cols.iter_mut()) {
+        *g = g_near.column_bits(c, r0 as isize, (r1 - r0) as u32);
+    }
+    let mut covered = 0u64;
+    for (k, (r, &(a, b))) in (r0..r1).zip(&starts[r0..r1]).enumerate() {
+        let (mut a, mut b) = (a + c0 as i64 * sr, b + c0 as i64 * sc);
+        for (&u, &g) in gu[r * w + c0..r * w + c1].iter().zip(&g_cols) {
+            let (ir, ic) = (a >> 32, b >> 32);
+            let free = !u && (g >> k) & 1 == 0;
+            if free && ir >= 0 && ic >= 0 && ir < eh && ic < ew {
+                covered += !eg.unknown[(ir * ew + ic) as usize] as u64;
+            }
+            a += sr;
+            b += sc;
+        }
+    }
+    covered
 }
 
 fn resample(
