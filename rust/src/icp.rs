@@ -294,27 +294,79 @@ fn correspondences(
         });
 }
 
-/// The indices, ascending, of the `keep` smallest distances (ties at the threshold: the
-/// lowest indices). `scratch` holds a copy of the distances for the selection.
-fn trimmed(res: &[Pair], keep: usize, order: &mut Vec<u32>, scratch: &mut Vec<f64>) {
+/// `x`'s place in [`f64::total_cmp`]'s order, as an unsigned integer.
+#[inline]
+fn order_key(x: f64) -> u64 {
+    let b = x.to_bits();
+    b ^ ((((b as i64) >> 63) as u64) >> 1) ^ (1 << 63)
+}
+
+/// The `k`-th smallest (from 0) of `keys` (`k < keys.len()`). Larger sets by a sample: every
+/// [`SAMPLE_STRIDE`]-th key, sorted, gives two keys `lo <= hi` around the `k`-th's place;
+/// one pass counts the keys below `lo` and gathers those in `[lo, hi]`, and when the `k`-th
+/// is among them it is selected there (else from all the keys). `buf` is work space.
+fn kth_smallest(keys: &[u64], k: usize, buf: &mut Vec<u64>) -> u64 {
+    let n = keys.len();
+    buf.clear();
+    if n >= 16 * SAMPLE_STRIDE {
+        buf.extend(keys.iter().step_by(SAMPLE_STRIDE));
+        buf.sort_unstable();
+        let m = buf.len();
+        let margin = 3 * (m as f64).sqrt() as usize + 4;
+        let at = k * m / n;
+        let lo = if at > margin { buf[at - margin] } else { 0 };
+        let hi = if at + margin < m {
+            buf[at + margin]
+        } else {
+            u64::MAX
+        };
+        buf.clear();
+        let mut less = 0usize;
+        for &x in keys {
+            if x < lo {
+                less += 1;
+            } else if x <= hi {
+                buf.push(x);
+            }
+        }
+        // the keys below `lo` come first in the order, then those in [lo, hi]
+        if less <= k && k < less + buf.len() {
+            return *buf.select_nth_unstable(k - less).1;
+        }
+        buf.clear();
+    }
+    buf.extend_from_slice(keys);
+    *buf.select_nth_unstable(k).1
+}
+
+/// Every this many keys make [`kth_smallest`]'s sample.
+const SAMPLE_STRIDE: usize = 16;
+
+/// The indices, ascending, of the `keep` smallest distances (by [`f64::total_cmp`]; ties at
+/// the threshold: the lowest indices). `keys` and `buf` are work space.
+fn trimmed(
+    res: &[Pair],
+    keep: usize,
+    order: &mut Vec<u32>,
+    keys: &mut Vec<u64>,
+    buf: &mut Vec<u64>,
+) {
     order.clear();
     if keep >= res.len() {
         order.extend(0..res.len() as u32);
         return;
     }
-    scratch.clear();
-    scratch.extend(res.iter().map(|p| p.0));
-    let (_, &mut thr, _) = scratch.select_nth_unstable_by(keep - 1, |a, b| a.total_cmp(b));
-    let below = res.iter().filter(|p| p.0.total_cmp(&thr).is_lt()).count();
+    keys.clear();
+    keys.extend(res.iter().map(|p| order_key(p.0)));
+    let thr = kth_smallest(keys, keep - 1, buf);
+    let below = keys.iter().filter(|&&k| k < thr).count();
     let mut ties = keep - below;
-    for (i, p) in res.iter().enumerate() {
-        match p.0.total_cmp(&thr) {
-            std::cmp::Ordering::Less => order.push(i as u32),
-            std::cmp::Ordering::Equal if ties > 0 => {
-                ties -= 1;
-                order.push(i as u32);
-            }
-            _ => {}
+    for (i, &k) in keys.iter().enumerate() {
+        if k < thr {
+            order.push(i as u32);
+        } else if k == thr && ties > 0 {
+            ties -= 1;
+            order.push(i as u32);
         }
     }
 }
@@ -469,10 +521,10 @@ fn run(
         .iter()
         .map(|p| (p.0 - cx).hypot(p.1 - cy))
         .fold(0.0, f64::max);
-    let mut scratch = Vec::with_capacity(points.len());
+    let (mut keys, mut buf) = (Vec::with_capacity(points.len()), Vec::new());
     loop {
         correspondences(points, target, &t, &mut res, &mut memo);
-        trimmed(&res, keep, &mut order, &mut scratch);
+        trimmed(&res, keep, &mut order, &mut keys, &mut buf);
         let rms = (order.iter().map(|&i| res[i as usize].0).sum::<f64>() / keep as f64).sqrt();
         let done = |t: Se2, iterations: usize| IcpResult {
             transform: t,
@@ -492,7 +544,7 @@ fn run(
         t = delta.compose(&t);
         if converged {
             correspondences(points, target, &t, &mut res, &mut memo);
-            trimmed(&res, keep, &mut order, &mut scratch);
+            trimmed(&res, keep, &mut order, &mut keys, &mut buf);
             let rms = (order.iter().map(|&i| res[i as usize].0).sum::<f64>() / keep as f64).sqrt();
             return Some(IcpResult {
                 transform: t,
@@ -691,6 +743,65 @@ mod tests {
                         "{v} {max}"
                     );
                 }
+            }
+        }
+    }
+
+    /// The former trimming: a copy of the distances selected by `total_cmp`.
+    fn trimmed_literal(res: &[Pair], keep: usize) -> Vec<u32> {
+        if keep >= res.len() {
+            return (0..res.len() as u32).collect();
+        }
+        let mut d: Vec<f64> = res.iter().map(|p| p.0).collect();
+        let (_, &mut thr, _) = d.select_nth_unstable_by(keep - 1, |a, b| a.total_cmp(b));
+        let below = res.iter().filter(|p| p.0.total_cmp(&thr).is_lt()).count();
+        let mut ties = keep - below;
+        let mut order = Vec::new();
+        for (i, p) in res.iter().enumerate() {
+            match p.0.total_cmp(&thr) {
+                std::cmp::Ordering::Less => order.push(i as u32),
+                std::cmp::Ordering::Equal if ties > 0 => {
+                    ties -= 1;
+                    order.push(i as u32);
+                }
+                _ => {}
+            }
+        }
+        order
+    }
+
+    /// The sampled selection keeps the literal one's indices: random distances (few
+    /// distinct values, many ties, infinities, NaN and -0), sizes 1-9000, every trim.
+    #[test]
+    fn trimmed_equals_the_literal_selection() {
+        let mut next = rng(43);
+        let (mut order, mut keys, mut buf) = (Vec::new(), Vec::new(), Vec::new());
+        for case in 0..400 {
+            let n = 1 + (next() % [20, 300, 3000, 9000][case % 4]) as usize;
+            let kind = case % 5;
+            let res: Vec<Pair> = (0..n)
+                .map(|_| {
+                    let x = next();
+                    let d = match kind {
+                        0 => (x % 1_000_000) as f64 * 1e-9,
+                        1 => (x % 7) as f64,
+                        2 => [0.0, -0.0, f64::INFINITY, f64::NAN, -f64::NAN, 1.5][(x % 6) as usize],
+                        3 => f64::from_bits(x),
+                        _ => {
+                            ((x % 1000) as f64 * 1e-3).powi(2) + if x % 97 == 0 { 1e3 } else { 0.0 }
+                        }
+                    };
+                    (d, 0, (0.0, 0.0))
+                })
+                .collect();
+            for keep in [1, n / 3 + 1, (n * 4).div_ceil(5), n - 1, n] {
+                let keep = keep.clamp(1, n);
+                trimmed(&res, keep, &mut order, &mut keys, &mut buf);
+                assert_eq!(
+                    order,
+                    trimmed_literal(&res, keep),
+                    "case {case} n {n} keep {keep}"
+                );
             }
         }
     }
