@@ -15,7 +15,7 @@
 use crate::edt::{EdtError, NearestCell, Scratch, Sparse};
 use crate::se2::{wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// Points per parallel chunk (fixed, so the work split does not depend on the thread count).
 const CHUNK: usize = 4096;
@@ -81,7 +81,38 @@ pub struct Target<'a> {
     cells: &'a [u32],
     /// `cells[row_start[r]..row_start[r + 1]]` are the occupied cells of row `r`.
     row_start: Vec<u32>,
-    local: Vec<OnceLock<Local>>,
+    local: Vec<Slot>,
+}
+
+/// A [`Local`] fitted on first use. Threads sharing the target (the parallel trials of
+/// [`search`]) may fit the same cell at once: they store the same bits, and `ready` is set
+/// (release) after them, so whoever reads it set (acquire) reads the fit.
+#[derive(Default)]
+struct Slot {
+    ready: AtomicBool,
+    bits: [AtomicU64; 4],
+}
+
+impl Slot {
+    #[inline]
+    fn get_or_fit(&self, fit: impl FnOnce() -> Local) -> Local {
+        let b = &self.bits;
+        if self.ready.load(Ordering::Acquire) {
+            let v = |k: usize| f64::from_bits(b[k].load(Ordering::Relaxed));
+            return Local {
+                cx: v(0),
+                cy: v(1),
+                nx: v(2),
+                ny: v(3),
+            };
+        }
+        let l = fit();
+        for (slot, v) in b.iter().zip([l.cx, l.cy, l.nx, l.ny]) {
+            slot.store(v.to_bits(), Ordering::Relaxed);
+        }
+        self.ready.store(true, Ordering::Release);
+        l
+    }
 }
 
 impl<'a> Target<'a> {
@@ -114,11 +145,9 @@ impl<'a> Target<'a> {
         local
             .try_reserve_exact(cells.len())
             .map_err(|_| EdtError::Alloc {
-                bytes: cells
-                    .len()
-                    .saturating_mul(std::mem::size_of::<OnceLock<Local>>()),
+                bytes: cells.len().saturating_mul(std::mem::size_of::<Slot>()),
             })?;
-        local.resize_with(cells.len(), OnceLock::new);
+        local.resize_with(cells.len(), Slot::default);
         Ok(Target {
             row_start,
             frame,
@@ -133,7 +162,7 @@ impl<'a> Target<'a> {
 
     /// The local shape around occupied cell `cells[k]`, fitted when first asked for.
     fn local(&self, k: usize) -> Local {
-        *self.local[k].get_or_init(|| self.fit(self.cells[k]))
+        self.local[k].get_or_fit(|| self.fit(self.cells[k]))
     }
 
     /// Fit a line to the occupied cells of the window around cell `i`.
@@ -608,27 +637,23 @@ pub(crate) fn scatter(
 }
 
 /// [`scatter`] of the set cells of `bits`, read a column of the window at a time: the same
-/// figures (every sum is of small integers, exact in any order, and starts at +0, so no
-/// sum is -0).
+/// figures (every sum is of small integers: summed exactly as integers here, they are the
+/// mask's floating sums, which are exact in any order and start at +0, so none is -0).
 pub(crate) fn scatter_bits(bits: &Sparse, r0: isize, c0: isize, half: isize) -> Scatter {
     let w = bits.width as isize;
-    let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0i64, 0i64, 0i64, 0i64, 0i64, 0i64);
     let len = (2 * half + 1) as u32;
+    let h = half as i64;
     for c in (c0 - half).max(0)..=(c0 + half).min(w - 1) {
-        let mut m = bits.column_bits(c as usize, r0 - half, len);
+        let m = bits.column_bits(c as usize, r0 - half, len);
         if m == 0 {
             continue;
         }
-        let (mut k, mut ky, mut kyy) = (0i64, 0i64, 0i64);
-        while m != 0 {
-            let y = m.trailing_zeros() as i64 - half as i64;
-            m &= m - 1;
-            k += 1;
-            ky += y;
-            kyy += y * y;
-        }
-        let x = (c - c0) as f64;
-        let (k, ky, kyy) = (k as f64, ky as f64, kyy as f64);
+        // the set bits' places t (row r0 - half + t): count, sum, sum of squares; then
+        // about the centre row (y = t - half)
+        let (k, s1, s2) = moments(m);
+        let (ky, kyy) = (s1 - h * k, s2 - 2 * h * s1 + h * h * k);
+        let x = (c - c0) as i64;
         n += k;
         sx += x * k;
         sy += ky;
@@ -636,7 +661,44 @@ pub(crate) fn scatter_bits(bits: &Sparse, r0: isize, c0: isize, half: isize) -> 
         sxy += x * ky;
         syy += kyy;
     }
-    scatter_of(n, sx, sy, sxx, sxy, syy)
+    let f = |v: i64| v as f64;
+    scatter_of(f(n), f(sx), f(sy), f(sxx), f(sxy), f(syy))
+}
+
+/// Count, sum and sum of squares of the places of the set bits of `m`: from a table for
+/// seven bits or fewer (windows of half-size up to 3).
+#[inline]
+fn moments(m: u64) -> (i64, i64, i64) {
+    const TABLE: [(u8, u8, u8); 128] = {
+        let mut t = [(0u8, 0u8, 0u8); 128];
+        let mut m = 0;
+        while m < 128 {
+            let mut b = 0;
+            while b < 7 {
+                if (m >> b) & 1 == 1 {
+                    t[m].0 += 1;
+                    t[m].1 += b as u8;
+                    t[m].2 += (b * b) as u8;
+                }
+                b += 1;
+            }
+            m += 1;
+        }
+        t
+    };
+    if m < 128 {
+        let (k, s1, s2) = TABLE[m as usize];
+        return (k as i64, s1 as i64, s2 as i64);
+    }
+    let (mut k, mut s1, mut s2, mut b) = (0i64, 0i64, 0i64, m);
+    while b != 0 {
+        let t = b.trailing_zeros() as i64;
+        b &= b - 1;
+        k += 1;
+        s1 += t;
+        s2 += t * t;
+    }
+    (k, s1, s2)
 }
 
 /// [`Scatter`] from the count and the sums of the window's cells.
@@ -806,6 +868,60 @@ mod tests {
         }
     }
 
+    /// The cached fits, asked for by several threads at once (each cell many times), are
+    /// the fits themselves, bit for bit.
+    #[test]
+    fn cached_fits_equal_the_fits() {
+        let mut next = rng(47);
+        let (h, w) = (90usize, 70usize);
+        let mask: Vec<bool> = (0..h * w).map(|i| i % 7 == 0 || next() % 9 == 0).collect();
+        let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+        let bits = Sparse::new(&cells, h, w).unwrap();
+        let columns = bits.columns().unwrap();
+        let frame = Frame {
+            resolution: 0.05,
+            height: h,
+            width: w,
+            origin: Se2 {
+                theta: 0.3,
+                tx: 1.0,
+                ty: -2.0,
+            },
+        };
+        let target = Target::with(frame, &columns, Occupied::Bits(&bits), &cells).unwrap();
+        let want: Vec<[u64; 4]> = cells
+            .iter()
+            .map(|&i| {
+                let l = target.fit(i);
+                [l.cx, l.cy, l.nx, l.ny].map(f64::to_bits)
+            })
+            .collect();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        let got: Vec<Vec<[u64; 4]>> = pool.install(|| {
+            (0..8)
+                .into_par_iter()
+                .map(|t| {
+                    (0..cells.len())
+                        .map(|k| {
+                            let k = (k + t * 13) % cells.len();
+                            let l = target.local(k);
+                            (k, [l.cx, l.cy, l.nx, l.ny].map(f64::to_bits))
+                        })
+                        .fold(vec![[0u64; 4]; cells.len()], |mut v, (k, b)| {
+                            v[k] = b;
+                            v
+                        })
+                })
+                .collect()
+        });
+        for g in got {
+            assert_eq!(g, want);
+        }
+    }
+
     fn bits_of(s: &Scatter) -> [u64; 8] {
         [s.n, s.mx, s.my, s.a, s.b, s.d, s.big, s.small].map(f64::to_bits)
     }
@@ -822,7 +938,7 @@ mod tests {
             let mask: Vec<bool> = (0..h * w).map(|_| next() % 8 < density).collect();
             let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
             let bits = Sparse::new(&cells, h, w).unwrap();
-            for half in [1isize, 2, 3] {
+            for half in [1isize, 2, 3, 4] {
                 for r in 0..h as isize {
                     for c in 0..w as isize {
                         let a = scatter(&mask, h as isize, w as isize, r, c, half);
