@@ -3,7 +3,7 @@
 //! what the figures need (matches within the tolerance, sums of distances, coverage).
 //! Ratios and metres are formed by the caller from these.
 
-use crate::edt::{filled, Columns, EdtError, NearestCell, Scratch, Sparse};
+use crate::edt::{filled, Columns, EdtError, NearestCell, Sparse};
 use crate::grid::{bytes, word, Grid, BAND_ROWS, ONES};
 use crate::icp::{icp, Occupied, Target};
 use crate::params::{Align, CompareParams};
@@ -923,17 +923,13 @@ fn side(
     let parts: Vec<(Side, Vec<bool>)> = list
         .par_chunks(CHUNK)
         .map(|chunk| {
-            let mut scratch: Option<Scratch> = None;
             let mut s = Side::default();
             let mut matched = Vec::with_capacity(if want { chunk.len() } else { 0 });
             for &i in chunk {
                 let i = i as usize;
                 let sq = match other {
                     Other::Sparse(near) => near.distance(i / w, i % w).0,
-                    Other::Columns(cols) => {
-                        let scratch = scratch.get_or_insert_with(|| cols.scratch());
-                        cols.query(i / w, i % w, scratch).map(|(_, d)| d)
-                    }
+                    Other::Columns(cols) => cols.distance(i / w, i % w),
                 }
                 .unwrap_or(u32::MAX);
                 let ok = sq != u32::MAX && sq as f64 <= tol2;

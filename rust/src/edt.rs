@@ -473,6 +473,45 @@ impl Columns {
     }
 }
 
+impl Columns {
+    /// The squared distance from cell `(r, c)` to the nearest set cell (None when no cell
+    /// is set): [`Columns::query`]'s, by its scan of the row's columns taken as far as
+    /// needed (no envelope: which cell is nearest does not matter here; the scan is exact
+    /// and costs no more than the envelope's pass over the row).
+    pub fn distance(&self, r: usize, c: usize) -> Option<u32> {
+        let w = self.width;
+        let row = &self.near[r * w..(r + 1) * w];
+        let ri = r as i64;
+        // column q's offer at k columns (k2 = k^2), u64::MAX when it has no set cell
+        let offer = |q: usize, k2: u64| -> u64 {
+            let n = row[q];
+            if n == NONE {
+                u64::MAX
+            } else {
+                let d = (ri - n as i64).unsigned_abs();
+                k2 + d * d
+            }
+        };
+        let mut best = offer(c, 0);
+        let mut k = 1usize;
+        loop {
+            let k2 = (k * k) as u64;
+            if k2 >= best || (k > c && c + k >= w) {
+                break;
+            }
+            if k <= c {
+                best = best.min(offer(c - k, k2));
+            }
+            if c + k < w {
+                best = best.min(offer(c + k, k2));
+            }
+            k += 1;
+        }
+        // fits u32: checked against the diagonal
+        (best != u64::MAX).then_some(best as u32)
+    }
+}
+
 /// [`Columns::query`] on the row of column-nearest cells `near(q)` (the row of the nearest
 /// set cell in column `q`, [`NONE`]: none) of row `r`; `whole` is that row when it is
 /// stored (else it is gathered into `scratch` when the envelope needs it).
@@ -1112,6 +1151,7 @@ pub(crate) mod tests {
                     "{h}x{w} {i}"
                 );
                 assert_eq!(dense.query(r, c, &mut s3), want);
+                assert_eq!(cols.distance(r, c), want.map(|(_, d)| d));
                 assert_eq!(sparse.distance(r, c).0, want.map(|(_, d)| d));
                 assert_eq!(sparse.get(r, c), mask[i]);
             }
