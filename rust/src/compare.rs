@@ -3,7 +3,7 @@
 //! what the figures need (matches within the tolerance, sums of distances, coverage).
 //! Ratios and metres are formed by the caller from these.
 
-use crate::edt::{filled, Columns, EdtError, NearestCell, Scratch, Sparse};
+use crate::edt::{filled, Columns, EdtError, NearestCell, Sparse};
 use crate::grid::{bytes, word, Grid, BAND_ROWS, ONES};
 use crate::icp::{icp, Occupied, Target};
 use crate::params::{Align, CompareParams};
@@ -233,14 +233,16 @@ fn push_run(
     Ok(())
 }
 
-/// One row of [`scan`]: append to `list` the known cells of `vals`/`unknown` (unknown
-/// flags as 0/1 bytes) with value below `below` (as `base + q`), add the known cells of
-/// each block to `krow`; returns the row's known cells. SSE2 (every x86-64) two blocks at
-/// a time, else [`scan_row_scalar`]: the same lists and counts.
+/// One block row of [`scan`] (`n <= BLOCK` rows of width `w`, `base` the first cell's
+/// index): append to `list` the known cells of `vals`/`unknown` (unknown flags as 0/1
+/// bytes) with value below `below`, row by row; add the known cells of each block to
+/// `krow`; returns the known cells. SSE2 (every x86-64) two blocks at a time
+/// ([`scan_block_sse2`]), else [`scan_row_scalar`] row by row: the same lists and counts.
 #[inline]
-fn scan_row(
+fn scan_block(
     vals: &[u8],
     unknown: &[u8],
+    w: usize,
     krow: &mut [u8],
     below: usize,
     list: &mut Vec<u32>,
@@ -248,12 +250,30 @@ fn scan_row(
 ) -> Result<u64, EdtError> {
     #[cfg(target_arch = "x86_64")]
     {
-        scan_row_sse2(vals, unknown, krow, below, list, base)
+        scan_block_sse2(vals, unknown, w, krow, below, list, base)
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        scan_row_scalar(vals, unknown, krow, below, list, base)
+        scan_block_scalar(vals, unknown, w, krow, below, list, base)
     }
+}
+
+/// [`scan_block`] row by row with [`scan_row_scalar`].
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+fn scan_block_scalar(
+    vals: &[u8],
+    unknown: &[u8],
+    w: usize,
+    krow: &mut [u8],
+    below: usize,
+    list: &mut Vec<u32>,
+    base: usize,
+) -> Result<u64, EdtError> {
+    let mut known = 0u64;
+    for (k, (vr, ur)) in vals.chunks(w).zip(unknown.chunks(w)).enumerate() {
+        known += scan_row_scalar(vr, ur, krow, below, list, base + k * w)?;
+    }
+    Ok(known)
 }
 
 /// [`scan_row`] eight cells at once, in plain integer arithmetic.
@@ -308,13 +328,16 @@ fn scan_tail(
     Ok(n as u64)
 }
 
-/// [`scan_row`] sixteen cells (two blocks) at once in SSE2: the unknown flags of each
-/// block summed by `psadbw`, the occupied known cells as a 16-bit mask (`v <= below - 1`
-/// unsigned, as `min(v, below - 1) == v`, and `u == 0`) whose set bits are pushed.
+/// [`scan_block`] sixteen cells (two blocks) at once in SSE2: the occupied known cells of
+/// a row as a 16-bit mask (`v <= below - 1` unsigned, as `min(v, below - 1) == v`, and
+/// `u == 0`) whose set bits are pushed; the unknown flags added bytewise over the block
+/// row's rows (at most 8 a byte), then summed per block by one `psadbw`. The columns past
+/// the last pair by [`scan_row_scalar`].
 #[cfg(target_arch = "x86_64")]
-fn scan_row_sse2(
+fn scan_block_sse2(
     vals: &[u8],
     unknown: &[u8],
+    w: usize,
     krow: &mut [u8],
     below: usize,
     list: &mut Vec<u32>,
@@ -322,63 +345,76 @@ fn scan_row_sse2(
 ) -> Result<u64, EdtError> {
     use std::arch::x86_64::*;
     const PAIR: usize = 2 * BLOCK;
-    let n = vals.len().min(unknown.len());
-    let pairs = n / PAIR;
-    // SAFETY: SSE2 is part of x86-64; every load reads 16 bytes at `q * 16` with
-    // `q < pairs`, inside both slices (their common length is at least `pairs * 16`)
-    let (unknown_sum, done) = unsafe {
+    let n = vals.len().min(unknown.len()) / w.max(1);
+    let pairs = w / PAIR;
+    let done = pairs * PAIR;
+    let mut known = 0u64;
+    // SAFETY: SSE2 is part of x86-64; every load reads 16 bytes at `k * w + q * 16` with
+    // `k < n`, `q < pairs`, inside both slices (their common length is at least `n * w`)
+    unsafe {
         let zero = _mm_setzero_si128();
         // below == 0: nothing is occupied (the mask is cleared by `keep`)
         let top = _mm_set1_epi8(below.saturating_sub(1).min(255) as u8 as i8);
         let keep: u32 = if below == 0 { 0 } else { 0xFFFF };
-        let mut sums = zero;
-        for q in 0..pairs {
-            let v = _mm_loadu_si128(vals.as_ptr().add(q * PAIR).cast());
-            let u = _mm_loadu_si128(unknown.as_ptr().add(q * PAIR).cast());
-            let sad = _mm_sad_epu8(u, zero);
-            sums = _mm_add_epi64(sums, sad);
+        let mut acc = [zero; 8];
+        let mut acc_big: Vec<__m128i> = Vec::new();
+        let acc: &mut [__m128i] = if pairs <= acc.len() {
+            &mut acc[..pairs]
+        } else {
+            acc_big.resize(pairs, zero);
+            &mut acc_big
+        };
+        for k in 0..n {
+            let (vr, ur) = (vals.as_ptr().add(k * w), unknown.as_ptr().add(k * w));
+            let row_base = base + k * w;
+            for (q, a) in acc.iter_mut().enumerate() {
+                let v = _mm_loadu_si128(vr.add(q * PAIR).cast());
+                let u = _mm_loadu_si128(ur.add(q * PAIR).cast());
+                *a = _mm_add_epi8(*a, u);
+                let occ = _mm_and_si128(
+                    _mm_cmpeq_epi8(_mm_min_epu8(v, top), v),
+                    _mm_cmpeq_epi8(u, zero),
+                );
+                let mut m = _mm_movemask_epi8(occ) as u32 & keep;
+                if m != 0 {
+                    if list.len() + PAIR > list.capacity() {
+                        list.try_reserve(list.capacity().max(1024)).map_err(|_| {
+                            EdtError::Alloc {
+                                bytes: list.capacity().saturating_mul(8),
+                            }
+                        })?;
+                    }
+                    let at = row_base + q * PAIR;
+                    while m != 0 {
+                        list.push((at + m.trailing_zeros() as usize) as u32);
+                        m &= m - 1;
+                    }
+                }
+            }
+            if done < w {
+                known += scan_row_scalar(
+                    &vals[k * w + done..(k + 1) * w],
+                    &unknown[k * w + done..(k + 1) * w],
+                    &mut krow[done / BLOCK..],
+                    below,
+                    list,
+                    row_base + done,
+                )?;
+            }
+        }
+        let cells = (n * BLOCK) as u8;
+        for (q, a) in acc.iter().enumerate() {
+            let sad = _mm_sad_epu8(*a, zero);
             let (u0, u1) = (
                 _mm_cvtsi128_si32(sad) as u8,
                 _mm_extract_epi16::<4>(sad) as u8,
             );
-            let kc = &mut krow[2 * q..2 * q + 2];
-            kc[0] += BLOCK as u8 - u0;
-            kc[1] += BLOCK as u8 - u1;
-            let occ = _mm_and_si128(
-                _mm_cmpeq_epi8(_mm_min_epu8(v, top), v),
-                _mm_cmpeq_epi8(u, zero),
-            );
-            let mut m = _mm_movemask_epi8(occ) as u32 & keep;
-            if m != 0 {
-                if list.len() + PAIR > list.capacity() {
-                    list.try_reserve(list.capacity().max(1024))
-                        .map_err(|_| EdtError::Alloc {
-                            bytes: list.capacity().saturating_mul(8),
-                        })?;
-                }
-                let at = base + q * PAIR;
-                while m != 0 {
-                    list.push((at + m.trailing_zeros() as usize) as u32);
-                    m &= m - 1;
-                }
-            }
+            krow[2 * q] += cells - u0;
+            krow[2 * q + 1] += cells - u1;
+            known += 2 * cells as u64 - u0 as u64 - u1 as u64;
         }
-        let hi = _mm_unpackhi_epi64(sums, sums);
-        (
-            _mm_cvtsi128_si64(_mm_add_epi64(sums, hi)) as u64,
-            pairs * PAIR,
-        )
-    };
-    let known_row = done as u64 - unknown_sum;
-    Ok(known_row
-        + scan_row_scalar(
-            &vals[done..n],
-            &unknown[done..n],
-            &mut krow[done / BLOCK..],
-            below,
-            list,
-            base + done,
-        )?)
+    }
+    Ok(known)
 }
 
 /// [`Scan`] of grid `g`, occupied meaning `occ[value]` for a known cell. Bands of rows in
@@ -402,10 +438,11 @@ fn scan(g: &Grid, occ: &[bool; 256]) -> Result<Scan, CompareError> {
         .map(|(b, (kn, (vals, unk)))| {
             let mut list = Vec::new();
             let mut total = 0u64;
-            for (k, (vr, ur)) in vals.chunks(w).zip(unk.chunks(w)).enumerate() {
-                let r = b * BAND_ROWS + k;
-                let krow = &mut kn[(k / BLOCK) * bw..(k / BLOCK + 1) * bw];
-                total += scan_row(vr, bytes(ur), krow, below, &mut list, r * w)?;
+            let rows = BLOCK * w;
+            for (k, (vb, ub)) in vals.chunks(rows).zip(unk.chunks(rows)).enumerate() {
+                let r = b * BAND_ROWS + k * BLOCK;
+                let krow = &mut kn[k * bw..(k + 1) * bw];
+                total += scan_block(vb, bytes(ub), w, krow, below, &mut list, r * w)?;
             }
             Ok((list, total))
         })
@@ -644,19 +681,23 @@ fn resample_sparse(
     let per = TILE / BLOCK;
     for ti in 0..th {
         let (r0, r1) = (ti * TILE, ((ti + 1) * TILE).min(h));
+        // the extremes of the tile rows' starts
+        let (mut a_lo, mut a_hi, mut b_lo, mut b_hi) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
+        for &(a, b) in &starts[r0..r1] {
+            a_lo = a_lo.min(a);
+            a_hi = a_hi.max(a);
+            b_lo = b_lo.min(b);
+            b_hi = b_hi.max(b);
+        }
         for tj in 0..tw {
             let (c0, c1) = (tj * TILE, ((tj + 1) * TILE).min(w));
-            // the estimate cells the tile samples: per row, its two ends bound the rest
-            let (mut lo_r, mut hi_r, mut lo_c, mut hi_c) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
-            for r in r0..r1 {
-                for c in [c0, c1 - 1] {
-                    let (ir, ic) = at(&starts, sr, sc, r, c);
-                    lo_r = lo_r.min(ir);
-                    hi_r = hi_r.max(ir);
-                    lo_c = lo_c.min(ic);
-                    hi_c = hi_c.max(ic);
-                }
-            }
+            // the estimate cells the tile samples: a sample is its row's start plus a column
+            // step term, so the extremes are the starts' plus the step terms' (at the tile's
+            // first or last column), exactly; the floor (a shift) keeps the order
+            let (x0, x1) = (c0 as i64 * sr, (c1 - 1) as i64 * sr);
+            let (y0, y1) = (c0 as i64 * sc, (c1 - 1) as i64 * sc);
+            let (lo_r, hi_r) = ((a_lo + x0.min(x1)) >> 32, (a_hi + x0.max(x1)) >> 32);
+            let (lo_c, hi_c) = ((b_lo + y0.min(y1)) >> 32, (b_hi + y0.max(y1)) >> 32);
             let mut unknown = lo_r < 0 || lo_c < 0 || hi_r >= eh || hi_c >= ew;
             let mut known = false;
             let (b0, b1) = (lo_r.max(0) / BLOCK as i64, hi_r.min(eh - 1) / BLOCK as i64);
@@ -685,12 +726,7 @@ fn resample_sparse(
                 covered += (k - g_in_tile[ti * tw + tj]) as u64;
                 continue;
             }
-            for r in r0..r1 {
-                for c in c0..c1 {
-                    let i = r * w + c;
-                    covered += (gt_free(i) && known_at(r, c)) as u64;
-                }
-            }
+            covered += tile_covered(&starts, sr, sc, (r0, r1), (c0, c1), gu, g_near, eg);
         }
     }
     let free = g_scan.known_cells - g_scan.cells.len() as u64;
@@ -700,6 +736,45 @@ fn resample_sparse(
         free,
         covered,
     }))
+}
+
+/// The free cells of the ground-truth tile `rows` x `cols` whose sample (the estimate cell
+/// holding its centre: `starts[r]` plus `c` column steps `(sr, sc)`, in 32.32 fixed point)
+/// is a known cell of `eg`, cell by cell: the positions stepped along each row (exact
+/// integer steps, as [`resample_sparse`]'s `at`), G's bits read a column of the tile at a
+/// time (at most [`TILE`] rows, one word: tiles start at multiples of [`TILE`]).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn tile_covered(
+    starts: &[(i64, i64)],
+    sr: i64,
+    sc: i64,
+    (r0, r1): (usize, usize),
+    (c0, c1): (usize, usize),
+    gu: &[bool],
+    g_near: &Sparse,
+    eg: &Grid,
+) -> u64 {
+    let (eh, ew) = (eg.height as i64, eg.width as i64);
+    let w = g_near.width;
+    let mut g_cols = [0u64; TILE];
+    for (c, g) in (c0..c1).zip(g_cols.iter_mut()) {
+        *g = g_near.column_bits(c, r0 as isize, (r1 - r0) as u32);
+    }
+    let mut covered = 0u64;
+    for (k, (r, &(a, b))) in (r0..r1).zip(&starts[r0..r1]).enumerate() {
+        let (mut a, mut b) = (a + c0 as i64 * sr, b + c0 as i64 * sc);
+        for (&u, &g) in gu[r * w + c0..r * w + c1].iter().zip(&g_cols) {
+            let (ir, ic) = (a >> 32, b >> 32);
+            let free = !u && (g >> k) & 1 == 0;
+            if free && ir >= 0 && ic >= 0 && ir < eh && ic < ew {
+                covered += !eg.unknown[(ir * ew + ic) as usize] as u64;
+            }
+            a += sr;
+            b += sc;
+        }
+    }
+    covered
 }
 
 fn resample(
@@ -885,17 +960,13 @@ fn side(
     let parts: Vec<(Side, Vec<bool>)> = list
         .par_chunks(CHUNK)
         .map(|chunk| {
-            let mut scratch: Option<Scratch> = None;
             let mut s = Side::default();
             let mut matched = Vec::with_capacity(if want { chunk.len() } else { 0 });
             for &i in chunk {
                 let i = i as usize;
                 let sq = match other {
                     Other::Sparse(near) => near.distance(i / w, i % w).0,
-                    Other::Columns(cols) => {
-                        let scratch = scratch.get_or_insert_with(|| cols.scratch());
-                        cols.query(i / w, i % w, scratch).map(|(_, d)| d)
-                    }
+                    Other::Columns(cols) => cols.distance(i / w, i % w),
                 }
                 .unwrap_or(u32::MAX);
                 let ok = sq != u32::MAX && sq as f64 <= tol2;
@@ -1272,17 +1343,19 @@ mod tests {
         }
     }
 
-    /// The SSE2 row scan gives the scalar one's list and counts, on random rows of every
-    /// length to 70 (pairs of blocks, an odd block, a short tail) and every threshold.
+    /// The SSE2 block-row scan gives the scalar rows' list and counts, on random block
+    /// rows of 1-8 rows and every width to 70 (pairs of blocks, an odd block, a short
+    /// tail), every threshold.
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn scan_row_sse2_equals_scalar() {
+    fn scan_block_sse2_equals_scalar() {
         let mut next = rng(37);
         for case in 0..3000 {
-            let w = case % 71;
+            let w = 1 + case % 70;
+            let n = 1 + (next() % 8) as usize;
             let below = [0usize, 1, 2, 77, 128, 129, 200, 255, 256][case % 9];
-            let vals: Vec<u8> = (0..w).map(|_| next() as u8).collect();
-            let unknown: Vec<u8> = (0..w)
+            let vals: Vec<u8> = (0..n * w).map(|_| next() as u8).collect();
+            let unknown: Vec<u8> = (0..n * w)
                 .map(|_| (next() % 5 < case as u64 % 3) as u8)
                 .collect();
             let bw = w.div_ceil(BLOCK);
@@ -1290,9 +1363,9 @@ mod tests {
             let base = (next() % 1000) as usize;
             let (mut k1, mut k2) = (start.clone(), start.clone());
             let (mut l1, mut l2) = (vec![7u32], vec![7u32]);
-            let n1 = scan_row_scalar(&vals, &unknown, &mut k1, below, &mut l1, base).unwrap();
-            let n2 = scan_row_sse2(&vals, &unknown, &mut k2, below, &mut l2, base).unwrap();
-            assert_eq!((n1, &k1, &l1), (n2, &k2, &l2), "w {w} below {below}");
+            let n1 = scan_block_scalar(&vals, &unknown, w, &mut k1, below, &mut l1, base).unwrap();
+            let n2 = scan_block_sse2(&vals, &unknown, w, &mut k2, below, &mut l2, base).unwrap();
+            assert_eq!((n1, &k1, &l1), (n2, &k2, &l2), "w {w} n {n} below {below}");
         }
     }
 

@@ -414,11 +414,10 @@ impl Drop for Columns {
     }
 }
 
-/// Per-caller work space of [`Columns::query`] (the fallback's envelope, and for
-/// [`Sparse`] the row of column-nearest cells it needs).
+/// Per-caller work space of [`Columns::query`] (none is needed any more: the far
+/// queries' envelope gave way to a longer scan; kept for the callers' interface).
 pub struct Scratch {
-    env: Envelope,
-    row: Vec<u32>,
+    _private: (),
 }
 
 /// Nearest-set-cell queries, as [`Columns::query`] answers them (the same cell, the same
@@ -457,33 +456,160 @@ impl Columns {
 
     /// Work space for [`Columns::query`]; one per thread.
     pub fn scratch(&self) -> Scratch {
-        Scratch {
-            env: Envelope::new(self.width),
-            row: Vec::new(),
-        }
+        Scratch { _private: () }
     }
 
     /// The nearest set cell of cell `(r, c)` (row-major index) and the squared distance to
     /// it, or None when no cell is set. Ties: the first offer found (the cell's own column,
     /// then nearer columns, left before right).
-    pub fn query(&self, r: usize, c: usize, scratch: &mut Scratch) -> Option<(u32, u32)> {
+    pub fn query(&self, r: usize, c: usize, _scratch: &mut Scratch) -> Option<(u32, u32)> {
         let w = self.width;
         let row = &self.near[r * w..(r + 1) * w];
-        scan_query(r, c, w, |q| row[q], Some(row), scratch)
+        scan_query(r, c, w, |q| row[q])
+    }
+}
+
+impl Columns {
+    /// The squared distance from cell `(r, c)` to the nearest set cell (None when no cell
+    /// is set): [`Columns::query`]'s, by its scan of the row's columns taken as far as
+    /// needed (no envelope: which cell is nearest does not matter here; the scan is exact
+    /// and costs no more than the envelope's pass over the row).
+    pub fn distance(&self, r: usize, c: usize) -> Option<u32> {
+        let w = self.width;
+        let row = &self.near[r * w..(r + 1) * w];
+        let ri = r as i64;
+        // column q's offer at k columns (k2 = k^2), u64::MAX when it has no set cell
+        let offer = |q: usize, k2: u64| -> u64 {
+            let n = row[q];
+            if n == NONE {
+                u64::MAX
+            } else {
+                let d = (ri - n as i64).unsigned_abs();
+                k2 + d * d
+            }
+        };
+        let mut best = offer(c, 0);
+        let mut k = 1usize;
+        loop {
+            let k2 = (k * k) as u64;
+            if k2 >= best || (k > c && c + k >= w) {
+                break;
+            }
+            if k <= c {
+                best = best.min(offer(c - k, k2));
+            }
+            if c + k < w {
+                best = best.min(offer(c + k, k2));
+            }
+            k += 1;
+        }
+        // fits u32: checked against the diagonal
+        (best != u64::MAX).then_some(best as u32)
     }
 }
 
 /// [`Columns::query`] on the row of column-nearest cells `near(q)` (the row of the nearest
-/// set cell in column `q`, [`NONE`]: none) of row `r`; `whole` is that row when it is
-/// stored (else it is gathered into `scratch` when the envelope needs it).
+/// set cell in column `q`, [`NONE`]: none) of row `r`. Past [`SCAN`] columns (far from
+/// every set cell of this row's columns) the scan goes on to the exact minimum and answers
+/// its leftmost column: the row's lower envelope's choice, which answered there before
+/// (parabolas tied at `c` are ordered by their columns just left of `c`, where the
+/// leftmost is the lowest: it is on the envelope, and the first there that is lowest at
+/// `c`).
 #[inline]
-fn scan_query(
+fn scan_query(r: usize, c: usize, w: usize, near: impl Fn(usize) -> u32) -> Option<(u32, u32)> {
+    let ri = r as i64;
+    let f = |q: usize| -> Option<u64> {
+        let n = near(q);
+        (n != NONE).then(|| {
+            let d = (ri - n as i64).unsigned_abs();
+            d * d
+        })
+    };
+    let (mut best, mut arg) = (u64::MAX, usize::MAX);
+    if let Some(v) = f(c) {
+        (best, arg) = (v, c);
+    }
+    let mut k = 1usize;
+    loop {
+        let k2 = (k * k) as u64;
+        if k2 >= best || (k > c && c + k >= w) {
+            break;
+        }
+        if k > SCAN {
+            return far_query(c, w, k, best, &near, &f);
+        }
+        if k <= c {
+            if let Some(v) = f(c - k) {
+                if k2 + v < best {
+                    (best, arg) = (k2 + v, c - k);
+                }
+            }
+        }
+        if c + k < w {
+            if let Some(v) = f(c + k) {
+                if k2 + v < best {
+                    (best, arg) = (k2 + v, c + k);
+                }
+            }
+        }
+        k += 1;
+    }
+    if arg == usize::MAX {
+        return None;
+    }
+    // fits u32: checked against the diagonal
+    Some(((near(arg) as usize * w + arg) as u32, best as u32))
+}
+
+/// [`scan_query`] past [`SCAN`] columns, from `k` columns on with the best offer so far
+/// `best`: the exact minimum (every column that could offer as little: `k^2 <= best`),
+/// then the leftmost column offering it.
+#[cold]
+#[inline(never)]
+fn far_query(
+    c: usize,
+    w: usize,
+    mut k: usize,
+    mut best: u64,
+    near: &impl Fn(usize) -> u32,
+    f: &impl Fn(usize) -> Option<u64>,
+) -> Option<(u32, u32)> {
+    loop {
+        let k2 = (k * k) as u64;
+        if k2 > best || (k > c && c + k >= w) {
+            break;
+        }
+        for q in [c.wrapping_sub(k), c + k] {
+            if q < w {
+                if let Some(v) = f(q) {
+                    best = best.min(k2 + v);
+                }
+            }
+        }
+        k += 1;
+    }
+    if best == u64::MAX {
+        return None;
+    }
+    // every column offering `best` is within k - 1 columns of c
+    let lo = c.saturating_sub(k);
+    let q = (lo..w.min(c + k + 1)).find(|&q| {
+        let d = (q as i64 - c as i64).unsigned_abs();
+        f(q).is_some_and(|v| d * d + v == best)
+    })?;
+    // fits u32: checked against the diagonal
+    Some(((near(q) as usize * w + q) as u32, best as u32))
+}
+
+/// The former [`scan_query`], whose far queries built the row's lower envelope: what the
+/// tests hold the longer scan to.
+#[cfg(test)]
+fn scan_query_envelope(
     r: usize,
     c: usize,
     w: usize,
     near: impl Fn(usize) -> u32,
-    whole: Option<&[u32]>,
-    scratch: &mut Scratch,
+    env: &mut Envelope,
 ) -> Option<(u32, u32)> {
     let ri = r as i64;
     let f = |q: usize| -> Option<u64> {
@@ -504,17 +630,8 @@ fn scan_query(
             break;
         }
         if k > SCAN {
-            // far from every set cell of this row's columns: the envelope
-            let Scratch { env, row: buf } = scratch;
-            let row: &[u32] = match whole {
-                Some(row) => row,
-                None => {
-                    buf.clear();
-                    buf.extend((0..w).map(&near));
-                    buf
-                }
-            };
-            let n = env.build(r, row);
+            let row: Vec<u32> = (0..w).map(&near).collect();
+            let n = env.build(r, &row);
             if n == 0 {
                 return None;
             }
@@ -546,7 +663,6 @@ fn scan_query(
     if arg == usize::MAX {
         return None;
     }
-    // fits u32: checked against the diagonal
     Some(((near(arg) as usize * w + arg) as u32, best as u32))
 }
 
@@ -854,22 +970,12 @@ impl Sparse {
 
 impl NearestCell for Sparse {
     fn scratch(&self) -> Scratch {
-        Scratch {
-            env: Envelope::new(self.width),
-            row: Vec::new(),
-        }
+        Scratch { _private: () }
     }
 
     #[inline]
-    fn query(&self, r: usize, c: usize, scratch: &mut Scratch) -> Option<(u32, u32)> {
-        scan_query(
-            r,
-            c,
-            self.width,
-            |q| self.column_nearest(r, q),
-            None,
-            scratch,
-        )
+    fn query(&self, r: usize, c: usize, _scratch: &mut Scratch) -> Option<(u32, u32)> {
+        scan_query(r, c, self.width, |q| self.column_nearest(r, q))
     }
 }
 
@@ -1112,8 +1218,45 @@ pub(crate) mod tests {
                     "{h}x{w} {i}"
                 );
                 assert_eq!(dense.query(r, c, &mut s3), want);
+                assert_eq!(cols.distance(r, c), want.map(|(_, d)| d));
                 assert_eq!(sparse.distance(r, c).0, want.map(|(_, d)| d));
                 assert_eq!(sparse.get(r, c), mask[i]);
+            }
+        }
+    }
+
+    /// Far queries: the longer scan answers the envelope's cell and distance, on wide
+    /// rows with few set cells (most queries past `SCAN` columns) and many ties (set cells
+    /// placed symmetrically, rows of equal distance).
+    #[test]
+    fn far_queries_equal_the_envelope() {
+        let mut next = rng(53);
+        for case in 0..120 {
+            let h = 1 + (next() % 120) as usize;
+            let w = 60 + (next() % 400) as usize;
+            let mut mask = vec![false; h * w];
+            for _ in 0..(next() % 6) {
+                let (r, c) = ((next() % h as u64) as usize, (next() % w as u64) as usize);
+                mask[r * w + c] = true;
+                if case % 2 == 0 {
+                    // its mirror about a column and a row: ties
+                    let (m, rr) = (w - 1 - c, h - 1 - r);
+                    mask[r * w + m] = true;
+                    mask[rr * w + c] = true;
+                    mask[rr * w + m] = true;
+                }
+            }
+            let cols = Columns::new(|i| mask[i], h, w).unwrap();
+            let list: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+            let sparse = Sparse::new(&list, h, w).unwrap();
+            let (mut s1, mut s2) = (cols.scratch(), NearestCell::scratch(&sparse));
+            let mut env = Envelope::new(w);
+            for i in 0..h * w {
+                let (r, c) = (i / w, i % w);
+                let row = &cols.near[r * w..(r + 1) * w];
+                let want = scan_query_envelope(r, c, w, |q| row[q], &mut env);
+                assert_eq!(cols.query(r, c, &mut s1), want, "{h}x{w} ({r}, {c})");
+                assert_eq!(NearestCell::query(&sparse, r, c, &mut s2), want);
             }
         }
     }

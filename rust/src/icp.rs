@@ -15,7 +15,7 @@
 use crate::edt::{EdtError, NearestCell, Scratch, Sparse};
 use crate::se2::{wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// Points per parallel chunk (fixed, so the work split does not depend on the thread count).
 const CHUNK: usize = 4096;
@@ -81,7 +81,38 @@ pub struct Target<'a> {
     cells: &'a [u32],
     /// `cells[row_start[r]..row_start[r + 1]]` are the occupied cells of row `r`.
     row_start: Vec<u32>,
-    local: Vec<OnceLock<Local>>,
+    local: Vec<Slot>,
+}
+
+/// A [`Local`] fitted on first use. Threads sharing the target (the parallel trials of
+/// [`search`]) may fit the same cell at once: they store the same bits, and `ready` is set
+/// (release) after them, so whoever reads it set (acquire) reads the fit.
+#[derive(Default)]
+struct Slot {
+    ready: AtomicBool,
+    bits: [AtomicU64; 4],
+}
+
+impl Slot {
+    #[inline]
+    fn get_or_fit(&self, fit: impl FnOnce() -> Local) -> Local {
+        let b = &self.bits;
+        if self.ready.load(Ordering::Acquire) {
+            let v = |k: usize| f64::from_bits(b[k].load(Ordering::Relaxed));
+            return Local {
+                cx: v(0),
+                cy: v(1),
+                nx: v(2),
+                ny: v(3),
+            };
+        }
+        let l = fit();
+        for (slot, v) in b.iter().zip([l.cx, l.cy, l.nx, l.ny]) {
+            slot.store(v.to_bits(), Ordering::Relaxed);
+        }
+        self.ready.store(true, Ordering::Release);
+        l
+    }
 }
 
 impl<'a> Target<'a> {
@@ -114,11 +145,9 @@ impl<'a> Target<'a> {
         local
             .try_reserve_exact(cells.len())
             .map_err(|_| EdtError::Alloc {
-                bytes: cells
-                    .len()
-                    .saturating_mul(std::mem::size_of::<OnceLock<Local>>()),
+                bytes: cells.len().saturating_mul(std::mem::size_of::<Slot>()),
             })?;
-        local.resize_with(cells.len(), OnceLock::new);
+        local.resize_with(cells.len(), Slot::default);
         Ok(Target {
             row_start,
             frame,
@@ -133,7 +162,7 @@ impl<'a> Target<'a> {
 
     /// The local shape around occupied cell `cells[k]`, fitted when first asked for.
     fn local(&self, k: usize) -> Local {
-        *self.local[k].get_or_init(|| self.fit(self.cells[k]))
+        self.local[k].get_or_fit(|| self.fit(self.cells[k]))
     }
 
     /// Fit a line to the occupied cells of the window around cell `i`.
@@ -294,27 +323,79 @@ fn correspondences(
         });
 }
 
-/// The indices, ascending, of the `keep` smallest distances (ties at the threshold: the
-/// lowest indices). `scratch` holds a copy of the distances for the selection.
-fn trimmed(res: &[Pair], keep: usize, order: &mut Vec<u32>, scratch: &mut Vec<f64>) {
+/// `x`'s place in [`f64::total_cmp`]'s order, as an unsigned integer.
+#[inline]
+fn order_key(x: f64) -> u64 {
+    let b = x.to_bits();
+    b ^ ((((b as i64) >> 63) as u64) >> 1) ^ (1 << 63)
+}
+
+/// The `k`-th smallest (from 0) of `keys` (`k < keys.len()`). Larger sets by a sample: every
+/// [`SAMPLE_STRIDE`]-th key, sorted, gives two keys `lo <= hi` around the `k`-th's place;
+/// one pass counts the keys below `lo` and gathers those in `[lo, hi]`, and when the `k`-th
+/// is among them it is selected there (else from all the keys). `buf` is work space.
+fn kth_smallest(keys: &[u64], k: usize, buf: &mut Vec<u64>) -> u64 {
+    let n = keys.len();
+    buf.clear();
+    if n >= 16 * SAMPLE_STRIDE {
+        buf.extend(keys.iter().step_by(SAMPLE_STRIDE));
+        buf.sort_unstable();
+        let m = buf.len();
+        let margin = 3 * (m as f64).sqrt() as usize + 4;
+        let at = k * m / n;
+        let lo = if at > margin { buf[at - margin] } else { 0 };
+        let hi = if at + margin < m {
+            buf[at + margin]
+        } else {
+            u64::MAX
+        };
+        buf.clear();
+        let mut less = 0usize;
+        for &x in keys {
+            if x < lo {
+                less += 1;
+            } else if x <= hi {
+                buf.push(x);
+            }
+        }
+        // the keys below `lo` come first in the order, then those in [lo, hi]
+        if less <= k && k < less + buf.len() {
+            return *buf.select_nth_unstable(k - less).1;
+        }
+        buf.clear();
+    }
+    buf.extend_from_slice(keys);
+    *buf.select_nth_unstable(k).1
+}
+
+/// Every this many keys make [`kth_smallest`]'s sample.
+const SAMPLE_STRIDE: usize = 16;
+
+/// The indices, ascending, of the `keep` smallest distances (by [`f64::total_cmp`]; ties at
+/// the threshold: the lowest indices). `keys` and `buf` are work space.
+fn trimmed(
+    res: &[Pair],
+    keep: usize,
+    order: &mut Vec<u32>,
+    keys: &mut Vec<u64>,
+    buf: &mut Vec<u64>,
+) {
     order.clear();
     if keep >= res.len() {
         order.extend(0..res.len() as u32);
         return;
     }
-    scratch.clear();
-    scratch.extend(res.iter().map(|p| p.0));
-    let (_, &mut thr, _) = scratch.select_nth_unstable_by(keep - 1, |a, b| a.total_cmp(b));
-    let below = res.iter().filter(|p| p.0.total_cmp(&thr).is_lt()).count();
+    keys.clear();
+    keys.extend(res.iter().map(|p| order_key(p.0)));
+    let thr = kth_smallest(keys, keep - 1, buf);
+    let below = keys.iter().filter(|&&k| k < thr).count();
     let mut ties = keep - below;
-    for (i, p) in res.iter().enumerate() {
-        match p.0.total_cmp(&thr) {
-            std::cmp::Ordering::Less => order.push(i as u32),
-            std::cmp::Ordering::Equal if ties > 0 => {
-                ties -= 1;
-                order.push(i as u32);
-            }
-            _ => {}
+    for (i, &k) in keys.iter().enumerate() {
+        if k < thr {
+            order.push(i as u32);
+        } else if k == thr && ties > 0 {
+            ties -= 1;
+            order.push(i as u32);
         }
     }
 }
@@ -469,10 +550,10 @@ fn run(
         .iter()
         .map(|p| (p.0 - cx).hypot(p.1 - cy))
         .fold(0.0, f64::max);
-    let mut scratch = Vec::with_capacity(points.len());
+    let (mut keys, mut buf) = (Vec::with_capacity(points.len()), Vec::new());
     loop {
         correspondences(points, target, &t, &mut res, &mut memo);
-        trimmed(&res, keep, &mut order, &mut scratch);
+        trimmed(&res, keep, &mut order, &mut keys, &mut buf);
         let rms = (order.iter().map(|&i| res[i as usize].0).sum::<f64>() / keep as f64).sqrt();
         let done = |t: Se2, iterations: usize| IcpResult {
             transform: t,
@@ -492,7 +573,7 @@ fn run(
         t = delta.compose(&t);
         if converged {
             correspondences(points, target, &t, &mut res, &mut memo);
-            trimmed(&res, keep, &mut order, &mut scratch);
+            trimmed(&res, keep, &mut order, &mut keys, &mut buf);
             let rms = (order.iter().map(|&i| res[i as usize].0).sum::<f64>() / keep as f64).sqrt();
             return Some(IcpResult {
                 transform: t,
@@ -556,27 +637,23 @@ pub(crate) fn scatter(
 }
 
 /// [`scatter`] of the set cells of `bits`, read a column of the window at a time: the same
-/// figures (every sum is of small integers, exact in any order, and starts at +0, so no
-/// sum is -0).
+/// figures (every sum is of small integers: summed exactly as integers here, they are the
+/// mask's floating sums, which are exact in any order and start at +0, so none is -0).
 pub(crate) fn scatter_bits(bits: &Sparse, r0: isize, c0: isize, half: isize) -> Scatter {
     let w = bits.width as isize;
-    let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let (mut n, mut sx, mut sy, mut sxx, mut sxy, mut syy) = (0i64, 0i64, 0i64, 0i64, 0i64, 0i64);
     let len = (2 * half + 1) as u32;
+    let h = half as i64;
     for c in (c0 - half).max(0)..=(c0 + half).min(w - 1) {
-        let mut m = bits.column_bits(c as usize, r0 - half, len);
+        let m = bits.column_bits(c as usize, r0 - half, len);
         if m == 0 {
             continue;
         }
-        let (mut k, mut ky, mut kyy) = (0i64, 0i64, 0i64);
-        while m != 0 {
-            let y = m.trailing_zeros() as i64 - half as i64;
-            m &= m - 1;
-            k += 1;
-            ky += y;
-            kyy += y * y;
-        }
-        let x = (c - c0) as f64;
-        let (k, ky, kyy) = (k as f64, ky as f64, kyy as f64);
+        // the set bits' places t (row r0 - half + t): count, sum, sum of squares; then
+        // about the centre row (y = t - half)
+        let (k, s1, s2) = moments(m);
+        let (ky, kyy) = (s1 - h * k, s2 - 2 * h * s1 + h * h * k);
+        let x = (c - c0) as i64;
         n += k;
         sx += x * k;
         sy += ky;
@@ -584,7 +661,44 @@ pub(crate) fn scatter_bits(bits: &Sparse, r0: isize, c0: isize, half: isize) -> 
         sxy += x * ky;
         syy += kyy;
     }
-    scatter_of(n, sx, sy, sxx, sxy, syy)
+    let f = |v: i64| v as f64;
+    scatter_of(f(n), f(sx), f(sy), f(sxx), f(sxy), f(syy))
+}
+
+/// Count, sum and sum of squares of the places of the set bits of `m`: from a table for
+/// seven bits or fewer (windows of half-size up to 3).
+#[inline]
+fn moments(m: u64) -> (i64, i64, i64) {
+    const TABLE: [(u8, u8, u8); 128] = {
+        let mut t = [(0u8, 0u8, 0u8); 128];
+        let mut m = 0;
+        while m < 128 {
+            let mut b = 0;
+            while b < 7 {
+                if (m >> b) & 1 == 1 {
+                    t[m].0 += 1;
+                    t[m].1 += b as u8;
+                    t[m].2 += (b * b) as u8;
+                }
+                b += 1;
+            }
+            m += 1;
+        }
+        t
+    };
+    if m < 128 {
+        let (k, s1, s2) = TABLE[m as usize];
+        return (k as i64, s1 as i64, s2 as i64);
+    }
+    let (mut k, mut s1, mut s2, mut b) = (0i64, 0i64, 0i64, m);
+    while b != 0 {
+        let t = b.trailing_zeros() as i64;
+        b &= b - 1;
+        k += 1;
+        s1 += t;
+        s2 += t * t;
+    }
+    (k, s1, s2)
 }
 
 /// [`Scatter`] from the count and the sums of the window's cells.
@@ -695,6 +809,119 @@ mod tests {
         }
     }
 
+    /// The former trimming: a copy of the distances selected by `total_cmp`.
+    fn trimmed_literal(res: &[Pair], keep: usize) -> Vec<u32> {
+        if keep >= res.len() {
+            return (0..res.len() as u32).collect();
+        }
+        let mut d: Vec<f64> = res.iter().map(|p| p.0).collect();
+        let (_, &mut thr, _) = d.select_nth_unstable_by(keep - 1, |a, b| a.total_cmp(b));
+        let below = res.iter().filter(|p| p.0.total_cmp(&thr).is_lt()).count();
+        let mut ties = keep - below;
+        let mut order = Vec::new();
+        for (i, p) in res.iter().enumerate() {
+            match p.0.total_cmp(&thr) {
+                std::cmp::Ordering::Less => order.push(i as u32),
+                std::cmp::Ordering::Equal if ties > 0 => {
+                    ties -= 1;
+                    order.push(i as u32);
+                }
+                _ => {}
+            }
+        }
+        order
+    }
+
+    /// The sampled selection keeps the literal one's indices: random distances (few
+    /// distinct values, many ties, infinities, NaN and -0), sizes 1-9000, every trim.
+    #[test]
+    fn trimmed_equals_the_literal_selection() {
+        let mut next = rng(43);
+        let (mut order, mut keys, mut buf) = (Vec::new(), Vec::new(), Vec::new());
+        for case in 0..400 {
+            let n = 1 + (next() % [20, 300, 3000, 9000][case % 4]) as usize;
+            let kind = case % 5;
+            let res: Vec<Pair> = (0..n)
+                .map(|_| {
+                    let x = next();
+                    let d = match kind {
+                        0 => (x % 1_000_000) as f64 * 1e-9,
+                        1 => (x % 7) as f64,
+                        2 => [0.0, -0.0, f64::INFINITY, f64::NAN, -f64::NAN, 1.5][(x % 6) as usize],
+                        3 => f64::from_bits(x),
+                        _ => {
+                            ((x % 1000) as f64 * 1e-3).powi(2) + if x % 97 == 0 { 1e3 } else { 0.0 }
+                        }
+                    };
+                    (d, 0, (0.0, 0.0))
+                })
+                .collect();
+            for keep in [1, n / 3 + 1, (n * 4).div_ceil(5), n - 1, n] {
+                let keep = keep.clamp(1, n);
+                trimmed(&res, keep, &mut order, &mut keys, &mut buf);
+                assert_eq!(
+                    order,
+                    trimmed_literal(&res, keep),
+                    "case {case} n {n} keep {keep}"
+                );
+            }
+        }
+    }
+
+    /// The cached fits, asked for by several threads at once (each cell many times), are
+    /// the fits themselves, bit for bit.
+    #[test]
+    fn cached_fits_equal_the_fits() {
+        let mut next = rng(47);
+        let (h, w) = (90usize, 70usize);
+        let mask: Vec<bool> = (0..h * w).map(|i| i % 7 == 0 || next() % 9 == 0).collect();
+        let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+        let bits = Sparse::new(&cells, h, w).unwrap();
+        let columns = bits.columns().unwrap();
+        let frame = Frame {
+            resolution: 0.05,
+            height: h,
+            width: w,
+            origin: Se2 {
+                theta: 0.3,
+                tx: 1.0,
+                ty: -2.0,
+            },
+        };
+        let target = Target::with(frame, &columns, Occupied::Bits(&bits), &cells).unwrap();
+        let want: Vec<[u64; 4]> = cells
+            .iter()
+            .map(|&i| {
+                let l = target.fit(i);
+                [l.cx, l.cy, l.nx, l.ny].map(f64::to_bits)
+            })
+            .collect();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        let got: Vec<Vec<[u64; 4]>> = pool.install(|| {
+            (0..8)
+                .into_par_iter()
+                .map(|t| {
+                    (0..cells.len())
+                        .map(|k| {
+                            let k = (k + t * 13) % cells.len();
+                            let l = target.local(k);
+                            (k, [l.cx, l.cy, l.nx, l.ny].map(f64::to_bits))
+                        })
+                        .fold(vec![[0u64; 4]; cells.len()], |mut v, (k, b)| {
+                            v[k] = b;
+                            v
+                        })
+                })
+                .collect()
+        });
+        for g in got {
+            assert_eq!(g, want);
+        }
+    }
+
     fn bits_of(s: &Scatter) -> [u64; 8] {
         [s.n, s.mx, s.my, s.a, s.b, s.d, s.big, s.small].map(f64::to_bits)
     }
@@ -711,7 +938,7 @@ mod tests {
             let mask: Vec<bool> = (0..h * w).map(|_| next() % 8 < density).collect();
             let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
             let bits = Sparse::new(&cells, h, w).unwrap();
-            for half in [1isize, 2, 3] {
+            for half in [1isize, 2, 3, 4] {
                 for r in 0..h as isize {
                     for c in 0..w as isize {
                         let a = scatter(&mask, h as isize, w as isize, r, c, half);
