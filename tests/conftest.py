@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -11,6 +12,15 @@ REPO = Path(__file__).resolve().parent.parent
 TEST_DATA = REPO / "tests" / "data"
 #: ../shared/data beside the clone (CI puts it there); SLAMQ_SHARED_DATA overrides.
 SHARED_DATA = Path(os.environ.get("SLAMQ_SHARED_DATA", REPO.parent / "shared" / "data"))
+
+
+# Some tests send a Ctrl-C (SIGINT) to a `slamq run` they started. A shell starts a
+# background job (`pytest ... &`, `nohup`) with SIGINT ignored, an ignored signal stays
+# ignored in every child, and Python then never turns it into a KeyboardInterrupt: those
+# tests timed out when the suite ran in the background. A handler (not SIG_IGN) here makes
+# the children start with the default handling, as they do from a terminal or CI.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope="session")
