@@ -12,7 +12,7 @@
 //! Deterministic: correspondences are computed per point in fixed chunks; the trimmed set is
 //! chosen by (distance, point index), a total order; sums run in point order.
 
-use crate::edt::{EdtError, NearestCell, Scratch, Sparse};
+use crate::edt::{EdtError, NearestCell, Sparse};
 use crate::se2::{wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -229,9 +229,9 @@ impl<'a> Target<'a> {
     /// The occupied target cell nearest to cell `i` (from [`Target::cell_of`]): its position
     /// in `cells` and its centre.
     #[inline]
-    fn nearest(&self, i: usize, scratch: &mut Scratch) -> Option<(usize, (f64, f64))> {
+    fn nearest(&self, i: usize) -> Option<(usize, (f64, f64))> {
         let w = self.frame.width;
-        let (n, _) = self.columns.query(i / w, i % w, scratch)?;
+        let (n, _) = self.columns.query(i / w, i % w)?;
         let row = n as usize / w;
         let (a, b) = (
             self.row_start[row] as usize,
@@ -307,13 +307,11 @@ fn correspondences(
         .zip(memo.par_chunks_mut(CHUNK))
         .zip(points.par_chunks(CHUNK))
         .for_each(|((o, m), p)| {
-            let mut scratch: Option<Scratch> = None;
             for ((slot, memo), &(x, y)) in o.iter_mut().zip(m).zip(p) {
                 let q = t.apply(x, y);
                 let cell = target.cell_of(q.0, q.1);
                 if memo.0 != cell {
-                    let scratch = scratch.get_or_insert_with(|| target.columns.scratch());
-                    *memo = (cell, target.nearest(cell, scratch));
+                    *memo = (cell, target.nearest(cell));
                 }
                 *slot = match memo.1 {
                     Some((k, g)) => ((q.0 - g.0).powi(2) + (q.1 - g.1).powi(2), k, q),

@@ -424,14 +424,13 @@ fn agreement(points: &[(f64, f64)], t: &Se2, to: &Prepared, tol: f64) -> (u64, u
     let parts: Vec<(u64, u64)> = points
         .par_chunks(CHUNK)
         .map(|chunk| {
-            let mut scratch = to.columns.scratch();
             let (mut landed, mut near) = (0u64, 0u64);
             for &(x, y) in chunk {
                 let (rf, cf) = a.apply(x, y);
                 let (r, c) = (floor_i64(rf), floor_i64(cf));
                 let inside = r >= 0 && c >= 0 && r < h && c < w;
                 let (rq, cq) = (r.clamp(0, h - 1) as usize, c.clamp(0, w - 1) as usize);
-                let close = match to.columns.query(rq, cq, &mut scratch) {
+                let close = match to.columns.query(rq, cq) {
                     Some((n, _)) => {
                         let n = n as usize;
                         let wd = to.frame.width;

@@ -457,7 +457,7 @@ def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[
         batch = token[:8]
         try:
             # submitted inside the try: the first runs start while later ones are being
-            # submitted, and a Ctrl-C then must stop them too (it was lost: they went on)
+            # submitted, and a Ctrl-C then must stop them too (it escaped the handler before)
             for i in todo:
                 spec, key, pieces = keyed[i]
                 futures[client.submit(

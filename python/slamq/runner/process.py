@@ -275,7 +275,8 @@ def held_interrupts() -> Iterator[None]:
         yield
     finally:
         for s, handler in zip(sigs, old):
-            signal.signal(s, handler)
+            if handler is not None:  # None: set outside Python, cannot be put back
+                signal.signal(s, handler)
 
 
 def stop_group(child: Child | int, grace: tuple[float, float] = (5.0, 5.0)) -> str | None:

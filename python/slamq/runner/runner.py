@@ -537,7 +537,7 @@ def execute(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
     futures = []
     try:
         # submitted inside the try: a run may start while the pool is still starting its
-        # threads, and a Ctrl-C then must stop it too (it was lost, and the run went on)
+        # threads, and a Ctrl-C then must stop it too (it escaped the handler before)
         for i in todo:
             futures.append(pool.submit(work, i))
         for f in futures:
