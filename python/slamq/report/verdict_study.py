@@ -78,6 +78,7 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
     df = df[df["outcome"] == "ok"]
     if sequences is not None:
         df = df[df["sequence"].isin(set(sequences))]
+    df = _with_canonical_corners(df)
     hidden = _hidden(df)
     summary = summarize(hidden)
     rows = []
@@ -103,6 +104,26 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
                      "old_broken_named": bool(block.loc[block["algorithm"] == old,
                                                         "broken"].any()) if old else False})
     return pd.DataFrame(rows)
+
+
+def _with_canonical_corners(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with ``corners_canonical`` (at 0.07 m) filled in where it is missing: it is
+    off by default since 2026-11-27, and the first rule and the old rule rank by it, so a
+    set scored with the defaults is measured with them as the earlier sets were. The
+    second rule does not read it."""
+    from slamq.api import evaluate
+
+    df = df.copy()
+    if "corners_canonical" not in df.columns:
+        df["corners_canonical"] = math.nan
+    missing = df["corners_canonical"].isna() & df["map"].notna()
+    if not missing.any():
+        return df
+    df["corners_canonical"] = df["corners_canonical"].astype(float)
+    df.loc[missing, "corners_canonical"] = [
+        evaluate(str(m), canonical_resolution=0.07).corners_canonical
+        for m in df.loc[missing, "map"]]
+    return df
 
 
 def folder_verdicts(root: Path, by_eye: Path, *,
