@@ -605,31 +605,75 @@ fn resample_sparse(
     let words = w.div_ceil(64);
     let mut e_bits = filled(h * words, 0u64)?;
     let ew_u = eg.width;
-    // a margin far above the rounding of the two affine maps (cells)
+    // a margin far above the rounding of the two affine maps and of the fixed point (cells)
     const EPS: f64 = 1e-3;
     let (hm, wm) = ((h - 1) as i64, (w - 1) as i64);
     let ((a, b), (c, d)) = ((inv.m[0][0], inv.m[0][1]), (inv.m[1][0], inv.m[1][1]));
-    let lo = (a.min(0.0) + b.min(0.0), c.min(0.0) + d.min(0.0));
-    let hi = (a.max(0.0) + b.max(0.0), c.max(0.0) + d.max(0.0));
+    // the estimate square's corners are its cell's corner (er, ec) mapped plus a
+    // combination of one row's and one column's step: its bounding box on the ground
+    // truth's grid is that point plus the offsets' extremes, in 32.32 fixed point with
+    // the margin (the fixed point's rounding, < ew / 2^33 cells, is far below it)
+    let eps = fixed(EPS);
+    let lo = (
+        fixed(a.min(0.0) + b.min(0.0)) - eps,
+        fixed(c.min(0.0) + d.min(0.0)) - eps,
+    );
+    let hi = (
+        fixed(a.max(0.0) + b.max(0.0)) + eps,
+        fixed(c.max(0.0) + d.max(0.0)) + eps,
+    );
+    // every corner of the estimate grid (so every cell corner) maps within 2^26 cells:
+    // no sum below overflows; and a column step's rounding stays far below the margin
+    const REACH: f64 = (1u64 << 26) as f64;
+    let corners = [
+        (0.0, 0.0),
+        (eh as f64, 0.0),
+        (0.0, ew as f64),
+        (eh as f64, ew as f64),
+    ];
+    let near = corners.iter().all(|&(x, y)| {
+        let (p, q) = inv.apply(x, y);
+        p.abs() < REACH && q.abs() < REACH
+    });
+    if !near || ew_u > 1 << 20 {
+        return Ok(None);
+    }
+    let (step_r, step_c) = (fixed(b), fixed(d));
+    let (mut row_start, mut row_end) = (0usize, 0usize);
+    let (mut er, mut base_r, mut base_c) = (0i64, 0i64, 0i64);
     for &i in &e_scan.cells {
-        let (er, ec) = ((i as usize / ew_u) as f64, (i as usize % ew_u) as f64);
-        // the square's corners are (er, ec) mapped plus a combination of one row's and one
-        // column's step: its bounding box is that point plus the offsets' extremes (the
-        // rounding of this sum against mapping each corner is far below EPS)
-        let (pr, pc) = inv.apply(er, ec);
-        let (r0, r1, c0, c1) = (pr + lo.0, pr + hi.0, pc + lo.1, pc + hi.1);
-        // ceil(x - EPS) and floor(x + EPS), inline, clamped onto the grid
-        let (r0, r1) = ((-floor_i64(EPS - r0)).max(0), floor_i64(r1 + EPS).min(hm));
-        let (c0, c1) = ((-floor_i64(EPS - c0)).max(0), floor_i64(c1 + EPS).min(wm));
+        let i = i as usize;
+        if i >= row_end {
+            // a new estimate row (ascending indices): its column 0's corner
+            let r = i / ew_u;
+            (row_start, row_end) = (r * ew_u, (r + 1) * ew_u);
+            er = r as i64;
+            let (p, q) = inv.apply(r as f64, 0.0);
+            (base_r, base_c) = (fixed(p), fixed(q));
+        }
+        let ec = (i - row_start) as i64;
+        let (pr, pc) = (base_r + ec * step_r, base_c + ec * step_c);
+        // ceil(x + lo) and floor(x + hi) (arithmetic shifts floor), clamped onto the grid
+        let (r0, r1) = (
+            (-((-(pr + lo.0)) >> 32)).max(0),
+            ((pr + hi.0) >> 32).min(hm),
+        );
+        let (c0, c1) = (
+            (-((-(pc + lo.1)) >> 32)).max(0),
+            ((pc + hi.1) >> 32).min(wm),
+        );
         if !(r0 <= r1 && c0 <= c1) {
             continue;
         }
-        let (target_r, target_c) = (er as i64, ec as i64);
         for r in r0 as usize..=r1 as usize {
+            let (a, b) = starts[r];
+            let (mut x, mut y) = (a + c0 * sr, b + c0 * sc);
             for c in c0 as usize..=c1 as usize {
-                if at(&starts, sr, sc, r, c) == (target_r, target_c) {
+                if x >> 32 == er && y >> 32 == ec {
                     e_bits[r * words + c / 64] |= 1u64 << (c % 64);
                 }
+                x += sr;
+                y += sc;
             }
         }
     }
