@@ -142,6 +142,37 @@ fn check_params(p: &CompareParams) -> Result<(), CompareError> {
     }
 }
 
+/// Row and column of row-major indices of a grid `w` wide, with no division while the
+/// indices stay in one row (ascending lists); any index is answered exactly.
+#[derive(Clone, Copy)]
+struct RowCol {
+    w: usize,
+    row: usize,
+    start: usize,
+    end: usize,
+}
+
+impl RowCol {
+    fn new(w: usize) -> Self {
+        RowCol {
+            w,
+            row: 0,
+            start: 0,
+            end: 0,
+        }
+    }
+
+    #[inline]
+    fn get(&mut self, i: usize) -> (usize, usize) {
+        if i < self.start || i >= self.end {
+            self.row = i / self.w.max(1);
+            self.start = self.row * self.w;
+            self.end = self.start + self.w;
+        }
+        (self.row, i - self.start)
+    }
+}
+
 /// World centres of the cells `cells` (row-major indices) of `p`.
 fn occupied_points(p: &Placed, cells: &[u32]) -> Result<Vec<(f64, f64)>, CompareError> {
     let w = p.grid.width;
@@ -151,9 +182,10 @@ fn occupied_points(p: &Placed, cells: &[u32]) -> Result<Vec<(f64, f64)>, Compare
             bytes: cells.len().saturating_mul(16),
         })?;
     let to_world = p.frame.cell_to_world();
+    let mut at = RowCol::new(w);
     pts.extend(cells.iter().map(|&i| {
-        let i = i as usize;
-        to_world.apply((i / w) as f64, (i % w) as f64)
+        let (r, c) = at.get(i as usize);
+        to_world.apply(r as f64, c as f64)
     }));
     Ok(pts)
 }
@@ -869,9 +901,10 @@ fn resample_sparse(
     // coverage, tile by tile
     let (th, tw) = (h.div_ceil(TILE), w.div_ceil(TILE));
     let mut g_in_tile = filled(th * tw, 0u32)?;
+    let mut at = RowCol::new(w);
     for &i in &g_scan.cells {
-        let i = i as usize;
-        g_in_tile[(i / w / TILE) * tw + (i % w) / TILE] += 1;
+        let (r, c) = at.get(i as usize);
+        g_in_tile[(r / TILE) * tw + c / TILE] += 1;
     }
     let ebw = e_scan.blocks_wide;
     let (ebh, ebw_i) = (eg.height.div_ceil(BLOCK) as i64, ebw as i64);
@@ -1159,11 +1192,13 @@ fn side(
         .map(|chunk| {
             let mut s = Side::default();
             let mut matched = Vec::with_capacity(if want { chunk.len() } else { 0 });
+            let mut at = RowCol::new(w);
             for &i in chunk {
                 let i = i as usize;
+                let (r, c) = at.get(i);
                 let sq = match other {
-                    Other::Sparse(near) => near.distance(i / w, i % w).0,
-                    Other::Columns(cols) => cols.distance(i / w, i % w),
+                    Other::Sparse(near) => near.distance(r, c).0,
+                    Other::Columns(cols) => cols.distance(r, c),
                 }
                 .unwrap_or(u32::MAX);
                 let ok = sq != u32::MAX && sq as f64 <= tol2;
@@ -1598,6 +1633,24 @@ mod tests {
             let n2 = unsafe { scan_block_avx2(&vals, &unknown, w, &mut k2, below, &mut l2, base) }
                 .unwrap();
             assert_eq!((n1, &k1, &l1), (n2, &k2, &l2), "w {w} n {n} below {below}");
+        }
+    }
+
+    #[test]
+    fn row_col_equals_division() {
+        let mut next = rng(43);
+        for w in [1usize, 2, 7, 64, 1000] {
+            let mut at = RowCol::new(w);
+            // ascending runs, then jumps back and forth
+            let mut i = 0usize;
+            for k in 0..3000 {
+                i = if k % 50 == 49 {
+                    (next() % 100_000) as usize
+                } else {
+                    i + (next() % 5) as usize
+                };
+                assert_eq!(at.get(i), (i / w, i % w), "w {w} i {i}");
+            }
         }
     }
 
