@@ -956,7 +956,14 @@ fn resample_sparse(
                 covered += (k - g_in_tile[ti * tw + tj]) as u64;
                 continue;
             }
-            covered += tile_covered(&starts, sr, sc, (r0, r1), (c0, c1), gu, g_near, eg);
+            // every sample inside the estimate: no bounds to test per cell
+            let inside = lo_r >= 0 && lo_c >= 0 && hi_r < eh && hi_c < ew;
+            let tile = ((r0, r1), (c0, c1));
+            covered += if inside {
+                tile_covered::<true>(&starts, sr, sc, tile, gu, g_near, eg)
+            } else {
+                tile_covered::<false>(&starts, sr, sc, tile, gu, g_near, eg)
+            };
         }
     }
     let free = g_scan.known_cells - g_scan.cells.len() as u64;
@@ -972,15 +979,14 @@ fn resample_sparse(
 /// holding its centre: `starts[r]` plus `c` column steps `(sr, sc)`, in 32.32 fixed point)
 /// is a known cell of `eg`, cell by cell: the positions stepped along each row (exact
 /// integer steps, as [`resample_sparse`]'s `at`), G's bits read a column of the tile at a
-/// time (at most [`TILE`] rows, one word: tiles start at multiples of [`TILE`]).
-#[allow(clippy::too_many_arguments)]
+/// time (at most [`TILE`] rows, one word: tiles start at multiples of [`TILE`]). `INSIDE`:
+/// the caller found every sample of the tile inside the estimate's grid.
 #[inline(never)]
-fn tile_covered(
+fn tile_covered<const INSIDE: bool>(
     starts: &[(i64, i64)],
     sr: i64,
     sc: i64,
-    (r0, r1): (usize, usize),
-    (c0, c1): (usize, usize),
+    ((r0, r1), (c0, c1)): ((usize, usize), (usize, usize)),
     gu: &[bool],
     g_near: &Sparse,
     eg: &Grid,
@@ -997,7 +1003,10 @@ fn tile_covered(
         for (&u, &g) in gu[r * w + c0..r * w + c1].iter().zip(&g_cols) {
             let (ir, ic) = (a >> 32, b >> 32);
             let free = !u && (g >> k) & 1 == 0;
-            if free && ir >= 0 && ic >= 0 && ir < eh && ic < ew {
+            if INSIDE {
+                // branch-free: the sample is a cell of the estimate
+                covered += (free & !eg.unknown[(ir * ew + ic) as usize]) as u64;
+            } else if free && ir >= 0 && ic >= 0 && ir < eh && ic < ew {
                 covered += !eg.unknown[(ir * ew + ic) as usize] as u64;
             }
             a += sr;
