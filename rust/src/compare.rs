@@ -1181,14 +1181,14 @@ fn plan(near: &Sparse, list: &[u32]) -> Result<Option<Columns>, EdtError> {
 }
 
 /// For every cell of `list`, its distance to the other map (queries of `other`): matches
-/// within `tol2`, the sum of distances (truncated at `max`), how many cells `also` holds
-/// for, and (when `want`) the matched flag of every cell.
+/// within `tol2`, the sum of distances (truncated at `max`), how many cells `also` (given
+/// row and column) holds for, and (when `want`) the matched flag of every cell.
 fn side(
     list: &[u32],
     other: Other,
     tol2: f64,
     max: Option<f64>,
-    also: impl Fn(usize) -> bool + Sync,
+    also: impl Fn(usize, usize) -> bool + Sync,
     want: bool,
 ) -> (Side, Vec<bool>) {
     const CHUNK: usize = 4096;
@@ -1215,7 +1215,7 @@ fn side(
                 let (d, t) = distance(sq, max);
                 s.sum += d;
                 s.truncated += t as u64;
-                s.both += also(i) as u64;
+                s.both += also(r, c) as u64;
                 if want {
                     matched.push(ok);
                 }
@@ -1341,7 +1341,7 @@ pub fn compare(
         Some(c) => Other::Columns(c),
         None => Other::Sparse(&e_near),
     };
-    let (gs, g_matched) = side(g_list, e_other, tol2, max, |_| false, want_cells);
+    let (gs, g_matched) = side(g_list, e_other, tol2, max, |_, _| false, want_cells);
     let g_other = match (&g_columns, &g_far) {
         (Some(c), _) | (None, Some(c)) => Other::Columns(c),
         (None, None) => Other::Sparse(&g_near),
@@ -1351,7 +1351,7 @@ pub fn compare(
         g_other,
         tol2,
         max,
-        |i| g_near.get_index(i),
+        |r, c| g_near.get(r, c),
         want_cells,
     );
     if want_cells {
