@@ -142,6 +142,37 @@ fn check_params(p: &CompareParams) -> Result<(), CompareError> {
     }
 }
 
+/// Row and column of row-major indices of a grid `w` wide, with no division while the
+/// indices stay in one row (ascending lists); any index is answered exactly.
+#[derive(Clone, Copy)]
+struct RowCol {
+    w: usize,
+    row: usize,
+    start: usize,
+    end: usize,
+}
+
+impl RowCol {
+    fn new(w: usize) -> Self {
+        RowCol {
+            w,
+            row: 0,
+            start: 0,
+            end: 0,
+        }
+    }
+
+    #[inline]
+    fn get(&mut self, i: usize) -> (usize, usize) {
+        if i < self.start || i >= self.end {
+            self.row = i / self.w.max(1);
+            self.start = self.row * self.w;
+            self.end = self.start + self.w;
+        }
+        (self.row, i - self.start)
+    }
+}
+
 /// World centres of the cells `cells` (row-major indices) of `p`.
 fn occupied_points(p: &Placed, cells: &[u32]) -> Result<Vec<(f64, f64)>, CompareError> {
     let w = p.grid.width;
@@ -151,9 +182,10 @@ fn occupied_points(p: &Placed, cells: &[u32]) -> Result<Vec<(f64, f64)>, Compare
             bytes: cells.len().saturating_mul(16),
         })?;
     let to_world = p.frame.cell_to_world();
+    let mut at = RowCol::new(w);
     pts.extend(cells.iter().map(|&i| {
-        let i = i as usize;
-        to_world.apply((i / w) as f64, (i % w) as f64)
+        let (r, c) = at.get(i as usize);
+        to_world.apply(r as f64, c as f64)
     }));
     Ok(pts)
 }
@@ -236,10 +268,14 @@ fn push_run(
 /// One block row of [`scan`] (`n <= BLOCK` rows of width `w`, `base` the first cell's
 /// index): append to `list` the known cells of `vals`/`unknown` (unknown flags as 0/1
 /// bytes) with value below `below`, row by row; add the known cells of each block to
-/// `krow`; returns the known cells. SSE2 (every x86-64) two blocks at a time
-/// ([`scan_block_sse2`]), else [`scan_row_scalar`] row by row: the same lists and counts.
+/// `krow`; returns the known cells. With `avx2` (which [`scan_avx2`] found) four blocks at
+/// a time ([`scan_block_avx2`]), else SSE2 (every x86-64) two at a time
+/// ([`scan_block_sse2`]), elsewhere [`scan_row_scalar`] row by row: the same lists and
+/// counts.
+#[allow(clippy::too_many_arguments)]
 #[inline]
 fn scan_block(
+    avx2: bool,
     vals: &[u8],
     unknown: &[u8],
     w: usize,
@@ -250,11 +286,29 @@ fn scan_block(
 ) -> Result<u64, EdtError> {
     #[cfg(target_arch = "x86_64")]
     {
-        scan_block_sse2(vals, unknown, w, krow, below, list, base)
+        if avx2 {
+            // SAFETY: the caller found AVX2 present
+            unsafe { scan_block_avx2(vals, unknown, w, krow, below, list, base) }
+        } else {
+            scan_block_sse2(vals, unknown, w, krow, below, list, base)
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
+        let _ = avx2;
         scan_block_scalar(vals, unknown, w, krow, below, list, base)
+    }
+}
+
+/// Whether [`scan_block`] may take its AVX2 path.
+fn scan_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
@@ -417,6 +471,136 @@ fn scan_block_sse2(
     Ok(known)
 }
 
+/// [`scan_block_sse2`] with AVX2: thirty-two cells (four blocks) at once, the same masks
+/// and bytewise sums (one `vpsadbw` per four blocks at the block row's end); the rest of a
+/// row by one SSE2 pair when 16 columns or more remain, then [`scan_row_scalar`].
+///
+/// # Safety
+///
+/// AVX2 must be present.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn scan_block_avx2(
+    vals: &[u8],
+    unknown: &[u8],
+    w: usize,
+    krow: &mut [u8],
+    below: usize,
+    list: &mut Vec<u32>,
+    base: usize,
+) -> Result<u64, EdtError> {
+    use std::arch::x86_64::*;
+    const QUAD: usize = 4 * BLOCK;
+    const PAIR: usize = 2 * BLOCK;
+    let n = vals.len().min(unknown.len()) / w.max(1);
+    let quads = w / QUAD;
+    let pair = w - quads * QUAD >= PAIR;
+    let done = quads * QUAD + if pair { PAIR } else { 0 };
+    let mut known = 0u64;
+    // the list has room for `QUAD` more cells, else grows
+    let room = |list: &mut Vec<u32>| {
+        if list.len() + QUAD > list.capacity() {
+            list.try_reserve(list.capacity().max(1024))
+                .map_err(|_| EdtError::Alloc {
+                    bytes: list.capacity().saturating_mul(8),
+                })
+        } else {
+            Ok(())
+        }
+    };
+    // SAFETY: AVX2 (so SSE2) is present (the caller's contract); every load reads 32 bytes
+    // at `k * w + q * 32` with `q < quads`, or 16 at `k * w + quads * 32` when `pair`,
+    // with `k < n`: inside both slices (their common length is at least `n * w`)
+    unsafe {
+        let zero = _mm256_setzero_si256();
+        let top = _mm256_set1_epi8(below.saturating_sub(1).min(255) as u8 as i8);
+        let (zero1, top1) = (_mm_setzero_si128(), _mm256_castsi256_si128(top));
+        // below == 0: nothing is occupied (the masks are cleared by `keep`)
+        let keep: u32 = if below == 0 { 0 } else { u32::MAX };
+        let mut acc = [zero; 64];
+        let mut acc_big: Vec<__m256i> = Vec::new();
+        let acc: &mut [__m256i] = if quads <= acc.len() {
+            &mut acc[..quads]
+        } else {
+            acc_big.resize(quads, zero);
+            &mut acc_big
+        };
+        let mut acc1 = zero1;
+        for k in 0..n {
+            let (vr, ur) = (vals.as_ptr().add(k * w), unknown.as_ptr().add(k * w));
+            let row_base = base + k * w;
+            for (q, a) in acc.iter_mut().enumerate() {
+                let v = _mm256_loadu_si256(vr.add(q * QUAD).cast());
+                let u = _mm256_loadu_si256(ur.add(q * QUAD).cast());
+                *a = _mm256_add_epi8(*a, u);
+                let occ = _mm256_and_si256(
+                    _mm256_cmpeq_epi8(_mm256_min_epu8(v, top), v),
+                    _mm256_cmpeq_epi8(u, zero),
+                );
+                let mut m = _mm256_movemask_epi8(occ) as u32 & keep;
+                if m != 0 {
+                    room(list)?;
+                    let at = row_base + q * QUAD;
+                    while m != 0 {
+                        list.push((at + m.trailing_zeros() as usize) as u32);
+                        m &= m - 1;
+                    }
+                }
+            }
+            if pair {
+                let at = quads * QUAD;
+                let v = _mm_loadu_si128(vr.add(at).cast());
+                let u = _mm_loadu_si128(ur.add(at).cast());
+                acc1 = _mm_add_epi8(acc1, u);
+                let occ = _mm_and_si128(
+                    _mm_cmpeq_epi8(_mm_min_epu8(v, top1), v),
+                    _mm_cmpeq_epi8(u, zero1),
+                );
+                let mut m = _mm_movemask_epi8(occ) as u32 & keep;
+                if m != 0 {
+                    room(list)?;
+                    let at = row_base + at;
+                    while m != 0 {
+                        list.push((at + m.trailing_zeros() as usize) as u32);
+                        m &= m - 1;
+                    }
+                }
+            }
+            if done < w {
+                known += scan_row_scalar(
+                    &vals[k * w + done..(k + 1) * w],
+                    &unknown[k * w + done..(k + 1) * w],
+                    &mut krow[done / BLOCK..],
+                    below,
+                    list,
+                    row_base + done,
+                )?;
+            }
+        }
+        let cells = (n * BLOCK) as u8;
+        for (q, a) in acc.iter().enumerate() {
+            let mut sums = [0u64; 4];
+            _mm256_storeu_si256(sums.as_mut_ptr().cast(), _mm256_sad_epu8(*a, zero));
+            for (j, &u) in sums.iter().enumerate() {
+                krow[4 * q + j] += cells - u as u8;
+                known += cells as u64 - u;
+            }
+        }
+        if pair {
+            let sad = _mm_sad_epu8(acc1, zero1);
+            let (u0, u1) = (
+                _mm_cvtsi128_si32(sad) as u8,
+                _mm_extract_epi16::<4>(sad) as u8,
+            );
+            let q = quads * 4;
+            krow[q] += cells - u0;
+            krow[q + 1] += cells - u1;
+            known += 2 * cells as u64 - u0 as u64 - u1 as u64;
+        }
+    }
+    Ok(known)
+}
+
 /// [`Scan`] of grid `g`, occupied meaning `occ[value]` for a known cell. Bands of rows in
 /// parallel, their lists joined in order.
 fn scan(g: &Grid, occ: &[bool; 256]) -> Result<Scan, CompareError> {
@@ -431,6 +615,7 @@ fn scan(g: &Grid, occ: &[bool; 256]) -> Result<Scan, CompareError> {
     let bw = w.div_ceil(BLOCK);
     let mut known = filled(h.div_ceil(BLOCK) * bw, 0u8)?;
     let band = BAND_ROWS * w;
+    let avx2 = scan_avx2();
     let parts: Vec<(Vec<u32>, u64)> = known
         .par_chunks_mut((BAND_ROWS / BLOCK) * bw)
         .zip(g.values.par_chunks(band).zip(g.unknown.par_chunks(band)))
@@ -442,7 +627,7 @@ fn scan(g: &Grid, occ: &[bool; 256]) -> Result<Scan, CompareError> {
             for (k, (vb, ub)) in vals.chunks(rows).zip(unk.chunks(rows)).enumerate() {
                 let r = b * BAND_ROWS + k * BLOCK;
                 let krow = &mut kn[k * bw..(k + 1) * bw];
-                total += scan_block(vb, bytes(ub), w, krow, below, &mut list, r * w)?;
+                total += scan_block(avx2, vb, bytes(ub), w, krow, below, &mut list, r * w)?;
             }
             Ok((list, total))
         })
@@ -605,31 +790,75 @@ fn resample_sparse(
     let words = w.div_ceil(64);
     let mut e_bits = filled(h * words, 0u64)?;
     let ew_u = eg.width;
-    // a margin far above the rounding of the two affine maps (cells)
+    // a margin far above the rounding of the two affine maps and of the fixed point (cells)
     const EPS: f64 = 1e-3;
     let (hm, wm) = ((h - 1) as i64, (w - 1) as i64);
     let ((a, b), (c, d)) = ((inv.m[0][0], inv.m[0][1]), (inv.m[1][0], inv.m[1][1]));
-    let lo = (a.min(0.0) + b.min(0.0), c.min(0.0) + d.min(0.0));
-    let hi = (a.max(0.0) + b.max(0.0), c.max(0.0) + d.max(0.0));
+    // the estimate square's corners are its cell's corner (er, ec) mapped plus a
+    // combination of one row's and one column's step: its bounding box on the ground
+    // truth's grid is that point plus the offsets' extremes, in 32.32 fixed point with
+    // the margin (the fixed point's rounding, < ew / 2^33 cells, is far below it)
+    let eps = fixed(EPS);
+    let lo = (
+        fixed(a.min(0.0) + b.min(0.0)) - eps,
+        fixed(c.min(0.0) + d.min(0.0)) - eps,
+    );
+    let hi = (
+        fixed(a.max(0.0) + b.max(0.0)) + eps,
+        fixed(c.max(0.0) + d.max(0.0)) + eps,
+    );
+    // every corner of the estimate grid (so every cell corner) maps within 2^26 cells:
+    // no sum below overflows; and a column step's rounding stays far below the margin
+    const REACH: f64 = (1u64 << 26) as f64;
+    let corners = [
+        (0.0, 0.0),
+        (eh as f64, 0.0),
+        (0.0, ew as f64),
+        (eh as f64, ew as f64),
+    ];
+    let near = corners.iter().all(|&(x, y)| {
+        let (p, q) = inv.apply(x, y);
+        p.abs() < REACH && q.abs() < REACH
+    });
+    if !near || ew_u > 1 << 20 {
+        return Ok(None);
+    }
+    let (step_r, step_c) = (fixed(b), fixed(d));
+    let (mut row_start, mut row_end) = (0usize, 0usize);
+    let (mut er, mut base_r, mut base_c) = (0i64, 0i64, 0i64);
     for &i in &e_scan.cells {
-        let (er, ec) = ((i as usize / ew_u) as f64, (i as usize % ew_u) as f64);
-        // the square's corners are (er, ec) mapped plus a combination of one row's and one
-        // column's step: its bounding box is that point plus the offsets' extremes (the
-        // rounding of this sum against mapping each corner is far below EPS)
-        let (pr, pc) = inv.apply(er, ec);
-        let (r0, r1, c0, c1) = (pr + lo.0, pr + hi.0, pc + lo.1, pc + hi.1);
-        // ceil(x - EPS) and floor(x + EPS), inline, clamped onto the grid
-        let (r0, r1) = ((-floor_i64(EPS - r0)).max(0), floor_i64(r1 + EPS).min(hm));
-        let (c0, c1) = ((-floor_i64(EPS - c0)).max(0), floor_i64(c1 + EPS).min(wm));
+        let i = i as usize;
+        if i >= row_end {
+            // a new estimate row (ascending indices): its column 0's corner
+            let r = i / ew_u;
+            (row_start, row_end) = (r * ew_u, (r + 1) * ew_u);
+            er = r as i64;
+            let (p, q) = inv.apply(r as f64, 0.0);
+            (base_r, base_c) = (fixed(p), fixed(q));
+        }
+        let ec = (i - row_start) as i64;
+        let (pr, pc) = (base_r + ec * step_r, base_c + ec * step_c);
+        // ceil(x + lo) and floor(x + hi) (arithmetic shifts floor), clamped onto the grid
+        let (r0, r1) = (
+            (-((-(pr + lo.0)) >> 32)).max(0),
+            ((pr + hi.0) >> 32).min(hm),
+        );
+        let (c0, c1) = (
+            (-((-(pc + lo.1)) >> 32)).max(0),
+            ((pc + hi.1) >> 32).min(wm),
+        );
         if !(r0 <= r1 && c0 <= c1) {
             continue;
         }
-        let (target_r, target_c) = (er as i64, ec as i64);
         for r in r0 as usize..=r1 as usize {
+            let (a, b) = starts[r];
+            let (mut x, mut y) = (a + c0 * sr, b + c0 * sc);
             for c in c0 as usize..=c1 as usize {
-                if at(&starts, sr, sc, r, c) == (target_r, target_c) {
+                if x >> 32 == er && y >> 32 == ec {
                     e_bits[r * words + c / 64] |= 1u64 << (c % 64);
                 }
+                x += sr;
+                y += sc;
             }
         }
     }
@@ -672,9 +901,10 @@ fn resample_sparse(
     // coverage, tile by tile
     let (th, tw) = (h.div_ceil(TILE), w.div_ceil(TILE));
     let mut g_in_tile = filled(th * tw, 0u32)?;
+    let mut at = RowCol::new(w);
     for &i in &g_scan.cells {
-        let i = i as usize;
-        g_in_tile[(i / w / TILE) * tw + (i % w) / TILE] += 1;
+        let (r, c) = at.get(i as usize);
+        g_in_tile[(r / TILE) * tw + c / TILE] += 1;
     }
     let ebw = e_scan.blocks_wide;
     let (ebh, ebw_i) = (eg.height.div_ceil(BLOCK) as i64, ebw as i64);
@@ -726,7 +956,14 @@ fn resample_sparse(
                 covered += (k - g_in_tile[ti * tw + tj]) as u64;
                 continue;
             }
-            covered += tile_covered(&starts, sr, sc, (r0, r1), (c0, c1), gu, g_near, eg);
+            // every sample inside the estimate: no bounds to test per cell
+            let inside = lo_r >= 0 && lo_c >= 0 && hi_r < eh && hi_c < ew;
+            let tile = ((r0, r1), (c0, c1));
+            covered += if inside {
+                tile_covered::<true>(&starts, sr, sc, tile, gu, g_near, eg)
+            } else {
+                tile_covered::<false>(&starts, sr, sc, tile, gu, g_near, eg)
+            };
         }
     }
     let free = g_scan.known_cells - g_scan.cells.len() as u64;
@@ -742,15 +979,14 @@ fn resample_sparse(
 /// holding its centre: `starts[r]` plus `c` column steps `(sr, sc)`, in 32.32 fixed point)
 /// is a known cell of `eg`, cell by cell: the positions stepped along each row (exact
 /// integer steps, as [`resample_sparse`]'s `at`), G's bits read a column of the tile at a
-/// time (at most [`TILE`] rows, one word: tiles start at multiples of [`TILE`]).
-#[allow(clippy::too_many_arguments)]
+/// time (at most [`TILE`] rows, one word: tiles start at multiples of [`TILE`]). `INSIDE`:
+/// the caller found every sample of the tile inside the estimate's grid.
 #[inline(never)]
-fn tile_covered(
+fn tile_covered<const INSIDE: bool>(
     starts: &[(i64, i64)],
     sr: i64,
     sc: i64,
-    (r0, r1): (usize, usize),
-    (c0, c1): (usize, usize),
+    ((r0, r1), (c0, c1)): ((usize, usize), (usize, usize)),
     gu: &[bool],
     g_near: &Sparse,
     eg: &Grid,
@@ -767,7 +1003,10 @@ fn tile_covered(
         for (&u, &g) in gu[r * w + c0..r * w + c1].iter().zip(&g_cols) {
             let (ir, ic) = (a >> 32, b >> 32);
             let free = !u && (g >> k) & 1 == 0;
-            if free && ir >= 0 && ic >= 0 && ir < eh && ic < ew {
+            if INSIDE {
+                // branch-free: the sample is a cell of the estimate
+                covered += (free & !eg.unknown[(ir * ew + ic) as usize]) as u64;
+            } else if free && ir >= 0 && ic >= 0 && ir < eh && ic < ew {
                 covered += !eg.unknown[(ir * ew + ic) as usize] as u64;
             }
             a += sr;
@@ -942,14 +1181,14 @@ fn plan(near: &Sparse, list: &[u32]) -> Result<Option<Columns>, EdtError> {
 }
 
 /// For every cell of `list`, its distance to the other map (queries of `other`): matches
-/// within `tol2`, the sum of distances (truncated at `max`), how many cells `also` holds
-/// for, and (when `want`) the matched flag of every cell.
+/// within `tol2`, the sum of distances (truncated at `max`), how many cells `also` (given
+/// row and column) holds for, and (when `want`) the matched flag of every cell.
 fn side(
     list: &[u32],
     other: Other,
     tol2: f64,
     max: Option<f64>,
-    also: impl Fn(usize) -> bool + Sync,
+    also: impl Fn(usize, usize) -> bool + Sync,
     want: bool,
 ) -> (Side, Vec<bool>) {
     const CHUNK: usize = 4096;
@@ -962,11 +1201,13 @@ fn side(
         .map(|chunk| {
             let mut s = Side::default();
             let mut matched = Vec::with_capacity(if want { chunk.len() } else { 0 });
+            let mut at = RowCol::new(w);
             for &i in chunk {
                 let i = i as usize;
+                let (r, c) = at.get(i);
                 let sq = match other {
-                    Other::Sparse(near) => near.distance(i / w, i % w).0,
-                    Other::Columns(cols) => cols.distance(i / w, i % w),
+                    Other::Sparse(near) => near.distance(r, c).0,
+                    Other::Columns(cols) => cols.distance(r, c),
                 }
                 .unwrap_or(u32::MAX);
                 let ok = sq != u32::MAX && sq as f64 <= tol2;
@@ -974,7 +1215,7 @@ fn side(
                 let (d, t) = distance(sq, max);
                 s.sum += d;
                 s.truncated += t as u64;
-                s.both += also(i) as u64;
+                s.both += also(r, c) as u64;
                 if want {
                     matched.push(ok);
                 }
@@ -1100,7 +1341,7 @@ pub fn compare(
         Some(c) => Other::Columns(c),
         None => Other::Sparse(&e_near),
     };
-    let (gs, g_matched) = side(g_list, e_other, tol2, max, |_| false, want_cells);
+    let (gs, g_matched) = side(g_list, e_other, tol2, max, |_, _| false, want_cells);
     let g_other = match (&g_columns, &g_far) {
         (Some(c), _) | (None, Some(c)) => Other::Columns(c),
         (None, None) => Other::Sparse(&g_near),
@@ -1110,7 +1351,7 @@ pub fn compare(
         g_other,
         tol2,
         max,
-        |i| g_near.get_index(i),
+        |r, c| g_near.get(r, c),
         want_cells,
     );
     if want_cells {
@@ -1366,6 +1607,59 @@ mod tests {
             let n1 = scan_block_scalar(&vals, &unknown, w, &mut k1, below, &mut l1, base).unwrap();
             let n2 = scan_block_sse2(&vals, &unknown, w, &mut k2, below, &mut l2, base).unwrap();
             assert_eq!((n1, &k1, &l1), (n2, &k2, &l2), "w {w} n {n} below {below}");
+        }
+    }
+
+    /// [`scan_block_avx2`] against the scalar rows: block rows of 1-8 rows, every width to
+    /// 140 (quads of blocks, a pair, an odd block, a short tail) and some past the 64
+    /// quads kept on the stack, every threshold.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn scan_block_avx2_equals_scalar() {
+        if !scan_avx2() {
+            return;
+        }
+        let mut next = rng(41);
+        for case in 0..4000 {
+            let w = if case % 100 == 99 {
+                2040 + case % 70
+            } else {
+                1 + case % 140
+            };
+            let n = 1 + (next() % 8) as usize;
+            let below = [0usize, 1, 2, 77, 128, 129, 200, 255, 256][case % 9];
+            let vals: Vec<u8> = (0..n * w).map(|_| next() as u8).collect();
+            let unknown: Vec<u8> = (0..n * w)
+                .map(|_| (next() % 5 < case as u64 % 3) as u8)
+                .collect();
+            let bw = w.div_ceil(BLOCK);
+            let start: Vec<u8> = (0..bw).map(|_| (next() % 50) as u8).collect();
+            let base = (next() % 1000) as usize;
+            let (mut k1, mut k2) = (start.clone(), start.clone());
+            let (mut l1, mut l2) = (vec![7u32], vec![7u32]);
+            let n1 = scan_block_scalar(&vals, &unknown, w, &mut k1, below, &mut l1, base).unwrap();
+            // SAFETY: AVX2 is present (checked above)
+            let n2 = unsafe { scan_block_avx2(&vals, &unknown, w, &mut k2, below, &mut l2, base) }
+                .unwrap();
+            assert_eq!((n1, &k1, &l1), (n2, &k2, &l2), "w {w} n {n} below {below}");
+        }
+    }
+
+    #[test]
+    fn row_col_equals_division() {
+        let mut next = rng(43);
+        for w in [1usize, 2, 7, 64, 1000] {
+            let mut at = RowCol::new(w);
+            // ascending runs, then jumps back and forth
+            let mut i = 0usize;
+            for k in 0..3000 {
+                i = if k % 50 == 49 {
+                    (next() % 100_000) as usize
+                } else {
+                    i + (next() % 5) as usize
+                };
+                assert_eq!(at.get(i), (i / w, i % w), "w {w} i {i}");
+            }
         }
     }
 
