@@ -12,7 +12,7 @@
 //! Deterministic: correspondences are computed per point in fixed chunks; the trimmed set is
 //! chosen by (distance, point index), a total order; sums run in point order.
 
-use crate::edt::{EdtError, NearestCell, Sparse};
+use crate::edt::{Columns, EdtError, NearestCell, Sparse};
 use crate::se2::{wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -74,6 +74,9 @@ pub struct Target<'a> {
     /// Nearest-occupied-cell queries ([`crate::edt::Columns`] or [`crate::edt::Sparse`]:
     /// the same answers).
     columns: &'a dyn NearestCell,
+    /// `columns` when they are [`Columns`], called directly (no dynamic call, no division
+    /// of the cell index).
+    dense: Option<&'a Columns>,
     /// Which cells are occupied.
     occupied: Occupied<'a>,
     /// Occupied cells (row-major indices, ascending) and their local shapes (fitted on
@@ -154,6 +157,7 @@ impl<'a> Target<'a> {
             to_cell: frame.world_to_cell_affine(),
             to_world: frame.cell_to_world(),
             columns,
+            dense: columns.as_columns(),
             occupied,
             local,
             cells,
@@ -216,30 +220,36 @@ impl<'a> Target<'a> {
         }
     }
 
-    /// The cell holding world point `(x, y)` (clamped onto the grid for points outside
-    /// it), row-major.
+    /// The cell (row, column) holding world point `(x, y)` (clamped onto the grid for
+    /// points outside it).
     #[inline]
-    fn cell_of(&self, x: f64, y: f64) -> usize {
+    fn cell_of(&self, x: f64, y: f64) -> (usize, usize) {
         let (r, c) = self.to_cell.apply(x, y);
         let h = self.frame.height as i64 - 1;
         let w = self.frame.width as i64 - 1;
-        floor_clamp(r, h) * self.frame.width + floor_clamp(c, w)
+        (floor_clamp(r, h), floor_clamp(c, w))
     }
 
-    /// The occupied target cell nearest to cell `i` (from [`Target::cell_of`]): its position
-    /// in `cells` and its centre.
+    /// The occupied target cell nearest to cell `(r, c)` (from [`Target::cell_of`]): its
+    /// position in `cells` and its centre.
     #[inline]
-    fn nearest(&self, i: usize) -> Option<(usize, (f64, f64))> {
+    fn nearest(&self, r: usize, c: usize) -> Option<(usize, (f64, f64))> {
         let w = self.frame.width;
-        let (n, _) = self.columns.query(i / w, i % w)?;
-        let row = n as usize / w;
+        let (row, col) = match self.dense {
+            Some(columns) => columns.nearest_cell(r, c)?,
+            None => {
+                let (n, _) = self.columns.query(r, c)?;
+                (n as usize / w, n as usize % w)
+            }
+        };
         let (a, b) = (
             self.row_start[row] as usize,
             self.row_start[row + 1] as usize,
         );
+        // fits u32: the cell's index (checked by the column pass)
+        let n = (row * w + col) as u32;
         let k = a + self.cells[a..b].binary_search(&n).ok()?;
-        let n = n as usize;
-        Some((k, self.to_world.apply((n / w) as f64, (n % w) as f64)))
+        Some((k, self.to_world.apply(row as f64, col as f64)))
     }
 
     /// World centroid of the occupied cells (None when there is none).
@@ -309,9 +319,10 @@ fn correspondences(
         .for_each(|((o, m), p)| {
             for ((slot, memo), &(x, y)) in o.iter_mut().zip(m).zip(p) {
                 let q = t.apply(x, y);
-                let cell = target.cell_of(q.0, q.1);
+                let (r, c) = target.cell_of(q.0, q.1);
+                let cell = r * target.frame.width + c;
                 if memo.0 != cell {
-                    *memo = (cell, target.nearest(cell));
+                    *memo = (cell, target.nearest(r, c));
                 }
                 *slot = match memo.1 {
                     Some((k, g)) => ((q.0 - g.0).powi(2) + (q.1 - g.1).powi(2), k, q),
@@ -917,6 +928,44 @@ mod tests {
         });
         for g in got {
             assert_eq!(g, want);
+        }
+    }
+
+    /// The direct column queries (`Columns::nearest_cell`) and the trait's (`Sparse`, the
+    /// cell index divided) give every cell the same target cell and centre.
+    #[test]
+    fn direct_queries_equal_the_trait_queries() {
+        let mut next = rng(61);
+        for case in 0..40 {
+            let (h, w) = (1 + (next() % 80) as usize, 1 + (next() % 120) as usize);
+            let density = [1u64, 5, 40, 300][case % 4];
+            let mask: Vec<bool> = (0..h * w).map(|_| next() % 1000 < density).collect();
+            let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+            let bits = Sparse::new(&cells, h, w).unwrap();
+            let columns = bits.columns().unwrap();
+            let frame = Frame {
+                resolution: 0.05,
+                height: h,
+                width: w,
+                origin: Se2 {
+                    theta: -0.7,
+                    tx: 3.0,
+                    ty: 0.5,
+                },
+            };
+            let direct = Target::with(frame, &columns, Occupied::Bits(&bits), &cells).unwrap();
+            let other = Target::with(frame, &bits, Occupied::Bits(&bits), &cells).unwrap();
+            assert!(direct.dense.is_some() && other.dense.is_none());
+            for r in 0..h {
+                for c in 0..w {
+                    let (a, b) = (direct.nearest(r, c), other.nearest(r, c));
+                    assert_eq!(a.map(|(k, _)| k), b.map(|(k, _)| k), "{h}x{w} ({r}, {c})");
+                    let bits = |p: Option<(usize, (f64, f64))>| {
+                        p.map(|(_, g)| (g.0.to_bits(), g.1.to_bits()))
+                    };
+                    assert_eq!(bits(a), bits(b));
+                }
+            }
         }
     }
 
