@@ -339,11 +339,13 @@ fn order_key(x: f64) -> u64 {
     b ^ ((((b as i64) >> 63) as u64) >> 1) ^ (1 << 63)
 }
 
-/// The `k`-th smallest (from 0) of `keys` (`k < keys.len()`). Larger sets by a sample: every
-/// [`SAMPLE_STRIDE`]-th key, sorted, gives two keys `lo <= hi` around the `k`-th's place;
-/// one pass counts the keys below `lo` and gathers those in `[lo, hi]`, and when the `k`-th
-/// is among them it is selected there (else from all the keys). `buf` is work space.
-fn kth_smallest(keys: &[u64], k: usize, buf: &mut Vec<u64>) -> u64 {
+/// The `k`-th smallest (from 0) of `keys` (`k < keys.len()`) and how many keys are below it.
+/// Larger sets by a sample: every [`SAMPLE_STRIDE`]-th key, sorted, gives two keys
+/// `lo <= hi` around the `k`-th's place; one pass counts the keys below `lo` and gathers
+/// those in `[lo, hi]`, and when the `k`-th is among them it is selected there, and the
+/// keys below it are those below `lo` and the gathered ones below it (else it is selected
+/// from all the keys, which are then counted). `buf` is work space.
+fn kth_smallest(keys: &[u64], k: usize, buf: &mut Vec<u64>) -> (u64, usize) {
     let n = keys.len();
     buf.clear();
     if n >= 16 * SAMPLE_STRIDE {
@@ -369,12 +371,14 @@ fn kth_smallest(keys: &[u64], k: usize, buf: &mut Vec<u64>) -> u64 {
         }
         // the keys below `lo` come first in the order, then those in [lo, hi]
         if less <= k && k < less + buf.len() {
-            return *buf.select_nth_unstable(k - less).1;
+            let thr = *buf.select_nth_unstable(k - less).1;
+            return (thr, less + buf.iter().filter(|&&x| x < thr).count());
         }
         buf.clear();
     }
     buf.extend_from_slice(keys);
-    *buf.select_nth_unstable(k).1
+    let thr = *buf.select_nth_unstable(k).1;
+    (thr, keys.iter().filter(|&&x| x < thr).count())
 }
 
 /// Every this many keys make [`kth_smallest`]'s sample.
@@ -396,8 +400,7 @@ fn trimmed(
     }
     keys.clear();
     keys.extend(res.iter().map(|p| order_key(p.0)));
-    let thr = kth_smallest(keys, keep - 1, buf);
-    let below = keys.iter().filter(|&&k| k < thr).count();
+    let (thr, below) = kth_smallest(keys, keep - 1, buf);
     let mut ties = keep - below;
     for (i, &k) in keys.iter().enumerate() {
         if k < thr {
