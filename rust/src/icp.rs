@@ -521,6 +521,7 @@ pub fn icp(
         trim,
         max_iterations,
         EPS_COARSE,
+        false,
     )?;
     let left = max_iterations.saturating_sub(coarse.iterations);
     let fine = run(
@@ -530,6 +531,7 @@ pub fn icp(
         trim,
         left,
         EPS_MOVE,
+        true,
     )?;
     Some(IcpResult {
         iterations: coarse.iterations + fine.iterations,
@@ -543,7 +545,10 @@ fn subsample(points: &[(f64, f64)], n: usize) -> Vec<(f64, f64)> {
     points.iter().step_by(stride).copied().collect()
 }
 
-/// The ICP loop on `points`, until a step moves no point by more than `eps_cells`.
+/// The ICP loop on `points`, until a step moves no point by more than `eps_cells`. With
+/// `final_rms` false (the coarse stage, whose transform and iterations alone are used) the
+/// pairs are not formed again at the converged transform: its `rms` is then the last
+/// iteration's, before its step.
 fn run(
     points: &[(f64, f64)],
     target: &Target,
@@ -551,6 +556,7 @@ fn run(
     trim: f64,
     max_iterations: usize,
     eps_cells: f64,
+    final_rms: bool,
 ) -> Option<IcpResult> {
     let keep = (((1.0 - trim) * points.len() as f64).ceil() as usize).clamp(1, points.len());
     let mut res: Vec<Pair> = vec![(0.0, 0, (0.0, 0.0)); points.len()];
@@ -590,6 +596,9 @@ fn run(
         // `shift` is measured at the kept points' centroid, within `radius` of every point
         let converged = turn * radius + shift < eps;
         t = delta.compose(&t);
+        if converged && !final_rms {
+            return Some(done(t, iterations));
+        }
         if converged {
             correspondences(points, target, &t, &mut res, &mut memo);
             trimmed(&res, keep, &mut order, &mut keys, &mut buf);
