@@ -571,10 +571,7 @@ fn run(
     let (cx, cy) = points
         .iter()
         .fold((0.0, 0.0), |(a, b), p| (a + p.0 / n, b + p.1 / n));
-    let radius = points
-        .iter()
-        .map(|p| (p.0 - cx).hypot(p.1 - cy))
-        .fold(0.0, f64::max);
+    let radius = radius(points, cx, cy);
     let (mut keys, mut buf) = (Vec::with_capacity(points.len()), Vec::new());
     loop {
         correspondences(points, target, &t, &mut res, &mut memo);
@@ -611,6 +608,42 @@ fn run(
             });
         }
     }
+}
+
+/// The largest `hypot` of the points' offsets from `(cx, cy)` (0 with none; NaN offsets
+/// skipped, as `f64::max` does): `hypot` only of the points whose squared offset is within
+/// 1e-6 (relative) of the largest. Exact: a squared offset is within 3 ulp of the exact one
+/// and `hypot` within 1 ulp of its root, so a point left out is below the largest one's
+/// exact norm by more than both errors, and its `hypot` below that point's. Offsets whose
+/// squares could leave the normal range (or NaN, infinite) take every `hypot`.
+fn radius(points: &[(f64, f64)], cx: f64, cy: f64) -> f64 {
+    let all = || {
+        points
+            .iter()
+            .map(|p| (p.0 - cx).hypot(p.1 - cy))
+            .fold(0.0, f64::max)
+    };
+    let mut top = 0.0f64;
+    for p in points {
+        let (dx, dy) = (p.0 - cx, p.1 - cy);
+        let s = dx * dx + dy * dy;
+        if s.is_nan() || s > 1e200 {
+            return all();
+        }
+        top = top.max(s);
+    }
+    if top < 1e-200 {
+        return all();
+    }
+    let bar = top * (1.0 - 1e-6);
+    points
+        .iter()
+        .filter(|p| {
+            let (dx, dy) = (p.0 - cx, p.1 - cy);
+            dx * dx + dy * dy >= bar
+        })
+        .map(|p| (p.0 - cx).hypot(p.1 - cy))
+        .fold(0.0, f64::max)
 }
 
 /// Rotations tried by the coarse search, degrees apart.
@@ -1066,6 +1099,38 @@ mod tests {
             assert_eq!(
                 bits(step(&res, &order, &target)),
                 bits(step_literal(&res, &order, &target)),
+                "case {case}"
+            );
+        }
+    }
+
+    /// The radius from the largest squared offsets equals every `hypot`'s maximum: random
+    /// clouds, ties (mirrored points), one point, huge and tiny offsets, NaN.
+    #[test]
+    fn radius_equals_every_hypot() {
+        let mut next = rng(71);
+        let unit = |x: u64| (x % 1_000_000_007) as f64 / 1_000_000_007.0;
+        for case in 0..400 {
+            let n = 1 + (next() % [1, 5, 100, 5000][case % 4]) as usize;
+            let scale = [1.0, 1e-3, 50.0, 1e-160, 1e160, 1e-100][case % 6];
+            let mut pts: Vec<(f64, f64)> = (0..n)
+                .map(|_| ((unit(next()) - 0.5) * scale, (unit(next()) - 0.5) * scale))
+                .collect();
+            if case % 5 == 0 {
+                let m: Vec<(f64, f64)> = pts.iter().map(|p| (-p.1, p.0)).collect();
+                pts.extend(m);
+            }
+            if case % 37 == 0 {
+                pts.push((f64::NAN, 0.0));
+            }
+            let (cx, cy) = ([0.0, 0.1 * scale][case % 2], 0.0);
+            let want = pts
+                .iter()
+                .map(|p| (p.0 - cx).hypot(p.1 - cy))
+                .fold(0.0, f64::max);
+            assert_eq!(
+                radius(&pts, cx, cy).to_bits(),
+                want.to_bits(),
                 "case {case}"
             );
         }
