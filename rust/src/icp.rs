@@ -70,6 +70,8 @@ pub enum Occupied<'a> {
 pub struct Target<'a> {
     frame: Frame,
     to_cell: Affine,
+    /// The last row and column, as floats (for [`floor_clamp_top`]).
+    top: (f64, f64),
     to_world: Affine,
     /// Nearest-occupied-cell queries ([`crate::edt::Columns`] or [`crate::edt::Sparse`]:
     /// the same answers).
@@ -155,6 +157,10 @@ impl<'a> Target<'a> {
             row_start,
             frame,
             to_cell: frame.world_to_cell_affine(),
+            top: (
+                (frame.height as i64 - 1) as f64,
+                (frame.width as i64 - 1) as f64,
+            ),
             to_world: frame.cell_to_world(),
             columns,
             dense: columns.as_columns(),
@@ -225,9 +231,10 @@ impl<'a> Target<'a> {
     #[inline]
     fn cell_of(&self, x: f64, y: f64) -> (usize, usize) {
         let (r, c) = self.to_cell.apply(x, y);
-        let h = self.frame.height as i64 - 1;
-        let w = self.frame.width as i64 - 1;
-        (floor_clamp(r, h), floor_clamp(c, w))
+        (
+            floor_clamp_top(r, self.top.0),
+            floor_clamp_top(c, self.top.1),
+        )
     }
 
     /// The occupied target cell nearest to cell `(r, c)` (from [`Target::cell_of`]): its
@@ -274,9 +281,15 @@ impl<'a> Target<'a> {
 /// `floor_i64(x).clamp(0, max)` (NaN: 0) for `0 <= max < 2^53`, without the saturating
 /// cast's range checks: the value is clamped first, where truncation is the floor. Below
 /// -2^63 `floor_i64` wraps to `i64::MAX` (so `max`), kept here.
-#[inline]
+#[cfg(test)]
 fn floor_clamp(x: f64, max: i64) -> usize {
-    let top = max as f64;
+    floor_clamp_top(x, max as f64)
+}
+
+/// [`floor_clamp`] with `max` given as a float (`top = max as f64`, exact), converted once
+/// per target instead of per point.
+#[inline]
+fn floor_clamp_top(x: f64, top: f64) -> usize {
     let x = if x >= 0.0 {
         x
     } else if x < -9_223_372_036_854_775_808.0 {
@@ -301,8 +314,9 @@ type Pair = (f64, usize, (f64, f64));
 
 /// Per point, the target cell it fell in at the last iteration ([`usize::MAX`]: none yet)
 /// and that cell's [`Target::nearest`]: a point that stays in its cell (most, once the
-/// steps are small) needs no new query.
-type Memo = (usize, Option<(usize, (f64, f64))>);
+/// steps are small) needs no new query. The position and centre are stored as they are
+/// (no `Option`), `usize::MAX` as the position when there is none.
+type Memo = (usize, usize, (f64, f64));
 
 /// The correspondence of every point at `t`.
 fn correspondences(
@@ -322,12 +336,14 @@ fn correspondences(
                 let (r, c) = target.cell_of(q.0, q.1);
                 let cell = r * target.frame.width + c;
                 if memo.0 != cell {
-                    *memo = (cell, target.nearest(r, c));
+                    *memo = match target.nearest(r, c) {
+                        Some((k, g)) => (cell, k, g),
+                        None => (cell, usize::MAX, (0.0, 0.0)),
+                    };
                 }
-                *slot = match memo.1 {
-                    Some((k, g)) => ((q.0 - g.0).powi(2) + (q.1 - g.1).powi(2), k, q),
-                    None => (f64::INFINITY, usize::MAX, q),
-                };
+                let (k, g) = (memo.1, memo.2);
+                let d = (q.0 - g.0).powi(2) + (q.1 - g.1).powi(2);
+                *slot = (if k == usize::MAX { f64::INFINITY } else { d }, k, q);
             }
         });
 }
@@ -560,7 +576,7 @@ fn run(
 ) -> Option<IcpResult> {
     let keep = (((1.0 - trim) * points.len() as f64).ceil() as usize).clamp(1, points.len());
     let mut res: Vec<Pair> = vec![(0.0, 0, (0.0, 0.0)); points.len()];
-    let mut memo: Vec<Memo> = vec![(usize::MAX, None); points.len()];
+    let mut memo: Vec<Memo> = vec![(usize::MAX, usize::MAX, (0.0, 0.0)); points.len()];
     let mut order = Vec::with_capacity(points.len());
     let mut t = start;
     let mut iterations = 0;
