@@ -420,11 +420,21 @@ pub trait NearestCell: Sync {
     /// The nearest set cell of cell `(r, c)` (row-major index) and the squared distance to
     /// it, or None when no cell is set.
     fn query(&self, r: usize, c: usize) -> Option<(u32, u32)>;
+
+    /// The [`Columns`] answering the queries, when they are that (the ICP then calls
+    /// [`Columns::nearest_cell`] directly instead of through the trait object).
+    fn as_columns(&self) -> Option<&Columns> {
+        None
+    }
 }
 
 impl NearestCell for Columns {
     fn query(&self, r: usize, c: usize) -> Option<(u32, u32)> {
         Columns::query(self, r, c)
+    }
+
+    fn as_columns(&self) -> Option<&Columns> {
+        Some(self)
     }
 }
 
@@ -450,6 +460,15 @@ impl Columns {
         let w = self.width;
         let row = &self.near[r * w..(r + 1) * w];
         scan_query(r, c, w, |q| row[q])
+    }
+
+    /// [`Columns::query`]'s cell as (row, column), without its distance.
+    #[inline]
+    pub fn nearest_cell(&self, r: usize, c: usize) -> Option<(usize, usize)> {
+        let w = self.width;
+        let row = &self.near[r * w..(r + 1) * w];
+        let (q, _) = scan_arg(r, c, w, &|q| row[q])?;
+        Some((row[q] as usize, q))
     }
 }
 
@@ -501,6 +520,89 @@ impl Columns {
 /// `c`).
 #[inline]
 fn scan_query(r: usize, c: usize, w: usize, near: impl Fn(usize) -> u32) -> Option<(u32, u32)> {
+    let (arg, best) = scan_arg(r, c, w, &near)?;
+    // fits u32: checked against the diagonal
+    Some(((near(arg) as usize * w + arg) as u32, best as u32))
+}
+
+/// [`scan_query`]'s column and squared distance: the former scan's (kept as
+/// `scan_query_literal` for the tests) without a test for [`NONE`] per column. A column
+/// without a set cell offers `(r - NONE)^2`, which is above every real offer (those are
+/// below `u32::MAX`, checked against the diagonal, and `r < 2^16`) and so never chosen
+/// while one is, and no sum overflows (`(2^32 - 1)^2 + 48^2 < 2^64`): the same strict
+/// comparisons choose the same column, and the best offer is real exactly when a set cell
+/// was seen. While both sides are inside the row the columns `c - k` and `c + k` are taken
+/// without the bounds tests; the rest is the former loop.
+#[inline]
+fn scan_arg(r: usize, c: usize, w: usize, near: &impl Fn(usize) -> u32) -> Option<(usize, u64)> {
+    let ri = r as i64;
+    let offer = |q: usize| -> u64 {
+        let d = (ri - near(q) as i64).unsigned_abs();
+        d * d
+    };
+    let (mut best, mut arg) = (offer(c), c);
+    let both = c.min(w - 1 - c).min(SCAN);
+    let mut k = 1usize;
+    while k <= both {
+        let k2 = (k * k) as u64;
+        if k2 >= best {
+            return (best <= REAL).then_some((arg, best));
+        }
+        let v = k2 + offer(c - k);
+        if v < best {
+            (best, arg) = (v, c - k);
+        }
+        let v = k2 + offer(c + k);
+        if v < best {
+            (best, arg) = (v, c + k);
+        }
+        k += 1;
+    }
+    loop {
+        let k2 = (k * k) as u64;
+        if k2 >= best || (k > c && c + k >= w) {
+            break;
+        }
+        if k > SCAN {
+            let f = |q: usize| -> Option<u64> {
+                let n = near(q);
+                (n != NONE).then(|| {
+                    let d = (ri - n as i64).unsigned_abs();
+                    d * d
+                })
+            };
+            let best = if best <= REAL { best } else { u64::MAX };
+            return far_query(c, w, k, best, &f);
+        }
+        if k <= c {
+            let v = k2 + offer(c - k);
+            if v < best {
+                (best, arg) = (v, c - k);
+            }
+        }
+        if c + k < w {
+            let v = k2 + offer(c + k);
+            if v < best {
+                (best, arg) = (v, c + k);
+            }
+        }
+        k += 1;
+    }
+    (best <= REAL).then_some((arg, best))
+}
+
+/// The largest real offer of [`scan_arg`] (squared distances fit `u32`).
+const REAL: u64 = u32::MAX as u64;
+
+/// The former [`scan_query`] (a test for [`NONE`] and for both bounds per column): what the
+/// tests hold [`scan_arg`] to.
+#[cfg(test)]
+fn scan_query_literal(
+    r: usize,
+    c: usize,
+    w: usize,
+    near: impl Fn(usize) -> u32,
+) -> Option<(u32, u32)> {
     let ri = r as i64;
     let f = |q: usize| -> Option<u64> {
         let n = near(q);
@@ -520,7 +622,8 @@ fn scan_query(r: usize, c: usize, w: usize, near: impl Fn(usize) -> u32) -> Opti
             break;
         }
         if k > SCAN {
-            return far_query(c, w, k, best, &near, &f);
+            return far_query(c, w, k, best, &f)
+                .map(|(q, b)| ((near(q) as usize * w + q) as u32, b as u32));
         }
         if k <= c {
             if let Some(v) = f(c - k) {
@@ -541,13 +644,12 @@ fn scan_query(r: usize, c: usize, w: usize, near: impl Fn(usize) -> u32) -> Opti
     if arg == usize::MAX {
         return None;
     }
-    // fits u32: checked against the diagonal
     Some(((near(arg) as usize * w + arg) as u32, best as u32))
 }
 
 /// [`scan_query`] past [`SCAN`] columns, from `k` columns on with the best offer so far
-/// `best`: the exact minimum (every column that could offer as little: `k^2 <= best`),
-/// then the leftmost column offering it.
+/// `best` (`u64::MAX`: none): the exact minimum (every column that could offer as little:
+/// `k^2 <= best`), then the leftmost column offering it, and the minimum.
 #[cold]
 #[inline(never)]
 fn far_query(
@@ -555,9 +657,8 @@ fn far_query(
     w: usize,
     mut k: usize,
     mut best: u64,
-    near: &impl Fn(usize) -> u32,
     f: &impl Fn(usize) -> Option<u64>,
-) -> Option<(u32, u32)> {
+) -> Option<(usize, u64)> {
     loop {
         let k2 = (k * k) as u64;
         if k2 > best || (k > c && c + k >= w) {
@@ -581,8 +682,7 @@ fn far_query(
         let d = (q as i64 - c as i64).unsigned_abs();
         f(q).is_some_and(|v| d * d + v == best)
     })?;
-    // fits u32: checked against the diagonal
-    Some(((near(q) as usize * w + q) as u32, best as u32))
+    Some((q, best))
 }
 
 /// The former [`scan_query`], whose far queries built the row's lower envelope: what the
@@ -1227,6 +1327,49 @@ pub(crate) mod tests {
                 let row = &cols.near[r * w..(r + 1) * w];
                 let want = scan_query_envelope(r, c, w, |q| row[q], &mut env);
                 assert_eq!(cols.query(r, c), want, "{h}x{w} ({r}, {c})");
+                assert_eq!(NearestCell::query(&sparse, r, c), want);
+            }
+        }
+    }
+
+    /// The scan without per-column tests answers the former scan's cell and distance at
+    /// every cell of random masks: empty to dense, narrow and wide (far queries past
+    /// `SCAN`), walls, mirrored (tied) cells; through `Columns::query`,
+    /// `Columns::nearest_cell` and `Sparse`.
+    #[test]
+    fn scan_equals_the_literal_scan() {
+        let mut next = rng(59);
+        for case in 0..200 {
+            let h = 1 + (next() % 90) as usize;
+            let w = 1 + (next() % [8, 60, 300][case % 3]) as usize;
+            let density = [0u64, 1, 4, 30, 400][case % 5];
+            let mut mask: Vec<bool> = (0..h * w).map(|_| next() % 1000 < density).collect();
+            if case % 4 == 1 {
+                let r = (next() % h as u64) as usize;
+                for q in 0..w {
+                    mask[r * w + q] = q % 5 != 0;
+                }
+            }
+            if case % 2 == 0 {
+                for i in 0..h * w {
+                    let (r, c) = (i / w, i % w);
+                    if mask[i] {
+                        mask[r * w + (w - 1 - c)] = true;
+                    }
+                }
+            }
+            let cols = Columns::new(|i| mask[i], h, w).unwrap();
+            let list: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+            let sparse = Sparse::new(&list, h, w).unwrap();
+            for i in 0..h * w {
+                let (r, c) = (i / w, i % w);
+                let row = &cols.near[r * w..(r + 1) * w];
+                let want = scan_query_literal(r, c, w, |q| row[q]);
+                assert_eq!(cols.query(r, c), want, "{h}x{w} ({r}, {c})");
+                assert_eq!(
+                    cols.nearest_cell(r, c),
+                    want.map(|(n, _)| (n as usize / w, n as usize % w))
+                );
                 assert_eq!(NearestCell::query(&sparse, r, c), want);
             }
         }

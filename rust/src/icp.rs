@@ -12,7 +12,7 @@
 //! Deterministic: correspondences are computed per point in fixed chunks; the trimmed set is
 //! chosen by (distance, point index), a total order; sums run in point order.
 
-use crate::edt::{EdtError, NearestCell, Sparse};
+use crate::edt::{Columns, EdtError, NearestCell, Sparse};
 use crate::se2::{wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -70,10 +70,15 @@ pub enum Occupied<'a> {
 pub struct Target<'a> {
     frame: Frame,
     to_cell: Affine,
+    /// The last row and column, as floats (for [`floor_clamp_top`]).
+    top: (f64, f64),
     to_world: Affine,
     /// Nearest-occupied-cell queries ([`crate::edt::Columns`] or [`crate::edt::Sparse`]:
     /// the same answers).
     columns: &'a dyn NearestCell,
+    /// `columns` when they are [`Columns`], called directly (no dynamic call, no division
+    /// of the cell index).
+    dense: Option<&'a Columns>,
     /// Which cells are occupied.
     occupied: Occupied<'a>,
     /// Occupied cells (row-major indices, ascending) and their local shapes (fitted on
@@ -152,8 +157,13 @@ impl<'a> Target<'a> {
             row_start,
             frame,
             to_cell: frame.world_to_cell_affine(),
+            top: (
+                (frame.height as i64 - 1) as f64,
+                (frame.width as i64 - 1) as f64,
+            ),
             to_world: frame.cell_to_world(),
             columns,
+            dense: columns.as_columns(),
             occupied,
             local,
             cells,
@@ -216,30 +226,37 @@ impl<'a> Target<'a> {
         }
     }
 
-    /// The cell holding world point `(x, y)` (clamped onto the grid for points outside
-    /// it), row-major.
+    /// The cell (row, column) holding world point `(x, y)` (clamped onto the grid for
+    /// points outside it).
     #[inline]
-    fn cell_of(&self, x: f64, y: f64) -> usize {
+    fn cell_of(&self, x: f64, y: f64) -> (usize, usize) {
         let (r, c) = self.to_cell.apply(x, y);
-        let h = self.frame.height as i64 - 1;
-        let w = self.frame.width as i64 - 1;
-        floor_clamp(r, h) * self.frame.width + floor_clamp(c, w)
+        (
+            floor_clamp_top(r, self.top.0),
+            floor_clamp_top(c, self.top.1),
+        )
     }
 
-    /// The occupied target cell nearest to cell `i` (from [`Target::cell_of`]): its position
-    /// in `cells` and its centre.
+    /// The occupied target cell nearest to cell `(r, c)` (from [`Target::cell_of`]): its
+    /// position in `cells` and its centre.
     #[inline]
-    fn nearest(&self, i: usize) -> Option<(usize, (f64, f64))> {
+    fn nearest(&self, r: usize, c: usize) -> Option<(usize, (f64, f64))> {
         let w = self.frame.width;
-        let (n, _) = self.columns.query(i / w, i % w)?;
-        let row = n as usize / w;
+        let (row, col) = match self.dense {
+            Some(columns) => columns.nearest_cell(r, c)?,
+            None => {
+                let (n, _) = self.columns.query(r, c)?;
+                (n as usize / w, n as usize % w)
+            }
+        };
         let (a, b) = (
             self.row_start[row] as usize,
             self.row_start[row + 1] as usize,
         );
+        // fits u32: the cell's index (checked by the column pass)
+        let n = (row * w + col) as u32;
         let k = a + self.cells[a..b].binary_search(&n).ok()?;
-        let n = n as usize;
-        Some((k, self.to_world.apply((n / w) as f64, (n % w) as f64)))
+        Some((k, self.to_world.apply(row as f64, col as f64)))
     }
 
     /// World centroid of the occupied cells (None when there is none).
@@ -264,9 +281,15 @@ impl<'a> Target<'a> {
 /// `floor_i64(x).clamp(0, max)` (NaN: 0) for `0 <= max < 2^53`, without the saturating
 /// cast's range checks: the value is clamped first, where truncation is the floor. Below
 /// -2^63 `floor_i64` wraps to `i64::MAX` (so `max`), kept here.
-#[inline]
+#[cfg(test)]
 fn floor_clamp(x: f64, max: i64) -> usize {
-    let top = max as f64;
+    floor_clamp_top(x, max as f64)
+}
+
+/// [`floor_clamp`] with `max` given as a float (`top = max as f64`, exact), converted once
+/// per target instead of per point.
+#[inline]
+fn floor_clamp_top(x: f64, top: f64) -> usize {
     let x = if x >= 0.0 {
         x
     } else if x < -9_223_372_036_854_775_808.0 {
@@ -291,8 +314,9 @@ type Pair = (f64, usize, (f64, f64));
 
 /// Per point, the target cell it fell in at the last iteration ([`usize::MAX`]: none yet)
 /// and that cell's [`Target::nearest`]: a point that stays in its cell (most, once the
-/// steps are small) needs no new query.
-type Memo = (usize, Option<(usize, (f64, f64))>);
+/// steps are small) needs no new query. The position and centre are stored as they are
+/// (no `Option`), `usize::MAX` as the position when there is none.
+type Memo = (usize, usize, (f64, f64));
 
 /// The correspondence of every point at `t`.
 fn correspondences(
@@ -309,14 +333,17 @@ fn correspondences(
         .for_each(|((o, m), p)| {
             for ((slot, memo), &(x, y)) in o.iter_mut().zip(m).zip(p) {
                 let q = t.apply(x, y);
-                let cell = target.cell_of(q.0, q.1);
+                let (r, c) = target.cell_of(q.0, q.1);
+                let cell = r * target.frame.width + c;
                 if memo.0 != cell {
-                    *memo = (cell, target.nearest(cell));
+                    *memo = match target.nearest(r, c) {
+                        Some((k, g)) => (cell, k, g),
+                        None => (cell, usize::MAX, (0.0, 0.0)),
+                    };
                 }
-                *slot = match memo.1 {
-                    Some((k, g)) => ((q.0 - g.0).powi(2) + (q.1 - g.1).powi(2), k, q),
-                    None => (f64::INFINITY, usize::MAX, q),
-                };
+                let (k, g) = (memo.1, memo.2);
+                let d = (q.0 - g.0).powi(2) + (q.1 - g.1).powi(2);
+                *slot = (if k == usize::MAX { f64::INFINITY } else { d }, k, q);
             }
         });
 }
@@ -328,11 +355,13 @@ fn order_key(x: f64) -> u64 {
     b ^ ((((b as i64) >> 63) as u64) >> 1) ^ (1 << 63)
 }
 
-/// The `k`-th smallest (from 0) of `keys` (`k < keys.len()`). Larger sets by a sample: every
-/// [`SAMPLE_STRIDE`]-th key, sorted, gives two keys `lo <= hi` around the `k`-th's place;
-/// one pass counts the keys below `lo` and gathers those in `[lo, hi]`, and when the `k`-th
-/// is among them it is selected there (else from all the keys). `buf` is work space.
-fn kth_smallest(keys: &[u64], k: usize, buf: &mut Vec<u64>) -> u64 {
+/// The `k`-th smallest (from 0) of `keys` (`k < keys.len()`) and how many keys are below it.
+/// Larger sets by a sample: every [`SAMPLE_STRIDE`]-th key, sorted, gives two keys
+/// `lo <= hi` around the `k`-th's place; one pass counts the keys below `lo` and gathers
+/// those in `[lo, hi]`, and when the `k`-th is among them it is selected there, and the
+/// keys below it are those below `lo` and the gathered ones below it (else it is selected
+/// from all the keys, which are then counted). `buf` is work space.
+fn kth_smallest(keys: &[u64], k: usize, buf: &mut Vec<u64>) -> (u64, usize) {
     let n = keys.len();
     buf.clear();
     if n >= 16 * SAMPLE_STRIDE {
@@ -358,12 +387,14 @@ fn kth_smallest(keys: &[u64], k: usize, buf: &mut Vec<u64>) -> u64 {
         }
         // the keys below `lo` come first in the order, then those in [lo, hi]
         if less <= k && k < less + buf.len() {
-            return *buf.select_nth_unstable(k - less).1;
+            let thr = *buf.select_nth_unstable(k - less).1;
+            return (thr, less + buf.iter().filter(|&&x| x < thr).count());
         }
         buf.clear();
     }
     buf.extend_from_slice(keys);
-    *buf.select_nth_unstable(k).1
+    let thr = *buf.select_nth_unstable(k).1;
+    (thr, keys.iter().filter(|&&x| x < thr).count())
 }
 
 /// Every this many keys make [`kth_smallest`]'s sample.
@@ -385,8 +416,7 @@ fn trimmed(
     }
     keys.clear();
     keys.extend(res.iter().map(|p| order_key(p.0)));
-    let thr = kth_smallest(keys, keep - 1, buf);
-    let below = keys.iter().filter(|&&k| k < thr).count();
+    let (thr, below) = kth_smallest(keys, keep - 1, buf);
     let mut ties = keep - below;
     for (i, &k) in keys.iter().enumerate() {
         if k < thr {
@@ -411,9 +441,11 @@ fn step(res: &[Pair], order: &[u32], target: &Target) -> Option<(Se2, f64, f64)>
     // normal equations J^T J x = -J^T r, x = (dtheta, dx, dy)
     let mut a = [[0.0f64; 3]; 3];
     let mut g = [0.0f64; 3];
+    // the upper triangle only: a[v][u] would sum the same products (j[v] * j[u] ==
+    // j[u] * j[v]) in the same order, so it is a[u][v], copied after the loop
     let mut add = |j: [f64; 3], r: f64| {
         for u in 0..3 {
-            for v in 0..3 {
+            for v in u..3 {
                 a[u][v] += j[u] * j[v];
             }
             g[u] -= j[u] * r;
@@ -430,6 +462,11 @@ fn step(res: &[Pair], order: &[u32], target: &Target) -> Option<(Se2, f64, f64)>
         } else {
             add([-py, 1.0, 0.0], q.0 - l.cx);
             add([px, 0.0, 1.0], q.1 - l.cy);
+        }
+    }
+    for u in 0..3 {
+        for v in 0..u {
+            a[u][v] = a[v][u];
         }
     }
     let x = solve3(a, g)?;
@@ -500,6 +537,7 @@ pub fn icp(
         trim,
         max_iterations,
         EPS_COARSE,
+        false,
     )?;
     let left = max_iterations.saturating_sub(coarse.iterations);
     let fine = run(
@@ -509,6 +547,7 @@ pub fn icp(
         trim,
         left,
         EPS_MOVE,
+        true,
     )?;
     Some(IcpResult {
         iterations: coarse.iterations + fine.iterations,
@@ -522,7 +561,10 @@ fn subsample(points: &[(f64, f64)], n: usize) -> Vec<(f64, f64)> {
     points.iter().step_by(stride).copied().collect()
 }
 
-/// The ICP loop on `points`, until a step moves no point by more than `eps_cells`.
+/// The ICP loop on `points`, until a step moves no point by more than `eps_cells`. With
+/// `final_rms` false (the coarse stage, whose transform and iterations alone are used) the
+/// pairs are not formed again at the converged transform: its `rms` is then the last
+/// iteration's, before its step.
 fn run(
     points: &[(f64, f64)],
     target: &Target,
@@ -530,10 +572,11 @@ fn run(
     trim: f64,
     max_iterations: usize,
     eps_cells: f64,
+    final_rms: bool,
 ) -> Option<IcpResult> {
     let keep = (((1.0 - trim) * points.len() as f64).ceil() as usize).clamp(1, points.len());
     let mut res: Vec<Pair> = vec![(0.0, 0, (0.0, 0.0)); points.len()];
-    let mut memo: Vec<Memo> = vec![(usize::MAX, None); points.len()];
+    let mut memo: Vec<Memo> = vec![(usize::MAX, usize::MAX, (0.0, 0.0)); points.len()];
     let mut order = Vec::with_capacity(points.len());
     let mut t = start;
     let mut iterations = 0;
@@ -544,10 +587,7 @@ fn run(
     let (cx, cy) = points
         .iter()
         .fold((0.0, 0.0), |(a, b), p| (a + p.0 / n, b + p.1 / n));
-    let radius = points
-        .iter()
-        .map(|p| (p.0 - cx).hypot(p.1 - cy))
-        .fold(0.0, f64::max);
+    let radius = radius(points, cx, cy);
     let (mut keys, mut buf) = (Vec::with_capacity(points.len()), Vec::new());
     loop {
         correspondences(points, target, &t, &mut res, &mut memo);
@@ -569,6 +609,9 @@ fn run(
         // `shift` is measured at the kept points' centroid, within `radius` of every point
         let converged = turn * radius + shift < eps;
         t = delta.compose(&t);
+        if converged && !final_rms {
+            return Some(done(t, iterations));
+        }
         if converged {
             correspondences(points, target, &t, &mut res, &mut memo);
             trimmed(&res, keep, &mut order, &mut keys, &mut buf);
@@ -581,6 +624,42 @@ fn run(
             });
         }
     }
+}
+
+/// The largest `hypot` of the points' offsets from `(cx, cy)` (0 with none; NaN offsets
+/// skipped, as `f64::max` does): `hypot` only of the points whose squared offset is within
+/// 1e-6 (relative) of the largest. Exact: a squared offset is within 3 ulp of the exact one
+/// and `hypot` within 1 ulp of its root, so a point left out is below the largest one's
+/// exact norm by more than both errors, and its `hypot` below that point's. Offsets whose
+/// squares could leave the normal range (or NaN, infinite) take every `hypot`.
+fn radius(points: &[(f64, f64)], cx: f64, cy: f64) -> f64 {
+    let all = || {
+        points
+            .iter()
+            .map(|p| (p.0 - cx).hypot(p.1 - cy))
+            .fold(0.0, f64::max)
+    };
+    let mut top = 0.0f64;
+    for p in points {
+        let (dx, dy) = (p.0 - cx, p.1 - cy);
+        let s = dx * dx + dy * dy;
+        if s.is_nan() || s > 1e200 {
+            return all();
+        }
+        top = top.max(s);
+    }
+    if top < 1e-200 {
+        return all();
+    }
+    let bar = top * (1.0 - 1e-6);
+    points
+        .iter()
+        .filter(|p| {
+            let (dx, dy) = (p.0 - cx, p.1 - cy);
+            dx * dx + dy * dy >= bar
+        })
+        .map(|p| (p.0 - cx).hypot(p.1 - cy))
+        .fold(0.0, f64::max)
 }
 
 /// Rotations tried by the coarse search, degrees apart.
@@ -917,6 +996,159 @@ mod tests {
         });
         for g in got {
             assert_eq!(g, want);
+        }
+    }
+
+    /// The direct column queries (`Columns::nearest_cell`) and the trait's (`Sparse`, the
+    /// cell index divided) give every cell the same target cell and centre.
+    #[test]
+    fn direct_queries_equal_the_trait_queries() {
+        let mut next = rng(61);
+        for case in 0..40 {
+            let (h, w) = (1 + (next() % 80) as usize, 1 + (next() % 120) as usize);
+            let density = [1u64, 5, 40, 300][case % 4];
+            let mask: Vec<bool> = (0..h * w).map(|_| next() % 1000 < density).collect();
+            let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+            let bits = Sparse::new(&cells, h, w).unwrap();
+            let columns = bits.columns().unwrap();
+            let frame = Frame {
+                resolution: 0.05,
+                height: h,
+                width: w,
+                origin: Se2 {
+                    theta: -0.7,
+                    tx: 3.0,
+                    ty: 0.5,
+                },
+            };
+            let direct = Target::with(frame, &columns, Occupied::Bits(&bits), &cells).unwrap();
+            let other = Target::with(frame, &bits, Occupied::Bits(&bits), &cells).unwrap();
+            assert!(direct.dense.is_some() && other.dense.is_none());
+            for r in 0..h {
+                for c in 0..w {
+                    let (a, b) = (direct.nearest(r, c), other.nearest(r, c));
+                    assert_eq!(a.map(|(k, _)| k), b.map(|(k, _)| k), "{h}x{w} ({r}, {c})");
+                    let bits = |p: Option<(usize, (f64, f64))>| {
+                        p.map(|(_, g)| (g.0.to_bits(), g.1.to_bits()))
+                    };
+                    assert_eq!(bits(a), bits(b));
+                }
+            }
+        }
+    }
+
+    /// The former step: the whole matrix summed.
+    fn step_literal(res: &[Pair], order: &[u32], target: &Target) -> Option<(Se2, f64, f64)> {
+        let n = order.len() as f64;
+        let (ox, oy) = order.iter().fold((0.0, 0.0), |(a, b), &i| {
+            let q = res[i as usize].2;
+            (a + q.0, b + q.1)
+        });
+        let (ox, oy) = (ox / n, oy / n);
+        let mut a = [[0.0f64; 3]; 3];
+        let mut g = [0.0f64; 3];
+        let mut add = |j: [f64; 3], r: f64| {
+            for u in 0..3 {
+                for v in 0..3 {
+                    a[u][v] += j[u] * j[v];
+                }
+                g[u] -= j[u] * r;
+            }
+        };
+        for &i in order {
+            let (_, k, q) = res[i as usize];
+            let l = target.local(k);
+            let (px, py) = (q.0 - ox, q.1 - oy);
+            if l.nx != 0.0 || l.ny != 0.0 {
+                let r = l.nx * (q.0 - l.cx) + l.ny * (q.1 - l.cy);
+                add([l.nx * -py + l.ny * px, l.nx, l.ny], r);
+            } else {
+                add([-py, 1.0, 0.0], q.0 - l.cx);
+                add([px, 0.0, 1.0], q.1 - l.cy);
+            }
+        }
+        let x = solve3(a, g)?;
+        let (s, c) = x[0].sin_cos();
+        let motion = Se2 {
+            theta: x[0],
+            tx: ox + x[1] - (c * ox - s * oy),
+            ty: oy + x[2] - (s * ox + c * oy),
+        };
+        Some((motion, x[0].abs(), x[1].hypot(x[2])))
+    }
+
+    /// The step from the upper triangle equals the whole matrix's, bit for bit, on random
+    /// pairs (lines and corners) and kept subsets.
+    #[test]
+    fn step_equals_the_literal_step() {
+        let mut next = rng(67);
+        let (h, w) = (60usize, 50usize);
+        let mask: Vec<bool> = (0..h * w).map(|i| i % 11 == 0 || next() % 7 == 0).collect();
+        let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+        let bits = Sparse::new(&cells, h, w).unwrap();
+        let columns = bits.columns().unwrap();
+        let frame = Frame {
+            resolution: 0.05,
+            height: h,
+            width: w,
+            origin: Se2 {
+                theta: 0.4,
+                tx: -1.0,
+                ty: 2.0,
+            },
+        };
+        let target = Target::with(frame, &columns, Occupied::Bits(&bits), &cells).unwrap();
+        let unit = |x: u64| (x % 1_000_000) as f64 * 1e-6;
+        for case in 0..300 {
+            let n = 1 + (next() % [3, 40, 2000][case % 3]) as usize;
+            let res: Vec<Pair> = (0..n)
+                .map(|_| {
+                    let q = (unit(next()) * 4.0 - 2.0, unit(next()) * 3.0 + 1.0);
+                    (unit(next()), (next() % cells.len() as u64) as usize, q)
+                })
+                .collect();
+            let order: Vec<u32> = (0..n as u32).filter(|_| next() % 5 != 0).collect();
+            let order = if order.is_empty() { vec![0] } else { order };
+            let bits = |s: Option<(Se2, f64, f64)>| {
+                s.map(|(t, a, b)| [t.theta, t.tx, t.ty, a, b].map(f64::to_bits))
+            };
+            assert_eq!(
+                bits(step(&res, &order, &target)),
+                bits(step_literal(&res, &order, &target)),
+                "case {case}"
+            );
+        }
+    }
+
+    /// The radius from the largest squared offsets equals every `hypot`'s maximum: random
+    /// clouds, ties (mirrored points), one point, huge and tiny offsets, NaN.
+    #[test]
+    fn radius_equals_every_hypot() {
+        let mut next = rng(71);
+        let unit = |x: u64| (x % 1_000_000_007) as f64 / 1_000_000_007.0;
+        for case in 0..400 {
+            let n = 1 + (next() % [1, 5, 100, 5000][case % 4]) as usize;
+            let scale = [1.0, 1e-3, 50.0, 1e-160, 1e160, 1e-100][case % 6];
+            let mut pts: Vec<(f64, f64)> = (0..n)
+                .map(|_| ((unit(next()) - 0.5) * scale, (unit(next()) - 0.5) * scale))
+                .collect();
+            if case % 5 == 0 {
+                let m: Vec<(f64, f64)> = pts.iter().map(|p| (-p.1, p.0)).collect();
+                pts.extend(m);
+            }
+            if case % 37 == 0 {
+                pts.push((f64::NAN, 0.0));
+            }
+            let (cx, cy) = ([0.0, 0.1 * scale][case % 2], 0.0);
+            let want = pts
+                .iter()
+                .map(|p| (p.0 - cx).hypot(p.1 - cy))
+                .fold(0.0, f64::max);
+            assert_eq!(
+                radius(&pts, cx, cy).to_bits(),
+                want.to_bits(),
+                "case {case}"
+            );
         }
     }
 
