@@ -1269,16 +1269,6 @@ pub fn compare(
     let e_scan = scan(&estimate.grid, &occ)?;
     // nearest-cell queries of G (ICP correspondences, d(e, G))
     let g_near = Sparse::new(&g_scan.cells, h, w)?;
-    // G as a mask for the literal resampling (the ICP's line fits read `g_near`'s bits)
-    let g_mask = if want_cells {
-        let mut m = filled(h * w, false)?;
-        for &i in &g_scan.cells {
-            m[i as usize] = true;
-        }
-        m
-    } else {
-        Vec::new()
-    };
     let g_list = &g_scan.cells;
     let points = occupied_points(estimate, &e_scan.cells)?;
     // the ICP asks the nearest cell of G many times: its column pass pays off there
@@ -1315,6 +1305,12 @@ pub fn compare(
     let (mut cells, res) = match sparse {
         Some(r) => (Vec::new(), r),
         None => {
+            // the literal resampling: with the cells, or when the sparse one cannot place
+            // the frames in its fixed point (frames far apart); it reads G as a mask
+            let mut g_mask = filled(h * w, false)?;
+            for &i in g_list {
+                g_mask[i as usize] = true;
+            }
             let r = resample(estimate, ground_truth, &g_mask, &transform, &occ, &points)?;
             (
                 r.cells,
@@ -1737,6 +1733,52 @@ mod tests {
                 (want.outside, want.free, want.covered),
                 "case {case}"
             );
+        }
+    }
+
+    /// Frames the sparse resampling cannot place in its fixed point (far apart, or grids
+    /// whose cells differ by orders of magnitude) take the literal resampling: the same
+    /// counts as with the per-cell flags. Without them it once read an empty mask of G:
+    /// no free cell, coverage NaN.
+    #[test]
+    fn frames_far_apart_give_the_counts_of_the_cells_path() {
+        let (h, w) = (120, 160);
+        let (v, u) = map(h, w, building, |r, _| r < 90);
+        let g = Grid::new(&v, &u, h, w).unwrap();
+        let at = |tx: f64, ty: f64| Se2 { theta: 0.0, tx, ty };
+        let cases = [
+            (0.05, at(1e8, 0.0), 0.05),
+            (0.05, at(-1e300, 3.0), 0.05),
+            (0.05, at(3e7, -2e7), 0.05),
+            // one estimate cell holds the whole ground truth (a 1e-6 m grid)
+            (1000.0, at(-50_000.0, -50_000.0), 1e-6),
+        ];
+        for (k, &(res, origin, gt_res)) in cases.iter().enumerate() {
+            let est = Placed {
+                grid: g,
+                frame: frame(h, w, res, origin),
+            };
+            let gt = Placed {
+                grid: g,
+                frame: frame(h, w, gt_res, Se2::IDENTITY),
+            };
+            for align in [Align::Origin, Align::Icp] {
+                let p = CompareParams {
+                    align,
+                    ..Default::default()
+                };
+                let mut with = compare(&est, &gt, &p, true).unwrap();
+                with.cells = None;
+                let without = compare(&est, &gt, &p, false).unwrap();
+                // (as text: an ICP that found nothing gives a NaN RMS on both)
+                assert_eq!(
+                    format!("{without:?}"),
+                    format!("{with:?}"),
+                    "case {k} {align:?}"
+                );
+                let free = u.iter().zip(&v).filter(|(&u, &v)| !u && v > 127).count();
+                assert_eq!(with.ground_truth_free, free as u64, "case {k}");
+            }
         }
     }
 

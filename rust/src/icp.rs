@@ -279,8 +279,7 @@ impl<'a> Target<'a> {
 }
 
 /// `floor_i64(x).clamp(0, max)` (NaN: 0) for `0 <= max < 2^53`, without the saturating
-/// cast's range checks: the value is clamped first, where truncation is the floor. Below
-/// -2^63 `floor_i64` wraps to `i64::MAX` (so `max`), kept here.
+/// cast's range checks: the value is clamped first, where truncation is the floor.
 #[cfg(test)]
 fn floor_clamp(x: f64, max: i64) -> usize {
     floor_clamp_top(x, max as f64)
@@ -290,13 +289,7 @@ fn floor_clamp(x: f64, max: i64) -> usize {
 /// per target instead of per point.
 #[inline]
 fn floor_clamp_top(x: f64, top: f64) -> usize {
-    let x = if x >= 0.0 {
-        x
-    } else if x < -9_223_372_036_854_775_808.0 {
-        top
-    } else {
-        0.0
-    };
+    let x = if x >= 0.0 { x } else { 0.0 };
     let x = if x <= top { x } else { top };
     // SAFETY: 0 <= x <= max < 2^53, finite, inside i64's range
     unsafe { x.to_int_unchecked::<i64>() as usize }

@@ -104,11 +104,12 @@ impl Affine {
 }
 
 /// `floor(x)` as an integer, inline (`f64::floor` is a libm call on baseline x86-64).
-/// Saturates far outside the i64 range, NaN gives 0; callers check bounds.
+/// Saturates outside the i64 range (below -2^63 too: `i64::MIN`, not a wrap to
+/// `i64::MAX`), NaN gives 0; callers check bounds.
 #[inline]
 pub fn floor_i64(x: f64) -> i64 {
     let i = x as i64;
-    i - ((x < i as f64) as i64)
+    i.saturating_sub((x < i as f64) as i64)
 }
 
 /// An angle wrapped to (-pi, pi].
@@ -254,6 +255,34 @@ impl PairSums {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `floor_i64` is the floor, saturated at both ends of the i64 range (it wrapped to
+    /// `i64::MAX` below -2^63, and overflowed in debug builds).
+    #[test]
+    fn floor_i64_is_the_saturated_floor() {
+        let two63 = 9_223_372_036_854_775_808.0;
+        for (x, want) in [
+            (0.0, 0),
+            (-0.0, 0),
+            (0.5, 0),
+            (-0.5, -1),
+            (-1.0, -1),
+            (2.999, 2),
+            (-2.001, -3),
+            (f64::NAN, 0),
+            (f64::INFINITY, i64::MAX),
+            (f64::NEG_INFINITY, i64::MIN),
+            (1e300, i64::MAX),
+            (-1e300, i64::MIN),
+            (-9.3e18, i64::MIN),
+            (two63, i64::MAX),
+            (-two63, i64::MIN),
+            (-two63 - 4096.0, i64::MIN),
+            (-4503599627370495.5, -4503599627370496),
+        ] {
+            assert_eq!(floor_i64(x), want, "{x}");
+        }
+    }
 
     #[test]
     fn fit_recovers_a_motion() {

@@ -177,6 +177,16 @@ def test_coverage_counts_ground_truth_free_cells_the_estimate_knows() -> None:
     assert c.recall < 1.0 and c.precision == 1.0
 
 
+@pytest.mark.parametrize("origin", [(1e3, 0.0, 0.0), (1e8, 0.0, 0.0), (-1e300, 5.0, 0.0)])
+def test_an_estimate_far_away_covers_none_of_the_ground_truth(origin) -> None:
+    # far frames take the literal resampling, which once read an empty mask of the ground
+    # truth there: no free cell, coverage NaN from 1e7 m on
+    gt = building()
+    c = slamq.compare(placed(gt, origin=origin), placed(gt), align="origin")
+    assert c.coverage == 0.0 and c.recall == 0.0 and c.outside == (gt == 0).sum()
+    assert c.to_dict()["coverage"] == 0.0
+
+
 def test_an_estimate_without_walls() -> None:
     gt = building()
     est = np.full(gt.shape, 254, np.uint8)
