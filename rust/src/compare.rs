@@ -382,6 +382,54 @@ fn scan_tail(
     Ok(n as u64)
 }
 
+/// Push `at + i` for every set bit `i` of `m`, in ascending order, growing `list` first
+/// when it has room for fewer than 32 more cells (the widest mask).
+#[inline(always)]
+fn push_mask(list: &mut Vec<u32>, mut m: u32, at: usize) -> Result<(), EdtError> {
+    if m == 0 {
+        return Ok(());
+    }
+    if list.len() + 32 > list.capacity() {
+        list.try_reserve(list.capacity().max(1024))
+            .map_err(|_| EdtError::Alloc {
+                bytes: list.capacity().saturating_mul(8),
+            })?;
+    }
+    while m != 0 {
+        list.push((at + m.trailing_zeros() as usize) as u32);
+        m &= m - 1;
+    }
+    Ok(())
+}
+
+/// Sixteen cells of a row in SSE2: their unknown flags added bytewise to `acc`, and the
+/// mask of the occupied known ones (`v <= top` unsigned, as `min(v, top) == v`, and
+/// `u == 0`).
+///
+/// # Safety
+///
+/// `v` and `u` must each be readable for 16 bytes.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn pair_mask(
+    v: *const u8,
+    u: *const u8,
+    top: std::arch::x86_64::__m128i,
+    acc: &mut std::arch::x86_64::__m128i,
+) -> u32 {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller's contract; SSE2 is part of x86-64
+    unsafe {
+        let (v, u) = (_mm_loadu_si128(v.cast()), _mm_loadu_si128(u.cast()));
+        *acc = _mm_add_epi8(*acc, u);
+        let occ = _mm_and_si128(
+            _mm_cmpeq_epi8(_mm_min_epu8(v, top), v),
+            _mm_cmpeq_epi8(u, _mm_setzero_si128()),
+        );
+        _mm_movemask_epi8(occ) as u32
+    }
+}
+
 /// [`scan_block`] sixteen cells (two blocks) at once in SSE2: the occupied known cells of
 /// a row as a 16-bit mask (`v <= below - 1` unsigned, as `min(v, below - 1) == v`, and
 /// `u == 0`) whose set bits are pushed; the unknown flags added bytewise over the block
@@ -422,28 +470,8 @@ fn scan_block_sse2(
             let (vr, ur) = (vals.as_ptr().add(k * w), unknown.as_ptr().add(k * w));
             let row_base = base + k * w;
             for (q, a) in acc.iter_mut().enumerate() {
-                let v = _mm_loadu_si128(vr.add(q * PAIR).cast());
-                let u = _mm_loadu_si128(ur.add(q * PAIR).cast());
-                *a = _mm_add_epi8(*a, u);
-                let occ = _mm_and_si128(
-                    _mm_cmpeq_epi8(_mm_min_epu8(v, top), v),
-                    _mm_cmpeq_epi8(u, zero),
-                );
-                let mut m = _mm_movemask_epi8(occ) as u32 & keep;
-                if m != 0 {
-                    if list.len() + PAIR > list.capacity() {
-                        list.try_reserve(list.capacity().max(1024)).map_err(|_| {
-                            EdtError::Alloc {
-                                bytes: list.capacity().saturating_mul(8),
-                            }
-                        })?;
-                    }
-                    let at = row_base + q * PAIR;
-                    while m != 0 {
-                        list.push((at + m.trailing_zeros() as usize) as u32);
-                        m &= m - 1;
-                    }
-                }
+                let m = pair_mask(vr.add(q * PAIR), ur.add(q * PAIR), top, a) & keep;
+                push_mask(list, m, row_base + q * PAIR)?;
             }
             if done < w {
                 known += scan_row_scalar(
@@ -497,17 +525,6 @@ unsafe fn scan_block_avx2(
     let pair = w - quads * QUAD >= PAIR;
     let done = quads * QUAD + if pair { PAIR } else { 0 };
     let mut known = 0u64;
-    // the list has room for `QUAD` more cells, else grows
-    let room = |list: &mut Vec<u32>| {
-        if list.len() + QUAD > list.capacity() {
-            list.try_reserve(list.capacity().max(1024))
-                .map_err(|_| EdtError::Alloc {
-                    bytes: list.capacity().saturating_mul(8),
-                })
-        } else {
-            Ok(())
-        }
-    };
     // SAFETY: AVX2 (so SSE2) is present (the caller's contract); every load reads 32 bytes
     // at `k * w + q * 32` with `q < quads`, or 16 at `k * w + quads * 32` when `pair`,
     // with `k < n`: inside both slices (their common length is at least `n * w`)
@@ -537,34 +554,13 @@ unsafe fn scan_block_avx2(
                     _mm256_cmpeq_epi8(_mm256_min_epu8(v, top), v),
                     _mm256_cmpeq_epi8(u, zero),
                 );
-                let mut m = _mm256_movemask_epi8(occ) as u32 & keep;
-                if m != 0 {
-                    room(list)?;
-                    let at = row_base + q * QUAD;
-                    while m != 0 {
-                        list.push((at + m.trailing_zeros() as usize) as u32);
-                        m &= m - 1;
-                    }
-                }
+                let m = _mm256_movemask_epi8(occ) as u32 & keep;
+                push_mask(list, m, row_base + q * QUAD)?;
             }
             if pair {
                 let at = quads * QUAD;
-                let v = _mm_loadu_si128(vr.add(at).cast());
-                let u = _mm_loadu_si128(ur.add(at).cast());
-                acc1 = _mm_add_epi8(acc1, u);
-                let occ = _mm_and_si128(
-                    _mm_cmpeq_epi8(_mm_min_epu8(v, top1), v),
-                    _mm_cmpeq_epi8(u, zero1),
-                );
-                let mut m = _mm_movemask_epi8(occ) as u32 & keep;
-                if m != 0 {
-                    room(list)?;
-                    let at = row_base + at;
-                    while m != 0 {
-                        list.push((at + m.trailing_zeros() as usize) as u32);
-                        m &= m - 1;
-                    }
-                }
+                let m = pair_mask(vr.add(at), ur.add(at), top1, &mut acc1) & keep;
+                push_mask(list, m, row_base + at)?;
             }
             if done < w {
                 known += scan_row_scalar(
