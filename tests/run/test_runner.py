@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,20 @@ def _alive(pid: int) -> bool:
         return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
     except OSError:
         return False
+
+
+def _running(argv: list[str]) -> list[int]:
+    """The live (not zombie) processes whose command line is exactly ``argv``."""
+    want = ("\0".join(argv) + "\0").encode()
+    found = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                if (d / "cmdline").read_bytes() == want and _alive(int(d.name)):
+                    found.append(int(d.name))
+            except OSError:
+                continue
+    return found
 
 
 def _config(tmp_path: Path, algorithms: dict, **extra) -> dict:
@@ -151,8 +166,12 @@ def test_a_ctrl_c_as_the_runs_start_stops_every_run(tmp_path: Path) -> None:
     # Each command sends the Ctrl-C itself once its child is up: to slamq, its meter's
     # parent. A Ctrl-C that came while the pool was still starting its threads used to be
     # lost (the runs went on to their end); wherever it lands now, every run is stopped.
-    cmd = ("sleep 60 & echo $! > {out}/child.pid; "
-           "kill -INT $(cut -d' ' -f4 /proc/$PPID/stat); wait")
+    # The pid file is written whole (a run stopped between the shell opening it and
+    # writing to it left it empty), and the sleep's unique length finds the children
+    # whose pid was never written.
+    length = f"60.{uuid.uuid4().int % 10**9:09d}"
+    cmd = (f"sleep {length} & echo $! > {{out}}/child.tmp && mv {{out}}/child.tmp "
+           "{out}/child.pid; kill -INT $(cut -d' ' -f4 /proc/$PPID/stat); wait")
     cfg = _config(tmp_path, {name: {"command": cmd} for name in ("a", "b", "c")},
                   parallel=3)
     t0 = time.monotonic()
@@ -165,6 +184,7 @@ def test_a_ctrl_c_as_the_runs_start_stops_every_run(tmp_path: Path) -> None:
     for pid_file in pids:
         assert not _alive(int(pid_file.read_text())), pid_file
         assert not (pid_file.parent.parent / "run.json").exists()
+    assert not _running(["sleep", length]), "a run's child outlived slamq run"
 
 
 def test_slamq_run_reaps_what_a_stopped_run_left_without_waiting_for_init(
