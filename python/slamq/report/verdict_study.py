@@ -41,6 +41,11 @@ BENCHMARK_SETS = (("tuning: seed 0", ("s0",)),
                   ("held out 3 (after that rule shipped): 18 more worlds, seed 5", ("s5",)))
 
 
+#: The grid (m) the first and the old rule's ``corners_canonical`` is computed at (off by
+#: default since 2026-11-27): the benchmark sets and the real folders alike.
+CANONICAL_RESOLUTION = 0.07
+
+
 def _hidden(df: pd.DataFrame) -> pd.DataFrame:
     """The rows with every ground-truth column dropped."""
     return df.drop(columns=[c for c in df.columns
@@ -107,10 +112,10 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
 
 
 def _with_canonical_corners(df: pd.DataFrame) -> pd.DataFrame:
-    """``df`` with ``corners_canonical`` (at 0.07 m) filled in where it is missing: it is
-    off by default since 2026-11-27, and the first rule and the old rule rank by it, so a
-    set scored with the defaults is measured with them as the earlier sets were. The
-    second rule does not read it."""
+    """``df`` with ``corners_canonical`` (at :data:`CANONICAL_RESOLUTION`) filled in where
+    it is missing: it is off by default since 2026-11-27, and the first rule and the old
+    rule rank by it, so a set scored with the defaults is measured with them as the
+    earlier sets were. The second rule does not read it."""
     from slamq.api import evaluate
 
     df = df.copy()
@@ -121,7 +126,7 @@ def _with_canonical_corners(df: pd.DataFrame) -> pd.DataFrame:
         return df
     df["corners_canonical"] = df["corners_canonical"].astype(float)
     df.loc[missing, "corners_canonical"] = [
-        evaluate(str(m), canonical_resolution=0.07).corners_canonical
+        evaluate(str(m), canonical_resolution=CANONICAL_RESOLUTION).corners_canonical
         for m in df.loc[missing, "map"]]
     return df
 
@@ -152,8 +157,8 @@ def folder_verdicts(root: Path, by_eye: Path, *,
     records = []
     for r in eye.itertuples():
         path = Path(root) / r.folder / r.map
-        # corners_canonical on (off by default since 2026-11-27): the first rule ranks by it
-        q = evaluate(str(path), canonical_resolution=0.07)
+        # the first rule ranks by corners_canonical
+        q = evaluate(str(path), canonical_resolution=CANONICAL_RESOLUTION)
         records.append({"map": str(path), "sequence": r.folder, "algorithm": r.map, "run": 1,
                         **q.to_dict()})
     ok = pd.DataFrame(records)
