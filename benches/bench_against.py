@@ -1,15 +1,16 @@
 """This build against another build of slamq, in the same minutes: ``slamq.compare`` with
 ICP (issue 27 row 4) and ``slamq batch`` of dense crops with the defaults (row 2).
 
-Issue 27 set its targets as absolute figures measured on the machine of its day: compare
-~18 ms -> <= 10 ms, batch ~180 -> >= 300 maps/s. The same builds run 1.4-2.6x slower or
-faster on other days of a shared machine (SHA-1 of 1 MB alone took 0.56 ms on 2026-11-24
-and 1.46 ms on 2026-11-27 on "the same" 2-core machine), so an absolute figure says as much
-about the day as about the code. This bench measures the code: it runs the build of the
-day the targets were set (``--base``, any Python whose ``import slamq`` is that build) and
-this build, alternating, and prints each figure with the speed-up of this build over the
-base measured in the same run, beside the speed-up the target asks for (18 / 10 = 1.8x for
-compare, 300 / 180 = 1.67x for the batch).
+Issue 27 set its targets as absolute figures measured on the machine of its day: compare ~18
+ms -> <= 10 ms, batch ~180 -> >= 300 maps/s. The same build runs 1.3-2.6x slower or faster
+on other days of "the same" shared 2-core machine (the batch's hash step, SHA-1 of a 1 MB
+map with its reading, took 0.56 ms on 2026-11-24 and 1.46 ms on 2026-11-27; the build the
+issue measured, ~18 ms and ~180 maps/s on its day, gave 24-44 ms and 72-102 maps/s on
+2026-11-27), so an absolute figure says as much about the day as about the code. This bench
+measures the code: it runs the build of the day the targets were set (``--base``, any Python
+whose ``import slamq`` is that build) and this build, alternating, and prints each figure
+with the speed-up of this build over the base measured in the same run, beside the speed-up
+the target asks for (18 / 10 = 1.8x for compare, 300 / 180 = 1.67x for the batch).
 
 - compare: ``bench_compare.py``'s maps (1-Mcell estimate, 1-Mcell ground truth, frame off by
   (0.3 m, -0.2 m, 2 degrees)), ``slamq.compare(est, gt, align=..., threads=1)``; a round is
