@@ -62,6 +62,8 @@ for align in ("icp", "origin"):
 print(json.dumps(out))
 """
 
+#: bench_batch.py's CHILD, but on the folder itself: its ``Discovery`` (the walk timed apart)
+#: is newer than the builds this is run against.
 BATCH_CHILD = r"""
 import json, os, shutil, sys, tempfile, time
 from slamq.batch import evaluate_many

@@ -425,25 +425,49 @@ fn trimmed(
 /// dy)` minimising the point-to-line and point-to-point residuals, as an [`Se2`], and the
 /// size of the step (radians, and metres of the kept points' centroid).
 fn step(res: &[Pair], order: &[u32], target: &Target) -> Option<(Se2, f64, f64)> {
-    let n = order.len() as f64;
-    let (ox, oy) = order.iter().fold((0.0, 0.0), |(a, b), &i| {
-        let q = res[i as usize].2;
-        (a + q.0, b + q.1)
-    });
-    let (ox, oy) = (ox / n, oy / n);
+    let o = centroid(res, order);
     // normal equations J^T J x = -J^T r, x = (dtheta, dx, dy)
     let mut a = [[0.0f64; 3]; 3];
     let mut g = [0.0f64; 3];
     // the upper triangle only: a[v][u] would sum the same products (j[v] * j[u] ==
     // j[u] * j[v]) in the same order, so it is a[u][v], copied after the loop
-    let mut add = |j: [f64; 3], r: f64| {
+    residuals(res, order, target, o, |j, r| {
         for u in 0..3 {
             for v in u..3 {
                 a[u][v] += j[u] * j[v];
             }
             g[u] -= j[u] * r;
         }
-    };
+    });
+    for u in 0..3 {
+        for v in 0..u {
+            a[u][v] = a[v][u];
+        }
+    }
+    Some(motion(solve3(a, g)?, o))
+}
+
+/// The centroid of the kept pairs' moved points.
+fn centroid(res: &[Pair], order: &[u32]) -> (f64, f64) {
+    let n = order.len() as f64;
+    let (ox, oy) = order.iter().fold((0.0, 0.0), |(a, b), &i| {
+        let q = res[i as usize].2;
+        (a + q.0, b + q.1)
+    });
+    (ox / n, oy / n)
+}
+
+/// Each residual of the kept pairs and its Jacobian row `d r / d (dtheta about o, dx, dy)`,
+/// in order: one point-to-line residual where the target cell has a line, else the two
+/// point-to-point ones.
+#[inline(always)]
+fn residuals(
+    res: &[Pair],
+    order: &[u32],
+    target: &Target,
+    (ox, oy): (f64, f64),
+    mut add: impl FnMut([f64; 3], f64),
+) {
     for &i in order {
         let (_, k, q) = res[i as usize];
         let l = target.local(k);
@@ -457,20 +481,18 @@ fn step(res: &[Pair], order: &[u32], target: &Target) -> Option<(Se2, f64, f64)>
             add([px, 0.0, 1.0], q.1 - l.cy);
         }
     }
-    for u in 0..3 {
-        for v in 0..u {
-            a[u][v] = a[v][u];
-        }
-    }
-    let x = solve3(a, g)?;
+}
+
+/// The solution `x = (dtheta, dx, dy)` about `o` as an [`Se2`] (q -> R (q - o) + o + d),
+/// with the size of the step (radians, metres).
+fn motion(x: [f64; 3], (ox, oy): (f64, f64)) -> (Se2, f64, f64) {
     let (s, c) = x[0].sin_cos();
-    // q -> R (q - o) + o + d
-    let motion = Se2 {
+    let m = Se2 {
         theta: x[0],
         tx: ox + x[1] - (c * ox - s * oy),
         ty: oy + x[2] - (s * ox + c * oy),
     };
-    Some((motion, x[0].abs(), x[1].hypot(x[2])))
+    (m, x[0].abs(), x[1].hypot(x[2]))
 }
 
 /// Solve a 3x3 symmetric system by Gaussian elimination with partial pivoting; None when
@@ -840,6 +862,26 @@ mod tests {
     use crate::edt::tests::rng;
     use crate::se2::floor_i64;
 
+    /// The occupied cells of `mask` (`h x w`, row-major), their bits and column pass, and a
+    /// 0.05 m frame of the grid at `origin`.
+    fn target_parts(
+        mask: &[bool],
+        h: usize,
+        w: usize,
+        origin: Se2,
+    ) -> (Vec<u32>, Sparse, Columns, Frame) {
+        let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
+        let bits = Sparse::new(&cells, h, w).unwrap();
+        let columns = bits.columns().unwrap();
+        let frame = Frame {
+            resolution: 0.05,
+            height: h,
+            width: w,
+            origin,
+        };
+        (cells, bits, columns, frame)
+    }
+
     /// `floor_clamp` is `floor_i64` clamped, on random, edge and special values.
     #[test]
     fn floor_clamp_equals_floor_i64_clamped() {
@@ -945,19 +987,12 @@ mod tests {
         let mut next = rng(47);
         let (h, w) = (90usize, 70usize);
         let mask: Vec<bool> = (0..h * w).map(|i| i % 7 == 0 || next() % 9 == 0).collect();
-        let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
-        let bits = Sparse::new(&cells, h, w).unwrap();
-        let columns = bits.columns().unwrap();
-        let frame = Frame {
-            resolution: 0.05,
-            height: h,
-            width: w,
-            origin: Se2 {
-                theta: 0.3,
-                tx: 1.0,
-                ty: -2.0,
-            },
+        let origin = Se2 {
+            theta: 0.3,
+            tx: 1.0,
+            ty: -2.0,
         };
+        let (cells, bits, columns, frame) = target_parts(&mask, h, w, origin);
         let target = Target::with(frame, &columns, Occupied::Bits(&bits), &cells).unwrap();
         let want: Vec<[u64; 4]> = cells
             .iter()
@@ -1001,19 +1036,12 @@ mod tests {
             let (h, w) = (1 + (next() % 80) as usize, 1 + (next() % 120) as usize);
             let density = [1u64, 5, 40, 300][case % 4];
             let mask: Vec<bool> = (0..h * w).map(|_| next() % 1000 < density).collect();
-            let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
-            let bits = Sparse::new(&cells, h, w).unwrap();
-            let columns = bits.columns().unwrap();
-            let frame = Frame {
-                resolution: 0.05,
-                height: h,
-                width: w,
-                origin: Se2 {
-                    theta: -0.7,
-                    tx: 3.0,
-                    ty: 0.5,
-                },
+            let origin = Se2 {
+                theta: -0.7,
+                tx: 3.0,
+                ty: 0.5,
             };
+            let (cells, bits, columns, frame) = target_parts(&mask, h, w, origin);
             let direct = Target::with(frame, &columns, Occupied::Bits(&bits), &cells).unwrap();
             let other = Target::with(frame, &bits, Occupied::Bits(&bits), &cells).unwrap();
             assert!(direct.dense.is_some() && other.dense.is_none());
@@ -1032,42 +1060,18 @@ mod tests {
 
     /// The former step: the whole matrix summed.
     fn step_literal(res: &[Pair], order: &[u32], target: &Target) -> Option<(Se2, f64, f64)> {
-        let n = order.len() as f64;
-        let (ox, oy) = order.iter().fold((0.0, 0.0), |(a, b), &i| {
-            let q = res[i as usize].2;
-            (a + q.0, b + q.1)
-        });
-        let (ox, oy) = (ox / n, oy / n);
+        let o = centroid(res, order);
         let mut a = [[0.0f64; 3]; 3];
         let mut g = [0.0f64; 3];
-        let mut add = |j: [f64; 3], r: f64| {
+        residuals(res, order, target, o, |j, r| {
             for u in 0..3 {
                 for v in 0..3 {
                     a[u][v] += j[u] * j[v];
                 }
                 g[u] -= j[u] * r;
             }
-        };
-        for &i in order {
-            let (_, k, q) = res[i as usize];
-            let l = target.local(k);
-            let (px, py) = (q.0 - ox, q.1 - oy);
-            if l.nx != 0.0 || l.ny != 0.0 {
-                let r = l.nx * (q.0 - l.cx) + l.ny * (q.1 - l.cy);
-                add([l.nx * -py + l.ny * px, l.nx, l.ny], r);
-            } else {
-                add([-py, 1.0, 0.0], q.0 - l.cx);
-                add([px, 0.0, 1.0], q.1 - l.cy);
-            }
-        }
-        let x = solve3(a, g)?;
-        let (s, c) = x[0].sin_cos();
-        let motion = Se2 {
-            theta: x[0],
-            tx: ox + x[1] - (c * ox - s * oy),
-            ty: oy + x[2] - (s * ox + c * oy),
-        };
-        Some((motion, x[0].abs(), x[1].hypot(x[2])))
+        });
+        Some(motion(solve3(a, g)?, o))
     }
 
     /// The step from the upper triangle equals the whole matrix's, bit for bit, on random
@@ -1077,19 +1081,12 @@ mod tests {
         let mut next = rng(67);
         let (h, w) = (60usize, 50usize);
         let mask: Vec<bool> = (0..h * w).map(|i| i % 11 == 0 || next() % 7 == 0).collect();
-        let cells: Vec<u32> = (0..h * w).filter(|&i| mask[i]).map(|i| i as u32).collect();
-        let bits = Sparse::new(&cells, h, w).unwrap();
-        let columns = bits.columns().unwrap();
-        let frame = Frame {
-            resolution: 0.05,
-            height: h,
-            width: w,
-            origin: Se2 {
-                theta: 0.4,
-                tx: -1.0,
-                ty: 2.0,
-            },
+        let origin = Se2 {
+            theta: 0.4,
+            tx: -1.0,
+            ty: 2.0,
         };
+        let (cells, bits, columns, frame) = target_parts(&mask, h, w, origin);
         let target = Target::with(frame, &columns, Occupied::Bits(&bits), &cells).unwrap();
         let unit = |x: u64| (x % 1_000_000) as f64 * 1e-6;
         for case in 0..300 {
