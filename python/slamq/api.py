@@ -25,7 +25,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar, Union
 
-from slamq.errors import OutOfMemoryError, SlamqError
+from slamq.errors import MapWarning, OutOfMemoryError, SlamqError
 from slamq.metrics.agreement import Agreement
 from slamq.metrics.agreement import agreement as agreement_of
 from slamq.metrics.ate import ErrorResult, RunsResult
@@ -144,6 +144,12 @@ def compare(estimate: MapSource, ground_truth: MapSource, *, unknown_value: int 
     -------
     MapComparison
 
+    Warns
+    -----
+    slamq.MapWarning
+        When the alignment fitted poorly (``MapComparison.note`` says how, and which
+        alignment was used).
+
     Examples
     --------
     >>> import numpy as np, slamq
@@ -156,7 +162,12 @@ def compare(estimate: MapSource, ground_truth: MapSource, *, unknown_value: int 
     """
     est = _load(estimate, unknown_value)
     gt = _load(ground_truth, unknown_value)
-    return compare_of(est, gt, **options)
+    c = compare_of(est, gt, **options)
+    if c.note:
+        hint = "; pass align='search' (or 'auto')" if "fits better" in c.note else ""
+        warnings.warn(MapWarning(f"{c.estimate} vs {c.ground_truth}: {c.note}{hint}"),
+                      stacklevel=2)
+    return c
 
 
 @_like(consensus_of, [_param("maps")])

@@ -300,8 +300,14 @@ SETTINGS = _Rows((s.name, s) for s in (
     Setting("compare", "compare_align", "icp",
             "alignment with the ground-truth map: icp, the files' frames refined by trimmed "
             "ICP; origin, the frames only; search, from the global registration (any "
-            "rotation), for maps saved in an arbitrary frame", type=str,
-            choices=_MAP_ALIGNMENTS),
+            "rotation), for maps saved in an arbitrary frame; auto, icp and, when its fit is "
+            "poor (precision under min_fit_precision), also search, keeping the better; icp "
+            "and origin say what search gives when they fit poorly",
+            type=str, choices=("auto",) + _MAP_ALIGNMENTS),
+    Setting("compare", "min_fit_precision", 0.5,
+            "an alignment whose precision (share of the estimate's walls within tolerance of "
+            "a ground-truth wall) is under this fits poorly: search is tried too, and auto "
+            "keeps it when it fits better", "", float, 0.0, 1.0),
     Setting("compare", "tolerance", None,
             "matching distance for precision/recall (default: tolerance_cells cells of the "
             "ground truth)", "m", float, 0.0, None),

@@ -104,3 +104,21 @@ def test_arrays_written_as_images(tmp_path: Path, capsys: pytest.CaptureFixture[
                  "--json", "-"]) == 0
     (row,) = json.loads(capsys.readouterr().out)
     assert row["f1"] == 1.0 and row["ne"] == 0.0
+
+
+def test_a_poor_fit_is_a_warning_naming_the_map(capsys: pytest.CaptureFixture[str]) -> None:
+    """cartographer's office map fits the ground truth poorly by its frame: the warning line
+    names the map, both fits and the CLI flag; --align auto keeps the better fit."""
+    carto = OFFICE / "cartographer_map.yaml"
+    assert main(["compare", str(carto), str(OFFICE / "gmapping_map.yaml"), "--gt", str(GT),
+                 "--json", "-"]) == 0
+    captured = capsys.readouterr()
+    warnings = [ln for ln in captured.err.splitlines() if ln.startswith("slamq: warning:")]
+    assert len(warnings) == 1 and str(carto) in warnings[0]
+    assert "icp fits poorly (precision 0.265" in warnings[0] and "--align search" in warnings[0]
+    rows = {Path(r["estimate"]).stem: r for r in json.loads(captured.out)}
+    assert rows["cartographer_map"]["align"] == "icp" and rows["gmapping_map"]["note"] == ""
+    assert main(["compare", str(carto), "--gt", str(GT), "--json", "-", "--align", "auto"]) == 0
+    captured = capsys.readouterr()
+    (row,) = json.loads(captured.out)
+    assert row["align"] == "search" and row["precision"] > 0.5 and "--align" not in captured.err

@@ -309,3 +309,32 @@ def test_corpus_clean_maps_align_and_score_well(shared_data, world: str) -> None
             assert c.f1 > 0.98 and c.ne < 0.02 and c.coverage > 0.99
             assert c.chamfer <= o.chamfer
     assert scores["cartographer"].f1 < min(scores["gmapping"].f1, scores["slam_toolbox"].f1)
+
+
+def test_a_poor_fit_says_what_the_registration_gives() -> None:
+    """A map saved in another frame: icp fits poorly and says so (the figures stay icp's);
+    auto takes the registration; a good fit says nothing (issue 42, point 1)."""
+    est = placed(building())
+    gt = placed(building(), origin=(4.0, -1.0, math.radians(120.0)))
+    with pytest.warns(slamq.MapWarning, match="align='search'"):
+        icp = slamq.compare(est, gt)
+    assert icp.align == "icp" and icp.precision < 0.5
+    assert "fits poorly" in icp.note and "fits better" in icp.note
+    auto = slamq.compare(est, gt, align="auto")
+    assert auto.align == "search" and auto.f1 > 0.99 and abs(auto.dyaw - 120.0) < 0.5
+    assert "aligned by the global registration" in auto.note
+    assert auto.f1 == slamq.compare(est, gt, align="search").f1
+    good = slamq.compare(est, placed(building()), align="auto")
+    assert good.align == "icp" and good.note == "" and good.f1 > 0.99
+    with pytest.raises(slamq.ParamError, match="min_fit_precision"):
+        slamq.compare(est, gt, min_fit_precision=1.5)
+
+
+def test_a_broken_map_is_not_blamed_on_the_frames() -> None:
+    """Walls of another place: neither alignment fits, and the note says the map may be
+    broken rather than advising another alignment."""
+    rng = np.random.default_rng(3)
+    noise = np.full((80, 100), 254, np.uint8)
+    noise[rng.random(noise.shape) < 0.03] = 0
+    c = slamq.compare(placed(noise), placed(building()), align="origin")
+    assert c.precision < 0.5 and "no better" in c.note and "broken" in c.note

@@ -106,6 +106,9 @@ def handle(args: argparse.Namespace) -> int:
                   file=sys.stderr)
             unexpected += 1
             continue
+        if c.note and not args.quiet:
+            hint = "; use --align search (or auto)" if "fits better" in c.note else ""
+            print(f"slamq: warning: {src}: {c.note}{hint}", file=sys.stderr)
         results.append(c)
     to_stdout = "-" in (args.json, args.csv)
     if results and not args.quiet:
@@ -171,8 +174,9 @@ def print_comparisons(results: list[Any], file: IO[str] = sys.stdout) -> None:
                        for i, (h, wd) in enumerate(zip(row, widths)))
              for row in [head, *rows]]
     gt = results[0].ground_truth
-    print(f"against {gt} (align {results[0].align}, tolerance "
-          f"{results[0].tolerance:.3g} m)", file=file)
+    used = sorted({c.align for c in results})
+    align = used[0] if len(used) == 1 else "/".join(used) + " (see the warnings)"
+    print(f"against {gt} (align {align}, tolerance {results[0].tolerance:.3g} m)", file=file)
     print("\n".join(lines), file=file)
 
 

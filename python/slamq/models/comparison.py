@@ -55,13 +55,17 @@ class MapComparison:
     max_distance : float or None
         The truncation distance used, metres.
     align : str
-        ``"origin"``, ``"icp"`` or ``"search"``.
+        The alignment used: ``"origin"``, ``"icp"`` or ``"search"`` (``align="auto"`` says
+        which it chose).
     occupied_threshold : float
     resolution : float
         The ground truth's metres per cell (the unit of the comparison grid).
     cells : numpy.ndarray or None
         Per ground-truth cell, bit flags (1 E, 2 G, 4 E matched, 8 G matched, 16 estimate
         known, 32 ground truth free), when asked for. Not part of :meth:`to_dict`.
+    note : str
+        Empty, or one sentence when the alignment fitted poorly (docs/spec.md section 7,
+        "Fit"): which alignment was tried and used, with its precision.
 
     Examples
     --------
@@ -98,6 +102,7 @@ class MapComparison:
     occupied_threshold: float
     resolution: float
     cells: np.ndarray | None = field(default=None, compare=False, repr=False)
+    note: str = ""
 
     @classmethod
     def from_counts(
