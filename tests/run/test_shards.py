@@ -4,9 +4,12 @@ environment variables, and the guard against a plain run while a shard runs."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -131,7 +134,9 @@ def test_merge_names_the_missing_shard_and_a_plain_run_finishes_it(tmp_path: Pat
 def test_the_shard_index_from_array_job_environments(tmp_path: Path) -> None:
     path = _yaml(tmp_path, _config(tmp_path))
     p = _cli(str(path), "--shard", "3", env={"SLURM_ARRAY_TASK_ID": "3",
-                                               "SLURM_ARRAY_TASK_MIN": "1"})
+                                               "SLURM_ARRAY_TASK_MIN": "1",
+                                               "SLURM_ARRAY_TASK_MAX": "3",
+                                               "SLURM_ARRAY_TASK_COUNT": "3"})
     out, err = p.communicate(timeout=60)
     assert p.returncode == 0 and "shard 2/3:" in out, err
     p = _cli(str(path), "--shard", "3", env={"JOB_COMPLETION_INDEX": "0"})
@@ -152,3 +157,89 @@ def test_a_plain_run_refuses_while_a_shard_runs(tmp_path: Path) -> None:
     p = _cli(str(path))
     _, err = p.communicate(timeout=60)
     assert p.returncode == 2 and "1-of-2.running" in err
+
+
+def _slurm(task: int, low: int, high: int, count: int, step: int = 1) -> dict[str, str]:
+    return {"SLURM_ARRAY_TASK_ID": str(task), "SLURM_ARRAY_TASK_MIN": str(low),
+            "SLURM_ARRAY_TASK_MAX": str(high), "SLURM_ARRAY_TASK_COUNT": str(count),
+            "SLURM_ARRAY_TASK_STEP": str(step)}
+
+
+def test_shard_indices_from_stepped_listed_and_one_task_arrays(tmp_path: Path) -> None:
+    """Issue 43, point 3: --array=0-4:2 is shards 0..2 of 3; --array=2 (a shard submitted
+    again) is shard 2 of the N given or recorded, never 0/1 (the whole plan); listed
+    arrays take their ids as shard indices; without N the error gives the command."""
+    assert [shards.parse_shard("auto", _slurm(t, 0, 4, 3, 2)) for t in (0, 2, 4)] == [
+        (0, 3), (1, 3), (2, 3)]
+    assert shards.parse_shard("4", _slurm(2, 2, 2, 1)) == (2, 4)
+    assert shards.parse_shard("auto", _slurm(2, 2, 2, 1), known=4) == (2, 4)
+    assert [shards.parse_shard("4", _slurm(t, 1, 3, 2)) for t in (1, 3)] == [(1, 4), (3, 4)]
+    with pytest.raises(ParamError, match=r"sbatch --array=2 slurm-array.sh CONFIG N"):
+        shards.parse_shard("auto", _slurm(2, 2, 2, 1))
+    with pytest.raises(ParamError, match="must be in 0..3"):
+        shards.parse_shard("4", _slurm(5, 5, 5, 1))
+    path = _yaml(tmp_path, _config(tmp_path))
+    shards.run_shard(path, (0, 4))  # the first submission recorded N = 4
+    p = _cli(str(path), "--shard", "auto", env={**os.environ, **_slurm(2, 2, 2, 1)})
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 0 and "shard 2/4:" in out, err
+
+
+def test_a_second_copy_of_a_running_shard_refuses_and_keeps_the_first(tmp_path: Path
+                                                                       ) -> None:
+    """Issue 43, point 1: a requeued or resubmitted copy of a running shard exits 2 naming
+    the running process, runs nothing, and leaves the first copy's marker alone; a marker
+    whose process is gone (killed) is taken over."""
+    cfg = _config(tmp_path)
+    go = tmp_path / "go"  # the first copy's run waits for it
+    cfg["algorithms"] = {"slow": {"command": ["sh", "-c", f"while [ ! -f {go} ]; do sleep 0.05; "
+                                              "done"]}}
+    cfg["iterations"] = 1
+    path = _yaml(tmp_path, cfg)
+    first = _cli(str(path), "--shard", "0/1")
+    marker = tmp_path / "out" / "shards" / "0-of-1.running"
+    for _ in range(200):
+        if marker.exists() and marker.read_text().strip():
+            break
+        time.sleep(0.05)
+    owner = marker.read_text()
+    second = _cli(str(path), "--shard", "0/1")
+    out, err = second.communicate(timeout=60)
+    assert second.returncode == 2 and "already running" in err
+    assert owner.split()[1] in err  # names the first copy's pid
+    assert marker.read_text() == owner  # the first copy's marker is still there
+    go.write_text("")
+    out, err = first.communicate(timeout=60)
+    assert first.returncode == 0 and "ran 1 (1 ok)" in out, err
+    assert not marker.exists()
+    # a dead process's marker: taken over at once
+    marker.write_text(f"{socket.gethostname()} 999999999\n")
+    again = _cli(str(path), "--shard", "0/1")
+    out, err = again.communicate(timeout=60)
+    assert again.returncode == 0 and "ran 0" in out and "found 1 done (1 ok)" in out, err
+
+
+def test_merge_of_unfinished_runs_and_a_failed_shard_exit_3(tmp_path: Path) -> None:
+    """Issue 43, point 2: --merge with runs not finished exits 3 naming each shard's state
+    (--partial exits 0); a shard with a run that is not ok exits 3."""
+    cfg = _config(tmp_path)
+    cfg["algorithms"]["crasher"] = {"command": ["sh", "-c", "exit 3"],
+                                   "outputs": {"map": {"path": "map.pgm", "format": "image"}}}
+    path = _yaml(tmp_path, cfg)
+    n = 4
+    codes = {}
+    for i in (0, 1):
+        p = _cli(str(path), "--shard", f"{i}/{n}")
+        out, err = p.communicate(timeout=120)
+        codes[i] = (p.returncode, out, err)
+    assert {code for code, _, _ in codes.values()} <= {0, 3}
+    crashed = [i for i, (code, _, _) in codes.items() if code == 3]
+    assert crashed and all("not ok" in codes[i][2] for i in crashed)
+    p = _cli(str(path), "--merge")
+    out, err = p.communicate(timeout=120)
+    assert p.returncode == 3, err
+    assert "shard 2/4 (missing)" in err and "shard 3/4 (missing)" in err
+    assert "merged:" in out and (tmp_path / "out" / "results.jsonl").exists()
+    p = _cli(str(path), "--merge", "--partial")
+    out, err = p.communicate(timeout=120)
+    assert p.returncode == 0 and "not finished" in err, err

@@ -22,6 +22,8 @@ from slamq.errors import SlamqError
 EXIT_OK = 0
 EXIT_ERROR = 1
 EXIT_BAD_INPUT = 2
+#: Array jobs: a shard with a run that is not ok, a merge with runs not finished.
+EXIT_INCOMPLETE = 3
 
 #: Optional extras: name -> the modules they bring.
 EXTRAS = {

@@ -32,11 +32,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    "or return them as bytes; auto (default) = shared when a worker sees it")
     p.add_argument("--shard", metavar="I/N",
                    help="run only the I-th (0-based) of N round-robin slices of the planned "
-                   "runs and score nothing; 'N' alone takes I from JOB_COMPLETION_INDEX or "
-                   "SLURM_ARRAY_TASK_ID")
+                   "runs and score nothing (exit 3 when a run is not ok); 'N' alone takes I "
+                   "from JOB_COMPLETION_INDEX or the Slurm array task; 'auto' also takes N "
+                   "from the array, or from the output folder's earlier shards")
     p.add_argument("--merge", action="store_true",
                    help="run nothing: score every finished run (the shards') into one "
-                   "results file, summary and report (a plain run merges too)")
+                   "results file, summary and report (a plain run merges too); exit 3 "
+                   "when runs are not finished, naming each shard's state")
+    p.add_argument("--partial", action="store_true",
+                   help="with --merge: exit 0 although some runs are not finished")
     p.set_defaults(func=handle)
 
 
@@ -52,7 +56,7 @@ def handle(args: argparse.Namespace) -> int:
         print(f"{row['outcome']:<12} {row['algorithm']} {row['sequence']} #{row['iteration']}"
               f"  {row.get('wall', '-')} s  {row.get('reason', '')}", file=sys.stderr)
 
-    if args.shard or args.merge:
+    if args.shard or args.merge or args.partial:
         from slamq.cli.run_multi import shard_or_merge
 
         return shard_or_merge(args, progress)
