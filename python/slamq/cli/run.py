@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
 from slamq.cli.common import EXIT_OK
 
@@ -81,7 +82,9 @@ def handle(args: argparse.Namespace) -> int:
     counts: dict[str, int] = {}
     for row in result["rows"]:
         counts[row["outcome"]] = counts.get(row["outcome"], 0) + 1
-    print("runs: " + ", ".join(f"{n} {k}" for k, n in sorted(counts.items())))
+    found = sum(bool(row.get("skipped")) for row in result["rows"])
+    print("runs: " + ", ".join(f"{n} {k}" for k, n in sorted(counts.items()))
+          + f" (ran {len(result['rows']) - found}, found {found} done from an earlier run)")
     from slamq.cli.run_multi import print_stages, report_state
 
     print_stages(result)
@@ -90,5 +93,43 @@ def handle(args: argparse.Namespace) -> int:
     print(f"results: {result['results']}")
     if result["report"] is not None:
         print(f"report {report_state(result)}: {result['report']}")
+        for line in verdict_lines(result["report"]):
+            print(line)
     return EXIT_OK
+
+
+def verdict_lines(report: Any) -> list[str]:
+    """One line per sequence from the report's ``verdict.json``: the program named best and
+    on what basis, or that none was named and why.
+
+    Examples
+    --------
+    >>> import json, pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "verdict.json").write_text(json.dumps([
+    ...     {"sequence": "s", "best": "icp-slam", "basis": ["ate_rmse"], "confidence": "high"},
+    ...     {"sequence": "t", "best": None, "basis": [], "confidence": "none: 2 maps"}]))
+    >>> for line in verdict_lines(d / "index.html"):
+    ...     print(line)
+    best on s: icp-slam (by ate_rmse; high)
+    best on t: none named (none: 2 maps)
+    """
+    import json
+    from pathlib import Path
+
+    path = Path(report)
+    path = (path if path.is_dir() else path.parent) / "verdict.json"
+    try:
+        verdicts = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return []
+    lines = []
+    for v in verdicts if isinstance(verdicts, list) else []:
+        conf = str(v.get("confidence") or "").split(";")[0]
+        if v.get("best"):
+            basis = ", ".join(map(str, v.get("basis") or [])) or "the verdict"
+            lines.append(f"best on {v.get('sequence')}: {v['best']} (by {basis}; {conf})")
+        else:
+            lines.append(f"best on {v.get('sequence')}: none named ({conf})")
+    return lines
 
