@@ -61,8 +61,9 @@ def _yaw(q: np.ndarray) -> np.ndarray:
 
 def _duplicates(t1: np.ndarray, t2: np.ndarray) -> int:
     """Rows whose ``(t1, t2)`` pair repeats an earlier row's."""
-    pairs = np.column_stack([t1, t2])
-    return int(pairs.shape[0] - np.unique(pairs, axis=0).shape[0])
+    order = np.lexsort((t2, t1))
+    a, b = t1[order], t2[order]
+    return int(((a[1:] == a[:-1]) & (b[1:] == b[:-1])).sum())
 
 
 def relations(

@@ -213,23 +213,28 @@ def interpolate_poses(
     q = np.asarray(times, dtype=np.float64)
     n = t.shape[0]
     m = q.shape[0]
-    # exact: the nearest pose, the earlier on a tie
-    hi = np.searchsorted(t, q, side="left")
+    # one search, in sorted order (several times faster on a long trajectory than
+    # unsorted lookups); hi is the first pose at or after the time
+    order = np.argsort(q, kind="stable")
+    hi = np.empty(m, dtype=np.intp)
+    hi[order] = np.searchsorted(t, q[order], side="left")
     lo = np.clip(hi - 1, 0, n - 1)
-    hi = np.minimum(hi, n - 1)
+    up = np.minimum(hi, n - 1)
     d_lo = np.abs(q - t[lo])
-    d_hi = np.abs(t[hi] - q)
-    nearest = np.where(d_hi < d_lo, hi, lo)
+    d_hi = np.abs(t[up] - q)
+    # exact: the nearest pose, the earlier on a tie
+    nearest = np.where(d_hi < d_lo, up, lo)
     exact = np.minimum(d_lo, d_hi) <= stamp_tol
-    positions = np.zeros((m, 3))
-    orientations = np.zeros((m, 4))
-    orientations[:, 0] = 1.0
-    positions[exact] = traj.positions[nearest[exact]]
-    orientations[exact] = traj.orientations[nearest[exact]]
+    positions = traj.positions.take(nearest, axis=0)
+    orientations = traj.orientations.take(nearest, axis=0)
+    if not exact.all():
+        positions[~exact] = 0.0
+        orientations[~exact] = (1.0, 0.0, 0.0, 0.0)
     interp = np.zeros(m, dtype=bool)
     if interpolate and n > 1:
-        k = np.searchsorted(t, q, side="right") - 1          # t[k] <= q < t[k + 1]
-        inside = (k >= 0) & (k < n - 1)
+        # not exact, so t[hi - 1] < time < t[hi]: between poses hi - 1 and hi
+        k = hi - 1
+        inside = (hi >= 1) & (hi <= n - 1)
         k = np.clip(k, 0, n - 2)
         gap = t[k + 1] - t[k]
         interp = ~exact & inside & (gap <= max_gap) & (gap > 0)
