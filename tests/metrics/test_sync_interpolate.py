@@ -120,6 +120,8 @@ def test_cli_interpolate_and_time_offset(tmp_path: Path, capsys) -> None:
     assert main(["rpe", str(g), str(e), "--interpolate", "--time-offset", "0.237",
                  "--max-gap", "0.3"]) == 0
     assert "interpolated" in capsys.readouterr().out
+    assert main(["ate", str(g), str(e), "--time-offset", "auto", "--offset", "0.1"]) == 2
+    assert "both set" in capsys.readouterr().err
     with pytest.raises(SystemExit) as exc:
         main(["ate", str(g), str(e), "--time-offset", "soon"])
     assert exc.value.code == 2

@@ -171,6 +171,10 @@ def _run(args: argparse.Namespace, metric: str) -> int:
     from slamq.errors import SlamqError
     from slamq.metrics.ate import ate, rpe
 
+    if args.time_offset is not None and args.offset != 0:
+        error_line("", "--offset and --time-offset both set the estimate's time offset; "
+                   "give one")
+        return EXIT_BAD_INPUT
     try:
         gt = _load(args.gt, args, gt=True)
     except (SlamqError, OSError) as exc:
