@@ -42,6 +42,7 @@ COMMANDS: tuple[str, ...] = (
     "slamq.cli.validate",
     "slamq.cli.report",
     "slamq.cli.trajectory",
+    "slamq.cli.relations",
     "slamq.cli.timeline",
     "slamq.cli.run",
     "slamq.cli.synth",

@@ -27,13 +27,24 @@ from slamq.metrics.align import (
     estimate_alignment,
     estimate_alignment_pairs,
 )
-from slamq.metrics.sync import associate, matching_indices_numpy
+from slamq.metrics.sync import (
+    MAX_GAP,
+    associate,
+    associate_interpolated,
+    matching_indices_numpy,
+)
 from slamq.models.trajectory import Trajectory, quat_multiply, quat_rotate
 from slamq.params import SETTINGS
 
 __all__ = [
-    "ErrorResult", "RunsResult", "ate", "ate_numpy", "rpe", "ate_runs", "STAT_NAMES",
+    "ErrorResult", "RunsResult", "ate", "ate_numpy", "rpe", "ate_runs", "find_offset",
+    "STAT_NAMES", "MAX_OFFSET",
 ]
+
+#: Default bound of the time-offset search (``offset="auto"``), seconds either way.
+MAX_OFFSET = 1.0
+#: The offset search stops refining when its grid spacing is at most this, seconds.
+OFFSET_RESOLUTION = 1e-4
 
 #: The statistics of an :class:`ErrorResult`, in output order.
 STAT_NAMES = ("rmse", "mean", "median", "std", "min", "max", "sse")
@@ -213,7 +224,10 @@ def ate(
     *,
     align: str = SETTINGS.ate_align.default,
     max_dt: float = SETTINGS.max_dt.default,
-    offset: float = SETTINGS.offset.default,
+    offset: float | str = SETTINGS.offset.default,
+    interpolate: bool = False,
+    max_gap: float = MAX_GAP,
+    max_offset: float = MAX_OFFSET,
 ) -> ErrorResult:
     """Absolute trajectory error: position differences after association and alignment.
 
@@ -228,8 +242,19 @@ def ate(
         equal (evo's ``--align_origin``); ``none``: as is.
     max_dt : float
         Largest time difference of associated poses, seconds (evo's ``--t_max_diff``).
-    offset : float
-        Seconds added to the estimate's timestamps (evo's ``--t_offset``).
+    offset : float or "auto"
+        Seconds added to the estimate's timestamps (evo's ``--t_offset``); ``"auto"``:
+        the offset within ``max_offset`` that minimises the aligned ATE RMSE
+        (:func:`find_offset`), reported as ``params["offset"]``.
+    interpolate : bool
+        Pair every ground-truth pose with the estimate interpolated at its time
+        (:func:`slamq.metrics.sync.associate_interpolated`) instead of the nearest
+        estimate pose within ``max_dt`` (docs/spec.md 6b).
+    max_gap : float
+        With ``interpolate``: largest time between the two estimate poses interpolated
+        between, seconds.
+    max_offset : float
+        With ``offset="auto"``: the search's bound, seconds either way.
 
     Returns
     -------
@@ -260,7 +285,129 @@ def ate(
     _check_align(align)
     gt = _as_traj(gt, "gt")
     est = _as_traj(est, "est")
-    gi, ei = associate(gt, est, max_dt=max_dt, offset=offset)
+    extra: dict = {}
+    if isinstance(offset, str):
+        offset, extra = _auto_offset(gt, est, offset, align, max_dt, interpolate, max_gap,
+                                     max_offset)
+    gi, ei, est = _pairs(gt, est, max_dt, offset, interpolate, max_gap)
+    if interpolate:
+        extra = {"interpolate": True, "max_gap": float(max_gap), **extra}
+    r = _ate_core(gt, est, gi, ei, align, max_dt, offset)
+    if extra:
+        r.params.update(extra)
+    return r
+
+
+def _pairs(gt: Trajectory, est: Trajectory, max_dt: float, offset: float,
+           interpolate: bool, max_gap: float) -> tuple[np.ndarray, np.ndarray, Trajectory]:
+    """The associated pairs ``(gt_index, est_index, est)``: nearest stamps (evo's rule), or
+    with ``interpolate`` the estimate interpolated at the ground-truth stamps (then ``est``
+    is that interpolated trajectory)."""
+    if not interpolate:
+        gi, ei = associate(gt, est, max_dt=max_dt, offset=offset)
+        return gi, ei, est
+    gi, est_at = associate_interpolated(gt, est, offset=offset, max_gap=max_gap)
+    return gi, np.arange(gi.shape[0]), est_at
+
+
+def _auto_offset(gt: Trajectory, est: Trajectory, offset: str, align: str, max_dt: float,
+                 interpolate: bool, max_gap: float, max_offset: float) -> tuple[float, dict]:
+    if offset != "auto":
+        raise TrajectoryError(f"offset must be a number of seconds or 'auto', not {offset!r}")
+    found, rmse, evaluations = find_offset(gt, est, align=align, max_dt=max_dt,
+                                           interpolate=interpolate, max_gap=max_gap,
+                                           max_offset=max_offset)
+    return found, {"offset_search": {"auto": True, "max_offset": float(max_offset),
+                                     "resolution": OFFSET_RESOLUTION,
+                                     "criterion_rmse": rmse, "evaluations": evaluations}}
+
+
+def find_offset(
+    gt: Trajectory,
+    est: Trajectory,
+    *,
+    align: str = SETTINGS.ate_align.default,
+    max_dt: float = SETTINGS.max_dt.default,
+    interpolate: bool = False,
+    max_gap: float = MAX_GAP,
+    max_offset: float = MAX_OFFSET,
+) -> tuple[float, float, int]:
+    """The time offset (seconds added to the estimate's stamps) minimising the ATE RMSE.
+
+    The criterion is the ATE RMSE after alignment ``align`` (``none`` and ``origin``
+    are replaced by ``se2``: an offset search without a fitted alignment would trade time
+    for position). The search is bounded to ``[-max_offset, max_offset]`` and coarse to
+    fine: 41 offsets evenly spaced over the bounds, then 21 offsets spaced a tenth as wide
+    around the best so far, repeated until the spacing is at most ``OFFSET_RESOLUTION``
+    (0.1 ms). Offsets that associate fewer than half the poses of the best-covered coarse
+    offset are not candidates (a sliver of overlap fits trivially well); ties go to the
+    offset nearer 0. Without ``interpolate`` the RMSE is a step function of the offset
+    (poses pair or not within ``max_dt``), so the search is meant for ``interpolate=True``.
+
+    Returns
+    -------
+    offset, rmse, evaluations : float, float, int
+        The offset found, its criterion RMSE, and how many ATEs the search computed.
+
+    Raises
+    ------
+    TrajectoryError
+        ``max_offset`` not a finite number >= 0, or no offset within the bounds
+        associates any pose.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq.models import Trajectory
+    >>> t = np.arange(0.0, 20.0, 0.1)
+    >>> gt = Trajectory.from_xy_yaw(t, np.cos(t), np.sin(0.5 * t))
+    >>> est = Trajectory.from_xy_yaw(t - 0.237, np.cos(t), np.sin(0.5 * t))  # its clock lags
+    >>> off, rmse, _ = find_offset(gt, est, interpolate=True)
+    >>> round(off, 3), rmse < 1e-3
+    (0.237, True)
+    """
+    if not (math.isfinite(max_offset) and max_offset >= 0):
+        raise TrajectoryError(f"max_offset must be a finite number >= 0, not {max_offset!r}")
+    crit = align if align in ("se2", "se3", "sim3") else "se2"
+    seen: dict[float, tuple[float, int]] = {}
+
+    def score(off: float) -> tuple[float, int]:
+        if off not in seen:
+            try:
+                gi, ei, e = _pairs(gt, est, max_dt, off, interpolate, max_gap)
+                seen[off] = (_ate_core(gt, e, gi, ei, crit, max_dt, off).rmse, int(gi.shape[0]))
+            except TrajectoryError:
+                seen[off] = (math.inf, 0)
+        return seen[off]
+
+    coarse = np.linspace(-max_offset, max_offset, 41) if max_offset > 0 else np.zeros(1)
+    counts = [score(float(o))[1] for o in coarse]
+    need = 0.5 * max(counts)
+    if max(counts) == 0:
+        raise TrajectoryError(
+            f"{est.source}: no offset within +-{max_offset} s associates a pose of "
+            f"{gt.source}; widen max_offset")
+
+    def best(offsets: np.ndarray) -> float:
+        cands = [(score(float(o))[0], abs(float(o)), float(o)) for o in offsets
+                 if score(float(o))[1] >= need]
+        return min(cands)[2] if cands else math.nan
+
+    found = best(coarse)
+    spacing = (coarse[1] - coarse[0]) if coarse.shape[0] > 1 else 0.0
+    while spacing > OFFSET_RESOLUTION and math.isfinite(found):
+        spacing /= 10.0
+        grid = np.clip(found + spacing * np.arange(-10, 11), -max_offset, max_offset)
+        found = best(np.concatenate([grid, [found]]))
+    if not math.isfinite(found):
+        raise TrajectoryError(f"{est.source}: no offset within +-{max_offset} s gives an ATE "
+                              f"against {gt.source}")
+    return found, float(seen[found][0]), len(seen)
+
+
+def _ate_core(gt: Trajectory, est: Trajectory, gi: np.ndarray, ei: np.ndarray, align: str,
+              max_dt: float, offset: float) -> ErrorResult:
+    """The alignment, errors and statistics of associated pairs (the Rust passes)."""
     if align == "origin":
         a = estimate_alignment(align, gt.positions[gi[:1]], est.positions[ei[:1]],
                                gt.orientations[gi[:1]], est.orientations[ei[:1]],
@@ -321,7 +468,8 @@ def ate_numpy(
     offset: float = SETTINGS.offset.default,
 ) -> ErrorResult:
     """:func:`ate` in numpy (association, Umeyama, errors, statistics): the numpy twin the
-    Rust passes of :func:`ate` are tested against. Same arguments, result and errors.
+    Rust passes of :func:`ate` are tested against. Same arguments (but a numeric
+    ``offset`` and no interpolation), result and errors.
 
     Examples
     --------
@@ -380,8 +528,11 @@ def rpe(
     relation: str = "trans",
     align: str = SETTINGS.rpe_align.default,
     max_dt: float = SETTINGS.max_dt.default,
-    offset: float = SETTINGS.offset.default,
+    offset: float | str = SETTINGS.offset.default,
     pairs_from: str = "est",
+    interpolate: bool = False,
+    max_gap: float = MAX_GAP,
+    max_offset: float = MAX_OFFSET,
 ) -> ErrorResult:
     """Relative pose error between pose pairs ``delta`` apart (evo's ``evo_rpe``).
 
@@ -405,6 +556,9 @@ def rpe(
     pairs_from : {"est", "gt"}
         Whose path length chooses the pairs for ``unit="m"`` (evo: the estimate, or the
         reference with ``--pairs_from_reference``).
+    interpolate, max_gap, max_offset
+        As in :func:`ate`; ``offset="auto"`` searches the offset by the ATE RMSE
+        (:func:`find_offset`), then computes the RPE with it.
 
     Returns
     -------
@@ -446,7 +600,13 @@ def rpe(
                 raise TrajectoryError(
                     f"{tr.source}: has no orientation column, so the {relation} error of "
                     f"{name} would be zero by construction; use relation='trans'")
-    gi, ei = associate(gt, est, max_dt=max_dt, offset=offset)
+    extra: dict = {}
+    if isinstance(offset, str):
+        offset, extra = _auto_offset(gt, est, offset, "se2", max_dt, interpolate, max_gap,
+                                     max_offset)
+    if interpolate:
+        extra = {"interpolate": True, "max_gap": float(max_gap), **extra}
+    gi, ei, est = _pairs(gt, est, max_dt, offset, interpolate, max_gap)
     gp, gq = gt.positions[gi], gt.orientations[gi]
     ep, eq = est.positions[ei], est.orientations[ei]
     if align == "origin":
@@ -489,7 +649,7 @@ def rpe(
         gt_source=gt.source,
         est_source=est.source,
         params={"max_dt": float(max_dt), "offset": float(offset), "delta": delta,
-                "unit": unit, "relation": relation},
+                "unit": unit, "relation": relation, **extra},
     )
 
 

@@ -5,6 +5,8 @@
 - :class:`MapQuality`: the three map metrics of one map (SPEC sections 2-4).
 - :class:`MapComparison`: a map scored against a ground-truth map (SPEC section 7).
 - :class:`Registration`: one map registered onto another of the same place (SPEC 7a).
+- :class:`Relations`, :class:`RelationsResult`: ground-truth relations and the relations
+  error of a trajectory (SPEC 6a).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ if TYPE_CHECKING:
     from slamq.models.occupancy import OccupancyMap
     from slamq.models.quality import MapQuality
     from slamq.models.registration import Registration
+    from slamq.models.relations import Relations, RelationsResult
     from slamq.models.trajectory import Trajectory
 
 #: Public names, imported on first use: name -> module.
@@ -26,9 +29,12 @@ _WHERE = {
     "MapQuality": "slamq.models.quality",
     "OccupancyMap": "slamq.models.occupancy",
     "Registration": "slamq.models.registration",
+    "Relations": "slamq.models.relations",
+    "RelationsResult": "slamq.models.relations",
     "Trajectory": "slamq.models.trajectory",
 }
 
 __getattr__, __dir__ = exports(globals(), _WHERE)
 
-__all__ = ["MapComparison", "MapQuality", "OccupancyMap", "Registration", "Trajectory"]
+__all__ = ["MapComparison", "MapQuality", "OccupancyMap", "Registration", "Relations",
+           "RelationsResult", "Trajectory"]
