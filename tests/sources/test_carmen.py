@@ -27,7 +27,9 @@ from slamq.synth.writers.rawlog import _END, _FRAME, _SCAN, MOTION_MODEL, _actio
 DATASETS = SHARED_DATA / "datasets2d"
 INTEL = DATASETS / "intel" / "intel.from-rosbag.clf"
 CSAIL = DATASETS / "mit-csail" / "mit-csail.clf"
-ICP_INI = Path("/usr/share/mrpt/config_files/icp-slam/icp-slam_demo_classic_gridmatch.ini")
+MRPT_CONFIGS = Path("/usr/share/mrpt/config_files")
+ICP_INI = MRPT_CONFIGS / "icp-slam" / "icp-slam_demo_classic_gridmatch.ini"
+RBPF_INI = MRPT_CONFIGS / "rbpf-slam" / "gridmapping_optimal_sampling.ini"
 
 # one line of each record type (ranges 1, no return (>= max range), 2.5)
 PARAM = "PARAM robot_front_laser_max 4.0 100.0 host 0.5"
@@ -427,6 +429,25 @@ def test_csail_rawlog_round_trip_keeps_every_timestamp(tmp_path: Path) -> None:
     assert entries[5]["aperture"] == pytest.approx(math.pi)
 
 
+def _mrpt_config(template: Path, path: Path, overrides: dict[str, str]) -> Path:
+    """An MRPT .ini from ``template`` with the ``key = value`` lines of ``overrides``
+    replaced (each key is in the template once)."""
+    ini = template.read_text()
+    for key, value in overrides.items():
+        ini, n = re.subn(rf"(?m)^(\s*{key}\s*=).*$", rf"\g<1>{value}", ini)
+        assert n == 1, key
+    path.write_text(ini)
+    return path
+
+
+def _run_mrpt(command: list[str], cwd: Path) -> None:
+    start = time.monotonic()
+    res = subprocess.run(command, capture_output=True, text=True, stdin=subprocess.DEVNULL,
+                         timeout=120, cwd=cwd)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    assert time.monotonic() - start < 60
+
+
 @pytest.mark.slow
 @needs_csail
 @pytest.mark.skipif(not shutil.which("icp-slam") or not ICP_INI.exists(),
@@ -438,18 +459,10 @@ def test_icp_slam_maps_a_cut_of_a_real_log(tmp_path: Path) -> None:
     info = carmen_to_rawlog(CSAIL, tmp_path / "cut.rawlog", max_scans=200)
     assert info["scans"] == 200
     out = tmp_path / "out"
-    ini = ICP_INI.read_text()
-    for key, value in {"logOutput_dir": str(out), "SHOW_PROGRESS_3D_REAL_TIME": "0",
-                       "SAVE_3D_SCENE": "0", "CAMERA_3DSCENE_FOLLOWS_ROBOT": "0"}.items():
-        ini, n = re.subn(rf"(?m)^(\s*{key}\s*=).*$", rf"\g<1>{value}", ini)
-        assert n == 1, key
-    (tmp_path / "icp.ini").write_text(ini)
-    start = time.monotonic()
-    res = subprocess.run(["icp-slam", str(tmp_path / "icp.ini"), str(info["rawlog"])],
-                         capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=120,
-                         cwd=tmp_path)
-    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
-    assert time.monotonic() - start < 60
+    ini = _mrpt_config(ICP_INI, tmp_path / "icp.ini", {
+        "logOutput_dir": str(out), "SHOW_PROGRESS_3D_REAL_TIME": "0", "SAVE_3D_SCENE": "0",
+        "CAMERA_3DSCENE_FOLLOWS_ROBOT": "0"})
+    _run_mrpt(["icp-slam", str(ini), str(info["rawlog"])], tmp_path)
     grid = load_mrpt_grid(next(out.glob("_finalmaps_*COccupancyGridMap2D_00.png")))
     occupied = int(((grid.values < 100) & ~grid.unknown).sum())
     assert occupied > 500
@@ -460,3 +473,22 @@ def test_icp_slam_maps_a_cut_of_a_real_log(tmp_path: Path) -> None:
     assert timed.timestamps[-1] == pytest.approx(info["last"], abs=1e-6)
     xy = np.asarray(timed.positions)[:, :2]
     assert np.abs(np.diff(xy, axis=0)).sum() > 5  # it followed the robot
+
+
+@pytest.mark.slow
+@needs_csail
+@pytest.mark.skipif(not shutil.which("rbpf-slam") or not RBPF_INI.exists(),
+                    reason="rbpf-slam absent (apt-get install mrpt-apps)")
+def test_rbpf_slam_logs_the_log_timestamps(tmp_path: Path) -> None:
+    """rbpf-slam (5 particles) on the same cut: it needs the action + sensory-frame form,
+    and the times in its pose log are the CARMEN log's own."""
+    info = carmen_to_rawlog(CSAIL, tmp_path / "cut.rawlog", max_scans=200)
+    out = tmp_path / "out"
+    ini = _mrpt_config(RBPF_INI, tmp_path / "rbpf.ini", {
+        "logOutput_dir": str(out), "sampleSize": "5", "SHOW_PROGRESS_IN_WINDOW": "0",
+        "SAVE_3D_SCENE": "0", "LOG_FREQUENCY": "50"})
+    _run_mrpt(["rbpf-slam", str(ini), str(info["rawlog"])], tmp_path)
+    assert next(out.glob("finalMap_*COccupancyGridMap2D_00.png")).stat().st_size > 0
+    logged = np.loadtxt(out / "log_estimated_path.txt", usecols=7)
+    assert len(logged) == 200
+    assert [f"{t:.6f}" for t in logged] == info["steps"].read_text().split()
