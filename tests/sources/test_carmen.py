@@ -178,6 +178,13 @@ def test_a_truncated_gzip_log_names_the_file(tmp_path: Path) -> None:
         list(CarmenLog(p).records())
 
 
+def test_an_endless_line_is_an_error_not_a_memory_hog(tmp_path: Path) -> None:
+    p = tmp_path / "junk.log"
+    p.write_bytes(b"FLASER 3 " + b"1.0 " * 400_000)  # 1.6 MB, no newline
+    with pytest.raises(SequenceError, match=r"junk\.log:1: a line longer than"):
+        list(CarmenLog(p).records())
+
+
 def test_missing_or_not_a_file(tmp_path: Path) -> None:
     with pytest.raises(SequenceError, match=r"nope\.clf: cannot read"):
         CarmenLog(tmp_path / "nope.clf")

@@ -79,6 +79,8 @@ _LASERS = ("FLASER", "RLASER", "RAWLASER1", "RAWLASER2", "RAWLASER3", "RAWLASER4
 LASERS = {"front": ("FLASER", "RAWLASER1", "ROBOTLASER1"),
           "rear": ("RLASER", "RAWLASER2", "ROBOTLASER2")}
 _DEFAULT_MAX_RANGE = 80.0
+#: The longest line read (characters): a 1081-beam scan with remissions is about 20,000.
+MAX_LINE = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -194,10 +196,9 @@ def _open(path: Path) -> IO[str]:
     if not stat.S_ISREG(st.st_mode):
         raise SequenceError(f"{path}: not a regular file (a FIFO, device or socket)")
     try:
-        raw = open(path, "rb")  # noqa: SIM115 - closed by the text wrapper
-        gz = raw.read(2) == b"\x1f\x8b"
-        raw.seek(0)
-        binary: IO[bytes] = gzip.GzipFile(fileobj=raw, mode="rb") if gz else raw
+        with open(path, "rb") as head:
+            gz = head.read(2) == b"\x1f\x8b"
+        binary: IO[bytes] = gzip.open(path, "rb") if gz else open(path, "rb")
         return io.TextIOWrapper(binary, encoding="utf-8", errors="replace", newline=None)
     except OSError as exc:
         raise SequenceError(f"{path}: cannot read ({exc.strerror or exc})") from None
@@ -319,13 +320,16 @@ class CarmenLog:
             no = 0
             while True:
                 try:
-                    line = text.readline()
+                    line = text.readline(MAX_LINE)
                 except (OSError, EOFError, gzip.BadGzipFile) as exc:
                     raise SequenceError(f"{self.path}:{no + 1}: cannot read "
                                         f"({getattr(exc, 'strerror', None) or exc})") from None
                 if not line:
                     break
                 no += 1
+                if len(line) == MAX_LINE and not line.endswith("\n"):
+                    raise SequenceError(f"{self.path}:{no}: a line longer than {MAX_LINE} "
+                                        f"characters (not a CARMEN log?)")
                 f = line.split()
                 if not f or f[0].startswith("#"):
                     continue
