@@ -25,7 +25,6 @@ from slamq.synth.writers.carmen_rawlog import carmen_to_rawlog, ticks, write_sca
 from slamq.synth.writers.rawlog import _END, _FRAME, _SCAN, MOTION_MODEL, _action, _pose3d
 
 DATASETS = SHARED_DATA / "datasets2d"
-INTEL = DATASETS / "intel" / "intel.from-rosbag.clf"
 CSAIL = DATASETS / "mit-csail" / "mit-csail.clf"
 MRPT_CONFIGS = Path("/usr/share/mrpt/config_files")
 ICP_INI = MRPT_CONFIGS / "icp-slam" / "icp-slam_demo_classic_gridmatch.ini"
@@ -370,35 +369,37 @@ def test_mrpt_reads_the_rawlog_with_the_log_timestamps(tmp_path: Path) -> None:
 # the real datasets (../shared/data/datasets2d)
 # ---------------------------------------------------------------------------------------
 
-needs_intel = pytest.mark.skipif(not INTEL.exists(), reason=f"{INTEL} absent (the datasets of "
-                                 "../shared/data/datasets2d; set SLAMQ_SHARED_DATA)")
 needs_csail = pytest.mark.skipif(not CSAIL.exists(), reason=f"{CSAIL} absent (the datasets of "
                                  "../shared/data/datasets2d; set SLAMQ_SHARED_DATA)")
 
 
-@needs_intel
-def test_intel_record_counts_and_times() -> None:
-    log = CarmenLog(INTEL)
-    first: dict[str, float] = {}
-    last: dict[str, float] = {}
-    for r in log.records():
-        kind = "ODOM" if isinstance(r, Odom) else "FLASER"
-        first.setdefault(kind, r.stamp)
-        last[kind] = r.stamp
-    assert log.counts == {"ODOM": 26_915, "FLASER": 13_631}  # as the README says
+#: dataset -> (log, ODOM records, FLASER records, relation rows as the README says; the
+#: first and last FLASER timestamps in file order)
+REAL = {
+    "intel": ("intel.from-rosbag.clf", 26_915, 13_631, 2_984,
+              "976052857.337530", "976055548.624744"),
+    "aces": ("aces.from-rosbag.clf", 7_375, 7_374, 1_279, "70.289900", "1435.809999"),
+    "fr079": ("fr079.from-rosbag.clf", 8_951, 4_934, 1_685, "1211.520329", "2272.970282"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(REAL))
+def test_rebuilt_logs_counts_times_and_relations_on_laser_timestamps(name: str) -> None:
+    """Record counts, first and last times, and every relation timestamp of the rebuilt
+    logs is a laser timestamp, exactly."""
+    log_name, n_odom, n_laser, n_rel, first, last = REAL[name]
+    path = DATASETS / name / log_name
+    if not path.exists():
+        pytest.skip(f"{path} absent (the datasets of ../shared/data/datasets2d; "
+                    "set SLAMQ_SHARED_DATA)")
+    log = CarmenLog(path)
+    stamps = np.array([r.stamp for r in log.records() if isinstance(r, Laser)])
+    assert log.counts == {"ODOM": n_odom, "FLASER": n_laser}
     assert not log.skipped
-    assert f"{first['FLASER']:.6f}" == "976052857.337530"
-    assert f"{last['FLASER']:.6f}" == "976055548.624744"
-    assert f"{first['ODOM']:.6f}" == "976052857.337284"
-    assert f"{last['ODOM']:.6f}" == "976055548.625127"
-
-
-@needs_intel
-def test_intel_relations_fall_on_laser_timestamps() -> None:
-    stamps = np.array([s.stamp for s in CarmenLog(INTEL).scans()])
-    rel = np.loadtxt(INTEL.parent / "intel.relations", usecols=(0, 1))
-    assert len(rel) == 2984
-    assert np.isin(rel, stamps).all()  # exactly, as written
+    assert (f"{stamps[0]:.6f}", f"{stamps[-1]:.6f}") == (first, last)
+    rel = np.loadtxt(path.parent / f"{name}.relations", usecols=(0, 1))
+    assert len(rel) == n_rel
+    assert np.isin(rel, stamps).all()
 
 
 @needs_csail
