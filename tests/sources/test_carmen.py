@@ -158,6 +158,8 @@ def test_gzip_reads_the_same(tmp_path: Path) -> None:
     ("RAWLASER1 0 -1.5 3.0 1.5 8.0 0.02 0 3 1.0 8.0 2.0 0 101.0 host", "fields"),
     ("ROBOTLASER1 0 -0.5 1.0 0.5 8.0 0.03 0 3 1.0 2.0 9.0 5 7 101.5 host 2.0", "fields"),
     ("PARAM lonely", "value"),
+    ("ODOM 1 nan 3 0 0 0 100.0 host 0", "not finite"),
+    ("FLASER 1 1.0 0 0 0 0 0 0 inf host 0", "timestamp is not finite"),
 ])
 def test_a_malformed_line_names_the_file_and_line(tmp_path: Path, line: str,
                                                   reason: str) -> None:
@@ -167,7 +169,7 @@ def test_a_malformed_line_names_the_file_and_line(tmp_path: Path, line: str,
         list(CarmenLog(p).records())
     with pytest.raises(SlamqError):  # also through scans and the converter
         carmen_to_rawlog(p, tmp_path / "bad.rawlog")
-    assert not (tmp_path / "bad.rawlog").exists()  # no half-written rawlog
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["bad.clf"]  # no half-written files
 
 
 def test_a_truncated_gzip_log_names_the_file(tmp_path: Path) -> None:
@@ -215,6 +217,7 @@ def test_no_scan_of_the_laser_is_an_error(tmp_path: Path) -> None:
     p = _write(tmp_path / "a.log", [PARAM, ODOM])
     with pytest.raises(SequenceError, match=r"a\.log: no front laser scans"):
         carmen_to_rawlog(p, tmp_path / "a.rawlog")
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["a.log"]
 
 
 def _peak_bytes(log: CarmenLog) -> tuple[int, int]:

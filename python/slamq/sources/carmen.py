@@ -205,7 +205,17 @@ def _open(path: Path) -> IO[str]:
 
 
 def _pose(f: list[str], i: int) -> tuple[float, float, float]:
-    return float(f[i]), float(f[i + 1]), float(f[i + 2])
+    pose = float(f[i]), float(f[i + 1]), float(f[i + 2])
+    if not all(map(math.isfinite, pose)):
+        raise ValueError(f"a pose is not finite ({' '.join(f[i:i + 3])})")
+    return pose
+
+
+def _stamp(text: str) -> float:
+    t = float(text)
+    if not math.isfinite(t):
+        raise ValueError(f"the timestamp is not finite ({text})")
+    return t
 
 
 def _count(f: list[str], i: int, what: str) -> int:
@@ -232,14 +242,14 @@ def _parse(f: list[str], no: int) -> Record:
         return Param(f[1], f[2], float(f[3]) if len(f) > 3 else math.nan, no)
     if kind == "ODOM":
         _need(f, 10)
-        return Odom(*map(float, f[1:7]), float(f[7]), float(f[9]), f[8], no)
+        return Odom(*_pose(f, 1), *map(float, f[4:7]), _stamp(f[7]), float(f[9]), f[8], no)
     if kind in ("FLASER", "RLASER"):
         n = _count(f, 1, "num_readings")
         _need(f, n + 11)
         j = 2 + n
         nan = math.nan
         return Laser(kind, np.array(f[2:j], np.float32), nan, nan, nan, nan, nan,
-                     _pose(f, j), _pose(f, j + 3), float(f[j + 6]), float(f[j + 8]),
+                     _pose(f, j), _pose(f, j + 3), _stamp(f[j + 6]), float(f[j + 8]),
                      f[j + 7], no)
     # RAWLASERn / ROBOTLASERn
     head = [float(x) for x in f[2:8]]  # laser_type .. remission_mode: 7 fields after kind
@@ -259,7 +269,7 @@ def _parse(f: list[str], no: int) -> Record:
     else:
         lpose = rpose = None
     return Laser(kind, ranges, start, fov, res, max_range, accuracy, lpose, rpose,
-                 float(f[j]), float(f[j + 2]), f[j + 1], no)
+                 _stamp(f[j]), float(f[j + 2]), f[j + 1], no)
 
 
 class CarmenLog:

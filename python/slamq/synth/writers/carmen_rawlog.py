@@ -116,11 +116,13 @@ def write_scans_rawlog(scans: Iterable[Scan], path: str | os.PathLike[str], *,
     stamps: list[float] = []
     odom: list[tuple[float, float, float]] = []  # 32 bytes a scan, for the node sidecar
     prev: tuple[float, float, float] | None = None
-    part = path.with_name(path.name + ".part")  # complete files only: renamed when done
+    # complete files only: written as .part, renamed when done (the rawlog last)
+    part, steps_part, nodes_part = (p.with_name(p.name + ".part")
+                                    for p in (path, steps_path, nodes_path))
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with open(part, "wb", buffering=1 << 20) as f, \
-                open(steps_path, "w", encoding="ascii") as steps:
+                open(steps_part, "w", encoding="ascii") as steps:
             for scan in scans:
                 n = len(scan.ranges)
                 t = ticks(scan.stamp)
@@ -147,10 +149,15 @@ def write_scans_rawlog(scans: Iterable[Scan], path: str | os.PathLike[str], *,
                 odom.append(scan.odom)
         nodes = graphslam_nodes(np.array(odom, np.float64).reshape(-1, 3), node_interval[0],
                                 math.radians(node_interval[1]))
-        np.savetxt(nodes_path, np.asarray(stamps, np.float64)[nodes], fmt="%.6f")
+        np.savetxt(nodes_part, np.asarray(stamps, np.float64)[nodes], fmt="%.6f")
+        os.replace(steps_part, steps_path)
+        os.replace(nodes_part, nodes_path)
         os.replace(part, path)
     except OSError as exc:
         raise SlamqError(f"{path}: cannot write the rawlog ({exc.strerror or exc})") from exc
+    finally:  # after a failure (a bad line, a full disk): no debris
+        for p in (part, steps_part, nodes_part):
+            p.unlink(missing_ok=True)
     return {"rawlog": path, "steps": steps_path, "nodes": nodes_path, "scans": len(stamps),
             "first": stamps[0] if stamps else math.nan,
             "last": stamps[-1] if stamps else math.nan}
@@ -212,6 +219,8 @@ def carmen_to_rawlog(log: str | os.PathLike[str], out: str | os.PathLike[str], *
                               motion_model=motion_model, sensor_label=sensor_label,
                               node_interval=node_interval)
     if info["scans"] == 0 and max_scans != 0:
+        for p in (info["rawlog"], info["steps"], info["nodes"]):
+            p.unlink(missing_ok=True)
         raise SequenceError(f"{source.path}: no {laser} laser scans "
                             f"({', '.join(sorted(source.counts)) or 'no records'} read)")
     info.update(log=source.path, skipped=dict(source.skipped))
