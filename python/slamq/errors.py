@@ -13,6 +13,7 @@ __all__ = [
     "ConformanceError",
     "TrajectoryError",
     "BagError",
+    "SequenceError",
     "OutOfMemoryError",
     "MapWarning",
 ]
@@ -44,6 +45,13 @@ class TrajectoryError(SlamqError, ValueError):
 
 class BagError(MapError):
     """A ROS bag could not be read, or lacks the requested topic."""
+
+
+class SequenceError(SlamqError, ValueError):
+    """A sensor log (e.g. a CARMEN log) could not be read or converted.
+
+    The message names the file, the line number when there is one, and the reason.
+    """
 
 
 class OutOfMemoryError(SlamqError, MemoryError):
