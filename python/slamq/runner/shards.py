@@ -1,6 +1,6 @@
 """Array jobs without Dask: ``slamq run CONFIG --shard I/N`` and ``--merge``.
 
-The planned runs (:func:`slamq.runner.runner.plan`, a stable order) are dealt round-robin
+The planned runs (:func:`slamq.runner.planning.plan`, a stable order) are dealt round-robin
 into N slices: shard I (0-based) takes the runs ``I, I+N, I+2N, ...``, so every algorithm,
 variant and iteration is spread over the shards. ``--shard N`` alone takes I from
 ``JOB_COMPLETION_INDEX`` (a Kubernetes Indexed Job, 0-based) or else from
@@ -33,6 +33,7 @@ from typing import Any
 from slamq.errors import ParamError, SlamqError
 from slamq.runner import runner
 from slamq.runner.config import RunConfig, load_config
+from slamq.runner.execution import write_atomic
 
 __all__ = ["parse_shard", "shard_indices", "run_shard", "merge", "check_no_live_shard"]
 
@@ -166,7 +167,7 @@ def run_shard(config: Any, shard: tuple[int, int], *, retry_failed: bool = False
     with _heartbeat(_marker(cfg, i, n)):
         rows = runner.execute(cfg, retry_failed=retry_failed, progress=progress, select=select)
     record = cfg.output / "shards" / f"{i}-of-{n}.json"
-    runner._write_atomic(record, json.dumps({
+    write_atomic(record, json.dumps({
         "shard": [i, n], "host": socket.gethostname(), "finished": time.time(),
         "runs": [{"key": r["key"], "folder": r["folder"], "outcome": r["outcome"]}
                  for r in rows]}, indent=1))
