@@ -3,10 +3,11 @@
 Takes a run whose program has ended (its :class:`~slamq.runner.planning.RunSpec`, its
 ``out/`` folder as the program left it); finds the files the algorithm's ``outputs``
 name (:func:`output_files`, glob patterns under ``out/``), turns each into what slamq
-scores (:func:`_collect_map`: a map_server ``map.yaml``, ``snapshots/map_NNNN.yaml``;
-the trajectory as ``trajectory.tum``) and gives the run's outcome (:func:`collect`):
-``ok``, ``no_output`` (a configured output missing or unreadable) or ``degenerate`` (no
-occupied cell, or fewer than ``min_poses`` poses), with the collected files.
+scores (a map in its own format, or as a map_server ``map.yaml``;
+``snapshots/map_NNNN.yaml``; the trajectory as ``trajectory.tum``) and gives the run's
+outcome (:func:`collect`): ``ok``, ``no_output`` (a configured output missing or
+unreadable) or ``degenerate`` (no occupied cell, or fewer than ``min_poses`` poses), with
+the collected files.
 
 Before: :mod:`slamq.runner.execution` ran the program. Next: :mod:`slamq.runner.scoring`
 scores the collected maps and trajectories.
