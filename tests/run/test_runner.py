@@ -388,3 +388,35 @@ def test_a_report_without_the_report_extra_is_refused_before_any_run(
     assert not counter.exists()
     cfg["report"] = False  # runs and scores; no GIFs without Pillow
     assert [r["outcome"] for r in runner.run(cfg)["rows"]] == ["ok"]
+
+
+def test_the_stages_import_only_the_stages_before_them() -> None:
+    """A run goes config -> planning (with rendering, which its key hashes) -> execution ->
+    collection -> scoring; each stage module imports only the runner modules it builds on,
+    and ``runner`` (the orchestrator) holds no stage's work."""
+    import ast
+    import importlib
+    import inspect
+
+    allowed = {
+        "rendering": {"config"},
+        "planning": {"config", "rendering"},
+        "collection": {"config", "planning"},
+        "execution": {"config", "planning", "rendering", "collection", "process"},
+        "scoring": {"config", "cache", "resources"},
+        "runner": {"config", "planning", "rendering", "execution", "scoring"},
+    }
+    for stage, ok in allowed.items():
+        path = inspect.getfile(importlib.import_module(f"slamq.runner.{stage}"))
+        tree = ast.parse(Path(path).read_text(encoding="utf-8"))
+        used = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                if node.module == "slamq.runner":
+                    used.update(a.name for a in node.names)
+                elif node.module.startswith("slamq.runner."):
+                    used.add(node.module.split(".")[2])
+        assert used <= ok, f"slamq.runner.{stage} imports {sorted(used - ok)}"
+    runner_defs = [n.name for n in ast.parse(Path(runner.__file__).read_text()).body
+                   if isinstance(n, ast.FunctionDef)]
+    assert runner_defs == ["execute", "run"]

@@ -2,9 +2,13 @@
 
 Follow a batch from here:
 
-* :mod:`slamq.batch.runs` finds the runs (``<algorithm>/<sequence>/<run>/`` folders,
-  flat ``<sequence>/<algorithm>_map.yaml`` folders, manifest CSV files) and their
-  trajectories; the rules are in its docstring.
+* :mod:`slamq.batch.runs` finds the runs (:func:`discover_runs`,
+  :class:`~slamq.batch.runs.Discovery`); the rules are in its docstring. It hands each
+  source to :mod:`slamq.batch.layouts` (``<algorithm>/<sequence>/<run>/`` folders, flat
+  ``<sequence>/<algorithm>_map.yaml`` folders, a map file named directly) or
+  :mod:`slamq.batch.manifest` (manifest CSV files); :mod:`slamq.batch.pairing` pairs each
+  map with its trajectory, ground truth and ground-truth map. Each run is a
+  :class:`slamq.batch.run.Run`.
 * :mod:`slamq.batch.engine` (:func:`evaluate_many`) evaluates them in parallel (thread
   pool, any ``concurrent.futures`` executor, or Dask) and streams records in input order.
 * :mod:`slamq.batch.records` makes one record per map (:func:`evaluate_run`), with the

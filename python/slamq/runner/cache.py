@@ -1,6 +1,6 @@
 """What a rerun of ``slamq run`` may skip: stamps of the inputs of each scoring stage.
 
-After the runs, :func:`slamq.runner.runner.score` scores the maps, draws each run's
+After the runs, :func:`slamq.runner.scoring.score` scores the maps, draws each run's
 ``building.gif`` and writes the report. Each of these keeps, in
 ``OUTPUT/.slamq-cache.json``, a stamp of the inputs it was made from; a rerun redoes a piece
 of work only when its stamp differs (or its output is gone):

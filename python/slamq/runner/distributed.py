@@ -3,8 +3,8 @@
 The client (``slamq run CONFIG --scheduler tcp://host:8786``, or ``--scheduler dask`` for a
 local cluster of ``parallel`` worker processes) plans the runs and skips the finished ones
 exactly as a local run does; every other run becomes one Dask task. On the worker the task
-runs the same code as a local run (:func:`slamq.runner.runner` 's run: its own session,
-timeout, SIGINT/SIGTERM/SIGKILL, outcome, collected map and trajectory).
+runs the same code as a local run (:func:`slamq.runner.execution.execute_one`: its own
+session, timeout, SIGINT/SIGTERM/SIGKILL, outcome, collected map and trajectory).
 
 Slots
     Each task asks for one unit of the worker resource ``slamq_run``. A worker started
@@ -66,8 +66,9 @@ from pathlib import Path
 from typing import Any, Callable
 
 from slamq.errors import ParamError, SlamqError
-from slamq.runner import process, runner
+from slamq.runner import execution, process
 from slamq.runner.config import RunConfig
+from slamq.runner.planning import RunSpec
 
 __all__ = ["RESOURCE", "OUTPUTS", "SchedulerGone", "dask_backend", "execute_dask", "run_task",
            "running_here"]
@@ -215,7 +216,7 @@ def _moved(row: dict[str, Any], src: Path, dest: Path) -> dict[str, Any]:
     return out
 
 
-def run_task(spec: runner.RunSpec, key: str, command: Any, config: RunConfig,
+def run_task(spec: RunSpec, key: str, command: Any, config: RunConfig,
              probe: tuple[str, str], outputs: str = "auto") -> dict[str, Any]:
     """Run one planned run on this machine (what a Dask task calls).
 
@@ -237,7 +238,7 @@ def run_task(spec: runner.RunSpec, key: str, command: Any, config: RunConfig,
     """
     shared = _sees(probe)
     if outputs == "shared" and not shared:
-        row = runner._row(spec, key, {"outcome": "infrastructure", "reason": (
+        row = execution.run_row(spec, key, {"outcome": "infrastructure", "reason": (
             f"{socket.gethostname()} does not see the output folder {config.output} "
             "(outputs: shared)")}, 1)
         return {"row": {**row, "command": command, "host": socket.gethostname()}}
@@ -255,7 +256,7 @@ def run_task(spec: runner.RunSpec, key: str, command: Any, config: RunConfig,
             attempts = 0
             while True:
                 attempts += 1
-                result = runner._execute_one(local, key, slot, config, stop)
+                result = execution.execute_one(local, key, slot, config, stop)
                 if result is None:
                     shutil.rmtree(folder, ignore_errors=True)
                     return {"row": None}
@@ -263,10 +264,10 @@ def run_task(spec: runner.RunSpec, key: str, command: Any, config: RunConfig,
                     break
     finally:
         done.set()
-    row = _moved(runner._row(spec, key, result, attempts), folder, spec.folder)
+    row = _moved(execution.run_row(spec, key, result, attempts), folder, spec.folder)
     row.update(command=command, host=socket.gethostname())
     if here:
-        runner._write_atomic(folder / "run.json", json.dumps(row, indent=1, default=str))
+        execution.write_atomic(folder / "run.json", json.dumps(row, indent=1, default=str))
         return {"row": _settle(folder, spec.folder)}
     buf = io.BytesIO()
     with tarfile.open(fileobj=buf, mode="w") as tar:
@@ -394,7 +395,7 @@ def _wait_stopped(client: Any, seconds: float) -> None:
         time.sleep(0.1)
 
 
-def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[str, Any]]],
+def execute_dask(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, Any]]],
                  rows: list[dict[str, Any] | None], todo: list[int],
                  progress: Callable[[dict[str, Any]], None] | None = None, *,
                  scheduler: Any = "dask", outputs: str = "auto") -> None:
@@ -405,7 +406,7 @@ def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[
     config : RunConfig
         The loaded configuration.
     keyed : list of (RunSpec, key, pieces)
-        Every planned run with its run key (:func:`slamq.runner.runner.run_key`).
+        Every planned run with its run key (:func:`slamq.runner.planning.run_key`).
     rows : list
         One slot per planned run: the finished rows are written here.
     todo : list of int
@@ -473,8 +474,8 @@ def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[
                     if _gone(client):
                         raise _gone_error(config, keyed, rows, todo, address) from exc
                     spec, key, pieces = keyed[i]
-                    row = runner._row(spec, key, {"outcome": "infrastructure",
-                                                  "reason": f"dask: {exc!r}"[:500]}, 1)
+                    row = execution.run_row(spec, key, {"outcome": "infrastructure",
+                                                       "reason": f"dask: {exc!r}"[:500]}, 1)
                     row["command"] = pieces["command"]  # no run.json: a resume runs it
                     result = {"row": row}
                 row = result.get("row")
@@ -482,8 +483,8 @@ def execute_dask(config: RunConfig, keyed: list[tuple[runner.RunSpec, str, dict[
                     continue
                 if "tar" in result:
                     _unpack(result["tar"], keyed[i][0].folder)
-                    runner._write_atomic(keyed[i][0].folder / "run.json",
-                                         json.dumps(row, indent=1, default=str))
+                    execution.write_atomic(keyed[i][0].folder / "run.json",
+                                           json.dumps(row, indent=1, default=str))
                 rows[i] = row
                 if progress is not None:
                     progress(row)

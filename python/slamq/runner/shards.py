@@ -1,6 +1,6 @@
 """Array jobs without Dask: ``slamq run CONFIG --shard I/N`` and ``--merge``.
 
-The planned runs (:func:`slamq.runner.runner.plan`, a stable order) are dealt round-robin
+The planned runs (:func:`slamq.runner.planning.plan`, a stable order) are dealt round-robin
 into N slices: shard I (0-based) takes the runs ``I, I+N, I+2N, ...``, so every algorithm,
 variant and iteration is spread over the shards. ``--shard N`` alone takes I from
 ``JOB_COMPLETION_INDEX`` (a Kubernetes Indexed Job, 0-based) or else from
@@ -33,6 +33,7 @@ from typing import Any
 from slamq.errors import ParamError, SlamqError
 from slamq.runner import runner
 from slamq.runner.config import RunConfig, load_config
+from slamq.runner.execution import write_atomic
 
 __all__ = ["parse_shard", "shard_indices", "run_shard", "merge", "check_no_live_shard",
            "shard_states", "recorded_shard_count"]
@@ -271,11 +272,11 @@ def run_shard(config: Any, shard: tuple[int, int], *, retry_failed: bool = False
                                   select=select)
         except BaseException:
             # stopped (Ctrl-C, SIGTERM of scancel or a time limit): the merge says so
-            runner._write_atomic(record, json.dumps({
+            write_atomic(record, json.dumps({
                 "shard": [i, n], "host": socket.gethostname(), "finished": time.time(),
                 "interrupted": True, "runs": []}, indent=1))
             raise
-    runner._write_atomic(record, json.dumps({
+    write_atomic(record, json.dumps({
         "shard": [i, n], "host": socket.gethostname(), "finished": time.time(),
         "interrupted": False,
         "runs": [{"key": r["key"], "folder": r["folder"], "outcome": r["outcome"],
