@@ -243,3 +243,53 @@ def test_merge_of_unfinished_runs_and_a_failed_shard_exit_3(tmp_path: Path) -> N
     p = _cli(str(path), "--merge", "--partial")
     out, err = p.communicate(timeout=120)
     assert p.returncode == 0 and "not finished" in err, err
+
+
+def test_a_moved_output_folder_keeps_its_run_keys(tmp_path: Path) -> None:
+    """Issue 43, point 4: run keys hold paths relative to the output folder and the
+    config's folder, so a finished experiment copied elsewhere (or mounted at another path
+    on the login node) merges all its runs and reruns none."""
+    first = tmp_path / "cluster"
+    first.mkdir()
+    path = _yaml(first, _config(first))
+    for i in range(2):
+        shards.run_shard(path, (i, 2))
+    moved = tmp_path / "login" / "mnt"
+    shutil.copytree(first, moved)
+    shutil.rmtree(first)  # the scripts the runs called are gone too: nothing may run
+    result = shards.merge(moved / "run.yaml")
+    assert len(result["rows"]) == 9 and result["missing"] == []
+    rows = runner.execute(moved / "run.yaml")
+    assert len(rows) == 9 and all(r.get("skipped") for r in rows)
+
+
+def test_generated_sequences_are_made_under_a_lock(tmp_path: Path) -> None:
+    """Issue 43, point 5: two shards starting together would both write a generated
+    sequence's folder; the second waits on <output>/sequences/.lock and finds it made."""
+    import fcntl
+    import threading
+
+    from slamq.runner.planning import prepare_inputs
+
+    cfg = load_config({
+        "base_dir": str(tmp_path), "output": "out", "report": False,
+        "sequences": {"gen": {"synth": {"worlds": 1, "noise": ["none"], "seeds": [0],
+                                        "input": "carmen"}}},
+        "algorithms": {"a": {"command": ["true"]}}})
+    lock = tmp_path / "out" / "sequences" / ".lock"
+    lock.parent.mkdir(parents=True)
+    done = threading.Event()
+    with open(lock, "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)  # another shard generating
+        t = threading.Thread(target=lambda: (prepare_inputs(cfg), done.set()))
+        t.start()
+        time.sleep(1.0)
+        assert not done.is_set()  # it waits for the lock
+        fcntl.flock(fh, fcntl.LOCK_UN)
+    t.join(timeout=300)
+    assert done.is_set()
+    (gen,) = [s.generated for s in cfg.sequences]
+    assert gen.complete()
+    stamp = (gen.folder / "recipe.json").stat().st_mtime_ns
+    prepare_inputs(cfg)  # made: not again
+    assert (gen.folder / "recipe.json").stat().st_mtime_ns == stamp

@@ -173,6 +173,8 @@ class RunConfig:
     ros_domain_base: int = 10
     ros_master_base: int = 11311
     source: str = "<dict>"
+    #: The folder relative paths of the config are read from (the config file's folder).
+    base_dir: Path | None = None
 
 
 def _where(source: str, key: str) -> str:
@@ -366,6 +368,7 @@ def load_config(config: Any) -> RunConfig:
     if not isinstance(evaluate, dict):
         raise ParamError(f"{source}: evaluate must be a mapping of evaluate_many keywords")
     return RunConfig(
+        base_dir=base,
         sequences=tuple(sequences),
         algorithms=tuple(_algorithm(str(k), v, base, source) for k, v in algos.items()),
         output=output,

@@ -26,7 +26,8 @@ from slamq.errors import ParamError
 from slamq.runner.config import Algorithm, RunConfig, Sequence
 from slamq.runner.rendering import render_command, render_config_file
 
-__all__ = ["RunSpec", "input_hash", "pending", "plan", "run_key", "run_values", "slug"]
+__all__ = ["RunSpec", "input_hash", "pending", "plan", "portable", "prepare_inputs", "run_key",
+           "run_values", "slug"]
 
 
 @dataclass
@@ -79,6 +80,27 @@ def slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9._=,+-]+", "_", text) or "_"
 
 
+def prepare_inputs(config: RunConfig) -> None:
+    """Make the inputs a configuration generates (``synth:`` sequences) that are not made
+    yet, once: under an exclusive lock on ``<output>/sequences/.lock``, so that two shards
+    starting together do not both write one sequence's folder; the second finds it made."""
+    todo = [s.generated for s in config.sequences if s.generated is not None]
+    if not todo or all(g.complete() for g in todo):
+        return
+    import fcntl
+
+    from slamq.synth.benchmark import generate_missing
+
+    lock = config.output / "sequences" / ".lock"
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    with open(lock, "a") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            generate_missing(todo, parallel=config.parallel)
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
 def plan(config: RunConfig) -> list[RunSpec]:
     """Every run of a configuration, in a stable order (iteration outermost, so parallel
     slots spread over algorithms)."""
@@ -118,9 +140,39 @@ def _input_key(seq: Sequence) -> str:
     return input_hash(seq.input)
 
 
+def portable(path: Any, config: RunConfig) -> str:
+    """A path as a run key holds it: ``{output}/...`` under the output folder, ``{base}/...``
+    under the config's folder, else as it is; so that a finished output folder moved or
+    mounted elsewhere (with its config beside it) keeps its keys.
+
+    Examples
+    --------
+    >>> from slamq.runner.config import load_config
+    >>> cfg = load_config({"base_dir": "/data/exp", "output": "/scratch/runs",
+    ...                    "sequences": {"s": "in.txt"}, "algorithms": {"a": {"command": ["x"]}}})
+    >>> portable("/scratch/runs/a/1/out", cfg), portable("/data/exp/in.txt", cfg)
+    ('{output}/a/1/out', '{base}/in.txt')
+    >>> portable("/usr/share/mrpt/x.rawlog", cfg)
+    '/usr/share/mrpt/x.rawlog'
+    """
+    p = Path(str(path))
+    for root, token in ((config.output, "{output}"), (config.base_dir, "{base}")):
+        if root is None:
+            continue
+        try:
+            return f"{token}/{p.relative_to(root).as_posix()}"
+        except ValueError:
+            continue
+    return str(path)
+
+
 def run_key(spec: RunSpec, config: RunConfig) -> tuple[str, dict[str, Any]]:
-    """The run key and the resolved pieces it hashes (slot-independent)."""
+    """The run key and the resolved pieces it hashes (slot-independent). Paths in the
+    rendered command and config file are :func:`portable`: relative to the output folder
+    or the config's folder."""
     values = run_values(spec, 0, config)
+    for name in ("input", "out", "config"):
+        values[name] = portable(values[name], config)
     algo = spec.algorithm
     cmd: Any = (render_command(algo.command, values, f"algorithms.{algo.name}.command")
                 if algo.command is not None else

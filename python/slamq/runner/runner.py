@@ -42,10 +42,9 @@ from typing import Any
 
 from slamq.runner.config import load_config
 from slamq.runner.execution import OUTCOMES, run_local, run_row
-from slamq.runner.planning import RunSpec, input_hash, pending, plan, run_key
+from slamq.runner.planning import RunSpec, input_hash, pending, plan, prepare_inputs, run_key
 from slamq.runner.rendering import render_config_file
 from slamq.runner.scoring import need_report_extra, score
-from slamq.synth.benchmark import generate_missing
 
 __all__ = ["OUTCOMES", "RunSpec", "execute", "input_hash", "plan", "render_config_file", "run",
            "run_key", "score"]
@@ -64,8 +63,7 @@ def execute(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
     """
     config = load_config(config)
     if not dry_run:
-        generate_missing([s.generated for s in config.sequences if s.generated],
-                         parallel=config.parallel)
+        prepare_inputs(config)
     specs = plan(config)
     if select is not None:
         specs = [specs[i] for i in select]
