@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -15,6 +16,7 @@ import numpy as np
 import pytest
 
 from slamq.runner import runner
+from slamq.runner.rendering import render_config_file
 
 PY = sys.executable
 
@@ -267,6 +269,44 @@ def test_bad_config_names_the_file(tmp_path: Path) -> None:
     proc = _cli(["run", str(p)])
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 2 and "bad.yaml" in err and "bogus" in err
+
+
+def test_typos_in_a_run_config_are_refused_with_the_closest_name(tmp_path: Path) -> None:
+    """Issue 42, point 2: a misspelt override section added a new ini section and the
+    program ran with the template's value; a misspelt output key was ignored. Both, and
+    unknown keys at every level, are refused with the closest known name."""
+    from slamq.errors import ParamError
+    from slamq.runner.config import load_config
+
+    ini = tmp_path / "t.ini"
+    ini.write_text("[MappingApplication]\nsampleSize=5\nlogOutput_dir=x\n")
+    (tmp_path / "in.txt").write_text("x")
+
+    def cfg(**algo: object) -> dict:
+        return {"base_dir": str(tmp_path), "sequences": {"s": {"input": "in.txt"}},
+                "algorithms": {"a": {"command": ["true"], **algo}}}
+
+    cases = [
+        (cfg(config_template="t.ini", config_overrides={"MappingAplication.sampleSize": 10}),
+         "no section [MappingAplication] (did you mean MappingApplication.sampleSize?"),
+        (cfg(config_template="t.ini", config_overrides={"MappingApplication.sampleSze": 10}),
+         "no key sampleSze (did you mean MappingApplication.sampleSize?)"),
+        (cfg(outputs={"map": {"path": "m.pgm", "fromat": "image"}}),
+         "outputs.map: unknown key 'fromat' (did you mean 'format'?)"),
+        (cfg(outptus={"map": "m.pgm"}), "unknown key 'outptus' (did you mean 'outputs'?)"),
+        ({**cfg(), "iteratons": 3}, "unknown key 'iteratons' (did you mean 'iterations'?)"),
+        ({**cfg(), "sequences": {"s": {"input": "in.txt", "grondtruth": "g.txt"}}},
+         "sequences.s: unknown key 'grondtruth' (did you mean 'groundtruth'?)"),
+    ]
+    for doc, message in cases:
+        with pytest.raises(ParamError, match=re.escape(message)):
+            load_config(doc)
+    # a key the section lacks that resembles none is added (programs read optional keys),
+    # and +SECTION.key adds a section on purpose
+    ok = load_config(cfg(config_template="t.ini", config_overrides={
+        "MappingApplication.RANDOM_SEED": 3, "+Extra.resolution": 0.05}))
+    text = render_config_file(ok.algorithms[0], {})
+    assert "RANDOM_SEED=3" in text and "[Extra]\nresolution=0.05" in text
 
 
 def test_a_finished_run_leaves_no_background_child(tmp_path: Path) -> None:

@@ -181,6 +181,76 @@ def _where(source: str, key: str) -> str:
     return f"{source}: {key}"
 
 
+def refuse_unknown(keys: Any, known: Any, where: str) -> None:
+    """Raise a ParamError naming every key of ``keys`` not in ``known``, each with the
+    closest known name when there is one (a typo must not silently change an experiment).
+
+    Examples
+    --------
+    >>> try:
+    ...     refuse_unknown({"fromat": "mrpt", "path": "x"}, ("path", "format"), "outputs.map")
+    ... except ParamError as exc:
+    ...     print(exc)
+    outputs.map: unknown key 'fromat' (did you mean 'format'?); known: format, path
+    """
+    import difflib
+
+    known = sorted(str(k) for k in known)
+    bad = sorted(str(k) for k in keys if str(k) not in known)
+    if not bad:
+        return
+    said = []
+    for k in bad:
+        close = difflib.get_close_matches(k, known, n=1, cutoff=0.6)
+        said.append(f"{k!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
+    raise ParamError(f"{where}: unknown key{'s' if len(bad) > 1 else ''} {', '.join(said)}; "
+                     f"known: {', '.join(known)}")
+
+
+def check_overrides(template: Path, overrides: dict[str, Any], where: str) -> None:
+    """Refuse an ini override whose section the template lacks, or whose key is not in
+    its section but close to one that is (a typo), each with the closest known name. A key
+    the section does not have and that resembles none is added (programs read optional
+    keys); ``+SECTION.key`` adds a section the template lacks on purpose. YAML templates and
+    templates that cannot be read are checked when the run renders them.
+    """
+    import difflib
+
+    if template.suffix.lower() in (".yaml", ".yml"):
+        return
+    try:
+        text = template.read_text(errors="replace")
+    except OSError:
+        return
+    sections: dict[str, set[str]] = {}
+    current = None
+    for line in text.splitlines():
+        m = re.match(r"\s*\[(.+?)\]", line)
+        if m:
+            current = m.group(1)
+            sections.setdefault(current, set())
+            continue
+        km = re.match(r"\s*([A-Za-z0-9_.\-]+)\s*=", line)
+        if km and current is not None:
+            sections[current].add(km.group(1))
+    for name in overrides:
+        if name.startswith("+") or "." not in name:
+            continue  # added on purpose; or refused as not SECTION.key when rendered
+        sec, key = name.rsplit(".", 1)
+        if sec not in sections:
+            close = difflib.get_close_matches(sec, list(sections), n=1, cutoff=0.6)
+            hint = f"did you mean {close[0]}.{key}?" if close else \
+                f"its sections: {', '.join(sections) or 'none'}"
+            raise ParamError(f"{where}.config_overrides: {name}: {template.name} has no section "
+                             f"[{sec}] ({hint}; write +{name} to add the section)")
+        if key not in sections[sec]:
+            close = difflib.get_close_matches(key, sorted(sections[sec]), n=1, cutoff=0.8)
+            if close:
+                raise ParamError(f"{where}.config_overrides: {name}: [{sec}] of "
+                                 f"{template.name} has no key {key} (did you mean "
+                                 f"{sec}.{close[0]}?)")
+
+
 def _num(doc: dict, key: str, default: Any, source: str, kind: type = float,
          minimum: float = 0) -> Any:
     value = doc.get(key, default)
@@ -209,6 +279,7 @@ def _output(value: Any, where: str, formats: tuple[str, ...]) -> Output | None:
         value = {"path": value}
     if not isinstance(value, dict) or "path" not in value:
         raise ParamError(f"{where} must be a glob or {{path: GLOB, format: ...}}")
+    refuse_unknown(value, ("path", "format", "topic", "times"), where)
     fmt = str(value.get("format", "auto" if "auto" in formats else formats[0]))
     if fmt not in formats:
         raise ParamError(f"{where}.format must be one of {', '.join(formats)}, got {fmt!r}")
@@ -230,10 +301,8 @@ def _algorithm(name: str, doc: Any, base: Path, source: str) -> Algorithm:
     where = f"{source}: algorithms.{name}"
     if not isinstance(doc, dict):
         raise ParamError(f"{where} must be a mapping")
-    unknown = set(doc) - {"command", "recipe", "params", "config_template", "config_overrides",
-                          "env", "outputs", "quiet_period", "topic_command"}
-    if unknown:
-        raise ParamError(f"{where}: unknown keys {', '.join(sorted(unknown))}")
+    refuse_unknown(doc, {"command", "recipe", "params", "config_template", "config_overrides",
+                         "env", "outputs", "quiet_period", "topic_command"}, where)
     if ("command" in doc) == ("recipe" in doc):
         raise ParamError(f"{where} needs exactly one of command or recipe")
     command = _command(doc["command"], f"{where}.command") if "command" in doc else None
@@ -244,6 +313,7 @@ def _algorithm(name: str, doc: Any, base: Path, source: str) -> Algorithm:
         for i, s in enumerate(doc["recipe"]):
             if not isinstance(s, dict) or "command" not in s:
                 raise ParamError(f"{where}.recipe[{i}] needs a command")
+            refuse_unknown(s, ("name", "command", "ready", "wait"), f"{where}.recipe[{i}]")
             ready = s.get("ready")
             if ready is not None and (not isinstance(ready, dict) or len(ready) != 1
                                       or next(iter(ready)) not in ("file", "topic", "delay")):
@@ -266,10 +336,14 @@ def _algorithm(name: str, doc: Any, base: Path, source: str) -> Algorithm:
     outputs = doc.get("outputs") or {}
     if not isinstance(outputs, dict):
         raise ParamError(f"{where}.outputs must be a mapping")
+    refuse_unknown(outputs, ("map", "trajectory", "snapshots"), f"{where}.outputs")
     template = doc.get("config_template")
     overrides = doc.get("config_overrides") or {}
     if not isinstance(overrides, dict):
         raise ParamError(f"{where}.config_overrides must be a mapping KEY -> value")
+    if template:
+        check_overrides(_path(base, template, f"{where}.config_template"),
+                        {str(k): v for k, v in overrides.items()}, where)
     topic_cmd = doc.get("topic_command", ["ros2", "topic", "list"])
     return Algorithm(
         name=name, command=command, recipe=tuple(steps), params=axes,
@@ -329,9 +403,7 @@ def load_config(config: Any) -> RunConfig:
     known = {"sequences", "algorithms", "output", "iterations", "parallel", "timeout",
              "startup_timeout", "retries", "grace", "min_poses", "report", "evaluate",
              "ros_domain_base", "ros_master_base"}
-    unknown = set(doc) - known
-    if unknown:
-        raise ParamError(f"{source}: unknown keys {', '.join(sorted(unknown))}")
+    refuse_unknown(doc, known, source)
     seqs = doc.get("sequences")
     algos = doc.get("algorithms")
     if not isinstance(seqs, dict) or not seqs:
@@ -353,6 +425,7 @@ def load_config(config: Any) -> RunConfig:
             continue
         if not isinstance(s, dict) or "input" not in s:
             raise ParamError(f"{w} needs an input (or a synth recipe)")
+        refuse_unknown(s, ("input", "groundtruth", "groundtruth_map"), w)
         sequences.append(Sequence(
             str(name), _path(base, s["input"], f"{w}.input"),
             _path(base, s["groundtruth"], f"{w}.groundtruth") if s.get("groundtruth") else None,

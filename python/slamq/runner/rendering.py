@@ -52,7 +52,7 @@ def render_config_file(algo: Algorithm, values: dict[str, Any]) -> str | None:
     except OSError as exc:
         raise ParamError(f"{algo.config_template}: cannot read {where} "
                          f"({exc.strerror or exc})") from exc
-    over = {k: render(str(v), values, f"algorithms.{algo.name}.config_overrides.{k}")
+    over = {k.lstrip("+"): render(str(v), values, f"algorithms.{algo.name}.config_overrides.{k}")
             for k, v in algo.config_overrides.items()}
     if algo.config_template.suffix.lower() in (".yaml", ".yml"):
         import yaml
