@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from slamq.report.html import page, stylesheet
+from slamq.report.markup import page, stylesheet
 
 REPO = Path(__file__).resolve().parents[2]
 

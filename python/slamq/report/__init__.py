@@ -14,7 +14,7 @@ It draws what the verdict layer (:mod:`slamq.verdict`) hands it and reads no map
 no metric itself. Modules: :mod:`~slamq.report.site` (:func:`build_report`),
 :mod:`~slamq.report.index` (the index page), :mod:`~slamq.report.detail` (a map's page),
 :mod:`~slamq.report.export` (the tables as Markdown and LaTeX), :mod:`~slamq.report.cache`
-(unchanged pages kept), :mod:`~slamq.report.html` (the page frame, ``static/report.css``),
+(unchanged pages kept), :mod:`~slamq.report.markup` (the page frame, ``static/report.css``),
 :mod:`~slamq.report.formatting`, :mod:`~slamq.report.plots`, :mod:`~slamq.report.overlays`,
 :mod:`~slamq.report.comparison`, :mod:`~slamq.report.trajectory`,
 :mod:`~slamq.report.timeline` (``slamq timeline`` and the animations).

@@ -10,7 +10,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from slamq.report.html import MapPage
+from slamq.report.markup import MapPage
 from slamq.verdict.exhibits import source_digests
 
 __all__ = ["PAGE_CACHE", "page_digest", "read_page_cache", "write_page_cache"]

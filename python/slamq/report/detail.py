@@ -19,8 +19,8 @@ import numpy as np
 
 from slamq.errors import SlamqError
 from slamq.report.formatting import format_value
-from slamq.report.html import MapPage, page
-from slamq.report.html import esc as _e
+from slamq.report.markup import MapPage, page
+from slamq.report.markup import esc as _e
 from slamq.verdict.building import Timeline
 from slamq.verdict.evidence import MISSING_MIN_LENGTH
 from slamq.verdict.exhibits import MapExhibit

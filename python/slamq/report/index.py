@@ -15,9 +15,9 @@ import numpy as np
 import pandas as pd
 
 from slamq.report.formatting import format_mean_std, format_value
-from slamq.report.html import MapPage
-from slamq.report.html import esc as _e
-from slamq.report.html import slug as _slug
+from slamq.report.markup import MapPage
+from slamq.report.markup import esc as _e
+from slamq.report.markup import slug as _slug
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.verdict.ranking import CANONICAL, METRICS, SequenceRanking
 from slamq.verdict.records import usable

@@ -29,9 +29,9 @@ from slamq.errors import SlamqError
 from slamq.report.cache import page_digest, read_page_cache, write_page_cache
 from slamq.report.detail import detail_page
 from slamq.report.export import write_tables
-from slamq.report.html import MapPage, page
-from slamq.report.html import slug as _slug
 from slamq.report.index import best_worst, index_body, mixed_settings, plots
+from slamq.report.markup import MapPage, page
+from slamq.report.markup import slug as _slug
 from slamq.results.summary import spreadsheet_safe
 from slamq.verdict.exhibits import detected_defects, map_exhibit
 from slamq.verdict.judge import judge

@@ -79,7 +79,7 @@ def counted_marks(grid: OccupancyMap, unknown_value: int, params: Params | None 
     >>> img[8:32, 8:32] = 254
     >>> m = counted_marks(slamq.OccupancyMap(img, img == 205), 0)
     >>> m.n_regions, m.n_corners
-    (1, 8)
+    (1, 4)
     """
     from slamq.metrics import reference
 
@@ -173,7 +173,7 @@ def map_exhibit(record: dict, *, gifs: bool = True, trajectories: bool = True,
     >>> Image.fromarray(img).save(d / "a.pgm")
     >>> ex = map_exhibit({"map": str(d / "a.pgm"), "corners": 3}, gifs=False)
     >>> ex.marks.n_corners, ex.notes[0][:32]
-    (4, 'the results file says corners = ')
+    (8, 'the results file says corners = ')
     >>> map_exhibit({"map": str(d / "none.pgm")}).notes[0][:15]
     'map not drawn: '
     """
