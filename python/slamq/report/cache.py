@@ -36,7 +36,16 @@ def read_page_cache(out: Path) -> dict[str, dict[str, Any]]:
 
 
 def write_page_cache(out: Path, pages: dict[str, dict[str, Any]]) -> None:
-    """Write the cache (atomically), with how many pages were drawn and reused."""
+    """Write the cache (atomically), with how many pages were drawn and reused.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp())
+    >>> write_page_cache(out, {"maps/a.html": {"digest": "d", "reused": False}})
+    >>> read_page_cache(out)["maps/a.html"]["digest"]
+    'd'
+    """
     reused = sum(1 for p in pages.values() if p["reused"])
     data = {"drawn": len(pages) - reused, "reused": reused, "pages": pages}
     tmp = out / (PAGE_CACHE + ".tmp")
@@ -48,7 +57,14 @@ def page_digest(mp: MapPage, *, gifs: bool, trajectories: bool) -> str:
     """Stamp of everything a detail page is drawn from (see ``reuse`` of
     :func:`slamq.report.build_report`): the record, the page's name, the options, slamq's
     version, the missing walls and the content of the files it draws
-    (:func:`slamq.verdict.exhibits.source_digests`)."""
+    (:func:`slamq.verdict.exhibits.source_digests`).
+
+    Examples
+    --------
+    >>> mp = MapPage(0, {"map": None, "run": 0}, "a", page="maps/a.html")
+    >>> len(page_digest(mp, gifs=False, trajectories=False))
+    32
+    """
     from slamq.version import __version__
 
     rec = mp.record

@@ -33,7 +33,24 @@ __all__ = ["detail_page"]
 def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajectories: bool
                 ) -> None:
     """Write ``mp``'s page from what the verdict layer computed of its map (``ex``:
-    :func:`slamq.verdict.exhibits.map_exhibit`) and the pictures it shows."""
+    :func:`slamq.verdict.exhibits.map_exhibit`) and the pictures it shows; ``mp`` gains the
+    paths of its pictures, its notes and its defects (the index shows them).
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from PIL import Image
+    >>> from slamq.report.markup import MapPage
+    >>> from slamq.verdict.exhibits import map_exhibit
+    >>> d = pathlib.Path(tempfile.mkdtemp()); (d / "img").mkdir(); (d / "maps").mkdir()
+    >>> img = np.full((30, 30), 254, np.uint8); img[8:22, 8:22] = 0
+    >>> Image.fromarray(img).save(d / "a.pgm")
+    >>> rec = {"map": str(d / "a.pgm"), "algorithm": "a", "sequence": "s", "run": 0}
+    >>> mp = MapPage(0, rec, "a", page="maps/a.html")
+    >>> detail_page(mp, map_exhibit(rec, gifs=False), d, gifs=False, trajectories=False)
+    >>> mp.thumb, (d / mp.page).is_file()
+    ('img/a_thumb.png', True)
+    """
     from slamq.report.overlays import draw_overlay
     from slamq.report.plots import curve_figure
 

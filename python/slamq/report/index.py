@@ -33,7 +33,14 @@ _METRIC_HELP = {m.key: m for m in (*METRICS, CANONICAL)}
 
 
 def mixed_settings(frame: pd.DataFrame) -> str:
-    """A warning paragraph when the records were made with different settings, else ""."""
+    """A warning paragraph when the records were made with different settings, else "".
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> mixed_settings(pd.DataFrame({"corners": [1, 2]}))
+    ''
+    """
     if "config" not in frame:
         return ""
     from slamq.results.columns import settings_difference
@@ -61,7 +68,15 @@ def _run_key(group: pd.DataFrame, basis: Iterable[str] = ()) -> str | None:
 
 def best_worst(group: pd.DataFrame, basis: Iterable[str] = ()) -> list[int]:
     """Indices of the best and the worst run by the verdict's basis column (one index when
-    they are the same run); runs without the figure come last."""
+    they are the same run); runs without the figure come last.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> runs = pd.DataFrame({"run": [0, 1, 2], "corners": [9, 3, float("nan")]})
+    >>> best_worst(runs, ["corners"])
+    [1, 2]
+    """
     key = _run_key(group, basis)
     if key is None:
         order = sorted(group.index, key=lambda i: str(group.loc[i, "run"]))
@@ -75,6 +90,18 @@ def best_worst(group: pd.DataFrame, basis: Iterable[str] = ()) -> list[int]:
 
 
 def plots(ok: pd.DataFrame, out: Path, sequences: list[str]) -> list[tuple[str, str]]:
+    """One figure per ranked metric that has values (every run a point, one panel per
+    sequence), reference maps left out; returns ``(metric key, PNG path)`` pairs.
+
+    Examples
+    --------
+    >>> import pandas as pd, tempfile, pathlib
+    >>> out = pathlib.Path(tempfile.mkdtemp()); (out / "img").mkdir()
+    >>> ok = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "run": 0,
+    ...                    "corners": [3, 5]})
+    >>> plots(ok, out, ["s"])
+    [('corners', 'img/plot_corners.png')]
+    """
     from slamq.report.plots import algorithm_colours, metric_figure
 
     # a reference (ground-truth) map is shown beside the ranking, never plotted as an
@@ -107,6 +134,25 @@ def index_body(
     plots: list[tuple[str, str]],
     warning: str = "",
 ) -> str:
+    """The body of ``index.html``: the verdict's sentences, which numbers to trust, how to
+    read the page, a section per sequence (its ranking table, gallery and runs), the plots
+    (``plots``: from :func:`plots`) and the failed maps; ``warning`` (as from
+    :func:`mixed_settings`) under the heading. Everything comes from the caller: the
+    records, :class:`slamq.verdict.judge.Judgement`'s summary, rankings and verdicts, and
+    the detail pages drawn.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from slamq.verdict.judge import judge
+    >>> ok = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "run": 0,
+    ...                    "map": "", "ate_rmse": [0.1, 0.2], "corners": [3, 5]})
+    >>> j = judge(ok)
+    >>> body = index_body("t", ok, ok, ok.iloc[:0], j.summary, j.sequences, j.rankings,
+    ...                   j.by_sequence, {}, {}, [])
+    >>> "<b>a</b> is best by ATE RMSE" in body
+    True
+    """
     from slamq.version import __version__
 
     n_alg = ok["algorithm"].nunique() if len(ok) else 0

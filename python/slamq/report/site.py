@@ -163,7 +163,7 @@ def build_report(
 
     made = plots(ok, out, sequences)
     body = index_body(title, frame, ok, failed, summary, sequences, rankings, verdicts,
-                       gallery, pages, made, mixed_settings(frame))
+                      gallery, pages, made, mixed_settings(frame))
     index = out / "index.html"
     index.write_text(page(title, body), encoding="utf-8")
     write_tables(summary, out)
