@@ -22,7 +22,7 @@ PACKAGE = Path(slamq.__file__).parent
 #: The layers, bottom first; a module may import its own layer and the layers below it.
 #: The top package (``slamq/__init__.py``) is above them all; no module imports it.
 LAYERS = ("version", "lazy", "errors", "params", "native", "models", "sources", "metrics", "api",
-          "results", "synth", "batch", "report", "runner", "cli")
+          "results", "synth", "batch", "verdict", "report", "runner", "cli")
 TOP = len(LAYERS)
 
 
@@ -90,6 +90,36 @@ def test_metrics_take_models_and_never_read_files() -> None:
     reads = [(m, t) for m in _modules() if m.startswith("slamq.metrics")
              for t in _imports(m) if t.startswith("slamq.sources")]
     assert reads == []
+
+
+def _reachable(module: str) -> set[str]:
+    """Every slamq module ``module`` imports, directly or through other slamq modules."""
+    seen: set[str] = set()
+    todo = [module]
+    while todo:
+        m = todo.pop()
+        for target in _imports(m):
+            if target in MODULES and target not in seen:
+                seen.add(target)
+                todo.append(target)
+    return seen
+
+
+def test_slamq_verdict_does_not_import_the_report() -> None:
+    """``slamq verdict`` judges with the verdict layer alone: nothing it imports, at any
+    depth, is part of slamq.report."""
+    reached = _reachable("slamq.cli.verdict")
+    assert "slamq.verdict.maps" in reached  # the walk follows the command's imports
+    assert sorted(m for m in reached if m == "slamq.report" or m.startswith("slamq.report.")
+                  ) == []
+
+
+def test_the_report_draws_and_never_reads_or_measures() -> None:
+    """slamq.report draws what the verdict layer hands it: no report module imports a
+    reader (slamq.sources) or a metric (slamq.metrics)."""
+    found = [(m, t) for m in _modules() if m == "slamq.report" or m.startswith("slamq.report.")
+             for t in _imports(m) if t.startswith(("slamq.sources", "slamq.metrics"))]
+    assert found == []
 
 
 def test_the_version_is_written_once_and_agrees_with_the_packaging() -> None:

@@ -238,7 +238,7 @@ def test_a_bare_image_beside_its_yaml_is_flagged_in_its_record(test_data: Path) 
 def test_the_report_shows_each_maps_share_of_the_largest_known_area() -> None:
     import pandas as pd
 
-    from slamq.report.ranking import rank_sequence, summarize
+    from slamq.verdict.ranking import rank_sequence, summarize
 
     df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b", "c"],
                        "corners": [10, 20, 30], "known_area_m2": [100.0, 79.0, 90.0]})

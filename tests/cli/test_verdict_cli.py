@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from slamq.report.maps_verdict import maps_verdict
+from slamq.verdict.maps import maps_verdict
 
 OFFICE = Path(__file__).parents[1] / "data" / "slam_comparison_tools" / "test_results" / "office"
 

@@ -24,18 +24,15 @@ from slamq import OccupancyMap, Params
 from slamq.errors import SlamqError
 from slamq.metrics import reference
 from slamq.report import build_report
-from slamq.report.data import evaluate_map, load_results
+from slamq.report.formatting import format_mean_std, format_value
 from slamq.report.overlays import CORNER_RGB, draw_overlay
 from slamq.report.plots import metric_figure
-from slamq.report.ranking import (
-    METRICS,
-    format_mean_std,
-    format_value,
-    rank_sequence,
-    summarize,
-)
-from slamq.report.timeline import build_timeline, write_timeline_gif
+from slamq.report.timeline import write_timeline_gif
 from slamq.sources.snapshots import find_snapshots
+from slamq.verdict.building import build_timeline
+from slamq.verdict.exhibits import counted_marks
+from slamq.verdict.ranking import METRICS, rank_sequence, summarize
+from slamq.verdict.records import evaluate_map, load_results
 
 FREE, WALL, UNKNOWN = 254, 0, 205
 
@@ -213,7 +210,7 @@ def test_overlay_rings_every_counted_corner():
     grid = OccupancyMap(img, np.zeros_like(img, bool))
     q = evaluate_map(grid, Params(), curve=False)
     assert q.corners == 24                        # per block: 4 outer + 4 inner LoG corners
-    ov = draw_overlay(grid, q.enclosed_unknown_value)
+    ov = draw_overlay(grid, counted_marks(grid, q.enclosed_unknown_value))
     assert ov.n_corners == 24
     assert _red_components(ov.image) == 24                   # 24 separate rings on the image
     assert ov.scale == 9 and ov.image.shape == (540, 900, 3)
@@ -224,7 +221,8 @@ def test_overlay_colours_every_counted_enclosed_area():
     grid = OccupancyMap(img, img == UNKNOWN)
     q = evaluate_map(grid, Params(), curve=False)
     assert q.enclosed_areas == 3
-    ov = draw_overlay(grid, q.enclosed_unknown_value, target_size=0)
+    ov = draw_overlay(grid, counted_marks(grid, q.enclosed_unknown_value),
+                      target_size=0)
     assert ov.scale == 1 and ov.n_regions == 3
     assert ov.n_regions == reference.enclosed_count(grid, q.enclosed_unknown_value)
     rgb = ov.image.astype(int)
@@ -243,7 +241,7 @@ def test_overlay_colours_every_counted_enclosed_area():
 
 def test_overlay_of_a_map_without_structure():
     grid = OccupancyMap(np.full((10, 10), FREE, np.uint8), np.zeros((10, 10), bool))
-    ov = draw_overlay(grid, 0)
+    ov = draw_overlay(grid, counted_marks(grid, 0))
     assert ov.n_corners == 0 and ov.n_regions == 0
     assert (ov.image == FREE).all()
 
@@ -375,8 +373,8 @@ def test_cli_report(tmp_path, site):
 
 
 def test_reference_maps_are_shown_but_not_ranked() -> None:
-    from slamq.report.ranking import rank_sequence
-    from slamq.report.ranking import summarize as report_summary
+    from slamq.verdict.ranking import rank_sequence
+    from slamq.verdict.ranking import summarize as report_summary
 
     df = pd.DataFrame({
         "sequence": "s",

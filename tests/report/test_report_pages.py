@@ -21,6 +21,7 @@ from test_report import make_results, rooms_image, write_map
 import slamq
 from slamq.report import build_report
 from slamq.report.overlays import draw_overlay, render_base
+from slamq.verdict.exhibits import counted_marks
 
 DATA = Path(__file__).resolve().parent.parent / "data" / "slam_comparison_tools"
 
@@ -201,7 +202,7 @@ def test_gallery_shows_plain_maps_and_detail_pages_have_layers(tmp_path: Path) -
         assert f'<label for="show-{key}">' in page
     assert 'id="show-gt"' not in page                 # no ground truth, no such layer
     # the base image is the plain map at the overlay's scale and crop
-    ov = draw_overlay(grid, q.enclosed_unknown_value)
+    ov = draw_overlay(grid, counted_marks(grid, q.enclosed_unknown_value))
     base = re.search(r'<img class="base" src="\.\./(img/[^"]+)"', page).group(1)
     assert np.array_equal(np.asarray(Image.open(site / base).convert("RGB")), ov.plain)
     r0, c0 = ov.offset
@@ -235,7 +236,7 @@ def _matched_near_walls(comparison, est, gt, cells: int) -> float:
     one of the estimate's own wall pixels."""
     from slamq.report.comparison import COMPARISON_COLOURS, ground_truth_layer
 
-    ov = draw_overlay(est, 0)
+    ov = draw_overlay(est, counted_marks(est, 0))
     layer = ground_truth_layer(comparison, est, gt, offset=ov.offset, shape=ov.cells,
                                scale=ov.scale)
     assert layer.shape[:2] == ov.plain.shape[:2]
@@ -383,10 +384,10 @@ def test_missing_walls_layer_boxes_the_gap_the_other_maps_close(gap_site) -> Non
     box lies over the removed walls in that map's own cells (padded: not the other maps'
     cells); the other maps' pages have the checkbox, disabled, and no box; verdict.json is
     the verdict without them."""
-    from slamq.report.data import load_results
-    from slamq.report.evidence import sequence_evidence
-    from slamq.report.ranking import summarize
-    from slamq.report.verdict import sequence_verdict
+    from slamq.verdict.evidence import sequence_evidence
+    from slamq.verdict.ranking import summarize
+    from slamq.verdict.records import load_results
+    from slamq.verdict.rule import sequence_verdict
 
     site, recs, own, plain = gap_site
     pages = {p.name.split("-")[2]: p.read_text(encoding="utf-8")

@@ -1,4 +1,4 @@
-"""The report's verdict (slamq.report.verdict): ground truth first, corners alone without it,
+"""The report's verdict (slamq.verdict.rule): ground truth first, corners alone without it,
 partial and reference maps never named best; and the issue's test on real data."""
 
 from __future__ import annotations
@@ -11,9 +11,9 @@ import pytest
 from conftest import comparison_tools_runs
 
 import slamq
-from slamq.report.evidence import sequence_evidence
-from slamq.report.ranking import summarize
-from slamq.report.verdict import sequence_verdict, verdict_sentence
+from slamq.verdict.evidence import sequence_evidence
+from slamq.verdict.ranking import summarize
+from slamq.verdict.rule import sequence_verdict, verdict_sentence
 
 
 def verdict(**columns) -> dict:

@@ -1,11 +1,11 @@
 """``slamq verdict PATH...``: which of several maps of one place to trust, without ground
 truth.
 
-Follow it: :func:`handle` -> :func:`slamq.report.maps_verdict.maps_verdict` -> the three metrics
+Follow it: :func:`handle` -> :func:`slamq.verdict.maps.maps_verdict` -> the three metrics
 of each map (:func:`slamq.evaluate`), their agreement with each other and the defect
-detectors (:func:`slamq.report.evidence.sequence_evidence`: :func:`slamq.agreement`,
+detectors (:func:`slamq.verdict.evidence.sequence_evidence`: :func:`slamq.agreement`,
 :func:`slamq.metrics.defects.detect_defects`), and the rule of docs/spec.md section 9
-(:func:`slamq.report.verdict.sequence_verdict`), the one the report's verdict uses.
+(:func:`slamq.verdict.rule.sequence_verdict`), the one the report's verdict uses.
 """
 
 from __future__ import annotations
@@ -45,9 +45,9 @@ def handle(args: argparse.Namespace) -> int:
     """Score every map found, then the verdict; a bad map is one error line and takes no
     part, the others are still judged."""
     from slamq.params import check_threads
-    from slamq.report.maps_verdict import maps_verdict
-    from slamq.report.verdict import verdict_sentence
     from slamq.sources.walk import discover_maps
+    from slamq.verdict.maps import maps_verdict
+    from slamq.verdict.rule import verdict_sentence
 
     check_threads(args.threads, "--threads")
     sources, problems = discover_maps(args.paths)

@@ -10,11 +10,14 @@ enclosed-area curve, the trajectory coloured by ATE, and an animation of the map
 built when snapshots exist). Nothing is fetched from the network; the folder can be zipped,
 mailed or served as it is.
 
-Modules: :mod:`~slamq.report.ranking` (directions, the tables' order, formatting),
-:mod:`~slamq.report.verdict` (who is best, on what basis),
-:mod:`~slamq.report.plots`, :mod:`~slamq.report.overlays`, :mod:`~slamq.report.timeline`
-(timelines: ``slamq timeline`` and the animations), :mod:`~slamq.report.trajectory`,
-:mod:`~slamq.report.site` (the pages).
+It draws what the verdict layer (:mod:`slamq.verdict`) hands it and reads no map and runs
+no metric itself. Modules: :mod:`~slamq.report.site` (:func:`build_report`),
+:mod:`~slamq.report.index` (the index page), :mod:`~slamq.report.detail` (a map's page),
+:mod:`~slamq.report.export` (the tables as Markdown and LaTeX), :mod:`~slamq.report.cache`
+(unchanged pages kept), :mod:`~slamq.report.markup` (the page frame, ``static/report.css``),
+:mod:`~slamq.report.formatting`, :mod:`~slamq.report.plots`, :mod:`~slamq.report.overlays`,
+:mod:`~slamq.report.comparison`, :mod:`~slamq.report.trajectory`,
+:mod:`~slamq.report.timeline` (``slamq timeline`` and the animations).
 """
 
 from __future__ import annotations
@@ -27,10 +30,10 @@ __all__ = ["METRICS", "Metric", "build_report", "rank_sequence", "summarize"]
 # Loaded on first use (PEP 562), so that `slamq --help` and `slamq eval` do not import
 # pandas and matplotlib just to register the `report` subcommand.
 _WHERE = {
-    "METRICS": "slamq.report.ranking",
-    "Metric": "slamq.report.ranking",
-    "rank_sequence": "slamq.report.ranking",
-    "summarize": "slamq.report.ranking",
+    "METRICS": "slamq.verdict.ranking",
+    "Metric": "slamq.verdict.ranking",
+    "rank_sequence": "slamq.verdict.ranking",
+    "summarize": "slamq.verdict.ranking",
     "build_report": "slamq.report.site",
 }
 

@@ -7,14 +7,17 @@ occupied, 255 = white = free), unknown cells mid grey (128), north up as every m
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Union
 
 import numpy as np
 from PIL import Image
 
 from slamq.models import OccupancyMap
-from slamq.sources.files import PathLike
+
+PathLike = Union[str, "os.PathLike[str]"]
 
 __all__ = ["UNKNOWN_RGB", "render_map", "render_frames", "write_gif"]
 

@@ -1,10 +1,10 @@
 """Maps drawn for people: north up, corners ringed, counted enclosed areas coloured; also
 as separate layers (the plain map, the regions) for the report's detail pages.
 
-The corners and regions come from :mod:`slamq.metrics.reference` (``corner_points`` and
-``enclosed_labels``), so the picture shows exactly what the numbers counted: one ring per
-counted corner (SPEC section 3) and one colour per enclosed free region counted at the
-unknown value ``enclosed_unknown_value`` (SPEC section 4).
+The corners and regions are the ones the metrics count
+(:func:`slamq.verdict.exhibits.counted_marks`), so the picture shows exactly what the numbers
+counted: one ring per counted corner (SPEC section 3) and one colour per enclosed free
+region counted at the unknown value ``enclosed_unknown_value`` (SPEC section 4).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from slamq.models import OccupancyMap
-from slamq.params import Params
+from slamq.verdict.exhibits import Marks
 
 __all__ = ["CORNER_RGB", "REGION_PALETTE", "Overlay", "draw_overlay", "render_base"]
 
@@ -140,8 +140,7 @@ def _scale_for(shape: tuple[int, int], target: int) -> int:
 
 def draw_overlay(
     grid: OccupancyMap,
-    unknown_value: int,
-    params: Params | None = None,
+    marks: Marks,
     *,
     target_size: int = 900,
     alpha: float = 0.65,
@@ -152,10 +151,9 @@ def draw_overlay(
     ----------
     grid : OccupancyMap
         The map (held north up, as every loaded map is).
-    unknown_value : int
-        The ``u`` whose enclosed regions to colour: the result's ``enclosed_unknown_value``.
-    params : Params, optional
-        Metric parameters (defaults when omitted).
+    marks : Marks
+        What was counted on it (:func:`slamq.verdict.exhibits.counted_marks`: the corners
+        and the enclosed regions at the result's ``enclosed_unknown_value``).
     target_size : int, default 900
         Small maps are enlarged by a whole factor (at most 16) towards this many pixels
         on the longer side, so that rings and regions stay visible.
@@ -169,19 +167,17 @@ def draw_overlay(
     Examples
     --------
     >>> import numpy as np, slamq
+    >>> from slamq.verdict.exhibits import counted_marks
     >>> img = np.full((40, 40), 205, np.uint8)
     >>> img[5:35, 5:35] = 0
     >>> img[8:32, 8:32] = 254
-    >>> ov = draw_overlay(slamq.OccupancyMap(img, img == 205), 0)
+    >>> grid = slamq.OccupancyMap(img, img == 205)
+    >>> ov = draw_overlay(grid, counted_marks(grid, 0))
     >>> ov.n_regions, ov.image.shape[2]
     (1, 3)
     """
-    from slamq.metrics import reference
-
-    params = params or Params()
     base = render_base(grid).astype(np.float32)
-    labels = np.asarray(reference.enclosed_labels(grid, int(unknown_value), params), np.int32)
-    corners = np.asarray(reference.corner_points(grid, params), float).reshape(-1, 2)
+    labels, corners = marks.labels, marks.corners
     n = int(labels.max()) if labels.size else 0
     r0, r1, c0, c1 = known_box(grid)
     plain = np.clip(np.rint(base[r0:r1, c0:c1]), 0, 255).astype(np.uint8)
@@ -214,5 +210,6 @@ def draw_overlay(
                      outline=CORNER_RGB, width=width)
     return Overlay(
         image=np.asarray(img), scale=scale, corners=corners, labels=labels,
-        unknown_value=int(unknown_value), offset=(r0, c0), plain=plain, regions=regions,
+        unknown_value=int(marks.unknown_value), offset=(r0, c0), plain=plain,
+        regions=regions,
     )

@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.ticker import FuncFormatter, MaxNLocator, NullFormatter  # noqa: E402
 
-from slamq.report.ranking import Metric  # noqa: E402
+from slamq.verdict.ranking import Metric  # noqa: E402
 
 __all__ = [
     "algorithm_colours",
@@ -101,7 +101,7 @@ def metric_figure(
     Examples
     --------
     >>> import pandas as pd, tempfile, pathlib
-    >>> from slamq.report.ranking import METRICS
+    >>> from slamq.verdict.ranking import METRICS
     >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "a", "b"], "corners": [3, 4, 9]})
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "corners.png"
     >>> metric_figure(df, METRICS[2], out)

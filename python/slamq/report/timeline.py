@@ -1,13 +1,12 @@
-"""Timelines: the map metrics of one map as it is built, over its snapshots or the maps a
-SLAM run published in a bag. The one module for them:
+"""Timelines drawn: the map metrics of one map as it is built, over its snapshots or the
+maps a SLAM run published in a bag (scored by :mod:`slamq.verdict.building`):
 
 * :func:`timeline` (``slamq timeline``): every N-th map of a bag evaluated, written as
   files (below).
-* :class:`Timeline`, :func:`build_timeline`, :func:`write_timeline_gif`, :func:`bag_maps`:
-  the report's "map building" animation, from the snapshots of a run folder
-  (:func:`slamq.sources.snapshots.find_snapshots`) or a bag's ``/map`` topic: the map as
-  it grows (north up, scaled to a fixed box) beside the occupied fraction, corners and
-  enclosed areas of every snapshot, with a cursor on the current one.
+* :func:`write_timeline_gif`: the report's "map building" animation of a
+  :class:`~slamq.verdict.building.Timeline`: the map as it grows (north up, scaled to a
+  fixed box) beside the occupied fraction, corners and enclosed areas of every snapshot,
+  with a cursor on the current one.
 
 ``slamq timeline``:
 
@@ -27,27 +26,20 @@ from __future__ import annotations
 
 import csv
 import json
-from collections.abc import Sequence
-from dataclasses import dataclass
+import os
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Union
 
 import numpy as np
 from PIL import Image, ImageDraw
 
-from slamq.models import OccupancyMap
-from slamq.params import Params
-from slamq.report.data import evaluate_map
 from slamq.report.overlays import render_base
 from slamq.results.columns import json_value
-from slamq.sources.files import PathLike
-from slamq.sources.maps import load_map
+from slamq.verdict.building import Timeline, evaluated_bag_maps
 
-__all__ = ["Timeline", "bag_maps", "build_timeline", "timeline", "write_timeline_gif"]
+PathLike = Union[str, "os.PathLike[str]"]
 
-#: Frames of a report animation kept at most (evenly subsampled, always keeping the last).
-MAX_FRAMES = 120
-
+__all__ = ["timeline", "write_timeline_gif"]
 
 #: Output file names inside the timeline folder.
 JSONL, CSV, GIF, PLOT = "metrics.jsonl", "metrics.csv", "timeline.gif", "metrics.png"
@@ -108,15 +100,10 @@ def timeline(
     >>> rows = timeline("run1.bag", "out/run1", every=10)  # doctest: +SKIP
     >>> [(r["timestamp"], r["corners"]) for r in rows]  # doctest: +SKIP
     """
-    from slamq.metrics.evaluate import evaluate
-    from slamq.params import Params, check_threads
     from slamq.report.animation import render_frames, render_map, write_gif
-    from slamq.sources.bag_maps import read_bag_maps
 
-    # fail on a bad parameter before reading the bag
-    options = {k: params.pop(k) for k in ("threads", "unknown_value") if k in params}
-    metric_params = Params.from_kwargs(**params)
-    check_threads(options.get("threads"))
+    # fails on a bad parameter before the bag is read
+    maps = evaluated_bag_maps(bag, every=every, topic=topic, **params)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     if frames:
@@ -125,8 +112,7 @@ def timeline(
     geometry: list[_Geometry] = []  # the maps without their cells, for the GIF
     renders: list[np.ndarray] = []
     t0 = None
-    for stamp, grid in read_bag_maps(bag, topic, every, include_last=True):
-        q = evaluate(grid, params=metric_params, **options)
+    for stamp, grid, q in maps:
         t0 = stamp if t0 is None else t0
         row: dict[str, Any] = {
             "index": int(grid.meta["index"]),
@@ -210,65 +196,6 @@ def _plot(rows: list[dict[str, Any]], path: Path) -> None:
     fig.savefig(path)
 
 
-@dataclass
-class Timeline:
-    """Metrics of a sequence of snapshots of one map being built.
-
-    Attributes
-    ----------
-    names : list of str
-        One label per snapshot.
-    maps : list of OccupancyMap
-    occupied_fraction, corners, enclosed_areas : list
-        The metrics of each snapshot.
-    """
-
-    names: list[str]
-    maps: list[OccupancyMap]
-    occupied_fraction: list[float]
-    corners: list[int]
-    enclosed_areas: list[int]
-
-    def __len__(self) -> int:
-        return len(self.maps)
-
-
-def _subsample(items: Sequence[Any], limit: int) -> list[Any]:
-    if len(items) <= limit:
-        return list(items)
-    idx = np.unique(np.linspace(0, len(items) - 1, limit).round().astype(int))
-    return [items[i] for i in idx]
-
-
-def build_timeline(
-    sources: Sequence[Any], params: Params | None = None, *, names: list | None = None,
-) -> Timeline:
-    """Load and evaluate snapshots (paths or OccupancyMaps), at most :data:`MAX_FRAMES`.
-
-    Examples
-    --------
-    >>> import numpy as np, slamq
-    >>> a = slamq.OccupancyMap(np.full((9, 9), 254, np.uint8), np.zeros((9, 9), bool))
-    >>> build_timeline([a, a]).corners
-    [0, 0]
-    """
-    params = params or Params()
-    picked = _subsample(list(range(len(sources))), MAX_FRAMES)
-    maps, labels, frac, corners, enclosed = [], [], [], [], []
-    for i in picked:
-        src = sources[i]
-        grid = src if isinstance(src, OccupancyMap) else load_map(src)
-        q = evaluate_map(grid, params, curve=False)
-        maps.append(grid)
-        labels.append(str(names[i]) if names else (Path(str(src)).stem
-                                                   if not isinstance(src, OccupancyMap)
-                                                   else str(i + 1)))
-        frac.append(float(q.occupied_fraction))
-        corners.append(int(q.corners))
-        enclosed.append(int(q.enclosed_areas))
-    return Timeline(labels, maps, frac, corners, enclosed)
-
-
 def _fit(rgb: np.ndarray, box: int) -> Image.Image:
     img = Image.fromarray(rgb)
     scale = box / max(img.size)
@@ -289,6 +216,7 @@ def write_timeline_gif(
     --------
     >>> import numpy as np, slamq, tempfile, pathlib
     >>> a = slamq.OccupancyMap(np.full((9, 9), 254, np.uint8), np.zeros((9, 9), bool))
+    >>> from slamq.verdict.building import build_timeline
     >>> p = write_timeline_gif(build_timeline([a, a]), pathlib.Path(tempfile.mkdtemp()) / "t.gif")
     >>> from PIL import Image; Image.open(p).n_frames
     2
@@ -325,22 +253,3 @@ def _write_gif(frames: list[np.ndarray], path: Path, duration_ms: int) -> Path:
     from slamq.report.animation import write_gif
 
     return Path(write_gif(frames, path, duration_ms=duration_ms))
-
-
-def bag_maps(path: Path, topic: str = "/map") -> list[OccupancyMap] | None:
-    """Every map on the bag's ``/map`` topic (:func:`~slamq.sources.bag_maps.read_bag_maps`),
-    else None.
-
-    At most :data:`MAX_FRAMES` maps are kept (evenly spaced, the last one included).
-    """
-    from slamq.errors import BagError
-    from slamq.sources.bag_maps import read_bag_maps
-    from slamq.sources.bagfile import bag_topics
-
-    try:
-        if topic not in bag_topics(path):
-            return None
-    except BagError:  # not a readable bag (or the 'bags' extra is missing): no animation
-        return None
-    maps = [m for _, m in read_bag_maps(path, topic)]
-    return _subsample(maps, MAX_FRAMES) or None

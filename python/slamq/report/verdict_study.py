@@ -24,9 +24,9 @@ from typing import Any
 import pandas as pd
 
 from slamq.params import SETTINGS
-from slamq.report.evidence import sequence_evidence
-from slamq.report.ranking import summarize
-from slamq.report.verdict import sequence_verdict
+from slamq.verdict.evidence import sequence_evidence
+from slamq.verdict.ranking import summarize
+from slamq.verdict.rule import sequence_verdict
 
 __all__ = ["benchmark_verdicts", "by_eye_agreement", "folder_verdicts", "markdown", "main"]
 

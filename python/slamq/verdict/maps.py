@@ -2,8 +2,8 @@
 what ``slamq verdict`` runs (the report's verdict works from a batch's results instead).
 
 Follow it: :func:`maps_verdict` -> :func:`slamq.evaluate` per map ->
-:func:`slamq.report.evidence.sequence_evidence` (agreement, defect detectors) ->
-:func:`slamq.report.verdict.sequence_verdict` (docs/spec.md section 9).
+:func:`slamq.verdict.evidence.sequence_evidence` (agreement, defect detectors) ->
+:func:`slamq.verdict.rule.sequence_verdict` (docs/spec.md section 9).
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ import pandas as pd
 
 from slamq.errors import SlamqError
 from slamq.metrics.evaluate import evaluate
-from slamq.report.evidence import sequence_evidence
-from slamq.report.ranking import summarize
-from slamq.report.verdict import sequence_verdict
 from slamq.sources import load_map
+from slamq.verdict.evidence import sequence_evidence
+from slamq.verdict.ranking import summarize
+from slamq.verdict.rule import sequence_verdict
 
 __all__ = ["maps_verdict"]
 
@@ -30,8 +30,8 @@ def maps_verdict(sources: Sequence[str | Path], *, names: Sequence[str] | None =
     """The verdict on several maps of one place without ground truth (``slamq verdict``).
 
     Each map is scored (:func:`slamq.evaluate`), laid over the others and checked by the
-    defect detectors (:func:`slamq.report.evidence.sequence_evidence`), and judged by the
-    rule the report uses (:func:`slamq.report.verdict.sequence_verdict`; docs/spec.md
+    defect detectors (:func:`slamq.verdict.evidence.sequence_evidence`), and judged by the
+    rule the report uses (:func:`slamq.verdict.rule.sequence_verdict`; docs/spec.md
     section 9). A map that cannot be read is left out and reported in ``errors``; the
     others are still judged.
 
@@ -51,7 +51,7 @@ def maps_verdict(sources: Sequence[str | Path], *, names: Sequence[str] | None =
     dict
         ``{"verdict": dict or None, "evidence": dict or None, "maps": {name: metrics},
         "errors": [(path, reason)]}``; ``verdict`` as
-        :func:`~slamq.report.verdict.sequence_verdict` (None when no map could be read; its
+        :func:`~slamq.verdict.rule.sequence_verdict` (None when no map could be read; its
         sequence is the maps' common folder's name), ``maps`` the metrics of each map read.
 
     Examples

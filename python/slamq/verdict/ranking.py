@@ -33,14 +33,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from slamq.report.verdict import (
+from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
+from slamq.verdict.rule import (
     COMPLETE_SHARE,
     basis_name,
     known_share,
     sequence_verdict,
     verdict_sentence,
 )
-from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 
 __all__ = [
     "AGREEMENT",
@@ -48,8 +48,6 @@ __all__ = [
     "METRICS",
     "Metric",
     "SequenceRanking",
-    "format_mean_std",
-    "format_value",
     "rank_sequence",
     "summarize",
 ]
@@ -130,7 +128,7 @@ METRICS: tuple[Metric, ...] = (
 
 
 #: Shown (and marked as deciding) only where the verdict ranks by it: when the maps differ
-#: in resolution or orientation (:mod:`slamq.report.verdict`).
+#: in resolution or orientation (:mod:`slamq.verdict.rule`).
 CANONICAL = Metric(
     "corners_canonical", "canonical corners", "", True,
     "docs/spec.md section 3a: the corners of the map turned to its walls' direction and "
@@ -193,7 +191,7 @@ def _finite(frame: pd.DataFrame, key: str) -> np.ndarray:
 @dataclass
 class SequenceRanking:
     """The ranking of the algorithms on one sequence: the verdict's order
-    (:mod:`slamq.report.verdict`), with every metric's own ranks beside it for reference.
+    (:mod:`slamq.verdict.rule`), with every metric's own ranks beside it for reference.
 
     Attributes
     ----------
@@ -206,7 +204,7 @@ class SequenceRanking:
     winner : str or None
         The verdict's best algorithm (None when it names none).
     verdict : dict
-        The sequence's verdict (:func:`slamq.report.verdict.sequence_verdict`).
+        The sequence's verdict (:func:`slamq.verdict.rule.sequence_verdict`).
     ranks : dict
         ``ranks[metric_key][algorithm]`` = rank on that metric alone (ties share the mean
         rank), shown for reference; the verdict decides.
@@ -286,7 +284,7 @@ def rank_sequence(summary: pd.DataFrame, sequence: str, verdict: dict | None = N
     """Rank the algorithms of one sequence as its verdict does, with each metric's own
     ranks beside it.
 
-    The order is the verdict's ranking (:func:`slamq.report.verdict.sequence_verdict`: by
+    The order is the verdict's ranking (:func:`slamq.verdict.rule.sequence_verdict`: by
     ATE RMSE when there is ground truth, else GT F1, else corners), then the algorithms it
     could not rank, by name. On each metric with values, algorithms are also ranked by
     their mean over runs (1 = best: the lowest, or the highest for a ``higher`` metric;
@@ -351,47 +349,3 @@ def rank_sequence(summary: pd.DataFrame, sequence: str, verdict: dict | None = N
         ranks=ranks, best=best, metrics=used, disagree=disagree, partial=partial,
         ground_truths=ground_truths, coverage=coverage,
     )
-
-
-def format_value(x: float) -> str:
-    """A number as the report prints it: integers whole, else 3 significant digits.
-
-    Examples
-    --------
-    >>> format_value(12.0), format_value(0.23912), format_value(1234.5), format_value(float("nan"))
-    ('12', '0.239', '1234.5', '–')
-    """
-    if x is None or not math.isfinite(x):
-        return "–"
-    if float(x).is_integer():
-        return str(int(x))
-    if abs(x) >= 100:
-        return f"{x:.1f}"
-    return f"{x:.3g}"
-
-
-def format_mean_std(mean: float, std: float) -> str:
-    """``"mean ± std"``, or the mean alone when there is no std (one run).
-
-    Examples
-    --------
-    >>> format_mean_std(0.239, 0.011), format_mean_std(7.0, float("nan"))
-    ('0.239 ± 0.011', '7')
-    >>> format_mean_std(0.0241, 3.49e-18)   # rounding noise of equal runs is 0
-    '0.0241 ± 0'
-    """
-    if std is None or not math.isfinite(std):
-        return format_value(mean)
-    return f"{format_value(mean)} ± {format_value(clean_std(mean, std))}"
-
-
-def clean_std(mean: float, std: float) -> float:
-    """``std``, or 0 when it is floating-point noise (below 1e-9 of the mean's size).
-
-    Examples
-    --------
-    >>> clean_std(0.0241, 3.49e-18), clean_std(0.0241, 0.002)
-    (0.0, 0.002)
-    """
-    scale = max(abs(mean), 1.0) if math.isfinite(mean) else 1.0
-    return 0.0 if abs(std) <= 1e-9 * scale else std

@@ -5,7 +5,7 @@ each other (:func:`slamq.agreement`) and what is wrong with each of them on its 
 :func:`sequence_evidence` loads the maps of one sequence (at most ``runs_per_algorithm``
 runs of each algorithm, the first by run number: the pairwise comparison grows with the
 square of the maps), scores them against each other and runs the defect detectors, and
-sums that up per algorithm for :func:`slamq.report.verdict.sequence_verdict`. Beside it,
+sums that up per algorithm for :func:`slamq.verdict.rule.sequence_verdict`. Beside it,
 for the detail pages only, the missing walls of each map against the others
 (:func:`slamq.metrics.agreement.missing_walls`, read off the same agreement): the verdict does
 not read them (docs/validity.md, "Missing walls against the other maps").
@@ -20,12 +20,12 @@ from typing import Any
 import pandas as pd
 
 from slamq.errors import SlamqError
-from slamq.metrics.agreement import agreement, finite_median, missing_walls
+from slamq.metrics.agreement import MISSING_MIN_LENGTH, agreement, finite_median, missing_walls
 from slamq.params import SETTINGS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
 
-__all__ = ["RUNS_PER_ALGORITHM", "sequence_evidence"]
+__all__ = ["MISSING_MIN_LENGTH", "RUNS_PER_ALGORITHM", "sequence_evidence"]
 
 #: At most this many runs of each algorithm take part in the agreement of a sequence.
 RUNS_PER_ALGORITHM = 3

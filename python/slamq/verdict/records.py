@@ -1,4 +1,5 @@
-"""Reading results for the report, and re-evaluating a map when the report needs more.
+"""Reading results for the verdict and the report, and re-evaluating a record's map when a
+page needs more than its record holds.
 
 Results are batch records (see ``slamq.batch``): one per map, with ``map``, ``algorithm``,
 ``sequence``, ``run``, ``trajectory``, ``groundtruth``, ``error`` and the metric columns.

@@ -1,39 +1,14 @@
-"""The verdict of a report: which algorithm is best on each sequence, on what basis, and how
-sure that is — written to ``verdict.json`` and said in the report's first box.
-
-The paper's map metrics are computed exactly as it defines them, but measured against
-ground truth (slam_comparison_tools, and the 360-run generated benchmark of docs/validity.md)
-none of them orders good maps reliably, and corners cannot see a missing wall. The
-ground-truth figures agree with each other far better. So the verdict ranks by, in order:
-
-1. the ATE RMSE, when at least two algorithms of the sequence have one (ground truth);
-2. else the GT F1 against the sequence's ground-truth map (ties: GT chamfer);
-3. else, when :func:`slamq.report.evidence.sequence_evidence` is given (the report computes
-   it), the maps' agreement with each other and the defect detectors (docs/spec.md section
-   9): an algorithm whose maps could not be placed with the others, whose runs carry a
-   defect flag (at least half of them), or whose support is under ``AGREEMENT_SHARE`` of the
-   best is never named; one whose completeness is under ``COMPLETE_SHARE`` of the highest
-   is partial, never named; plain corners only order the maps the agreement confirms
-   equally when they share one resolution and orientation (else their support does). It
-   abstains, saying why, with fewer than three maps (unless one of two is flagged), when
-   the maps disagree among themselves (no majority confirmed), or when every map is flagged;
-4. else (no maps to compare: a summary alone) corners alone, low confidence, as before:
-   they separate broken maps from good ones but do not order good maps ("no clear winner"
-   within 25%); a map knowing less than 80% of the area of the most complete one is never
-   named best.
-
-Occupied fraction, proportion and enclosed areas never decide. A reference map (a ground
-truth beside the runs) is never ranked. An algorithm without the basis figure is not ranked
-(rows scored on different figures are never mixed). How far the verdict without ground
-truth can be trusted, on tuning and held-out data: docs/validity.md, "The verdict without
-ground truth" (``python -m slamq.report.verdict_study``).
+"""The verdict: which algorithm is best on each sequence, on what basis, and how sure that
+is. This module applies the rule of docs/spec.md section 9 ("The verdict"), which is where
+the rule is written; its thresholds are the constants below, and :func:`rule_summary` says
+it in one sentence from them. The report (``verdict.json``, its first box) and
+``slamq verdict`` both call :func:`sequence_verdict`. How far the verdict without ground
+truth can be trusted: docs/validity.md, "The verdict without ground truth".
 """
 
 from __future__ import annotations
 
-import json
 import math
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -44,7 +19,7 @@ from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_re
 
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "basis_name", "known_share",
-    "needs_evidence", "sequence_verdict", "verdict_sentence", "write_verdicts",
+    "needs_evidence", "rule_summary", "sequence_verdict", "verdict_sentence",
 ]
 
 #: A map knowing less area than this share of the sequence's most complete map is partial:
@@ -223,10 +198,10 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
     Parameters
     ----------
     summary : pandas.DataFrame
-        :func:`slamq.report.ranking.summarize` output (index sequence, algorithm).
+        :func:`slamq.verdict.ranking.summarize` output (index sequence, algorithm).
     sequence : str
     evidence : dict, optional
-        :func:`slamq.report.evidence.sequence_evidence` of the sequence: without ground
+        :func:`slamq.verdict.evidence.sequence_evidence` of the sequence: without ground
         truth, the verdict then rests on the maps' agreement and defect flags. Without it,
         on corners alone (low confidence).
     canonical_across_grids : bool, default False
@@ -244,7 +219,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
     Examples
     --------
     >>> import pandas as pd
-    >>> from slamq.report.ranking import summarize
+    >>> from slamq.verdict.ranking import summarize
     >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b", "c"],
     ...                    "corners": [300, 40, 35], "ate_rmse": [0.05, 2.0, float("nan")],
     ...                    "known": [1000, 1000, 500]})
@@ -364,7 +339,7 @@ def needs_evidence(summary: pd.DataFrame, sequence: str) -> bool:
     Examples
     --------
     >>> import pandas as pd
-    >>> from slamq.report.ranking import summarize
+    >>> from slamq.verdict.ranking import summarize
     >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "corners": [3, 4]})
     >>> needs_evidence(summarize(df), "s")
     True
@@ -373,13 +348,24 @@ def needs_evidence(summary: pd.DataFrame, sequence: str) -> bool:
     return len(block) >= 2 and not _ground_truth_decides(block)
 
 
-def write_verdicts(summary: pd.DataFrame, sequences: list[str], out_dir: Path,
-                   evidence: dict[str, dict[str, Any]] | None = None
-                   ) -> list[dict[str, Any]]:
-    """Write ``verdict.json`` (a list, one verdict per sequence) and return the verdicts;
-    ``evidence`` maps a sequence to its :func:`slamq.report.evidence.sequence_evidence`."""
-    evidence = evidence or {}
-    verdicts = [sequence_verdict(summary, s, evidence.get(s)) for s in sequences]
-    (Path(out_dir) / "verdict.json").write_text(json.dumps(verdicts, indent=1) + "\n")
-    return verdicts
+def rule_summary() -> str:
+    """The rule of docs/spec.md section 9 in one sentence, from this module's constants (the
+    report prints it; the section is the full statement).
 
+    Examples
+    --------
+    >>> print(rule_summary())  # doctest: +NORMALIZE_WHITESPACE
+    by ATE RMSE when the sequence has ground truth, else by GT F1 against its ground-truth
+    map; else by how far the other maps confirm each map (a map they cannot place, whose
+    support is under 90% of the best, that a defect detector flags, or whose completeness
+    is under 80% of the highest is never named best; corners order the maps confirmed
+    equally on one grid); with figures alone, by corners (no clear winner within 25%)
+    """
+    return (
+        f"by {basis_name(_BASES[0][0])} when the sequence has ground truth, else by "
+        f"{basis_name(_BASES[1][0])} against its ground-truth map; else by how far the other "
+        "maps confirm each map (a map they cannot place, whose support is under "
+        f"{AGREEMENT_SHARE:.0%} of the best, that a defect detector flags, or whose "
+        f"completeness is under {COMPLETE_SHARE:.0%} of the highest is never named best; "
+        "corners order the maps confirmed equally on one grid); with figures alone, by "
+        f"corners (no clear winner within {CLEAR_MARGIN:.0%})")

@@ -1,0 +1,344 @@
+"""One map's detail page: what was counted on it as layers over the plain map, each
+switched on and off by a checkbox (CSS only): the counted corners, the counted enclosed
+areas, the comparison with the sequence's ground-truth map (when there is one), the map's
+defects and, in a sequence judged without ground truth, its missing walls against the other
+maps of the sequence (walls most other maps have where this map sees free space;
+informational, off at first, not used by the verdict, docs/validity.md "Missing walls
+against the other maps"); then its numbers, the enclosed-area curve, the trajectory coloured
+by ATE and the map being built. Everything drawn comes from
+:func:`slamq.verdict.exhibits.map_exhibit`.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from slamq.errors import SlamqError
+from slamq.report.formatting import format_value
+from slamq.report.markup import MapPage, page
+from slamq.report.markup import esc as _e
+from slamq.verdict.building import Timeline
+from slamq.verdict.evidence import MISSING_MIN_LENGTH
+from slamq.verdict.exhibits import MapExhibit
+from slamq.verdict.records import usable
+from slamq.verdict.trajectory import TrajectoryEvidence
+
+__all__ = ["detail_page"]
+
+
+def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajectories: bool
+                ) -> None:
+    """Write ``mp``'s page from what the verdict layer computed of its map (``ex``:
+    :func:`slamq.verdict.exhibits.map_exhibit`) and the pictures it shows; ``mp`` gains the
+    paths of its pictures, its notes and its defects (the index shows them).
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from PIL import Image
+    >>> from slamq.report.markup import MapPage
+    >>> from slamq.verdict.exhibits import map_exhibit
+    >>> d = pathlib.Path(tempfile.mkdtemp()); (d / "img").mkdir(); (d / "maps").mkdir()
+    >>> img = np.full((30, 30), 254, np.uint8); img[8:22, 8:22] = 0
+    >>> Image.fromarray(img).save(d / "a.pgm")
+    >>> rec = {"map": str(d / "a.pgm"), "algorithm": "a", "sequence": "s", "run": 0}
+    >>> mp = MapPage(0, rec, "a", page="maps/a.html")
+    >>> detail_page(mp, map_exhibit(rec, gifs=False), d, gifs=False, trajectories=False)
+    >>> mp.thumb, (d / mp.page).is_file()
+    ('img/a_thumb.png', True)
+    """
+    from slamq.report.overlays import draw_overlay
+    from slamq.report.plots import curve_figure
+
+    rec = mp.record
+    sections: list[str] = []
+    grid, quality, params = ex.grid, ex.quality, ex.params
+    mp.notes.extend(ex.notes)
+    if grid is not None and quality is not None and ex.marks is not None:
+        u = ex.marks.unknown_value
+        ov = draw_overlay(grid, ex.marks)
+        mp.full = f"img/{mp.slug}.png"
+        mp.thumb = f"img/{mp.slug}_thumb.png"
+        ov.save(str(out / mp.full), which="plain")
+        ov.save(str(out / mp.thumb), max_size=230, which="plain")
+        mp.defects = ex.defects
+        gt = ex.ground_truth
+        sections.append(_map_layers(mp, out, ov, u, grid, gt))
+        curve_png = f"img/{mp.slug}_curve.png"
+        curve_figure(list(quality.curve), list(params.sweep_values),
+                     int(quality.enclosed_unknown_value), out / curve_png)
+        sections.append(
+            "<h2>Enclosed areas over the unknown value</h2><p>The sweep of SPEC section 4 "
+            "(paper III.C): unknown cells take every value u; the metric is the maximum.</p>"
+            f"<p><img src=\"../{curve_png}\" alt=\"enclosed-area curve\"></p>")
+        sections.append(_ground_truth_section(gt, out, mp))
+        if trajectories:
+            sections.append(_trajectory_section(rec, ex.trajectory, grid, out, mp))
+        if gifs:
+            sections.append(_building_section(ex.building, out, mp))
+    rows = "".join(
+        f"<tr><th>{_e(k)}</th><td class=\"num\">{_e(_fmt_cell(rec.get(k)))}</td></tr>"
+        for k in _DETAIL_KEYS if k in rec and usable(rec.get(k)))
+    files = "".join(
+        f"<li>{_e(k)}: <code>{_e(rec.get(k))}</code></li>"
+        for k in _FILE_KEYS if k in rec and usable(rec.get(k)))
+    notes = "".join(f"<p class=\"warn\">{_e(n)}</p>" for n in mp.notes)
+    head = (f"<p><a href=\"../index.html\">&larr; back to the report</a></p>"
+            f"<h1>{_e(rec['algorithm'])} on {_e(rec['sequence'])}, run {_e(rec['run'])}</h1>"
+            f"<ul class=\"sub files\">{files}</ul>{notes}")
+    numbers = f"<div><h2>Numbers</h2><table class=\"numbers\">{rows}</table></div>"
+    first = sections[0] if sections else ""
+    rest = "".join(s for s in sections[1:] if s)
+    (out / mp.page).write_text(
+        page(f"{rec['algorithm']} / {rec['sequence']} / run {rec['run']}",
+             head + f"<div class=\"top\">{numbers}{first}</div>" + rest), encoding="utf-8")
+
+
+_DETAIL_KEYS = (
+    "ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n",
+    "gt_precision", "gt_recall", "gt_f1", "gt_iou", "gt_ne", "gt_reverse", "gt_chamfer",
+    "gt_coverage", "gt_dx", "gt_dy", "gt_dyaw", "gt_icp_rms", "gt_truncated", "gt_outside",
+    "occupied_fraction", "corners", "enclosed_areas", "enclosed_unknown_value",
+    "proportion", "threshold", "occupied", "free", "unknown", "known", "total",
+    "height", "width", "seconds",
+)
+
+_FILE_KEYS = ("map", "trajectory", "groundtruth", "gt_map", "ate_error", "gt_error", "hash")
+
+
+def _fmt_cell(x: Any) -> str:
+    if isinstance(x, (int, np.integer)):
+        return str(int(x))
+    if isinstance(x, (float, np.floating)):
+        return f"{float(x):.6g}"
+    return str(x)
+
+
+_GT_KINDS = (("matched", "ground-truth walls the map has"),
+             ("missing", "ground-truth walls the map lacks"),
+             ("ghost", "walls only the map has"))
+
+
+def _gt_swatches() -> str:
+    from slamq.report.comparison import COMPARISON_COLOURS
+
+    return "".join(
+        f"<span><i class=\"swatch\" style=\"background:rgb{COMPARISON_COLOURS[k]}\"></i> "
+        f"{label}</span>" for k, label in _GT_KINDS)
+
+
+def _ground_truth_section(gt: tuple[Any, Any] | None, out: Path, mp: MapPage) -> str:
+    """The map aligned over its sequence's ground-truth map, on the ground truth's grid."""
+    if gt is None:
+        return ""
+    from slamq.report.comparison import write_comparison_png
+
+    c = gt[0]
+    png = f"img/{mp.slug}_gt.png"
+    write_comparison_png(out / png, c)
+    return (
+        "<h2>Against the ground-truth map</h2><p>The map aligned (" + _e(c.align) +
+        f": dx {c.dx:+.3f} m, dy {c.dy:+.3f} m, dyaw {c.dyaw:+.2f}&deg;) and resampled onto "
+        f"the ground truth's grid; a wall matches within {c.tolerance:.3g} m. F1 "
+        f"{c.f1:.3f}, chamfer {c.chamfer:.3f} m (docs/spec.md section 7). The same "
+        "comparison is the <i>ground truth</i> layer of the map above, in the map's own "
+        "frame.</p>"
+        f"<p class=\"legend\">{_gt_swatches()}</p>"
+        f"<p class=\"big\"><a href=\"../{png}\"><img src=\"../{png}\" "
+        "alt=\"map over the ground truth\"></a></p>")
+
+
+_DEFECT_COLOURS = ("#ff00ff", "#ff8800", "#00c8ff", "#ffd400", "#8a2be2", "#00b050")
+
+
+def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
+                gt: tuple[Any, Any] | None) -> str:
+    """The map with its layers (corners, enclosed areas, ground truth, defects, missing
+    walls), each shown or hidden by a checkbox (CSS only: ``.layers:has(#show-X:not(:checked))
+    .layer-X``)."""
+    from PIL import Image
+
+    rows, cols = ov.cells
+    r0, c0 = ov.offset
+    h, w = ov.plain.shape[:2]
+    view = f"{c0} {r0} {cols} {rows}"  # SVG user units = map cells
+    layers: list[str] = []
+    toggles: list[str] = []
+
+    def toggle(key: str, label: str, on: bool, enabled: bool = True) -> None:
+        toggles.append(
+            f"<label for=\"show-{key}\"><input type=\"checkbox\" id=\"show-{key}\" "
+            f"data-layer=\"{key}\"{' checked' if on and enabled else ''}"
+            f"{'' if enabled else ' disabled'}>{label}</label>")
+
+    if ov.n_regions:
+        png = f"img/{mp.slug}_regions.png"
+        Image.fromarray(ov.regions).save(out / png)
+        layers.append(f"<img class=\"layer layer-regions\" src=\"../{png}\" alt=\"\">")
+    toggle("regions", f"<i class=\"swatch\"></i> {ov.n_regions} enclosed areas "
+           f"(unknown cells set to u = {u})", True, ov.n_regions > 0)
+    radius = max(1.5, max(rows, cols) / 110.0)
+    rings = "".join(f"<circle cx=\"{cc + 0.5:.6g}\" cy=\"{rr + 0.5:.6g}\" r=\"{radius:.4g}\"/>"
+                    for rr, cc in ov.corners)
+    layers.append(
+        f"<svg class=\"layer layer-corners\" viewBox=\"{view}\" preserveAspectRatio=\"none\">"
+        f"<g fill=\"none\" stroke=\"red\" stroke-width=\"{radius / 3:.4g}\">{rings}</g></svg>")
+    toggle("corners", f"<i class=\"ring\"></i> {ov.n_corners} corners", True,
+           ov.n_corners > 0)
+    if gt is not None:
+        from slamq.report.comparison import ground_truth_layer
+
+        png = f"img/{mp.slug}_gtlayer.png"
+        Image.fromarray(ground_truth_layer(gt[0], grid, gt[1], offset=(r0, c0),
+                                           shape=(rows, cols), scale=ov.scale)).save(out / png)
+        layers.append(f"<img class=\"layer layer-gt\" src=\"../{png}\" alt=\"\">")
+        toggle("gt", f"ground truth (F1 {gt[0].f1:.3f})", False)
+    if mp.defects:
+        size = max(rows, cols) / 45.0
+        boxes = []
+        for i, d in enumerate(mp.defects):
+            a, b, c, e = d["bbox"]
+            colour = _DEFECT_COLOURS[i % len(_DEFECT_COLOURS)]
+            boxes.append(
+                f"<g class=\"defect\" data-kind=\"{_e(d['kind'])}\"><title>{_e(d['kind'])}: "
+                f"{_e(d['note'])}</title><rect x=\"{a:.6g}\" y=\"{b:.6g}\" "
+                f"width=\"{max(c - a, 0.5):.6g}\" height=\"{max(e - b, 0.5):.6g}\" "
+                f"fill=\"none\" stroke=\"{colour}\" stroke-width=\"{size / 6:.4g}\"/>"
+                f"<text x=\"{a:.6g}\" y=\"{max(b - size / 4, r0 + size):.6g}\" "
+                f"font-size=\"{size:.4g}\" fill=\"{colour}\" stroke=\"#000\" "
+                f"stroke-width=\"{size / 14:.4g}\" paint-order=\"stroke\">{i + 1} "
+                f"{_e(d['kind'])}</text></g>")
+        layers.append(
+            f"<svg class=\"layer layer-defects\" viewBox=\"{view}\" "
+            f"preserveAspectRatio=\"none\">{''.join(boxes)}</svg>")
+    toggle("defects", f"{len(mp.defects)} defect{'' if len(mp.defects) == 1 else 's'}", True,
+           bool(mp.defects))
+    legend = (f"<p class=\"legend gt-legend\">ground-truth layer: {_gt_swatches()}</p>"
+              if gt is not None else "")
+    if mp.missing is not None:
+        layer, label, legend_missing = _missing_layer(mp.missing, (c0, r0, cols, rows))
+        if layer:
+            layers.append(layer)
+        toggle("missing", label, False, bool(mp.missing))
+        legend += legend_missing
+    table = ""
+    if mp.defects:
+        table = ("<table class=\"defects\"><tr><th>#</th><th>kind</th><th>cells [col0, row0,"
+                 " col1, row1]</th><th>note</th></tr>" + "".join(
+                     f"<tr><td>{i + 1}</td><td>{_e(d['kind'])}</td><td>"
+                     f"{_e(', '.join(format_value(v) for v in d['bbox']))}</td>"
+                     f"<td>{_e(d['note'])}</td></tr>" for i, d in enumerate(mp.defects))
+                 + "</table>")
+    return (
+        "<div class=\"mapcol\"><h2>The map</h2><p class=\"sub\">unknown cells grey, occupied "
+        "black, free white; north up. Layers:</p><div class=\"layers\">"
+        f"<p class=\"toggles\">{' '.join(toggles)}</p><div class=\"stack\">"
+        f"<a href=\"../{mp.full}\"><img class=\"base\" src=\"../{mp.full}\" width=\"{w}\" "
+        f"height=\"{h}\" alt=\"the map\"></a>"
+        f"{''.join(layers)}</div></div>{legend}{table}</div>")
+
+
+_MISSING_COLOUR = "#e00000"
+
+
+def _missing_layer(missing: list[dict], view: tuple[int, int, int, int]
+                   ) -> tuple[str, str, str]:
+    """``(svg, label, legend)`` of the missing-walls layer: dashed boxes in the map's own
+    cells (the flags of :func:`slamq.metrics.agreement.missing_walls` are on the map's
+    image grid, row 0 at the top, as the defects' boxes), each grown by a little so that
+    the stretch inside stays visible, and kept, with its label, inside the picture
+    (``view``: its first column and row, columns and rows); the legend says what they are
+    and that the verdict does not read them."""
+    c0, r0, cols, rows = view
+    n = len(missing)
+    size = max(rows, cols) / 45.0
+    pad, stroke = size / 5, size / 7
+    boxes = []
+    for i, d in enumerate(missing):
+        a, b, c, e = (float(v) for v in d["bbox"])
+        metres = float(d.get("score", math.nan))
+        text = f"{i + 1} missing wall" + (f" ({metres:.1f} m)" if math.isfinite(metres)
+                                          else "")
+        x1, y1 = max(a - pad, c0 + stroke / 2), max(b - pad, r0 + stroke / 2)
+        x2 = max(min(c + pad, c0 + cols - stroke / 2), x1 + 0.5)
+        y2 = max(min(e + pad, r0 + rows - stroke / 2), y1 + 0.5)
+        # the label above the box, else below it, else inside; right-aligned near the edge
+        wide = 0.6 * size * len(text)
+        anchor, tx = ("start", x1) if x1 + wide <= c0 + cols else ("end", x2)
+        ty = (y1 - size / 4 if y1 - size >= r0 else
+              y2 + size if y2 + size * 1.1 <= r0 + rows else y1 + size)
+        boxes.append(
+            f"<g class=\"missing\" data-bbox=\"{a:g} {b:g} {c:g} {e:g}\"><title>"
+            f"{_e(d.get('note', ''))}</title><rect x=\"{x1:.6g}\" y=\"{y1:.6g}\" "
+            f"width=\"{x2 - x1:.6g}\" height=\"{y2 - y1:.6g}\" fill=\"none\" "
+            f"stroke=\"{_MISSING_COLOUR}\" stroke-width=\"{stroke:.4g}\" "
+            f"stroke-dasharray=\"{size / 3:.4g} {size / 5:.4g}\"/>"
+            f"<text x=\"{tx:.6g}\" y=\"{ty:.6g}\" text-anchor=\"{anchor}\" "
+            f"font-size=\"{size:.4g}\" fill=\"{_MISSING_COLOUR}\" stroke=\"#fff\" "
+            f"stroke-width=\"{size / 10:.4g}\" paint-order=\"stroke\">{_e(text)}</text></g>")
+    svg = (f"<svg class=\"layer layer-missing\" viewBox=\"{c0} {r0} {cols} {rows}\" "
+           f"preserveAspectRatio=\"none\">{''.join(boxes)}</svg>") if boxes else ""
+    label = (f"<i class=\"dash\"></i> {n} missing wall{'' if n == 1 else 's'} "
+             "(informational): walls most other maps of the sequence have where this map "
+             "sees free space &mdash; not used by the verdict")
+    rows_html = "".join(
+        f"<li>{i + 1}: cells [{_e(', '.join(format_value(v) for v in d['bbox']))}]; "
+        f"{_e(d.get('note', ''))}</li>" for i, d in enumerate(missing))
+    legend = (
+        "<div class=\"legend missing-legend\"><p><i class=\"dash\"></i> <b>Missing walls"
+        "</b> (informational): the longest stretch, from "
+        f"{MISSING_MIN_LENGTH:g} m, of walls that more than half of the other maps of the "
+        "sequence have (laid over this map as for the agreement) where this map sees free "
+        "space: a missing wall, or a leak through a gap the others close. Not used by the "
+        "verdict: doors open in one run and closed in another, and noise, flag many good "
+        "maps too (docs/validity.md, \"Missing walls against the other maps\").</p>"
+        + (f"<ul>{rows_html}</ul>" if rows_html else "") + "</div>")
+    return svg, label, legend
+
+
+def _trajectory_section(rec: dict, evidence: TrajectoryEvidence | Exception | None, grid: Any,
+                        out: Path, mp: MapPage) -> str:
+    if not usable(rec.get("trajectory")) or evidence is None:
+        return ""
+    from slamq.report.trajectory import draw_trajectory, time_plot_path
+
+    png = f"img/{mp.slug}_traj.png"
+    try:
+        if isinstance(evidence, Exception):
+            raise evidence
+        caption = draw_trajectory(evidence, grid, out / png)
+    except Exception as exc:  # noqa: BLE001 - a bad trajectory is a note, never a crash
+        return f"<h2>Trajectory</h2><p class=\"warn\">not drawn: {_e(exc)}</p>"
+    over_time = time_plot_path(Path(png))
+    time_img = (f"<p><img src=\"../{over_time.as_posix()}\" alt=\"ATE over time\"></p>"
+                if (out / over_time).is_file() else "")
+    return (f"<h2>Trajectory over the map</h2><p>{_e(caption)}</p>"
+            f"<p class=\"big\"><img src=\"../{png}\" alt=\"trajectory coloured by ATE\"></p>"
+            + time_img)
+
+
+def _building_section(building: tuple[str, Timeline | None] | Exception | None, out: Path,
+                      mp: MapPage) -> str:
+    from slamq.report.timeline import write_timeline_gif
+
+    if building is None:
+        return ""
+    try:
+        if isinstance(building, Exception):
+            raise building
+        what, timeline = building
+        if timeline is None:
+            return ""
+        gif = f"img/{mp.slug}_build.gif"
+        write_timeline_gif(timeline, out / gif)
+    except (SlamqError, OSError, ValueError) as exc:
+        return f"<h2>Map building</h2><p class=\"warn\">no animation: {_e(exc)}</p>"
+    mp.gif = gif
+    return (f"<h2>Map building</h2><p>{_e(what)}; the metrics of each snapshot on the "
+            "right, the red line marks the current one.</p>"
+            f"<p class=\"big\"><img src=\"../{gif}\" alt=\"map being built\"></p>")
+

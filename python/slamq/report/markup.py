@@ -1,0 +1,89 @@
+"""What every page of the report shares: HTML escaping, file-name slugs, the page frame
+with the report's stylesheet (``static/report.css``, shipped with the package and inlined
+into each page, so the site needs no other file to look right) and :class:`MapPage`, one
+map's detail page as the index links it."""
+
+from __future__ import annotations
+
+import html
+import re
+from dataclasses import dataclass, field
+from functools import lru_cache
+from importlib import resources
+from typing import Any
+
+__all__ = ["MapPage", "esc", "page", "slug", "stylesheet"]
+
+_SLUG = re.compile(r"[^A-Za-z0-9_.-]+")
+
+
+
+@lru_cache(maxsize=1)
+def stylesheet() -> str:
+    """The report's CSS (``slamq/report/static/report.css``).
+
+    Examples
+    --------
+    >>> "main{" in stylesheet()
+    True
+    """
+    return resources.files("slamq.report").joinpath("static/report.css").read_text(
+        encoding="utf-8")
+
+
+def esc(x: Any) -> str:
+    """``x`` as HTML text or attribute value.
+
+    Examples
+    --------
+    >>> esc('a<b & "c"')
+    'a&lt;b &amp; &quot;c&quot;'
+    """
+    return html.escape(str(x), quote=True)
+
+
+def slug(x: Any) -> str:
+    """``x`` as a short file-name part.
+
+    Examples
+    --------
+    >>> slug("slam toolbox / run 1")
+    'slam-toolbox-run-1'
+    """
+    return _SLUG.sub("-", str(x)).strip("-")[:60] or "x"
+
+
+def page(title: str, body: str, *, root: str = "") -> str:
+    """A whole HTML page: ``body`` in the report's frame, with its stylesheet inlined.
+
+    Examples
+    --------
+    >>> page("t", "<p>x</p>").startswith("<!DOCTYPE html>")
+    True
+    """
+    return (
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+        "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+        "<link rel=\"icon\" href=\"data:,\">"
+        f"<title>{esc(title)}</title><style>\n{stylesheet()}</style></head>"
+        f"<body><main>{body}</main></body></html>\n"
+    )
+
+
+@dataclass
+class MapPage:
+    """One map's detail page and its pictures (paths relative to the site root)."""
+
+    index: int
+    record: dict
+    slug: str
+    page: str = ""
+    thumb: str = ""
+    full: str = ""
+    gif: str = ""
+    notes: list[str] = field(default_factory=list)
+    defects: list[dict] = field(default_factory=list)
+    #: Missing walls against the other maps of the sequence (None: the map took no part in
+    #: an agreement, e.g. its sequence has ground truth).
+    missing: list[dict] | None = None
+
