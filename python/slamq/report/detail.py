@@ -27,7 +27,7 @@ from slamq.verdict.exhibits import MapExhibit
 from slamq.verdict.records import usable
 from slamq.verdict.trajectory import TrajectoryEvidence
 
-__all__ = ["detail_page"]
+__all__ = ["detail_page", "run_info", "standing", "with_unit"]
 
 
 def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajectories: bool
@@ -81,16 +81,19 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
         if gifs:
             sections.append(_building_section(ex.building, out, mp))
     rows = "".join(
-        f"<tr><th>{_e(k)}</th><td class=\"num\">{_e(_fmt_cell(rec.get(k)))}</td></tr>"
-        for k in _DETAIL_KEYS if k in rec and usable(rec.get(k)))
+        f"<tr><th title=\"{_e(k)}\">{_e(_FIELDS[k][0])}</th><td class=\"num\" "
+        f"data-field=\"{_e(k)}\">{_e(with_unit(k, rec.get(k)))}</td></tr>"
+        for k in _FIELDS if k in rec and usable(rec.get(k)))
     files = "".join(
         f"<li>{_e(k)}: <code>{_e(rec.get(k))}</code></li>"
         for k in _FILE_KEYS if k in rec and usable(rec.get(k)))
     notes = "".join(f"<p class=\"warn\">{_e(n)}</p>" for n in mp.notes)
     head = (f"<p><a href=\"../index.html\">&larr; back to the report</a></p>"
             f"<h1>{_e(rec['algorithm'])} on {_e(rec['sequence'])}, run {_e(rec['run'])}</h1>"
-            f"<ul class=\"sub files\">{files}</ul>{notes}")
-    numbers = f"<div><h2>Numbers</h2><table class=\"numbers\">{rows}</table></div>"
+            + _standing_block(mp.standing) + _run_block(run_info(rec))
+            + f"<ul class=\"sub files\">{files}</ul>{notes}")
+    numbers = (f"<div><h2>Numbers</h2><div class=\"scroll\"><table class=\"numbers\">{rows}"
+               "</table></div></div>")
     first = sections[0] if sections else ""
     rest = "".join(s for s in sections[1:] if s)
     (out / mp.page).write_text(
@@ -98,14 +101,48 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
              head + f"<div class=\"top\">{numbers}{first}</div>" + rest), encoding="utf-8")
 
 
-_DETAIL_KEYS = (
-    "ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n",
-    "gt_precision", "gt_recall", "gt_f1", "gt_iou", "gt_ne", "gt_reverse", "gt_chamfer",
-    "gt_coverage", "gt_dx", "gt_dy", "gt_dyaw", "gt_icp_rms", "gt_truncated", "gt_outside",
-    "occupied_fraction", "corners", "enclosed_areas", "enclosed_unknown_value",
-    "proportion", "threshold", "occupied", "free", "unknown", "known", "total",
-    "height", "width", "seconds",
-)
+#: The numbers a detail page lists: field -> (name, unit); "" for counts and ratios.
+_FIELDS: dict[str, tuple[str, str]] = {
+    "ate_rmse": ("ATE RMSE", "m"), "ate_mean": ("ATE mean", "m"),
+    "ate_median": ("ATE median", "m"), "ate_std": ("ATE std", "m"),
+    "ate_min": ("ATE min", "m"), "ate_max": ("ATE max", "m"),
+    "ate_n": ("poses matched for ATE", "poses"),
+    "gt_precision": ("GT precision", ""), "gt_recall": ("GT recall", ""),
+    "gt_f1": ("GT F1", ""), "gt_iou": ("GT IoU", ""),
+    "gt_ne": ("distance of the GT's walls to the map's (ne)", "m"),
+    "gt_reverse": ("distance of the map's walls to the GT's", "m"),
+    "gt_chamfer": ("GT chamfer", "m"), "gt_coverage": ("GT free space covered", ""),
+    "gt_dx": ("alignment to GT: x", "m"), "gt_dy": ("alignment to GT: y", "m"),
+    "gt_dyaw": ("alignment to GT: yaw", "deg"), "gt_icp_rms": ("alignment ICP RMS", "m"),
+    "gt_truncated": ("GT distances capped", "cells"),
+    "gt_outside": ("occupied cells outside the GT's grid", "cells"),
+    "occupied_fraction": ("occupied fraction", ""), "corners": ("corners", ""),
+    "corners_canonical": ("canonical corners", ""),
+    "enclosed_areas": ("enclosed areas", ""),
+    "enclosed_unknown_value": ("unknown value u of the enclosed areas", ""),
+    "proportion": ("proportion", ""), "threshold": ("proportion threshold", ""),
+    "occupied": ("occupied", "cells"), "free": ("free", "cells"),
+    "unknown": ("unknown", "cells"), "known": ("known", "cells"),
+    "total": ("total", "cells"), "known_area_m2": ("known area", "m²"),
+    "resolution": ("resolution", "m/cell"), "height": ("height", "cells"),
+    "width": ("width", "cells"), "wall_angle": ("wall angle (modulo 90)", "deg"),
+    "seconds": ("evaluation time", "s"),
+}
+
+
+def with_unit(key: str, x: Any) -> str:
+    """A record's value as a detail page prints it: integers whole, else 6 significant
+    digits, then the field's unit.
+
+    Examples
+    --------
+    >>> with_unit("gt_dyaw", -1.80364), with_unit("gt_outside", 539), with_unit("corners", 7)
+    ('-1.80364 deg', '539 cells', '7')
+    """
+    unit = _FIELDS.get(key, ("", ""))[1]
+    text = _fmt_cell(x)
+    return f"{text} {unit}" if unit else text
+
 
 _FILE_KEYS = ("map", "trajectory", "groundtruth", "gt_map", "ate_error", "gt_error", "hash")
 
@@ -116,6 +153,184 @@ def _fmt_cell(x: Any) -> str:
     if isinstance(x, (float, np.floating)):
         return f"{float(x):.6g}"
     return str(x)
+
+
+def standing(rec: dict, ranking: Any, summary: Any = None,
+             evidence: dict[str, Any] | None = None) -> dict[str, str]:
+    """Where a map's algorithm stands in its sequence's verdict, as sentences for its detail
+    page: ``rank`` (its place in the verdict's ranking), ``verdict`` (the sequence's
+    sentence), ``support`` (the figure the verdict ranks by, for this run and the
+    algorithm) and ``reason`` (why it was, or was not, named best).
+
+    Parameters
+    ----------
+    rec : dict
+        The map's record (``algorithm``, ``sequence``, the metric columns).
+    ranking : slamq.verdict.ranking.SequenceRanking
+        Its sequence's ranking (with the verdict).
+    summary : pandas.DataFrame, optional
+        :attr:`slamq.verdict.judge.Judgement.summary` (the algorithms' means).
+    evidence : dict, optional
+        The sequence's evidence when the maps' agreement judged it.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from slamq.verdict.judge import judge
+    >>> ok = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "run": 0,
+    ...                    "ate_rmse": [0.1, 0.2], "corners": [3, 5]})
+    >>> j = judge(ok)
+    >>> st = standing(ok.iloc[1].to_dict(), j.rankings["s"], j.summary)
+    >>> st["rank"]
+    'b ranks 2 of 2 on s.'
+    >>> st["reason"]
+    'Not named best: a ranks ahead of it by ATE RMSE (0.1 m against 0.2 m).'
+    """
+    from slamq.verdict.rule import basis_name, verdict_sentence
+
+    alg, seq = str(rec["algorithm"]), str(rec["sequence"])
+    v = ranking.verdict
+    basis = list(v.get("basis") or [])
+    key = basis[0] if basis else None
+    out = {"verdict": verdict_sentence(v)}
+    if alg in ranking.ground_truths:
+        out["rank"] = f"{alg} is the reference map of {seq}: it is not ranked."
+    elif alg in ranking.ranked:
+        out["rank"] = (f"{alg} ranks {ranking.ranked.index(alg) + 1} of {len(ranking.ranked)}"
+                       f" on {seq}.")
+    else:
+        out["rank"] = f"{alg} is not ranked on {seq}: it has no {basis_name(key)}."
+
+    def mean(a: str, k: str) -> float:
+        try:
+            return float(summary.loc[(seq, a), f"{k}_mean"])
+        except (AttributeError, KeyError, TypeError, ValueError):
+            return math.nan
+
+    if key == "agreement" and evidence is not None:
+        info = evidence.get("algorithms", {})
+        mine = info.get(alg, {}).get("support", math.nan)
+        top = max((e["support"] for e in info.values() if math.isfinite(e["support"])),
+                  default=math.nan)
+        if math.isfinite(mine):
+            out["support"] = (f"Support {mine:.2f}: the median over {alg}'s runs of how far "
+                              f"the other maps confirm its walls (best of {seq}: {top:.2f}).")
+        else:
+            out["support"] = f"No support figure: the other maps could not place {alg}'s."
+    elif key is not None:
+        this = _num(rec.get(key))
+        avg = mean(alg, key)
+        parts = []
+        if math.isfinite(this):
+            parts.append(f"this run {_short(key, this)}")
+        if math.isfinite(avg):
+            parts.append(f"{alg}'s mean {_short(key, avg)}")
+        best = v.get("best")
+        if best and best != alg and math.isfinite(mean(best, key)):
+            parts.append(f"{best}'s mean {_short(key, mean(best, key))}")
+        out["support"] = (f"The verdict ranks by {basis_name(key)}: " + ", ".join(parts) + "."
+                          if parts else f"The verdict ranks by {basis_name(key)}.")
+    best = v.get("best")
+    named = [w for w in v.get("warnings", []) if w.startswith((f"{alg} is never named best",
+                                                               f"{alg}'s map knows"))]
+    confidence = str(v.get("confidence", ""))
+    if alg in ranking.ground_truths:
+        out["reason"] = "A reference map is never named best."
+    elif best == alg:
+        out["reason"] = f"Named best of {seq} (confidence {confidence})."
+    elif named:
+        out["reason"] = f"Not named best: {named[0]}."
+    elif best is None:
+        out["reason"] = (f"No algorithm is named best on {seq}: "
+                         f"{confidence.removeprefix('none: ')}.")
+    elif alg not in ranking.ranked:
+        out["reason"] = f"Not named best: not ranked, without {basis_name(key)}."
+    else:
+        by = " then ".join(basis_name(b) for b in basis)
+        figures = ""
+        if key not in (None, "agreement") and math.isfinite(mean(best, key)) \
+                and math.isfinite(mean(alg, key)):
+            figures = (f" ({_short(key, mean(best, key))} against "
+                       f"{_short(key, mean(alg, key))})")
+        out["reason"] = f"Not named best: {best} ranks ahead of it by {by}{figures}."
+    return out
+
+
+def _short(key: str, x: float) -> str:
+    """``x`` with the field's unit, to 3 significant digits (for sentences)."""
+    unit = _FIELDS.get(key, ("", ""))[1]
+    return f"{format_value(x)} {unit}" if unit else format_value(x)
+
+
+def _num(x: Any) -> float:
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _standing_block(st: dict[str, str] | None) -> str:
+    if not st:
+        return ""
+    return ("<section class=\"standing\" id=\"standing\">" + "".join(
+        f"<p class=\"standing-{k}\">{_e(st[k])}</p>" for k in ("rank", "verdict", "support",
+                                                               "reason")
+        if st.get(k)) + "</section>")
+
+
+def run_info(rec: dict) -> dict[str, Any] | None:
+    """The ``run.json`` that ``slamq run`` wrote for the map's run (the first one in the
+    map's folder or up to three folders above it whose ``map`` is this map), or None.
+
+    Examples
+    --------
+    >>> run_info({"map": "/nonexistent/map.yaml"}) is None
+    True
+    """
+    import json
+
+    if not usable(rec.get("map")):
+        return None
+    path = Path(str(rec["map"]))
+    for folder in list(path.parents)[:4]:
+        f = folder / "run.json"
+        try:
+            data = json.loads(f.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        if isinstance(data, dict) and str(data.get("map", "")) == str(path):
+            return data
+    return None
+
+
+def _run_block(info: dict[str, Any] | None) -> str:
+    """The run's command, outcome, wall and CPU time and peak memory (``run.json``)."""
+    if info is None:
+        return ""
+    import shlex
+
+    cmd = info.get("command")
+    if isinstance(cmd, list):
+        shown = " ".join(shlex.quote(str(c)) for c in cmd)
+    elif isinstance(cmd, dict):  # a ROS recipe: one command per step
+        shown = "; ".join(f"{k}: {' '.join(map(str, v)) if isinstance(v, list) else v}"
+                          for k, v in cmd.items())
+    else:
+        shown = str(cmd or "")
+    facts = []
+    wall, rss = _num(info.get("wall")), _num(info.get("max_rss_kb"))
+    cpu = _num(info.get("user_cpu")) + _num(info.get("sys_cpu"))
+    if math.isfinite(wall):
+        facts.append(f"wall time {wall:.3g} s")
+    if math.isfinite(cpu):
+        facts.append(f"CPU time {cpu:.3g} s")
+    if math.isfinite(rss):
+        facts.append(f"peak memory {rss / 1024:.1f} MiB")
+    outcome = str(info.get("outcome", ""))
+    return ("<section class=\"run\" id=\"run\"><p>The run (<code>slamq run</code>, its "
+            f"<code>run.json</code>): {_e(outcome)}" + (f"; {_e(', '.join(facts))}" if facts
+                                                        else "") + ".</p>"
+            + (f"<p>Command: <code>{_e(shown)}</code></p>" if shown else "") + "</section>")
 
 
 _GT_KINDS = (("matched", "ground-truth walls the map has"),
@@ -180,14 +395,14 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
         Image.fromarray(ov.regions).save(out / png)
         layers.append(f"<img class=\"layer layer-regions\" src=\"../{png}\" alt=\"\">")
     toggle("regions", f"<i class=\"swatch\"></i> {ov.n_regions} enclosed areas "
-           f"(unknown cells set to u = {u})", True, ov.n_regions > 0)
+           f"(unknown cells set to u = {u})", False, ov.n_regions > 0)
     radius = max(1.5, max(rows, cols) / 110.0)
     rings = "".join(f"<circle cx=\"{cc + 0.5:.6g}\" cy=\"{rr + 0.5:.6g}\" r=\"{radius:.4g}\"/>"
                     for rr, cc in ov.corners)
     layers.append(
         f"<svg class=\"layer layer-corners\" viewBox=\"{view}\" preserveAspectRatio=\"none\">"
         f"<g fill=\"none\" stroke=\"red\" stroke-width=\"{radius / 3:.4g}\">{rings}</g></svg>")
-    toggle("corners", f"<i class=\"ring\"></i> {ov.n_corners} corners", True,
+    toggle("corners", f"<i class=\"ring\"></i> {ov.n_corners} corners", False,
            ov.n_corners > 0)
     if gt is not None:
         from slamq.report.comparison import ground_truth_layer
@@ -215,7 +430,7 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
         layers.append(
             f"<svg class=\"layer layer-defects\" viewBox=\"{view}\" "
             f"preserveAspectRatio=\"none\">{''.join(boxes)}</svg>")
-    toggle("defects", f"{len(mp.defects)} defect{'' if len(mp.defects) == 1 else 's'}", True,
+    toggle("defects", f"{len(mp.defects)} defect{'' if len(mp.defects) == 1 else 's'}", False,
            bool(mp.defects))
     legend = (f"<p class=\"legend gt-legend\">ground-truth layer: {_gt_swatches()}</p>"
               if gt is not None else "")
@@ -235,7 +450,8 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
                  + "</table>")
     return (
         "<div class=\"mapcol\"><h2>The map</h2><p class=\"sub\">unknown cells grey, occupied "
-        "black, free white; north up. Layers:</p><div class=\"layers\">"
+        "black, free white; north up. Layers (all off at first: tick one to draw it over "
+        "the map):</p><div class=\"layers\">"
         f"<p class=\"toggles\">{' '.join(toggles)}</p><div class=\"stack\">"
         f"<a href=\"../{mp.full}\"><img class=\"base\" src=\"../{mp.full}\" width=\"{w}\" "
         f"height=\"{h}\" alt=\"the map\"></a>"

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from slamq.report.formatting import format_mean_std, format_value
-from slamq.report.markup import MapPage
+from slamq.report.markup import MapPage, metric_title
 from slamq.report.markup import esc as _e
 from slamq.report.markup import slug as _slug
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
@@ -23,13 +23,59 @@ from slamq.verdict.ranking import CANONICAL, METRICS, SequenceRanking
 from slamq.verdict.records import usable
 from slamq.verdict.rule import basis_name, rule_summary, verdict_sentence
 
-__all__ = ["best_worst", "index_body", "mixed_settings", "plots"]
+__all__ = ["best_worst", "comparability_notes", "index_body", "mixed_settings", "plots",
+           "run_known_share", "scroll"]
 
 _WINNER = ' class="winner"'
 
 _BEST = " best"
 
 _METRIC_HELP = {m.key: m for m in (*METRICS, CANONICAL)}
+
+
+def scroll(table: str) -> str:
+    """``table`` in a box that scrolls sideways on a narrow screen (the page itself never
+    does).
+
+    Examples
+    --------
+    >>> scroll("<table></table>")
+    '<div class="scroll"><table></table></div>'
+    """
+    return f"<div class=\"scroll\">{table}</div>"
+
+
+def comparability_notes(messages: Iterable[str], verdict: dict[str, Any]) -> list[str]:
+    """The comparability warnings of a sequence (:func:`slamq.results.summary.
+    comparability_warnings`, without their ``"sequence: "``) as the page prints them above
+    the verdict's table: where corners only break the tie among the maps the others confirm
+    equally (the verdict's basis ``["agreement", "corners"]``), a warning that the corners
+    of all maps are not comparable says so, so that it does not deny the table.
+
+    Examples
+    --------
+    >>> msg = ("s: the maps are turned differently (wall angles 0.1, 4.0 deg modulo 90): "
+    ...        "their corners are not comparable; compare corners_canonical")
+    >>> comparability_notes([msg], {"basis": ["ate_rmse"]})[0][:31]
+    'the maps are turned differently'
+    >>> print(comparability_notes([msg], {"basis": ["agreement", "corners"]})[0])
+    ... # doctest: +NORMALIZE_WHITESPACE
+    the maps are turned differently (wall angles 0.1, 4.0 deg modulo 90): the corners of
+    all the maps are not comparable; the verdict compares corners only among the maps the
+    others confirm equally, which share one grid and orientation, to break their tie
+    """
+    basis = list(verdict.get("basis") or [])
+    tie_corners = basis[:1] == ["agreement"] and "corners" in basis[1:]
+    out = []
+    for msg in messages:
+        text = msg.split(": ", 1)[-1]
+        if tie_corners and "their corners are not comparable" in text:
+            text = text.split("their corners are not comparable", 1)[0] + (
+                "the corners of all the maps are not comparable; the verdict compares "
+                "corners only among the maps the others confirm equally, which share one "
+                "grid and orientation, to break their tie")
+        out.append(text)
+    return out
 
 
 def mixed_settings(frame: pd.DataFrame) -> str:
@@ -185,16 +231,19 @@ def index_body(
         parts.append(_sequence_section(s, ok, summary, rankings[s], gallery, pages))
     if plots:
         parts.append("<h2 id=\"plots\">Plots</h2><p>Every run is a point; boxes show the "
-                     "spread per algorithm; one panel per sequence. Lower is better on "
-                     "every axis.</p><div class=\"plots\">")
+                     "spread per algorithm; one panel per sequence. Each figure's title says "
+                     "which way is better for its metric.</p><div class=\"plots\">")
         for key, png in plots:
-            parts.append(f"<img src=\"{png}\" alt=\"{_e(_METRIC_HELP[key].label)} per run\">")
+            m = _METRIC_HELP[key]
+            parts.append(f"<figure data-metric=\"{_e(key)}\"><img src=\"{png}\" "
+                         f"alt=\"{_e(m.label)} per run\"><figcaption>{_e(metric_title(m))}"
+                         "</figcaption></figure>")
         parts.append("</div>")
     if len(failed):
         rows = "".join(f"<tr><td>{_e(r['map'])}</td><td>{_e(r['error'])}</td></tr>"
                        for _, r in failed.iterrows())
         parts.append(f"<h2 id=\"failed\">Failed maps ({len(failed)})</h2>"
-                     f"<table><tr><th>map</th><th>error</th></tr>{rows}</table>")
+                     + scroll(f"<table><tr><th>map</th><th>error</th></tr>{rows}</table>"))
     parts.append(
         "<footer>Metrics: Filatov, Filatov, Krinkin, Chen, Molodan, <i>2D SLAM Quality "
         "Evaluation Methods</i>, arXiv:1708.02354, as pinned down by slamq's spec (docs/spec.md). "
@@ -222,26 +271,51 @@ def _validity_section(ok: pd.DataFrame) -> str:
         "docs/spec.md section 9: " + _e(rule_summary()) + "; the other metrics never decide "
         "(how far it can be trusted: docs/validity.md, \"The verdict without ground "
         "truth\").</p>"
-        "<table class=\"validity shipped\"><tr><th>metric</th><th>vs ATE</th>"
-        "<th>drift</th><th>wall doubling</th><th>rotation</th><th>specks</th></tr>"
-        f"{shipped}</table>"]
-    table = validate(ok, permutations=1000)
+        + scroll("<table class=\"validity shipped\"><tr><th>metric</th><th>vs ATE</th>"
+                 "<th>drift</th><th>wall doubling</th><th>rotation</th><th>specks</th></tr>"
+                 f"{shipped}</table>")]
+    table = validate(ok)        # as `slamq validate`: the same shuffles, the same p
     pooled = table[table["sequence"] == "(pooled)"]
-    if not pooled.empty:
+    keep = [_can_be_significant(table, r.metric, r.truth) for r in pooled.itertuples()]
+    shown = pooled[keep] if len(pooled) else pooled
+    if len(shown):
         rows = "".join(
             f"<tr><td>{_e(r.metric)}</td><td>{_e(r.truth)}</td><td>{r.n}</td>"
             f"<td>{r.agreement:+.2f}</td><td>{r.concordance:.2f}</td>"
             f"<td>{'–' if r.p_value != r.p_value else f'{r.p_value:.3f}'}</td></tr>"
-            for r in pooled.itertuples())
+            for r in shown.itertuples())
         parts.append(
             "<h3>Measured on these results</h3>"
             "<p>How well each map metric orders the maps as the ground truth does, pooled "
             "over the sequences with ground truth (agreement: Spearman, +1 = the same order;"
             " concordance: share of map pairs in the same order, 0.5 = chance; p: "
-            "permutation test).</p>"
-            "<table class=\"validity\"><tr><th>metric</th><th>ground truth</th><th>maps"
-            "</th><th>agreement</th><th>concordance</th><th>p</th></tr>" + rows + "</table>")
+            "permutation test; the figures of <code>slamq validate</code> on the results "
+            "file).</p>"
+            + scroll("<table class=\"validity\"><tr><th>metric</th><th>ground truth</th>"
+                     "<th>maps</th><th>agreement</th><th>concordance</th><th>p</th></tr>"
+                     + rows + "</table>"))
+    left = sorted({str(r.truth) for r, k in zip(pooled.itertuples(), keep) if not k})
+    if left:
+        n = int(pooled["n"].max())
+        parts.append(
+            "<p class=\"too-few\">Not measured on these results against "
+            f"{_e(', '.join(left))}: too few maps ({n} with ground truth) for a permutation "
+            "test to reach p &lt; 0.05.</p>")
     return "".join(parts) + "</section>"
+
+
+#: A pooled row of the validity table is shown when its permutation test can reach this p.
+_SIGNIFICANT = 0.05
+
+
+def _can_be_significant(table: pd.DataFrame, metric: str, truth: str) -> bool:
+    """Whether the permutation test of ``(metric, truth)`` can reach p < 0.05 at all: the
+    shuffles within the sequences yield ``prod(n_i!)`` orders, and the observed one is at
+    best one of the two most extreme (two-sided)."""
+    part = table[(table["metric"] == metric) & (table["truth"] == truth)
+                 & (table["sequence"] != "(pooled)")]
+    orders = math.prod(math.factorial(int(n)) for n in part["n"])
+    return 2 / max(orders, 1) < _SIGNIFICANT
 
 
 def _how_to_read() -> str:
@@ -315,17 +389,17 @@ def _sequence_section(
     from slamq.results.summary import comparability_warnings
 
     mine = ok[ok["sequence"].astype(str) == str(seq)] if "sequence" in ok.columns else ok
-    for msg in comparability_warnings(mine):
-        parts.append(f"<p class=\"warn comparability\">{_e(msg.split(': ', 1)[-1])}</p>")
+    for msg in comparability_notes(comparability_warnings(mine), ranking.verdict):
+        parts.append(f"<p class=\"warn comparability\">{_e(msg)}</p>")
     for alg in ranking.partial:
         parts.append(
             f"<p class=\"warn\">{_e(alg)}'s maps know "
             f"{100 * ranking.coverage.get(alg, 0.0):.0f}% of the area of the most complete map "
             "of this sequence (under 80%): a partial map scores well on every map metric "
             "(paper III.A), so compare it with care; it is never named best.</p>")
-    parts.append(
+    parts.append(scroll(
         f"<table class=\"ranking\" data-sequence=\"{_e(seq)}\"><tr><th>rank</th>"
-        f"<th>algorithm</th><th>runs</th>{head}</tr>" + "".join(rows) + "</table>")
+        f"<th>algorithm</th><th>runs</th>{head}</tr>" + "".join(rows) + "</table>"))
     parts.append(
         "<h3>Maps: each algorithm's runs at both ends of the deciding column</h3>"
         "<p class=\"legend\">The maps as they are: grey unknown, black occupied, white "
@@ -380,18 +454,48 @@ def _num(x: Any) -> float:
         return math.nan
 
 
+def run_known_share(sub: pd.DataFrame) -> dict[Any, float]:
+    """Each run's known area relative to the most complete map of ``sub`` (one sequence),
+    reference maps left out of the maximum: ``known_area_m2`` when every run has it, else
+    its ``known`` cells; empty when the runs have neither.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> run_known_share(pd.DataFrame({"algorithm": ["a", "b"], "known": [50, 100]}))
+    {0: 0.5, 1: 1.0}
+    """
+    def col(name: str) -> pd.Series:
+        return pd.to_numeric(sub.get(name, pd.Series(index=sub.index, dtype=float)),
+                             errors="coerce")
+
+    area = col("known_area_m2")
+    known = area if area.notna().all() else col("known")
+    algs = sub["algorithm"].astype(str).str.lower() if "algorithm" in sub else None
+    mine = known if algs is None else known[~algs.isin(GROUND_TRUTH_ALGORITHMS)]
+    top = mine.max()
+    if not top > 0:
+        return {}
+    return {i: float(v / top) for i, v in known.items() if math.isfinite(v)}
+
+
 def _runs_table(sub: pd.DataFrame, pages: dict[int, MapPage], metrics: Iterable) -> str:
     metrics = list(metrics)
     head = "".join(f"<th>{_e(m.heading)}</th>" for m in metrics)
-    head += "<th title=\"mean known area relative to the most complete map of the sequence\">"
+    head += "<th title=\"known area relative to the most complete map of the sequence\">"
     head += "known area</th>"
+    known = run_known_share(sub)
     rows = []
     for i, r in sub.sort_values(["algorithm", "run"], key=lambda s: s.astype(str)).iterrows():
         mp = pages.get(i)
         link = f"<a href=\"{mp.page}\">{_e(r['run'])}</a>" if mp else _e(r["run"])
         cells = "".join(f"<td class=\"num\">{_e(format_value(_num(r.get(m.key))))}</td>"
                         for m in metrics)
+        share = known.get(i)
+        cells += (f"<td class=\"num\" data-known-share=\"{'' if share is None else repr(share)}"
+                  f"\">{'–' if share is None else f'{100 * share:.0f}%'}</td>")
         rows.append(f"<tr><td>{_e(r['algorithm'])}</td><td>{link}</td>{cells}</tr>")
-    return (f"<details><summary>All {len(sub)} runs</summary><table class=\"runs\"><tr>"
-            f"<th>algorithm</th><th>run</th>{head}</tr>{''.join(rows)}</table></details>")
+    table = (f"<table class=\"runs\"><tr><th>algorithm</th><th>run</th>{head}</tr>"
+             + "".join(rows) + "</table>")
+    return f"<details><summary>All {len(sub)} runs</summary>{scroll(table)}</details>"
 

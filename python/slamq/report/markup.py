@@ -12,10 +12,9 @@ from functools import lru_cache
 from importlib import resources
 from typing import Any
 
-__all__ = ["MapPage", "esc", "page", "slug", "stylesheet"]
+__all__ = ["MapPage", "esc", "metric_title", "page", "slug", "stylesheet"]
 
 _SLUG = re.compile(r"[^A-Za-z0-9_.-]+")
-
 
 
 @lru_cache(maxsize=1)
@@ -70,6 +69,20 @@ def page(title: str, body: str, *, root: str = "") -> str:
     )
 
 
+def metric_title(metric: Any) -> str:
+    """The title of a metric's figure (:func:`slamq.report.plots.metric_figure`; also the
+    PNG's ``Title`` and the caption under it on the page): the metric and its own
+    direction.
+
+    Examples
+    --------
+    >>> from slamq.verdict.ranking import METRICS
+    >>> metric_title(METRICS[0])
+    'ATE RMSE (m) per run — lower is better'
+    """
+    return f"{metric.heading} per run — {metric.direction}"
+
+
 @dataclass
 class MapPage:
     """One map's detail page and its pictures (paths relative to the site root)."""
@@ -86,4 +99,7 @@ class MapPage:
     #: Missing walls against the other maps of the sequence (None: the map took no part in
     #: an agreement, e.g. its sequence has ground truth).
     missing: list[dict] | None = None
+    #: Where the map stands in its sequence's verdict (:func:`slamq.report.detail.standing`):
+    #: sentences the detail page prints under its title (None: not known).
+    standing: dict[str, str] | None = None
 

@@ -25,6 +25,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.ticker import FuncFormatter, MaxNLocator, NullFormatter  # noqa: E402
 
+from slamq.report.markup import metric_title  # noqa: E402
 from slamq.verdict.ranking import Metric  # noqa: E402
 
 __all__ = [
@@ -153,9 +154,10 @@ def metric_figure(
         ax.grid(axis="y", alpha=0.3, which="both")
         if i % cols == 0:
             ax.set_ylabel(metric.heading + (" (log)" if metric.log else ""))
-    fig.suptitle(f"{metric.heading} per run — {metric.direction}", fontsize=11)
+    title = metric_title(metric)
+    fig.suptitle(title, fontsize=11)
     fig.tight_layout()
-    fig.savefig(path, dpi=_DPI)
+    fig.savefig(path, dpi=_DPI, metadata={"Title": title})
     plt.close(fig)
     return counts
 

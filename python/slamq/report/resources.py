@@ -90,6 +90,21 @@ def _quality_vs_cost(frame: pd.DataFrame, quality: dict[str, str], path: Path) -
     plt.close(fig)
 
 
+def _mean_std(mean: float, std: float, n: float) -> str:
+    """``mean ± std`` over iterations; the value alone for one iteration, "–" for none.
+
+    Examples
+    --------
+    >>> _mean_std(1.234, 0.05, 2), _mean_std(1.234, float("nan"), 1), _mean_std(float("nan"), 0, 0)
+    ('1.234 ± 0.05', '1.234', '–')
+    """
+    if not np.isfinite(mean):
+        return "–"
+    if n <= 1 or not np.isfinite(std):
+        return f"{mean:.4g}"
+    return f"{mean:.4g} ± {std:.2g}"
+
+
 def _numeric(values: pd.Series) -> bool:
     return bool(pd.to_numeric(values, errors="coerce").notna().all())
 
@@ -134,9 +149,13 @@ def _sweep(frame: pd.DataFrame, program: str, axis: str, others: list[str],
     plt.close(fig)
 
 
-def resources_page(frame: pd.DataFrame, out_dir: Any, *, link_from_index: bool = True
-                   ) -> Path | None:
+def resources_page(frame: pd.DataFrame, out_dir: Any, *, link_from_index: bool = True,
+                   config: str | None = None) -> Path | None:
     """Write ``resources.html`` (and its figures under ``img/``) for a frame of runs.
+
+    With ``link_from_index``, the report's ``index.html`` beside it gains a paragraph on the
+    run (:func:`run_summary`: ``config``, the path of the run's config file, its commands,
+    time and winners) and a link to the page.
 
     Returns the page, or None when no run has resource figures.
 
@@ -183,8 +202,8 @@ def resources_page(frame: pd.DataFrame, out_dir: Any, *, link_from_index: bool =
     table = _stats(frame, ["algorithm", "sequence"], list(panels))
     rows = "".join(
         "<tr>" + f"<td>{_e(r['algorithm'])}</td><td>{_e(r['sequence'])}</td>"
-        + "".join(f"<td>{r[f'{c}_mean']:.4g} ± {np.nan_to_num(r[f'{c}_std']):.2g}</td>"
-                  if np.isfinite(r[f"{c}_mean"]) else "<td>–</td>" for c in panels) + "</tr>"
+        + "".join(f"<td>{_mean_std(r[f'{c}_mean'], r[f'{c}_std'], r[f'{c}_count'])}</td>"
+                  for c in panels) + "</tr>"
         for _, r in table.iterrows())
     head = "".join(f"<th>{_e(v)}</th>" for v in panels.values())
     body = (
@@ -192,23 +211,89 @@ def resources_page(frame: pd.DataFrame, out_dir: Any, *, link_from_index: bool =
         "<p>Wall time, CPU time (the program and the descendants it waited for) and peak "
         "resident memory of every run (its <code>run.json</code>; per run in "
         "<code>scores.csv</code>).</p>"
-        f"<table><tr><th>algorithm</th><th>sequence</th>{head}</tr>{rows}</table>"
+        f"<div class=\"scroll\"><table><tr><th>algorithm</th><th>sequence</th>{head}</tr>"
+        f"{rows}</table></div>"
         + "".join(sections))
     page = out / "resources.html"
     page.write_text(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+        "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
         "<title>Resources and parameters</title><style>body{font:15px/1.45 system-ui,"
         "sans-serif;max-width:1180px;margin:0 auto;padding:18px 22px 60px;color:#222}"
-        "img{max-width:100%}table{border-collapse:collapse}td,th{border:1px solid #ddd;"
+        "img{max-width:100%;height:auto}.scroll{overflow-x:auto}"
+        "table{border-collapse:collapse}td,th{border:1px solid #ddd;"
         "padding:3px 8px;text-align:right}td:first-child,td:nth-child(2){text-align:left}"
         f"</style></head><body>{body}</body></html>\n", encoding="utf-8")
     index = out / "index.html"
     if link_from_index and index.exists():
         text = index.read_text(encoding="utf-8")
-        link = ("<p class=\"slamq-resources\"><a href=\"resources.html\">Resources and "
-                "parameters</a>: quality against CPU time and memory, and against each swept "
-                "parameter</p>")
+        link = ("<section class=\"slamq-resources\" id=\"run\">"
+                + run_summary(frame, out, config=config) +
+                "<p><a href=\"resources.html\">Resources and parameters</a>: quality against "
+                "CPU time and memory, and against each swept parameter</p></section>")
         if "slamq-resources" not in text:
-            anchor = "<main>" if "<main>" in text else "<body>"
-            index.write_text(text.replace(anchor, anchor + link, 1), encoding="utf-8")
+            # under the title and its line of counts, else at the top of the page
+            h1 = text.find("<h1")
+            at = text.find("</p>", h1) + len("</p>") if h1 >= 0 and "</p>" in text[h1:] \
+                else text.find("<main>") + len("<main>") if "<main>" in text \
+                else text.find("<body>") + len("<body>")
+            index.write_text(text[:at] + link + text[at:], encoding="utf-8")
     return page
+
+
+def run_summary(frame: pd.DataFrame, out_dir: Any, *, config: str | None = None) -> str:
+    """What a ``slamq run`` report says first: the config file, the command of each
+    algorithm (from a ``run.json`` of its runs), how many runs and how long they took, and
+    the best algorithm of each sequence (the report's ``verdict.json`` in ``out_dir``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> f = pd.DataFrame({"algorithm": ["a", "b"], "sequence": "s", "wall_s": [1.0, 2.5]})
+    >>> print(run_summary(f, tempfile.mkdtemp(), config="run.yaml"))
+    ... # doctest: +NORMALIZE_WHITESPACE
+    <h2>The run</h2><p>Config <code>run.yaml</code>: 2 runs of 2 algorithms on 1 sequence,
+    3.5 s of wall time in all (the longest run 2.5 s).</p>
+    """
+    import json
+
+    from slamq.report.detail import run_info
+
+    n_alg = frame["algorithm"].nunique() if "algorithm" in frame else 0
+    n_seq = frame["sequence"].nunique() if "sequence" in frame else 0
+    wall = pd.to_numeric(frame.get("wall_s", pd.Series(dtype=float)), errors="coerce").dropna()
+    head = f"Config <code>{_e(config)}</code>: " if config else ""
+    text = (f"{head}{len(frame)} run{'s' if len(frame) != 1 else ''} of {n_alg} "
+            f"algorithm{'s' if n_alg != 1 else ''} on {n_seq} sequence"
+            f"{'s' if n_seq != 1 else ''}")
+    if len(wall):
+        text += (f", {wall.sum():.3g} s of wall time in all (the longest run "
+                 f"{wall.max():.3g} s)")
+    parts = [f"<h2>The run</h2><p>{text}.</p>"]
+    try:
+        verdicts = json.loads((Path(out_dir) / "verdict.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        verdicts = []
+    best = [f"{_e(v['sequence'])}: <b>{_e(v['best'])}</b>" if v.get("best") else
+            f"{_e(v['sequence'])}: none named" for v in verdicts if isinstance(v, dict)]
+    if best:
+        parts.append(f"<p class=\"run-winner\">Best: {'; '.join(best)} (the verdict below)."
+                     "</p>")
+    commands = {}
+    for _, r in frame.iterrows():
+        alg = str(r.get("algorithm"))
+        if alg in commands:
+            continue
+        info = run_info(r.to_dict())
+        cmd = info.get("command") if info else None
+        if isinstance(cmd, list):
+            commands[alg] = " ".join(str(c) for c in cmd)
+        elif isinstance(cmd, dict):
+            commands[alg] = "; ".join(f"{k}: {' '.join(map(str, v)) if isinstance(v, list) else v}"
+                                      for k, v in cmd.items())
+    if commands:
+        parts.append("<details class=\"run-commands\" open><summary>Commands</summary><ul>"
+                     + "".join(f"<li>{_e(a)}: <code>{_e(c)}</code></li>"
+                               for a, c in sorted(commands.items()))
+                     + "</ul></details>")
+    return "".join(parts)

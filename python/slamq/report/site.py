@@ -27,7 +27,7 @@ from typing import Any
 
 from slamq.errors import SlamqError
 from slamq.report.cache import page_digest, read_page_cache, write_page_cache
-from slamq.report.detail import detail_page
+from slamq.report.detail import detail_page, standing
 from slamq.report.export import write_tables
 from slamq.report.index import best_worst, index_body, mixed_settings, plots
 from slamq.report.markup import MapPage, page
@@ -136,6 +136,7 @@ def build_report(
         slug = f"{i:04d}-{_slug(rec['sequence'])}-{_slug(rec['algorithm'])}-{_slug(rec['run'])}"
         pages[i] = MapPage(i, rec, slug, page=f"maps/{slug}.html")
         ev = evidence.get(rec["sequence"])
+        pages[i].standing = standing(rec, rankings[rec["sequence"]], summary, ev)
         if ev is not None and usable(rec.get("map")):
             pages[i].missing = ev.get("missing_walls", {}).get(str(rec["map"]))
     kept = read_page_cache(out) if reuse else {}

@@ -298,7 +298,7 @@ def _report(config: RunConfig, scores: Any, results_path: Path, stamps: Any,
     stamps.drop("report", "report")
     stamps.save()
     report = build_report(results_path, out / "report", title=title, reuse=True)
-    resources_page(scores, out / "report")
+    resources_page(scores, out / "report", config=config.source)
     stamps.put("report", "report", {"inputs": new, "index": file_digest(report)})
     stamps.save()
     try:  # how many detail pages build_report drew and kept
