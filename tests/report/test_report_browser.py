@@ -197,12 +197,16 @@ def test_gallery_is_plain_maps_and_layers_toggle(browser, office_report):
         if "gmapping" in u)
     page.goto(url, wait_until="load")
     assert _broken_images(page) == []
-    assert page.evaluate(_LAYER_STATE) == {"regions": True, "corners": True, "gt": False,
-                                           "defects": True}
+    # the plain map at first: every layer off
+    assert page.evaluate(_LAYER_STATE) == {"regions": False, "corners": False, "gt": False,
+                                           "defects": False}
+    assert page.evaluate(_BOXES) == []
+    page.locator(".mapcol").screenshot(path=str(ARTIFACTS / "report_layers_default.png"))
+    for key in ("regions", "corners", "defects"):
+        page.check(f"#show-{key}")
     boxes = page.evaluate(_BOXES)                    # every layer covers the map exactly
     assert len(boxes) == 3 and all(abs(v) < 0.5 for box in boxes for v in box), boxes
     assert page.locator(".layer-defects text").text_content() == "1 test box"
-    page.locator(".mapcol").screenshot(path=str(ARTIFACTS / "report_layers_default.png"))
     page.check("#show-gt")
     boxes = page.evaluate(_BOXES)
     assert len(boxes) == 4 and all(abs(v) < 0.5 for box in boxes for v in box), boxes
@@ -239,8 +243,10 @@ def test_missing_walls_layer_toggles_over_the_gap(browser, gap_report):
     url, own = gap_report
     page, problems = _open(browser, url.as_uri())
     assert _broken_images(page) == []
-    assert page.evaluate(_LAYER_STATE) == {"regions": True, "corners": True,
+    assert page.evaluate(_LAYER_STATE) == {"regions": False, "corners": False,
                                            "missing": False}
+    page.check("#show-regions")
+    page.check("#show-corners")
     label = page.locator("label[for=show-missing]").inner_text()
     assert "informational" in label and "not used by the verdict" in label
     page.check("#show-missing")
@@ -269,3 +275,42 @@ def test_missing_walls_layer_toggles_over_the_gap(browser, gap_report):
     assert page.evaluate(_LAYER_STATE)["missing"] is True
     assert problems == []
     page.close()
+
+
+_OVERFLOW = "() => [document.documentElement.scrollWidth, window.innerWidth]"
+_CHECKED = ("() => Array.from(document.querySelectorAll('input[type=checkbox]:checked'))"
+            ".map(i => i.id)")
+
+
+@pytest.mark.parametrize("width", [1400, 400])
+def test_pages_fit_the_screen_and_open_on_the_plain_map(browser, office_report, width):
+    """At 1400 and 400 px the index and a detail page never scroll sideways (wide tables
+    scroll inside their own box, pictures shrink to the width), every picture keeps its
+    aspect ratio, and no layer is drawn before its checkbox is ticked (issue 42, 6 and 8)."""
+    site = office_report.parent
+    detail = next((site / "maps").glob("*-gmapping-*.html"))
+    for url in (office_report.as_uri(), detail.as_uri()):
+        page = browser.new_page(viewport={"width": width, "height": 900})
+        page.goto(url, wait_until="load")
+        scroll_width, inner = page.evaluate(_OVERFLOW)
+        assert scroll_width <= inner, (url, width, scroll_width)
+        assert page.evaluate(_CHECKED) == []
+        if "maps/" in url:
+            assert page.evaluate(_LAYER_STATE) and not any(page.evaluate(_LAYER_STATE).values())
+        # every picture within the page and undistorted (scaled, not cropped)
+        bad = page.evaluate(
+            "() => Array.from(document.images).filter(i => i.naturalWidth > 0).filter(i => {"
+            " const r = i.getBoundingClientRect();"
+            " return r.right > window.innerWidth + 0.5 || Math.abs(r.width / r.height -"
+            " i.naturalWidth / i.naturalHeight) > 0.02 * i.naturalWidth / i.naturalHeight;"
+            "}).map(i => i.getAttribute('src'))")
+        assert bad == [], (url, width, bad)
+        # a table wider than the screen scrolls inside its box
+        tables = page.evaluate(
+            "() => Array.from(document.querySelectorAll('table')).map(t => "
+            "[t.parentElement.className, getComputedStyle(t.parentElement).overflowX])")
+        assert all(c == "scroll" and o == "auto" for c, o in tables), tables
+        ARTIFACTS.mkdir(exist_ok=True)
+        name = "index" if url.endswith("index.html") else "detail"
+        page.screenshot(path=str(ARTIFACTS / f"report_{name}_{width}.png"))
+        page.close()

@@ -61,10 +61,12 @@ class _Sentences(HTMLParser):
             if tag == "h2" and self.section == "?":
                 self.section = text
             seq = self.section
-            if tag in ("li", "h1"):   # "seq: ..." in the verdict, "alg on seq, run r"
+            if tag in ("li", "h1", "p"):   # "seq: ..." in the verdict, "alg on seq, run r"
                 for s in self.sequences:
-                    if text.startswith(f"{s}:") or re.search(rf" on {re.escape(s)}, run ", text):
+                    if text.startswith(f"{s}:"):
                         seq = s
+                    elif tag == "h1" and re.search(rf" on {re.escape(s)}, run ", text):
+                        seq = self.section = s    # a detail page speaks of its sequence
             self.out.append((seq, text))
 
     def handle_data(self, data: str) -> None:
@@ -197,9 +199,10 @@ def test_gallery_shows_plain_maps_and_detail_pages_have_layers(tmp_path: Path) -
     assert '<span class="badge" title="doubled wall; speck; ghost room">3 defects</span>' in html
 
     page = next((site / "maps").glob("*.html")).read_text(encoding="utf-8")
-    for key in ("regions", "corners", "defects"):
-        assert f'<input type="checkbox" id="show-{key}" data-layer="{key}" checked>' in page
+    for key in ("regions", "corners", "defects"):       # every layer off at first
+        assert f'<input type="checkbox" id="show-{key}" data-layer="{key}">' in page
         assert f'<label for="show-{key}">' in page
+    assert " checked" not in page
     assert 'id="show-gt"' not in page                 # no ground truth, no such layer
     # the base image is the plain map at the overlay's scale and crop
     ov = draw_overlay(grid, counted_marks(grid, q.enclosed_unknown_value))
@@ -432,3 +435,205 @@ def test_missing_walls_layer_boxes_the_gap_the_other_maps_close(gap_site) -> Non
     assert sequence_verdict(summary, "hall", {**ev, "missing_walls": {}}) == \
         sequence_verdict(summary, "hall", ev)
     assert "missing" not in json.dumps(v)
+
+
+# --- issue 42: pages that do not contradict themselves, whole tables, detail pages --------
+
+class _Tables(HTMLParser):
+    """Every table of a page: its rows, each the number of cells it spans."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.tables: list[list[int]] = []
+        self.depth = 0
+
+    def handle_starttag(self, tag: str, attrs: list) -> None:
+        if tag == "table":
+            self.tables.append([])
+        elif tag == "tr" and self.tables:
+            self.tables[-1].append(0)
+        elif tag in ("td", "th") and self.tables and self.tables[-1]:
+            self.tables[-1][-1] += int(dict(attrs).get("colspan") or 1)
+
+
+def _pages(site: Path) -> list[Path]:
+    return [p for p in (site / "index.html", site / "resources.html",
+                        *sorted((site / "maps").glob("*.html"))) if p.is_file()]
+
+
+def check_tables_whole(site: Path) -> int:
+    """Assert that every row of every table of every page has as many cells as its header
+    row; returns the number of tables checked."""
+    n = 0
+    for page in _pages(site):
+        parser = _Tables()
+        parser.feed(page.read_text(encoding="utf-8"))
+        for rows in parser.tables:
+            assert rows and all(r == rows[0] for r in rows), (page.name, rows)
+            n += 1
+    return n
+
+
+def _png_title(path: Path) -> str:
+    return Image.open(path).info.get("Title", "")
+
+
+def check_no_contradiction(site: Path) -> int:
+    """Assert that the pages of ``site`` do not contradict each other or verdict.json: each
+    plot's caption is its PNG's own title and gives its metric's own direction; no sentence
+    claims one direction for every axis; a page never calls corners not comparable where
+    the verdict uses them; a sentence naming a metric's direction names the right one.
+    Returns the number of figures checked."""
+    from slamq.verdict.ranking import CANONICAL, METRICS
+
+    verdicts = {v["sequence"]: v for v in json.loads((site / "verdict.json").read_text())}
+    figures = 0
+    for page in _pages(site):
+        text = page.read_text(encoding="utf-8")
+        parser = _Sentences(sorted(verdicts, key=len, reverse=True))
+        parser.feed(text)
+        for seq, sentence in parser.out:
+            assert not re.search(r"(lower|higher) is better (on|for) (every|all)", sentence), \
+                (page.name, sentence)
+            for m in (*METRICS, CANONICAL):
+                for said in re.findall(rf"{re.escape(m.heading)}[^.;]*?\b(lower|higher) is "
+                                       "better", sentence):
+                    assert said == ("higher" if m.higher else "lower"), (page.name, sentence)
+            v = verdicts.get(seq)
+            if v is not None and "corners" in v["basis"]:
+                assert "their corners are not comparable" not in sentence, (page.name, sentence)
+        for key, png, caption in re.findall(
+                r'<figure data-metric="([^"]+)"><img src="([^"]+)"[^>]*><figcaption>([^<]*)'
+                r'</figcaption>', text):
+            m = next(m for m in METRICS if m.key == key)
+            title = _png_title(page.parent / png)
+            assert title == caption.replace("&#x27;", "'") and title.endswith(m.direction), \
+                (key, title, caption)
+            figures += 1
+    return figures
+
+
+def test_pages_say_nothing_that_contradicts_the_verdict_or_the_plots(office_site: Path) -> None:
+    """The office report (ATE decides; GT F1 plotted as higher-is-better): the plots' page
+    no longer says "lower is better on every axis"; every caption is its figure's title."""
+    html = (office_site / "index.html").read_text(encoding="utf-8")
+    assert "every axis" not in html
+    n = check_no_contradiction(office_site)
+    assert n >= 5                                 # ATE, occupied, corners, areas, F1, chamfer
+    assert "GT F1 per run — higher is better" in html
+
+
+def test_corner_warning_agrees_with_a_verdict_that_breaks_ties_by_corners() -> None:
+    """Maps turned differently: where the verdict breaks the tie among the maps it confirms
+    by corners, the page says corners compare only those, not that they are not
+    comparable."""
+    from slamq.report.index import comparability_notes
+
+    msg = ("hall: the maps are turned differently (wall angles 0.1, 4.0 deg modulo 90): "
+           "their corners are not comparable; compare corners_canonical")
+    (said,) = comparability_notes([msg], {"basis": ["agreement", "corners"]})
+    assert "their corners are not comparable" not in said and "break their tie" in said
+    (said,) = comparability_notes([msg], {"basis": ["ate_rmse"]})
+    assert "their corners are not comparable" in said
+
+
+def test_every_table_row_has_as_many_cells_as_its_header(tmp_path: Path, office_site: Path
+                                                         ) -> None:
+    """The "All N runs" tables had a "known area" header without cells (issue 42, 7)."""
+    results = make_results(tmp_path / "fixture")
+    site = build_report(results, tmp_path / "site", gifs=False, details="gallery").parent
+    assert check_tables_whole(site) >= 6
+    assert check_tables_whole(office_site) >= 8
+    html = (office_site / "index.html").read_text(encoding="utf-8")
+    runs = re.search(r'<table class="runs">.*?</table>', html, re.S).group(0)
+    assert ">known area</th>" in runs and len(re.findall(r"data-known-share", runs)) == 6
+
+
+def test_measured_validity_is_slamq_validates(tmp_path: Path) -> None:
+    """"Measured on these results" prints the p-values of ``slamq validate`` on the same
+    file (issue 42, 10); on three maps, where a permutation test cannot reach 0.05, it
+    prints one line instead of its rows."""
+    import pandas as pd
+
+    from slamq.results.validity import validate
+
+    recs = _records_where_mean_rank_and_verdict_differ(tmp_path / "maps")
+    path = tmp_path / "results.jsonl"
+    pd.DataFrame(recs).to_json(path, orient="records", lines=True)
+    html = build_report(path, tmp_path / "site", gifs=False, trajectories=False,
+                        details="gallery").read_text(encoding="utf-8")
+    table = re.search(r'<table class="validity"><tr><th>metric.*?</table>', html, re.S)
+    shown = re.findall(r"<tr><td>([a-z_]+)</td><td>([a-z_]+)</td><td>6</td>.*?"
+                       r"<td>([0-9.]+)</td></tr>", table.group(0))
+    expected = validate(path)
+    expected = expected[expected["sequence"] == "(pooled)"]
+    assert len(shown) == len(expected) > 0
+    for (metric, truth, p), row in zip(shown, expected.itertuples()):
+        assert (metric, truth, p) == (row.metric, row.truth, f"{row.p_value:.3f}")
+    three = [r for r in recs if r["run"] == 0]
+    html = build_report(three, tmp_path / "three", gifs=False, trajectories=False,
+                        details="gallery").read_text(encoding="utf-8")
+    assert '<table class="validity">' not in html
+    assert re.search(r'<p class="too-few">[^<]*too few maps \(3 with ground truth\)', html)
+
+
+def test_detail_pages_say_where_the_map_stands_with_units(office_site: Path) -> None:
+    """A detail page says its rank, the verdict, the figure it was ranked by and why it
+    was or was not named best; every number has its unit (issue 42, 6)."""
+    (v,) = json.loads((office_site / "verdict.json").read_text())
+    pages = {p.name: p.read_text(encoding="utf-8") for p in (office_site / "maps").glob("*.html")}
+    gmapping = next(t for n, t in pages.items() if "-gmapping-" in n)
+    place = v["ranking"].index("gmapping") + 1
+    assert f"gmapping ranks {place} of {len(v['ranking'])} on office." in gmapping
+    assert f"Not named best: {v['best']} ranks ahead of it by ATE RMSE" in gmapping
+    assert "The verdict ranks by ATE RMSE: this run 0.0289 m" in gmapping
+    best = next(t for n, t in pages.items() if f"-{v['best']}-" in n)
+    assert "Named best of office (confidence high" in best
+    reference = next(t for n, t in pages.items() if "-ground_truth-" in n)
+    assert "A reference map is never named best." in reference
+    cells = dict(re.findall(r'<td class="num" data-field="([^"]+)">([^<]+)</td>', gmapping))
+    assert cells["gt_dyaw"].endswith(" deg") and cells["gt_outside"].endswith(" cells")
+    assert cells["ate_rmse"].endswith(" m") and cells["gt_chamfer"].endswith(" m")
+    assert cells["corners"] == "188"
+    assert "<th>gt_dyaw</th>" not in gmapping
+
+
+def test_run_pages_say_command_time_memory_and_winner(tmp_path: Path) -> None:
+    """In run mode (a ``run.json`` beside each map, as ``slamq run`` writes), the detail
+    page gives the command, wall time and peak memory; the index the config, the commands,
+    the total time and the winner; the resources table gives one iteration's value alone
+    (issue 42, 6 and 9)."""
+    import pandas as pd
+
+    from slamq.report.resources import resources_page
+
+    recs, rows = [], []
+    for alg, boxes, wall in (("tidy", 0, 1.5), ("messy", 3, 2.25), ("other", 1, 4.0)):
+        folder = tmp_path / "out" / alg / "seq" / "1"
+        yaml = write_map(folder / "out", rooms_image(2, extra_boxes=boxes))
+        rec = {k: v for k, v in slamq.evaluate(str(yaml)).to_dict().items() if k != "curve"}
+        rec.update(map=str(yaml), algorithm=alg, sequence="seq", run="1", error=None,
+                   ate_rmse=0.1 + boxes / 10)
+        recs.append(rec)
+        (folder / "run.json").write_text(json.dumps({
+            "algorithm": alg, "map": str(yaml), "outcome": "ok", "wall": wall,
+            "user_cpu": 1.0, "sys_cpu": 0.25, "max_rss_kb": 51200,
+            "command": ["slam", "--out", "{output}/x", alg]}))
+        rows.append({**rec, "program": alg, "wall_s": wall, "cpu_s": 1.25,
+                     "peak_rss_mb": 50.0})
+    site = tmp_path / "report"
+    index = build_report(recs, site, gifs=False, trajectories=False)
+    resources_page(pd.DataFrame(rows), site, config="bench.yaml")
+    page = next((site / "maps").glob("*-messy-*.html")).read_text(encoding="utf-8")
+    assert "ok; wall time 2.25 s, CPU time 1.25 s, peak memory 50.0 MiB." in page
+    assert "<code>slam --out {output}/x messy</code>" in page
+    html = index.read_text(encoding="utf-8")
+    assert "Config <code>bench.yaml</code>: 3 runs of 3 algorithms on 1 sequence, 7.75 s " \
+        "of wall time in all (the longest run 4 s)." in html
+    assert "Best: seq: <b>tidy</b>" in html and "<code>slam --out {output}/x other</code>" \
+        in html
+    assert html.index('id="run"') > html.index("<h1>")
+    resources = (site / "resources.html").read_text(encoding="utf-8")
+    table = re.search(r"<table>.*?</table>", resources, re.S).group(0)
+    assert "±" not in table and "<td>2.25</td>" in table
+    assert check_best_sentences(site) >= 3 and check_tables_whole(site) >= 4

@@ -307,11 +307,9 @@ def _run_block(info: dict[str, Any] | None) -> str:
     """The run's command, outcome, wall and CPU time and peak memory (``run.json``)."""
     if info is None:
         return ""
-    import shlex
-
     cmd = info.get("command")
-    if isinstance(cmd, list):
-        shown = " ".join(shlex.quote(str(c)) for c in cmd)
+    if isinstance(cmd, list):   # as the config gives it ({output} and the like unexpanded)
+        shown = " ".join(str(c) for c in cmd)
     elif isinstance(cmd, dict):  # a ROS recipe: one command per step
         shown = "; ".join(f"{k}: {' '.join(map(str, v)) if isinstance(v, list) else v}"
                           for k, v in cmd.items())
@@ -442,12 +440,12 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
         legend += legend_missing
     table = ""
     if mp.defects:
-        table = ("<table class=\"defects\"><tr><th>#</th><th>kind</th><th>cells [col0, row0,"
+        table = ("<div class=\"scroll\"><table class=\"defects\"><tr><th>#</th><th>kind</th><th>cells [col0, row0,"
                  " col1, row1]</th><th>note</th></tr>" + "".join(
                      f"<tr><td>{i + 1}</td><td>{_e(d['kind'])}</td><td>"
                      f"{_e(', '.join(format_value(v) for v in d['bbox']))}</td>"
                      f"<td>{_e(d['note'])}</td></tr>" for i, d in enumerate(mp.defects))
-                 + "</table>")
+                 + "</table></div>")
     return (
         "<div class=\"mapcol\"><h2>The map</h2><p class=\"sub\">unknown cells grey, occupied "
         "black, free white; north up. Layers (all off at first: tick one to draw it over "
