@@ -129,8 +129,20 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     support = {a: e["support"] for a, e in info.items() if math.isfinite(e["support"])}
     complete = {a: e["completeness"] for a, e in info.items()
                 if math.isfinite(e["completeness"])}
-    top = max(support.values()) if support else math.nan
-    for a, v in support.items():
+    # no majority agrees, but an agreeing group of two or more programs does: the maps
+    # outside it confirm nothing, and the named map comes from the group (spec section 9)
+    group = [a for a in evidence.get("group", []) if a in support]
+    by_group = not evidence["majority"] and len(support) >= 3 and len(group) >= 2
+    gsup = {a: info[a].get("group_support", math.nan) for a in group}
+    if by_group:
+        support_of = {a: v for a, v in gsup.items() if math.isfinite(v)}
+        for a in support:
+            if a not in flagged and a not in group:
+                flagged[a] = "not in the group of maps that agree with each other"
+    else:
+        support_of = support
+    top = max(support_of.values()) if support_of else math.nan
+    for a, v in support_of.items():
         if a not in flagged and v < AGREEMENT_SHARE * top:
             flagged[a] = (f"its walls disagree with the other maps (support {v:.2f}, best "
                           f"{top:.2f})")
@@ -143,8 +155,8 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                             "maps agree exists: a partial map, never named best")
     for a in sorted(flagged):
         warnings.append(f"{a} is never named best: {flagged[a]}")
-    candidates = sorted((a for a in support if a not in flagged and a not in partial),
-                        key=lambda a: (-support[a], a))
+    candidates = sorted((a for a in support_of if a not in flagged and a not in partial),
+                        key=lambda a: (-support_of[a], a))
     key, corners = _corner_key(block, candidates, canonical_across_grids)
     if key is not None and len(candidates) > 1:
         candidates.sort(key=lambda a: (float(corners[a]), a))
@@ -165,9 +177,10 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
         if len(support) == 2 and len(candidates) == 1 and any(
                 flagged.get(a, "").startswith("defects") for a in support):
             why = None  # one map is flagged on its own: the other is named
-    elif not evidence["majority"]:
+    elif not evidence["majority"] and not by_group:
         why = ("the maps disagree among themselves (most of them are not confirmed by the "
-               "others): the evidence does not say which is right")
+               "others, and no two programs' maps agree with each other): the evidence does "
+               "not say which is right")
     if why is None and not candidates:
         why = "every map is flagged or partial"
     if why is not None:
@@ -175,6 +188,13 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                 "basis": basis, "confidence": f"none: {why}", "warnings": warnings}
     confidence = ("medium: no ground truth; the maps confirm each other, and the named map "
                   "is confirmed by them and has no defect flag")
+    if by_group:
+        others = sorted(a for a in support if a not in group)
+        confidence = (f"low: no ground truth and no majority; {', '.join(group)} agree with "
+                      f"each other (every pair's consistency at least "
+                      f"{evidence.get('min_support', 0.6):g}) while "
+                      f"{', '.join(others) or 'no other map'} do not agree with all of them; "
+                      "the named map comes from that group and has no defect flag")
     if key is None and len(candidates) > 1:
         confidence += (f"; the {len(candidates)} maps they confirm equally differ in "
                        "resolution or orientation, so corners cannot compare them: their "
