@@ -221,12 +221,6 @@ def test_corners_never_order_confirmed_maps_of_different_grids(differ: str) -> N
     assert v["best"] == "b" and v["ranking"] == ["b", "c", "a"], v
     assert v["basis"] == ["agreement"]
     assert "corners cannot compare them: their support orders them" in v["confidence"]
-    # the first rule (2026-11-25, kept to measure against): corners_canonical ordered them
-    df = pd.DataFrame({"sequence": "s", "algorithm": list("abc"), "corners": [10, 500, 300],
-                       "corners_canonical": [10, 500, 300], "resolution": res,
-                       "wall_angle": angle})
-    first = sequence_verdict(summarize(df), "s", ev, canonical_across_grids=True)
-    assert first["best"] == "a" and first["basis"] == ["agreement", "corners_canonical"]
     # the same maps on one grid: plain corners order them
     same = agreement_verdict(ev, algorithm=list("abc"), corners=[10, 500, 300],
                              resolution=[0.05] * 3, wall_angle=[0.0] * 3)
@@ -271,30 +265,3 @@ def test_ground_truth_still_decides_when_evidence_is_given() -> None:
     v = agreement_verdict(ev, algorithm=list("abc"), corners=[1, 2, 3],
                           ate_rmse=[0.5, 0.1, 0.3])
     assert v["best"] == "b" and v["basis"] == ["ate_rmse"]
-
-
-@pytest.mark.parametrize("folder", ["tfm_turtlebot4/maps", "ros2_car_2"])
-def test_on_real_folders_ranked_by_eye_no_broken_map_is_named(shared_data, folder) -> None:
-    """docs/by_eye.csv (written before the verdict existed): in these folders the verdict
-    names a map of the best class by eye, ranks the broken one after every good one."""
-    from pathlib import Path
-
-    from slamq.report.verdict_study import by_eye_agreement
-
-    eye = pd.read_csv(Path(__file__).parents[2] / "docs" / "by_eye.csv")
-    sub = eye[eye["folder"] == folder]
-    rows = []
-    for r in sub.itertuples():
-        path = shared_data / "maps" / folder / r.map
-        q = slamq.evaluate(path)
-        rows.append({"map": str(path), "sequence": folder, "algorithm": r.map, "run": 1,
-                     **{k: v for k, v in q.to_dict().items() if k != "curve"}})
-    ok = pd.DataFrame(rows)
-    v = sequence_verdict(summarize(ok), folder, sequence_evidence(ok, folder))
-    cls = dict(zip(sub["map"], sub["class"]))
-    broken = set(sub.loc[sub["broken"] == 1, "map"])
-    assert v["best"] is not None and cls[v["best"]] == 1, v
-    assert all(v["ranking"].index(b) > v["ranking"].index(a)
-               for b in broken for a in cls if cls[a] == 1), v["ranking"]
-    good, total = by_eye_agreement(eye, folder, v["ranking"])
-    assert good == total > 0

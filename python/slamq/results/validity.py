@@ -33,9 +33,10 @@ METRICS = ("corners", "corners_canonical", "occupied_fraction", "proportion",
 TRUTHS = {"ate_rmse": False, "gt_chamfer": False, "gt_f1": True}
 #: Measured once and shipped (README "What the numbers mean", docs/validity.md): each
 #: metric's pooled pairwise concordance (0.5 = chance) with ATE on slam_comparison_tools
-#: (3 worlds x 5 algorithms) and with the damage's severity in the synthetic study of
-#: :mod:`slamq.synth` (drift, wall doubling, rotation, where the ideal is no change, and
-#: specks). The report prints it beside the figures of its own results.
+#: (3 worlds x 5 algorithms) and with the damage's severity in the synthetic study
+#: (studies/damage_study.py, on :mod:`slamq.synth.damage`: drift, wall doubling, rotation,
+#: where the ideal is no change, and specks). The report prints it beside the figures of
+#: its own results.
 SHIPPED_CONCORDANCE = {
     # metric: (vs ATE, drift, doubling, rotation, specks)
     "corners": (0.73, 1.00, 0.90, 0.95, 0.98),

@@ -4,9 +4,9 @@ Two kinds of it:
 
 - :mod:`slamq.synth.damage`: map series with a made, known severity of damage (drift, wall
   doubling, rotation, specks; and superposed copies, smears and kinks for the defect
-  detectors) drawn from a floor plan, and the study of how each no-reference metric follows
-  the severity (``python -m slamq.synth``); :mod:`slamq.synth.defects_study`, the defect
-  detectors' precision and recall (``python -m slamq.synth.defects_study``).
+  detectors) drawn from a floor plan. The studies that use them (how each no-reference
+  metric follows the severity, the defect detectors' precision and recall) are in the
+  repository's studies/ folder, outside the package.
 - Ground truth on demand: generated worlds, a planned drive through them, simulated laser
   and odometry, and the sensor logs real SLAM programs read, beside the exact map and path
   (:mod:`slamq.synth.sequence` holds the sequence every part of it passes along):
@@ -22,15 +22,7 @@ save_world`` imports from the module as usual).
 
 from __future__ import annotations
 
-from slamq.synth.damage import (
-    DEGRADATIONS,
-    SEVERITIES,
-    degrade,
-    floor_plan,
-    records,
-    series,
-    study,
-)
+from slamq.synth.damage import DEGRADATIONS, SEVERITIES, degrade, floor_plan, series
 from slamq.synth.drive import Drive, drive
 from slamq.synth.sensors import NOISE, OdometryNoise
 from slamq.synth.sequence import LaserSpec, Sequence
@@ -40,5 +32,5 @@ from slamq.synth.world import KINDS, load_world, save_world, world, worlds
 
 __all__ = ["DEGRADATIONS", "KINDS", "NOISE", "SEVERITIES", "Drive", "LaserSpec",
            "OdometryNoise", "Sequence", "degrade", "drive", "floor_plan", "load_sequence",
-           "load_world", "records", "save_sequence", "save_world", "series", "simulate",
-           "study", "visible_map", "world", "worlds", "write_truth"]
+           "load_world", "save_sequence", "save_world", "series", "simulate", "visible_map",
+           "world", "worlds", "write_truth"]

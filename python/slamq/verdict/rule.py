@@ -92,30 +92,22 @@ def _differences(block: pd.DataFrame) -> tuple[bool, bool]:
             angle_spread(block.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG)
 
 
-def _corner_key(block: pd.DataFrame, names: list[str], canonical_across_grids: bool = False
-                ) -> tuple[str | None, pd.Series]:
+def _corner_key(block: pd.DataFrame, names: list[str]) -> tuple[str | None, pd.Series]:
     """The corner column that orders ``names``, the maps the agreement confirms equally:
     plain corners when they share one resolution and orientation (issue 25: "corners only
     break ties between unflagged maps of one resolution and frame"), else None (their
-    support orders them); None too when a map has no corner count. With
-    ``canonical_across_grids`` (the first rule), corners_canonical when they differ."""
+    support orders them); None too when a map has no corner count."""
     part = block.loc[[a for a in names if a in block.index]]
     if any(_differences(part)):
-        if not canonical_across_grids:
-            return None, pd.Series(dtype=float)
-        keys: tuple[str, ...] = ("corners_canonical",)
-    else:
-        keys = ("corners", "corners_canonical") if canonical_across_grids else ("corners",)
-    for key in keys:
-        means = _means(part, key)
-        if len(means) == len(part):
-            return key, means
+        return None, pd.Series(dtype=float)
+    means = _means(part, "corners")
+    if len(means) == len(part):
+        return "corners", means
     return None, pd.Series(dtype=float)
 
 
 def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, Any],
-                       warnings: list[str], canonical_across_grids: bool = False
-                       ) -> dict[str, Any]:
+                       warnings: list[str]) -> dict[str, Any]:
     """The verdict without ground truth, from the maps' agreement and defect flags."""
     info = {str(a): e for a, e in evidence["algorithms"].items() if a in block.index}
     warnings.extend(evidence.get("notes", []))
@@ -157,7 +149,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
         warnings.append(f"{a} is never named best: {flagged[a]}")
     candidates = sorted((a for a in support_of if a not in flagged and a not in partial),
                         key=lambda a: (-support_of[a], a))
-    key, corners = _corner_key(block, candidates, canonical_across_grids)
+    key, corners = _corner_key(block, candidates)
     if key is not None and len(candidates) > 1:
         candidates.sort(key=lambda a: (float(corners[a]), a))
     rest = sorted((a for a in support if a not in candidates),
@@ -211,8 +203,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
 
 
 def sequence_verdict(summary: pd.DataFrame, sequence: str,
-                     evidence: dict[str, Any] | None = None, *,
-                     canonical_across_grids: bool = False) -> dict[str, Any]:
+                     evidence: dict[str, Any] | None = None) -> dict[str, Any]:
     """The verdict on one sequence of a report summary.
 
     Parameters
@@ -224,10 +215,6 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
         :func:`slamq.verdict.evidence.sequence_evidence` of the sequence: without ground
         truth, the verdict then rests on the maps' agreement and defect flags. Without it,
         on corners alone (low confidence).
-    canonical_across_grids : bool, default False
-        The first rule of 2026-11-25, kept to measure against (docs/validity.md): with
-        evidence, ``corners_canonical`` orders the confirmed maps when they differ in
-        resolution or orientation. Default: their support orders them.
 
     Returns
     -------
@@ -258,8 +245,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
     block = _algorithms(summary, sequence)
     warnings: list[str] = []
     if evidence is not None and not _ground_truth_decides(block):
-        return _agreement_verdict(block, sequence, evidence, warnings,
-                                  canonical_across_grids)
+        return _agreement_verdict(block, sequence, evidence, warnings)
     share = known_share(block)  # by area: comparable across resolutions; else cells
     partial = {a for a, s in share.items() if s < COMPLETE_SHARE}
     for a in sorted(partial):
