@@ -27,10 +27,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import slamq.sources.formats.bag as bag
+import slamq.sources.formats.image as image
+import slamq.sources.formats.map_server as map_server
+import slamq.sources.formats.mrpt_grid as mrpt_grid
+import slamq.sources.formats.pbstream as pbstream
 from slamq.errors import MapError
 from slamq.models import OccupancyMap
 from slamq.sources.files import PathLike, fail
-from slamq.sources.formats import bag, image, map_server, mrpt_grid, pbstream
 from slamq.sources.formats.raw import RawMap, interpret
 
 __all__ = ["MapFormat", "RawMap", "collect_map", "format_of", "found_in_folder", "get_format",
@@ -83,8 +87,13 @@ class MapFormat:
 
 
 def _collect_raw(src: Path, dest_yaml: Path, topic: str | None = None) -> Path:
-    """A map drawn from OccupancyGrid data, saved as map_server ``mode: raw``."""
+    """A bag's map (OccupancyGrid data), saved as map_server ``mode: raw``."""
     return map_server.write_raw_map(read_map(src, topic=topic), dest_yaml)
+
+
+def _collect_pbstream(src: Path, dest_yaml: Path, topic: str | None = None) -> Path:
+    """A pbstream's map (it has no topics), saved as map_server ``mode: raw``."""
+    return map_server.write_raw_map(read_map(src), dest_yaml)
 
 
 def _collect_mrpt(src: Path, dest_yaml: Path, topic: str | None = None) -> Path:
@@ -95,7 +104,7 @@ def _collect_mrpt(src: Path, dest_yaml: Path, topic: str | None = None) -> Path:
 #: The built-in formats, most specific first (an MRPT grid is a PNG too).
 _BUILTIN = (
     dataclasses.replace(MapFormat.of(bag), collect=_collect_raw),
-    dataclasses.replace(MapFormat.of(pbstream), collect=_collect_raw),
+    dataclasses.replace(MapFormat.of(pbstream), collect=_collect_pbstream),
     MapFormat.of(map_server),
     dataclasses.replace(MapFormat.of(mrpt_grid), collect=_collect_mrpt),
     MapFormat.of(image),
@@ -284,7 +293,8 @@ def collect_map(src: PathLike, dest_yaml: PathLike, *, format: str | None = None
     the PNG; bags and pbstreams as ``mode: raw``). Returns the map to score.
 
     ``format``: the format's name (or the run configuration's ``yaml``/``mrpt``); default
-    the one that claims ``src``.
+    the one that claims ``src``. ``topic``: the map topic of a bag (other formats have
+    none and ignore it).
 
     Examples
     --------
@@ -300,6 +310,6 @@ def collect_map(src: PathLike, dest_yaml: PathLike, *, format: str | None = None
         raise fail(s, "not a map file: no map format reads it")
     if f.collect is not None:
         return f.collect(s, dest, topic)
-    interpret(read_raw(s, f, topic))  # readable?
+    interpret(read_raw(s, f))  # readable?
     return s
 

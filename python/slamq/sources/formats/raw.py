@@ -110,7 +110,7 @@ def interpret(
     >>> px = np.array([[0, 205], [254, 100]], np.uint8)
     >>> m = interpret(RawMap("m.pgm", image=Image(px, None, 1)), resolution=0.05)
     >>> m.unknown.tolist(), m.meta["unknown_rule"], m.resolution
-    ([[False, False], [False, True]], 'thresholds: 0.196 <= p <= 0.65', 0.05)
+    ([[False, True], [False, True]], 'thresholds: 0.196 <= p <= 0.65', 0.05)
     """
     out = [] if warnings_out is None else warnings_out
     overridden = {"resolution": resolution is not None, "origin": origin is not None}
