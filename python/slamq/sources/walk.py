@@ -54,12 +54,18 @@ def folder_maps(folder: Path, files: list[Path] | None = None) -> list[Path]:
     # the other files of a map (the image a YAML names, an MRPT grid's limits) are parts
     # of it, not maps of their own
     part_paths = {q for p, f in found for q in _files(f, p) if q != p}
-    resolved: set[Path] | None = None  # resolved only for a file not named as it is
+    # Paths are resolved only when a part is named otherwise than as a file of this folder
+    # or a symbolic link is involved; else the names compare as they are.
+    listed = set(files)
+    literal = not part_paths or not (
+        any(q not in listed or q.is_symlink() for q in part_paths)
+        or any(p.is_symlink() for p, _ in found if p not in part_paths))
+    resolved: set[Path] | None = None
 
     def part(p: Path) -> bool:
         nonlocal resolved
-        if not part_paths or p in part_paths:
-            return bool(part_paths)
+        if p in part_paths or literal:
+            return p in part_paths
         if resolved is None:
             resolved = {_resolved(q) for q in part_paths}
         return _resolved(p) in resolved

@@ -198,8 +198,8 @@ def format_of(path: PathLike) -> MapFormat | None:
 
 def found_in_folder(path: Path) -> MapFormat | None:
     """The format of a file the folder walk meets, when the file is a map there: the
-    first format that sniffs it, if it is found in folders (``IN_FOLDERS``) and its
-    ``is_map`` agrees.
+    first format found in folders (``IN_FOLDERS``) that sniffs it, if its ``is_map``
+    agrees.
 
     Examples
     --------
@@ -209,13 +209,16 @@ def found_in_folder(path: Path) -> MapFormat | None:
     >>> found_in_folder(d / "m.png").name, found_in_folder(d / "config.yaml")
     ('image', None)
     """
-    f = format_of(path)
-    if f is None or not f.in_folders:
-        return None
-    try:
-        return f if f.is_map is None or f.is_map(path) else None
-    except (OSError, ValueError):
-        return None
+    for f in map_formats():
+        if not f.in_folders:  # its files are not maps here whatever it says (no stat)
+            continue
+        try:
+            if not f.sniff(path):
+                continue
+            return f if f.is_map is None or f.is_map(path) else None
+        except (OSError, ValueError):
+            continue
+    return None
 
 
 def map_files(path: PathLike) -> list[Path]:

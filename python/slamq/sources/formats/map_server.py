@@ -7,8 +7,10 @@ all ask this module.
 
 from __future__ import annotations
 
+import functools
 import os
 import stat
+import time
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +27,7 @@ from slamq.sources.files import (
     fail,
     load_yaml_safely,
     read_regular_file,
+    reading_once,
     resolve_image,
     short_repr,
 )
@@ -69,10 +72,26 @@ def document(path: Path) -> Any:
             return UNREADABLE
         if st.st_size > MAX_YAML_BYTES:
             return None
-        return load_yaml_safely(read_regular_file(path, "a map YAML", MAX_YAML_BYTES), path,
-                                shared=True)  # only read
+        # The walk asks twice per YAML (is it a map, which image does it name): a file
+        # unchanged for a while is read once. Inside read_once, and for a file changed just
+        # now (the mtime's clock is coarse), it is read again.
+        if reading_once() or time.time_ns() - st.st_mtime_ns < 2_000_000_000:
+            return _parse(path)
+        return _parse_unchanged(os.fspath(path), st.st_dev, st.st_ino, st.st_size,
+                                st.st_mtime_ns)
     except (OSError, MapError):
         return UNREADABLE
+
+
+def _parse(path: Path) -> Any:
+    return load_yaml_safely(read_regular_file(path, "a map YAML", MAX_YAML_BYTES), path,
+                            shared=True)  # only read
+
+
+@functools.lru_cache(maxsize=1024)
+def _parse_unchanged(path: str, dev: int, ino: int, size: int, mtime_ns: int) -> Any:
+    """:func:`_parse` of a file as long as it keeps its device, inode, size and mtime."""
+    return _parse(Path(path))
 
 
 def is_map_document(doc: Any) -> bool:
