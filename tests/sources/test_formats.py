@@ -112,6 +112,9 @@ def test_load_map_reads_a_registered_format(tmp_path: Path, toy: object) -> None
     # unknown_value and resolution are applied to it as to any format
     assert slamq.load_map(p, unknown_value=254).unknown.sum() == 22 * 14
     assert slamq.load_map(p, resolution=0.5).resolution == 0.5
+    # a topic (for the bags among the sources) is no concern of a map file
+    assert np.array_equal(slamq.load_map(p, topic="/map").values, m.values)
+    assert slamq.load_map(ref.source, topic="/map").shape == ref.shape
 
 
 def test_the_walk_and_the_hash_ask_the_registry(tmp_path: Path, toy: object) -> None:

@@ -7,7 +7,8 @@
   copied with it);
 * ``read(path) -> RawMap`` (or an :class:`~slamq.models.OccupancyMap`): what the file
   holds, before :func:`~slamq.sources.formats.raw.interpret` (docs/spec.md section 1)
-  turns it into cells; a format of containers takes ``topic=`` as well;
+  turns it into cells; a format of containers takes ``topic=`` as well (readers
+  without it ignore a topic);
 * optional ``write(map, path)``, ``collect(src, dest_yaml, topic)`` (how a run's output
   of this format becomes a map_server map), ``IN_FOLDERS`` (found by the folder walk;
   default True), ``is_map(path)`` (for the walk: whether a file it sniffs is a map, e.g.
@@ -22,6 +23,7 @@ adds a format for all of them.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -239,22 +241,25 @@ def map_files(path: PathLike) -> list[Path]:
 
 
 def read_raw(path: Path, fmt: MapFormat, topic: str | None = None) -> RawMap:
-    """``fmt.read(path)`` (with ``topic`` when one is given) as a :class:`RawMap`."""
-    if topic is None:
-        got = fmt.read(path)
-    else:
-        try:
-            got = fmt.read(path, topic=topic)
-        except TypeError as exc:
-            if "topic" not in str(exc):
-                raise
-            raise fail(path, f"a {fmt.name} map has no topics (topic={topic!r})") from None
+    """``fmt.read(path)`` as a :class:`RawMap`; ``topic`` goes to a reader that takes one
+    (a container's: bags) and is ignored by the others, so that one ``--topic`` serves a
+    mix of bags and map files."""
+    got = fmt.read(path, topic=topic) if topic is not None and _takes_topic(fmt) else \
+        fmt.read(path)
     if isinstance(got, OccupancyMap):
         return RawMap(got.source, grid=got)
     if not isinstance(got, RawMap):
         raise fail(path, f"the {fmt.name} reader gave a {type(got).__name__}, "
                          "not a RawMap or an OccupancyMap")
     return got
+
+
+def _takes_topic(fmt: MapFormat) -> bool:
+    try:
+        params = inspect.signature(fmt.read).parameters
+    except (TypeError, ValueError):
+        return False
+    return "topic" in params or any(p.kind is p.VAR_KEYWORD for p in params.values())
 
 
 def read_map(
