@@ -265,3 +265,27 @@ def test_ground_truth_still_decides_when_evidence_is_given() -> None:
     v = agreement_verdict(ev, algorithm=list("abc"), corners=[1, 2, 3],
                           ate_rmse=[0.5, 0.1, 0.3])
     assert v["best"] == "b" and v["basis"] == ["ate_rmse"]
+
+
+def test_without_a_majority_the_agreeing_group_decides() -> None:
+    """Issue 41, item 1: two programs that agree with each other among three that agree
+    with nobody: named from the group, confidence low, the others never named; with no
+    group it abstains as before."""
+    df = pd.DataFrame({"sequence": "s", "algorithm": list("abcde"),
+                       "corners": [300, 310, 900, 800, 700], "known": 1000})
+
+    def ev(group: list[str]) -> dict:
+        return {"majority": False, "notes": [], "group": group, "algorithms": {
+            a: {"support": s, "completeness": 1.0, "placed": True, "runs": 1,
+                "flagged_runs": 0, "defects": {}, "in_group": float(a in group),
+                "group_support": g if a in group else math.nan}
+            for a, s, g in zip("abcde", [0.55, 0.52, 0.3, 0.6, 0.2],
+                               [0.99, 0.99, 0, 0, 0])}}
+
+    v = sequence_verdict(summarize(df), "s", ev(["a", "b"]))
+    assert v["best"] == "a" and v["ranking"][:2] == ["a", "b"]
+    assert v["confidence"].startswith("low:") and "a, b agree with each other" in \
+        v["confidence"]
+    assert any("d is never named best: not in the group" in w for w in v["warnings"])
+    none = sequence_verdict(summarize(df), "s", ev([]))
+    assert none["best"] is None and "disagree among themselves" in none["confidence"]
