@@ -15,6 +15,11 @@ Rules
 * Folders are searched recursively; hidden entries (``.name``) and ROS 2 bag folders are
   skipped; symbolic links to folders are followed, each real folder once (a symlink loop
   ends there).
+* ``slamq run`` output folders mean final maps: a run folder (one holding ``run.json``)
+  gives the one map its ``run.json`` names (else its ``map.yaml``), never the program's
+  raw outputs or snapshots below it; an output root (one holding ``runs.csv`` or
+  ``.slamq-cache.json``) is not searched in its ``report``, ``sequences`` (generated
+  ground truth) and ``shards`` folders.
 * Bags (``.bag``, ``.db3``, ``.mcap`` files and ROS 2 bag folders) and Cartographer
   ``.pbstream`` files found inside a folder are not maps: name one explicitly to evaluate
   its map. A file named explicitly is kept when a map format claims it.
@@ -111,8 +116,54 @@ def walk_folders(root: Path) -> Iterator[tuple[Path, list[Path], list[Path]]]:
             if not d.startswith(".")
             and not os.path.isfile(os.path.join(folder, d, "metadata.yaml"))
         )
+        if "run.json" in names:  # a slamq run's folder: its final map, nothing below
+            dirs[:] = []
+            files = sorted(here / n for n in names if not n.startswith("."))
+            yield here, files, run_folder_map(here)
+            continue
+        if "runs.csv" in names or ".slamq-cache.json" in names:  # a slamq run's output
+            dirs[:] = [d for d in dirs if d not in RUN_OUTPUT_SKIPPED]
         files = sorted(here / n for n in names if not n.startswith("."))
         yield here, files, folder_maps(here, files)
+
+
+#: Folders of a ``slamq run`` output root that hold no run's map.
+RUN_OUTPUT_SKIPPED = frozenset({"report", "sequences", "shards"})
+
+
+def run_folder_map(folder: Path) -> list[Path]:
+    """The final map of a ``slamq run`` run folder: the one its ``run.json`` names (found
+    again below the folder when the output folder was moved), else its ``map.yaml``; none
+    for a run that made no map.
+
+    Examples
+    --------
+    >>> import json, pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "map.yaml").write_text("image: m.pgm")
+    >>> _ = (d / "run.json").write_text(json.dumps({"map": "/elsewhere/1/map.yaml"}))
+    >>> [p.name for p in run_folder_map(d)]
+    ['map.yaml']
+    """
+    import json
+
+    named = None
+    try:
+        named = json.loads((folder / "run.json").read_text()).get("map")
+    except (OSError, ValueError, AttributeError):
+        pass
+    if isinstance(named, str) and named:
+        p = Path(named)
+        if p.is_file():
+            return [p]
+        parts = p.parts  # moved: the same path relative to a run folder of that name
+        for k in range(len(parts) - 1, 0, -1):
+            if parts[k - 1] == folder.name or k == len(parts) - 1:
+                candidate = folder.joinpath(*parts[k:])
+                if candidate.is_file():
+                    return [candidate]
+    fallback = folder / "map.yaml"
+    return [fallback] if fallback.is_file() else []
 
 
 def discover_maps(paths: PathLike | Iterable[PathLike]) -> tuple[list[Path], list[tuple[str, str]]]:
