@@ -2,7 +2,7 @@
 on three labelled sets, none of which the thresholds were tuned on.
 
 - **synthetic** (held out): :func:`slamq.synth.damage.floor_plan` seeds 700.. and
-  :func:`slamq.synth.world.worlds` from seed 700, clean and damaged by
+  :func:`slamq.synth.worldgen.worlds` from seed 700, clean and damaged by
   :func:`slamq.synth.damage.degrade` (damage seeds 700..); the thresholds were tuned on
   plan seeds 100-105 and worlds from seed 100 (seeds 300.. and 500.. were held-out sets of
   earlier versions, used up: docs/validity.md says how). :data:`EXPECTED` is what docs/validity.md
@@ -37,7 +37,7 @@ from slamq.metrics.defects import DETECTORS
 from slamq.models import OccupancyMap
 from slamq.sources import load_map
 from slamq.synth.damage import degrade, floor_plan
-from slamq.synth.world import worlds
+from slamq.synth.worldgen import worlds
 
 __all__ = ["EXPECTED", "REAL_CLEAN", "REAL_DEFECTIVE", "benchmark_table", "flags",
            "real_table", "synthetic_table"]

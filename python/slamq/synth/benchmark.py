@@ -123,7 +123,7 @@ def _list(value: Any, where: str) -> list[Any]:
 
 
 def _worlds(doc: dict[str, Any], base: Path, where: str) -> list[dict[str, Any]]:
-    from slamq.synth.world import KINDS
+    from slamq.synth.worldgen import KINDS
 
     worlds = doc.get("worlds", 1)
     kinds = _list(doc.get("kinds", list(KINDS)), f"{where}.kinds")
@@ -203,8 +203,8 @@ def expand(name: str, doc: Any, output: Path, base: Path, where: str) -> list[Ge
     gt_map = str(doc.get("groundtruth_map", "visible"))
     if gt_map not in ("visible", "gt"):
         raise ParamError(f"{where}.groundtruth_map must be visible or gt, got {gt_map!r}")
-    from slamq.synth.drive import drive
-    from slamq.synth.sequence import LaserSpec
+    from slamq.synth.planner import drive
+    from slamq.synth.recording import LaserSpec
 
     laser = _keywords(doc.get("laser", {}), LaserSpec.__dataclass_fields__, f"{where}.laser")
     options = _keywords(doc.get("drive", {}),
@@ -226,10 +226,10 @@ def generate(g: Generated) -> Generated:
     """Make one generated sequence's files (the world, the drive, the sensors, the writers'
     outputs and the ground truth), then its ``recipe.json`` last."""
     from slamq.synth import writers
-    from slamq.synth.sequence import LaserSpec
-    from slamq.synth.simulate import simulate
+    from slamq.synth.recording import LaserSpec
+    from slamq.synth.simulation import simulate
     from slamq.synth.truth import write_truth
-    from slamq.synth.world import load_world, world
+    from slamq.synth.worldgen import load_world, world
 
     r = g.recipe
     w = r["world"]
