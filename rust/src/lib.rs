@@ -20,7 +20,7 @@
 //! - [`evaluate`]: all three metrics of one map, and of many maps in parallel.
 //! - [`edt`]: exact Euclidean distance transform with nearest cells (SPEC section 7).
 //! - [`se2`]: planar rigid motions, map frames, the closed-form rigid fit.
-//! - [`icp`]: trimmed SE(2) ICP onto a distance transform, and the coarse rotation search.
+//! - [`icp`]: trimmed SE(2) ICP onto a distance transform.
 //! - [`compare`]: a map against a ground-truth map, SPEC section 7.
 //! - [`register`]: global registration of two maps of one place (any rotation, other
 //!   resolution and extent), SPEC section 7a.

@@ -27,7 +27,7 @@
 
 use crate::compare::Placed;
 use crate::edt::{filled, Columns, EdtError};
-use crate::icp::{icp, scatter, search, Scatter, Target};
+use crate::icp::{icp, scatter, Scatter, Target};
 use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
@@ -872,21 +872,6 @@ pub fn register_prepared(
         candidates: refined.len(),
         tolerance: tol,
     })
-}
-
-/// The alignment `align="search"` used before this module (kept to measure against, by
-/// benches/bench_register.py): 36 rotations about the moving points' centroid moved onto
-/// the fixed walls' centroid, a short ICP from each, the best by trimmed RMS, then the full
-/// ICP.
-pub fn legacy_search(
-    moving: &Prepared,
-    fixed: &Prepared,
-    trim: f64,
-    max_iterations: usize,
-) -> Result<Se2, RegisterError> {
-    let target = Target::new(fixed.frame, &fixed.columns, &fixed.mask, &fixed.cells)?;
-    let start = search(&moving.points, &target, trim);
-    Ok(icp(&moving.points, &target, start, trim, max_iterations).map_or(start, |r| r.transform))
 }
 
 /// Register `moving` onto `fixed`: [`prepare`] both, then [`register_prepared`].
