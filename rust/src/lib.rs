@@ -19,7 +19,9 @@
 //! - [`enclosed`]: SPEC section 4, the sweep over unknown values.
 //! - [`evaluate`]: all three metrics of one map, and of many maps in parallel.
 //! - [`edt`]: exact Euclidean distance transform with nearest cells (SPEC section 7).
-//! - [`se2`]: planar rigid motions, map frames, the closed-form rigid fit.
+//! - [`se2`]: planar rigid motions, map frames, maps placed in them, the closed-form rigid
+//!   fit.
+//! - [`error`]: the error of [`compare`] and [`register`] (bad input, memory).
 //! - [`icp`]: trimmed SE(2) ICP onto a distance transform.
 //! - [`compare`]: a map against a ground-truth map, SPEC section 7.
 //! - [`register`]: global registration of two maps of one place (any rotation, other
@@ -42,6 +44,7 @@ pub mod compare;
 pub mod corners;
 pub mod edt;
 pub mod enclosed;
+pub mod error;
 pub mod evaluate;
 pub mod filter;
 pub mod grid;

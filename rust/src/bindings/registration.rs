@@ -1,17 +1,16 @@
 //! Binding of the global registration of maps of one place (rust/src/register.rs, SPEC
 //! section 7a): `register`, `register_many` and the `RawRegistration` they return.
 
-use super::comparison::frame;
+use super::comparison::{error, frame};
 use super::grid;
 use super::runtime::compute;
-use crate::compare::Placed;
-use crate::edt::EdtError;
+
 use crate::register::{
-    prepare, register as register_maps, register_many as register_all, RegisterError,
-    RegisterParams, Registration,
+    register as register_maps, register_many as register_all, RegisterParams, Registration,
 };
+use crate::se2::Placed;
 use numpy::PyReadonlyArray2;
-use pyo3::exceptions::{PyMemoryError, PyValueError};
+
 use pyo3::prelude::*;
 
 /// One registration (SPEC section 7a): the motion `(theta, tx, ty)` (radians, metres) taking
@@ -80,13 +79,6 @@ impl RawRegistration {
              confidence={})",
             self.ok, self.theta, self.tx, self.ty, self.inliers, self.margin, self.confidence
         )
-    }
-}
-
-fn error(e: RegisterError) -> PyErr {
-    match e {
-        RegisterError::Edt(EdtError::Alloc { .. }) => PyMemoryError::new_err(e.to_string()),
-        _ => PyValueError::new_err(e.to_string()),
     }
 }
 
