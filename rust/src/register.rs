@@ -32,7 +32,6 @@ use crate::se2::{floor_i64, wrap, Affine, Frame, Placed, Se2};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
-
 use std::sync::Arc;
 
 /// Half-size (cells) of the window whose occupied cells give a wall cell's direction.

@@ -1,12 +1,11 @@
-//! Binding of the ground-truth comparison (rust/src/compare.rs, SPEC section 7): `compare`
+//! Binding of the ground-truth comparison (rust/src/compare/, SPEC section 7): `compare`
 //! and the `RawComparison` it returns.
 
 use super::grid;
 use super::runtime::compute;
 use crate::compare::{compare as compare_maps, Comparison};
-use crate::error::Error;
-
 use crate::edt::EdtError;
+use crate::error::Error;
 use crate::params::{Align, CompareParams};
 use crate::se2::{Frame, Placed, Se2};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};

@@ -4,13 +4,11 @@
 use super::comparison::{error, frame};
 use super::grid;
 use super::runtime::compute;
-
 use crate::register::{
     register as register_maps, register_many as register_all, RegisterParams, Registration,
 };
 use crate::se2::Placed;
 use numpy::PyReadonlyArray2;
-
 use pyo3::prelude::*;
 
 /// One registration (SPEC section 7a): the motion `(theta, tx, ty)` (radians, metres) taking

@@ -15,6 +15,9 @@
 //! copies of themselves when the processor has it (runtime detection; the same operations,
 //! so the same results). The tests compare every path with each other and the resample with
 //! a literal one.
+//!
+//! Parts: `pack` (the packed box, and what both steps share), `angle` (the wall angle),
+//! `resample` (the canonical map).
 
 use crate::corners::count_corners_of_structure;
 use crate::grid::{known_bounds, Bounds, Grid};

@@ -2,6 +2,11 @@
 //! map files, refined by trimmed ICP), resample it onto the ground truth's grid, and count
 //! what the figures need (matches within the tolerance, sums of distances, coverage).
 //! Ratios and metres are formed by the caller from these.
+//!
+//! Parts: `scan` (one pass over a map, SIMD where the processor has it: its occupied cells
+//! and known cells per block), `resample` (the aligned estimate on the ground truth's grid),
+//! `distances` (matches and sums of distances between the two), [`flag`] (the per-cell
+//! bits).
 
 use crate::edt::{filled, EdtError, NearestCell, Sparse};
 use crate::error::Error;

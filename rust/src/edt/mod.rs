@@ -6,7 +6,7 @@
 //! Two ways to use it: the whole transform ([`nearest`], [`distances`], [`distances_at`]),
 //! or point queries ([`Columns`]: the column pass kept, each query scanning its row outward
 //! from the cell until no nearer set cell can exist, with the row's envelope as the fallback
-//! for far queries). `compare.rs` uses the queries: it needs distances at wall cells and at
+//! for far queries). `compare` uses the queries: it needs distances at wall cells and at
 //! the ICP's points only.
 //!
 //! Squared distances are integers (cells^2), so the result is exact. The row pass runs over

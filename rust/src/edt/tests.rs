@@ -4,7 +4,7 @@
 use super::*;
 
 /// A small deterministic generator (xorshift), so tests need no crate (also used by
-/// compare.rs's tests).
+/// compare's tests).
 pub(crate) fn rng(seed: u64) -> impl FnMut() -> u64 {
     let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
     move || {
