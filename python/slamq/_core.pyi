@@ -218,16 +218,6 @@ def register_many(
     min_margin: float = 0.05,
     threads: int = 0,
 ) -> list[tuple[tuple[int, int], RawRegistration]]: ...
-def legacy_search(
-    moving_values: npt.NDArray[np.uint8],
-    moving_unknown: npt.NDArray[np.bool_],
-    moving_frame: tuple[float, float, float, float],
-    fixed_values: npt.NDArray[np.uint8],
-    fixed_unknown: npt.NDArray[np.bool_],
-    fixed_frame: tuple[float, float, float, float],
-    occupied_threshold: float = 0.5,
-    threads: int = 0,
-) -> tuple[float, float, float]: ...
 
 # Ground truth on demand: the simulator's laser (rust/src/raycast.rs);
 # slamq.synth.sensors.cast is the Python entry, cast_numpy its reference.

@@ -13,8 +13,7 @@ Python asks of Rust (the typed signatures are in ``_core.pyi``):
 * the ground-truth comparison (bindings/comparison.rs): :func:`compare`,
   :class:`RawComparison`;
 * the registration of maps of one place (bindings/registration.rs): :func:`register`,
-  :func:`register_many`, :func:`legacy_search` (the previous search, for the benchmark),
-  :class:`RawRegistration`;
+  :func:`register_many`, :class:`RawRegistration`;
 * the simulator's laser (bindings/synth.rs): :func:`raycast`;
 * the runtime (bindings/runtime.rs): :func:`adopt_thread`.
 
@@ -40,7 +39,6 @@ from slamq._core import (
     default_params,
     evaluate,
     evaluate_many,
-    legacy_search,
     map_saver_shades,
     match_stamps,
     otsu_table,
@@ -63,7 +61,6 @@ __all__ = [
     "default_params",
     "evaluate",
     "evaluate_many",
-    "legacy_search",
     "map_saver_shades",
     "match_stamps",
     "otsu_table",
