@@ -16,6 +16,7 @@ Python asks of Rust (the typed signatures are in ``_core.pyi``):
   :func:`register_many`, :func:`legacy_search` (the previous search, for the benchmark),
   :class:`RawRegistration`;
 * the simulator's laser (bindings/synth.rs): :func:`raycast`;
+* a map against its own scans (bindings/scans.rs): :func:`scan_consistency`;
 * the runtime (bindings/runtime.rs): :func:`adopt_thread`.
 
 It sits just above :mod:`slamq.errors` and :mod:`slamq.params`: importing it loads the
@@ -49,6 +50,7 @@ from slamq._core import (
     read_tum,
     register,
     register_many,
+    scan_consistency,
 )
 
 __all__ = [
@@ -72,4 +74,5 @@ __all__ = [
     "read_tum",
     "register",
     "register_many",
+    "scan_consistency",
 ]
