@@ -265,7 +265,7 @@ impl ScanGrid {
         t_end: f64,
         violated: &mut Vec<u32>,
     ) -> bool {
-        if !(t_end > 0.0) {
+        if t_end.is_nan() || t_end <= 0.0 {
             return false;
         }
         let (w, h) = (self.width as f64, self.height as f64);
@@ -282,7 +282,7 @@ impl ScanGrid {
                 t1 = t1.min(ta.max(tb));
             }
         }
-        if t0.is_nan() || t1.is_nan() || t0 > t1 || !(t0 < t_end) {
+        if t0.is_nan() || t1.is_nan() || t0 > t1 || t0 >= t_end {
             return false;
         }
         let ix = ((ox + t0 * dx).floor()).clamp(0.0, w - 1.0);
@@ -308,26 +308,23 @@ impl ScanGrid {
             // idx stays inside the padded grid: it starts inside the grid, moves one cell
             // at a time, and the walk ends on the ring of OUTSIDE cells
             let v = self.cells[idx as usize];
-            if v & OUTSIDE != 0 {
-                return any;
-            }
-            if v & OCCUPIED != 0 {
+            if v & (OUTSIDE | OCCUPIED) != 0 {
+                if v & OUTSIDE != 0 {
+                    return any;
+                }
                 any = true;
                 let (row, col) = (idx / pw - 1, idx % pw - 1);
                 violated.push((row * self.width as isize + col) as u32);
             }
+            // branch-free step to the nearer boundary (the row's on a tie)
             let step_x = tx < ty;
             let t = if step_x { tx } else { ty };
-            if !(t < t_end) {
+            if t >= t_end {
                 return any;
             }
-            if step_x {
-                tx += tdx;
-                idx += sx;
-            } else {
-                ty += tdy;
-                idx += sy;
-            }
+            tx += if step_x { tdx } else { 0.0 };
+            ty += if step_x { 0.0 } else { tdy };
+            idx += if step_x { sx } else { sy };
         }
     }
 
@@ -363,7 +360,7 @@ pub fn consistency(
             "min_range must be a finite number >= 0, got {min_range}"
         )));
     }
-    if !(max_range > min_range) {
+    if max_range.is_nan() || max_range <= min_range {
         return Err(ScanError(format!(
             "max_range must exceed min_range ({min_range}), got {max_range}"
         )));

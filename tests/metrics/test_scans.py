@@ -147,7 +147,7 @@ def cases(draw):
     ranges[rng.random((n, b)) < 0.1] = np.inf
     ranges[rng.random((n, b)) < 0.05] = np.nan
     scans = Scans(np.arange(n, dtype=float), angles, ranges,
-                  draw(st.sampled_from([math.inf, span])), min_range=draw(
+                  draw(st.sampled_from([math.inf, span + 0.2])), min_range=draw(
                       st.sampled_from([0.0, 0.1])))
     tol = draw(st.sampled_from([0.02, 0.1, 0.25, 0.6]))
     return m, scans, poses, tol
