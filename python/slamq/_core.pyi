@@ -231,6 +231,24 @@ def raycast(
     threads: int = 0,
 ) -> npt.NDArray[np.float64]: ...
 
+# A map against its own laser scans (rust/src/scans.rs, SPEC section 7b);
+# slamq.metrics.scans.scan_consistency is the Python entry, scan_consistency_reference its
+# reference. Returns per-scan counts (n, 6) and the violation grid (H, W).
+def scan_consistency(
+    values: npt.NDArray[np.uint8],
+    unknown: npt.NDArray[np.bool_],
+    resolution: float,
+    origin: tuple[float, float, float],
+    occupied_threshold: float,
+    tolerance: float,
+    poses: npt.NDArray[np.float64],
+    angles: npt.NDArray[np.float64],
+    ranges: npt.NDArray[np.float64],
+    min_range: float,
+    max_range: float,
+    threads: int = 0,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint32]]: ...
+
 #: Peak working memory of one evaluation, bytes per cell (reserved before it starts;
 #: ``MemoryError`` when it cannot be).
 WORK_BYTES_PER_CELL: int

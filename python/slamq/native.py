@@ -15,6 +15,7 @@ Python asks of Rust (the typed signatures are in ``_core.pyi``):
 * the registration of maps of one place (bindings/registration.rs): :func:`register`,
   :func:`register_many`, :class:`RawRegistration`;
 * the simulator's laser (bindings/synth.rs): :func:`raycast`;
+* a map against its own scans (bindings/scans.rs): :func:`scan_consistency`;
 * the runtime (bindings/runtime.rs): :func:`adopt_thread`.
 
 It sits just above :mod:`slamq.errors` and :mod:`slamq.params`: importing it loads the
@@ -47,6 +48,7 @@ from slamq._core import (
     read_tum,
     register,
     register_many,
+    scan_consistency,
 )
 
 __all__ = [
@@ -69,4 +71,5 @@ __all__ = [
     "read_tum",
     "register",
     "register_many",
+    "scan_consistency",
 ]

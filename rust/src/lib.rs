@@ -34,6 +34,8 @@
 //!   sums, errors, statistics); [`table`]: the numeric text table and TUM pose reader.
 //! - [`raycast`]: exact laser ray casting on a grid (Amanatides-Woo), the simulator's
 //!   sensor for ground truth on demand.
+//! - [`scans`]: a map against its own laser scans (hits, free-space violations), SPEC
+//!   section 7b.
 //! - `bindings` (feature `python`): the pyo3 bindings, one file per domain, and their
 //!   runtime (thread pools, fork handling); nothing else.
 
@@ -61,6 +63,7 @@ pub mod pixels;
 pub mod proportion;
 pub mod raycast;
 pub mod register;
+pub mod scans;
 pub mod se2;
 pub mod table;
 

@@ -10,6 +10,7 @@
 //! - [`registration`]: `register`, `register_many` (maps of one place onto each other;
 //!   `RawRegistration`).
 //! - [`synth`]: `raycast` (the simulator's laser, ground truth on demand).
+//! - [`scans`]: `scan_consistency` (a map against its own laser scans).
 //! - [`runtime`]: the thread pools, fork handling, `adopt_thread`.
 
 mod comparison;
@@ -17,6 +18,7 @@ mod loading;
 mod maps;
 mod registration;
 mod runtime;
+mod scans;
 mod synth;
 mod trajectory;
 
@@ -77,6 +79,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(registration::register_many, m)?)?;
     m.add_class::<registration::RawRegistration>()?;
     m.add_function(wrap_pyfunction!(synth::raycast, m)?)?;
+    m.add_function(wrap_pyfunction!(scans::scan_consistency, m)?)?;
     m.add_function(wrap_pyfunction!(runtime::adopt_thread, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
