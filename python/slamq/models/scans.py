@@ -95,7 +95,7 @@ class Scans:
 
     @classmethod
     def from_sequence(cls, seq: Any) -> Scans:
-        """The scans of a simulated :class:`slamq.synth.Sequence` (its stamps, its laser's
+        """The scans of a simulated :class:`slamq.synth.Recording` (its stamps, its laser's
         beams, minimum and maximum range and offset on the robot).
 
         Examples
