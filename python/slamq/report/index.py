@@ -89,9 +89,12 @@ def best_worst(group: pd.DataFrame, basis: Iterable[str] = ()) -> list[int]:
     return [order[0]] if len(order) == 1 else [order[0], order[-1]]
 
 
-def plots(ok: pd.DataFrame, out: Path, sequences: list[str]) -> list[tuple[str, str]]:
+def plots(ok: pd.DataFrame, out: Path, sequences: list[str],
+          cache: dict[str, str] | None = None) -> list[tuple[str, str]]:
     """One figure per ranked metric that has values (every run a point, one panel per
-    sequence), reference maps left out; returns ``(metric key, PNG path)`` pairs.
+    sequence), reference maps left out; returns ``(metric key, PNG path)`` pairs. With
+    ``cache`` (``{PNG path: stamp of its inputs}``, updated), a figure whose inputs did not
+    change is kept (:func:`slamq.report.cache.figure_digest`).
 
     Examples
     --------
@@ -115,6 +118,15 @@ def plots(ok: pd.DataFrame, out: Path, sequences: list[str]) -> list[tuple[str, 
         if m.key not in ok or not np.isfinite(pd.to_numeric(ok[m.key], errors="coerce")).any():
             continue
         png = f"img/plot_{m.key}.png"
+        if cache is not None:
+            from slamq.report.cache import figure_digest
+
+            digest = figure_digest(ok, m, sequences, colours)
+            kept = cache.get(png) == digest and (out / png).is_file()
+            cache[png] = digest
+            if kept:
+                made.append((m.key, png))
+                continue
         metric_figure(ok, m, out / png, sequences=sequences, colours=colours)
         made.append((m.key, png))
     return made
