@@ -76,7 +76,7 @@ def many_records(six: Path, n: int, out: Path) -> Path:
     with out.open("w") as f:
         for i in range(n):
             rec = dict(slam[i % len(slam)])
-            rec["sequence"] = f"world{i % nseq:02d}"
+            rec["sequence"] = f"world{i // len(slam) % nseq:02d}"
             rec["run"] = str(i // (len(slam) * nseq))
             for k in ("ate_rmse", "corners", "occupied_fraction", "enclosed_areas", "gt_f1",
                       "proportion"):

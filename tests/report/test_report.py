@@ -311,7 +311,7 @@ def test_site_has_tables_gallery_plots_and_details(site):
     ok = [r for r in recs if r.get("error") is None]
     assert len(list((out / "maps").glob("*.html"))) == len(ok)           # one per map
     for key in ("occupied_fraction", "corners", "enclosed_areas", "ate_rmse"):
-        assert (out / "img" / f"plot_{key}.png").is_file()
+        assert (out / "img" / f"plot_{key}.svg").is_file()
     assert html.count('class="ranking"') == 2
     # each algorithm's known area relative to the most complete map of its sequence
     # which numbers to trust: the shipped validity table, whatever the results

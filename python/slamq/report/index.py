@@ -92,8 +92,8 @@ def best_worst(group: pd.DataFrame, basis: Iterable[str] = ()) -> list[int]:
 def plots(ok: pd.DataFrame, out: Path, sequences: list[str],
           cache: dict[str, str] | None = None) -> list[tuple[str, str]]:
     """One figure per ranked metric that has values (every run a point, one panel per
-    sequence), reference maps left out; returns ``(metric key, PNG path)`` pairs. With
-    ``cache`` (``{PNG path: stamp of its inputs}``, updated), a figure whose inputs did not
+    sequence, SVG), reference maps left out; returns ``(metric key, path)`` pairs. With
+    ``cache`` (``{path: stamp of its inputs}``, updated), a figure whose inputs did not
     change is kept (:func:`slamq.report.cache.figure_digest`).
 
     Examples
@@ -103,7 +103,7 @@ def plots(ok: pd.DataFrame, out: Path, sequences: list[str],
     >>> ok = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "run": 0,
     ...                    "corners": [3, 5]})
     >>> plots(ok, out, ["s"])
-    [('corners', 'img/plot_corners.png')]
+    [('corners', 'img/plot_corners.svg')]
     """
     from slamq.report.plots import algorithm_colours, metric_figure
 
@@ -117,7 +117,7 @@ def plots(ok: pd.DataFrame, out: Path, sequences: list[str],
     for m in METRICS:
         if m.key not in ok or not np.isfinite(pd.to_numeric(ok[m.key], errors="coerce")).any():
             continue
-        png = f"img/plot_{m.key}.png"
+        png = f"img/plot_{m.key}.svg"
         if cache is not None:
             from slamq.report.cache import figure_digest
 

@@ -83,7 +83,6 @@ def algorithm_colours(algorithms: Sequence[str]) -> dict[str, str]:
     return {a: cycle[i % len(cycle)] for i, a in enumerate(sorted(set(algorithms)))}
 
 
-@_plain_text
 def metric_figure(
     ok: pd.DataFrame,
     metric: Metric,
@@ -101,7 +100,8 @@ def metric_figure(
         Successful records (``sequence``, ``algorithm``, the metric column).
     metric : Metric
     path : Path
-        Where to write the PNG.
+        Where to write the figure: an SVG file (drawn without matplotlib) when it ends in
+        ``.svg``, else a PNG (matplotlib).
     sequences : sequence of str, optional
         Panel order (default: sorted sequences that have values).
     colours : dict, optional
@@ -122,7 +122,20 @@ def metric_figure(
     >>> out = pathlib.Path(tempfile.mkdtemp()) / "corners.png"
     >>> metric_figure(df, METRICS[2], out)
     {'s': 3}
+    >>> metric_figure(df, METRICS[2], out.with_suffix(".svg"))
+    {'s': 3}
     """
+    if Path(path).suffix.lower() == ".svg":
+        return _metric_svg(ok, metric, Path(path), sequences=sequences, colours=colours,
+                           seed=seed)
+    return _metric_png(ok, metric, path, sequences=sequences, colours=colours, seed=seed)
+
+
+@_plain_text
+def _metric_png(ok: pd.DataFrame, metric: Metric, path: Path, *,
+                sequences: Sequence[str] | None, colours: dict[str, str] | None,
+                seed: int) -> dict[str, int]:
+    """:func:`metric_figure` as a PNG drawn by matplotlib."""
     import pandas as pd
     from matplotlib.ticker import FuncFormatter, NullFormatter
 
@@ -533,3 +546,129 @@ def trajectory_figure(
                   anchor="lm")
     draw.text((bx, by + bh + 6), "ATE (m)", fill="black", font=font)
     canvas.save(path, optimize=False)
+
+
+def _metric_values(ok: pd.DataFrame, metric: Metric, sequences: Sequence[str] | None
+                   ) -> tuple[Any, list[str]]:
+    """The finite values of ``metric`` (column ``_v``) and the panels that have any."""
+    import pandas as pd
+
+    values = pd.to_numeric(ok[metric.key], errors="coerce") if metric.key in ok else None
+    frame = ok.assign(_v=values)
+    frame = frame[np.isfinite(frame["_v"].to_numpy(dtype=float))]
+    seqs = [s for s in (sequences or sorted(frame["sequence"].unique()))
+            if (frame["sequence"] == s).any()]
+    return frame, seqs
+
+
+def _symlog(v: np.ndarray) -> np.ndarray:
+    """matplotlib's symlog transform (base 10, linthresh 1, linscale 1)."""
+    v = np.asarray(v, float)
+    k = 1.0 / (1.0 - 0.1)
+    a = np.abs(v)
+    with np.errstate(divide="ignore"):
+        out = np.where(a <= 1.0, a * k, k + np.log10(np.maximum(a, 1.0)))
+    return np.sign(v) * out
+
+
+def _log_ticks(lo: float, hi: float, zero: bool) -> list[float]:
+    """Tick values of a log (or symlog, ``zero``) axis over ``[lo, hi]``: the powers of
+    ten, with 2 and 5 times them when that makes fewer than three."""
+    lo = max(lo, 1e-300)
+    k0, k1 = math.floor(math.log10(lo)), math.ceil(math.log10(max(hi, lo)))
+    for mult in ((1,), (1, 2, 5)):
+        ticks = [m * 10.0 ** k for k in range(k0, k1 + 1) for m in mult]
+        ticks = [t for t in ticks if lo * (1 - 1e-9) <= t <= hi * (1 + 1e-9)]
+        if len(ticks) >= 3:
+            break
+    if zero:
+        ticks = [0.0] + [t for t in ticks if t >= 1.0]
+    return ticks
+
+
+def _metric_svg(ok: pd.DataFrame, metric: Metric, path: Path, *,
+                sequences: Sequence[str] | None, colours: dict[str, str] | None,
+                seed: int) -> dict[str, int]:
+    """:func:`metric_figure` as an SVG file: the same panels, boxes (quartiles, whiskers to
+    the farthest run within 1.5 IQR, as matplotlib's) and jittered points."""
+    frame, seqs = _metric_values(ok, metric, sequences)
+    colours = colours or algorithm_colours(ok["algorithm"].astype(str))
+    n = max(1, len(seqs))
+    cols = min(n, 3)
+    rows = int(math.ceil(n / cols))
+    pw, ph = 420, 330
+    width, height = pw * cols, ph * rows + 30
+    rng = np.random.default_rng(seed)
+    counts: dict[str, int] = {}
+    body = [f"<text x=\"{width / 2:.0f}\" y=\"20\" text-anchor=\"middle\" "
+            f"font-size=\"13\">{_e(f'{metric.heading} per run — {metric.direction}')}</text>"]
+    for i, seq in enumerate(seqs):
+        ox, oy = pw * (i % cols), 30 + ph * (i // cols)
+        sub = frame[frame["sequence"] == seq]
+        algs = sorted(sub["algorithm"].astype(str).unique())
+        data = [sub.loc[sub["algorithm"].astype(str) == a, "_v"].to_numpy(float)
+                for a in algs]
+        allv = np.concatenate(data) if data else np.empty(0)
+        log = metric.log and len(allv) and allv.min() > 0
+        symlog = metric.log and not log
+        tf: Callable[[Any], np.ndarray] = (
+            np.log10 if log else _symlog if symlog else (lambda v: np.asarray(v, float)))
+        lo, hi = (float(allv.min()), float(allv.max())) if len(allv) else (0.0, 1.0)
+        if symlog:
+            lo = 0.0
+        t0, t1 = float(tf(lo)), float(tf(hi))
+        pad = 0.05 * (t1 - t0) if t1 > t0 else 0.5
+        ylim = (t0 if symlog else t0 - pad, t1 + pad)
+        ax = _Axes((ox + 70, oy + 26, pw - 90, ph - 110), (-0.6, len(algs) - 0.4), ylim)
+        vlo = lo if symlog else (10 ** ylim[0] if log else ylim[0])
+        vhi = 10 ** ylim[1] if log else (hi * 1.1 if symlog else ylim[1])
+        ticks = (_log_ticks(vlo, vhi, symlog) if metric.log
+                 else nice_ticks(ylim[0], ylim[1], 5))
+        if metric.log and len(ticks) < 3:  # less than a decade: round values, log-placed
+            ticks = [t for t in nice_ticks(vlo, vhi, 4) if t > 0 or (symlog and t == 0)]
+        ticks = [t for t in ticks if ylim[0] - 1e-9 <= float(tf(t)) <= ylim[1] + 1e-9]
+        right, bottom = ax.left + ax.width, ax.top + ax.height
+        for t in ticks:
+            y = float(ax.py(tf(t)))
+            body.append(f"<line x1=\"{ax.left:.1f}\" y1=\"{y:.1f}\" x2=\"{right:.1f}\" "
+                        f"y2=\"{y:.1f}\" stroke=\"#000\" stroke-opacity=\"0.12\"/>"
+                        f"<text x=\"{ax.left - 5:.1f}\" y=\"{y + 4:.1f}\" "
+                        f"text-anchor=\"end\">{_e(f'{t:g}')}</text>")
+        body.append(f"<rect x=\"{ax.left:.1f}\" y=\"{ax.top:.1f}\" width=\"{ax.width:.1f}\" "
+                    f"height=\"{ax.height:.1f}\" fill=\"none\" stroke=\"#000\" "
+                    "stroke-width=\"0.8\"/>"
+                    f"<text x=\"{ax.left + ax.width / 2:.1f}\" y=\"{ax.top - 8:.1f}\" "
+                    f"text-anchor=\"middle\" font-size=\"12\">{_e(seq)}</text>")
+        if i % cols == 0:
+            cy = ax.top + ax.height / 2
+            label = metric.heading + (" (log)" if metric.log else "")
+            body.append(f"<text x=\"{ox + 16}\" y=\"{cy:.1f}\" text-anchor=\"middle\" "
+                        f"transform=\"rotate(-90 {ox + 16} {cy:.1f})\">{_e(label)}</text>")
+        total = 0
+        for j, (a, v) in enumerate(zip(algs, data)):
+            x = float(ax.px(j))
+            body.append(f"<text transform=\"translate({x + 4:.1f} {bottom + 12:.1f}) "
+                        f"rotate(-30)\" text-anchor=\"end\" font-size=\"10\">{_e(a)}</text>")
+            if len(v):
+                q1, med, q3 = np.percentile(v, [25, 50, 75])
+                iqr = q3 - q1
+                wlo = float(v[v >= q1 - 1.5 * iqr].min())
+                whi = float(v[v <= q3 + 1.5 * iqr].max())
+                yq1, ymed, yq3, ylo, yhi = (float(ax.py(tf(u))) for u in (q1, med, q3, wlo, whi))
+                half = 0.275 * ax.width / (ax.x1 - ax.x0)
+                body.append(
+                    f"<g stroke=\"#555\" fill=\"none\"><rect x=\"{x - half:.1f}\" "
+                    f"y=\"{yq3:.1f}\" width=\"{2 * half:.1f}\" height=\"{yq1 - yq3:.1f}\"/>"
+                    f"<path d=\"M{x:.1f} {yq3:.1f}V{yhi:.1f}M{x:.1f} {yq1:.1f}V{ylo:.1f}"
+                    f"M{x - half / 2:.1f} {yhi:.1f}h{half:.1f}M{x - half / 2:.1f} {ylo:.1f}"
+                    f"h{half:.1f}\"/><path d=\"M{x - half:.1f} {ymed:.1f}h{2 * half:.1f}\" "
+                    "stroke=\"#000\"/></g>")
+            jitter = j + rng.uniform(-0.18, 0.18, size=len(v))
+            dots = "".join(f"<circle cx=\"{px:.1f}\" cy=\"{py:.1f}\" r=\"3\"/>"
+                           for px, py in zip(ax.px(jitter), ax.py(tf(v))))
+            body.append(f"<g fill=\"{colours.get(a, '#1f77b4')}\" stroke=\"#000\" "
+                        f"stroke-width=\"0.5\">{dots}</g>")
+            total += len(v)
+        counts[str(seq)] = total
+    path.write_text(_svg(width, height, "".join(body)), encoding="utf-8")
+    return counts
