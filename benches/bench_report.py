@@ -93,6 +93,9 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="rounds of the small cases")
     ap.add_argument("--maps", type=int, nargs="*", default=[1000],
                     help="sizes of the large reports (one round each)")
+    ap.add_argument("--base-max", type=int, default=1000,
+                    help="largest report the base build makes (its pages draw with "
+                    "matplotlib: minutes a hundred)")
     args = ap.parse_args()
     builds = {"this": REPO / "python"}
     if args.base is not None:
@@ -114,6 +117,8 @@ def main() -> None:
         for n in args.maps:
             many = many_records(six, n, tmp / f"many{n}.jsonl")
             for name, path in builds.items():
+                if name == "base" and n > args.base_max:
+                    continue
                 extra = ["--details", "gallery"] if name == "base" else []
                 site = tmp / f"{name}-{n}"
                 rows.setdefault((f"report {n}", name), []).append(
