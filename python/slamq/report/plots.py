@@ -340,9 +340,11 @@ class _Axes:
         return "".join(out)
 
 
-def _svg(width: int, height: int, body: str) -> str:
+def _svg(width: int, height: int, body: str, title: str = "") -> str:
+    """A whole SVG document; ``title`` is its ``<title>`` (what the page's caption says)."""
+    head = f"<title>{_e(title)}</title>" if title else ""
     return (f"<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{width}\" height=\"{height}\" "
-            f"viewBox=\"0 0 {width} {height}\" {_FONT} font-size=\"11\">"
+            f"viewBox=\"0 0 {width} {height}\" {_FONT} font-size=\"11\">{head}"
             f"<rect width=\"{width}\" height=\"{height}\" fill=\"#fff\"/>{body}</svg>\n")
 
 
@@ -600,8 +602,9 @@ def _metric_svg(ok: pd.DataFrame, metric: Metric, path: Path, *,
     width, height = pw * cols, ph * rows + 30
     rng = np.random.default_rng(seed)
     counts: dict[str, int] = {}
+    title = f"{metric.heading} per run — {metric.direction}"
     body = [f"<text x=\"{width / 2:.0f}\" y=\"20\" text-anchor=\"middle\" "
-            f"font-size=\"13\">{_e(f'{metric.heading} per run — {metric.direction}')}</text>"]
+            f"font-size=\"13\">{_e(title)}</text>"]
     for i, seq in enumerate(seqs):
         ox, oy = pw * (i % cols), 30 + ph * (i // cols)
         sub = frame[frame["sequence"] == seq]
@@ -670,5 +673,5 @@ def _metric_svg(ok: pd.DataFrame, metric: Metric, path: Path, *,
                         f"stroke-width=\"0.5\">{dots}</g>")
             total += len(v)
         counts[str(seq)] = total
-    path.write_text(_svg(width, height, "".join(body)), encoding="utf-8")
+    path.write_text(_svg(width, height, "".join(body), title), encoding="utf-8")
     return counts
