@@ -68,7 +68,7 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
         mp.defects = ex.defects
         gt = ex.ground_truth
         sections.append(_map_layers(mp, out, ov, u, grid, gt))
-        curve_png = f"img/{mp.slug}_curve.png"
+        curve_png = f"img/{mp.slug}_curve.svg"
         curve_figure(list(quality.curve), list(params.sweep_values),
                      int(quality.enclosed_unknown_value), out / curve_png)
         sections.append(
