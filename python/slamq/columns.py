@@ -338,7 +338,8 @@ def register_column(col: Column) -> Column:
 
     A ``map`` column with a ``compute`` function is computed with every evaluation; any
     column then appears in records, results files (with its type) and every place its
-    ``at`` names. :func:`unregister_column` takes it out again.
+    ``at`` names. :func:`unregister_column` takes it out again. Register before evaluating:
+    a batch's threads share the table, other processes (a Dask cluster's workers) do not.
 
     Examples
     --------
