@@ -21,8 +21,8 @@ PACKAGE = Path(slamq.__file__).parent
 
 #: The layers, bottom first; a module may import its own layer and the layers below it.
 #: The top package (``slamq/__init__.py``) is above them all; no module imports it.
-LAYERS = ("version", "lazy", "errors", "params", "native", "models", "sources", "synth",
-          "metrics", "api", "results", "batch", "verdict", "report", "runner", "cli")
+LAYERS = ("version", "lazy", "errors", "params", "columns", "native", "models", "sources",
+          "synth", "metrics", "api", "results", "batch", "verdict", "report", "runner", "cli")
 TOP = len(LAYERS)
 
 

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from slamq.columns import shown_names
 from slamq.errors import SlamqError
 from slamq.report.formatting import format_value
 from slamq.report.markup import MapPage, page
@@ -98,16 +99,8 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
              head + f"<div class=\"top\">{numbers}{first}</div>" + rest), encoding="utf-8")
 
 
-_DETAIL_KEYS = (
-    "ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n",
-    "gt_precision", "gt_recall", "gt_f1", "gt_iou", "gt_ne", "gt_reverse", "gt_chamfer",
-    "gt_coverage", "gt_dx", "gt_dy", "gt_dyaw", "gt_icp_rms", "gt_truncated", "gt_outside",
-    "occupied_fraction", "corners", "enclosed_areas", "enclosed_unknown_value",
-    "proportion", "threshold", "occupied", "free", "unknown", "known", "total",
-    "height", "width", "seconds",
-)
-
-_FILE_KEYS = ("map", "trajectory", "groundtruth", "gt_map", "ate_error", "gt_error", "hash")
+_DETAIL_KEYS = shown_names("detail")
+_FILE_KEYS = shown_names("files")
 
 
 def _fmt_cell(x: Any) -> str:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from slamq.columns import COLUMNS
 from slamq.report.formatting import format_mean_std, format_value
 from slamq.report.markup import MapPage
 from slamq.report.markup import esc as _e
@@ -29,7 +30,7 @@ _WINNER = ' class="winner"'
 
 _BEST = " best"
 
-_METRIC_HELP = {m.key: m for m in (*METRICS, CANONICAL)}
+_METRIC_HELP = COLUMNS
 
 
 def mixed_settings(frame: pd.DataFrame) -> str:
