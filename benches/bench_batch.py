@@ -58,7 +58,7 @@ import cv2, pyarrow, pyarrow.parquet, yaml  # noqa: E401,F401
 import pandas  # noqa: F401
 import slamq.batch.records, slamq.metrics.evaluate  # noqa: E401,F401
 import slamq.results.formats, slamq.results.store  # noqa: E401,F401
-import slamq.sources.mapserver  # noqa: F401
+import slamq.sources.formats.map_server  # noqa: F401
 src, out, threads, chunk = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
 params = json.loads(sys.argv[5]) if len(sys.argv) > 5 else {}
 t0 = time.perf_counter()

@@ -41,12 +41,12 @@ def make(scans: int, beams: int, noise: float, name: str):
     except ImportError:
         simulate = None
     if simulate is not None:
-        from slamq.synth import LaserSpec, Sequence
+        from slamq.synth import LaserSpec, Recording
 
         s = simulate(world(1, kind="office"), seed=1, noise="none" if noise == 0 else "high",
                      laser=LaserSpec(beams=beams), name=name)
         k = min(scans, len(s))
-        return Sequence(s.stamps[:k], s.gt[:k], s.odom[:k], s.ranges[:k], s.laser, s.world,
+        return Recording(s.stamps[:k], s.gt[:k], s.odom[:k], s.ranges[:k], s.laser, s.world,
                         name, s.meta)
     sys.path.insert(0, str(ROOT / "tests" / "synth"))
     from _world import make_sequence

@@ -21,8 +21,8 @@ PACKAGE = Path(slamq.__file__).parent
 
 #: The layers, bottom first; a module may import its own layer and the layers below it.
 #: The top package (``slamq/__init__.py``) is above them all; no module imports it.
-LAYERS = ("version", "lazy", "errors", "params", "native", "models", "sources", "metrics", "api",
-          "results", "synth", "batch", "verdict", "report", "runner", "cli")
+LAYERS = ("version", "lazy", "errors", "params", "columns", "native", "models", "sources",
+          "synth", "metrics", "api", "results", "batch", "verdict", "report", "runner", "cli")
 TOP = len(LAYERS)
 
 
@@ -120,6 +120,45 @@ def test_the_report_draws_and_never_reads_or_measures() -> None:
     found = [(m, t) for m in _modules() if m == "slamq.report" or m.startswith("slamq.report.")
              for t in _imports(m) if t.startswith(("slamq.sources", "slamq.metrics"))]
     assert found == []
+
+
+def test_no_study_ships_in_the_package() -> None:
+    """Studies, benchmark sets and retired rules live in studies/ (outside the wheel): no
+    module of the package is a study, and none names a file of the real-map corpus."""
+    import re
+
+    assert [m for m in _modules() if re.search(r"stud(y|ies)", m)] == []
+    corpus = re.compile(r"\.\./shared|shared/data|test_results/|SLAMQ_SHARED_DATA")
+    found = []
+    for module in _modules():
+        tree = _tree(module)
+        docstrings = {id(n.body[0].value) for n in ast.walk(tree)
+                      if isinstance(n, (ast.Module, ast.FunctionDef, ast.ClassDef))
+                      and n.body and isinstance(n.body[0], ast.Expr)
+                      and isinstance(n.body[0].value, ast.Constant)}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and \
+                    id(node) not in docstrings and corpus.search(node.value):
+                found.append(f"{module}: {node.value[:60]!r}")
+            elif isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div) and \
+                    re.search(r"'shared'\s*/\s*'data'", ast.unparse(node)):
+                found.append(f"{module}: {ast.unparse(node)[:60]}")
+    assert found == []
+
+
+def test_no_study_name_or_retired_rule_in_the_sources() -> None:
+    """What only a study used is gone from the package and the core (the previous
+    registration search, ``legacy_search``, included)."""
+    import re
+
+    root = Path(__file__).resolve().parents[1]
+    pattern = re.compile(r"verdict_study|defects_study|canonical_across_grids|legacy_search")
+    hits = [str(f.relative_to(root))
+            for folder, suffixes in ((root / "python" / "slamq", (".py", ".pyi")),
+                                     (root / "rust" / "src", (".rs",)))
+            for f in sorted(folder.rglob("*")) if f.suffix in suffixes
+            and pattern.search(f.read_text(encoding="utf-8"))]
+    assert hits == []
 
 
 def test_the_version_is_written_once_and_agrees_with_the_packaging() -> None:

@@ -7,10 +7,10 @@ evaluation.
 
 Data flows one way through the subpackages, and nothing imports upward (nor this
 package): :mod:`slamq.native` (the one caller of the Rust core) -> :mod:`slamq.models`
-(plain data) -> :mod:`slamq.sources` (readers) -> :mod:`slamq.metrics` (models in, numbers
-out) -> :mod:`slamq.api` (paths in: ``slamq.evaluate`` and friends) -> :mod:`slamq.results`
--> :mod:`slamq.synth` -> :mod:`slamq.batch` -> :mod:`slamq.verdict` -> :mod:`slamq.report`
--> :mod:`slamq.runner` -> :mod:`slamq.cli`.
+(plain data) -> :mod:`slamq.sources` (readers) -> :mod:`slamq.synth` (data with a known
+truth) -> :mod:`slamq.metrics` (models in, numbers out) -> :mod:`slamq.api` (paths in:
+``slamq.evaluate`` and friends) -> :mod:`slamq.results` -> :mod:`slamq.batch` ->
+:mod:`slamq.verdict` -> :mod:`slamq.report` -> :mod:`slamq.runner` -> :mod:`slamq.cli`.
 Every public name but the errors is imported on first use (:mod:`slamq.lazy`).
 
 >>> import numpy as np, slamq

@@ -218,16 +218,6 @@ def register_many(
     min_margin: float = 0.05,
     threads: int = 0,
 ) -> list[tuple[tuple[int, int], RawRegistration]]: ...
-def legacy_search(
-    moving_values: npt.NDArray[np.uint8],
-    moving_unknown: npt.NDArray[np.bool_],
-    moving_frame: tuple[float, float, float, float],
-    fixed_values: npt.NDArray[np.uint8],
-    fixed_unknown: npt.NDArray[np.bool_],
-    fixed_frame: tuple[float, float, float, float],
-    occupied_threshold: float = 0.5,
-    threads: int = 0,
-) -> tuple[float, float, float]: ...
 
 # Ground truth on demand: the simulator's laser (rust/src/raycast.rs);
 # slamq.synth.sensors.cast is the Python entry, cast_numpy its reference.
@@ -240,6 +230,24 @@ def raycast(
     max_range: float,
     threads: int = 0,
 ) -> npt.NDArray[np.float64]: ...
+
+# A map against its own laser scans (rust/src/scans.rs, SPEC section 7b);
+# slamq.metrics.scans.scan_consistency is the Python entry, scan_consistency_reference its
+# reference. Returns per-scan counts (n, 6) and the violation grid (H, W).
+def scan_consistency(
+    values: npt.NDArray[np.uint8],
+    unknown: npt.NDArray[np.bool_],
+    resolution: float,
+    origin: tuple[float, float, float],
+    occupied_threshold: float,
+    tolerance: float,
+    poses: npt.NDArray[np.float64],
+    angles: npt.NDArray[np.float64],
+    ranges: npt.NDArray[np.float64],
+    min_range: float,
+    max_range: float,
+    threads: int = 0,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint32]]: ...
 
 #: Peak working memory of one evaluation, bytes per cell (reserved before it starts;
 #: ``MemoryError`` when it cannot be).

@@ -13,9 +13,9 @@ Python asks of Rust (the typed signatures are in ``_core.pyi``):
 * the ground-truth comparison (bindings/comparison.rs): :func:`compare`,
   :class:`RawComparison`;
 * the registration of maps of one place (bindings/registration.rs): :func:`register`,
-  :func:`register_many`, :func:`legacy_search` (the previous search, for the benchmark),
-  :class:`RawRegistration`;
+  :func:`register_many`, :class:`RawRegistration`;
 * the simulator's laser (bindings/synth.rs): :func:`raycast`;
+* a map against its own scans (bindings/scans.rs): :func:`scan_consistency`;
 * the runtime (bindings/runtime.rs): :func:`adopt_thread`.
 
 It sits just above :mod:`slamq.errors` and :mod:`slamq.params`: importing it loads the
@@ -40,7 +40,6 @@ from slamq._core import (
     default_params,
     evaluate,
     evaluate_many,
-    legacy_search,
     map_saver_shades,
     match_stamps,
     otsu_table,
@@ -49,6 +48,7 @@ from slamq._core import (
     read_tum,
     register,
     register_many,
+    scan_consistency,
 )
 
 __all__ = [
@@ -63,7 +63,6 @@ __all__ = [
     "default_params",
     "evaluate",
     "evaluate_many",
-    "legacy_search",
     "map_saver_shades",
     "match_stamps",
     "otsu_table",
@@ -72,4 +71,5 @@ __all__ = [
     "read_tum",
     "register",
     "register_many",
+    "scan_consistency",
 ]

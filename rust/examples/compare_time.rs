@@ -7,10 +7,10 @@
 //! RUNS of the thread's CPU time (one thread) and every count and sum of the comparison
 //! (floats as bits), so that two builds can be checked for identical results.
 
-use slamq::compare::{compare, Placed};
+use slamq::compare::compare;
 use slamq::grid::Grid;
 use slamq::params::{Align, CompareParams};
-use slamq::se2::{Frame, Se2};
+use slamq::se2::{Frame, Placed, Se2};
 
 #[repr(C)]
 struct Timespec {

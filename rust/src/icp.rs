@@ -1,7 +1,5 @@
 //! Trimmed SE(2) ICP of a map's occupied cells onto a ground truth whose distance transform
-//! gives every cell's nearest occupied cell (SPEC section 7), and the coarse rotation search
-//! that started it for maps saved in an arbitrary frame before `register.rs` (kept as the
-//! baseline of benches/bench_register.py).
+//! gives every cell's nearest occupied cell (SPEC section 7).
 //!
 //! Each point is paired with the nearest occupied target cell (the distance transform's
 //! label of the cell the point falls in). Where the target's occupied cells around that
@@ -13,7 +11,7 @@
 //! chosen by (distance, point index), a total order; sums run in point order.
 
 use crate::edt::{Columns, EdtError, NearestCell, Sparse};
-use crate::se2::{wrap, Affine, Frame, Se2};
+use crate::se2::{Affine, Frame, Se2};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -89,8 +87,8 @@ pub struct Target<'a> {
     local: Vec<Slot>,
 }
 
-/// A [`Local`] fitted on first use. Threads sharing the target (the parallel trials of
-/// [`search`]) may fit the same cell at once: they store the same bits, and `ready` is set
+/// A [`Local`] fitted on first use. Threads sharing the target (parallel ICP runs from
+/// several starts) may fit the same cell at once: they store the same bits, and `ready` is set
 /// (release) after them, so whoever reads it set (acquire) reads the fit.
 #[derive(Default)]
 struct Slot {
@@ -677,13 +675,6 @@ fn radius(points: &[(f64, f64)], cx: f64, cy: f64) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Rotations tried by the coarse search, degrees apart.
-pub const SEARCH_STEP_DEG: f64 = 10.0;
-/// Points used by each trial of the coarse search (an even subsample).
-const SEARCH_POINTS: usize = 2000;
-/// ICP iterations of each trial.
-const SEARCH_ITERATIONS: usize = 20;
-
 /// The scatter of the occupied cells in the square window of half-size `half` around cell
 /// (`r0`, `c0`) of a `h` x `w` mask, in window coordinates relative to the centre cell
 /// (x = column, y = row, in cells): their count `n`, centroid (`mx`, `my`), covariance
@@ -809,51 +800,6 @@ fn scatter_of(n: f64, sx: f64, sy: f64, sxx: f64, sxy: f64, syy: f64) -> Scatter
         big: mid + root,
         small: mid - root,
     }
-}
-
-/// The former start of `align="search"` (now [`crate::register`]; kept as its benchmark's
-/// baseline, `register::legacy_search`). Coarse search: for every rotation in steps of
-/// [`SEARCH_STEP_DEG`] about the points'
-/// centroid, moved onto the target's occupied centroid, a short trimmed ICP on a subsample;
-/// the start with the lowest trimmed RMS (first one on ties) is returned.
-pub fn search(points: &[(f64, f64)], target: &Target, trim: f64) -> Se2 {
-    if points.is_empty() {
-        return Se2::IDENTITY;
-    }
-    let stride = points.len().div_ceil(SEARCH_POINTS).max(1);
-    let sample: Vec<(f64, f64)> = points.iter().step_by(stride).copied().collect();
-    let n = points.len() as f64;
-    let target_centroid = match target.centroid() {
-        Some(c) => c,
-        None => return Se2::IDENTITY,
-    };
-    let cx = points.iter().map(|p| p.0).sum::<f64>() / n;
-    let cy = points.iter().map(|p| p.1).sum::<f64>() / n;
-    let steps = (360.0 / SEARCH_STEP_DEG).round() as usize;
-    let trials: Vec<(f64, Se2)> = (0..steps)
-        .into_par_iter()
-        .map(|k| {
-            let theta = wrap((k as f64 * SEARCH_STEP_DEG).to_radians());
-            let (s, c) = theta.sin_cos();
-            // rotate about (cx, cy), then move (cx, cy) onto the target centroid
-            let start = Se2 {
-                theta,
-                tx: target_centroid.0 - (c * cx - s * cy),
-                ty: target_centroid.1 - (s * cx + c * cy),
-            };
-            match icp(&sample, target, start, trim, SEARCH_ITERATIONS) {
-                Some(r) => (r.rms, r.transform),
-                None => (f64::INFINITY, start),
-            }
-        })
-        .collect();
-    let mut best = (f64::INFINITY, Se2::IDENTITY);
-    for (rms, t) in trials {
-        if rms < best.0 {
-            best = (rms, t);
-        }
-    }
-    best.1
 }
 
 #[cfg(test)]

@@ -25,14 +25,13 @@
 //! order, counts are integers summed per fixed chunk; the FFT runs the same plan for any
 //! thread count.
 
-use crate::compare::Placed;
 use crate::edt::{filled, Columns, EdtError};
-use crate::icp::{icp, scatter, search, Scatter, Target};
-use crate::se2::{floor_i64, wrap, Affine, Frame, Se2};
+use crate::error::Error;
+use crate::icp::{icp, scatter, Scatter, Target};
+use crate::se2::{floor_i64, wrap, Affine, Frame, Placed, Se2};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
-use std::fmt;
 use std::sync::Arc;
 
 /// Half-size (cells) of the window whose occupied cells give a wall cell's direction.
@@ -93,32 +92,6 @@ impl Default for RegisterParams {
             trim: 0.2,
             max_iterations: 30,
         }
-    }
-}
-
-/// Why a registration could not run at all (bad input; a refusal is a [`Registration`]).
-#[derive(Debug, Clone, PartialEq)]
-pub enum RegisterError {
-    /// A frame or parameter out of range.
-    Invalid(String),
-    /// Memory or size.
-    Edt(EdtError),
-}
-
-impl fmt::Display for RegisterError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            RegisterError::Invalid(s) => f.write_str(s),
-            RegisterError::Edt(e) => e.fmt(f),
-        }
-    }
-}
-
-impl std::error::Error for RegisterError {}
-
-impl From<EdtError> for RegisterError {
-    fn from(e: EdtError) -> Self {
-        RegisterError::Edt(e)
     }
 }
 
@@ -202,7 +175,7 @@ impl Registration {
     }
 }
 
-fn check_frame(f: &Frame, what: &str) -> Result<(), RegisterError> {
+fn check_frame(f: &Frame, what: &str) -> Result<(), Error> {
     let ok = f.resolution.is_finite()
         && f.resolution > 0.0
         && f.origin.theta.is_finite()
@@ -211,13 +184,13 @@ fn check_frame(f: &Frame, what: &str) -> Result<(), RegisterError> {
     if ok {
         Ok(())
     } else {
-        Err(RegisterError::Invalid(format!(
+        Err(Error::Invalid(format!(
             "{what}: resolution must be positive and origin finite"
         )))
     }
 }
 
-fn check_params(p: &RegisterParams) -> Result<(), RegisterError> {
+fn check_params(p: &RegisterParams) -> Result<(), Error> {
     let share = |x: f64| (0.0..=1.0).contains(&x);
     let ok = p.occupied_threshold.is_finite()
         && (0.0..1.0).contains(&p.occupied_threshold)
@@ -229,7 +202,7 @@ fn check_params(p: &RegisterParams) -> Result<(), RegisterError> {
     if ok {
         Ok(())
     } else {
-        Err(RegisterError::Invalid(format!(
+        Err(Error::Invalid(format!(
             "registration parameters out of range: {p:?}"
         )))
     }
@@ -240,11 +213,11 @@ pub fn prepare<'a>(
     map: &Placed<'a>,
     occupied_threshold: f64,
     what: &str,
-) -> Result<Prepared<'a>, RegisterError> {
+) -> Result<Prepared<'a>, Error> {
     check_frame(&map.frame, what)?;
     let g = &map.grid;
     if map.frame.height != g.height || map.frame.width != g.width {
-        return Err(RegisterError::Invalid(format!(
+        return Err(Error::Invalid(format!(
             "{what}: frame size differs from the grid's"
         )));
     }
@@ -710,7 +683,7 @@ pub fn register_prepared(
     moving: &Prepared,
     fixed: &Prepared,
     params: &RegisterParams,
-) -> Result<Registration, RegisterError> {
+) -> Result<Registration, Error> {
     check_params(params)?;
     let tol = params
         .tolerance
@@ -874,27 +847,12 @@ pub fn register_prepared(
     })
 }
 
-/// The alignment `align="search"` used before this module (kept to measure against, by
-/// benches/bench_register.py): 36 rotations about the moving points' centroid moved onto
-/// the fixed walls' centroid, a short ICP from each, the best by trimmed RMS, then the full
-/// ICP.
-pub fn legacy_search(
-    moving: &Prepared,
-    fixed: &Prepared,
-    trim: f64,
-    max_iterations: usize,
-) -> Result<Se2, RegisterError> {
-    let target = Target::new(fixed.frame, &fixed.columns, &fixed.mask, &fixed.cells)?;
-    let start = search(&moving.points, &target, trim);
-    Ok(icp(&moving.points, &target, start, trim, max_iterations).map_or(start, |r| r.transform))
-}
-
 /// Register `moving` onto `fixed`: [`prepare`] both, then [`register_prepared`].
 pub fn register(
     moving: &Placed,
     fixed: &Placed,
     params: &RegisterParams,
-) -> Result<Registration, RegisterError> {
+) -> Result<Registration, Error> {
     check_params(params)?;
     let m = prepare(moving, params.occupied_threshold, "moving")?;
     let f = prepare(fixed, params.occupied_threshold, "fixed")?;
@@ -909,7 +867,7 @@ pub type PairRegistration = ((usize, usize), Registration);
 pub fn register_many(
     maps: &[Placed],
     params: &RegisterParams,
-) -> Result<Vec<PairRegistration>, RegisterError> {
+) -> Result<Vec<PairRegistration>, Error> {
     check_params(params)?;
     let prepared: Vec<Prepared> = maps
         .par_iter()

@@ -1,5 +1,15 @@
 //! Planar rigid transforms (SE(2)), map frames (ROS map_server's resolution and origin), and
-//! the least-squares fit of a rigid transform to point pairs (SPEC section 7).
+//! maps placed in their frames, and the least-squares fit of a rigid transform to point pairs
+//! (SPEC section 7).
+
+use crate::grid::Grid;
+
+/// One map and where its cells are.
+#[derive(Clone, Copy, Debug)]
+pub struct Placed<'a> {
+    pub grid: Grid<'a>,
+    pub frame: Frame,
+}
 
 /// A rigid motion of the plane: `p -> R(theta) p + (tx, ty)`.
 #[derive(Clone, Copy, Debug, PartialEq)]

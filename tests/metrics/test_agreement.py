@@ -114,3 +114,42 @@ def test_clean_copies_have_no_missing_walls(plan: OccupancyMap) -> None:
 
     maps = {"a": plan, "b": degrade(plan, "drift", 0.5), "c": degrade(plan, "specks", 0.002)}
     assert all(v == [] for v in missing_walls(slamq.agreement(maps, align="icp"), maps).values())
+
+
+def test_the_agreeing_group_is_the_largest_set_that_agrees_pairwise() -> None:
+    from slamq.metrics.agreement import EXACT_GROUP_MAPS, agreeing_group
+
+    nan = math.nan
+    c = np.array([[nan, 0.99, 0.2, 0.6, 0.1],
+                  [0.99, nan, 0.1, 0.7, 0.1],
+                  [0.2, 0.1, nan, 0.3, 0.9],
+                  [0.6, 0.7, 0.3, nan, 0.2],
+                  [0.1, 0.1, 0.9, 0.2, nan]])
+    assert agreeing_group(c, 0.6) == [0, 1, 3]       # size beats consistency
+    assert agreeing_group(c, 0.8) == [0, 1]          # of two pairs, the more consistent
+    assert agreeing_group(c, 0.995) == []
+    assert agreeing_group(np.full((3, 3), nan), 0.6) == []
+    # greedy beyond the exact size finds a planted clique among random pairs
+    rng = np.random.default_rng(0)
+    n = EXACT_GROUP_MAPS + 4
+    big = rng.uniform(0.0, 0.5, (n, n))
+    big = (big + big.T) / 2
+    members = [1, 5, 8, 13, 19]
+    for i in members:
+        for j in members:
+            big[i, j] = 0.95
+    np.fill_diagonal(big, nan)
+    assert agreeing_group(big, 0.6) == members
+
+
+def test_two_good_maps_among_broken_ones_form_the_group() -> None:
+    """Issue 41, item 1: three broken maps drag every median support down; the two maps
+    that agree with each other are the group."""
+    plan = floor_plan(3)
+    maps = {"good1": plan, "good2": plan}
+    for k, (kind, severity) in enumerate((("drift", 8.0), ("kinks", 30.0),
+                                          ("rotation", 20.0))):
+        maps[f"broken{k}"] = degrade(plan, kind, severity, seed=k)
+    a = slamq.agreement(maps, align="origin")
+    assert a.group == ["good1", "good2"]
+    assert not a.majority

@@ -311,7 +311,7 @@ def test_site_has_tables_gallery_plots_and_details(site):
     ok = [r for r in recs if r.get("error") is None]
     assert len(list((out / "maps").glob("*.html"))) == len(ok)           # one per map
     for key in ("occupied_fraction", "corners", "enclosed_areas", "ate_rmse"):
-        assert (out / "img" / f"plot_{key}.png").is_file()
+        assert (out / "img" / f"plot_{key}.svg").is_file()
     assert html.count('class="ranking"') == 2
     # each algorithm's known area relative to the most complete map of its sequence
     # which numbers to trust: the shipped validity table, whatever the results
@@ -415,7 +415,8 @@ def test_user_strings_are_escaped_and_never_read_as_mathtext(tmp_path) -> None:
     html = index.read_text(encoding="utf-8")
     assert "&lt;script&gt;alert(1)&lt;/script&gt;" in html
     assert "x&quot;y&#x27;z &amp; ü" in html and "boom &lt;b&gt;" in html
-    assert (tmp_path / "site" / "img" / "plot_corners.png").stat().st_size > 0
+    svg = (tmp_path / "site" / "img" / "plot_corners.svg").read_text(encoding="utf-8")
+    assert "&lt;script&gt;" in svg and "<script>" not in svg and "a$\\nope$" in svg
 
 
 def test_tables_are_exported_as_markdown_and_latex(site):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import re
+from html import unescape as html_unescape
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -475,6 +476,12 @@ def check_tables_whole(site: Path) -> int:
 
 
 def _png_title(path: Path) -> str:
+    """The title a figure file carries: an SVG's ``<title>``, a PNG's ``Title``."""
+    if path.suffix == ".svg":
+        import html
+
+        found = re.search(r"<title>([^<]*)</title>", path.read_text(encoding="utf-8"))
+        return html.unescape(found.group(1)) if found else ""
     return Image.open(path).info.get("Title", "")
 
 
@@ -507,7 +514,7 @@ def check_no_contradiction(site: Path) -> int:
                 r'</figcaption>', text):
             m = next(m for m in METRICS if m.key == key)
             title = _png_title(page.parent / png)
-            assert title == caption.replace("&#x27;", "'") and title.endswith(m.direction), \
+            assert title == html_unescape(caption) and title.endswith(m.direction), \
                 (key, title, caption)
             figures += 1
     return figures

@@ -176,3 +176,47 @@ def test_eval_and_batch_discover_the_same_maps(tmp_path):
         "flat/4_07_2022.pgm", "flat/karto_map.pgm", "flat/office_ground_truth.yaml",
         "gmapping/office/1/map.yaml", "hector/office/1/mapping_00020.png",
     ]
+
+
+def test_a_slamq_run_output_folder_gives_each_runs_final_map(tmp_path: Path) -> None:
+    """Issue 42, point 3: `slamq verdict out/` walked into each run's raw outputs and
+    snapshots and the report (47 "maps" for 3 runs). A run folder gives the map its
+    run.json names, an output root skips report/, sequences/ and shards/."""
+    import json
+
+    def pgm(p: Path) -> None:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        img = np.full((8, 8), 254, np.uint8)
+        img[2, 1:7] = 0
+        p.write_bytes(b"P5\n8 8\n255\n" + img.tobytes())
+
+    out = tmp_path / "out"
+    (out / "runs.csv").parent.mkdir(parents=True)
+    (out / "runs.csv").write_text("algorithm,outcome\n")
+    finals = []
+    for alg in ("rbpf", "icp", "graph"):
+        run = out / alg / "default" / "seq" / "1"
+        pgm(run / "out" / "finalMap.pgm")
+        for k in range(3):
+            pgm(run / "out" / "maps" / f"mapbuilt_{k:04d}.pgm")
+        pgm(run / "map.pgm")
+        (run / "map.yaml").write_text("image: map.pgm\nresolution: 0.05\n"
+                                      "origin: [0, 0, 0]\nnegate: 0\n"
+                                      "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+        (run / "run.json").write_text(json.dumps({"map": str(run / "map.yaml")}))
+        finals.append(run / "map.yaml")
+    pgm(out / "report" / "thumb.pgm")
+    pgm(out / "sequences" / "seq" / "gt_map.pgm")
+    pgm(out / "shards" / "x.pgm")
+    found, problems = discover_maps([out])
+    assert sorted(found) == sorted(finals) and problems == []
+    # a failed run (no map) gives nothing, and the output folder moved still works
+    failed = out / "slam" / "default" / "seq" / "1"
+    failed.mkdir(parents=True)
+    (failed / "run.json").write_text(json.dumps({"map": None, "outcome": "crash"}))
+    pgm(failed / "out" / "partial.pgm")
+    moved = tmp_path / "moved"
+    out.rename(moved)
+    found, _ = discover_maps([moved])
+    assert sorted(p.relative_to(moved) for p in found) == sorted(
+        p.relative_to(out) for p in finals)

@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 
 from slamq.models import OccupancyMap
-from slamq.synth import LaserSpec, Sequence
+from slamq.synth import LaserSpec, Recording
 
 # An 16 x 10 m floor: outer walls, two rooms off a corridor loop, a pillar, a box.
 WALLS = np.array([
@@ -99,7 +99,7 @@ def compose(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 def make_sequence(n: int = 200, beams: int = 181, *, odom_noise: float = 0.0, seed: int = 0,
                   range_noise: float = 0.01, offset: tuple[float, float, float] = (0.1, 0.0, 0.0),
-                  rate: float = 10.0, name: str = "room") -> Sequence:
+                  rate: float = 10.0, name: str = "room") -> Recording:
     """A drive of ``n`` scans; ``odom_noise`` scales the odometry's relative errors
     (0.05 = 5% of each step's translation and rotation, plus a small yaw bias)."""
     from slamq.synth.writers.rawlog import odometry_increments
@@ -125,5 +125,5 @@ def make_sequence(n: int = 200, beams: int = 181, *, odom_noise: float = 0.0, se
     if range_noise:
         ranges += (range_noise * rng.standard_normal(ranges.shape)).astype(np.float32)
     stamps = np.arange(n) / rate
-    return Sequence(stamps, gt, odom, ranges, laser, world_map(), name=name,
+    return Recording(stamps, gt, odom, ranges, laser, world_map(), name=name,
                     meta={"world": "test room", "odom_noise": odom_noise, "seed": seed})

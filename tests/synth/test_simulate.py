@@ -35,7 +35,7 @@ def office() -> slamq.OccupancyMap:
     return world(4, kind="office", size=(10.0, 8.0))
 
 
-def _traj(seq: slamq.synth.Sequence, poses: np.ndarray) -> Trajectory:
+def _traj(seq: slamq.synth.Recording, poses: np.ndarray) -> Trajectory:
     return Trajectory.from_xy_yaw(seq.stamps, poses[:, 0], poses[:, 1], poses[:, 2])
 
 

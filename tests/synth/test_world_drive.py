@@ -12,7 +12,7 @@ import pytest
 import slamq
 from slamq.errors import MapError, SlamqError
 from slamq.synth import KINDS, drive, load_world, save_world, world
-from slamq.synth.drive import clearance
+from slamq.synth.planner import clearance
 
 SMALL = (10.0, 8.0)
 

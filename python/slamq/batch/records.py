@@ -21,17 +21,15 @@ from slamq.models.comparison import COMPARISON_FIGURES
 from slamq.params import SETTINGS, Params
 from slamq.results.columns import ATE_STATS, columns
 from slamq.results.store import digest64
+from slamq.sources import formats
 from slamq.sources.files import (
     MAX_IMAGE_BYTES,
     MAX_YAML_BYTES,
     YAML_SUFFIXES,
-    is_bag,
-    load_yaml_safely,
     read_once,
     read_regular_file,
 )
 from slamq.sources.trajectories import load_pair
-from slamq.sources.walk import yaml_image
 
 __all__ = ["EvalOptions", "content_hash", "evaluate_run", "map_files"]
 
@@ -39,11 +37,9 @@ _READ_CHUNK = 1 << 20
 
 
 def map_files(path: os.PathLike[str] | str) -> list[Path]:
-    """The files a map is made of: a YAML and the image it names, an image or bag file
-    alone, or every file of a ROS 2 bag folder.
-
-    The image is resolved like the loader does: relative to the YAML's folder; an
-    absolute path that does not exist falls back to the file of that name beside the YAML.
+    """The files a map is made of, as its format says
+    (:func:`slamq.sources.formats.map_files`): a YAML and the image it names, an MRPT grid
+    and its limits, an image or bag file alone, every file of a ROS 2 bag folder.
 
     Examples
     --------
@@ -53,24 +49,19 @@ def map_files(path: os.PathLike[str] | str) -> list[Path]:
     >>> [p.name for p in map_files(d / "m.yaml")]
     ['m.yaml', 'm.pgm']
     """
-    path = Path(path)
-    if path.is_dir():  # a ROS 2 bag folder: every file in it
-        return sorted(p for p in path.rglob("*") if p.is_file())
-    if path.suffix.lower() not in (".yaml", ".yml"):
-        return [path]
-    img = yaml_image(path)
-    return [path] if img is None else [path, img]
+    return formats.map_files(path)
 
 
 def content_hash(path: os.PathLike[str] | str) -> str:
-    """Hex SHA-1 of a map's bytes: the YAML (if any) and its image, each length-prefixed.
+    """Hex SHA-1 of a map's bytes: each of its files (:func:`map_files`), length-prefixed.
 
     SHA-1 here is a fast content fingerprint (hardware accelerated, about 2 GB/s), not a
-    security measure. A map YAML and its image are read through
-    :func:`slamq.sources.files.read_regular_file`, so their size budgets are checked before
-    a byte is hashed, and inside :func:`~slamq.sources.files.read_once` the loader decodes
-    the very bytes hashed here. Bag files are hashed in chunks. A file that cannot be read
-    raises ``OSError`` or :class:`~slamq.errors.MapError`.
+    security measure. Files are read through :func:`slamq.sources.files.read_regular_file`
+    (size budgets checked before a byte is hashed; inside
+    :func:`~slamq.sources.files.read_once` the loader decodes the very bytes hashed here),
+    except those of a format whose own library reads them (bags): these are hashed in
+    chunks. A file that cannot be read raises ``OSError`` or
+    :class:`~slamq.errors.MapError`.
 
     Examples
     --------
@@ -82,22 +73,15 @@ def content_hash(path: os.PathLike[str] | str) -> str:
     """
     path = Path(path)
     h = hashlib.sha1(usedforsecurity=False)
-    if path.is_dir() or is_bag(path):
-        for f in map_files(path):
+    fmt = formats.format_of(path)
+    parts = [path] if fmt is None else fmt.files(path)
+    for f in parts:
+        if (fmt is not None and fmt.large) or f.is_dir():
             _hash_file(h, f)
-        return h.hexdigest()
-    if path.suffix.lower() in YAML_SUFFIXES:
-        raw = read_regular_file(path, "a map YAML", MAX_YAML_BYTES)
-        _hash_bytes(h, raw)
-        try:
-            doc = load_yaml_safely(raw, path, shared=True)  # only read
-        except MapError:
-            return h.hexdigest()  # the loader names the file and the reason
-        img = yaml_image(path, doc)
-        if img is None:
-            return h.hexdigest()
-        path = img
-    _hash_bytes(h, read_regular_file(path, "an image", MAX_IMAGE_BYTES))
+        elif f.suffix.lower() in YAML_SUFFIXES:
+            _hash_bytes(h, read_regular_file(f, "a map YAML", MAX_YAML_BYTES))
+        else:
+            _hash_bytes(h, read_regular_file(f, "an image", MAX_IMAGE_BYTES))
     return h.hexdigest()
 
 
@@ -305,7 +289,8 @@ def evaluate_run(
     where = str(run.map)
     # One read: the map's files are hashed and decoded from the same bytes (read_once), and
     # a bag, read twice, must look the same (inode, size, mtime) before and after.
-    twice = Path(run.map).is_dir() or is_bag(run.map)  # rosbags reads a bag itself
+    fmt = formats.format_of(run.map)
+    twice = Path(run.map).is_dir() or (fmt is not None and fmt.large)  # read by its library
     with read_once():
         before = _signature(run.map) if twice else None
         try:

@@ -2,7 +2,7 @@
 section 7).
 
 Follow one map: :func:`run` -> :func:`slamq.compare` (python/slamq/metrics/compare.py) ->
-``slamq._core.compare`` (rust/src/bindings/comparison.rs) -> rust/src/compare.rs (edt.rs, icp.rs).
+``slamq._core.compare`` (rust/src/bindings/comparison.rs) -> rust/src/compare/ (edt/, icp.rs).
 """
 
 from __future__ import annotations

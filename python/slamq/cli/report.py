@@ -18,10 +18,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("results", help="results file (.jsonl, .parquet, .json or .csv)")
     p.add_argument("--out", required=True, metavar="DIR", help="folder to write the site to")
     p.add_argument("--title", default="slamq evaluation report", help="page title")
-    p.add_argument("--details", choices=("all", "gallery"), default="all",
+    p.add_argument("--details", choices=("auto", "all", "gallery"), default="auto",
                    help="detail pages for every map, or only for the gallery's runs (each "
-                   "algorithm's two ends of the deciding column; faster on huge batches; "
-                   "default %(default)s)")
+                   "algorithm's two ends of the deciding column, the winner among them); "
+                   "auto: every map up to 60 maps, the gallery's above (default %(default)s)")
+    p.add_argument("--redraw", action="store_true",
+                   help="draw every page and figure again (by default those of an earlier "
+                   "report in --out whose inputs did not change are kept)")
     p.add_argument("--no-gifs", action="store_true",
                    help="skip map-building animations from snapshots")
     p.add_argument("--no-trajectories", action="store_true",
@@ -38,7 +41,7 @@ def handle(args: argparse.Namespace) -> int:
         index = build_report(
             args.results, args.out, title=args.title, details=args.details,
             gifs=not args.no_gifs, trajectories=not args.no_trajectories,
-            progress=progress.update,
+            progress=progress.update, reuse=not args.redraw,
         )
     print(f"report written: {index}")
     return EXIT_OK

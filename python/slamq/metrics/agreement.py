@@ -41,7 +41,8 @@ from slamq.metrics.several import named_maps
 from slamq.models import OccupancyMap
 from slamq.params import SETTINGS
 
-__all__ = ["MISSING_MIN_LENGTH", "Agreement", "agreement", "missing_walls", "place_all"]
+__all__ = ["MISSING_MIN_LENGTH", "Agreement", "agreeing_group", "agreement", "missing_walls",
+           "place_all"]
 
 _E, _G, _EM, _GM, _EK, _GF = 1, 2, 4, 8, 16, 32
 
@@ -67,6 +68,12 @@ class Agreement:
         NaN figures).
     majority : bool
         More than half of the maps have a support of at least ``min_support``.
+    group : list of str
+        The agreeing group (docs/spec.md section 9): the largest set of at least two maps
+        whose every pair has a consistency of at least ``min_support`` (of two such sets,
+        the one with the higher mean consistency), in the order given; empty when no two
+        maps agree. A map in it is confirmed by another even when most maps are broken;
+        a map that agrees with nobody is evidence of nothing.
     min_support : float
         The support a map needs to count as confirmed.
     notes : list of str
@@ -96,6 +103,7 @@ class Agreement:
     min_support: float
     notes: list[str] = field(default_factory=list)
     missing: dict[str, np.ndarray] = field(default_factory=dict)
+    group: list[str] = field(default_factory=list)
 
     def table(self) -> list[dict[str, Any]]:
         """One dict per map: ``name``, ``support``, ``completeness``, ``placed``.
@@ -456,6 +464,73 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     if not majority:
         notes.append(f"only {confirmed} of {n} maps agree with the others (support >= "
                      f"{min_support:g}): the maps disagree among themselves")
+    group = [names[i] for i in agreeing_group(cons, min_support)]
     return Agreement(names=names, support=support, completeness=completeness,
                      consistency=cons, placed=placed, majority=majority,
-                     min_support=float(min_support), notes=notes, missing=missing)
+                     min_support=float(min_support), notes=notes, missing=missing,
+                     group=group)
+
+
+#: Above this many maps the agreeing group is grown greedily instead of searched exactly.
+EXACT_GROUP_MAPS = 16
+
+
+def agreeing_group(consistency: np.ndarray, min_consistency: float) -> list[int]:
+    """The indices of the largest set of at least two maps whose every pair has a
+    consistency of at least ``min_consistency`` (a maximum clique); among sets of that size
+    the one with the highest mean consistency, then the first in index order. Empty when
+    no pair agrees. Exact up to :data:`EXACT_GROUP_MAPS` maps, greedy beyond (from each
+    pair in order of consistency, add the map that keeps the set agreeing with the highest
+    mean consistency).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> c = np.array([[np.nan, 0.99, 0.2, 0.6],
+    ...               [0.99, np.nan, 0.1, 0.7],
+    ...               [0.2, 0.1, np.nan, 0.3],
+    ...               [0.6, 0.7, 0.3, np.nan]])
+    >>> agreeing_group(c, 0.6)
+    [0, 1, 3]
+    >>> agreeing_group(c, 0.8), agreeing_group(c, 0.995)
+    ([0, 1], [])
+    """
+    c = np.asarray(consistency, dtype=float)
+    n = c.shape[0]
+    ok = np.nan_to_num(c, nan=-1.0) >= min_consistency
+    np.fill_diagonal(ok, False)
+
+    def mean(members: tuple[int, ...]) -> float:
+        return float(np.mean([c[i, j] for i in members for j in members if i < j]))
+
+    best: tuple[int, ...] = ()
+    best_score = (0, -math.inf)
+    if n <= EXACT_GROUP_MAPS:
+        def grow(members: tuple[int, ...], rest: list[int]) -> None:
+            nonlocal best, best_score
+            if len(members) >= 2:
+                score = (len(members), mean(members))
+                if score > best_score:
+                    best, best_score = members, score
+            for k, j in enumerate(rest):
+                if len(members) + len(rest) - k < best_score[0]:
+                    return  # cannot beat the best size any more
+                if all(ok[i, j] for i in members):
+                    grow(members + (j,), rest[k + 1:])
+
+        grow((), list(range(n)))
+        return list(best)
+    pairs = sorted(((c[i, j], i, j) for i in range(n) for j in range(i + 1, n) if ok[i, j]),
+                   key=lambda t: (-t[0], t[1], t[2]))
+    for _, i, j in pairs:
+        members = (i, j)
+        while True:
+            add = [k for k in range(n) if k not in members and all(ok[m, k] for m in members)]
+            if not add:
+                break
+            members = tuple(sorted(members + (max(add, key=lambda k: (mean(
+                tuple(sorted(members + (k,)))), -k)),)))
+        score = (len(members), mean(members))
+        if score > best_score:
+            best, best_score = members, score
+    return list(best)

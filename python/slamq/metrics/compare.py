@@ -3,7 +3,7 @@
 
 Follow one pair from here: :func:`compare` hands the two maps' buffers and frames to
 :func:`slamq.native.compare` (rust/src/bindings/comparison.rs ->
-compare.rs, which uses edt.rs for the distance transforms and icp.rs for the alignment) and
+compare/, which uses edt/ for the distance transforms and icp.rs for the alignment) and
 wraps the counts it returns in a :class:`~slamq.MapComparison`.
 """
 

@@ -3,7 +3,7 @@ by the Rust core (``slamq.evaluate`` is this after :mod:`slamq.api` has loaded t
 
 Follow one map from here: :func:`evaluate` hands the map's ``values`` and ``unknown``
 buffers and the :class:`~slamq.Params` to :func:`slamq.native.evaluate`
-(rust/src/bindings/maps.rs -> evaluate.rs -> proportion.rs, corners.rs, canonical.rs,
+(rust/src/bindings/maps.rs -> evaluate.rs -> proportion.rs, corners.rs, canonical/,
 enclosed.rs) and wraps the integers it returns in a :class:`~slamq.MapQuality`. Ratios are
 computed from those integers by :meth:`MapQuality.from_counts`, the same code
 :mod:`slamq.metrics.reference` uses, so both sides agree bit for bit; the comparability

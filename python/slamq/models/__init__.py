@@ -7,6 +7,8 @@
 - :class:`Registration`: one map registered onto another of the same place (SPEC 7a).
 - :class:`Relations`, :class:`RelationsResult`: ground-truth relations and the relations
   error of a trajectory (SPEC 6a).
+- :class:`Scans`, :class:`ScanConsistency`: laser scans, and a map scored against them
+  (SPEC 7b).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ if TYPE_CHECKING:
     from slamq.models.quality import MapQuality
     from slamq.models.registration import Registration
     from slamq.models.relations import Relations, RelationsResult
+    from slamq.models.scans import ScanConsistency, Scans
     from slamq.models.trajectory import Trajectory
 
 #: Public names, imported on first use: name -> module.
@@ -31,10 +34,12 @@ _WHERE = {
     "Registration": "slamq.models.registration",
     "Relations": "slamq.models.relations",
     "RelationsResult": "slamq.models.relations",
+    "ScanConsistency": "slamq.models.scans",
+    "Scans": "slamq.models.scans",
     "Trajectory": "slamq.models.trajectory",
 }
 
 __getattr__, __dir__ = exports(globals(), _WHERE)
 
 __all__ = ["MapComparison", "MapQuality", "OccupancyMap", "Registration", "Relations",
-           "RelationsResult", "Trajectory"]
+           "RelationsResult", "ScanConsistency", "Scans", "Trajectory"]

@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from slamq.columns import group_names
+
 __all__ = ["COMPARISON_FIGURES", "MapComparison"]
 
 
@@ -156,8 +158,8 @@ def _ratio(num: float, den: float) -> float:
     return float(num) / float(den) if den else math.nan
 
 
-#: The figures of a comparison (the ``gt_*`` columns of a batch), in table order.
-COMPARISON_FIGURES: tuple[str, ...] = (
-    "precision", "recall", "f1", "iou", "ne", "reverse", "chamfer", "coverage",
-    "dx", "dy", "dyaw", "icp_rms", "truncated", "outside",
-)
+#: The figures of a comparison that are ``gt_*`` columns of a batch, in table order
+#: (:data:`slamq.columns.COLUMNS`).
+COMPARISON_FIGURES: tuple[str, ...] = tuple(
+    name[3:] for name in group_names("gt")
+    if name[3:] in {f.name for f in fields(MapComparison)})

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+from slamq.columns import computed_columns, group_names
 from slamq.params import Params
 
 __all__ = ["MapQuality", "facts_from_counts", "map_facts", "shade_source"]
@@ -84,6 +85,10 @@ def facts_from_counts(grid: Any, levels: int, shade: int | None,
     the unknown cells' commonest shade (None without unknown cells) and the known cells'
     bounding box ``(r0, r1, c0, c1)`` (None without known cells).
 
+    Both implementations pass here with the map, so the values of the registered map
+    columns that have a computation (:func:`slamq.columns.register_column`) are computed
+    here too, as ``extra`` (empty without such a column).
+
     Examples
     --------
     >>> import numpy as np
@@ -105,6 +110,8 @@ def facts_from_counts(grid: Any, levels: int, shade: int | None,
                  f"{'-' if shade is None else shade}",
         "flags": ";".join(meta.get("flags", [])),
         "known_box_m2": box_m2,
+        "extra": {c.name: c.compute(grid) for c in computed_columns()  # type: ignore[misc]
+                  },
     }
 
 
@@ -153,6 +160,9 @@ class MapQuality:
         ``count_u`` for every ``u`` in ``params.sweep_values`` (when asked for).
     params : Params
         The parameters used.
+    extra : dict
+        The values of the registered map columns (:func:`slamq.columns.register_column`),
+        by name; empty without one. :meth:`to_dict` puts them after ``curve``.
 
     Examples
     --------
@@ -189,6 +199,7 @@ class MapQuality:
     known_box_m2: float = math.nan
     curve: tuple[int, ...] | None = None
     params: Params = field(default_factory=Params)
+    extra: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def from_counts(
@@ -263,11 +274,26 @@ class MapQuality:
         """
         # every field but params holds an immutable value: a shallow copy is asdict's
         # result without its per-element recursion into the 256-value curve
-        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "params"}
+        out = {name: getattr(self, name) for name in _FIELDS}
         if out["curve"] is not None:
             out["curve"] = list(out["curve"])
+        out.update(self.extra)
         out.update({f"param_{k}": v for k, v in self.params.to_dict().items()})
         return out
+
+    def value(self, name: str) -> Any:
+        """The value of column ``name``: a field, or a registered column's (None when this
+        result lacks it).
+
+        Examples
+        --------
+        >>> import numpy as np, slamq
+        >>> slamq.evaluate(np.zeros((2, 3), np.uint8)).value("width")
+        3
+        """
+        if name in _FIELD_SET:
+            return getattr(self, name)
+        return self.extra.get(name)
 
     def differences(self, other: MapQuality, rel: float = 1e-12) -> list[str]:
         """Fields on which two results disagree (integers exactly, ratios to ``rel``).
@@ -280,22 +306,32 @@ class MapQuality:
         []
         """
         diffs = []
-        for name in (
-            "height", "width", "total", "known", "unknown", "occupied", "free",
-            "corners", "corners_canonical", "enclosed_areas", "enclosed_unknown_value",
-            "curve",
-        ):
-            a, b = getattr(self, name), getattr(other, name)
-            if a != b and not (name == "curve" and (a is None or b is None)):
-                diffs.append(f"{name}: {a!r} != {b!r}")
-        for name in ("saver", "flags"):
-            if getattr(self, name) != getattr(other, name):
-                diffs.append(f"{name}: {getattr(self, name)!r} != {getattr(other, name)!r}")
-        for name in ("occupied_fraction", "proportion", "threshold", "wall_angle",
-                     "known_box_m2"):
-            a, b = getattr(self, name), getattr(other, name)
-            if math.isnan(a) and math.isnan(b):
+        for name in _compared():
+            a, b = self.value(name), other.value(name)
+            if _close(a, b, rel) or (name == "curve" and (a is None or b is None)):
                 continue
-            if not math.isclose(a, b, rel_tol=rel, abs_tol=0.0):
-                diffs.append(f"{name}: {a!r} != {b!r}")
+            diffs.append(f"{name}: {a!r} != {b!r}")
         return diffs
+
+
+#: The fields of a result that are record columns, in order (all but ``params``, ``extra``).
+_FIELDS = tuple(f.name for f in fields(MapQuality) if f.name not in ("params", "extra"))
+_FIELD_SET = frozenset(_FIELDS)
+#: Not compared by :meth:`MapQuality.differences`: the map's name, and the figures derived
+#: from the map's size and resolution alone (as the loader gave them to both sides).
+_NOT_COMPARED = frozenset({"source", "resolution", "known_area_m2"})
+
+
+def _compared() -> tuple[str, ...]:
+    """The map columns both implementations compute: every one but :data:`_NOT_COMPARED`
+    (registered ones included)."""
+    return tuple(n for n in group_names("map") if n not in _NOT_COMPARED)
+
+
+def _close(a: Any, b: Any, rel: float) -> bool:
+    """Equal: integers, text and lists exactly, floats to ``rel`` (NaN equals NaN)."""
+    if isinstance(a, float) and isinstance(b, float):
+        if math.isnan(a) or math.isnan(b):
+            return math.isnan(a) and math.isnan(b)
+        return math.isclose(a, b, rel_tol=rel, abs_tol=0.0)
+    return bool(a == b)

@@ -27,7 +27,7 @@ COMPARISON_COLOURS: dict[str, tuple[int, int, int]] = {
     "ghost": (30, 80, 230),        # an estimate wall the ground truth lacks
 }
 
-# bits of MapComparison.cells (rust/src/compare.rs, module flag)
+# bits of MapComparison.cells (rust/src/compare/flag.rs)
 _E, _G, _E_OK, _G_OK, _FREE = 1, 2, 4, 8, 32
 
 

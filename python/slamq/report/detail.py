@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from slamq.errors import SlamqError
+from slamq.columns import column, shown_names
+from slamq.errors import ParamError, SlamqError
 from slamq.report.formatting import format_value
 from slamq.report.markup import MapPage, page
 from slamq.report.markup import esc as _e
@@ -68,7 +69,7 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
         mp.defects = ex.defects
         gt = ex.ground_truth
         sections.append(_map_layers(mp, out, ov, u, grid, gt))
-        curve_png = f"img/{mp.slug}_curve.png"
+        curve_png = f"img/{mp.slug}_curve.svg"
         curve_figure(list(quality.curve), list(params.sweep_values),
                      int(quality.enclosed_unknown_value), out / curve_png)
         sections.append(
@@ -81,9 +82,9 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
         if gifs:
             sections.append(_building_section(ex.building, out, mp))
     rows = "".join(
-        f"<tr><th title=\"{_e(k)}\">{_e(_FIELDS[k][0])}</th><td class=\"num\" "
+        f"<tr><th title=\"{_e(k)}\">{_e(_label(k))}</th><td class=\"num\" "
         f"data-field=\"{_e(k)}\">{_e(with_unit(k, rec.get(k)))}</td></tr>"
-        for k in _FIELDS if k in rec and usable(rec.get(k)))
+        for k in _DETAIL_KEYS if k in rec and usable(rec.get(k)))
     files = "".join(
         f"<li>{_e(k)}: <code>{_e(rec.get(k))}</code></li>"
         for k in _FILE_KEYS if k in rec and usable(rec.get(k)))
@@ -101,50 +102,37 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
              head + f"<div class=\"top\">{numbers}{first}</div>" + rest), encoding="utf-8")
 
 
-#: The numbers a detail page lists: field -> (name, unit); "" for counts and ratios.
-_FIELDS: dict[str, tuple[str, str]] = {
-    "ate_rmse": ("ATE RMSE", "m"), "ate_mean": ("ATE mean", "m"),
-    "ate_median": ("ATE median", "m"), "ate_std": ("ATE std", "m"),
-    "ate_min": ("ATE min", "m"), "ate_max": ("ATE max", "m"),
-    "ate_n": ("poses matched for ATE", "poses"),
-    "gt_precision": ("GT precision", ""), "gt_recall": ("GT recall", ""),
-    "gt_f1": ("GT F1", ""), "gt_iou": ("GT IoU", ""),
-    "gt_ne": ("distance of the GT's walls to the map's (ne)", "m"),
-    "gt_reverse": ("distance of the map's walls to the GT's", "m"),
-    "gt_chamfer": ("GT chamfer", "m"), "gt_coverage": ("GT free space covered", ""),
-    "gt_dx": ("alignment to GT: x", "m"), "gt_dy": ("alignment to GT: y", "m"),
-    "gt_dyaw": ("alignment to GT: yaw", "deg"), "gt_icp_rms": ("alignment ICP RMS", "m"),
-    "gt_truncated": ("GT distances capped", "cells"),
-    "gt_outside": ("occupied cells outside the GT's grid", "cells"),
-    "occupied_fraction": ("occupied fraction", ""), "corners": ("corners", ""),
-    "corners_canonical": ("canonical corners", ""),
-    "enclosed_areas": ("enclosed areas", ""),
-    "enclosed_unknown_value": ("unknown value u of the enclosed areas", ""),
-    "proportion": ("proportion", ""), "threshold": ("proportion threshold", ""),
-    "occupied": ("occupied", "cells"), "free": ("free", "cells"),
-    "unknown": ("unknown", "cells"), "known": ("known", "cells"),
-    "total": ("total", "cells"), "known_area_m2": ("known area", "m²"),
-    "resolution": ("resolution", "m/cell"), "height": ("height", "cells"),
-    "width": ("width", "cells"), "wall_angle": ("wall angle (modulo 90)", "deg"),
-    "seconds": ("evaluation time", "s"),
-}
+#: The numbers a detail page lists and the files it names (slamq.columns: "detail", "files").
+_DETAIL_KEYS = shown_names("detail")
+_FILE_KEYS = shown_names("files")
+
+
+def _unit(key: str) -> str:
+    try:
+        return column(key).unit
+    except (KeyError, ParamError):
+        return ""
+
+
+def _label(key: str) -> str:
+    try:
+        return column(key).label or key
+    except (KeyError, ParamError):
+        return key
 
 
 def with_unit(key: str, x: Any) -> str:
     """A record's value as a detail page prints it: integers whole, else 6 significant
-    digits, then the field's unit.
+    digits, then the column's unit (:mod:`slamq.columns`).
 
     Examples
     --------
     >>> with_unit("gt_dyaw", -1.80364), with_unit("gt_outside", 539), with_unit("corners", 7)
     ('-1.80364 deg', '539 cells', '7')
     """
-    unit = _FIELDS.get(key, ("", ""))[1]
+    unit = _unit(key)
     text = _fmt_cell(x)
     return f"{text} {unit}" if unit else text
-
-
-_FILE_KEYS = ("map", "trajectory", "groundtruth", "gt_map", "ate_error", "gt_error", "hash")
 
 
 def _fmt_cell(x: Any) -> str:
@@ -258,7 +246,7 @@ def standing(rec: dict, ranking: Any, summary: Any = None,
 
 def _short(key: str, x: float) -> str:
     """``x`` with the field's unit, to 3 significant digits (for sentences)."""
-    unit = _FIELDS.get(key, ("", ""))[1]
+    unit = _unit(key)
     return f"{format_value(x)} {unit}" if unit else format_value(x)
 
 
@@ -440,8 +428,8 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
         legend += legend_missing
     table = ""
     if mp.defects:
-        table = ("<div class=\"scroll\"><table class=\"defects\"><tr><th>#</th><th>kind</th><th>cells [col0, row0,"
-                 " col1, row1]</th><th>note</th></tr>" + "".join(
+        table = ("<div class=\"scroll\"><table class=\"defects\"><tr><th>#</th><th>kind</th>"
+                 "<th>cells [col0, row0, col1, row1]</th><th>note</th></tr>" + "".join(
                      f"<tr><td>{i + 1}</td><td>{_e(d['kind'])}</td><td>"
                      f"{_e(', '.join(format_value(v) for v in d['bbox']))}</td>"
                      f"<td>{_e(d['note'])}</td></tr>" for i, d in enumerate(mp.defects))

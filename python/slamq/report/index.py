@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from slamq.columns import COLUMNS
 from slamq.report.formatting import format_mean_std, format_value
 from slamq.report.markup import MapPage, metric_title
 from slamq.report.markup import esc as _e
@@ -30,7 +31,7 @@ _WINNER = ' class="winner"'
 
 _BEST = " best"
 
-_METRIC_HELP = {m.key: m for m in (*METRICS, CANONICAL)}
+_METRIC_HELP = COLUMNS
 
 
 def scroll(table: str) -> str:
@@ -135,9 +136,12 @@ def best_worst(group: pd.DataFrame, basis: Iterable[str] = ()) -> list[int]:
     return [order[0]] if len(order) == 1 else [order[0], order[-1]]
 
 
-def plots(ok: pd.DataFrame, out: Path, sequences: list[str]) -> list[tuple[str, str]]:
+def plots(ok: pd.DataFrame, out: Path, sequences: list[str],
+          cache: dict[str, str] | None = None) -> list[tuple[str, str]]:
     """One figure per ranked metric that has values (every run a point, one panel per
-    sequence), reference maps left out; returns ``(metric key, PNG path)`` pairs.
+    sequence, SVG), reference maps left out; returns ``(metric key, path)`` pairs. With
+    ``cache`` (``{path: stamp of its inputs}``, updated), a figure whose inputs did not
+    change is kept (:func:`slamq.report.cache.figure_digest`).
 
     Examples
     --------
@@ -146,7 +150,7 @@ def plots(ok: pd.DataFrame, out: Path, sequences: list[str]) -> list[tuple[str, 
     >>> ok = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "run": 0,
     ...                    "corners": [3, 5]})
     >>> plots(ok, out, ["s"])
-    [('corners', 'img/plot_corners.png')]
+    [('corners', 'img/plot_corners.svg')]
     """
     from slamq.report.plots import algorithm_colours, metric_figure
 
@@ -160,7 +164,16 @@ def plots(ok: pd.DataFrame, out: Path, sequences: list[str]) -> list[tuple[str, 
     for m in METRICS:
         if m.key not in ok or not np.isfinite(pd.to_numeric(ok[m.key], errors="coerce")).any():
             continue
-        png = f"img/plot_{m.key}.png"
+        png = f"img/plot_{m.key}.svg"
+        if cache is not None:
+            from slamq.report.cache import figure_digest
+
+            digest = figure_digest(ok, m, sequences, colours)
+            kept = cache.get(png) == digest and (out / png).is_file()
+            cache[png] = digest
+            if kept:
+                made.append((m.key, png))
+                continue
         metric_figure(ok, m, out / png, sequences=sequences, colours=colours)
         made.append((m.key, png))
     return made

@@ -29,10 +29,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from slamq.columns import shown  # noqa: E402
+
 __all__ = ["resources_page", "QUALITY", "COSTS"]
 
-#: Quality columns plotted (when present with a value): column -> label.
-QUALITY = {"ate_rmse": "ATE RMSE [m]", "gt_f1": "GT-map F1"}
+#: Quality columns plotted (when present with a value): column -> heading (the columns
+#: shown at ``resources``, :data:`slamq.columns.COLUMNS`).
+QUALITY = {c.name: c.heading for c in shown("resources")}
 #: Cost columns: column -> label.
 COSTS = {"cpu_s": "CPU time [s]", "wall_s": "wall time [s]", "peak_rss_mb": "peak RSS [MiB]"}
 _DPI = 100

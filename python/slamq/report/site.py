@@ -26,7 +26,12 @@ from pathlib import Path
 from typing import Any
 
 from slamq.errors import SlamqError
-from slamq.report.cache import page_digest, read_page_cache, write_page_cache
+from slamq.report.cache import (
+    page_digest,
+    read_figure_cache,
+    read_page_cache,
+    write_page_cache,
+)
 from slamq.report.detail import detail_page, standing
 from slamq.report.export import write_tables
 from slamq.report.index import best_worst, index_body, mixed_settings, plots
@@ -37,7 +42,11 @@ from slamq.verdict.exhibits import detected_defects, map_exhibit
 from slamq.verdict.judge import judge
 from slamq.verdict.records import ResultsLike, load_results, usable
 
-__all__ = ["build_report", "write_tables"]
+__all__ = ["AUTO_ALL_PAGES", "build_report", "write_tables"]
+
+#: ``details="auto"`` makes a detail page for every map up to this many successful maps,
+#: and for the gallery's maps only above it.
+AUTO_ALL_PAGES = 60
 
 
 def build_report(
@@ -45,7 +54,7 @@ def build_report(
     out_dir: Any,
     *,
     title: str = "slamq evaluation report",
-    details: str = "all",
+    details: str = "auto",
     gifs: bool = True,
     trajectories: bool = True,
     progress: Callable[[int, int], None] | None = None,
@@ -63,10 +72,15 @@ def build_report(
         Folder to write (created; existing report files are overwritten).
     title : str
         Page title.
-    details : {"all", "gallery"}
-        Detail pages for every successful map, or only for the gallery's runs (each
-        algorithm's two ends of the deciding column; for very large batches: each detail
-        page loads and re-draws its map).
+    details : {"auto", "all", "gallery"}
+        Which maps get a detail page: every successful map ("all"), or the maps the index
+        shows, the gallery's runs ("gallery": each algorithm's two ends of the deciding
+        column in each sequence, the verdict's winner among them); "auto" (default) is
+        "all" up to :data:`AUTO_ALL_PAGES` successful maps and "gallery" above. A detail
+        page loads, scores and draws its map again (most of a report's time), so a batch
+        of thousands of maps gets a few dozen pages; the other runs are rows of the index's
+        run tables, of ``summary.csv`` and of the results file, and get their page with
+        ``details="all"`` (``slamq report --details all``), kept by ``reuse`` from then on.
     gifs : bool
         Animate map building when a run folder holds ``map_0001.pgm``-style snapshots.
     trajectories : bool
@@ -88,7 +102,7 @@ def build_report(
         ``trajectories``, the content of the map, trajectory, ground truth and snapshots
         the page draws, and slamq's version (kept in ``out_dir/.pages.json``, which also
         says how many pages were ``drawn`` and ``reused``). The index page is always
-        written.
+        written; its figures are kept likewise when their inputs did not change.
 
     Returns
     -------
@@ -110,8 +124,8 @@ def build_report(
     """
     if defects_for is None:
         defects_for = detected_defects
-    if details not in ("all", "gallery"):
-        raise SlamqError(f"details must be 'all' or 'gallery', got {details!r}")
+    if details not in ("auto", "all", "gallery"):
+        raise SlamqError(f"details must be 'auto', 'all' or 'gallery', got {details!r}")
     frame = load_results(results)
     out = Path(out_dir)
     (out / "img").mkdir(parents=True, exist_ok=True)
@@ -130,6 +144,8 @@ def build_report(
         sub = ok[ok["sequence"] == seq]
         for alg, group in sub.groupby("algorithm", sort=True):
             gallery[(seq, str(alg))] = best_worst(group, verdicts[seq]["basis"])
+    if details == "auto":
+        details = "all" if len(ok) <= AUTO_ALL_PAGES else "gallery"
     wanted = set(ok.index) if details == "all" else {i for v in gallery.values() for i in v}
     for i in sorted(wanted):
         rec = ok.loc[i].to_dict()
@@ -159,10 +175,10 @@ def build_report(
                               "files": [f for f in (mp.thumb, mp.full, mp.gif) if f]}
         if progress is not None:
             progress(done, len(pages))
+    figures = read_figure_cache(out) if reuse else None
+    made = plots(ok, out, sequences, cache=figures)
     if reuse:
-        write_page_cache(out, fresh)
-
-    made = plots(ok, out, sequences)
+        write_page_cache(out, fresh, figures)
     body = index_body(title, frame, ok, failed, summary, sequences, rankings, verdicts,
                       gallery, pages, made, mixed_settings(frame))
     index = out / "index.html"

@@ -33,6 +33,7 @@ from typing import Any, NamedTuple, Union
 import numpy as np
 from PIL import Image, ImageDraw
 
+from slamq.columns import shown
 from slamq.report.overlays import render_base
 from slamq.results.columns import json_value
 from slamq.verdict.building import Timeline, evaluated_bag_maps
@@ -177,11 +178,7 @@ def _plot(rows: list[dict[str, Any]], path: Path) -> None:
     from matplotlib.figure import Figure
 
     t = [r["elapsed"] for r in rows]
-    series = (
-        ("occupied_fraction", "occupied fraction"),
-        ("corners", "corners"),
-        ("enclosed_areas", "enclosed areas"),
-    )
+    series = [(c.name, c.label) for c in shown("timeline")]
     fig = Figure(figsize=(6.0, 5.0), dpi=100)
     axes = fig.subplots(len(series), 1, sharex=True)
     for ax, (key, label) in zip(axes, series):
@@ -223,11 +220,8 @@ def write_timeline_gif(
     """
     from slamq.report.plots import timeline_figure
 
-    series = {
-        "occupied fraction": timeline.occupied_fraction,
-        "corners": timeline.corners,
-        "enclosed areas": timeline.enclosed_areas,
-    }
+    series = {c.label: getattr(timeline, c.name) for c in shown("timeline")
+              if hasattr(timeline, c.name)}  # the series a Timeline holds
     chart, xs = timeline_figure(series, timeline.names, (box + 60, box))
     frames: list[np.ndarray] = []
     for i, grid in enumerate(timeline.maps):

@@ -83,4 +83,4 @@ def draw_trajectory(evidence: TrajectoryEvidence, grid: OccupancyMap, path: Path
 
 def time_plot_path(path: Path) -> Path:
     """Where :func:`draw_trajectory` puts the error-over-time plot beside ``path``."""
-    return path.with_name(path.stem + "_time.png")
+    return path.with_name(path.stem + "_time.svg")

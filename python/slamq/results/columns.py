@@ -3,7 +3,9 @@
 A record is one map of a batch (or of ``slamq eval``): where it belongs (:data:`RUN_COLUMNS`),
 its metrics (:data:`QUALITY_COLUMNS`, the keys of ``MapQuality.to_dict()`` with the
 parameters as ``param_*``), its trajectory error (:data:`ATE_COLUMNS`), and its comparison
-with the sequence's ground-truth map (:data:`GT_COLUMNS`).
+with the sequence's ground-truth map (:data:`GT_COLUMNS`). The columns, their order and
+types are :data:`slamq.columns.COLUMNS`'s; these names are live views of it (registered
+columns included).
 """
 
 from __future__ import annotations
@@ -12,18 +14,16 @@ import json
 import math
 import os
 from collections.abc import Iterable
-from dataclasses import fields
 from typing import Any
 
-from slamq.models import MapQuality
-from slamq.models.comparison import COMPARISON_FIGURES
-from slamq.params import PARAM_NAMES
+from slamq.columns import group_names, group_view, record_columns
 
 __all__ = [
     "ATE_COLUMNS",
     "ATE_STATS",
     "GT_COLUMNS",
     "KEY",
+    "PARAM_COLUMNS",
     "QUALITY_COLUMNS",
     "GROUND_TRUTH_ALGORITHMS",
     "RUN_COLUMNS",
@@ -34,24 +34,22 @@ __all__ = [
 
 #: A record's identity: the last record of a key wins in a results file.
 KEY = ("algorithm", "sequence", "run", "map")
-#: Where the map belongs, and how the record was made.
-RUN_COLUMNS = (
-    "map", "algorithm", "sequence", "run", "trajectory", "groundtruth",
-    "hash", "config", "unknown_value", "error", "seconds",
-)
-PARAM_COLUMNS = tuple(f"param_{name}" for name in PARAM_NAMES)
-#: Every key of ``MapQuality.to_dict()`` (``curve`` is dropped unless asked for).
-QUALITY_COLUMNS = tuple(
-    f.name for f in fields(MapQuality) if f.name != "params"
-) + PARAM_COLUMNS
-ATE_STATS = ("rmse", "mean", "median", "std", "min", "max", "n")
-#: Trajectory error against ground truth (SPEC section 6), when both are known.
-ATE_COLUMNS = tuple(f"ate_{s}" for s in ATE_STATS) + ("ate_error",)
-#: The map against its sequence's ground-truth map (SPEC section 7), when there is one.
-GT_COLUMNS = ("gt_map",) + tuple(f"gt_{f}" for f in COMPARISON_FIGURES) + ("gt_error",)
+#: The statistics of the trajectory error (``ate_<stat>``), as :func:`slamq.ate` names them.
+ATE_STATS = tuple(n.removeprefix("ate_") for n in group_names("ate") if n != "ate_error")
 #: "Algorithms" whose maps are the ground truth of their sequence (beside the runs):
 #: compared with, shown, never ranked.
 GROUND_TRUTH_ALGORITHMS = frozenset({"ground_truth", "groundtruth", "gt", "reference"})
+
+#: Where the map belongs, and how the record was made.
+RUN_COLUMNS = group_view("run")
+#: The map parameters, ``param_<name>``.
+PARAM_COLUMNS = group_view("param")
+#: Every key of ``MapQuality.to_dict()`` (``curve`` is dropped unless asked for).
+QUALITY_COLUMNS = group_view("map", "param")
+#: Trajectory error against ground truth (SPEC section 6), when both are known.
+ATE_COLUMNS = group_view("ate")
+#: The map against its sequence's ground-truth map (SPEC section 7), when there is one.
+GT_COLUMNS = group_view("gt")
 
 
 def columns(curve: bool = False) -> tuple[str, ...]:
@@ -63,8 +61,7 @@ def columns(curve: bool = False) -> tuple[str, ...]:
     >>> cols[:3], "corners" in cols, "curve" in cols, "ate_rmse" in cols, "gt_f1" in cols
     (('map', 'algorithm', 'sequence'), True, False, True, True)
     """
-    q = QUALITY_COLUMNS if curve else tuple(c for c in QUALITY_COLUMNS if c != "curve")
-    return RUN_COLUMNS + q + ATE_COLUMNS + GT_COLUMNS
+    return record_columns(curve)
 
 
 def json_value(value: Any) -> Any:

@@ -18,21 +18,13 @@ import csv
 import json
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import fields
 from pathlib import Path
 from typing import IO, Any
 
+from slamq.columns import COLUMNS, group_names, record_columns
 from slamq.errors import MapError, ParamError, SlamqError
 from slamq.models import MapQuality
-from slamq.params import Params
-from slamq.results.columns import (
-    ATE_COLUMNS,
-    GT_COLUMNS,
-    KEY,
-    QUALITY_COLUMNS,
-    RUN_COLUMNS,
-    json_value,
-)
+from slamq.results.columns import KEY, json_value
 from slamq.sources.files import PathLike
 
 __all__ = [
@@ -48,24 +40,17 @@ __all__ = [
 _JSONL = (".jsonl", ".ndjson")
 _PARQUET = (".parquet", ".pq")
 
-#: The ``param_*`` columns of the map parameters, by type (from the schema, slamq.params).
-_PARAM_COLUMNS = {t: {f"param_{f.name}" for f in fields(Params) if f.type == t}
-                  for t in ("int", "float")}
-_INT_COLUMNS = {
-    "unknown_value", "height", "width", "total", "known", "unknown", "occupied", "free",
-    "corners", "corners_canonical", "enclosed_areas", "enclosed_unknown_value",
-    "ate_n", "gt_truncated", "gt_outside",
-} | _PARAM_COLUMNS["int"]
-#: Float columns that are NaN when a map has no known cell (null in JSON).
-_FLOAT_COLUMNS = {"occupied_fraction", "proportion", "threshold", "seconds",
-                  "wall_angle", "known_box_m2"} | _PARAM_COLUMNS["float"] | {
-    f"ate_{s}" for s in ("rmse", "mean", "median", "std", "min", "max")} | {
-    c for c in GT_COLUMNS if c not in ("gt_map", "gt_error", "gt_truncated", "gt_outside")}
-_STR_COLUMNS = {
-    "map", "algorithm", "sequence", "run", "trajectory", "groundtruth", "hash", "config",
-    "error",
-    "source", "ate_error", "gt_map", "gt_error", "saver", "flags",
-}
+#: Prefixes of the column families: a column of such a name that the table lacks (written
+#: by another version of slamq) is read as a number.
+_NUMBER_PREFIXES = ("param_", "ate_", "gt_")
+
+
+def _dtype(name: str) -> str | None:
+    """The type of column ``name`` (:data:`slamq.columns.COLUMNS`), None when unknown."""
+    col = COLUMNS.get(name)
+    if col is not None:
+        return col.dtype
+    return "float" if name.startswith(_NUMBER_PREFIXES) else None
 
 
 def results_format(path: PathLike) -> str:
@@ -227,14 +212,13 @@ def read_records(path: PathLike) -> list[dict[str, Any]]:
 
 
 def _ordered_columns(records: list[dict[str, Any]]) -> list[str]:
-    cols: dict[str, None] = {}
-    for name in RUN_COLUMNS + QUALITY_COLUMNS + ATE_COLUMNS + GT_COLUMNS:
-        cols[name] = None
+    cols: dict[str, None] = dict.fromkeys(record_columns(curve=True))
     for rec in records:
         for name in rec:
             cols.setdefault(name, None)
     present = {name for rec in records for name in rec}
-    return [c for c in cols if c in present or c in RUN_COLUMNS]
+    run = set(group_names("run"))
+    return [c for c in cols if c in present or c in run]
 
 
 class _ColumnError(ValueError):
@@ -259,16 +243,16 @@ def _arrow_column(name: str, values: list[Any]) -> Any:
     """One typed Arrow column of a results table."""
     import pyarrow as pa
 
-    if name in _STR_COLUMNS:
+    dtype = _dtype(name)
+    if dtype == "str":
         typ: Any = pa.string()
         values = [None if v is None else str(v) for v in values]
-    elif name in _INT_COLUMNS:
+    elif dtype == "int":
         typ = pa.int64()
         values = [None if v is None else int(v) for v in values]
-    elif name == "curve":
+    elif dtype == "ints":
         typ = pa.list_(pa.int32())
-    elif (name.startswith(("param_", "ate_", "gt_")) or name in QUALITY_COLUMNS
-          or name == "seconds"):
+    elif dtype == "float":
         typ = pa.float64()
         values = [None if v is None else float(v) for v in values]
     else:
@@ -335,7 +319,7 @@ def _read_plain(path: Path) -> list[dict[str, Any]]:
         raise MapError(f"{path}: cannot read results: {' '.join(str(exc).split())}") from None
     for r in records:
         for k, v in r.items():
-            if v is None and k in _FLOAT_COLUMNS:
+            if v is None and _dtype(k) == "float":
                 r[k] = math.nan
         if "map" not in r and "source" in r:  # slamq eval's records name the map "source"
             r["map"] = r["source"]
@@ -348,14 +332,12 @@ def _csv_record(row: dict[str, str]) -> dict[str, Any]:
     for k, v in row.items():
         if v is None or v == "":
             out[k] = None
-        elif k == "curve":
+        elif _dtype(k) == "ints":
             out[k] = [int(c) for c in v.split(";") if c]
-        elif k in _INT_COLUMNS:
+        elif _dtype(k) == "int":
             out[k] = int(v)
-        elif k in _FLOAT_COLUMNS or k.startswith("param_"):
+        elif _dtype(k) == "float":
             out[k] = float(v)
-            if k.startswith("param_") and out[k].is_integer() and k in _INT_COLUMNS:
-                out[k] = int(out[k])
         else:
             out[k] = v
     return out
@@ -392,7 +374,7 @@ def write_json(path: PathLike | IO[str], results: Sequence[MapQuality]) -> Path 
 
 def _csv_header() -> list[str]:
     """The columns of ``MapQuality.to_dict()``, for a file with no result."""
-    return list(QUALITY_COLUMNS)
+    return list(group_names("map", "param"))
 
 
 def write_csv(path: PathLike | IO[str], results: Sequence[MapQuality]) -> Path | None:

@@ -16,6 +16,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from slamq.columns import Column, shown, shown_names
 from slamq.errors import ParamError
 from slamq.results.columns import settings_difference
 
@@ -23,12 +24,13 @@ __all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "GT_METRICS", "spreads
            "summary_table", "comparability_warnings", "resolution_warnings", "angle_spread",
            "ANGLE_TOLERANCE_DEG"]
 
-#: Map metrics summarised (every numeric MapQuality output).
-SUMMARY_METRICS = (
-    "occupied_fraction", "proportion", "threshold", "corners", "corners_canonical",
-    "enclosed_areas", "enclosed_unknown_value", "occupied", "free", "unknown", "known",
-    "total", "known_area_m2", "known_box_m2", "resolution", "wall_angle",
-)
+#: The map metrics summarised (every numeric MapQuality output): the map columns shown at
+#: ``summary`` (:data:`slamq.columns.COLUMNS`).
+SUMMARY_METRICS = shown_names("summary", "map")
+#: Trajectory error columns summarised when the results have any.
+ATE_METRICS = shown_names("summary", "ate")
+#: Ground-truth map comparison columns (SPEC section 7) summarised when any run has them.
+GT_METRICS = shown_names("summary", "gt")
 #: Maps ranked together whose wall angles (modulo 90 degrees) differ by more than this are
 #: turned differently: their corners are not comparable.
 ANGLE_TOLERANCE_DEG = 1.0
@@ -39,12 +41,6 @@ FLAG_MEANING = {
     "screenshot": "a screenshot (colour pixels), not a saved map",
     "mostly_unknown": "mostly unknown under map_server's default thresholds",
 }
-#: Trajectory error columns summarised when the results have any.
-ATE_METRICS = ("ate_rmse", "ate_mean", "ate_median", "ate_std", "ate_min", "ate_max", "ate_n")
-#: Ground-truth map comparison columns (SPEC section 7) summarised when any run has them.
-GT_METRICS = ("gt_precision", "gt_recall", "gt_f1", "gt_iou", "gt_ne", "gt_reverse",
-              "gt_chamfer", "gt_coverage")
-
 
 def _frame(results: Any) -> Any:
     import pandas as pd
@@ -279,48 +275,36 @@ def summarize(
     return pd.DataFrame(rows, columns=cols)
 
 
-#: (column, heading, format) of the printed table.
-_SHOWN = (
-    ("ate_rmse", "ATE RMSE [m]", "{:.3f}"),
-    ("occupied_fraction", "occupied frac.", "{:.4f}"),
-    ("proportion", "proportion", "{:.4f}"),
-    ("corners", "corners", "{:.1f}"),
-    ("enclosed_areas", "enclosed areas", "{:.1f}"),
-)
-
-
-def _pm(mean: float, std: float, fmt: str) -> str:
-    """``mean ± std`` in ``fmt``; whole numbers without decimals, float noise as 0."""
+def _pm(mean: float, std: float, col: Column) -> str:
+    """``mean ± std`` in the column's format; whole numbers without decimals, float noise
+    as 0."""
     if mean is None or (isinstance(mean, float) and math.isnan(mean)):
         return "-"
-
-    def one(x: float) -> str:
-        return str(int(x)) if float(x).is_integer() and abs(x) < 1e15 else fmt.format(x)
-
-    text = one(mean)
+    text = col.format_number(mean)
     if std is not None and not (isinstance(std, float) and math.isnan(std)):
         noise = abs(std) <= 1e-9 * max(abs(mean), 1.0)
-        text += " ± " + ("0" if noise else one(std))
+        text += " ± " + ("0" if noise else col.format_number(std))
     return text
 
 
 def summary_table(summary: Any, *, title: str = "") -> Any:
-    """A :class:`rich.table.Table` of a :func:`summarize` frame: ``mean ± std`` cells."""
+    """A :class:`rich.table.Table` of a :func:`summarize` frame: ``mean ± std`` cells of the
+    columns shown at ``console`` (:data:`slamq.columns.COLUMNS`)."""
     from rich.table import Table
 
     table = Table(title=title or None)
     table.add_column("sequence")
     table.add_column("algorithm")
     table.add_column("n", justify="right")
-    shown = [s for s in _SHOWN if f"{s[0]}_mean" in summary.columns]
-    for _, heading, _ in shown:
-        table.add_column(heading, justify="right")
+    cols = [c for c in shown("console") if f"{c.name}_mean" in summary.columns]
+    for c in cols:
+        table.add_column(c.heading, justify="right")
     if "failed" in summary.columns and summary["failed"].sum():
         table.add_column("failed", justify="right")
     ordered = summary.sort_values(["sequence", "algorithm"], kind="stable")
     for _, row in ordered.iterrows():
         cells = [str(row["sequence"]), str(row["algorithm"]), str(int(row["n"]))]
-        cells += [_pm(row[f"{c}_mean"], row[f"{c}_std"], fmt) for c, _, fmt in shown]
+        cells += [_pm(row[f"{c.name}_mean"], row[f"{c.name}_std"], c) for c in cols]
         if len(table.columns) > len(cells):
             cells.append(str(int(row["failed"])))
         table.add_row(*cells)

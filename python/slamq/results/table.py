@@ -12,22 +12,15 @@ import textwrap
 from collections.abc import Sequence
 from typing import IO
 
+from slamq.columns import COLUMNS, shown
 from slamq.models import MapQuality
 
 __all__ = ["format_table", "print_table"]
 
-_COLUMNS = (
-    ("map", "source", "<"),
-    ("cells", None, ">"),
-    ("known", "known", ">"),
-    ("occupied", "occupied", ">"),
-    ("occupied_fraction", "occupied_fraction", ">"),
-    ("proportion", "proportion", ">"),
-    ("corners", "corners", ">"),
-    ("canonical", "corners_canonical", ">"),
-    ("enclosed_areas", "enclosed_areas", ">"),
-    ("peak_at_u", "enclosed_unknown_value", ">"),
-)
+#: The first two columns (heading, key, alignment): the map (its short name) and its size;
+#: then the columns of the table shown at ``eval`` (:data:`slamq.columns.COLUMNS`).
+_LEAD = (("map", "source", "<"), ("cells", None, ">"))
+
 
 #: Printed under the table: what the columns mean.
 LEGEND = (
@@ -48,14 +41,28 @@ def _has_canonical(results: Sequence[MapQuality]) -> bool:
     return any(q.corners_canonical is not None for q in results)
 
 
+def _optional(name: str) -> bool:
+    """A column that is None unless asked for (corners_canonical, a registered column)."""
+    f = MapQuality.__dataclass_fields__.get(name)
+    return f is None or f.default is None
+
+
+def _columns(results: Sequence[MapQuality]) -> list[tuple[str, str | None, str]]:
+    """(heading, key, alignment) of the table's columns: :data:`_LEAD`, then those shown
+    at ``eval``; an optional column only when some map has it."""
+    return [*_LEAD, *((c.short, c.name, "<" if c.dtype == "str" else ">")
+                      for c in shown("eval") if not _optional(c.name)
+                      or any(q.value(c.name) is not None for q in results))]
+
+
 def _cell(q: MapQuality, key: str | None, names: dict[str, str]) -> str:
     if key is None:
         return f"{q.height}x{q.width}"
-    value = getattr(q, key)
+    value = q.value(key)
     if value is None:
         return "-"
     if isinstance(value, float):
-        return "nan" if math.isnan(value) else f"{value:.4f}"
+        return "nan" if math.isnan(value) else format(value, COLUMNS[key].format)
     if key == "source":
         return names.get(str(value), str(value))
     return str(value)
@@ -103,8 +110,7 @@ def format_table(results: Sequence[MapQuality]) -> str:
     ['<array>', '4x4', '16', '0', '0.0000']
     """
     names = short_names([q.source for q in results])
-    canonical = _has_canonical(results)
-    columns = [c for c in _COLUMNS if c[1] != "corners_canonical" or canonical]
+    columns = _columns(results)
     rows = [[h for h, _, _ in columns]]
     rows += [[_cell(q, key, names) for _, key, _ in columns] for q in results]
     widths = [max(len(r[i]) for r in rows) for i in range(len(columns))]

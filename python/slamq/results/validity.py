@@ -19,23 +19,49 @@ than 3 scored maps are left out.
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from slamq.columns import shown, shown_names
+
 __all__ = ["METRICS", "TRUTHS", "validate"]
 
-#: The no-reference metrics whose validity is measured (all lower-is-better).
-METRICS = ("corners", "corners_canonical", "occupied_fraction", "proportion",
-           "enclosed_areas")
+#: The no-reference metrics whose validity is measured (all lower-is-better): the columns
+#: shown at ``validity`` (:data:`slamq.columns.COLUMNS`).
+METRICS = shown_names("validity")
+
+
+class _Truths(Mapping[str, bool]):
+    """The ground-truth figures (the columns shown at ``truth``) and whether higher is
+    better, as the table is now."""
+
+    def _now(self) -> dict[str, bool]:
+        return {c.name: c.higher for c in shown("truth")}
+
+    def __getitem__(self, name: str) -> bool:
+        return self._now()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._now())
+
+    def __len__(self) -> int:
+        return len(self._now())
+
+    def __repr__(self) -> str:
+        return repr(self._now())
+
+
 #: Ground-truth figures and whether higher is better.
-TRUTHS = {"ate_rmse": False, "gt_chamfer": False, "gt_f1": True}
+TRUTHS: Mapping[str, bool] = _Truths()
 #: Measured once and shipped (README "What the numbers mean", docs/validity.md): each
 #: metric's pooled pairwise concordance (0.5 = chance) with ATE on slam_comparison_tools
-#: (3 worlds x 5 algorithms) and with the damage's severity in the synthetic study of
-#: :mod:`slamq.synth` (drift, wall doubling, rotation, where the ideal is no change, and
-#: specks). The report prints it beside the figures of its own results.
+#: (3 worlds x 5 algorithms) and with the damage's severity in the synthetic study
+#: (studies/damage_study.py, on :mod:`slamq.synth.damage`: drift, wall doubling, rotation,
+#: where the ideal is no change, and specks). The report prints it beside the figures of
+#: its own results.
 SHIPPED_CONCORDANCE = {
     # metric: (vs ATE, drift, doubling, rotation, specks)
     "corners": (0.73, 1.00, 0.90, 0.95, 0.98),

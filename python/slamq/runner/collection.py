@@ -44,20 +44,11 @@ def output_files(out: Path, pattern: str) -> list[Path]:
 
 
 def _collect_map(o: Output, src: Path, dest_yaml: Path) -> Path:
-    """Make ``dest_yaml`` (map_server YAML) for an output file; returns the map to score."""
-    from slamq.sources.maps import load_map
+    """Make ``dest_yaml`` (map_server YAML) for an output file; returns the map to score.
+    The output's format is asked of the map-format registry (slamq.sources.formats)."""
+    from slamq.sources.formats import collect_map
 
-    if o.format == "mrpt":
-        from slamq.sources.mrpt import write_mrpt_yaml
-
-        return write_mrpt_yaml(src, dest_yaml)
-    if o.format in ("bag", "pbstream"):  # the map drawn, saved as a map_server map: scored,
-        from slamq.sources.mapserver import write_raw_map  # shown and reloaded like others
-
-        return write_raw_map(load_map(src, topic=o.topic) if o.format == "bag"
-                             else load_map(src), dest_yaml)
-    load_map(src)  # readable?
-    return src
+    return collect_map(src, dest_yaml, format=o.format, topic=o.topic)
 
 
 def collect(spec: RunSpec, config: RunConfig) -> tuple[str, str, dict[str, Any]]:

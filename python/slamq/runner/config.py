@@ -48,7 +48,7 @@ from typing import Any
 from slamq.errors import ParamError
 from slamq.synth.benchmark import Generated, expand
 
-__all__ = ["RunConfig", "Algorithm", "Sequence", "Output", "Step", "load_config", "render"]
+__all__ = ["RunConfig", "Algorithm", "SequenceSpec", "Output", "Step", "load_config", "render"]
 
 _PLACEHOLDER = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z0-9_\-]+)?)\}")
 MAP_FORMATS = ("mrpt", "yaml", "image", "bag", "pbstream")
@@ -142,8 +142,9 @@ class Algorithm:
 
 
 @dataclass(frozen=True)
-class Sequence:
-    """A recording to run on, with its optional ground truth."""
+class SequenceSpec:
+    """A sequence of a run config: the recording the programs read (``input``), with its
+    optional ground truth."""
 
     name: str
     input: Path
@@ -158,7 +159,7 @@ class Sequence:
 class RunConfig:
     """A whole runner configuration (see the module docstring for the keys)."""
 
-    sequences: tuple[Sequence, ...]
+    sequences: tuple[SequenceSpec, ...]
     algorithms: tuple[Algorithm, ...]
     output: Path
     iterations: int = 1
@@ -419,14 +420,14 @@ def load_config(config: Any) -> RunConfig:
         if isinstance(s, dict) and "synth" in s:
             if set(s) != {"synth"}:
                 raise ParamError(f"{w}: a generated sequence has only the key synth")
-            sequences.extend(Sequence(g.name, g.input, g.groundtruth, g.groundtruth_map, g)
+            sequences.extend(SequenceSpec(g.name, g.input, g.groundtruth, g.groundtruth_map, g)
                              for g in expand(str(name), s["synth"], output, base,
                                              f"{w}.synth"))
             continue
         if not isinstance(s, dict) or "input" not in s:
             raise ParamError(f"{w} needs an input (or a synth recipe)")
         refuse_unknown(s, ("input", "groundtruth", "groundtruth_map"), w)
-        sequences.append(Sequence(
+        sequences.append(SequenceSpec(
             str(name), _path(base, s["input"], f"{w}.input"),
             _path(base, s["groundtruth"], f"{w}.groundtruth") if s.get("groundtruth") else None,
             _path(base, s["groundtruth_map"], f"{w}.groundtruth_map")

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from slamq.errors import ParamError
-from slamq.runner.config import Algorithm, RunConfig, Sequence
+from slamq.runner.config import Algorithm, RunConfig, SequenceSpec
 from slamq.runner.rendering import render_command, render_config_file
 
 __all__ = ["RunSpec", "input_hash", "pending", "plan", "portable", "prepare_inputs", "run_key",
@@ -37,7 +37,7 @@ class RunSpec:
     algorithm: Algorithm
     variant: str
     params: dict[str, Any]
-    sequence: Sequence
+    sequence: SequenceSpec
     iteration: int
     folder: Path
 
@@ -131,7 +131,7 @@ def run_values(spec: RunSpec, slot: int, config: RunConfig) -> dict[str, Any]:
     return v
 
 
-def _input_key(seq: Sequence) -> str:
+def _input_key(seq: SequenceSpec) -> str:
     """What a run key holds of its input: the file's hash; for a generated sequence not made
     yet (a dry run), its recipe's."""
     if seq.generated is not None and not seq.generated.complete():

@@ -1,13 +1,14 @@
 """Every reader: occupancy grids and trajectories from files, arrays and bags.
 
-- :func:`load_map`: map_server YAML + image, bare images, OccupancyGrid arrays, ROS bags
-  (:mod:`slamq.sources.maps` dispatches to :mod:`~slamq.sources.mapserver`,
-  :mod:`~slamq.sources.images`, :mod:`~slamq.sources.grids`, :mod:`~slamq.sources.bag_maps`).
+- :func:`load_map`: every map file format of the registry :mod:`slamq.sources.formats`
+  (map_server YAML + image, bare images, MRPT grids, Cartographer ``.pbstream``, ROS bags,
+  and what :func:`register_format` adds: one module each, one ``interpret`` step), uint8
+  images and OccupancyGrid arrays (:mod:`slamq.sources.maps`, :mod:`~slamq.sources.grids`).
 - :func:`load_trajectory`: TUM, KITTI, EuRoC, CSV, ROS bags, Cartographer ``.pbstream``
   (:mod:`slamq.sources.trajectories`, :mod:`~slamq.sources.bag_poses`,
   :mod:`~slamq.sources.pbstream`).
 - :func:`discover_maps`: the one folder walk (:mod:`slamq.sources.walk`), shared by
-  ``slamq eval`` and ``slamq batch``.
+  ``slamq eval`` and ``slamq batch``; it asks the format registry which files are maps.
 - :mod:`slamq.sources.files`: the size budgets and the regular-file rule every reader obeys.
 
 Bag readers need the ``bags`` extra (``pip install 'slamq[bags]'``); they are imported when
@@ -22,6 +23,7 @@ from slamq.lazy import exports
 
 if TYPE_CHECKING:
     from slamq.sources.files import is_bag
+    from slamq.sources.formats import register_format, unregister_format
     from slamq.sources.grids import from_occupancy_grid
     from slamq.sources.maps import load_map
     from slamq.sources.pbstream import read_pbstream_trajectory
@@ -38,6 +40,8 @@ _WHERE = {
     "load_trajectory": "slamq.sources.trajectories",
     "parse_columns": "slamq.sources.trajectories",
     "read_pbstream_trajectory": "slamq.sources.pbstream",
+    "register_format": "slamq.sources.formats",
+    "unregister_format": "slamq.sources.formats",
 }
 
 __getattr__, __dir__ = exports(globals(), _WHERE)
@@ -51,4 +55,6 @@ __all__ = [
     "load_trajectory",
     "parse_columns",
     "read_pbstream_trajectory",
+    "register_format",
+    "unregister_format",
 ]

@@ -143,6 +143,21 @@ def read_once() -> Iterator[dict[str, bytes]]:
         _READ_ONCE.reset(token)
 
 
+def reading_once() -> bool:
+    """True inside :func:`read_once` (a reader must then read through
+    :func:`read_regular_file`, never from a cache of its own).
+
+    Examples
+    --------
+    >>> with read_once():
+    ...     reading_once()
+    True
+    >>> reading_once()
+    False
+    """
+    return _READ_ONCE.get() is not None
+
+
 def read_regular_file(path: Path, what: str, limit: int) -> bytes:
     """The bytes of a regular file of at most ``limit`` bytes (never blocks on a FIFO);
     inside :func:`read_once`, the bytes of its first read."""

@@ -1,4 +1,5 @@
-"""Loading occupancy grids: ROS map_server YAML + image, bare images, OccupancyGrid arrays.
+"""Loading occupancy grids: files of every registered map format
+(:mod:`slamq.sources.formats`), images and OccupancyGrid arrays, and OccupancyMaps.
 
 docs/spec.md section 1 is the contract. Every map is held image-style (row 0 at the top,
 north up) as ``values`` (uint8, 0 = surely occupied, 255 = surely free) plus an
@@ -43,17 +44,13 @@ from slamq.sources.files import (
     check_resolution,
     check_unknown_value,
     fail,
-    is_bag,
     stat_path,
 )
+from slamq.sources.formats import format_of, get_format, read_raw
+from slamq.sources.formats.image import raw_image
+from slamq.sources.formats.map_server import image_of
+from slamq.sources.formats.raw import interpret, reapply
 from slamq.sources.images import Image, decode_image, read_image_file, split_channels
-from slamq.sources.mapserver import image_map, load_yaml_map, reapply
-
-
-def _load_bag(path: Path, topic: str | None) -> OccupancyMap:
-    from slamq.sources.bag_maps import read_last_map
-
-    return read_last_map(path, topic or "/map")
 
 
 def load_map(
@@ -80,6 +77,12 @@ def load_map(
           the last map on ``/map``, via ``slamq.sources.bag_maps.read_last_map``.
         * a Cartographer ``.pbstream``: its 2D submaps rasterised, via
           ``slamq.sources.pbstream_map.read_pbstream_map``.
+        * an MRPT grid: a PNG with its ``<stem>_limits.txt`` beside it (resolution and
+          origin from the limits, map_server's default thresholds).
+        * a file of a format added with
+          :func:`slamq.sources.formats.register_format`. Every file format goes through
+          the registry :mod:`slamq.sources.formats` (its ``read``, then one
+          ``interpret`` step).
         * a uint8 image array (``HxW``, ``HxWx3``, ``HxWx4``): the image defaults.
         * an int8 nav_msgs/OccupancyGrid array (row 0 = bottom): see
           :func:`from_occupancy_grid`.
@@ -168,36 +171,30 @@ def _load(
             unknown_value, where, grid=False)
         grey, alpha, ch = split_channels(source, where)
         img = Image(np.ascontiguousarray(grey), alpha, ch, None, "array")
-        return image_map(img, source=where, kind="array", unknown_value=n,
-                          resolution=res, origin=org, warnings_out=warnings_out)
+        return interpret(raw_image(img, where, kind="array"), unknown_value=n,
+                         resolution=res, origin=org, warnings_out=warnings_out)
 
     if isinstance(source, (str, os.PathLike)):
         path = Path(os.fspath(source))
         where = str(path)
         res = check_resolution(resolution, where)
         org = None if origin is None else check_origin(origin, where)
+        if unknown_value is not None:  # the widest range now, the mode's after reading
+            check_unknown_value(unknown_value, where, grid=True)
         stat_path(path)  # missing, a broken link or a symlink loop: say which
-        if is_bag(path):
-            return reapply(_load_bag(path, topic), unknown_value, res, org)
-        if path.suffix.lower() == ".pbstream":
-            from slamq.sources.pbstream_map import read_pbstream_map
-
-            return reapply(read_pbstream_map(path), unknown_value, res, org)
-        if path.is_dir():
+        fmt = format_of(path)
+        if fmt is None and path.is_dir():
             raise fail(where, "is a directory (not a ROS 2 bag); use "
                                "slamq.sources.discover_maps to find the maps in a folder")
-        if path.suffix.lower() in YAML_SUFFIXES:
-            return load_yaml_map(path, unknown_value=unknown_value, resolution=res, origin=org,
-                              warnings_out=warnings_out)
-        n = None if unknown_value is None else check_unknown_value(
-            unknown_value, where, grid=False)
-        img = read_image_file(path)
-        grid = image_map(img, source=where, kind="image", unknown_value=n, resolution=res,
-                         origin=(0.0, 0.0, 0.0) if org is None else org,
+        if fmt is None:
+            fmt = get_format("image")  # an image of another suffix: the decoder says
+        raw = read_raw(path, fmt, topic)
+        grid = interpret(raw, unknown_value=unknown_value, resolution=res, origin=org,
                          warnings_out=warnings_out)
-        flagged = bare_image_flags(path, grid, img)
-        grid.meta["flags"] = [flag for flag, _ in flagged]
-        warnings_out.extend(msg for _, msg in flagged)
+        if fmt.name == "image" and raw.image is not None:
+            flagged = bare_image_flags(path, grid, raw.image)
+            grid.meta["flags"] = [flag for flag, _ in flagged]
+            warnings_out.extend(msg for _, msg in flagged)
         return grid
 
     raise MapError(f"<{type(source).__name__}>: cannot load a map from a "
@@ -227,8 +224,8 @@ def load_map_bytes(
     if len(data) > MAX_IMAGE_BYTES:
         raise fail(source, f"{len(data)} bytes is too large for an image")
     img = decode_image(data, source)
-    result = image_map(img, source=source, kind="image", unknown_value=n, resolution=res,
-                       origin=(0.0, 0.0, 0.0), warnings_out=warnings_out)
+    result = interpret(raw_image(img, source), unknown_value=n, resolution=res,
+                       warnings_out=warnings_out)
     for msg in warnings_out:
         warnings.warn(MapWarning(msg), stacklevel=2)
     return result
@@ -292,14 +289,11 @@ def bare_image_flags(path: Path, grid: OccupancyMap, img: Image) -> list[tuple[s
 def _grid_and_image(path: Path) -> tuple[OccupancyMap, Image]:
     """For the docstring example: the grid and decoded image of a bare image file."""
     img = read_image_file(path)
-    return image_map(img, source=str(path), kind="image", unknown_value=None, resolution=None,
-                     origin=(0.0, 0.0, 0.0), warnings_out=[]), img
+    return interpret(raw_image(img, str(path))), img
 
 
 def _yamls_naming(path: Path, limit: int = 64) -> list[Path]:
     """The map YAMLs in ``path``'s folder (at most ``limit`` looked at) that name it."""
-    from slamq.sources.walk import yaml_image
-
     try:
         folder = path.parent
         mtime = folder.stat().st_mtime_ns
@@ -312,7 +306,7 @@ def _yamls_naming(path: Path, limit: int = 64) -> list[Path]:
         return []
     found = []
     for y in siblings:
-        img = yaml_image(y)
+        img = image_of(y)
         try:
             if img is not None and img.resolve() == target:
                 found.append(y)

@@ -5,8 +5,9 @@
   ``y_max``) and, beside it, ``<stem>_limits.txt`` with ``x_min x_max y_min y_max`` in
   metres after a ``%`` comment line. The resolution is ``(x_max - x_min) / width`` and the
   origin (lower-left corner) is ``(x_min, y_min)``: exactly a map_server image with the
-  default thresholds, so :func:`load_mrpt_grid` reads it as one and
-  :func:`write_mrpt_yaml` writes the map_server YAML that makes any slamq tool read it.
+  default thresholds. The map format lives in :mod:`slamq.sources.formats.mrpt_grid`
+  (``slamq.load_map`` reads such a PNG); :func:`load_mrpt_grid` takes another limits file
+  and :func:`write_mrpt_yaml` writes the map_server YAML that other ROS tools read.
 * Pose logs: ``log_estimated_path.txt`` / ``log_odometry_path.txt`` rows
   ``index x y z yaw pitch roll t`` (``rbpf-slam``) or ``index x y yaw`` (``icp-slam``,
   no timestamps: the step index is used as the time) (:func:`read_mrpt_path`).
@@ -21,128 +22,41 @@
 from __future__ import annotations
 
 import dataclasses
-import os
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from slamq.errors import MapError, TrajectoryError
+from slamq.errors import MapWarning, TrajectoryError
 from slamq.models import OccupancyMap, Trajectory
 from slamq.sources.files import PathLike
-from slamq.sources.maps import load_map
+from slamq.sources.formats.mrpt_grid import limits_path, read_limits, write_yaml
+from slamq.sources.formats.mrpt_grid import read as read_grid
+from slamq.sources.formats.raw import interpret
 
 __all__ = ["limits_path", "read_limits", "load_mrpt_grid", "write_mrpt_yaml", "read_mrpt_path",
            "read_mrpt_graph", "apply_step_times"]
 
 
-def limits_path(png: PathLike) -> Path:
-    """The ``_limits.txt`` file beside an MRPT grid image.
-
-    Examples
-    --------
-    >>> limits_path("out/finalMap_COccupancyGridMap2D_00.png").name
-    'finalMap_COccupancyGridMap2D_00_limits.txt'
-    """
-    p = Path(png)
-    return p.with_name(p.stem + "_limits.txt")
-
-
-def read_limits(path: PathLike) -> tuple[float, float, float, float]:
-    """``(x_min, x_max, y_min, y_max)`` in metres from an MRPT ``_limits.txt`` file.
-
-    Raises
-    ------
-    slamq.MapError
-        The file is missing or does not hold four numbers with ``min < max``.
-
-    Examples
-    --------
-    >>> import pathlib, tempfile
-    >>> p = pathlib.Path(tempfile.mkdtemp()) / "m_limits.txt"
-    >>> _ = p.write_text("% Grid limits: [x_min x_max y_min y_max]\\n-1.5 2.5 -3 1\\n")
-    >>> read_limits(p)
-    (-1.5, 2.5, -3.0, 1.0)
-    """
-    p = Path(path)
-    try:
-        text = p.read_text(errors="replace")
-    except OSError as exc:
-        raise MapError(f"{p}: cannot read MRPT grid limits ({exc.strerror or exc})") from exc
-    numbers: list[float] = []
-    for line in text.splitlines():
-        line = line.split("%", 1)[0].strip()
-        if not line:
-            continue
-        try:
-            numbers.extend(float(x) for x in line.split())
-        except ValueError:
-            raise MapError(f"{p}: MRPT grid limits: not a number in {line!r}") from None
-    if len(numbers) != 4 or not all(np.isfinite(numbers)):
-        raise MapError(f"{p}: MRPT grid limits need 4 numbers (x_min x_max y_min y_max), "
-                       f"found {len(numbers)}")
-    x0, x1, y0, y1 = numbers
-    if not (x1 > x0 and y1 > y0):
-        raise MapError(f"{p}: MRPT grid limits are empty ({x0} {x1} {y0} {y1})")
-    return x0, x1, y0, y1
-
-
-def _image_size(png: Path) -> tuple[int, int]:
-    import cv2
-
-    img = cv2.imread(str(png), cv2.IMREAD_UNCHANGED)
-    if img is None:
-        raise MapError(f"{png}: not a readable image (MRPT grid map)")
-    return img.shape[1], img.shape[0]
-
-
-def _geometry(png: Path, limits: PathLike | None) -> tuple[float, float, float]:
-    lim = Path(limits) if limits is not None else limits_path(png)
-    x0, x1, y0, y1 = read_limits(lim)
-    width, height = _image_size(png)
-    res = (x1 - x0) / width
-    res_y = (y1 - y0) / height
-    if abs(res - res_y) > 0.01 * res:
-        raise MapError(f"{png}: MRPT limits {lim.name} give {res:g} m/cell across and "
-                       f"{res_y:g} m/cell down for a {width}x{height} image")
-    return res, x0, y0
-
-
 def write_mrpt_yaml(png: PathLike, yaml_path: PathLike, limits: PathLike | None = None) -> Path:
-    """Write a map_server YAML for an MRPT grid PNG (resolution and origin from its limits).
-
-    The image is referenced by a path relative to the YAML's folder when possible.
+    """Write a map_server YAML for an MRPT grid PNG (resolution and origin from its limits):
+    :func:`slamq.sources.formats.mrpt_grid.write_yaml`.
 
     Examples
     --------
     >>> import pathlib, tempfile, numpy as np, cv2, slamq
     >>> d = pathlib.Path(tempfile.mkdtemp())
-    >>> img = np.full((10, 20), 255, np.uint8); img[0, :] = 0; img[5:, :] = 128
-    >>> _ = cv2.imwrite(str(d / "g.png"), img)
-    >>> _ = (d / "g_limits.txt").write_text("% limits\\n-1 1 0 1\\n")
-    >>> m = slamq.load_map(write_mrpt_yaml(d / "g.png", d / "map.yaml"))
-    >>> m.resolution, m.origin, int((m.values == 0).sum()), int(m.unknown.sum())
-    (0.1, (-1.0, 0.0, 0.0), 20, 100)
+    >>> _ = cv2.imwrite(str(d / "g.png"), np.full((4, 8), 255, np.uint8))
+    >>> _ = (d / "g_limits.txt").write_text("0 0.4 0 0.2\\n")
+    >>> slamq.load_map(write_mrpt_yaml(d / "g.png", d / "map.yaml")).origin
+    (0.0, 0.0, 0.0)
     """
-    import yaml
-
-    png = Path(png)
-    res, x0, y0 = _geometry(png, limits)
-    out = Path(yaml_path)
-    try:
-        image = os.path.relpath(png.resolve(), out.parent.resolve())
-    except ValueError:  # another drive (Windows)
-        image = str(png.resolve())
-    doc = {
-        "image": image, "resolution": float(res), "origin": [float(x0), float(y0), 0.0],
-        "negate": 0, "occupied_thresh": 0.65, "free_thresh": 0.196,
-    }
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(yaml.safe_dump(doc, sort_keys=False))
-    return out
+    return write_yaml(png, yaml_path, limits)
 
 
 def load_mrpt_grid(png: PathLike, limits: PathLike | None = None) -> OccupancyMap:
-    """Read an MRPT grid PNG and its ``_limits.txt`` into an :class:`OccupancyMap`.
+    """Read an MRPT grid PNG and its ``_limits.txt`` into an :class:`OccupancyMap`
+    (:func:`slamq.load_map` reads it too, when the limits file sits beside the PNG).
 
     Parameters
     ----------
@@ -161,17 +75,11 @@ def load_mrpt_grid(png: PathLike, limits: PathLike | None = None) -> OccupancyMa
     >>> m.shape, round(m.resolution, 6), int(m.unknown.sum())
     ((4, 8), 0.05, 0)
     """
-    png = Path(png)
-    _geometry(png, limits)  # errors name the PNG, not a temporary YAML
-    # The same interpretation as a map_server YAML with the default thresholds.
-    import tempfile
-
-    with tempfile.TemporaryDirectory() as tmp:
-        y = write_mrpt_yaml(png, Path(tmp) / "map.yaml", limits)
-        grid = load_map(y)
-    meta = dict(grid.meta, yaml=None, image=str(png),
-                mrpt_limits=str(Path(limits) if limits is not None else limits_path(png)))
-    return dataclasses.replace(grid, source=str(png), meta=meta)
+    out: list[str] = []
+    grid = interpret(read_grid(Path(png), limits), warnings_out=out)
+    for msg in out:
+        warnings.warn(MapWarning(msg), stacklevel=2)
+    return grid
 
 
 def read_mrpt_path(path: PathLike) -> Trajectory:

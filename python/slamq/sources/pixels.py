@@ -138,7 +138,7 @@ def interpret(
                 f"{', negate 1' if negate else ''}) would classify map_saver shade(s) "
                 f"{listed} differently; using the map_saver rule (205 unknown, 0/254/255 known)"
             )
-            if differ.tolist() == [MAP_SAVER_UNKNOWN] and not negate and free > 0.196:
+            if differ.tolist() == [MAP_SAVER_UNKNOWN] and not negate and free > DEFAULT_FREE_THRESH:
                 # nav2 / slam_toolbox write free_thresh 0.25 with 205 as unknown: their own
                 # convention, handled as they mean it; a note, not a warning
                 logging.getLogger("slamq").debug("%s", message)

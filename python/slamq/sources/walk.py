@@ -2,9 +2,12 @@
 
 Rules
 -----
-* A folder's maps are its map YAML files (``.yaml``/``.yml`` with an ``image`` field; one
-  that cannot be parsed counts too, so that loading it says why) and its images
-  (:data:`~slamq.sources.files.IMAGE_SUFFIXES`) that no YAML in the folder names.
+* A folder's maps are the files a map format of the registry (:mod:`slamq.sources.formats`)
+  finds in folders: map YAMLs (``.yaml``/``.yml`` with an ``image`` field; one that cannot
+  be parsed counts too, so that loading it says why), MRPT grids (a PNG with its
+  ``_limits.txt``), images (:data:`~slamq.sources.files.IMAGE_SUFFIXES`) and the formats
+  added with :func:`~slamq.sources.formats.register_format`; a file that is part of
+  another map there (the image a YAML names) is not a map of its own.
 * Numbered snapshots (``map_0001.pgm``: the rule of :mod:`slamq.sources.snapshots`, with
   another map of the same series beside it) are frames of the map being
   built, not maps: they are left out beside a non-numbered map, and a folder holding only
@@ -12,81 +15,29 @@ Rules
 * Folders are searched recursively; hidden entries (``.name``) and ROS 2 bag folders are
   skipped; symbolic links to folders are followed, each real folder once (a symlink loop
   ends there).
-* Bags (``.bag``, ``.db3``, ``.mcap`` files and ROS 2 bag folders) found inside a folder are
-  not maps: name a bag explicitly to evaluate its last ``/map``. A file named explicitly is
-  always kept when it is a map file.
+* ``slamq run`` output folders mean final maps: a run folder (one holding ``run.json``)
+  gives the one map its ``run.json`` names (else its ``map.yaml``), never the program's
+  raw outputs or snapshots below it; an output root (one holding ``runs.csv`` or
+  ``.slamq-cache.json``) is not searched in its ``report``, ``sequences`` (generated
+  ground truth) and ``shards`` folders.
+* Bags (``.bag``, ``.db3``, ``.mcap`` files and ROS 2 bag folders) and Cartographer
+  ``.pbstream`` files found inside a folder are not maps: name one explicitly to evaluate
+  its map. A file named explicitly is kept when a map format claims it.
 """
 
 from __future__ import annotations
 
 import os
-import stat
 from collections import Counter
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any
 
 from slamq.errors import MapError
-from slamq.sources.files import (
-    IMAGE_SUFFIXES,
-    MAX_YAML_BYTES,
-    YAML_SUFFIXES,
-    PathLike,
-    is_bag,
-    load_yaml_safely,
-    resolve_image,
-    stat_path,
-)
+from slamq.sources.files import PathLike, stat_path
+from slamq.sources.formats import MapFormat, format_of, found_in_folder, map_formats
 from slamq.sources.snapshots import SNAPSHOT, series
 
-__all__ = ["discover_maps", "folder_maps", "walk_folders", "yaml_image"]
-
-
-#: What :func:`read_yaml` gives for a YAML that cannot be read or parsed.
-UNREADABLE = object()
-
-
-def read_yaml(path: Path) -> Any:
-    """The parsed YAML of a file met while searching; None when it is too large to be a
-    map YAML; :data:`UNREADABLE` when it is not a regular file or does not parse.
-
-    The document is the parse cache's own (:func:`slamq.sources.files.load_yaml_safely`
-    with ``shared=True``): read it, do not change it."""
-
-    try:
-        st = path.stat()
-        if not stat.S_ISREG(st.st_mode):  # a FIFO would block the read below
-            return UNREADABLE
-        if st.st_size > MAX_YAML_BYTES:
-            return None
-        return load_yaml_safely(path.read_bytes(), path, shared=True)  # only read
-    except (OSError, MapError):
-        return UNREADABLE
-
-
-def _is_map_doc(doc: Any) -> bool:
-    return doc is UNREADABLE or (isinstance(doc, dict) and "image" in doc)
-
-
-def yaml_image(path: Path, doc: Any = None) -> Path | None:
-    """The image a map YAML names, resolved like the loader does (relative to the YAML's
-    folder; an absolute path that does not exist falls back to the name beside the YAML).
-
-    ``doc``: the YAML already parsed by :func:`read_yaml`.
-
-    Examples
-    --------
-    >>> import pathlib, tempfile
-    >>> d = pathlib.Path(tempfile.mkdtemp())
-    >>> _ = (d / "m.yaml").write_text("image: /nowhere/m.pgm\\n")
-    >>> yaml_image(d / "m.yaml") == d / "m.pgm"
-    True
-    """
-    if doc is None:
-        doc = read_yaml(path)
-    if not isinstance(doc, dict) or not isinstance(doc.get("image"), str):
-        return None
-    return resolve_image(path, doc["image"])[0]
+__all__ = ["discover_maps", "folder_maps", "walk_folders"]
 
 
 def _resolved(path: Path) -> Path:
@@ -104,21 +55,27 @@ def folder_maps(folder: Path, files: list[Path] | None = None) -> list[Path]:
     """
     if files is None:
         files = sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith("."))
-    docs = {p: read_yaml(p) for p in files if p.suffix.lower() in YAML_SUFFIXES}
-    yamls = [p for p, doc in docs.items() if _is_map_doc(doc)]
-    named_paths = {img for img in (yaml_image(y, docs[y]) for y in yamls) if img is not None}
-    resolved: set[Path] | None = None  # resolved only for an image not named as it is
+    found = [(p, f) for p, f in ((p, found_in_folder(p)) for p in files) if f is not None]
+    # the other files of a map (the image a YAML names, an MRPT grid's limits) are parts
+    # of it, not maps of their own
+    part_paths = {q for p, f in found for q in _files(f, p) if q != p}
+    # Paths are resolved only when a part is named otherwise than as a file of this folder
+    # or a symbolic link is involved; else the names compare as they are.
+    listed = set(files)
+    literal = not part_paths or not (
+        any(q not in listed or q.is_symlink() for q in part_paths)
+        or any(p.is_symlink() for p, _ in found if p not in part_paths))
+    resolved: set[Path] | None = None
 
-    def named(p: Path) -> bool:
+    def part(p: Path) -> bool:
         nonlocal resolved
-        if not named_paths or p in named_paths:
-            return bool(named_paths)
+        if p in part_paths or literal:
+            return p in part_paths
         if resolved is None:
-            resolved = {_resolved(img) for img in named_paths}
+            resolved = {_resolved(q) for q in part_paths}
         return _resolved(p) in resolved
 
-    images = [p for p in files if p.suffix.lower() in IMAGE_SUFFIXES and not named(p)]
-    maps = sorted(yamls + images)
+    maps = sorted(p for p, _ in found if not part(p))
     counts = Counter(series(p) for p in maps)
     snaps = [p for p in maps if SNAPSHOT.match(p.stem) and counts[series(p)] > 1]
     if snaps and len(snaps) < len(maps):
@@ -126,6 +83,13 @@ def folder_maps(folder: Path, files: list[Path] | None = None) -> list[Path]:
     elif snaps and len(snaps) == len(maps) and len(maps) > 1:
         maps = [maps[-1]]
     return maps
+
+
+def _files(fmt: MapFormat, path: Path) -> list[Path]:
+    try:
+        return list(fmt.files(path))
+    except (OSError, ValueError):
+        return [path]
 
 
 def walk_folders(root: Path) -> Iterator[tuple[Path, list[Path], list[Path]]]:
@@ -152,8 +116,54 @@ def walk_folders(root: Path) -> Iterator[tuple[Path, list[Path], list[Path]]]:
             if not d.startswith(".")
             and not os.path.isfile(os.path.join(folder, d, "metadata.yaml"))
         )
+        if "run.json" in names:  # a slamq run's folder: its final map, nothing below
+            dirs[:] = []
+            files = sorted(here / n for n in names if not n.startswith("."))
+            yield here, files, run_folder_map(here)
+            continue
+        if "runs.csv" in names or ".slamq-cache.json" in names:  # a slamq run's output
+            dirs[:] = [d for d in dirs if d not in RUN_OUTPUT_SKIPPED]
         files = sorted(here / n for n in names if not n.startswith("."))
         yield here, files, folder_maps(here, files)
+
+
+#: Folders of a ``slamq run`` output root that hold no run's map.
+RUN_OUTPUT_SKIPPED = frozenset({"report", "sequences", "shards"})
+
+
+def run_folder_map(folder: Path) -> list[Path]:
+    """The final map of a ``slamq run`` run folder: the one its ``run.json`` names (found
+    again below the folder when the output folder was moved), else its ``map.yaml``; none
+    for a run that made no map.
+
+    Examples
+    --------
+    >>> import json, pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "map.yaml").write_text("image: m.pgm")
+    >>> _ = (d / "run.json").write_text(json.dumps({"map": "/elsewhere/1/map.yaml"}))
+    >>> [p.name for p in run_folder_map(d)]
+    ['map.yaml']
+    """
+    import json
+
+    named = None
+    try:
+        named = json.loads((folder / "run.json").read_text()).get("map")
+    except (OSError, ValueError, AttributeError):
+        pass
+    if isinstance(named, str) and named:
+        p = Path(named)
+        if p.is_file():
+            return [p]
+        parts = p.parts  # moved: the same path relative to a run folder of that name
+        for k in range(len(parts) - 1, 0, -1):
+            if parts[k - 1] == folder.name or k == len(parts) - 1:
+                candidate = folder.joinpath(*parts[k:])
+                if candidate.is_file():
+                    return [candidate]
+    fallback = folder / "map.yaml"
+    return [fallback] if fallback.is_file() else []
 
 
 def discover_maps(paths: PathLike | Iterable[PathLike]) -> tuple[list[Path], list[tuple[str, str]]]:
@@ -203,15 +213,13 @@ def discover_maps(paths: PathLike | Iterable[PathLike]) -> tuple[list[Path], lis
             msg, prefix = str(exc), f"{path}: "
             problems.append((str(path), msg[len(prefix):] if msg.startswith(prefix) else msg))
             continue
-        if is_bag(path):
+        if format_of(path) is not None:  # a map file, a bag: named, it is a map
             add(path)
         elif path.is_dir():
             for _, _, maps in walk_folders(path):
                 for m in maps:
                     add(m)
-        elif path.suffix.lower() in YAML_SUFFIXES | IMAGE_SUFFIXES:
-            add(path)
         else:
-            problems.append((str(path), "not a map file: expected a map YAML, an image "
-                                        "(.pgm, .png, ...) or a ROS bag"))
+            names = ", ".join(f.name for f in map_formats())
+            problems.append((str(path), f"not a map file: no map format reads it ({names})"))
     return found, problems

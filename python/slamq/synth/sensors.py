@@ -21,7 +21,7 @@ import numpy as np
 from slamq import native
 from slamq.errors import SlamqError
 from slamq.models import OccupancyMap
-from slamq.synth.sequence import LaserSpec
+from slamq.synth.recording import LaserSpec
 
 __all__ = ["NOISE", "OdometryNoise", "blocking", "cast", "cast_numpy", "laser_scans",
            "odometry"]

@@ -19,13 +19,13 @@ import numpy as np
 
 from slamq.errors import SlamqError
 from slamq.models import OccupancyMap, Trajectory
+from slamq.synth.recording import EPOCH, LaserSpec, Recording
 from slamq.synth.sensors import cast
-from slamq.synth.sequence import EPOCH, LaserSpec, Sequence
 
 __all__ = ["load_sequence", "save_sequence", "visible_map", "write_truth"]
 
 
-def _laser_poses(seq: Sequence) -> np.ndarray:
+def _laser_poses(seq: Recording) -> np.ndarray:
     ox, oy, oyaw = (float(v) for v in seq.laser.offset)
     g = seq.gt
     c, s = np.cos(g[:, 2]), np.sin(g[:, 2])
@@ -33,15 +33,15 @@ def _laser_poses(seq: Sequence) -> np.ndarray:
                             g[:, 2] + oyaw])
 
 
-def visible_map(seq: Sequence, *, threads: int | None = None) -> OccupancyMap:
+def visible_map(seq: Recording, *, threads: int | None = None) -> OccupancyMap:
     """The part of ``seq.world`` the laser saw: 0 on every wall cell a beam of the exact
     (noise-free) scans entered, 254 on the free cells inside the area the scans' returns
     swept, 205 elsewhere; the world's grid, resolution and origin.
 
     Examples
     --------
-    >>> from slamq.synth.world import world
-    >>> from slamq.synth.simulate import simulate
+    >>> from slamq.synth.worldgen import world
+    >>> from slamq.synth.simulation import simulate
     >>> seq = simulate(world(0, kind="hall", size=(10.0, 8.0)), noise="none",
     ...                laser=LaserSpec(beams=361), length=8.0)
     >>> v = visible_map(seq)
@@ -92,7 +92,7 @@ def visible_map(seq: Sequence, *, threads: int | None = None) -> OccupancyMap:
                         meta={"seen_walls": int(seen.sum()), "swept_free": int(free.sum())})
 
 
-def _trajectory(seq: Sequence, poses: np.ndarray, what: str) -> Trajectory:
+def _trajectory(seq: Recording, poses: np.ndarray, what: str) -> Trajectory:
     """A path on the clock of the sensor logs (``EPOCH + stamps``)."""
     return Trajectory.from_xy_yaw(EPOCH + seq.stamps, poses[:, 0], poses[:, 1], poses[:, 2],
                                   source=f"{seq.name}:{what}")
@@ -129,12 +129,12 @@ def start_frame_yaml(yaml_path: str | os.PathLike[str], first: Any) -> Path:
     return out
 
 
-def write_truth(seq: Sequence, folder: str | os.PathLike[str], *,
+def write_truth(seq: Recording, folder: str | os.PathLike[str], *,
                 threads: int | None = None) -> dict[str, Path]:
     """Write the ground truth of ``seq`` into ``folder``.
 
     Files: ``gt_map.yaml``/``.pgm`` (the world, map_server trinary; its meta and
-    transparent walls beside it, :func:`slamq.synth.world.save_world`),
+    transparent walls beside it, :func:`slamq.synth.worldgen.save_world`),
     ``visible_map.yaml``/``.pgm`` (:func:`visible_map`), ``gt_map_start.yaml`` and
     ``visible_map_start.yaml`` (the same images in the frame of the first pose, where maps
     built from odometry increments start: :func:`start_frame_yaml`), ``gt.tum`` and ``odom.tum``
@@ -150,14 +150,14 @@ def write_truth(seq: Sequence, folder: str | os.PathLike[str], *,
     Examples
     --------
     >>> import tempfile
-    >>> from slamq.synth.world import world
-    >>> from slamq.synth.simulate import simulate
+    >>> from slamq.synth.worldgen import world
+    >>> from slamq.synth.simulation import simulate
     >>> seq = simulate(world(0, kind="office", size=(10.0, 8.0)), noise="none",
     ...                laser=LaserSpec(beams=181), length=6.0)
     >>> sorted(write_truth(seq, tempfile.mkdtemp()))
     ['gt', 'gt_map', 'gt_map_start', 'odom', 'sequence', 'visible_map', 'visible_map_start']
     """
-    from slamq.synth.world import save_world
+    from slamq.synth.worldgen import save_world
 
     out = Path(folder)
     try:
@@ -196,15 +196,15 @@ def _json_default(v: Any) -> Any:
     raise TypeError(f"not JSON: {type(v).__name__}")
 
 
-def save_sequence(seq: Sequence, path: str | os.PathLike[str]) -> Path:
+def save_sequence(seq: Recording, path: str | os.PathLike[str]) -> Path:
     """Save a whole sequence (world included) as one ``.npz``; :func:`load_sequence` reads
     it back equal.
 
     Examples
     --------
     >>> import tempfile, pathlib
-    >>> from slamq.synth.world import world
-    >>> from slamq.synth.simulate import simulate
+    >>> from slamq.synth.worldgen import world
+    >>> from slamq.synth.simulation import simulate
     >>> seq = simulate(world(0, kind="office", size=(10.0, 8.0)), laser=LaserSpec(beams=91),
     ...                length=6.0)
     >>> back = load_sequence(save_sequence(seq, pathlib.Path(tempfile.mkdtemp()) / "s.npz"))
@@ -228,7 +228,7 @@ def save_sequence(seq: Sequence, path: str | os.PathLike[str]) -> Path:
     return p
 
 
-def load_sequence(path: str | os.PathLike[str]) -> Sequence:
+def load_sequence(path: str | os.PathLike[str]) -> Recording:
     """A sequence :func:`save_sequence` wrote (raises :class:`~slamq.errors.SlamqError`
     naming the file when it is not one)."""
     p = Path(path)
@@ -247,7 +247,7 @@ def load_sequence(path: str | os.PathLike[str]) -> Sequence:
             wmeta["transparent"] = d["transparent"]
         world = OccupancyMap(d["values"], d["unknown"], wz["resolution"],
                              tuple(wz["origin"]), source=wz["source"], meta=wmeta)
-        return Sequence(d["stamps"], d["gt"], d["odom"], d["ranges"], laser, world,
+        return Recording(d["stamps"], d["gt"], d["odom"], d["ranges"], laser, world,
                         name=head["name"], meta=head["meta"])
     except SlamqError as exc:
         raise SlamqError(f"{p}: {exc}") from None

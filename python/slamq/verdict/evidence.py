@@ -58,7 +58,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     -------
     dict
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
-        "defects"}}, "majority": bool, "maps": int, "notes": [str], "missing_walls":
+        "defects", "in_group", "group_support"}}, "majority": bool, "group": [alg],
+        "maps": int, "notes": [str], "missing_walls":
         {path: [dict]}}``. ``defects`` maps a run's map path to its defects (dicts of
         :meth:`Defect.to_dict`); an algorithm's support and completeness are the medians
         over its runs. ``missing_walls`` maps the path of each map placed with the others
@@ -109,6 +110,11 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         agree = agreement(maps, align=align, threads=threads)
         support, complete, placed = agree.support, agree.completeness, agree.placed
         majority = agree.majority
+        in_group = set(agree.group)
+        index = {k: i for i, k in enumerate(agree.names)}
+        group_support = {
+            k: finite_median([agree.consistency[index[k], index[o]] for o in agree.group
+                              if o != k]) if k in in_group else math.nan for k in maps}
         notes.extend(agree.notes)
         missing = missing_walls(agree, maps)
         gaps = {paths[k]: [d.to_dict() for d in missing[k]] for k in maps if placed[k]}
@@ -116,6 +122,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         support = complete = dict.fromkeys(maps, math.nan)
         placed = dict.fromkeys(maps, False)
         majority = False
+        in_group = set()
+        group_support = dict.fromkeys(maps, math.nan)
     algorithms: dict[str, dict[str, Any]] = {}
     for alg in sorted(set(owner.values())):
         keys = [k for k in maps if owner[k] == alg]
@@ -126,6 +134,11 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "runs": len(keys),
             "flagged_runs": sum(1 for k in keys if found.get(k)),
             "defects": {str(maps[k].source): found.get(k, []) for k in keys},
+            "in_group": sum(k in in_group for k in keys) / len(keys) if keys else 0.0,
+            "group_support": finite_median([group_support[k] for k in keys]),
         }
+    # the agreeing group, by program: those whose runs are mostly in it
+    group = sorted(a for a, e in algorithms.items() if e["in_group"] > 0.5)
     return {"algorithms": algorithms, "majority": bool(majority), "maps": len(maps),
-            "notes": notes, "missing_walls": gaps}
+            "notes": notes, "missing_walls": gaps, "group": group,
+            "min_support": SETTINGS.min_support.default}

@@ -28,11 +28,13 @@ standard deviation.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 
+from slamq.columns import COLUMNS, Column, shown
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.verdict.rule import (
     COMPLETE_SHARE,
@@ -53,95 +55,18 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
-class Metric:
-    """One ranked column of the report.
-
-    Attributes
-    ----------
-    key : str
-        Column of the results table.
-    label : str
-        Human name.
-    unit : str
-        Unit shown after the label ("" for counts and ratios).
-    log : bool
-        Plot on a logarithmic axis (where the paper does).
-    why : str
-        The paper's argument for the direction, with its section.
-    higher : bool
-        Higher is better (default: lower is better).
-    """
-
-    key: str
-    label: str
-    unit: str
-    log: bool
-    why: str
-    higher: bool = False
-
-    @property
-    def direction(self) -> str:
-        """``"higher is better"`` or ``"lower is better"``."""
-        return "higher is better" if self.higher else "lower is better"
-
-    @property
-    def heading(self) -> str:
-        """Label with unit, e.g. ``"ATE RMSE (m)"``."""
-        return f"{self.label} ({self.unit})" if self.unit else self.label
-
-
-#: The ranked metrics, in table order ("lower is better" unless ``higher``).
-METRICS: tuple[Metric, ...] = (
-    Metric(
-        "ate_rmse", "ATE RMSE", "m", True,
-        "paper IV: a lower RMSE means the algorithm gives better results",
-    ),
-    Metric(
-        "occupied_fraction", "occupied fraction", "", False,
-        "paper III.A: the higher the proportion of occupied cells, the less suitable the "
-        "algorithm (blurred or doubled walls)",
-    ),
-    Metric(
-        "corners", "corners", "", True,
-        "paper III.B: the map with fewer corners is more likely consistent, with fewer "
-        "artifacts (doubled walls, overlaps)",
-    ),
-    Metric(
-        "enclosed_areas", "enclosed areas", "", True,
-        "paper III.C: the more enclosed areas (superposed rooms, failed loop closure), the "
-        "lower the quality of the map",
-    ),
-    Metric(
-        "gt_f1", "GT F1", "", False,
-        "docs/spec.md section 7: the harmonic mean of the shares of estimated walls near a "
-        "ground-truth wall and of ground-truth walls near an estimated one, after "
-        "alignment", higher=True,
-    ),
-    Metric(
-        "gt_chamfer", "GT chamfer", "m", True,
-        "docs/spec.md section 7: the mean distance from each map's walls to the other's "
-        "(missing walls and ghost walls), after alignment",
-    ),
-)
-
-
-
+#: One ranked column of the report: a row of the column table (``key``, ``label``,
+#: ``unit``, ``log``, ``why``, ``higher``, ``direction``, ``heading``).
+Metric = Column
+#: The ranked metrics, in table order ("lower is better" unless ``higher``): the columns
+#: shown at ``ranked`` (:data:`slamq.columns.COLUMNS`; a live view).
+METRICS: Sequence[Metric] = shown("ranked")
 #: Shown (and marked as deciding) only where the verdict ranks by it: when the maps differ
 #: in resolution or orientation (:mod:`slamq.verdict.rule`).
-CANONICAL = Metric(
-    "corners_canonical", "canonical corners", "", True,
-    "docs/spec.md section 3a: the corners of the map turned to its walls' direction and "
-    "resampled to one resolution, comparable between maps saved differently",
-)
+CANONICAL = COLUMNS["corners_canonical"]
 #: Without ground truth: the median consistency of a map's walls with the other maps' of
 #: the sequence (slamq.agreement); a column of the table when the verdict rests on it.
-AGREEMENT = Metric(
-    "agreement", "agreement", "", False,
-    "docs/spec.md section 9: the median consistency of the map's walls with the other maps "
-    "of the sequence, once laid over each other (no ground truth needed); a map under 0.9 of "
-    "the best, or flagged by a defect detector, is never named best", higher=True,
-)
+AGREEMENT = COLUMNS["agreement"]
 
 
 def summarize(ok: pd.DataFrame) -> pd.DataFrame:

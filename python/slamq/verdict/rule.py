@@ -92,30 +92,22 @@ def _differences(block: pd.DataFrame) -> tuple[bool, bool]:
             angle_spread(block.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG)
 
 
-def _corner_key(block: pd.DataFrame, names: list[str], canonical_across_grids: bool = False
-                ) -> tuple[str | None, pd.Series]:
+def _corner_key(block: pd.DataFrame, names: list[str]) -> tuple[str | None, pd.Series]:
     """The corner column that orders ``names``, the maps the agreement confirms equally:
     plain corners when they share one resolution and orientation (issue 25: "corners only
     break ties between unflagged maps of one resolution and frame"), else None (their
-    support orders them); None too when a map has no corner count. With
-    ``canonical_across_grids`` (the first rule), corners_canonical when they differ."""
+    support orders them); None too when a map has no corner count."""
     part = block.loc[[a for a in names if a in block.index]]
     if any(_differences(part)):
-        if not canonical_across_grids:
-            return None, pd.Series(dtype=float)
-        keys: tuple[str, ...] = ("corners_canonical",)
-    else:
-        keys = ("corners", "corners_canonical") if canonical_across_grids else ("corners",)
-    for key in keys:
-        means = _means(part, key)
-        if len(means) == len(part):
-            return key, means
+        return None, pd.Series(dtype=float)
+    means = _means(part, "corners")
+    if len(means) == len(part):
+        return "corners", means
     return None, pd.Series(dtype=float)
 
 
 def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, Any],
-                       warnings: list[str], canonical_across_grids: bool = False
-                       ) -> dict[str, Any]:
+                       warnings: list[str]) -> dict[str, Any]:
     """The verdict without ground truth, from the maps' agreement and defect flags."""
     info = {str(a): e for a, e in evidence["algorithms"].items() if a in block.index}
     warnings.extend(evidence.get("notes", []))
@@ -129,8 +121,20 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     support = {a: e["support"] for a, e in info.items() if math.isfinite(e["support"])}
     complete = {a: e["completeness"] for a, e in info.items()
                 if math.isfinite(e["completeness"])}
-    top = max(support.values()) if support else math.nan
-    for a, v in support.items():
+    # no majority agrees, but an agreeing group of two or more programs does: the maps
+    # outside it confirm nothing, and the named map comes from the group (spec section 9)
+    group = [a for a in evidence.get("group", []) if a in support]
+    by_group = not evidence["majority"] and len(support) >= 3 and len(group) >= 2
+    gsup = {a: info[a].get("group_support", math.nan) for a in group}
+    if by_group:
+        support_of = {a: v for a, v in gsup.items() if math.isfinite(v)}
+        for a in support:
+            if a not in flagged and a not in group:
+                flagged[a] = "not in the group of maps that agree with each other"
+    else:
+        support_of = support
+    top = max(support_of.values()) if support_of else math.nan
+    for a, v in support_of.items():
         if a not in flagged and v < AGREEMENT_SHARE * top:
             flagged[a] = (f"its walls disagree with the other maps (support {v:.2f}, best "
                           f"{top:.2f})")
@@ -143,9 +147,9 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                             "maps agree exists: a partial map, never named best")
     for a in sorted(flagged):
         warnings.append(f"{a} is never named best: {flagged[a]}")
-    candidates = sorted((a for a in support if a not in flagged and a not in partial),
-                        key=lambda a: (-support[a], a))
-    key, corners = _corner_key(block, candidates, canonical_across_grids)
+    candidates = sorted((a for a in support_of if a not in flagged and a not in partial),
+                        key=lambda a: (-support_of[a], a))
+    key, corners = _corner_key(block, candidates)
     if key is not None and len(candidates) > 1:
         candidates.sort(key=lambda a: (float(corners[a]), a))
     rest = sorted((a for a in support if a not in candidates),
@@ -165,9 +169,10 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
         if len(support) == 2 and len(candidates) == 1 and any(
                 flagged.get(a, "").startswith("defects") for a in support):
             why = None  # one map is flagged on its own: the other is named
-    elif not evidence["majority"]:
+    elif not evidence["majority"] and not by_group:
         why = ("the maps disagree among themselves (most of them are not confirmed by the "
-               "others): the evidence does not say which is right")
+               "others, and no two programs' maps agree with each other): the evidence does "
+               "not say which is right")
     if why is None and not candidates:
         why = "every map is flagged or partial"
     if why is not None:
@@ -175,6 +180,13 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                 "basis": basis, "confidence": f"none: {why}", "warnings": warnings}
     confidence = ("medium: no ground truth; the maps confirm each other, and the named map "
                   "is confirmed by them and has no defect flag")
+    if by_group:
+        others = sorted(a for a in support if a not in group)
+        confidence = (f"low: no ground truth and no majority; {', '.join(group)} agree with "
+                      f"each other (every pair's consistency at least "
+                      f"{evidence.get('min_support', 0.6):g}) while "
+                      f"{', '.join(others) or 'no other map'} do not agree with all of them; "
+                      "the named map comes from that group and has no defect flag")
     if key is None and len(candidates) > 1:
         confidence += (f"; the {len(candidates)} maps they confirm equally differ in "
                        "resolution or orientation, so corners cannot compare them: their "
@@ -191,8 +203,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
 
 
 def sequence_verdict(summary: pd.DataFrame, sequence: str,
-                     evidence: dict[str, Any] | None = None, *,
-                     canonical_across_grids: bool = False) -> dict[str, Any]:
+                     evidence: dict[str, Any] | None = None) -> dict[str, Any]:
     """The verdict on one sequence of a report summary.
 
     Parameters
@@ -204,10 +215,6 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
         :func:`slamq.verdict.evidence.sequence_evidence` of the sequence: without ground
         truth, the verdict then rests on the maps' agreement and defect flags. Without it,
         on corners alone (low confidence).
-    canonical_across_grids : bool, default False
-        The first rule of 2026-11-25, kept to measure against (docs/validity.md): with
-        evidence, ``corners_canonical`` orders the confirmed maps when they differ in
-        resolution or orientation. Default: their support orders them.
 
     Returns
     -------
@@ -238,8 +245,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
     block = _algorithms(summary, sequence)
     warnings: list[str] = []
     if evidence is not None and not _ground_truth_decides(block):
-        return _agreement_verdict(block, sequence, evidence, warnings,
-                                  canonical_across_grids)
+        return _agreement_verdict(block, sequence, evidence, warnings)
     share = known_share(block)  # by area: comparable across resolutions; else cells
     partial = {a for a, s in share.items() if s < COMPLETE_SHARE}
     for a in sorted(partial):

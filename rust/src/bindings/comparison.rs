@@ -1,12 +1,13 @@
-//! Binding of the ground-truth comparison (rust/src/compare.rs, SPEC section 7): `compare`
+//! Binding of the ground-truth comparison (rust/src/compare/, SPEC section 7): `compare`
 //! and the `RawComparison` it returns.
 
 use super::grid;
 use super::runtime::compute;
-use crate::compare::{compare as compare_maps, CompareError, Comparison, Placed};
+use crate::compare::{compare as compare_maps, Comparison};
 use crate::edt::EdtError;
+use crate::error::Error;
 use crate::params::{Align, CompareParams};
-use crate::se2::{Frame, Se2};
+use crate::se2::{Frame, Placed, Se2};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::exceptions::{PyMemoryError, PyValueError};
 use pyo3::prelude::*;
@@ -164,14 +165,20 @@ pub(crate) fn compare<'py>(
     let c = compute(py, threads, || {
         compare_maps(&estimate, &ground_truth, &params, cells)
     })?
-    .map_err(|e| match e {
-        CompareError::Edt(EdtError::Alloc { .. }) => PyMemoryError::new_err(e.to_string()),
-        _ => PyValueError::new_err(e.to_string()),
-    })?;
+    .map_err(error)?;
     let raw = RawComparison::from(&c);
     let flags = match c.cells {
         Some(v) => Some(PyArray1::from_vec(py, v).reshape([gg.height, gg.width])?),
         None => None,
     };
     Ok((raw, flags))
+}
+
+/// The Python exception of an [`Error`] of the comparison or the registration: `MemoryError`
+/// when memory ran out, else `ValueError`, with the error's message.
+pub(crate) fn error(e: Error) -> PyErr {
+    match e {
+        Error::Edt(EdtError::Alloc { .. }) => PyMemoryError::new_err(e.to_string()),
+        _ => PyValueError::new_err(e.to_string()),
+    }
 }

@@ -7,9 +7,10 @@
 //! - [`loading`]: the loaders' fast paths: `map_saver_shades`, `read_table`, `read_tum`.
 //! - [`trajectory`]: `match_stamps`, `ate_moments`, `ate_errors`.
 //! - [`comparison`]: `compare` (a map against a ground-truth map; `RawComparison`).
-//! - [`registration`]: `register`, `register_many`, `legacy_search` (maps of one place onto each other;
+//! - [`registration`]: `register`, `register_many` (maps of one place onto each other;
 //!   `RawRegistration`).
 //! - [`synth`]: `raycast` (the simulator's laser, ground truth on demand).
+//! - [`scans`]: `scan_consistency` (a map against its own laser scans).
 //! - [`runtime`]: the thread pools, fork handling, `adopt_thread`.
 
 mod comparison;
@@ -17,6 +18,7 @@ mod loading;
 mod maps;
 mod registration;
 mod runtime;
+mod scans;
 mod synth;
 mod trajectory;
 
@@ -75,9 +77,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<comparison::RawComparison>()?;
     m.add_function(wrap_pyfunction!(registration::register, m)?)?;
     m.add_function(wrap_pyfunction!(registration::register_many, m)?)?;
-    m.add_function(wrap_pyfunction!(registration::legacy_search, m)?)?;
     m.add_class::<registration::RawRegistration>()?;
     m.add_function(wrap_pyfunction!(synth::raycast, m)?)?;
+    m.add_function(wrap_pyfunction!(scans::scan_consistency, m)?)?;
     m.add_function(wrap_pyfunction!(runtime::adopt_thread, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

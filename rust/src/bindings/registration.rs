@@ -1,17 +1,14 @@
 //! Binding of the global registration of maps of one place (rust/src/register.rs, SPEC
 //! section 7a): `register`, `register_many` and the `RawRegistration` they return.
 
-use super::comparison::frame;
+use super::comparison::{error, frame};
 use super::grid;
 use super::runtime::compute;
-use crate::compare::Placed;
-use crate::edt::EdtError;
 use crate::register::{
-    legacy_search as legacy, prepare, register as register_maps, register_many as register_all,
-    RegisterError, RegisterParams, Registration,
+    register as register_maps, register_many as register_all, RegisterParams, Registration,
 };
+use crate::se2::Placed;
 use numpy::PyReadonlyArray2;
-use pyo3::exceptions::{PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 
 /// One registration (SPEC section 7a): the motion `(theta, tx, ty)` (radians, metres) taking
@@ -80,13 +77,6 @@ impl RawRegistration {
              confidence={})",
             self.ok, self.theta, self.tx, self.ty, self.inliers, self.margin, self.confidence
         )
-    }
-}
-
-fn error(e: RegisterError) -> PyErr {
-    match e {
-        RegisterError::Edt(EdtError::Alloc { .. }) => PyMemoryError::new_err(e.to_string()),
-        _ => PyValueError::new_err(e.to_string()),
     }
 }
 
@@ -201,44 +191,4 @@ pub(crate) fn register_many<'py>(
         .iter()
         .map(|(ij, r)| (*ij, RawRegistration::from(r)))
         .collect())
-}
-
-/// legacy_search(moving_values, moving_unknown, moving_frame, fixed_values, fixed_unknown,
-/// fixed_frame, occupied_threshold=0.5, threads=0) -> (theta, tx, ty)
-///
-/// The rotation search `align="search"` used before the global registration (36 rotations
-/// from the centroids, short ICPs, the full ICP): kept for benches/bench_register.py.
-#[pyfunction]
-#[pyo3(signature = (moving_values, moving_unknown, moving_frame, fixed_values, fixed_unknown,
-                    fixed_frame, occupied_threshold=0.5, threads=0))]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn legacy_search<'py>(
-    py: Python<'py>,
-    moving_values: PyReadonlyArray2<'py, u8>,
-    moving_unknown: PyReadonlyArray2<'py, bool>,
-    moving_frame: (f64, f64, f64, f64),
-    fixed_values: PyReadonlyArray2<'py, u8>,
-    fixed_unknown: PyReadonlyArray2<'py, bool>,
-    fixed_frame: (f64, f64, f64, f64),
-    occupied_threshold: f64,
-    threads: usize,
-) -> PyResult<(f64, f64, f64)> {
-    let mg = grid(&moving_values, &moving_unknown)?;
-    let fg = grid(&fixed_values, &fixed_unknown)?;
-    let moving = Placed {
-        grid: mg,
-        frame: frame("moving", moving_frame, mg.height, mg.width)?,
-    };
-    let fixed = Placed {
-        grid: fg,
-        frame: frame("fixed", fixed_frame, fg.height, fg.width)?,
-    };
-    let d = RegisterParams::default();
-    let t = compute(py, threads, || {
-        let m = prepare(&moving, occupied_threshold, "moving")?;
-        let f = prepare(&fixed, occupied_threshold, "fixed")?;
-        legacy(&m, &f, d.trim, 100)
-    })?
-    .map_err(error)?;
-    Ok((t.theta, t.tx, t.ty))
 }

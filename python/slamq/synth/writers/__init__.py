@@ -1,4 +1,4 @@
-"""Writers: a :class:`~slamq.synth.Sequence` as the files real SLAM programs read.
+"""Writers: a :class:`~slamq.synth.Recording` as the files real SLAM programs read.
 
 :data:`FORMATS` names them; :func:`write` writes several into one folder. One function per
 format: :func:`write_rawlog` (MRPT), :func:`write_carmen`, :func:`write_rosbag1`,
@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from slamq.errors import SlamqError
-from slamq.synth.sequence import Sequence
+from slamq.synth.recording import Recording
 from slamq.synth.writers.carmen import read_carmen, write_carmen
 from slamq.synth.writers.rawlog import (
     EPOCH,
@@ -45,7 +45,7 @@ FORMATS: dict[str, str] = {
 }
 
 
-def write_groundtruth(seq: Sequence, path: str | Path, *, epoch: float = EPOCH) -> Path:
+def write_groundtruth(seq: Recording, path: str | Path, *, epoch: float = EPOCH) -> Path:
     """Write the exact path (``seq.gt``, world frame) as a TUM file on the writers' clock
     (``epoch + seq.stamps``): the ground truth for ``slamq ate`` / ``slamq run``.
 
@@ -56,7 +56,7 @@ def write_groundtruth(seq: Sequence, path: str | Path, *, epoch: float = EPOCH) 
     >>> from slamq.synth import LaserSpec
     >>> world = OccupancyMap(np.full((4, 4), 254, np.uint8), np.zeros((4, 4), bool), 0.1)
     >>> gt = np.array([[0.0, 0, 0], [1, 0, np.pi / 2]])
-    >>> seq = Sequence(np.array([0.0, 0.1]), gt, gt, np.ones((2, 3), np.float32),
+    >>> seq = Recording(np.array([0.0, 0.1]), gt, gt, np.ones((2, 3), np.float32),
     ...                LaserSpec(beams=3), world)
     >>> p = write_groundtruth(seq, pathlib.Path(tempfile.mkdtemp()) / "gt.tum")
     >>> p.read_text().splitlines()[1]
@@ -75,7 +75,7 @@ def write_groundtruth(seq: Sequence, path: str | Path, *, epoch: float = EPOCH) 
     return path
 
 
-def write(seq: Sequence, folder: str | Path, formats: Iterable[str] | str = tuple(FORMATS), *,
+def write(seq: Recording, folder: str | Path, formats: Iterable[str] | str = tuple(FORMATS), *,
           epoch: float = EPOCH) -> dict[str, Path]:
     """Write a sequence in several formats into ``folder``.
 
@@ -84,7 +84,7 @@ def write(seq: Sequence, folder: str | Path, formats: Iterable[str] | str = tupl
 
     Parameters
     ----------
-    seq : Sequence
+    seq : Recording
     folder : path
     formats : str or iterable of str, default every format
         Names from :data:`FORMATS`.
@@ -106,7 +106,7 @@ def write(seq: Sequence, folder: str | Path, formats: Iterable[str] | str = tupl
     >>> from slamq.models import OccupancyMap
     >>> from slamq.synth import LaserSpec
     >>> world = OccupancyMap(np.full((4, 4), 254, np.uint8), np.zeros((4, 4), bool), 0.1)
-    >>> seq = Sequence(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
+    >>> seq = Recording(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
     ...                np.ones((2, 3), np.float32), LaserSpec(beams=3), world, name="demo")
     >>> out = write(seq, tempfile.mkdtemp(), ["rawlog", "carmen"])
     >>> {k: v.name for k, v in out.items()}

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from slamq.errors import SlamqError
-from slamq.synth.sequence import Sequence
+from slamq.synth.recording import Recording
 from slamq.synth.writers.rawlog import EPOCH
 
 __all__ = ["write_carmen", "read_carmen"]
@@ -56,7 +56,7 @@ def _fixed3(a: np.ndarray) -> np.ndarray:
     return out.reshape(milli.shape[0], -1)
 
 
-def write_carmen(seq: Sequence, path: str | Path, *, epoch: float = EPOCH,
+def write_carmen(seq: Recording, path: str | Path, *, epoch: float = EPOCH,
                  hostname: str = "slamq") -> Path:
     """Write a sequence as a CARMEN log (``PARAM``, then an ``ODOM`` and a ``ROBOTLASER1``
     line per scan).
@@ -66,7 +66,7 @@ def write_carmen(seq: Sequence, path: str | Path, *, epoch: float = EPOCH,
 
     Parameters
     ----------
-    seq : Sequence
+    seq : Recording
     path : path
     epoch : float, default :data:`~slamq.synth.writers.EPOCH`
     hostname : str, default "slamq"
@@ -79,9 +79,9 @@ def write_carmen(seq: Sequence, path: str | Path, *, epoch: float = EPOCH,
     --------
     >>> import tempfile, pathlib, numpy as np
     >>> from slamq.models import OccupancyMap
-    >>> from slamq.synth import LaserSpec, Sequence
+    >>> from slamq.synth import LaserSpec, Recording
     >>> world = OccupancyMap(np.full((4, 4), 254, np.uint8), np.zeros((4, 4), bool), 0.1)
-    >>> seq = Sequence(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
+    >>> seq = Recording(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
     ...                np.array([[1, np.inf, 2]] * 2, np.float32), LaserSpec(beams=3), world)
     >>> p = write_carmen(seq, pathlib.Path(tempfile.mkdtemp()) / "s.log")
     >>> p.read_text().splitlines()[-1][:60]

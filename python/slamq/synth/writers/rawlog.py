@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from slamq.errors import SlamqError
-from slamq.synth.sequence import EPOCH, Sequence
+from slamq.synth.recording import EPOCH, Recording
 
 __all__ = ["EPOCH", "MOTION_MODEL", "graphslam_nodes", "mrpt_timestamp", "odometry_increments",
            "write_rawlog", "write_step_times"]
@@ -117,7 +117,7 @@ def graphslam_nodes(odom: np.ndarray, max_distance: float = 0.5,
     return np.asarray(nodes, np.int64)
 
 
-def write_step_times(seq: Sequence, rawlog: str | Path, *, epoch: float = EPOCH,
+def write_step_times(seq: Recording, rawlog: str | Path, *, epoch: float = EPOCH,
                      node_interval: tuple[float, float] = (0.5, 30.0)) -> tuple[Path, Path]:
     """Write the sidecars that put index-only pose logs on the sequence's clock.
 
@@ -135,7 +135,7 @@ def write_step_times(seq: Sequence, rawlog: str | Path, *, epoch: float = EPOCH,
     >>> from slamq.synth import LaserSpec
     >>> world = OccupancyMap(np.full((4, 4), 254, np.uint8), np.zeros((4, 4), bool), 0.1)
     >>> odom = np.column_stack([np.arange(4) * 0.3, np.zeros(4), np.zeros(4)])
-    >>> seq = Sequence(np.arange(4) * 0.1, odom, odom, np.ones((4, 3), np.float32),
+    >>> seq = Recording(np.arange(4) * 0.1, odom, odom, np.ones((4, 3), np.float32),
     ...                LaserSpec(beams=3), world)
     >>> steps, nodes = write_step_times(seq, pathlib.Path(tempfile.mkdtemp()) / "s.rawlog")
     >>> nodes.read_text().split()
@@ -183,7 +183,7 @@ def _action(inc: np.ndarray, ticks: int, model: dict[str, float]) -> bytes:
     return _ACTIONS + struct.pack("<I", 1) + _MOVE + body + _END + _END
 
 
-def write_rawlog(seq: Sequence, path: str | Path, *, motion_model: dict[str, float] | None = None,
+def write_rawlog(seq: Recording, path: str | Path, *, motion_model: dict[str, float] | None = None,
                  sensor_label: str = "LASER", epoch: float = EPOCH) -> Path:
     """Write a sequence as an MRPT rawlog in the action + sensory-frame form.
 
@@ -199,7 +199,7 @@ def write_rawlog(seq: Sequence, path: str | Path, *, motion_model: dict[str, flo
 
     Parameters
     ----------
-    seq : Sequence
+    seq : Recording
     path : path
         The ``.rawlog`` file to write (uncompressed; MRPT reads plain and gzip alike).
     motion_model : dict, optional
@@ -216,10 +216,10 @@ def write_rawlog(seq: Sequence, path: str | Path, *, motion_model: dict[str, flo
     --------
     >>> import tempfile, pathlib, numpy as np
     >>> from slamq.models import OccupancyMap
-    >>> from slamq.synth import LaserSpec, Sequence
+    >>> from slamq.synth import LaserSpec, Recording
     >>> laser = LaserSpec(beams=3)
     >>> world = OccupancyMap(np.full((4, 4), 254, np.uint8), np.zeros((4, 4), bool), 0.1)
-    >>> seq = Sequence(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
+    >>> seq = Recording(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
     ...                np.array([[1, np.inf, 2]] * 2, np.float32), laser, world)
     >>> p = write_rawlog(seq, pathlib.Path(tempfile.mkdtemp()) / "s.rawlog")
     >>> p.read_bytes()[:29]

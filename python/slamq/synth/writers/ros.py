@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from slamq.errors import SlamqError
-from slamq.synth.sequence import Sequence
+from slamq.synth.recording import Recording
 from slamq.synth.writers.rawlog import EPOCH
 
 __all__ = ["FRAMES", "write_rosbag1", "write_rosbag2", "write_mcap"]
@@ -50,7 +50,7 @@ def _typestore(ros1: bool) -> Any:
     return store
 
 
-def _messages(seq: Sequence, store: Any, ros1: bool, epoch: float
+def _messages(seq: Recording, store: Any, ros1: bool, epoch: float
               ) -> Iterator[tuple[str, int, Any]]:
     """``(topic, stamp ns, message)`` in time order."""
     T = store.types
@@ -130,12 +130,12 @@ def _fail(path: Path, exc: BaseException) -> SlamqError:
     return SlamqError(f"{path}: cannot write the bag ({exc})")
 
 
-def write_rosbag1(seq: Sequence, path: str | Path, *, epoch: float = EPOCH) -> Path:
+def write_rosbag1(seq: Recording, path: str | Path, *, epoch: float = EPOCH) -> Path:
     """Write a sequence as a ROS 1 bag (``/clock``, ``/tf``, ``/odom``, ``/scan``).
 
     Parameters
     ----------
-    seq : Sequence
+    seq : Recording
     path : path
         The ``.bag`` file (replaced if it exists).
     epoch : float, default :data:`~slamq.synth.writers.EPOCH`
@@ -149,9 +149,9 @@ def write_rosbag1(seq: Sequence, path: str | Path, *, epoch: float = EPOCH) -> P
     --------
     >>> import tempfile, pathlib, numpy as np
     >>> from slamq.models import OccupancyMap
-    >>> from slamq.synth import LaserSpec, Sequence
+    >>> from slamq.synth import LaserSpec, Recording
     >>> world = OccupancyMap(np.full((4, 4), 254, np.uint8), np.zeros((4, 4), bool), 0.1)
-    >>> seq = Sequence(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
+    >>> seq = Recording(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
     ...                np.ones((2, 3), np.float32), LaserSpec(beams=3), world)
     >>> write_rosbag1(seq, pathlib.Path(tempfile.mkdtemp()) / "s.bag").suffix
     '.bag'
@@ -173,7 +173,7 @@ def write_rosbag1(seq: Sequence, path: str | Path, *, epoch: float = EPOCH) -> P
     return path
 
 
-def _write2(seq: Sequence, folder: Path, epoch: float, mcap: bool) -> Path:
+def _write2(seq: Recording, folder: Path, epoch: float, mcap: bool) -> Path:
     import shutil
 
     from rosbags.interfaces import (
@@ -208,13 +208,13 @@ def _write2(seq: Sequence, folder: Path, epoch: float, mcap: bool) -> Path:
     return folder
 
 
-def write_rosbag2(seq: Sequence, folder: str | Path, *, epoch: float = EPOCH) -> Path:
+def write_rosbag2(seq: Recording, folder: str | Path, *, epoch: float = EPOCH) -> Path:
     """Write a sequence as a ROS 2 bag, sqlite3 storage (``/clock``, ``/tf``,
     ``/tf_static``, ``/odom``, ``/scan``).
 
     Parameters
     ----------
-    seq : Sequence
+    seq : Recording
     folder : path
         The bag folder (``metadata.yaml`` + ``<name>_0.db3``; replaced if it exists).
     epoch : float, default :data:`~slamq.synth.writers.EPOCH`
@@ -227,9 +227,9 @@ def write_rosbag2(seq: Sequence, folder: str | Path, *, epoch: float = EPOCH) ->
     --------
     >>> import tempfile, pathlib, numpy as np
     >>> from slamq.models import OccupancyMap
-    >>> from slamq.synth import LaserSpec, Sequence
+    >>> from slamq.synth import LaserSpec, Recording
     >>> world = OccupancyMap(np.full((4, 4), 254, np.uint8), np.zeros((4, 4), bool), 0.1)
-    >>> seq = Sequence(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
+    >>> seq = Recording(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
     ...                np.ones((2, 3), np.float32), LaserSpec(beams=3), world)
     >>> p = write_rosbag2(seq, pathlib.Path(tempfile.mkdtemp()) / "s")
     >>> sorted(f.suffix for f in p.iterdir())
@@ -238,13 +238,13 @@ def write_rosbag2(seq: Sequence, folder: str | Path, *, epoch: float = EPOCH) ->
     return _write2(seq, Path(folder), epoch, mcap=False)
 
 
-def write_mcap(seq: Sequence, folder: str | Path, *, epoch: float = EPOCH) -> Path:
+def write_mcap(seq: Recording, folder: str | Path, *, epoch: float = EPOCH) -> Path:
     """Write a sequence as a ROS 2 bag with MCAP storage (the same topics as
     :func:`write_rosbag2`).
 
     Parameters
     ----------
-    seq : Sequence
+    seq : Recording
     folder : path
         The bag folder (``metadata.yaml`` + ``<name>_0.mcap``; replaced if it exists).
     epoch : float, default :data:`~slamq.synth.writers.EPOCH`
@@ -257,9 +257,9 @@ def write_mcap(seq: Sequence, folder: str | Path, *, epoch: float = EPOCH) -> Pa
     --------
     >>> import tempfile, pathlib, numpy as np
     >>> from slamq.models import OccupancyMap
-    >>> from slamq.synth import LaserSpec, Sequence
+    >>> from slamq.synth import LaserSpec, Recording
     >>> world = OccupancyMap(np.full((4, 4), 254, np.uint8), np.zeros((4, 4), bool), 0.1)
-    >>> seq = Sequence(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
+    >>> seq = Recording(np.array([0.0, 0.1]), np.zeros((2, 3)), np.zeros((2, 3)),
     ...                np.ones((2, 3), np.float32), LaserSpec(beams=3), world)
     >>> p = write_mcap(seq, pathlib.Path(tempfile.mkdtemp()) / "s")
     >>> sorted(f.suffix for f in p.iterdir())

@@ -15,7 +15,7 @@ The table it prints is the one in docs/spec.md, section 3a.
 
 Usage::
 
-    PYTHONPATH=python python benches/canonical_sweep.py [--references 0.05 0.06 0.07 0.08 0.1]
+    python studies/canonical_sweep.py [--references 0.05 0.06 0.07 0.08 0.1] [--data DIR]
 """
 
 from __future__ import annotations
@@ -27,11 +27,11 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _common import REPO, SHARED_DATA
 
 import slamq
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "tests"))  # the invariance test's corpus and perturbations
+sys.path.insert(0, str(REPO / "tests"))  # the invariance test's corpus and perturbations
 from conftest import comparison_tools_runs  # noqa: E402
 from test_canonical import FAST, PERTURBATIONS, _corpus  # noqa: E402
 
@@ -40,7 +40,8 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--references", type=float, nargs="+",
                     default=[0.05, 0.06, 0.07, 0.08, 0.1])
-    ap.add_argument("--data", type=Path, default=HERE.parent.parent / "shared" / "data")
+    ap.add_argument("--data", type=Path, default=SHARED_DATA,
+                    help=f"the real-map corpus (default {SHARED_DATA})")
     args = ap.parse_args()
     if not (args.data / "maps").is_dir():
         print(f"skipped: no corpus at {args.data}")

@@ -2,14 +2,17 @@
 benchmark with the ground truth hidden, and on real folders ranked by eye
 (docs/validity.md, "The verdict without ground truth").
 
-``python -m slamq.report.verdict_study --benchmark OUTPUT --real MAPS docs/by_eye.csv
+``python studies/verdict_study.py --benchmark OUTPUT --real MAPS studies/by_eye.csv
 --markdown docs/validity.md`` regenerates the tables.
 
 - :func:`benchmark_verdicts`: every sequence of a ``slamq run`` output with generated
-  ground truth (:mod:`slamq.synth.benchmark`): the verdict computed from the maps alone
-  (every ``ate_*`` and ``gt_*`` column dropped) against the trajectory error.
+  ground truth (:mod:`slamq.synth.benchmark`; studies/benchmark_study.py): the verdict
+  computed from the maps alone (every ``ate_*`` and ``gt_*`` column dropped) against the
+  trajectory error.
 - :func:`folder_verdicts`: folders of real maps of one place: the verdict against the
-  by-eye classes of a CSV (``folder, map, class, broken``; class 1 best).
+  by-eye classes of a CSV (``folder, map, class, broken``; class 1 best; studies/by_eye.csv).
+- :func:`first_rule`: the first rule of 2026-11-25, retired, frozen here to measure the
+  shipped rule against (the package holds the shipped rule only).
 """
 
 from __future__ import annotations
@@ -21,14 +24,19 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
+from _common import print_or_write_section
 
 from slamq.params import SETTINGS
+from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
+from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_resolutions
 from slamq.verdict.evidence import sequence_evidence
 from slamq.verdict.ranking import summarize
-from slamq.verdict.rule import sequence_verdict
+from slamq.verdict.rule import AGREEMENT_SHARE, COMPLETE_SHARE, sequence_verdict
 
-__all__ = ["benchmark_verdicts", "by_eye_agreement", "folder_verdicts", "markdown", "main"]
+__all__ = ["benchmark_verdicts", "by_eye_agreement", "first_rule", "folder_verdicts",
+           "markdown", "main"]
 
 BEGIN, END = "<!-- verdict-study:begin -->", "<!-- verdict-study:end -->"
 #: The benchmark's sets, by simulation seed (docs/validity.md says why seeds 1-2 became
@@ -77,7 +85,7 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
         ``first_ate_rank``, ``first_broken_named``) and the old rule (corners alone):
         ``old_best``, ``old_ate_rank``, ``old_broken_named``.
     """
-    from slamq.synth.benchmark import load_benchmark
+    from benchmark_study import load_benchmark
 
     df = load_benchmark(Path(output))
     df = df[df["outcome"] == "ok"]
@@ -96,7 +104,7 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
         ratio = float(ate[best] / ate.min()) if best in ate.index else math.nan
         broken = bool(block.loc[block["algorithm"] == best, "broken"].any()) if best else False
         old = sequence_verdict(summary, str(seq))["best"]  # corners alone: the old rule
-        first = sequence_verdict(summary, str(seq), ev, canonical_across_grids=True)["best"]
+        first = first_rule(summary, str(seq), ev)["best"]
         rows.append({"sequence": seq, "best": best, "ate_rank": rank, "ate_ratio": ratio,
                      "broken_named": broken, "reason": v["confidence"],
                      "first_best": first,
@@ -139,7 +147,8 @@ def folder_verdicts(root: Path, by_eye: Path, *,
     Parameters
     ----------
     root : path
-        The folder the CSV's ``folder`` column is relative to (``../shared/data/maps``).
+        The folder the CSV's ``folder`` column is relative to (the corpus's maps folder,
+        :data:`_common.SHARED_MAPS`).
     by_eye : path
         CSV with ``folder, map, class, broken`` (class 1 best; broken 1 or 0).
     align : str, default "auto"
@@ -167,9 +176,111 @@ def folder_verdicts(root: Path, by_eye: Path, *,
     for folder in eye["folder"].unique():
         ev = sequence_evidence(ok, folder, align=align, defects=defects)
         verdicts[folder] = sequence_verdict(summary, folder, ev)
-        verdicts[folder]["first_rule"] = sequence_verdict(summary, folder, ev,
-                                                          canonical_across_grids=True)
+        verdicts[folder]["first_rule"] = first_rule(summary, folder, ev)
     return eye, verdicts
+
+
+# --------------------------------------------------------------------------------------
+# The first rule (2026-11-25), retired: frozen here so that the study can replay it.
+
+
+def _finite_means(block: pd.DataFrame, key: str) -> pd.Series:
+    col = f"{key}_mean"
+    if col not in block:
+        return pd.Series(dtype=float)
+    values = pd.to_numeric(block[col], errors="coerce")
+    return values[np.isfinite(values.to_numpy(dtype=float))]
+
+
+def _first_rule_corner_key(part: pd.DataFrame) -> tuple[str | None, pd.Series]:
+    """The first rule's corner column for the maps the agreement confirms equally:
+    ``corners_canonical`` when they differ in resolution or orientation (wall angles more
+    than ``ANGLE_TOLERANCE_DEG`` apart modulo 90), else plain ``corners`` (or
+    ``corners_canonical`` when some map has no plain count); None when a map has neither.
+    (The shipped rule never uses ``corners_canonical`` here: maps of different grids are
+    ordered by their support.)"""
+    differ = (len(distinct_resolutions(part.get("resolution_mean", []))) > 1
+              or angle_spread(part.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG)
+    for key in ("corners_canonical",) if differ else ("corners", "corners_canonical"):
+        means = _finite_means(part, key)
+        if len(means) == len(part):
+            return key, means
+    return None, pd.Series(dtype=float)
+
+
+def _confirmed(evidence: dict[str, Any], names: Iterable[str]) -> set[str]:
+    """Of the algorithms ``names`` (a sequence's, reference maps left out), those the
+    agreement confirms equally: placed, not flagged by the defect detectors on at least
+    half of their runs, with a support of at least ``AGREEMENT_SHARE`` of the best and a
+    completeness of at least ``COMPLETE_SHARE`` of the highest (the flags both rules
+    share)."""
+    names = set(names)
+    info = {str(a): e for a, e in evidence["algorithms"].items() if a in names}
+    support = {a: e["support"] for a, e in info.items() if math.isfinite(e["support"])}
+    complete = {a: e["completeness"] for a, e in info.items()
+                if math.isfinite(e["completeness"])}
+    top = max(support.values()) if support else math.nan
+    most = max(complete.values()) if complete else math.nan
+
+    def ok(a: str) -> bool:
+        e = info[a]
+        flagged = not e["placed"] or (e["flagged_runs"] and 2 * e["flagged_runs"] >= e["runs"])
+        return (not flagged and support[a] >= AGREEMENT_SHARE * top
+                and not complete.get(a, math.inf) < COMPLETE_SHARE * most)
+
+    return {a for a in support if ok(a)}
+
+
+def first_rule(summary: pd.DataFrame, sequence: str, evidence: dict[str, Any] | None
+               ) -> dict[str, Any]:
+    """The verdict of the first rule of 2026-11-25 on the same evidence as the shipped rule.
+
+    The two rules differ in one thing: without ground truth, the first ordered the maps the
+    agreement confirms equally by ``corners_canonical`` when they differ in resolution or
+    orientation (:func:`_first_rule_corner_key`); the shipped rule orders them by their
+    support. Everything else (ground truth first, the flags, partial maps, when to
+    abstain) is the shipped rule's, so this re-orders the confirmed maps at the head of
+    the shipped verdict's ranking.
+
+    Returns
+    -------
+    dict
+        ``{"sequence", "best", "ranking", "basis"}`` as :func:`sequence_verdict`.
+
+    Examples
+    --------
+    >>> from slamq.verdict.ranking import summarize
+    >>> df = pd.DataFrame({"sequence": "s", "algorithm": list("abc"),
+    ...                    "corners": [10, 500, 300], "corners_canonical": [10, 500, 300],
+    ...                    "resolution": [0.05, 0.07, 0.05], "wall_angle": 0.0})
+    >>> ev = {"majority": True, "notes": [], "algorithms": {
+    ...     a: {"support": s, "completeness": 1.0, "placed": True, "runs": 1,
+    ...         "flagged_runs": 0, "defects": {}} for a, s in zip("abc", [0.9, 0.95, 0.93])}}
+    >>> sequence_verdict(summarize(df), "s", ev)["ranking"]
+    ['b', 'c', 'a']
+    >>> v = first_rule(summarize(df), "s", ev)
+    >>> v["best"], v["ranking"], v["basis"]
+    ('a', ['a', 'c', 'b'], ['agreement', 'corners_canonical'])
+    """
+    v = sequence_verdict(summary, sequence, evidence)
+    keep = {k: v[k] for k in ("sequence", "best", "ranking", "basis")}
+    if evidence is None or v["basis"][:1] != ["agreement"]:
+        return keep  # ground truth, or corners alone, decided: the rules agree
+    block = summary.xs(sequence, level="sequence")
+    algorithms = [a for a in block.index if str(a).lower() not in GROUND_TRUTH_ALGORITHMS]
+    confirmed = [a for a in v["ranking"] if a in _confirmed(evidence, algorithms)]
+    n = len(confirmed)
+    if v["ranking"][:n] != confirmed:
+        raise RuntimeError(f"{sequence}: the shipped verdict's confirmed maps "
+                           f"{v['ranking'][:n]} are not the ones the frozen first rule finds "
+                           f"({confirmed}): the shipped rule's flags changed; update "
+                           "_confirmed")
+    key, corners = _first_rule_corner_key(block.loc[confirmed])
+    if key is None or n < 2:
+        return keep  # the confirmed maps are ordered by their support, as shipped
+    head = sorted(confirmed, key=lambda a: (float(corners[a]), a))
+    return {"sequence": keep["sequence"], "best": head[0] if v["best"] is not None else None,
+            "ranking": head + v["ranking"][n:], "basis": ["agreement", key]}
 
 
 def by_eye_agreement(eye: pd.DataFrame, folder: str, ranking: Sequence[str]
@@ -250,10 +361,8 @@ def markdown(bench: pd.DataFrame | None, eye: pd.DataFrame | None,
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m slamq.report.verdict_study``: the verdict-validation tables."""
-    from slamq.synth.damage import print_or_write_section
-
-    ap = argparse.ArgumentParser(prog="python -m slamq.report.verdict_study",
+    """``python studies/verdict_study.py``: the verdict-validation tables."""
+    ap = argparse.ArgumentParser(prog="python studies/verdict_study.py",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--benchmark", type=Path, nargs="+",
                     help="slamq run outputs of generated sequences")
@@ -269,7 +378,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                         for b in a.benchmark], ignore_index=True) if a.benchmark else None)
     eye, verdicts = (folder_verdicts(*a.real, defects=not a.no_defects) if a.real
                      else (None, None))
-    command = "python -m slamq.report.verdict_study " + " ".join(
+    command = "python studies/verdict_study.py " + " ".join(
         sys.argv[1:] if argv is None else list(argv))
     return print_or_write_section(markdown(bench, eye, verdicts, command), a.markdown,
                                   BEGIN, END)

@@ -1,4 +1,4 @@
-"""``Sequence``: one simulated drive through a world, what every part of "ground truth on
+"""``Recording``: one simulated drive through a world, what every part of "ground truth on
 demand" hands to the next (the simulator makes it, the writers turn it into the files SLAM
 programs read, the scorer takes its exact path and map).
 
@@ -18,7 +18,7 @@ import numpy as np
 from slamq.errors import SlamqError
 from slamq.models import OccupancyMap
 
-__all__ = ["EPOCH", "LaserSpec", "Sequence"]
+__all__ = ["EPOCH", "LaserSpec", "Recording"]
 
 #: Seconds since 1970 added to a sequence's stamps in every file written from it (the
 #: sensor logs of :mod:`slamq.synth.writers` and the ground truth of
@@ -73,7 +73,7 @@ class LaserSpec:
 
 
 @dataclass(eq=False)
-class Sequence:
+class Recording:
     """One simulated drive: exact poses, odometry, laser scans, and the world they saw.
 
     Attributes
@@ -118,5 +118,5 @@ class Sequence:
         return len(self.stamps)
 
     def __repr__(self) -> str:
-        return (f"Sequence({self.name!r}, {len(self)} scans x {self.laser.beams} beams, "
+        return (f"Recording({self.name!r}, {len(self)} scans x {self.laser.beams} beams, "
                 f"{self.stamps[-1] - self.stamps[0] if len(self) else 0:.1f} s)")

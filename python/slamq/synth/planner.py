@@ -61,7 +61,7 @@ def clearance(world: OccupancyMap) -> np.ndarray:
 
     Examples
     --------
-    >>> from slamq.synth.world import world
+    >>> from slamq.synth.worldgen import world
     >>> w = world(0, kind="hall", size=(10.0, 8.0))
     >>> c = clearance(w)
     >>> c.shape == w.shape, float(c.max()) > 1.0
@@ -268,7 +268,7 @@ def drive(world: OccupancyMap, seed: int = 0, *, speed: float = 0.5, rate: float
     Parameters
     ----------
     world : OccupancyMap
-        A world (:func:`slamq.synth.world.world`, :func:`~slamq.synth.world.load_world`);
+        A world (:func:`slamq.synth.worldgen.world`, :func:`~slamq.synth.worldgen.load_world`);
         its origin's yaw must be 0. Rooms in ``meta["rooms"]`` are visited, else places
         spread over its free space.
     seed : int
@@ -300,7 +300,7 @@ def drive(world: OccupancyMap, seed: int = 0, *, speed: float = 0.5, rate: float
 
     Examples
     --------
-    >>> from slamq.synth.world import world
+    >>> from slamq.synth.worldgen import world
     >>> d = drive(world(0, kind="office", size=(12.0, 9.0)), seed=1)
     >>> len(d) > 100, d.meta["length"] > 10.0
     (True, True)

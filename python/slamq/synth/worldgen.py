@@ -475,6 +475,8 @@ def save_world(w: OccupancyMap, yaml_path: str | Path) -> Path:
     import cv2
     import yaml
 
+    from slamq.sources.pixels import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH
+
     out = Path(yaml_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     pixels = np.where(w.unknown, 205, np.where(w.values < 128, 0, 254)).astype(np.uint8)
@@ -483,8 +485,8 @@ def save_world(w: OccupancyMap, yaml_path: str | Path) -> Path:
     pgm.write_bytes(f"P5\n# CREATOR: slamq.synth {w.resolution:.3f} m/pix\n{wd} {h}\n255\n"
                     .encode() + pixels.tobytes())
     doc = {"image": pgm.name, "mode": "trinary", "resolution": float(w.resolution or 0.05),
-           "origin": [float(v) for v in w.origin], "negate": 0, "occupied_thresh": 0.65,
-           "free_thresh": 0.196}
+           "origin": [float(v) for v in w.origin], "negate": 0,
+           "occupied_thresh": DEFAULT_OCCUPIED_THRESH, "free_thresh": DEFAULT_FREE_THRESH}
     out.write_text(yaml.safe_dump(doc, sort_keys=False))
     meta = {k: v for k, v in w.meta.items() if k != "transparent" and _jsonable(v)}
     glass = w.meta.get("transparent")

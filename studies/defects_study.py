@@ -1,21 +1,24 @@
 """How well the defect detectors of :mod:`slamq.metrics.defects` work: precision and recall
 on three labelled sets, none of which the thresholds were tuned on.
 
-- **synthetic** (held out): :func:`~slamq.synth.damage.floor_plan` seeds 700.. and
-  :func:`~slamq.synth.world.worlds` from seed 700, clean and damaged by
-  :func:`~slamq.synth.damage.degrade` (damage seeds 700..); the thresholds were tuned on
+- **synthetic** (held out): :func:`slamq.synth.damage.floor_plan` seeds 700.. and
+  :func:`slamq.synth.worldgen.worlds` from seed 700, clean and damaged by
+  :func:`slamq.synth.damage.degrade` (damage seeds 700..); the thresholds were tuned on
   plan seeds 100-105 and worlds from seed 100 (seeds 300.. and 500.. were held-out sets of
   earlier versions, used up: docs/validity.md says how). :data:`EXPECTED` is what docs/validity.md
   wrote down before any detector ran: per damage, which detector must fire (``"fires"``),
   must stay silent (``"silent"``) or may do either (not counted).
 - **benchmark**: the 360 maps of ``examples/benchmark.yaml`` (real MRPT SLAM programs on
   generated worlds), labelled broken when the run's ATE RMSE is over 3x the sequence's best
-  and over 0.2 m (:func:`slamq.synth.benchmark.load_benchmark`).
-- **real**: maps of ../shared/data labelled by eye (its MANIFEST.md): :data:`REAL_DEFECTIVE`
-  with the detectors expected on each, and :data:`REAL_CLEAN`.
+  and over 0.2 m (studies/benchmark_study.py, :func:`load_benchmark`).
+- **real**: maps of the real-map corpus (../shared/data beside the clone, or
+  ``SLAMQ_SHARED_DATA``; :data:`_common.SHARED_MAPS`) labelled by eye (its MANIFEST.md):
+  :data:`REAL_DEFECTIVE` with the detectors expected on each, and :data:`REAL_CLEAN`, paths
+  relative to the maps folder ``--real`` names.
 
-``python -m slamq.synth.defects_study --benchmark DIR --real DIR --markdown
-docs/validity.md`` regenerates the tables of docs/validity.md ("Defect detectors").
+``python studies/defects_study.py --benchmark DIR --real [DIR] --markdown
+docs/validity.md`` regenerates the tables of docs/validity.md ("Defect detectors");
+``--real`` alone reads the corpus at :data:`_common.SHARED_MAPS`.
 """
 
 from __future__ import annotations
@@ -28,11 +31,13 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
+from _common import SHARED_MAPS, print_or_write_section
 
 from slamq.metrics.defects import DETECTORS
 from slamq.models import OccupancyMap
-from slamq.synth.damage import degrade, floor_plan, print_or_write_section
-from slamq.synth.world import worlds
+from slamq.sources import load_map
+from slamq.synth.damage import degrade, floor_plan
+from slamq.synth.worldgen import worlds
 
 __all__ = ["EXPECTED", "REAL_CLEAN", "REAL_DEFECTIVE", "benchmark_table", "flags",
            "real_table", "synthetic_table"]
@@ -64,8 +69,9 @@ EXPECTED: dict[tuple[str, float], dict[str, str]] = {
     ("kinks", 20.0): {"superposed": _F, "fragmented": _S},
 }
 
-#: Real maps with a defect seen by eye (MANIFEST.md), relative to the maps folder, and the
-#: detectors expected to fire on each (at least one of them finds the map).
+#: Real maps with a defect seen by eye (MANIFEST.md), relative to the corpus's maps folder
+#: (:data:`_common.SHARED_MAPS` unless ``--real`` names another), and the detectors
+#: expected to fire on each (at least one of them finds the map).
 REAL_DEFECTIVE: dict[str, tuple[str, ...]] = {
     "awabot_trajectoire4_4/trajectoire4_4_hector_odom.yaml": ("superposed",),
     "tfm_turtlebot4/maps/cartographer/default.yaml": ("superposed", "smeared"),
@@ -79,7 +85,7 @@ REAL_DEFECTIVE: dict[str, tuple[str, ...]] = {
     "base_model_mu_building/mu.yaml": ("superposed", "smeared"),
     "base_model_mu_building/mu_gm.yaml": ("doubled_walls",),
 }
-#: Real maps labelled clean: no detector may fire.
+#: Real maps labelled clean (relative to the same folder): no detector may fire.
 REAL_CLEAN: tuple[str, ...] = (
     *(f"slam_comparison_tools/test_results/{w}/{a}_map.yaml"
       for w in ("abstract", "office", "warehouse") for a in ("gmapping", "slam_toolbox")),
@@ -206,11 +212,10 @@ def synthetic_summary(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def benchmark_records(output: Path) -> pd.DataFrame:
-    """:func:`flags` of every map of a benchmark run folder (:func:`~slamq.synth.benchmark.
+    """:func:`flags` of every map of a benchmark run folder (:func:`benchmark_study.
     load_benchmark`), with ``broken``, ``kind`` and ``ate_rmse``; runs without a map are
     left out. Reads every map: minutes for the 360-map benchmark."""
-    from slamq.sources import load_map
-    from slamq.synth.benchmark import load_benchmark
+    from benchmark_study import load_benchmark
 
     df = load_benchmark(Path(output))
     rows = []
@@ -254,8 +259,9 @@ def benchmark_table(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def real_records(root: Path, timing: dict[str, float] | None = None) -> pd.DataFrame:
-    """:func:`flags` of the labelled real maps under ``root`` (../shared/data/maps); maps
-    that are absent are left out (a folder without them gives an empty table).
+    """:func:`flags` of the labelled real maps under ``root`` (the corpus's maps folder,
+    :data:`_common.SHARED_MAPS`); maps that are absent are left out (a folder without them
+    gives an empty table).
 
     Examples
     --------
@@ -263,8 +269,6 @@ def real_records(root: Path, timing: dict[str, float] | None = None) -> pd.DataF
     >>> len(real_records(tempfile.mkdtemp()))
     0
     """
-    from slamq.sources import load_map
-
     rows = []
     items = [(p, "defective", exp) for p, exp in REAL_DEFECTIVE.items()] + [
         (p, "clean", ()) for p in REAL_CLEAN]
@@ -407,9 +411,9 @@ BEGIN, END = "<!-- defects:begin -->", "<!-- defects:end -->"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m slamq.synth.defects_study``: the detectors' precision and recall on the
+    """``python studies/defects_study.py``: the detectors' precision and recall on the
     held-out synthetic maps, a benchmark run folder and the labelled real maps."""
-    ap = argparse.ArgumentParser(prog="python -m slamq.synth.defects_study",
+    ap = argparse.ArgumentParser(prog="python studies/defects_study.py",
                                  description=main.__doc__)
     ap.add_argument("--plans", type=int, default=10, help="held-out floor plans")
     ap.add_argument("--worlds", type=int, default=12, help="held-out generated worlds")
@@ -417,7 +421,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="first seed of the held-out plans, worlds and damage")
     ap.add_argument("--no-synthetic", action="store_true")
     ap.add_argument("--benchmark", type=Path, help="a `slamq run` output folder")
-    ap.add_argument("--real", type=Path, help="the labelled maps folder (../shared/data/maps)")
+    ap.add_argument("--real", type=Path, nargs="?", const=SHARED_MAPS, metavar="DIR",
+                    help=f"the labelled maps folder (alone: {SHARED_MAPS})")
     ap.add_argument("--csv", type=Path, help="write every map's flags to this folder")
     ap.add_argument("--markdown", type=Path, help="file whose marked section to replace")
     args = ap.parse_args(argv)
@@ -430,7 +435,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         for name, df in (("synthetic", syn), ("benchmark", bench), ("real", real)):
             if df is not None:
                 df.to_csv(args.csv / f"defects_{name}.csv", index=False)
-    command = "python -m slamq.synth.defects_study" + (
+    command = "python studies/defects_study.py" + (
         f" --plans {args.plans} --worlds {args.worlds} --seed {args.seed}" if syn is not None else
         " --no-synthetic") + (f" --benchmark {args.benchmark}" if bench is not None else "") \
         + (f" --real {args.real}" if real is not None else "") + (

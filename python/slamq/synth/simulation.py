@@ -1,5 +1,5 @@
 """``simulate``: a world, a drive through it, and what the robot's laser and odometry read
-along the drive, as one :class:`~slamq.synth.Sequence`."""
+along the drive, as one :class:`~slamq.synth.Recording`."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ import numpy as np
 
 from slamq.errors import SlamqError
 from slamq.models import OccupancyMap
-from slamq.synth.drive import Drive, drive
+from slamq.synth.planner import Drive, drive
+from slamq.synth.recording import LaserSpec, Recording
 from slamq.synth.sensors import NOISE, OdometryNoise, laser_scans, odometry, odometry_noise
-from slamq.synth.sequence import LaserSpec, Sequence
 
 __all__ = ["simulate"]
 
@@ -23,14 +23,14 @@ def simulate(world: OccupancyMap | str | os.PathLike[str], *, seed: int = 0,
              noise: str | OdometryNoise | dict[str, float] = "low",
              laser: LaserSpec | None = None, speed: float = 0.5, rate: float = 10.0,
              path: Drive | None = None, name: str | None = None,
-             threads: int | None = None, **drive_options: Any) -> Sequence:
+             threads: int | None = None, **drive_options: Any) -> Recording:
     """Simulate a robot driving through ``world``: exact poses, noisy odometry, laser scans.
 
     Parameters
     ----------
     world : OccupancyMap or path
-        A world (:func:`slamq.synth.world.world`) or a map_server YAML
-        (:func:`~slamq.synth.world.load_world`).
+        A world (:func:`slamq.synth.worldgen.world`) or a map_server YAML
+        (:func:`~slamq.synth.worldgen.load_world`).
     seed : int
         Seeds the drive, the range noise and the odometry noise (independent streams):
         the same arguments give the same sequence, bit for bit.
@@ -50,23 +50,23 @@ def simulate(world: OccupancyMap | str | os.PathLike[str], *, seed: int = 0,
     threads : int, optional
         Ray casting threads (None: every core); the result does not depend on it.
     **drive_options
-        Passed to :func:`slamq.synth.drive.drive` (``clearance_m``, ``turn_rate``,
+        Passed to :func:`slamq.synth.planner.drive` (``clearance_m``, ``turn_rate``,
         ``length``, ``laps``, ``pauses``, ``kidnaps``, ...).
 
     Returns
     -------
-    Sequence
+    Recording
         ``meta`` records the world, the drive, the noise and the seed (JSON-serialisable).
 
     Examples
     --------
-    >>> from slamq.synth.world import world
+    >>> from slamq.synth.worldgen import world
     >>> seq = simulate(world(2, kind="office", size=(10.0, 8.0)), seed=1, noise="none",
     ...                laser=LaserSpec(beams=181))
     >>> seq.ranges.shape[1], seq.ranges.dtype, bool(abs(seq.odom - seq.gt).max() < 1e-9)
     (181, dtype('float32'), True)
     """
-    from slamq.synth.world import load_world
+    from slamq.synth.worldgen import load_world
 
     if not isinstance(world, OccupancyMap):
         world = load_world(world)
@@ -98,7 +98,7 @@ def simulate(world: OccupancyMap | str | os.PathLike[str], *, seed: int = 0,
                   for k, v in asdict(laser).items()},
         "scans": len(path),
     }
-    return Sequence(path.stamps.astype(np.float64), path.poses.copy(), odom, ranges, laser,
+    return Recording(path.stamps.astype(np.float64), path.poses.copy(), odom, ranges, laser,
                     world, name=name, meta=meta)
 
 

@@ -1,0 +1,236 @@
+"""``Scans``: a planar laser's scans (what a map's own data is), and ``ScanConsistency``: a
+map scored against them (SPEC section 7b). Plain data: the metric lives in
+:mod:`slamq.metrics.scans`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from slamq.errors import SequenceError
+
+__all__ = ["ScanConsistency", "Scans"]
+
+
+@dataclass(frozen=True, eq=False)
+class Scans:
+    """Laser scans with their timestamps, one beam layout for all of them.
+
+    Attributes
+    ----------
+    stamps : numpy.ndarray
+        ``(N,)`` float64 seconds, non-decreasing.
+    angles : numpy.ndarray
+        ``(B,)`` float64 beam angles in the laser frame, radians (counter-clockwise from
+        the laser's heading).
+    ranges : numpy.ndarray
+        ``(N, B)`` float64 metres; a beam is valid when finite and
+        ``min_range < r < max_range`` (``inf`` or NaN: no return).
+    max_range : float
+        Metres (> ``min_range``; may be ``inf``).
+    min_range : float, default 0
+        Metres (>= 0).
+    offset : tuple of float, default (0, 0, 0)
+        ``(x, y, yaw)`` of the laser on the robot (``base_link -> laser``): the poses a
+        metric is given are the robot's.
+    source : str
+        Where the scans came from.
+    meta : dict
+
+    Examples
+    --------
+    >>> s = Scans.from_layout([0.0, 0.1], -0.5, 1.0, [[1.0, 2.0], [np.inf, 3.0]], 20.0)
+    >>> s
+    Scans('<array>', 2 scans x 2 beams, max_range=20)
+    >>> s.angles.tolist()
+    [-0.5, 0.5]
+    """
+
+    stamps: np.ndarray
+    angles: np.ndarray
+    ranges: np.ndarray
+    max_range: float
+    min_range: float = 0.0
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    source: str = "<array>"
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        src = self.source
+        stamps = np.ascontiguousarray(self.stamps, dtype=np.float64)
+        angles = np.ascontiguousarray(self.angles, dtype=np.float64)
+        ranges = np.ascontiguousarray(self.ranges, dtype=np.float64)
+        if stamps.ndim != 1:
+            raise SequenceError(f"{src}: stamps must be a 1-D array, got shape {stamps.shape}")
+        if angles.ndim != 1:
+            raise SequenceError(f"{src}: angles must be a 1-D array, got shape {angles.shape}")
+        if ranges.shape != (stamps.shape[0], angles.shape[0]):
+            raise SequenceError(f"{src}: ranges must have shape ({stamps.shape[0]}, "
+                                f"{angles.shape[0]}) (scans x beams), got {ranges.shape}")
+        if not np.isfinite(stamps).all() or (np.diff(stamps) < 0).any():
+            raise SequenceError(f"{src}: stamps must be finite and non-decreasing")
+        if not np.isfinite(angles).all():
+            raise SequenceError(f"{src}: angles must be finite")
+        lo, hi = float(self.min_range), float(self.max_range)
+        if not (math.isfinite(lo) and lo >= 0 and hi > lo):
+            raise SequenceError(f"{src}: need 0 <= min_range < max_range, got {lo}, {hi}")
+        off = tuple(float(v) for v in self.offset)
+        if len(off) != 3 or not all(math.isfinite(v) for v in off):
+            raise SequenceError(f"{src}: offset must be 3 finite numbers, got {self.offset}")
+        for name, value in (("stamps", stamps), ("angles", angles), ("ranges", ranges),
+                            ("min_range", lo), ("max_range", hi), ("offset", off)):
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def from_layout(cls, stamps: Any, angle_min: float, angle_increment: float, ranges: Any,
+                    max_range: float, **kwargs: Any) -> Scans:
+        """Scans whose beams are ``angle_min + i * angle_increment`` (ROS ``LaserScan``)."""
+        ranges = np.asarray(ranges, dtype=np.float64)
+        b = ranges.shape[1] if ranges.ndim == 2 else 0
+        angles = angle_min + angle_increment * np.arange(b, dtype=np.float64)
+        return cls(np.asarray(stamps, dtype=np.float64), angles, ranges, max_range, **kwargs)
+
+    @classmethod
+    def from_sequence(cls, seq: Any) -> Scans:
+        """The scans of a simulated :class:`slamq.synth.Recording` (its stamps, its laser's
+        beams, minimum and maximum range and offset on the robot).
+
+        Examples
+        --------
+        >>> from slamq.synth import LaserSpec, simulate, world
+        >>> seq = simulate(world(2, kind="office", size=(8.0, 6.0)), seed=1, noise="none",
+        ...                laser=LaserSpec(beams=91), length=5.0)
+        >>> s = Scans.from_sequence(seq)
+        >>> s.ranges.shape == (len(seq), 91), s.max_range
+        (True, 20.0)
+        """
+        laser = seq.laser
+        return cls(seq.stamps, laser.angles(), seq.ranges, laser.max_range,
+                   min_range=laser.min_range, offset=tuple(laser.offset),
+                   source=str(getattr(seq, "name", "<sequence>")))
+
+    def __len__(self) -> int:
+        return int(self.stamps.shape[0])
+
+    def __repr__(self) -> str:
+        return (f"Scans({self.source!r}, {len(self)} scans x {self.angles.shape[0]} beams, "
+                f"max_range={self.max_range:g})")
+
+    def laser_poses(self, poses: np.ndarray) -> np.ndarray:
+        """The laser's ``(x, y, yaw)`` in the world for robot poses ``(N, 3)``: the robot
+        pose composed with :attr:`offset`."""
+        p = np.asarray(poses, dtype=np.float64)
+        ox, oy, oyaw = self.offset
+        if (ox, oy, oyaw) == (0.0, 0.0, 0.0):
+            return np.ascontiguousarray(p)
+        c, s = np.cos(p[:, 2]), np.sin(p[:, 2])
+        return np.ascontiguousarray(np.column_stack(
+            [p[:, 0] + c * ox - s * oy, p[:, 1] + s * ox + c * oy, p[:, 2] + oyaw]))
+
+
+#: The per-scan counts, in the order of :attr:`ScanConsistency.counts`' columns.
+COUNTS = ("valid", "hits", "misses", "unknown", "outside", "violations")
+
+
+@dataclass(frozen=True, eq=False)
+class ScanConsistency:
+    """A map scored against its own scans (SPEC section 7b).
+
+    Attributes
+    ----------
+    counts : numpy.ndarray
+        ``(N, 6)`` int64 per scan: valid beams, hits, misses, unknown, outside, violations
+        (:data:`COUNTS`); zeros for a scan without a pose.
+    placed : numpy.ndarray
+        ``(N,)`` bool: the scan had a pose.
+    violation_grid : numpy.ndarray
+        ``(H, W)`` uint32 on the map's grid: how many beams passed through each occupied
+        cell before their end (where the map contradicts its data).
+    tolerance : float
+        Metres.
+    occupied_threshold : float
+    source : str
+        The map's source.
+
+    Examples
+    --------
+    >>> c = ScanConsistency(np.array([[4, 3, 1, 0, 0, 1], [0, 0, 0, 0, 0, 0]]),
+    ...                     np.array([True, False]), np.zeros((2, 2), np.uint32), 0.1, 0.5)
+    >>> c.hit_share, c.violation_share, c.scans
+    (0.75, 0.25, 1)
+    """
+
+    counts: np.ndarray
+    placed: np.ndarray
+    violation_grid: np.ndarray
+    tolerance: float
+    occupied_threshold: float
+    source: str = "<array>"
+
+    def _column(self, name: str) -> np.ndarray:
+        return self.counts[:, COUNTS.index(name)]
+
+    def _share(self, name: str) -> np.ndarray:
+        valid = self._column("valid")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(valid > 0, self._column(name) / np.maximum(valid, 1), np.nan)
+
+    @property
+    def hit_shares(self) -> np.ndarray:
+        """``(N,)`` per scan: hits / valid beams (NaN without valid beams)."""
+        return self._share("hits")
+
+    @property
+    def violation_shares(self) -> np.ndarray:
+        """``(N,)`` per scan: beams with a violation / valid beams (NaN without any)."""
+        return self._share("violations")
+
+    @property
+    def scans(self) -> int:
+        """Scans with a pose and at least one valid beam (those the means are over)."""
+        return int(np.count_nonzero(self.placed & (self._column("valid") > 0)))
+
+    @property
+    def beams(self) -> int:
+        """Valid beams of all scans."""
+        return int(self._column("valid").sum())
+
+    def _mean(self, shares: np.ndarray) -> float:
+        keep = self.placed & (self._column("valid") > 0)
+        return float(shares[keep].mean()) if keep.any() else math.nan
+
+    @property
+    def hit_share(self) -> float:
+        """Mean over scans of the hit share (1 = every beam ends on a wall of the map)."""
+        return self._mean(self.hit_shares)
+
+    @property
+    def violation_share(self) -> float:
+        """Mean over scans of the violation share (0 = no beam sees through a wall)."""
+        return self._mean(self.violation_shares)
+
+    def _pooled(self, name: str) -> float:
+        return float(self._column(name).sum() / self.beams) if self.beams else math.nan
+
+    @property
+    def unknown_share(self) -> float:
+        """Of all valid beams, those ending on an unknown cell away from any wall."""
+        return self._pooled("unknown")
+
+    @property
+    def outside_share(self) -> float:
+        """Of all valid beams, those ending off the map's grid."""
+        return self._pooled("outside")
+
+    def to_dict(self) -> dict[str, float | int]:
+        """The map-level figures (no arrays)."""
+        return {"scans": self.scans, "beams": self.beams, "hit_share": self.hit_share,
+                "violation_share": self.violation_share, "unknown_share": self.unknown_share,
+                "outside_share": self.outside_share, "tolerance": self.tolerance}
+
+    def __repr__(self) -> str:
+        return (f"ScanConsistency({self.source!r}, {self.scans} scans, hit_share="
+                f"{self.hit_share:.3f}, violation_share={self.violation_share:.3f})")

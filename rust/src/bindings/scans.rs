@@ -1,0 +1,84 @@
+//! A map against its own laser scans (`rust/src/scans.rs`, SPEC section 7b).
+
+use super::runtime::compute;
+use super::{contiguous, grid};
+use crate::scans::{consistency, ScanError, ScanGrid};
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods,
+};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+/// The counts of every scan and the violation grid.
+type Scored<'py> = (Bound<'py, PyArray2<i64>>, Bound<'py, PyArray2<u32>>);
+
+/// scan_consistency(values, unknown, resolution, origin, occupied_threshold, tolerance,
+/// poses, angles, ranges, min_range, max_range, threads=0) -> (counts, violations)
+///
+/// A map against its own scans (SPEC section 7b): `values` and `unknown` the map's
+/// C-contiguous `(H, W)` uint8 and bool arrays (row 0 at the top); `resolution` metres per
+/// cell; `origin` `(x, y, yaw)` of its lower-left corner; `occupied_threshold` on
+/// `(255 - v) / 255`; `tolerance` metres (> 0); `poses` `(n, 3)` float64 laser poses in the
+/// world frame; `angles` `(b,)` float64 beam angles relative to the yaw; `ranges` `(n, b)`
+/// float64 metres (valid when finite and `min_range < r < max_range`). Returns `counts`
+/// `(n, 6)` int64 (valid, hits, misses, unknown, outside, violations per scan) and
+/// `violations` `(H, W)` uint32 (beams that passed through each occupied cell); scans in
+/// parallel without the GIL, the same numbers for any `threads` (0 = every core).
+#[pyfunction]
+#[pyo3(signature = (values, unknown, resolution, origin, occupied_threshold, tolerance, poses,
+                    angles, ranges, min_range, max_range, threads=0))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn scan_consistency<'py>(
+    py: Python<'py>,
+    values: PyReadonlyArray2<'py, u8>,
+    unknown: PyReadonlyArray2<'py, bool>,
+    resolution: f64,
+    origin: (f64, f64, f64),
+    occupied_threshold: f64,
+    tolerance: f64,
+    poses: PyReadonlyArray2<'py, f64>,
+    angles: PyReadonlyArray1<'py, f64>,
+    ranges: PyReadonlyArray2<'py, f64>,
+    min_range: f64,
+    max_range: f64,
+    threads: usize,
+) -> PyResult<Scored<'py>> {
+    let map = grid(&values, &unknown)?;
+    let (h, w) = (map.height, map.width);
+    if poses.shape()[1] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "poses must have shape (n, 3), got {:?}",
+            poses.shape()
+        )));
+    }
+    let n = poses.shape()[0];
+    let b = angles.shape()[0];
+    if ranges.shape() != [n, b] {
+        return Err(PyValueError::new_err(format!(
+            "ranges must have shape ({n}, {b}) for {n} poses and {b} angles, got {:?}",
+            ranges.shape()
+        )));
+    }
+    let flat = contiguous(&poses, "poses")?;
+    let a = contiguous(&angles, "angles")?;
+    let r = contiguous(&ranges, "ranges")?;
+    let (v, u) = (map.values, map.unknown);
+    let err = |e: ScanError| PyValueError::new_err(e.to_string());
+    let out = compute(py, threads, || {
+        let g = ScanGrid::new(
+            v,
+            u,
+            h,
+            w,
+            resolution,
+            [origin.0, origin.1, origin.2],
+            occupied_threshold,
+            tolerance,
+        )?;
+        consistency(&g, flat, a, r, min_range, max_range)
+    })?
+    .map_err(err)?;
+    let counts = PyArray1::from_vec(py, out.counts).reshape([n, 6])?;
+    let grid = PyArray1::from_vec(py, out.violations).reshape([h, w])?;
+    Ok((counts, grid))
+}

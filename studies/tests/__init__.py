@@ -1,0 +1,1 @@
+"""The studies' tests (see studies/README.md)."""
