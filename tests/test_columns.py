@@ -199,4 +199,5 @@ def test_a_new_map_column_is_one_row_plus_its_computation(
     assert "lower is better &mdash; a test column" in page
     assert "black cells (cells)" in (tmp_path / "report" / "tables.md").read_text()
     details = list((tmp_path / "report").rglob("*.html"))
-    assert any("<th>black_cells</th>" in p.read_text(encoding="utf-8") for p in details)
+    assert any('<th title="black_cells">black cells</th>' in p.read_text(encoding="utf-8")
+               for p in details)
