@@ -58,8 +58,8 @@ def test_every_place_names_a_direction_or_a_unit_where_it_needs_one() -> None:
 
 def test_the_outputs_keep_their_columns() -> None:
     """The lists the outputs had by hand before the table, as the table gives them."""
-    from slamq.verdict.ranking import METRICS
     from slamq.results import summary, validity
+    from slamq.verdict.ranking import METRICS
 
     assert [(m.key, m.heading, m.higher, m.log) for m in METRICS] == [
         ("ate_rmse", "ATE RMSE (m)", False, True),
