@@ -53,7 +53,9 @@ def test_eval_folder_json_csv(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     # turned 2 degrees (issue 13's comparability check), and their canvases differ
     warned = [line for line in out.err.splitlines() if line.startswith("slamq: warning:")]
     assert "free_thresh" not in out.err
-    assert any("turned differently (wall angles -2.1," in w for w in warned), out.err
+    # issue 42, point 5: the warning names each map with its angle, and speaks in flags
+    assert any("turned differently (wall angles modulo 90: cartographer_map.yaml -2.1," in w
+               and "(--canonical-resolution 0.07)" in w for w in warned), out.err
     assert all("not comparable" in w for w in warned), out.err
     assert main(["eval", str(OFFICE), "-v"]) == 0
     notes = [line for line in capsys.readouterr().err.splitlines()
@@ -312,3 +314,14 @@ def test_occupancy_map_repr_does_not_dump_arrays() -> None:
     text = repr(m)
     assert text.startswith("OccupancyMap(") and "array" not in text and len(text) < 200
     assert "608x896 cells" in text and "resolution=0.05" in text
+
+
+def test_the_canonical_hint_goes_once_the_flag_is_given(capsys: pytest.CaptureFixture[str]
+                                                        ) -> None:
+    """Issue 42, point 5: with --canonical-resolution given, the turned-maps warning says to
+    compare the canonical corners the maps now have, not to pass the flag."""
+    assert main(["eval", str(OFFICE), "--canonical-resolution", "0.07", "-q"]) == 0
+    err = capsys.readouterr().err
+    turned = [ln for ln in err.splitlines() if "turned differently" in ln]
+    assert turned and all("compare their corners_canonical" in ln
+                          and "canonical-resolution" not in ln for ln in turned), err

@@ -50,7 +50,7 @@ def test_timeline_outputs(run_bag, tmp_path):
     assert [r["index"] for r in rows] == [0, 4, 6]
     assert [r["timestamp"] for r in rows] == [100.0, 104.0, 106.0]
     assert [r["elapsed"] for r in rows] == [0.0, 4.0, 6.0]
-    fields = [f for f in MapQuality.__dataclass_fields__ if f not in ("curve", "params")]
+    fields = [f for f in MapQuality.__dataclass_fields__ if f not in ("curve", "params", "extra")]
     for r in rows:
         assert set(fields) <= set(r) and "curve" not in r
         assert r["param_sweep_step"] == 5

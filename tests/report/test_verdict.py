@@ -162,8 +162,9 @@ def test_eval_and_summarize_warn_when_maps_differ_in_resolution(tmp_path) -> Non
                            str(tmp_path / "coarse.yaml")], capture_output=True, text=True,
                           env=slamq_env(), timeout=60)
     assert proc.returncode == 0, proc.stderr
-    assert ("slamq: warning: the maps have different resolutions (0.05, 0.1 m): their "
-            "corners, enclosed areas and cell counts are not comparable") in proc.stderr
+    assert ("slamq: warning: the maps have different resolutions (0.05 m: fine.yaml; 0.1 m: "
+            "coarse.yaml): their corners, enclosed areas and cell counts are not comparable"
+            ) in proc.stderr  # issue 42, point 5: the warning names the maps
     df = pd.DataFrame([slamq.evaluate(tmp_path / f"{n}.yaml").to_dict() | {"sequence": "s",
                        "algorithm": n} for n in ("fine", "coarse")])
     with pytest.warns(UserWarning, match="s: the maps have different resolutions"):

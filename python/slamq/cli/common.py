@@ -222,6 +222,29 @@ def stdout_console() -> Any:
     return console
 
 
+def cli_words(text: str) -> str:
+    """A library message in the command line's words: a keyword of a spec parameter
+    (``canonical_resolution=0.07``, ``align='search'``) becomes its option
+    (``--canonical-resolution 0.07``, ``--align search``).
+
+    Examples
+    --------
+    >>> cli_words("compare corners_canonical (canonical_resolution=0.07); pass align='search'")
+    'compare corners_canonical (--canonical-resolution 0.07); pass --align search'
+    """
+    import re
+
+    from slamq.params import PARAM_NAMES, SETTINGS
+
+    known = set(PARAM_NAMES) | {s.name for s in SETTINGS.values()} | {"align"}
+
+    def option(m: re.Match[str]) -> str:
+        name, value = m.group(1), m.group(2).strip("'\"")
+        return f"--{name.replace('_', '-')} {value}" if name in known else m.group(0)
+
+    return re.sub(r"\b([a-z][a-z0-9_]*)=('[^']*'|\"[^\"]*\"|[\w.+-]+)", option, text)
+
+
 class WarningDigest:
     """Python warnings (e.g. :class:`slamq.MapWarning`) as one stderr line each; a warning
     that repeats for other files (same text after the file name) is shown once and the other
@@ -234,7 +257,7 @@ class WarningDigest:
 
     def show(self, message: Warning | str, category: type, filename: str, lineno: int,
              file: IO[str] | None = None, line: str | None = None) -> None:
-        text = " ".join(str(message).split())
+        text = cli_words(" ".join(str(message).split()))
         where, sep, reason = text.partition(": ")
         key = (category, reason if sep else text)
         with self.lock:

@@ -91,10 +91,11 @@ def handle(args: argparse.Namespace) -> int:
     if len(results) > 1:
         import pandas as pd
 
+        from slamq.cli.common import cli_words
         from slamq.results.summary import comparability_warnings
 
         for msg in comparability_warnings(pd.DataFrame([q.to_dict() for q in results])):
-            print(f"slamq: warning: {msg.split(': ', 1)[1]}", file=sys.stderr)
+            print(f"slamq: warning: {cli_words(msg.split(': ', 1)[1])}", file=sys.stderr)
     if args.json or args.csv:  # the file formats only when a file is asked for
         from slamq.results.formats import write_csv, write_json
 

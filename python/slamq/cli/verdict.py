@@ -16,7 +16,7 @@ import math
 import sys
 from typing import Any
 
-from slamq.cli.common import add_threads_option, error_line, exit_code
+from slamq.cli.common import add_threads_option, cli_words, error_line, exit_code
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -110,4 +110,4 @@ def _print(result: dict[str, Any], out: Any) -> None:
     for r in rows:
         print("  ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip(), file=out)
     for w in v["warnings"]:
-        print(f"slamq: note: {w}", file=out)
+        print(f"slamq: note: {cli_words(w)}", file=out)

@@ -22,7 +22,7 @@ from slamq.results.columns import settings_difference
 
 __all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "GT_METRICS", "spreadsheet_safe",
            "summary_table", "comparability_warnings", "resolution_warnings", "angle_spread",
-           "ANGLE_TOLERANCE_DEG"]
+           "ANGLE_TOLERANCE_DEG", "map_names"]
 
 #: The map metrics summarised (every numeric MapQuality output): the map columns shown at
 #: ``summary`` (:data:`slamq.columns.COLUMNS`).
@@ -78,8 +78,8 @@ def resolution_warnings(records: Any) -> list[str]:
     --------
     >>> import pandas as pd
     >>> for w in resolution_warnings(pd.DataFrame({"sequence": "s", "resolution": [0.05, 0.1]})):
-    ...     print(w[:52])
-    s: the maps have different resolutions (0.05, 0.1 m)
+    ...     print(w[:60])
+    s: the maps have different resolutions (0.05 m: 0; 0.1 m: 1)
     """
     import pandas as pd
 
@@ -91,10 +91,40 @@ def resolution_warnings(records: Any) -> list[str]:
     for seq, part in records.groupby(seqs.astype(str), sort=True):
         res = distinct_resolutions(part["resolution"])
         if len(res) > 1:
-            out.append(f"{seq}: the maps have different resolutions "
-                       f"({', '.join(f'{r:g}' for r in res)} m): their corners, enclosed "
-                       "areas and cell counts are not comparable")
+            names = map_names(part)
+            by: dict[float, list[str]] = {}
+            for name, r in zip(names, part["resolution"], strict=False):
+                if isinstance(r, (int, float)) and math.isfinite(r):
+                    by.setdefault(float(f"{r:.6g}"), []).append(name)
+            shown = "; ".join(f"{r:g} m: {', '.join(sorted(set(n)))}" for r, n in sorted(
+                by.items()))
+            out.append(f"{seq}: the maps have different resolutions ({shown}): their "
+                       "corners, enclosed areas and cell counts are not comparable")
     return out
+
+
+def map_names(part: Any) -> list[str]:
+    """A name for each record that a user recognises: its algorithm (with the run when an
+    algorithm has several), else its map file's name, else its source.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> map_names(pd.DataFrame({"map": ["/r/a/map.yaml", "/r/b/gm.yaml"]}))
+    ['map.yaml', 'gm.yaml']
+    >>> map_names(pd.DataFrame({"algorithm": ["icp", "icp"], "run": ["1", "2"]}))
+    ['icp#1', 'icp#2']
+    """
+    n = len(part)
+    if "algorithm" in part.columns and part["algorithm"].notna().all():
+        algos = [str(a) for a in part["algorithm"]]
+        if len(set(algos)) == n or "run" not in part.columns:
+            return algos
+        return [f"{a}#{r}" for a, r in zip(algos, part["run"], strict=False)]
+    for col in ("map", "source"):
+        if col in part.columns:
+            return [Path(str(v)).name for v in part[col]]
+    return [str(i) for i in part.index]
 
 
 def angle_spread(angles: Any) -> float:
@@ -129,8 +159,8 @@ def comparability_warnings(records: Any) -> list[str]:
     >>> df = pd.DataFrame({"sequence": "s", "map": ["a.yaml", "b.yaml"],
     ...                    "wall_angle": [0.2, 5.1]})
     >>> for w in comparability_warnings(df):
-    ...     print(w[:60])
-    s: the maps are turned differently (wall angles 0.2, 5.1 deg
+    ...     print(w[:81])
+    s: the maps are turned differently (wall angles modulo 90: a.yaml 0.2, b.yaml 5.1
     """
     import pandas as pd
 
@@ -144,12 +174,17 @@ def comparability_warnings(records: Any) -> list[str]:
         "all maps", index=records.index)
     for seq, part in records.groupby(seqs.astype(str), sort=True):
         if "wall_angle" in part.columns:
-            angles = pd.to_numeric(part["wall_angle"], errors="coerce").dropna()
-            if angle_spread(angles) > ANGLE_TOLERANCE_DEG:
-                shown = ", ".join(f"{a:.1f}" for a in sorted(set(angles.round(1))))
-                out.append(f"{seq}: the maps are turned differently (wall angles {shown} deg "
-                           "modulo 90): their corners are not comparable; compare "
-                           "corners_canonical (canonical_resolution=0.07)")
+            angles = pd.to_numeric(part["wall_angle"], errors="coerce")
+            if angle_spread(angles.dropna()) > ANGLE_TOLERANCE_DEG:
+                shown = ", ".join(f"{n} {a:.1f}" for n, a in sorted(
+                    zip(map_names(part), angles, strict=False), key=lambda t: t[1])
+                    if math.isfinite(a))
+                have = "corners_canonical" in part.columns and pd.to_numeric(
+                    part["corners_canonical"], errors="coerce").notna().any()
+                hint = ("compare their corners_canonical" if have else
+                        "compare corners_canonical (canonical_resolution=0.07)")
+                out.append(f"{seq}: the maps are turned differently (wall angles modulo 90: "
+                           f"{shown} deg): their corners are not comparable; {hint}")
         if "saver" in part.columns:
             savers = sorted({str(x) for x in part["saver"] if isinstance(x, str) and x})
             if len(savers) > 1:
@@ -164,10 +199,12 @@ def comparability_warnings(records: Any) -> list[str]:
                            f"known cell {ratio.min():.2f} to {ratio.max():.2f}): their "
                            "proportions are not comparable")
         if "flags" in part.columns:
-            for name, flags in zip(part.get("map", part.index), part["flags"], strict=False):
+            files = next(([Path(str(v)).name for v in part[c]] for c in ("map", "source")
+                          if c in part.columns), None) or map_names(part)
+            for name, flags in zip(files, part["flags"], strict=False):
                 for flag in (str(flags).split(";") if isinstance(flags, str) else []):
                     if flag in FLAG_MEANING:
-                        out.append(f"{seq}: {Path(str(name)).name} is {FLAG_MEANING[flag]}: "
+                        out.append(f"{seq}: {name} is {FLAG_MEANING[flag]}: "
                                    "its numbers are not comparable with the others'")
     return out
 
