@@ -161,7 +161,7 @@ def markdown_benchmark(tables: dict[str, pd.DataFrame], command: str) -> str:
         for kind, row in b.iterrows():
             lines.append(f"| {kind} | " + " | ".join(str(int(v)) for v in row) + " |")
     lines += ["", "### Each metric against the truth, pooled over every sequence", "",
-              "Spearman agreement (+1: the metric orders a sequence's maps as the truth does) "
+              "Spearman correlation (+1: the metric orders a sequence's maps as the truth does) "
               "/ pairwise concordance (0.5 = chance) / permutation p.", "",
               "| metric | vs ATE RMSE | vs GT-map F1 |", "|---|---|---|"]
     pooled = tables["pooled"]
@@ -173,7 +173,7 @@ def markdown_benchmark(tables: dict[str, pd.DataFrame], command: str) -> str:
                 cells.append("-")
                 continue
             r = row.iloc[0]
-            cells.append(f"{r['agreement']:+.2f} / {_fmt(r['concordance'])} / "
+            cells.append(f"{r['spearman']:+.2f} / {_fmt(r['concordance'])} / "
                          f"{_fmt(r['p_value'], '.3f')} (n={int(r['n'])})")
         lines.append(f"| {metric} | " + " | ".join(cells) + " |")
     for by, title in (("kind", "world kind"), ("noise", "odometry noise")):

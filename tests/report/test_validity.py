@@ -25,15 +25,15 @@ def records(metric: list, truth: list, truth_col: str = "ate_rmse", seq: str = "
 def test_the_same_order_agrees_fully_and_the_reverse_order_not_at_all() -> None:
     same = validate(records([1, 2, 3, 4, 5], [0.1, 0.2, 0.3, 0.4, 0.5]), permutations=0)
     row = same[same["sequence"] == "s"].iloc[0]
-    assert row["agreement"] == 1.0 and row["concordance"] == 1.0 and row["pairs"] == 10
+    assert row["spearman"] == 1.0 and row["concordance"] == 1.0 and row["pairs"] == 10
     rev = validate(records([5, 4, 3, 2, 1], [0.1, 0.2, 0.3, 0.4, 0.5]), permutations=0)
-    assert rev.iloc[0]["agreement"] == -1.0 and rev.iloc[0]["concordance"] == 0.0
+    assert rev.iloc[0]["spearman"] == -1.0 and rev.iloc[0]["concordance"] == 0.0
 
 
 def test_a_higher_is_better_truth_is_flipped() -> None:
     # F1 is higher-is-better: the map with the fewest corners has the highest F1 -> agree
     v = validate(records([1, 2, 3, 4], [0.99, 0.9, 0.5, 0.1], "gt_f1"), permutations=0)
-    assert v.iloc[0]["agreement"] == 1.0
+    assert v.iloc[0]["spearman"] == 1.0
 
 
 def test_pooling_weights_sequences_and_reference_and_failed_rows_are_left_out() -> None:
@@ -44,7 +44,7 @@ def test_pooling_weights_sequences_and_reference_and_failed_rows_are_left_out() 
                                   "error": [None, "b.yaml: broken"]})])
     v = validate(df, permutations=0).set_index("sequence")
     assert v.loc["x", "n"] == 3 and v.loc["y", "n"] == 6
-    assert v.loc["(pooled)", "agreement"] == pytest.approx((3 * 1 - 6 * 1) / 9)
+    assert v.loc["(pooled)", "spearman"] == pytest.approx((3 * 1 - 6 * 1) / 9)
     assert v.loc["(pooled)", "pairs"] == 3 + 15
 
 

@@ -11,10 +11,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     """Register ``slamq validate``."""
     p = subparsers.add_parser(
         "validate",
-        help="rank agreement of each map metric with the ground truth of a results file",
+        help="rank correlation of each map metric with the ground truth of a results file",
         description="For the sequences of a results file with ground truth (ate_rmse from "
         "trajectories, gt_chamfer / gt_f1 from a ground-truth map), print how well each "
-        "no-reference metric orders the maps as the ground truth does: Spearman agreement "
+        "no-reference metric orders the maps as the ground truth does: Spearman correlation "
         "(+1 = the same order), pairwise concordance (0.5 = chance) and a permutation "
         "p-value, per sequence and pooled (slamq.results.validity).",
     )
@@ -43,12 +43,12 @@ def handle(args: argparse.Namespace) -> int:
                    "gt_f1) and at least 3 scored maps")
         return EXIT_BAD_INPUT
     shown = table if args.all else table[table["sequence"] == "(pooled)"]
-    out = Table(title=f"{args.results}: agreement with ground truth")
-    for col in ("metric", "truth", "sequence", "n", "agreement", "concordance", "p"):
+    out = Table(title=f"{args.results}: rank correlation with ground truth")
+    for col in ("metric", "truth", "sequence", "n", "spearman", "concordance", "p"):
         out.add_column(col, justify="left" if col in ("metric", "truth", "sequence")
                        else "right")
     for r in shown.itertuples():
-        out.add_row(r.metric, r.truth, r.sequence, str(r.n), f"{r.agreement:+.2f}",
+        out.add_row(r.metric, r.truth, r.sequence, str(r.n), f"{r.spearman:+.2f}",
                     f"{r.concordance:.2f}",
                     "-" if r.p_value != r.p_value else f"{r.p_value:.3f}")
     stdout_console().print(out)

@@ -60,7 +60,7 @@ class Registration:
     icp_iterations, rotations, candidates : int
         Final ICP iterations; rotations tried; candidates refined.
     tolerance : float
-        The agreement distance used, metres.
+        The matching distance of the inlier count, metres.
 
     Examples
     --------

@@ -294,7 +294,7 @@ def _validity_section(ok: pd.DataFrame) -> str:
     if len(shown):
         rows = "".join(
             f"<tr><td>{_e(r.metric)}</td><td>{_e(r.truth)}</td><td>{r.n}</td>"
-            f"<td>{r.agreement:+.2f}</td><td>{r.concordance:.2f}</td>"
+            f"<td>{r.spearman:+.2f}</td><td>{r.concordance:.2f}</td>"
             f"<td>{'–' if r.p_value != r.p_value else f'{r.p_value:.3f}'}</td></tr>"
             for r in shown.itertuples())
         parts.append(

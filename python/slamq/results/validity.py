@@ -4,15 +4,15 @@ For the sequences of a results file that have ground truth (``ate_rmse`` from tr
 ``gt_chamfer`` / ``gt_f1`` from a ground-truth map), :func:`validate` ranks the maps of each
 sequence by a metric and by the ground-truth figure and reports, per sequence and pooled:
 
-- ``agreement``: Spearman's rank correlation, signed so that +1 means "the metric orders the
+- ``spearman``: Spearman's rank correlation, signed so that +1 means "the metric orders the
   maps as the ground truth does" (the paper's metrics and ATE/chamfer are lower-is-better;
   F1 is higher-is-better, so its sign is flipped);
 - ``concordance``: the share of map pairs (within one sequence; pairs tied on either side
   left out) that the metric and the ground truth order the same way (0.5 = chance);
-- ``p_value``: a permutation test of the agreement (the ground truth shuffled within each
+- ``p_value``: a permutation test of the Spearman correlation (the ground truth shuffled within each
   sequence; two-sided, ``(1 + hits) / (1 + permutations)``).
 
-The pooled agreement is the mean of the per-sequence agreements weighted by their map
+The pooled ``spearman`` is the mean of the per-sequence ones weighted by their map
 counts; its permutation test shuffles within every sequence at once. Sequences with fewer
 than 3 scored maps are left out.
 """
@@ -117,7 +117,7 @@ def _concordance(a: np.ndarray, b: np.ndarray) -> tuple[int, int]:
 def validate(results: Any, *, truths: tuple[str, ...] | None = None,
              permutations: int = 2000, seed: int = 0,
              metrics: tuple[str, ...] | None = None) -> pd.DataFrame:
-    """Rank agreement of each no-reference metric with each ground-truth figure.
+    """Rank correlation of each no-reference metric with each ground-truth figure.
 
     Parameters
     ----------
@@ -137,7 +137,7 @@ def validate(results: Any, *, truths: tuple[str, ...] | None = None,
     -------
     pandas.DataFrame
         One row per (metric, truth, sequence) and one ``sequence="(pooled)"`` row per
-        (metric, truth): ``n`` maps, ``agreement``, ``concordance``, ``pairs``, ``p_value``.
+        (metric, truth): ``n`` maps, ``spearman``, ``concordance``, ``pairs``, ``p_value``.
 
     Examples
     --------
@@ -145,7 +145,7 @@ def validate(results: Any, *, truths: tuple[str, ...] | None = None,
     >>> df = pd.DataFrame({"sequence": "s", "algorithm": list("abcd"),
     ...                    "corners": [10, 20, 30, 40], "ate_rmse": [0.1, 0.3, 0.2, 0.9]})
     >>> row = validate(df, permutations=0).iloc[0]
-    >>> row["metric"], row["truth"], row["sequence"], int(row["n"]), float(row["agreement"])
+    >>> row["metric"], row["truth"], row["sequence"], int(row["n"]), float(row["spearman"])
     ('corners', 'ate_rmse', 's', 4, 0.8)
     >>> round(float(row["concordance"]), 4)  # 5 of the 6 pairs in the same order
     0.8333
@@ -182,7 +182,7 @@ def validate(results: Any, *, truths: tuple[str, ...] | None = None,
                 same, pairs = _concordance(a, b)
                 p = _p_value([(a, b)], rng, permutations)
                 rows.append({"metric": metric, "truth": truth, "sequence": seq,
-                             "n": len(a), "agreement": rho,
+                             "n": len(a), "spearman": rho,
                              "concordance": same / pairs if pairs else float("nan"),
                              "pairs": pairs, "p_value": p})
                 stats.append((rho, same, pairs, len(a)))
@@ -191,12 +191,12 @@ def validate(results: Any, *, truths: tuple[str, ...] | None = None,
             same = sum(s[1] for s in stats)
             pairs = sum(s[2] for s in stats)
             rows.append({"metric": metric, "truth": truth, "sequence": "(pooled)", "n": n,
-                         "agreement": pooled,
+                         "spearman": pooled,
                          "concordance": same / pairs if pairs else float("nan"),
                          "pairs": pairs,
                          "p_value": _p_value([(a, b) for _, a, b in groups], rng,
                                              permutations)})
-    return pd.DataFrame(rows, columns=["metric", "truth", "sequence", "n", "agreement",
+    return pd.DataFrame(rows, columns=["metric", "truth", "sequence", "n", "spearman",
                                        "concordance", "pairs", "p_value"])
 
 
@@ -224,7 +224,7 @@ def _p_value(groups: list[tuple[np.ndarray, np.ndarray]], rng: np.random.Generat
     if not np.isfinite(observed):
         return float("nan")
     # the shuffles drawn in the order the loop over them would draw them, then every
-    # shuffle's agreement at once (a group whose ranks do not vary has none in any shuffle)
+    # shuffle's correlation at once (a group whose ranks do not vary has none in any shuffle)
     orders = [np.empty((permutations, len(rb)), dtype=np.intp) for _, rb in centred]
     for k in range(permutations):
         for g, (_, rb) in enumerate(centred):
