@@ -203,8 +203,8 @@ def write_gif(
             pad = np.full((h, w, 3), 255, np.uint8)
             pad[: a.shape[0], : a.shape[1]] = a
             a = pad
-        # fast octree quantisation: 4-5x faster than the adaptive (median cut) palette on map
-        # frames (40 frames of 400 x 350: 0.30 -> 0.07 s), which have a few hundred colours
+        # fast octree quantisation rather than the adaptive (median cut) palette: map frames
+        # have a few hundred colours, and it is much cheaper (benches/RESULTS.md)
         images.append(Image.fromarray(a).quantize(colors=256, method=Image.Quantize.FASTOCTREE))
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -54,9 +54,8 @@ def _map_saver_shades(grey: np.ndarray) -> tuple[list[int], np.ndarray] | None:
 
     Most maps are map_saver images, and for them the unknown mask is exactly
     ``grey == 205``. The Rust core finds both in one pass without the GIL
-    (``rust/src/pixels.rs``, about 0.1 ms per million cells; the numpy version,
-    :func:`_map_saver_shades_numpy`, held the GIL for its counts, which a batch's other
-    threads then waited for).
+    (``rust/src/pixels.rs``) without holding the GIL, which a batch's other threads would
+    wait for (the numpy twin, :func:`_map_saver_shades_numpy`, holds it).
 
     Examples
     --------
