@@ -48,7 +48,8 @@ def test_mrpt_example_end_to_end(tmp_path: Path, short_rawlog: Path) -> None:
     cfg["timeout"] = 120
     # MRPT's example configs map at 0.07 m (rbpf-slam) and 0.05 m (icp-slam): said plainly
     with pytest.warns(UserWarning, match=r"telecom_tail: the maps have different "
-                                         r"resolutions \(0.05, 0.07 m\)"):
+                                         r"resolutions \(0.05 m: icp-slam#1, .*; 0.07 m: "
+                                         r"rbpf-slam\[particles=20\]#1"):
         result = runner.run(cfg)
     rows = result["rows"]
     assert len(rows) == 9
