@@ -1,0 +1,60 @@
+"""Validity of the map metrics and of the GT-free verdict on the real logs of issue 40
+(docs/validity.md, "Real robots"): ``python studies/real2d_validity.py OUTPUT`` after
+``python studies/real2d.py score OUTPUT`` (which writes ``OUTPUT/relations.csv``).
+
+Every run's map is scored (:func:`slamq.evaluate`, ``canonical_resolution=0.07``); each
+metric's concordance with the relations error is measured pooled and per dataset
+(:func:`slamq.results.validity.validate`); and ``slamq verdict``'s rule
+(:func:`slamq.report.maps_verdict.maps_verdict`) is run on each dataset's six maps of one
+iteration, its choice ranked by the relations error.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from slamq.api import evaluate
+from slamq.report.maps_verdict import maps_verdict
+from slamq.results.validity import validate
+
+METRICS = ("occupied_fraction", "corners", "corners_canonical", "enclosed_areas", "proportion")
+
+
+def main(argv: list[str] | None = None) -> int:
+    root = Path((argv or sys.argv[1:])[0])
+    rel = pd.read_csv(root / "relations.csv")
+    rows = []
+    for _, r in rel.iterrows():
+        m = (root / r.algorithm.split("[")[0] / r.variant / r.sequence / str(r.iteration)
+             / "map.yaml")
+        if m.exists():
+            e = evaluate(str(m), canonical_resolution=0.07)
+            rows.append({"sequence": r.sequence, "algorithm": r.algorithm, "run": r.iteration,
+                         "map": str(m), "rel_trans_abs_mean": r.trans_abs_mean,
+                         "rel_rot_abs_mean": r.rot_abs_mean,
+                         **{k: getattr(e, k) for k in METRICS}})
+    df = pd.DataFrame(rows)
+    df.to_csv(root / "validity-rows.csv", index=False)
+    t = validate(df, truths=("rel_trans_abs_mean", "rel_rot_abs_mean"), permutations=1000,
+                 metrics=METRICS)
+    t.to_csv(root / "validity-table.csv", index=False)
+    print(t.round(3).to_string())
+    out = []
+    for (seq, it), b in df.groupby(["sequence", "run"]):
+        v = maps_verdict(list(b["map"]), names=list(b["algorithm"]))["verdict"] or {}
+        err = b.set_index("algorithm")["rel_trans_abs_mean"]
+        best = v.get("best")
+        out.append({"sequence": seq, "iteration": it, "best": best,
+                    "confidence": v.get("confidence"),
+                    "rank": float(err.rank()[best]) if best in err.index else None,
+                    "ratio": float(err[best] / err.min()) if best in err.index else None})
+    pd.DataFrame(out).to_csv(root / "verdicts.csv", index=False)
+    print(pd.DataFrame(out).to_string())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
