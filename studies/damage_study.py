@@ -116,7 +116,7 @@ def study(plans: Sequence[OccupancyMap] | int = 3, *,
     -------
     pandas.DataFrame
         ``degradation``, ``metric``, ``sequence`` (one per plan, and ``(pooled)``), ``n``,
-        ``agreement`` (Spearman), ``concordance``, ``pairs``, ``p_value``.
+        ``spearman``, ``concordance``, ``pairs``, ``p_value``.
 
     Examples
     --------
@@ -124,7 +124,7 @@ def study(plans: Sequence[OccupancyMap] | int = 3, *,
     >>> t = study([floor_plan(0, rooms=(2, 2))], severities={"doubling": [0, 0.2, 0.8]},
     ...           permutations=0)
     >>> float(t.set_index(["metric", "sequence"]).loc[("plan_chamfer", "(pooled)"),
-    ...                                               "agreement"])
+    ...                                               "spearman"])
     1.0
     """
     df = records(plans, severities=severities, seed=seed) if scores is None else scores
@@ -134,7 +134,7 @@ def study(plans: Sequence[OccupancyMap] | int = 3, *,
         v = validity.validate(part.assign(error=None), truths=("severity",),
                               metrics=metrics, permutations=permutations, seed=seed)
         out.append(v.drop(columns="truth").assign(degradation=kind))
-    cols = ["degradation", "metric", "sequence", "n", "agreement", "concordance", "pairs",
+    cols = ["degradation", "metric", "sequence", "n", "spearman", "concordance", "pairs",
             "p_value"]
     return pd.concat(out, ignore_index=True)[cols] if out else pd.DataFrame(columns=cols)
 
@@ -183,12 +183,12 @@ def markdown(table: pd.DataFrame, scores: pd.DataFrame, command: str) -> str:
         cells = []
         for m in metrics:
             if (kind, m) not in pooled.index or not np.isfinite(pooled.loc[(kind, m),
-                                                                             "agreement"]):
+                                                                             "spearman"]):
                 cells.append("constant")
                 continue
             r = pooled.loc[(kind, m)]
             p = "" if not np.isfinite(r["p_value"]) else f" / p {r['p_value']:.3f}"
-            cells.append(f"{r['agreement']:+.2f} / {r['concordance']:.2f}{p}")
+            cells.append(f"{r['spearman']:+.2f} / {r['concordance']:.2f}{p}")
         lines.append(f"| {kind} ({DEGRADATIONS[kind]}) | " + " | ".join(cells) + " |")
     ch = changes(scores)
     lines += ["", "Mean over the plans of each metric's relative change from the undamaged "

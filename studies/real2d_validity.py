@@ -5,7 +5,7 @@
 Every run's map is scored (:func:`slamq.evaluate`, ``canonical_resolution=0.07``); each
 metric's concordance with the relations error is measured pooled and per dataset
 (:func:`slamq.results.validity.validate`); and ``slamq verdict``'s rule
-(:func:`slamq.report.maps_verdict.maps_verdict`) is run on each dataset's six maps of one
+(:func:`slamq.verdict.maps.maps_verdict`) is run on each dataset's six maps of one
 iteration, its choice ranked by the relations error.
 """
 
@@ -17,14 +17,19 @@ from pathlib import Path
 import pandas as pd
 
 from slamq.api import evaluate
-from slamq.report.maps_verdict import maps_verdict
+from slamq.verdict.maps import maps_verdict
 from slamq.results.validity import validate
 
 METRICS = ("occupied_fraction", "corners", "corners_canonical", "enclosed_areas", "proportion")
 
 
 def main(argv: list[str] | None = None) -> int:
-    root = Path((argv or sys.argv[1:])[0])
+    import argparse
+
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    ap.add_argument("runs", help="the output folder of slamq run examples/real2d.yaml, "
+                    "scored by python studies/real2d.py score (its relations.csv)")
+    root = Path(ap.parse_args(argv if argv is not None else sys.argv[1:]).runs)
     rel = pd.read_csv(root / "relations.csv")
     rows = []
     for _, r in rel.iterrows():

@@ -89,8 +89,8 @@ def test_measured_on_slam_comparison_tools_it_does_not_clearly_beat_corners(
     pooled = v[v["sequence"] == "(pooled)"].set_index("metric")
     assert pooled.loc["corners", "concordance"] == pytest.approx(0.733, abs=0.01)
     assert pooled.loc["consensus_f1_loss", "concordance"] == pytest.approx(0.8, abs=0.01)
-    assert pooled.loc["consensus_f1_loss", "agreement"] == pytest.approx(
-        pooled.loc["corners", "agreement"])  # the same Spearman: 0.67 both
+    assert pooled.loc["consensus_f1_loss", "spearman"] == pytest.approx(
+        pooled.loc["corners", "spearman"])  # the same Spearman: 0.67 both
     assert pooled.loc["consensus_chamfer", "concordance"] == pytest.approx(0.6, abs=0.01)
     # in abstract, 3 of 5 maps are broken: the consensus names a broken map best
     abstract = df[df["sequence"] == "abstract"].set_index("algorithm")
