@@ -17,8 +17,8 @@ from pathlib import Path
 import pandas as pd
 
 from slamq.api import evaluate
-from slamq.verdict.maps import maps_verdict
 from slamq.results.validity import validate
+from slamq.verdict.maps import maps_verdict
 
 METRICS = ("occupied_fraction", "corners", "corners_canonical", "enclosed_areas", "proportion")
 
