@@ -24,6 +24,7 @@ from slamq.metrics.sync import MAX_GAP, STAMP_TOL, interpolate_poses
 from slamq.models import OccupancyMap, Trajectory
 from slamq.models.scans import ScanConsistency, Scans
 from slamq.params import check_threads
+from slamq.synth.sensors import walk_start
 
 __all__ = ["SCAN_TOLERANCE", "scan_consistency", "scan_consistency_reference"]
 
@@ -210,30 +211,10 @@ def _walk(flat: np.ndarray, h: int, w: int, ox: float, oy: float, dx: np.ndarray
           dy: np.ndarray, t_end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The occupied cells (row-major index on the unpadded grid) each beam from ``(ox, oy)``
     (grid units) enters at a parameter ``t < t_end``, and the beam of each."""
-    n = dx.shape[0]
-    t0 = np.zeros(n)
-    t1 = t_end.copy()
-    alive = t_end > 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for o, d, size in ((ox, dx, float(w)), (oy, dy, float(h))):
-            flat_d = d == 0.0
-            if not 0.0 <= o < size:
-                alive &= ~flat_d
-            ta, tb = (0.0 - o) / d, (size - o) / d
-            t0 = np.where(flat_d, t0, np.maximum(t0, np.minimum(ta, tb)))
-            t1 = np.where(flat_d, t1, np.minimum(t1, np.maximum(ta, tb)))
-        alive &= (t0 <= t1) & (t0 < t_end)
-        ix = np.clip(np.floor(ox + t0 * dx), 0.0, w - 1.0)
-        iy = np.clip(np.floor(oy + t0 * dy), 0.0, h - 1.0)
-        pw = w + 2
-        idx = (h - iy.astype(np.int64)) * pw + ix.astype(np.int64) + 1
-        pos_x, neg_x, pos_y, neg_y = dx > 0, dx < 0, dy > 0, dy < 0
-        tx = np.where(pos_x, (ix + 1.0 - ox) / dx, np.where(neg_x, (ix - ox) / dx, np.inf))
-        tdx = np.where(pos_x, 1.0 / dx, np.where(neg_x, -1.0 / dx, 0.0))
-        sx = np.where(pos_x, 1, np.where(neg_x, -1, 0))
-        ty = np.where(pos_y, (iy + 1.0 - oy) / dy, np.where(neg_y, (iy - oy) / dy, np.inf))
-        tdy = np.where(pos_y, 1.0 / dy, np.where(neg_y, -1.0 / dy, 0.0))
-        sy = np.where(pos_y, -pw, np.where(neg_y, pw, 0))
+    t0, alive, idx, tx, tdx, sx, ty, tdy, sy = walk_start(h, w, ox, oy, dx, dy, t_end,
+                                                          t_end > 0.0)
+    alive &= t0 < t_end
+    pw = w + 2
     cells: list[np.ndarray] = []
     beams: list[np.ndarray] = []
     live = np.flatnonzero(alive)

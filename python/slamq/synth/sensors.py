@@ -165,31 +165,9 @@ def _walk(cells: np.ndarray, h: int, w: int, ox: float, oy: float, dx: np.ndarra
     """Beam parameters (cells) at which each beam from ``(ox, oy)`` (grid units) enters
     its first blocking cell, ``inf`` for none: ``rust/src/raycast.rs``'s ``cast``."""
     n = len(dx)
-    t0 = np.zeros(n)
-    t1 = np.full(n, t_range)
-    alive = np.ones(n, bool)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for o, d, size in ((ox, dx, float(w)), (oy, dy, float(h))):
-            flat = d == 0.0
-            if not 0.0 <= o < size:
-                alive &= ~flat
-            ta, tb = (0.0 - o) / d, (size - o) / d
-            t0 = np.where(flat, t0, np.maximum(t0, np.minimum(ta, tb)))
-            t1 = np.where(flat, t1, np.minimum(t1, np.maximum(ta, tb)))
-        alive &= t0 <= t1
-        ix = np.clip(np.floor(ox + t0 * dx), 0.0, w - 1.0)
-        iy = np.clip(np.floor(oy + t0 * dy), 0.0, h - 1.0)
-        pw = w + 2
-        idx = (h - iy.astype(np.int64)) * pw + ix.astype(np.int64) + 1
-        pos_x, neg_x, pos_y, neg_y = dx > 0, dx < 0, dy > 0, dy < 0
-        tx = np.where(pos_x, (ix + 1.0 - ox) / dx,
-                      np.where(neg_x, (ix - ox) / dx, np.inf))
-        tdx = np.where(pos_x, 1.0 / dx, np.where(neg_x, -1.0 / dx, 0.0))
-        sx = np.where(pos_x, 1, np.where(neg_x, -1, 0))
-        ty = np.where(pos_y, (iy + 1.0 - oy) / dy,
-                      np.where(neg_y, (iy - oy) / dy, np.inf))
-        tdy = np.where(pos_y, 1.0 / dy, np.where(neg_y, -1.0 / dy, 0.0))
-        sy = np.where(pos_y, -pw, np.where(neg_y, pw, 0))
+    t0, alive, idx, tx, tdx, sx, ty, tdy, sy = walk_start(h, w, ox, oy, dx, dy,
+                                                          np.full(n, t_range),
+                                                          np.ones(n, bool))
     result = np.full(n, np.inf)
     t = t0.copy()
     live = np.flatnonzero(alive)
@@ -388,3 +366,46 @@ def odometry(gt: Any, noise: str | OdometryNoise = "low", *,
         out[:, 2] = gt[:, 2]  # exact, not the sum of wrapped differences
     out[:, 2] = _wrap(out[:, 2])
     return out
+
+
+def walk_start(h: int, w: int, ox: float, oy: float, dx: np.ndarray, dy: np.ndarray,
+               t_end: np.ndarray, alive: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Where each beam from ``(ox, oy)`` (grid units, direction ``(dx, dy)``) enters an
+    ``h x w`` grid padded by one cell, and the Amanatides-Woo steps from there: ``(t0, alive,
+    idx, tx, tdx, sx, ty, tdy, sy)``. ``t_end`` caps each beam, ``alive`` (changed in place)
+    says which beams are cast; a beam that misses the grid before ``t_end`` is not alive.
+    The first steps of the numpy twins of ``rust/src/raycast.rs`` and ``rust/src/scans.rs``
+    (:func:`_walk` here, ``slamq.metrics.scans``), which must take them identically.
+
+    Examples
+    --------
+    >>> t0, alive, idx, *_ = walk_start(2, 2, -1.0, 0.5, np.array([1.0]), np.array([0.0]),
+    ...                                 np.array([5.0]), np.ones(1, bool))
+    >>> float(t0[0]), bool(alive[0]), int(idx[0])
+    (1.0, True, 9)
+    """
+    t0 = np.zeros(len(dx))
+    t1 = np.array(t_end, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for o, d, size in ((ox, dx, float(w)), (oy, dy, float(h))):
+            flat = d == 0.0
+            if not 0.0 <= o < size:
+                alive &= ~flat
+            ta, tb = (0.0 - o) / d, (size - o) / d
+            t0 = np.where(flat, t0, np.maximum(t0, np.minimum(ta, tb)))
+            t1 = np.where(flat, t1, np.minimum(t1, np.maximum(ta, tb)))
+        alive &= t0 <= t1
+        ix = np.clip(np.floor(ox + t0 * dx), 0.0, w - 1.0)
+        iy = np.clip(np.floor(oy + t0 * dy), 0.0, h - 1.0)
+        pw = w + 2
+        idx = (h - iy.astype(np.int64)) * pw + ix.astype(np.int64) + 1
+        pos_x, neg_x, pos_y, neg_y = dx > 0, dx < 0, dy > 0, dy < 0
+        tx = np.where(pos_x, (ix + 1.0 - ox) / dx,
+                      np.where(neg_x, (ix - ox) / dx, np.inf))
+        tdx = np.where(pos_x, 1.0 / dx, np.where(neg_x, -1.0 / dx, 0.0))
+        sx = np.where(pos_x, 1, np.where(neg_x, -1, 0))
+        ty = np.where(pos_y, (iy + 1.0 - oy) / dy,
+                      np.where(neg_y, (iy - oy) / dy, np.inf))
+        tdy = np.where(pos_y, 1.0 / dy, np.where(neg_y, -1.0 / dy, 0.0))
+        sy = np.where(pos_y, -pw, np.where(neg_y, pw, 0))
+    return t0, alive, idx, tx, tdx, sx, ty, tdy, sy
