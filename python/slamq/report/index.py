@@ -300,12 +300,12 @@ def _validity_section(ok: pd.DataFrame) -> str:
         parts.append(
             "<h3>Measured on these results</h3>"
             "<p>How well each map metric orders the maps as the ground truth does, pooled "
-            "over the sequences with ground truth (agreement: Spearman, +1 = the same order;"
-            " concordance: share of map pairs in the same order, 0.5 = chance; p: "
+            "over the sequences with ground truth (Spearman: rank correlation, +1 = the "
+            "same order; concordance: share of map pairs in the same order, 0.5 = chance; p: "
             "permutation test; the figures of <code>slamq validate</code> on the results "
             "file).</p>"
             + scroll("<table class=\"validity\"><tr><th>metric</th><th>ground truth</th>"
-                     "<th>maps</th><th>agreement</th><th>concordance</th><th>p</th></tr>"
+                     "<th>maps</th><th>Spearman</th><th>concordance</th><th>p</th></tr>"
                      + rows + "</table>"))
     left = sorted({str(r.truth) for r, k in zip(pooled.itertuples(), keep) if not k})
     if left:
