@@ -51,7 +51,8 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
         runs.append(Run(r["map"], r["algorithm"], r["sequence"], str(r["iteration"]),
                         trajectory=r.get("trajectory"),
                         groundtruth=seq.groundtruth if seq else None,
-                        gt_map=seq.groundtruth_map if seq else None))
+                        gt_map=seq.groundtruth_map if seq else None,
+                        scans=seq.input if seq else None))
     out = config.output
     results_path = out / "results.jsonl"
     stamps = Stamps(out)
