@@ -224,6 +224,10 @@ def test_of_two_maps_with_their_scans_a_partial_one_separates_them() -> None:
     v = sequence_verdict(s, "s", _ev({"a": math.nan, "b": math.nan}, {"a": 0.02, "b": 0.4},
                                      placed=False))
     assert v["best"] == "a"
+    # a defect flag decides as without scans, whatever the other's scans say (not vetoed)
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.15, "b": 0.16},
+                                     defects=("b",)))
+    assert v["best"] == "a"
     # the other is inconsistent with its scans, but this one's scans do not confirm it
     v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.15, "b": 0.5}))
     assert v["best"] is None and "a's own scans do not confirm it" in v["confidence"]

@@ -213,9 +213,12 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
         [key] if key and len(candidates) > 1 else [])
     alone = {a: _separating(a, flagged, scan_flags, partial) for a in info}
     why = None
-    if len(support) < 3 and len(info) == 2 and len(scans) == 2:
+    defect_decides = len(support) == 2 and len(candidates) == 1 and any(
+        flagged.get(a, "").startswith("defects") for a in support)
+    if len(support) < 3 and len(info) == 2 and len(scans) == 2 and not defect_decides:
         # two maps, each scored against its own scans (item 5 of issue 41): one is named
-        # when the other is wrong on its own and it is not, and its own scans confirm it
+        # when the other is wrong on its own (vetoed by its scans, or partial) and it is
+        # not, and its own scans confirm it; a defect flag decides as without scans (below)
         named = [a for a in info if alone[a] is None]
         if len(named) == 1:
             x = named[0]
@@ -236,8 +239,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     elif len(support) < 3:
         why = ("fewer than three maps take part: two maps that differ cannot tell which "
                "of them is right")
-        if len(support) == 2 and len(candidates) == 1 and any(
-                flagged.get(a, "").startswith("defects") for a in support):
+        if defect_decides:
             why = None  # one map is flagged on its own: the other is named
     elif not evidence["majority"] and not by_group:
         if len(scans) == len(info):
@@ -300,8 +302,9 @@ def _by_scans(sequence: str, info: dict[str, Any], scans: dict[str, float],
         why = ("the maps disagree among themselves and their own scans do not separate them "
                + ("(no map is inconsistent with its scans)" if not scan_flags else
                   "(every map is wrong on its own)" if alone[first] is not None else
-                  f"(the most consistent, {first}, has {100 * scans[first]:.0f}% of its beams "
-                  f"pass through its walls: more than {100 * SCAN_FLOOR:.0f}%)"))
+                  f"(the most consistent of the maps not wrong on their own, {first}, has "
+                  f"{100 * scans[first]:.0f}% of its beams pass through its walls: more than "
+                  f"{100 * SCAN_FLOOR:.0f}%)"))
         return {"sequence": str(sequence), "best": None, "ranking": order, "basis": basis,
                 "confidence": f"none: {why}", "warnings": warnings}
     bad = sorted(scan_flags)
