@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from slamq.metrics.scans import scan_consistency
@@ -298,6 +299,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cached", action="store_true",
                     help="reuse the evidence of an earlier call (OUTPUT/scans-evidence.pkl): "
                     "only the rule is applied again")
+    ap.add_argument("--max-scans", type=int, default=None,
+                    help="with --cached: the scans' figures again with at most N scans a map")
     ap.add_argument("--rows", action="store_true",
                     help="reuse the scored rows of an earlier call (OUTPUT/scans-rows.csv)")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -333,10 +336,32 @@ def main(argv: list[str] | None = None) -> int:
 
     store = a.output / "scans-evidence.pkl"
     cache = pickle.loads(store.read_bytes()) if store.exists() and a.cached else {}
+    if a.max_scans is not None:
+        # the scans' part of the cached evidence again, at most N scans a map: the rest of
+        # the evidence (agreement, defects) does not depend on it
+        from slamq.sources import load_map
+        from slamq.verdict.scans import record_consistency
+
+        recs = {str(r["map"]): r for r in df.to_dict("records")}
+        figures = {m: record_consistency(r, load_map(m), max_scans=a.max_scans).to_dict()
+                   for m, r in recs.items()}
+        for ev in cache.values():
+            ev["scans"] = {m: figures[m] for m in ev.get("scans", {})}
+            for alg, e in ev["algorithms"].items():
+                mine = [figures[m] for m, r in recs.items()
+                        if str(r["algorithm"]) == alg and m in ev["scans"]]
+                if mine:
+                    e["scan_violation"] = float(np.median([f["violation_share"]
+                                                           for f in mine]))
+        if not a.cached:
+            raise SystemExit("--max-scans needs --cached")
+        store = a.output / f"scans-evidence-{a.max_scans}.pkl"
     for pair in (False, True):
         v = verdicts(df, truth, rules=rules, pair=pair, cache=cache)
         store.write_bytes(pickle.dumps(cache))
-        v.to_csv(a.output / f"scans-verdicts{'-pairs' if pair else ''}.csv", index=False)
+        suffix = f"-{a.max_scans}" if a.max_scans else ""
+        v.to_csv(a.output / f"scans-verdicts{'-pairs' if pair else ''}{suffix}.csv",
+                 index=False)
         sys.stdout.write(("\nTwo-map cases (every pair of programs of a sequence):\n\n"
                           if pair else "\nThe verdict, the truth hidden:\n\n")
                          + verdict_table(v, rules, pair=pair))

@@ -25,8 +25,10 @@ from slamq.models.scans import ScanConsistency, Scans
 
 __all__ = ["CACHED", "MAX_SCANS", "has_scans", "record_consistency", "recording"]
 
-#: Scans scored per map at most (evenly spread over those the trajectory places).
-MAX_SCANS = 2000
+#: Scans scored per map at most (evenly spread over those the trajectory places). 2000 and
+#: 500 gave the same decision in all 304 cases of docs/validity.md's sets; 500 costs a
+#: quarter of the time.
+MAX_SCANS = 500
 #: Recordings kept in memory.
 CACHED = 2
 
