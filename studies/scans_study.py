@@ -75,7 +75,15 @@ def concordance(df: pd.DataFrame, truths: tuple[str, ...], metrics: tuple[str, .
 
 def failures_seen(df: pd.DataFrame, figure: str, broken: str = "broken") -> dict[str, Any]:
     """Over the sequences with a broken and an unbroken map: how often the figure's worst
-    map is a broken one, and how often its best is."""
+    map is a broken one, and how often its best is.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"sequence": "s", "v": [0.1, 0.4, 0.2],
+    ...                    "broken": [False, True, False]})
+    >>> failures_seen(df, "v")
+    {'sequences': 1, 'worst_is_broken': 1, 'best_is_broken': 0}
+    """
     n = worst = best = 0
     for _, b in df.dropna(subset=[figure]).groupby("sequence"):
         if not (b[broken].any() and (~b[broken]).any()):
@@ -182,7 +190,14 @@ def real_rows(output: Path) -> tuple[pd.DataFrame, Any]:
 
 
 def pairs(df: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
-    """Every pair of programs of each sequence: ``(label, rows)``."""
+    """Every pair of programs of each sequence: ``(label, rows)``.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b", "c"]})
+    >>> [label for label, _ in pairs(df)]
+    ['s: a | b', 's: a | c', 's: b | c']
+    """
     out = []
     for seq, b in df.groupby("sequence"):
         for a1, a2 in itertools.combinations(sorted(b["algorithm"].unique()), 2):
