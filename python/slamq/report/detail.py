@@ -61,7 +61,7 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
     mp.notes.extend(ex.notes)
     if grid is not None and quality is not None and ex.marks is not None:
         u = ex.marks.unknown_value
-        ov = draw_overlay(grid, ex.marks)
+        ov = draw_overlay(grid, ex.marks, composite=False)  # the page draws its layers
         mp.full = f"img/{mp.slug}.png"
         mp.thumb = f"img/{mp.slug}_thumb.png"
         ov.save(str(out / mp.full), which="plain")
@@ -361,7 +361,7 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
     """The map with its layers (corners, enclosed areas, ground truth, defects, missing
     walls), each shown or hidden by a checkbox (CSS only: ``.layers:has(#show-X:not(:checked))
     .layer-X``)."""
-    from PIL import Image
+    from slamq.report.overlays import compact_image
 
     rows, cols = ov.cells
     r0, c0 = ov.offset
@@ -378,7 +378,7 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
 
     if ov.n_regions:
         png = f"img/{mp.slug}_regions.png"
-        Image.fromarray(ov.regions).save(out / png)
+        compact_image(ov.regions).save(out / png)
         layers.append(f"<img class=\"layer layer-regions\" src=\"../{png}\" alt=\"\">")
     toggle("regions", f"<i class=\"swatch\"></i> {ov.n_regions} enclosed areas "
            f"(unknown cells set to u = {u})", False, ov.n_regions > 0)
@@ -394,8 +394,8 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
         from slamq.report.comparison import ground_truth_layer
 
         png = f"img/{mp.slug}_gtlayer.png"
-        Image.fromarray(ground_truth_layer(gt[0], grid, gt[1], offset=(r0, c0),
-                                           shape=(rows, cols), scale=ov.scale)).save(out / png)
+        compact_image(ground_truth_layer(gt[0], grid, gt[1], offset=(r0, c0),
+                                         shape=(rows, cols), scale=ov.scale)).save(out / png)
         layers.append(f"<img class=\"layer layer-gt\" src=\"../{png}\" alt=\"\">")
         toggle("gt", f"ground truth (F1 {gt[0].f1:.3f})", False)
     if mp.defects:
