@@ -225,10 +225,21 @@ def _p_value(groups: list[tuple[np.ndarray, np.ndarray]], rng: np.random.Generat
         return float("nan")
     # the shuffles drawn in the order the loop over them would draw them, then every
     # shuffle's correlation at once (a group whose ranks do not vary has none in any shuffle)
-    orders = [np.empty((permutations, len(rb)), dtype=np.intp) for _, rb in centred]
-    for k in range(permutations):
-        for g, (_, rb) in enumerate(centred):
-            orders[g][k] = rng.permutation(len(rb))
+    sizes = {len(rb) for _, rb in centred}
+    if len(sizes) == 1:
+        # groups of one size: Generator.permuted shuffles each row of a table of aranges as
+        # rng.permutation would, one after the other (the same draws, the same state after),
+        # about a hundred times faster than a call per shuffle
+        (n,) = sizes
+        g = len(centred)
+        table = np.tile(np.arange(n, dtype=np.intp), (permutations * g, 1))
+        drawn = rng.permuted(table, axis=1).reshape(permutations, g, n)
+        orders = [drawn[:, i, :] for i in range(g)]
+    else:
+        orders = [np.empty((permutations, len(rb)), dtype=np.intp) for _, rb in centred]
+        for k in range(permutations):
+            for i, (_, rb) in enumerate(centred):
+                orders[i][k] = rng.permutation(len(rb))
     total: Any = 0
     count = 0
     for (ra, rb), order in zip(centred, orders):
