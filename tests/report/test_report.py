@@ -257,6 +257,7 @@ def test_layers_alone_are_the_layers_of_the_composite_and_compact_pngs_keep_pixe
     marks = counted_marks(grid, q.enclosed_unknown_value)
     full, layers = draw_overlay(grid, marks), draw_overlay(grid, marks, composite=False)
     assert layers.scale == full.scale > 1 and layers.offset == full.offset
+    assert layers.image is None and full.image.shape == full.plain.shape
     assert np.array_equal(layers.plain, full.plain)
     assert np.array_equal(layers.regions, full.regions)
     assert layers.cells == full.cells and layers.n_regions == full.n_regions == 3

@@ -19,7 +19,7 @@ from slamq.models import OccupancyMap
 from slamq.verdict.exhibits import Marks
 
 __all__ = ["CORNER_RGB", "REGION_PALETTE", "Overlay", "compact_image", "draw_overlay",
-           "render_base"]
+           "palette_image", "render_base"]
 
 #: Ring colour of a marked corner (pure red; nothing else in an overlay uses it).
 CORNER_RGB = (255, 0, 0)
@@ -39,9 +39,11 @@ class Overlay:
 
     Attributes
     ----------
-    image : numpy.ndarray
+    image : numpy.ndarray or None
         ``(h*scale, w*scale, 3)`` uint8 RGB, north up: the map cropped to its known cells
-        (and a margin of :data:`CROP_MARGIN` cells), starting at cell ``offset``.
+        (and a margin of :data:`CROP_MARGIN` cells), starting at cell ``offset``, with the
+        rings and colours drawn on it (None when only the layers were drawn:
+        ``draw_overlay(..., composite=False)``).
     scale : int
         Pixels per map cell.
     corners : numpy.ndarray
@@ -52,26 +54,30 @@ class Overlay:
         The unknown value ``u`` the regions were taken at.
     offset : tuple of int
         ``(row, col)`` of the map cell at the image's top-left corner.
-    plain : numpy.ndarray or None
-        The same crop and scale without anything drawn on it (RGB): the map itself.
-    regions : numpy.ndarray or None
-        ``(h*scale, w*scale, 4)`` uint8 RGBA: the enclosed regions' colours, transparent
-        elsewhere (a layer to put over ``plain``).
+    grey : numpy.ndarray
+        ``(h*scale, w*scale)`` uint8: the same crop and scale without anything drawn on
+        it, the map itself (grey: :attr:`plain` is it in RGB).
+    region_index : numpy.ndarray
+        ``(h*scale, w*scale)`` uint8: 0 outside the enclosed regions, else ``1 +`` the
+        :data:`REGION_PALETTE` entry of the region's colour (:attr:`regions` in RGBA).
+    alpha : float
+        Opacity of the region colours.
     """
 
-    image: np.ndarray
+    image: np.ndarray | None
     scale: int
     corners: np.ndarray
     labels: np.ndarray
     unknown_value: int
-    offset: tuple[int, int] = (0, 0)
-    plain: np.ndarray | None = None
-    regions: np.ndarray | None = None
+    offset: tuple[int, int]
+    grey: np.ndarray
+    region_index: np.ndarray
+    alpha: float = 0.65
 
     @property
     def cells(self) -> tuple[int, int]:
         """``(rows, cols)`` of map cells the image shows."""
-        return self.image.shape[0] // self.scale, self.image.shape[1] // self.scale
+        return self.grey.shape[0] // self.scale, self.grey.shape[1] // self.scale
 
     @property
     def n_corners(self) -> int:
@@ -83,13 +89,57 @@ class Overlay:
         """Number of enclosed regions coloured."""
         return int(self.labels.max()) if self.labels.size else 0
 
+    @property
+    def plain(self) -> np.ndarray:
+        """``(h*scale, w*scale, 3)`` uint8 RGB: :attr:`grey`, the map itself."""
+        return np.repeat(self.grey[:, :, None], 3, axis=2)
+
+    @property
+    def region_colours(self) -> list[tuple[int, int, int, int]]:
+        """RGBA of each value of :attr:`region_index` (0: transparent)."""
+        a = int(round(255 * self.alpha))
+        return [(0, 0, 0, 0), *((r, g, b, a) for r, g, b in REGION_PALETTE)]
+
+    @property
+    def regions(self) -> np.ndarray:
+        """``(h*scale, w*scale, 4)`` uint8 RGBA: the enclosed regions' colours, transparent
+        elsewhere (a layer to put over :attr:`plain`)."""
+        return np.asarray(self.region_colours, np.uint8)[self.region_index]
+
     def save(self, path: str, *, max_size: int | None = None, which: str = "image") -> None:
         """Write the image (or ``which="plain"`` / ``"regions"``) as PNG, shrunk to at
-        most ``max_size`` pixels a side."""
-        img = compact_image(getattr(self, which))
+        most ``max_size`` pixels a side; the plain map as a grey PNG, the regions as a
+        palette PNG (the same pixels, a fraction of the bytes and the time)."""
+        if which == "plain":
+            img = Image.fromarray(self.grey)
+        elif which == "regions":
+            img = palette_image(self.region_index, self.region_colours)
+        else:
+            if self.image is None:
+                raise ValueError("no composite image: draw_overlay(..., composite=True)")
+            img = compact_image(self.image)
         if max_size and max(img.size) > max_size:
             img.thumbnail((max_size, max_size), Image.Resampling.LANCZOS)
         img.save(path, optimize=False)
+
+
+def palette_image(index: np.ndarray, colours: list[tuple[int, ...]]) -> Image.Image:
+    """A palette image (``P``) of a ``(H, W)`` uint8 array of indices into ``colours``
+    (RGB, or RGBA: each entry's opacity is kept, as a PNG's ``tRNS`` chunk).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> img = palette_image(np.array([[0, 1]], np.uint8), [(0, 0, 0, 0), (9, 8, 7, 166)])
+    >>> img.mode, np.asarray(img.convert("RGBA")).tolist()
+    ('P', [[[0, 0, 0, 0], [9, 8, 7, 166]]])
+    """
+    index = np.ascontiguousarray(index, dtype=np.uint8)
+    out = Image.frombytes("P", (index.shape[1], index.shape[0]), index.tobytes())
+    out.putpalette([int(v) for c in colours for v in c[:3]])
+    if colours and len(colours[0]) == 4:
+        out.info["transparency"] = bytes(int(c[3]) for c in colours)
+    return out
 
 
 def compact_image(array: np.ndarray) -> Image.Image:
@@ -127,11 +177,8 @@ def compact_image(array: np.ndarray) -> Image.Image:
         keys = (a[:, :, 0].astype(np.uint32) | (a[:, :, 1].astype(np.uint32) << 8)
                 | (a[:, :, 2].astype(np.uint32) << 16))
     index = np.searchsorted(np.asarray(table, np.uint32), keys).astype(np.uint8)
-    out = Image.frombytes("P", (a.shape[1], a.shape[0]), index.tobytes())
-    out.putpalette([(k >> shift) & 255 for k in table for shift in (0, 8, 16)])
-    if a.shape[2] == 4:
-        out.info["transparency"] = bytes((k >> 24) & 255 for k in table)
-    return out
+    return palette_image(index, [tuple((k >> (8 * i)) & 255 for i in range(a.shape[2]))
+                                 for k in table])
 
 
 def _pack(colour: tuple[int, ...]) -> int:
@@ -211,8 +258,8 @@ def draw_overlay(
         Opacity of the region colours over the map.
     composite : bool, default True
         Draw ``image``, the map with the rings and colours on it. False: only the layers
-        (``plain`` and ``regions``; ``image`` is then ``plain``), as a detail page shows
-        them, drawn in a fraction of the time.
+        (``grey``/``plain`` and ``region_index``/``regions``; ``image`` is None), as a
+        detail page shows them, in a fraction of the time.
 
     Returns
     -------
@@ -233,46 +280,39 @@ def draw_overlay(
     labels, corners = marks.labels, marks.corners
     n = int(labels.max()) if labels.size else 0
     r0, r1, c0, c1 = known_box(grid)
-    rendered = render_base(grid)
-    plain = np.ascontiguousarray(rendered[r0:r1, c0:c1])
-    regions = np.zeros(plain.shape[:2] + (4,), np.uint8)
-    lut = np.zeros((n + 1, 3), np.float32)
-    if n:
-        palette = np.array(REGION_PALETTE, np.float32)
-        lut[1:] = palette[(np.arange(n) % len(palette))]
-        crop = labels[r0:r1, c0:c1]
-        regions[crop > 0, :3] = lut[crop[crop > 0]].astype(np.uint8)
-        regions[crop > 0, 3] = int(round(255 * alpha))
-    scale = _scale_for(plain.shape[:2], target_size)
-    if not composite:
+    grey = np.where(grid.unknown[r0:r1, c0:c1], np.uint8(UNKNOWN_GREY),
+                    grid.values[r0:r1, c0:c1]).astype(np.uint8)
+    crop = labels[r0:r1, c0:c1]
+    # 1 + the palette entry of each counted cell's region (regions cycle through it)
+    index = np.where(crop > 0, (crop - 1) % len(REGION_PALETTE) + 1, 0).astype(np.uint8)
+    scale = _scale_for(grey.shape, target_size)
+    image = None
+    if composite:
+        base = render_base(grid).astype(np.float32)
+        if n:
+            lut = np.zeros((n + 1, 3), np.float32)
+            lut[1:] = np.array(REGION_PALETTE, np.float32)[np.arange(n) % len(REGION_PALETTE)]
+            mask = labels > 0
+            base[mask] = (1 - alpha) * base[mask] + alpha * lut[labels[mask]]
+        rgb = np.clip(np.rint(base[r0:r1, c0:c1]), 0, 255).astype(np.uint8)
+        # keep exact pure red for the rings only
+        red = (rgb[:, :, 0] == 255) & (rgb[:, :, 1] == 0) & (rgb[:, :, 2] == 0)
+        rgb[red] = (254, 0, 0)
         if scale > 1:
-            plain, regions = (np.repeat(np.repeat(a, scale, axis=0), scale, axis=1)
-                              for a in (plain, regions))
-        return Overlay(image=plain, scale=scale, corners=corners, labels=labels,
-                       unknown_value=int(marks.unknown_value), offset=(r0, c0), plain=plain,
-                       regions=regions)
-    base = rendered.astype(np.float32)
-    if n:
-        mask = labels > 0
-        base[mask] = (1 - alpha) * base[mask] + alpha * lut[labels[mask]]
-    rgb = np.clip(np.rint(base[r0:r1, c0:c1]), 0, 255).astype(np.uint8)
-    # keep exact pure red for the rings only
-    red = (rgb[:, :, 0] == 255) & (rgb[:, :, 1] == 0) & (rgb[:, :, 2] == 0)
-    rgb[red] = (254, 0, 0)
-    if scale > 1:
-        rgb, plain, regions = (np.repeat(np.repeat(a, scale, axis=0), scale, axis=1)
-                               for a in (rgb, plain, regions))
-    img = Image.fromarray(rgb)
-    draw = ImageDraw.Draw(img)
-    size = max(img.size)
-    radius = max(3.0, size / 110.0)
-    width = max(1, int(round(radius / 3)))
-    for row, col in corners:
-        x, y = (col - c0 + 0.5) * scale, (row - r0 + 0.5) * scale
-        draw.ellipse((x - radius, y - radius, x + radius, y + radius),
-                     outline=CORNER_RGB, width=width)
-    return Overlay(
-        image=np.asarray(img), scale=scale, corners=corners, labels=labels,
-        unknown_value=int(marks.unknown_value), offset=(r0, c0), plain=plain,
-        regions=regions,
-    )
+            rgb = np.repeat(np.repeat(rgb, scale, axis=0), scale, axis=1)
+        img = Image.fromarray(rgb)
+        draw = ImageDraw.Draw(img)
+        size = max(img.size)
+        radius = max(3.0, size / 110.0)
+        width = max(1, int(round(radius / 3)))
+        for row, col in corners:
+            x, y = (col - c0 + 0.5) * scale, (row - r0 + 0.5) * scale
+            draw.ellipse((x - radius, y - radius, x + radius, y + radius),
+                         outline=CORNER_RGB, width=width)
+        image = np.asarray(img)
+    if scale > 1:  # one byte a pixel: the layers are enlarged before they are coloured
+        grey, index = (np.repeat(np.repeat(a, scale, axis=0), scale, axis=1)
+                       for a in (grey, index))
+    return Overlay(image=image, scale=scale, corners=corners, labels=labels,
+                   unknown_value=int(marks.unknown_value), offset=(r0, c0), grey=grey,
+                   region_index=index, alpha=alpha)
