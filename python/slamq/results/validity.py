@@ -162,15 +162,25 @@ def validate(results: Any, *, truths: tuple[str, ...] | None = None,
         truths = tuple(t for t in TRUTHS if t in df)
     rng = np.random.default_rng(seed)
     rows = []
+    parts: list[Any] = []  # the sequences (grouped once, when first needed)
+    numbers: dict[tuple[int, str], np.ndarray] = {}  # (sequence, column): its numbers
+
+    def column(i: int, name: str) -> np.ndarray:
+        if (i, name) not in numbers:
+            numbers[(i, name)] = pd.to_numeric(parts[i][1][name], errors="coerce"
+                                               ).to_numpy(dtype=float)
+        return numbers[(i, name)]
+
     for truth in truths:
         sign = -1.0 if TRUTHS.get(truth, False) else 1.0
         for metric in METRICS if metrics is None else metrics:
             if metric not in df or truth not in df:
                 continue
             groups = []
-            for seq, part in df.groupby("sequence", sort=True):
-                a = pd.to_numeric(part[metric], errors="coerce").to_numpy(dtype=float)
-                b = pd.to_numeric(part[truth], errors="coerce").to_numpy(dtype=float)
+            if not parts:
+                parts = list(df.groupby("sequence", sort=True))
+            for i, (seq, _) in enumerate(parts):
+                a, b = column(i, metric), column(i, truth)
                 keep = np.isfinite(a) & np.isfinite(b)
                 if keep.sum() >= MIN_MAPS:
                     groups.append((str(seq), a[keep], sign * b[keep]))
