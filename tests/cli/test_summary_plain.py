@@ -177,3 +177,23 @@ def test_means_and_stds_are_numpys_to_the_last_bit(ddof: int) -> None:
     records_of_frame = frame.to_dict("records")
     for a, b in zip(rows, records_of_frame, strict=True):
         assert all(a[k] == b[k] or (a[k] != a[k] and b[k] != b[k]) for k in cols)
+
+
+def test_the_program_freezes_what_is_left_before_exit_a_caller_in_process_not(
+        shipped: dict[str, Path]) -> None:
+    """``slamq`` as a program freezes the objects left for the interpreter's exit (its
+    collections then skip pandas' and pyarrow's objects); ``main([...])`` called in a
+    process that goes on does not."""
+    code = (
+        "import gc, sys\n"
+        "from slamq.cli import main\n"
+        f"assert main(['summary', {str(shipped['jsonl'])!r}, '-q']) == 0\n"
+        "print('frozen in-process:', gc.get_freeze_count())\n"
+        f"sys.argv = ['slamq', 'summary', {str(shipped['jsonl'])!r}, '-q']\n"
+        "assert main() == 0\n"
+        "print(gc.get_freeze_count() > 0)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=slamq_env(), timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert "frozen in-process: 0" in lines and lines[-1] == "True", proc.stdout
