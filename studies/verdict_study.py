@@ -271,6 +271,10 @@ def first_rule(summary: pd.DataFrame, sequence: str, evidence: dict[str, Any] | 
     keep = {k: v[k] for k in ("sequence", "best", "ranking", "basis")}
     if evidence is None or v["basis"][:1] != ["agreement"]:
         return keep  # ground truth, or corners alone, decided: the rules agree
+    if not evidence.get("majority", True):
+        # the first rule had no agreeing groups (issue 41, 2026-11-28): without a majority
+        # it abstained
+        return {**keep, "best": None}
     block = summary.xs(sequence, level="sequence")
     algorithms = [a for a in block.index if str(a).lower() not in GROUND_TRUTH_ALGORITHMS]
     confirmed = [a for a in v["ranking"] if a in _confirmed(evidence, algorithms)]
