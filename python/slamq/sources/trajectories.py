@@ -21,7 +21,7 @@ from slamq.models.trajectory import Trajectory, yaw_to_quat
 from slamq.params import SETTINGS
 from slamq.sources.files import PathLike, is_bag
 
-__all__ = ["load_trajectory", "parse_columns", "FORMATS", "ROLES"]
+__all__ = ["load_trajectory", "order_rows", "parse_columns", "FORMATS", "ROLES"]
 
 #: Formats :func:`load_trajectory` reads (``None`` = guess from the name and content).
 FORMATS = SETTINGS.trajectory_format.choices
@@ -161,10 +161,25 @@ def _check_cols(arr: np.ndarray, path: Path, want: int, fmt: str, at_least: bool
 
 
 # ---------------------------------------------------------------------- row order
-def _fix_order(
-    t: np.ndarray, rows: np.ndarray, unsorted: str, path: Path
-) -> np.ndarray:
-    """Row indices to keep according to the ``unsorted`` policy."""
+def order_rows(t: np.ndarray, unsorted: str) -> np.ndarray:
+    """The rows of a trajectory whose timestamps are ``t`` to keep, in order, by the
+    ``unsorted`` policy (docs/spec.md 6c): ``"error"`` keeps every row as it is (the
+    :class:`~slamq.Trajectory` then refuses stamps that go backwards), ``"sort"`` sorts
+    them by time (stable: equal stamps keep the file's order), ``"last"`` keeps the rows
+    after the last stamp that goes backwards (a log that restarted).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.array([0.0, 0.2, 0.1, 0.3])
+    >>> order_rows(t, "sort").tolist(), order_rows(t, "last").tolist()
+    ([0, 2, 1, 3], [2, 3])
+    >>> order_rows(t, "error").tolist()
+    [0, 1, 2, 3]
+    """
+    rows = np.arange(t.shape[0])
+    if unsorted not in ("error", "last", "sort"):
+        raise TrajectoryError(f"unsorted must be 'error', 'last' or 'sort', not {unsorted!r}")
     if unsorted == "error" or t.shape[0] < 2:
         return rows
     back = np.flatnonzero(np.diff(t) < 0)
@@ -172,9 +187,7 @@ def _fix_order(
         return rows
     if unsorted == "last":
         return rows[back[-1] + 1:]
-    if unsorted == "sort":
-        return rows[np.argsort(t, kind="stable")]
-    raise TrajectoryError(f"unsorted must be 'error', 'last' or 'sort', not {unsorted!r}")
+    return rows[np.argsort(t, kind="stable")]
 
 
 def _build(
@@ -185,7 +198,7 @@ def _build(
     unsorted: str,
     meta: dict | None = None,
 ) -> Trajectory:
-    keep = _fix_order(t, np.arange(t.shape[0]), unsorted, path)
+    keep = order_rows(t, unsorted)
     if keep.shape[0] != t.shape[0] or not np.array_equal(keep, np.arange(t.shape[0])):
         t, pos = t[keep], pos[keep]
         quat = None if quat is None else quat[keep]
