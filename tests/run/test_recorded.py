@@ -254,6 +254,17 @@ def test_rbpf_logs_whose_times_go_backwards_read_by_the_unsorted_rule(tmp_path: 
     assert t.timestamps.tolist() == [10.0, 10.25, 10.5, 10.75]
     assert t.positions[:, 0].tolist() == [0.0, 2.0, 1.0, 3.0]
     assert read_mrpt_path(p, unsorted="last").positions[:, 0].tolist() == [2.0, 3.0]
+    # slamq.load_trajectory tells it from TUM (whose last column is a quaternion's w), so
+    # the step index is not taken for the time, and applies the same rule
+    import slamq
+
+    with pytest.raises(TrajectoryError, match="non-monotonic timestamps: pose 3"):
+        slamq.load_trajectory(p)
+    t = slamq.load_trajectory(p, unsorted="sort")
+    assert t.meta["format"] == "mrpt" and t.timestamps.tolist() == [10.0, 10.25, 10.5, 10.75]
+    tum = tmp_path / "t.txt"
+    tum.write_text("0 0 0 0 0 0 0 1\n1 1 0 0 0 0 0 1\n2 2 0 0 0 0 0.6 0.8\n")
+    assert slamq.load_trajectory(tum).meta["format"] == "tum"
 
 
 # ------------------------------------------------------------------------ relations scoring

@@ -238,8 +238,9 @@ class Trajectory:
                 i = _first_bad_row(back)
                 raise TrajectoryError(
                     f"{src}: non-monotonic timestamps: pose {i + 2} ({float(t[i + 1])!r} s) is "
-                    f"earlier than pose {i + 1} ({float(t[i])!r} s); a log that restarts can be "
-                    f"read with unsorted='last' or 'sort' (CLI: --unsorted last)"
+                    f"earlier than pose {i + 1} ({float(t[i])!r} s); read it in time order with "
+                    f"unsorted='sort', or from its last restart with unsorted='last' (CLI: "
+                    f"--unsorted sort|last; docs/spec.md 6c)"
                 )
         for arr in (t, p, q):
             arr.flags.writeable = False

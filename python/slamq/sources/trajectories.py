@@ -7,6 +7,7 @@ million TUM lines), else by :func:`numpy.loadtxt` (several times slower, same nu
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import stat
 from collections.abc import Mapping
@@ -475,6 +476,31 @@ def _read_pbstream(path: Path, topic: str | None) -> Trajectory:
     return read_pbstream_trajectory(path, int(topic))
 
 
+def _mrpt_pose_log(path: Path, rows: int = 50) -> bool:
+    """Whether an 8-column file is an MRPT pose log (``rbpf-slam``'s ``index x y z yaw pitch
+    roll t``) rather than TUM (``t x y z qx qy qz qw``): its first column counts the rows
+    from 0 and its last holds a time, not a quaternion's w (some ``|value| > 1.5``)."""
+    first: list[float] = []
+    last: list[float] = []
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            for line in f:
+                s = line.strip()
+                if not s or s[0] in "#%":
+                    continue
+                cells = s.split()
+                if len(cells) != 8:
+                    return False
+                first.append(float(cells[0]))
+                last.append(float(cells[7]))
+                if len(first) >= rows:
+                    break
+    except (OSError, ValueError):
+        return False
+    return bool(first) and first == [float(i) for i in range(len(first))] and \
+        max(abs(v) for v in last) > 1.5
+
+
 def _guess_format(path: Path) -> str:
     if is_bag(path):
         return "bag"
@@ -494,7 +520,7 @@ def _guess_format(path: Path) -> str:
     cells = _split(data, sep)
     if sep == "ws" and all(_is_number(c) for c in cells):
         if len(cells) == 8:
-            return "tum"
+            return "mrpt" if _mrpt_pose_log(path) else "tum"
         if len(cells) == 12:
             return "kitti"
     if not all(_is_number(c) for c in cells):
@@ -524,9 +550,13 @@ def load_trajectory(
         A TUM, KITTI, EuRoC or CSV/whitespace table file, a ROS1/ROS2 bag
         (``.bag``, ``.mcap``, ``.db3`` or a folder with ``metadata.yaml``), or a
         Cartographer ``.pbstream`` (its trajectory node poses).
-    format : {"tum", "kitti", "euroc", "csv", "bag", "pbstream"}, optional
+    format : {"tum", "kitti", "euroc", "csv", "mrpt", "bag", "pbstream"}, optional
         Guessed when omitted: bags and pbstreams by name; ``#timestamp`` headers are
-        EuRoC; a header line means CSV; 8 numbers a row TUM, 12 KITTI. ``columns`` implies
+        EuRoC; a header line means CSV; 8 numbers a row TUM, 12 KITTI, except an MRPT pose
+        log (``rbpf-slam``'s ``log_estimated_path.txt``: ``index x y z yaw pitch roll t``,
+        its first column counting the rows from 0 and its last a time), read by
+        :func:`slamq.sources.mrpt.read_mrpt_path` (also ``graphslam-engine``'s graphs and
+        ``icp-slam``'s index-timed logs with ``format="mrpt"``). ``columns`` implies
         ``"csv"``.
     columns : mapping or str, optional
         For tables: role -> column name or 0-based index, see :func:`read_table`.
@@ -588,6 +618,11 @@ def load_trajectory(
         return read_euroc(path, unsorted=unsorted)
     if format == "pbstream":
         return _read_pbstream(path, topic)
+    if format == "mrpt":
+        from slamq.sources.mrpt import read_mrpt_path
+
+        traj = read_mrpt_path(path, unsorted=unsorted)
+        return dataclasses.replace(traj, meta={**traj.meta, "format": "mrpt"})
     if format == "csv":
         return read_table(path, columns, unsorted=unsorted, by_index=by_index)
     raise TrajectoryError(f"{path}: columns= only applies to format 'csv'")
