@@ -88,3 +88,35 @@ def test_the_mit_csail_bag_gives_the_scans_of_its_carmen_log():
     np.testing.assert_allclose([s.odom for s in bag], [s.odom for s in log], atol=1e-12)
     np.testing.assert_array_equal([s.ranges for s in bag], [s.ranges for s in log])
     assert bag[0].angle_increment == pytest.approx(log[0].angle_increment, rel=1e-7)
+
+
+def test_a_bag_sequence_of_slamq_run_is_written_as_a_rawlog_on_its_clock(tmp_path, bags, seq):
+    """``bag:`` in a run config: the bag's scans written as the rawlog the programs read,
+    its steps sidecar on the bag's clock, node sidecars from its odometry; converted once."""
+    import json
+
+    from slamq.runner.config import load_config
+    from slamq.runner.planning import prepare_inputs
+    from slamq.synth.writers.rawlog import graphslam_nodes
+
+    doc = {"base_dir": str(tmp_path), "output": "out",
+           "sequences": {"drive": {"bag": str(bags["mcap"]), "max_scans": 25}},
+           "algorithms": {"g": {"command": ["true"], "params": {"spacing": [0.3]},
+                                "outputs": {"trajectory": {
+                                    "path": "g.graph", "format": "mrpt",
+                                    "times": "{input}.nodes-{param.spacing}m.txt"}}}}}
+    prepare_inputs(load_config(doc))
+    folder = tmp_path / "out" / "sequences" / "drive"
+    steps = np.loadtxt(folder / "drive.rawlog.steps.txt")
+    np.testing.assert_allclose(steps, EPOCH + seq.stamps[:25], rtol=0, atol=1e-6)
+    want = steps[graphslam_nodes(seq.odom[:25], 0.3, math.radians(30.0))]
+    np.testing.assert_allclose(np.loadtxt(folder / "drive.rawlog.nodes-0.3m.txt"), want,
+                               rtol=0, atol=1e-6)
+    info = json.loads((folder / "conversion.json").read_text())
+    assert info["recipe"]["kind"] == "bag" and info["scans"] == 25
+    before = (folder / "drive.rawlog").stat().st_mtime_ns
+    prepare_inputs(load_config(doc))
+    assert (folder / "drive.rawlog").stat().st_mtime_ns == before
+    doc["sequences"]["drive"]["scan_topic"] = "/odom"
+    with pytest.raises(BagError, match="carries nav_msgs/msg/Odometry"):
+        prepare_inputs(load_config(doc))
