@@ -29,6 +29,7 @@ import numpy as np
 
 from slamq.errors import MapWarning, TrajectoryError
 from slamq.models import OccupancyMap, Trajectory
+from slamq.models.trajectory import order_rows
 from slamq.sources.files import PathLike
 from slamq.sources.formats.mrpt_grid import limits_path, read_limits, write_yaml
 from slamq.sources.formats.mrpt_grid import read as read_grid
@@ -139,8 +140,6 @@ def read_mrpt_path(path: PathLike, *, unsorted: str = "error") -> Trajectory:
 
 
 def _traj(a: np.ndarray, p: Path, unsorted: str = "error") -> Trajectory:
-    from slamq.sources.trajectories import order_rows
-
     if not len(a):
         raise TrajectoryError(f"{p}: MRPT pose log has no timestamped poses")
     if not np.all(np.isfinite(a[:, [1, 2, 4, 7]])):
@@ -200,7 +199,7 @@ def apply_step_times(traj: Trajectory, times: PathLike, *, unsorted: str = "erro
     ``#``/``%`` comments skipped), e.g. the ``<rawlog>.steps.txt`` / ``.nodes.txt`` files
     that :func:`slamq.synth.writers.write_rawlog`'s sequences come with. Times that go
     backwards (a log whose stamps do) are refused, sorted or cut by ``unsorted``
-    (``"error"``, ``"sort"``, ``"last"``; :func:`slamq.sources.trajectories.order_rows`).
+    (``"error"``, ``"sort"``, ``"last"``; :func:`slamq.models.trajectory.order_rows`).
 
     Raises
     ------
@@ -237,8 +236,6 @@ def apply_step_times(traj: Trajectory, times: PathLike, *, unsorted: str = "erro
     if len(idx) and (not np.allclose(idx, k) or k.min() < 0 or k.max() >= len(t)):
         raise TrajectoryError(f"{traj.source}: poses indexed {int(idx.min())}..{idx.max():g} "
                               f"do not fit the {len(t)} step times of {p}")
-    from slamq.sources.trajectories import order_rows
-
     t = t[k]
     keep = order_rows(t, unsorted)
     if keep.shape[0] != t.shape[0] or (keep != np.arange(t.shape[0])).any():

@@ -18,7 +18,7 @@ import numpy as np
 
 from slamq import native
 from slamq.errors import TrajectoryError
-from slamq.models.trajectory import Trajectory, yaw_to_quat
+from slamq.models.trajectory import Trajectory, order_rows, yaw_to_quat
 from slamq.params import SETTINGS
 from slamq.sources.files import PathLike, is_bag
 
@@ -162,35 +162,6 @@ def _check_cols(arr: np.ndarray, path: Path, want: int, fmt: str, at_least: bool
 
 
 # ---------------------------------------------------------------------- row order
-def order_rows(t: np.ndarray, unsorted: str) -> np.ndarray:
-    """The rows of a trajectory whose timestamps are ``t`` to keep, in order, by the
-    ``unsorted`` policy (docs/spec.md 6c): ``"error"`` keeps every row as it is (the
-    :class:`~slamq.Trajectory` then refuses stamps that go backwards), ``"sort"`` sorts
-    them by time (stable: equal stamps keep the file's order), ``"last"`` keeps the rows
-    after the last stamp that goes backwards (a log that restarted).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> t = np.array([0.0, 0.2, 0.1, 0.3])
-    >>> order_rows(t, "sort").tolist(), order_rows(t, "last").tolist()
-    ([0, 2, 1, 3], [2, 3])
-    >>> order_rows(t, "error").tolist()
-    [0, 1, 2, 3]
-    """
-    rows = np.arange(t.shape[0])
-    if unsorted not in ("error", "last", "sort"):
-        raise TrajectoryError(f"unsorted must be 'error', 'last' or 'sort', not {unsorted!r}")
-    if unsorted == "error" or t.shape[0] < 2:
-        return rows
-    back = np.flatnonzero(np.diff(t) < 0)
-    if back.size == 0:
-        return rows
-    if unsorted == "last":
-        return rows[back[-1] + 1:]
-    return rows[np.argsort(t, kind="stable")]
-
-
 def _build(
     path: Path,
     t: np.ndarray,
