@@ -293,7 +293,7 @@ SETTINGS = _Rows((s.name, s) for s in (
             type=str, choices=_TRAJECTORY_ALIGNMENTS),
     Setting("trajectory", "trajectory_format", None,
             "file format of a trajectory (default: guessed from the file)", type=str,
-            choices=("tum", "kitti", "euroc", "csv", "bag", "pbstream")),
+            choices=("tum", "kitti", "euroc", "csv", "mrpt", "bag", "pbstream")),
     Setting("trajectory", "unsorted", "error",
             "timestamps going backwards (a restarted log): fail, keep the last run of the "
             "log, or sort", type=str, choices=("error", "last", "sort")),

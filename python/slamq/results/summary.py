@@ -20,7 +20,8 @@ from slamq.columns import Column, shown, shown_names
 from slamq.errors import ParamError
 from slamq.results.columns import settings_difference
 
-__all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "GT_METRICS", "spreadsheet_safe",
+__all__ = ["summarize", "SUMMARY_METRICS", "ATE_METRICS", "GT_METRICS", "REL_METRICS",
+           "spreadsheet_safe",
            "summary_table", "comparability_warnings", "resolution_warnings", "angle_spread",
            "ANGLE_TOLERANCE_DEG", "map_names"]
 
@@ -31,6 +32,8 @@ SUMMARY_METRICS = shown_names("summary", "map")
 ATE_METRICS = shown_names("summary", "ate")
 #: Ground-truth map comparison columns (SPEC section 7) summarised when any run has them.
 GT_METRICS = shown_names("summary", "gt")
+#: Relations error columns (SPEC section 6a) summarised when any run has them.
+REL_METRICS = shown_names("summary", "rel")
 #: Maps ranked together whose wall angles (modulo 90 degrees) differ by more than this are
 #: turned differently: their corners are not comparable.
 ANGLE_TOLERANCE_DEG = 1.0
@@ -235,7 +238,8 @@ def summarize(
         statistics), then ``<metric>_mean`` and ``<metric>_std`` for every metric in
         :data:`SUMMARY_METRICS`, and for the ``ate_*`` columns when any run has a
         trajectory error (``ate_runs`` counts the runs that have one), for the ``gt_*``
-        figures of :data:`GT_METRICS` when any run has a ground-truth map, and ``<metric>_n``,
+        figures of :data:`GT_METRICS` when any run has a ground-truth map, for the ``rel_*``
+        figures of :data:`REL_METRICS` when any run has a relations error, and ``<metric>_n``,
         the number of runs where the metric is a number: a metric's mean and std are over
         those runs (a map with no known cell has NaN ratios), so they may cover fewer than
         ``n`` runs.
@@ -287,6 +291,8 @@ def summarize(
         metrics += [m for m in ATE_METRICS if m in df.columns]
     if "gt_f1" in df.columns and df.loc[~failed_mask, "gt_f1"].notna().any():
         metrics += [m for m in GT_METRICS if m in df.columns]
+    if "rel_n" in df.columns and df.loc[~failed_mask, "rel_n"].notna().any():
+        metrics += [m for m in REL_METRICS if m in df.columns]
     rows = []
     keys = df[["algorithm", "sequence"]].astype(str)
     for (alg, seq), idx in keys.groupby(["algorithm", "sequence"], sort=True).groups.items():
