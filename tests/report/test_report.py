@@ -137,7 +137,7 @@ def test_summarize_uses_sample_std_and_skips_nan():
 
 
 def test_every_metric_is_lower_is_better_and_log_where_the_paper_uses_it():
-    paper = [m for m in METRICS if not m.key.startswith("gt_")]
+    paper = [m for m in METRICS if not m.key.startswith(("gt_", "rel_"))]
     assert {m.key: m.log for m in paper} == {
         "ate_rmse": True, "occupied_fraction": False, "corners": True, "enclosed_areas": True}
     assert all("paper" in m.why and not m.higher for m in paper)
@@ -145,6 +145,10 @@ def test_every_metric_is_lower_is_better_and_log_where_the_paper_uses_it():
     gt = {m.key: (m.higher, m.log) for m in METRICS if m.key.startswith("gt_")}
     assert gt == {"gt_f1": (True, False), "gt_chamfer": (False, True)}
     assert all("section 7" in m.why for m in METRICS if m.key.startswith("gt_"))
+    # the relations error (docs/spec.md section 6a): lower is better, log as ATE
+    rel = {m.key: (m.higher, m.log) for m in METRICS if m.key.startswith("rel_")}
+    assert rel == {"rel_trans_abs_mean": (False, True)}
+    assert all("section 6a" in m.why for m in METRICS if m.key.startswith("rel_"))
 
 
 def test_gt_f1_ranks_the_highest_first_and_the_reference_is_not_ranked():

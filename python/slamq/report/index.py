@@ -101,7 +101,7 @@ def mixed_settings(frame: pd.DataFrame) -> str:
 
 
 #: Columns a gallery orders an algorithm's runs by: the verdict's basis first, then these.
-_RUN_ORDER = ("ate_rmse", "gt_f1", "corners_canonical", "corners")
+_RUN_ORDER = ("ate_rmse", "rel_trans_abs_mean", "gt_f1", "corners_canonical", "corners")
 
 
 def _run_key(group: pd.DataFrame, basis: Iterable[str] = ()) -> str | None:

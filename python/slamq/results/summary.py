@@ -21,7 +21,7 @@ from slamq.errors import ParamError
 from slamq.results.columns import settings_difference
 
 __all__ = ["summarize", "summary_rows", "SUMMARY_METRICS", "ATE_METRICS", "GT_METRICS",
-           "spreadsheet_safe", "summary_table", "comparability_warnings",
+           "REL_METRICS", "spreadsheet_safe", "summary_table", "comparability_warnings",
            "resolution_warnings", "angle_spread", "ANGLE_TOLERANCE_DEG", "map_names"]
 
 #: The map metrics summarised (every numeric MapQuality output): the map columns shown at
@@ -31,6 +31,8 @@ SUMMARY_METRICS = shown_names("summary", "map")
 ATE_METRICS = shown_names("summary", "ate")
 #: Ground-truth map comparison columns (SPEC section 7) summarised when any run has them.
 GT_METRICS = shown_names("summary", "gt")
+#: Relations error columns (SPEC section 6a) summarised when any run has them.
+REL_METRICS = shown_names("summary", "rel")
 #: Maps ranked together whose wall angles (modulo 90 degrees) differ by more than this are
 #: turned differently: their corners are not comparable.
 ANGLE_TOLERANCE_DEG = 1.0
@@ -391,9 +393,10 @@ def summary_rows(
     """
     if ddof not in (0, 1):
         raise ParamError(f"ddof must be 0 or 1, got {ddof!r}")
-    metric_names = [*SUMMARY_METRICS, *ATE_METRICS, *GT_METRICS]
+    metric_names = [*SUMMARY_METRICS, *ATE_METRICS, *GT_METRICS, *REL_METRICS]
     recs = _rows(_results_rows(results),
-                 {"error", "config", *_WARNING_COLUMNS, *metric_names})
+                 {"error", "config", "ate_rmse", "gt_f1", "rel_n", *_WARNING_COLUMNS,
+                  *metric_names})
     mixed = (settings_difference(recs.col("config"))
              if check_settings and "config" in recs.columns else None)
     if mixed:
@@ -425,6 +428,8 @@ def summary_rows(
         metrics += [m for m in ATE_METRICS if m in recs.columns]
     if any_value("gt_f1"):
         metrics += [m for m in GT_METRICS if m in recs.columns]
+    if any_value("rel_n"):
+        metrics += [m for m in REL_METRICS if m in recs.columns]
     rows = []
     keys = [(_key(r.get("algorithm")), _key(r.get("sequence"))) for r in recs.rows]
     for (alg, seq), pos in _groups(keys):
@@ -472,7 +477,8 @@ def summarize(
         statistics), then ``<metric>_mean`` and ``<metric>_std`` for every metric in
         :data:`SUMMARY_METRICS`, and for the ``ate_*`` columns when any run has a
         trajectory error (``ate_runs`` counts the runs that have one), for the ``gt_*``
-        figures of :data:`GT_METRICS` when any run has a ground-truth map, and ``<metric>_n``,
+        figures of :data:`GT_METRICS` when any run has a ground-truth map, for the ``rel_*``
+        figures of :data:`REL_METRICS` when any run has a relations error, and ``<metric>_n``,
         the number of runs where the metric is a number: a metric's mean and std are over
         those runs (a map with no known cell has NaN ratios), so they may cover fewer than
         ``n`` runs. Records without an algorithm or a sequence value are left out.

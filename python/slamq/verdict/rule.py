@@ -37,6 +37,8 @@ _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
     ("ate_rmse", False, "gt_f1", True,
      "high: ranked by trajectory error against the ground truth"),
+    ("rel_trans_abs_mean", False, "rel_rot_abs_mean", False,
+     "high: ranked by the relations error (Kümmerle et al. 2009) against the ground truth"),
     ("gt_f1", True, "gt_chamfer", False,
      "high: ranked by agreement with the ground-truth map"),
     ("corners", False, None, False,
@@ -81,8 +83,9 @@ def _algorithms(summary: pd.DataFrame, sequence: str) -> pd.DataFrame:
 
 
 def _ground_truth_decides(block: pd.DataFrame) -> bool:
-    """At least two algorithms have an ATE, or a GT-map F1: the ground truth ranks them."""
-    return any(len(_means(block, k)) >= 2 for k, *_ in _BASES[:2])
+    """At least two algorithms have an ATE, a relations error or a GT-map F1: the ground
+    truth ranks them."""
+    return any(len(_means(block, k)) >= 2 for k, *_ in _BASES[:3])
 
 
 def _differences(block: pd.DataFrame) -> tuple[bool, bool]:
@@ -302,6 +305,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
 
 
 _BASIS_NAMES = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
+                "rel_trans_abs_mean": "relations error",
                 "agreement": "agreement with the other maps",
                 "corners_canonical": "canonical corners"}
 
@@ -339,8 +343,9 @@ def verdict_sentence(v: dict[str, Any]) -> str:
 
 
 def needs_evidence(summary: pd.DataFrame, sequence: str) -> bool:
-    """Whether a sequence is judged without ground truth (no two algorithms with an ATE or
-    a GT-map F1) and has at least two algorithms: then the maps' agreement decides.
+    """Whether a sequence is judged without ground truth (no two algorithms with an ATE, a
+    relations error or a GT-map F1) and has at least two algorithms: then the maps'
+    agreement decides.
 
     Examples
     --------
@@ -361,15 +366,17 @@ def rule_summary() -> str:
     Examples
     --------
     >>> print(rule_summary())  # doctest: +NORMALIZE_WHITESPACE
-    by ATE RMSE when the sequence has ground truth, else by GT F1 against its ground-truth
-    map; else by how far the other maps confirm each map (a map they cannot place, whose
-    support is under 90% of the best, that a defect detector flags, or whose completeness
-    is under 80% of the highest is never named best; corners order the maps confirmed
-    equally on one grid); with figures alone, by corners (no clear winner within 25%)
+    by ATE RMSE when the sequence has ground truth, else by relations error, else by GT F1
+    against its ground-truth map; else by how far the other maps confirm each map (a map
+    they cannot place, whose support is under 90% of the best, that a defect detector
+    flags, or whose completeness is under 80% of the highest is never named best; corners
+    order the maps confirmed equally on one grid); with figures alone, by corners (no
+    clear winner within 25%)
     """
     return (
         f"by {basis_name(_BASES[0][0])} when the sequence has ground truth, else by "
-        f"{basis_name(_BASES[1][0])} against its ground-truth map; else by how far the other "
+        f"{basis_name(_BASES[1][0])}, else by {basis_name(_BASES[2][0])} against its "
+        "ground-truth map; else by how far the other "
         "maps confirm each map (a map they cannot place, whose support is under "
         f"{AGREEMENT_SHARE:.0%} of the best, that a defect detector flags, or whose "
         f"completeness is under {COMPLETE_SHARE:.0%} of the highest is never named best; "
