@@ -135,10 +135,12 @@ def register_many(
 ) -> dict[tuple[str, str], Registration]:
     """Register every pair of several maps of one place (docs/spec.md section 7a).
 
-    Each map is prepared once (walls, directions, nearest-wall queries); for every pair
-    ``a`` before ``b`` in the order given, ``b`` is registered onto ``a`` and the result is
-    stored under ``(b, a)`` ("b onto a"), and its :meth:`~slamq.Registration.inverse`
-    under ``(a, b)``: the transform of any ordered pair is one lookup.
+    Each map is prepared once (walls, directions, nearest-wall queries; a pair that goes
+    to the wide search of :func:`register` draws the finer map again on the coarser grid);
+    for every pair ``a`` before ``b`` in the order given, ``b`` is registered onto ``a``
+    and the result is stored under ``(b, a)`` ("b onto a"), and its
+    :meth:`~slamq.Registration.inverse` under ``(a, b)``: the transform of any ordered
+    pair is one lookup.
 
     Parameters
     ----------
