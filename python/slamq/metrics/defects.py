@@ -28,7 +28,9 @@ other), else 90.
 Every detector takes an :class:`~slamq.OccupancyMap` and returns a list of
 :class:`Defect` (empty when it sees nothing); :func:`detect_defects` runs them all. The
 thresholds are rows of :data:`slamq.params.SETTINGS` (family ``defects``), in metres where
-they are lengths: a map without a resolution is read as 0.05 m per cell.
+they are lengths, and so are the detectors' own small lengths (:data:`LINK`): a map
+without a resolution is read as 0.05 m per cell. Only the quantisation floors stay in
+cells (a gap of one cell, a wall a few cells thick, is the grid's own noise on any grid).
 """
 
 from __future__ import annotations
@@ -47,12 +49,17 @@ from slamq.models import OccupancyMap
 from slamq.models.quality import WALL_PERIODS, wall_symmetry
 from slamq.params import SETTINGS
 
-__all__ = ["DETECTORS", "Defect", "detect_defects", "doubled_walls", "fragmented",
+__all__ = ["DETECTORS", "LINK", "Defect", "detect_defects", "doubled_walls", "fragmented",
            "smeared", "superposed", "wall_period"]
 
 #: Metres per cell assumed for a map without a resolution.
 DEFAULT_RESOLUTION = 0.05
-
+#: The detectors' own small lengths, metres (one cell of a 0.05 m grid, where they were
+#: set in cells; on a finer grid more cells, on a coarser one still one cell): the holes a
+#: doubled stretch bridges and how far its gap centre moves from one cell to the next, the
+#: gaps the smear closing fills, the smallest thick core and the outline's tolerance of
+#: the object test.
+LINK = 0.05
 _S = SETTINGS
 
 
@@ -103,6 +110,11 @@ class Defect:
 
 def _res(m: OccupancyMap) -> float:
     return float(m.resolution) if m.resolution else DEFAULT_RESOLUTION
+
+
+def _cells(metres: float, res: float) -> int:
+    """``metres`` in cells of ``res``, at least 1 (:data:`LINK` is 1 cell at 0.05 m)."""
+    return max(1, int(round(metres / res)))
 
 
 def wall_period(m: OccupancyMap) -> float:
@@ -493,10 +505,10 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
     metres of free cells (all seen free: the two sides of one real wall have unknown cells
     between them), then occupied again is one pair (the gap is at least 2 cells on any
     grid; each wall of the pair at most 0.2 m thick, and 3 cells, so the holes of one thick,
-    noisy wall are not a pair). Pairs in a row along a wall (the gap centre moving by one
-    cell at most, holes of one cell bridged) for at least ``doubled_min_run`` metres are a
-    doubled stretch; the map is flagged when the stretches add up to
-    ``doubled_min_length`` metres.
+    noisy wall are not a pair). Pairs in a row along a wall (the gap centre moving by at
+    most :data:`LINK` from one column to the next, holes of up to :data:`LINK` bridged: one
+    cell at 0.05 m) for at least ``doubled_min_run`` metres are a doubled stretch; the map
+    is flagged when the stretches add up to ``doubled_min_length`` metres.
 
     Returns
     -------
@@ -531,7 +543,7 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
         ((a + k * 60.0 + 90.0) % 180.0 - 90.0, (0,)) for k in range(3)]
     run = max(2, int(round(min_run / res)))
     thick = max(_MIN_WALL_CELLS, int(round(_THIN_WALL / res)))
-    link = 3
+    link = 2 * _cells(LINK, res) + 1  # 3 cells at 0.05 m
     total = 0.0
     points = []
     stretches = 0
@@ -548,8 +560,8 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
             oo, ff = (o, f) if axis == 0 else (o.T, f.T)
             centre = _pairs(np.ascontiguousarray(oo), np.ascontiguousarray(ff), gmin, gmax,
                             thick)
-            # stretches: gap centres in a row along the wall (one cell up or down), bridging
-            # holes of one cell
+            # stretches: gap centres in a row along the wall (moving by LINK at most from
+            # one column to the next), bridging holes of LINK
             sel = cv2.dilate(centre, np.ones((link, 1), np.uint8))
             sel = cv2.morphologyEx(sel, cv2.MORPH_CLOSE, np.ones((1, link), np.uint8))
             r0, c0, r1, c1 = _known_box(sel > 0)  # label only where there are pairs
@@ -592,13 +604,13 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
             occupied_threshold: float = _S.occupied_threshold.default) -> list[Defect]:
     """Smeared or fan-shaped walls: thick occupied blobs and wedges.
 
-    The occupied mask (closed by one cell, so a fuzzy band of occupied and free cells counts
-    as one blob) is measured by its distance transform: the cells deeper than half of
-    ``smeared_min_thickness`` (and than 3 cells: noise alone draws walls a few cells thick
-    on a coarse grid) form thick cores (of at least three cells). A core that is a solid
-    rectangle or disc (its area at least 0.8 of its rotated bounding rectangle's, or 0.7
-    and nearly round: furniture, pillars) or whose outline runs along the building's
-    directions (boxes side by side) is an object, not a smear.
+    The occupied mask (closed by :data:`LINK`, one cell at 0.05 m, so a fuzzy band of
+    occupied and free cells counts as one blob) is measured by its distance transform: the
+    cells deeper than half of ``smeared_min_thickness`` (and than 3 cells: noise alone draws
+    walls a few cells thick on a coarse grid) form thick cores (of at least three cells of
+    0.05 m). A core that is a solid rectangle or disc (its area at least 0.8 of its rotated
+    bounding rectangle's, or 0.7 and nearly round: furniture, pillars) or whose outline
+    runs along the building's directions (boxes side by side) is an object, not a smear.
     The map is flagged when the other cores cover ``smeared_min_area`` square metres.
 
     Returns
@@ -618,7 +630,7 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
     area_min = _check("smeared_min_area", smeared_min_area)
     occ, _, off = _masks(m, occupied_threshold)
     res = _res(m)
-    side = 3
+    side = 2 * _cells(LINK, res) + 1  # 3 cells at 0.05 m
     closed = cv2.morphologyEx(occ.astype(np.uint8), cv2.MORPH_CLOSE,
                               np.ones((side, side), np.uint8))
     dt = cv2.distanceTransform(closed, cv2.DIST_L2, 3)
@@ -629,8 +641,8 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
     keep = np.zeros(n, bool)
     axis = None
     period = 90.0
-    link = 1.0
-    min_cells = 3
+    link = max(1.0, LINK / res)  # 1 cell at 0.05 m, never less
+    min_cells = int(round(3 * link * link))
     for k in range(1, n):
         x, y, bw, bh, area = stats[k]
         if area < min_cells:
