@@ -672,16 +672,31 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
 def _rectilinear(blob: np.ndarray, axis: float, period: float = 90.0,
                  epsilon: float = 1.0) -> float:
     """The share of a blob's outline (a polygon within ``epsilon`` cells) that runs along
-    the building's directions (``axis`` modulo ``period``: and its perpendicular, or its
-    copies 60 degrees on, within 10 degrees)."""
+    the building's directions (``axis``, measured in the image as :func:`_dominant` gives
+    it, modulo ``period``: and its perpendicular, or its copies 60 degrees on, within 10
+    degrees).
+
+    Examples
+    --------
+    >>> import cv2, numpy as np
+    >>> blob = np.zeros((200, 200), np.uint8)
+    >>> blob[50:150, 50:80] = 1
+    >>> blob[120:150, 50:150] = 1                   # an L of two boxes
+    >>> turn = cv2.getRotationMatrix2D((100, 100), 12, 1.0)  # 12 degrees anticlockwise
+    >>> b = cv2.warpAffine(blob, turn, (200, 200), flags=cv2.INTER_NEAREST)
+    >>> round(_rectilinear(b, -12.0), 2), round(_rectilinear(b, 12.0), 2)
+    (1.0, 0.0)
+    """
     contours, _ = cv2.findContours(blob, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     along = total = 0.0
     for c in contours:
         poly = cv2.approxPolyDP(c, epsilon, True).reshape(-1, 2).astype(float)
         d = np.roll(poly, -1, axis=0) - poly
         length = np.hypot(d[:, 0], d[:, 1])
-        # image rows point down: a segment's direction counter-clockwise is atan2(-dy, dx)
-        ang = np.degrees(np.arctan2(-d[:, 1], d[:, 0]))
+        # measured in the image (rows down, clockwise as seen), as ``axis`` is
+        # (:func:`_dominant`); counter-clockwise, atan2(-dy, dx), a building turned by t
+        # had its outlines at -t against an axis at t
+        ang = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
         along += float(length[_circ(ang, axis, period) <= 10.0].sum())
         total += float(length.sum())
     return along / total if total else 1.0
