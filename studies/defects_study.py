@@ -166,10 +166,11 @@ def flags(m: OccupancyMap, timing: dict[str, float] | None = None) -> dict[str, 
 
 
 def synthetic_records(plans: int = 10, seed: int = 700, n_worlds: int = 12,
-                      scale: float = 1.0) -> pd.DataFrame:
-    """One row per held-out synthetic map: ``base`` (plan or world), ``seed``, ``damage``,
-    ``severity`` and :func:`flags`; every base gets every damage of :data:`EXPECTED`, then
-    is resampled ``scale`` times finer (:func:`finer`).
+                      scale: float = 1.0, resolution: float = 0.05) -> pd.DataFrame:
+    """One row per held-out synthetic map: ``base`` (plan or world, drawn at ``resolution``
+    metres per cell), ``seed``, ``damage``, ``severity`` and :func:`flags`; every base gets
+    every damage of :data:`EXPECTED`, then is resampled ``scale`` times finer
+    (:func:`finer`).
 
     Examples
     --------
@@ -177,7 +178,8 @@ def synthetic_records(plans: int = 10, seed: int = 700, n_worlds: int = 12,
     >>> len(df) == len(EXPECTED), bool(df.loc[df["damage"] == "clean", "superposed"].isna().all())
     (True, True)
     """
-    bases = [floor_plan(seed + k) for k in range(plans)] + worlds(n_worlds, seed=seed)
+    bases = [floor_plan(seed + k, resolution=resolution) for k in range(plans)] + worlds(
+        n_worlds, seed=seed, resolution=resolution)
     rows = []
     for k, base in enumerate(bases):
         for damage, sev in EXPECTED:
@@ -452,13 +454,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--benchmark", type=Path, help="a `slamq run` output folder")
     ap.add_argument("--real", type=Path, nargs="?", const=SHARED_MAPS, metavar="DIR",
                     help=f"the labelled maps folder (alone: {SHARED_MAPS})")
+    ap.add_argument("--resolution", type=float, default=0.05,
+                    help="draw the synthetic plans and worlds at this many metres per cell")
     ap.add_argument("--scale", type=float, default=1.0,
                     help="resample every map this many times finer (nearest cell) first")
     ap.add_argument("--csv", type=Path, help="write every map's flags to this folder")
     ap.add_argument("--markdown", type=Path, help="file whose marked section to replace")
     args = ap.parse_args(argv)
     syn = None if args.no_synthetic else synthetic_records(args.plans, args.seed, args.worlds,
-                                                           args.scale)
+                                                           args.scale, args.resolution)
     bench = benchmark_records(args.benchmark) if args.benchmark else None
     timing: dict[str, float] = {}
     real = real_records(args.real, timing, args.scale) if args.real else None
@@ -472,6 +476,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         " --no-synthetic") + (f" --benchmark {args.benchmark}" if bench is not None else "") \
         + (f" --real {args.real}" if real is not None else "") + (
         f" --scale {args.scale:g}" if args.scale != 1 else "") + (
+        f" --resolution {args.resolution:g}" if args.resolution != 0.05 else "") + (
         f" --markdown {args.markdown}" if args.markdown else "")
     mcells = float(real["mcells"].sum()) if real is not None and len(real) else 0.0
     text = markdown(syn, bench, real, timing if mcells else None, mcells, command)
