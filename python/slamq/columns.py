@@ -244,6 +244,7 @@ _MAP = (
            "and resampled to one resolution, comparable between maps saved differently",
        at={"summary": 5, "eval": 6, "validity": 2}),
     _c("wall_angle", "float", "map", unit="deg", at={"summary": 16}),
+    _c("wall_symmetry", "str", "map"),
     _c("saver", "str", "map"),
     _c("flags", "str", "map"),
     _c("known_box_m2", "float", "map", unit="m2", at={"summary": 14}),

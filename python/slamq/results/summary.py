@@ -13,16 +13,19 @@ import math
 import os
 import warnings
 from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from slamq.columns import Column, shown, shown_names
 from slamq.errors import ParamError
+from slamq.models.quality import WALL_PERIODS
 from slamq.results.columns import settings_difference
 
 __all__ = ["summarize", "summary_rows", "SUMMARY_METRICS", "ATE_METRICS", "GT_METRICS",
            "REL_METRICS", "spreadsheet_safe", "summary_table", "comparability_warnings",
-           "resolution_warnings", "angle_spread", "ANGLE_TOLERANCE_DEG", "map_names"]
+           "resolution_warnings", "angle_spread", "ANGLE_TOLERANCE_DEG", "Orientation",
+           "map_names", "orientation"]
 
 #: The map metrics summarised (every numeric MapQuality output): the map columns shown at
 #: ``summary`` (:data:`slamq.columns.COLUMNS`).
@@ -33,8 +36,9 @@ ATE_METRICS = shown_names("summary", "ate")
 GT_METRICS = shown_names("summary", "gt")
 #: Relations error columns (SPEC section 6a) summarised when any run has them.
 REL_METRICS = shown_names("summary", "rel")
-#: Maps ranked together whose wall angles (modulo 90 degrees) differ by more than this are
-#: turned differently: their corners are not comparable.
+#: Maps ranked together whose wall angles (modulo the period of their walls' symmetry, 90
+#: degrees for rectilinear ones) differ by more than this are turned differently: their
+#: corners are not comparable.
 ANGLE_TOLERANCE_DEG = 1.0
 #: What each loader flag means, for the warnings.
 FLAG_MEANING = {
@@ -262,29 +266,173 @@ def _map_names(part: _Rows) -> list[str]:
 _SPREAD_NUMPY = 64
 
 
-def angle_spread(angles: Any) -> float:
-    """The largest difference between two wall angles, modulo 90 degrees (NaN ignored).
+def angle_spread(angles: Any, period: float = 90.0) -> float:
+    """The largest difference between two wall angles, modulo ``period`` degrees (NaN
+    ignored).
 
     Examples
     --------
     >>> angle_spread([44.0, -44.5, float("nan")]), angle_spread([1.0])
     (1.5, 0.0)
+    >>> round(angle_spread([29.5, -29.8], period=60.0), 6)
+    0.7
     """
     a = [float(x) for x in angles if isinstance(x, (int, float)) and math.isfinite(x)]
     if len(a) < 2:
         return 0.0
+    half = period / 2.0
     if len(a) > _SPREAD_NUMPY:
         import numpy as np
 
         v = np.asarray(a, float)
-        d = (v[:, None] - v[None, :] + 45.0) % 90.0 - 45.0
+        d = (v[:, None] - v[None, :] + half) % period - half
         return float(np.abs(d).max())
-    return max(abs((x - y + 45.0) % 90.0 - 45.0) for x in a for y in a)
+    return max(abs((x - y + half) % period - half) for x in a for y in a)
 
 
 #: The columns the comparability warnings read.
 _WARNING_COLUMNS = ("algorithm", "sequence", "run", "map", "source", "resolution",
-                    "wall_angle", "corners_canonical", "saver", "known", "unknown", "flags")
+                    "wall_angle", "wall_symmetry", "corners_canonical", "saver", "known",
+                    "unknown", "flags")
+
+
+@dataclass(frozen=True)
+class Orientation:
+    """How the wall angles of maps of one place compare (docs/spec.md 3a.2 and section 9):
+    :func:`orientation`.
+
+    Attributes
+    ----------
+    differ : bool
+        Two maps of one periodic class (rectilinear, hexagonal) have wall angles more than
+        ``within`` degrees apart modulo the class's period: their corners do not compare.
+    turned : tuple of str
+        The maps outside every largest group of maps within ``within`` of each other,
+        when such a group holds more than half of the maps of its class: the maps turned
+        against the others. Empty when no map is singled out (two maps, or a spread with
+        no majority: then every map of the class is listed in ``angles``).
+    angles : dict
+        Class -> ``[(name, angle)]`` of the maps with a periodic class, in order.
+    classes : dict
+        Name -> class of every map with an angle (``rectilinear`` for a record without a
+        class: results written before the classes existed).
+    """
+
+    differ: bool
+    turned: tuple[str, ...]
+    angles: dict[str, list[tuple[str, float]]]
+    classes: dict[str, str]
+
+    @property
+    def not_periodic(self) -> list[str]:
+        """The maps whose walls have no direction period (``irregular``, or runs of one
+        algorithm that disagree): their wall angles are not compared."""
+        return [n for n, c in self.classes.items() if c not in WALL_PERIODS]
+
+    @property
+    def mixed(self) -> bool:
+        """The maps' walls differ in symmetry: some rectilinear, some hexagonal."""
+        return len(self.angles) > 1
+
+
+def orientation(names: Iterable[Any], angles: Iterable[Any],
+                symmetries: Iterable[Any] | None = None,
+                within: float = ANGLE_TOLERANCE_DEG) -> Orientation:
+    """Compare the wall angles of maps of one place, each modulo the period of its walls'
+    symmetry (``wall_symmetry``: 90 degrees for rectilinear maps, 60 for hexagonal ones);
+    maps of different classes, and irregular maps, are not compared by wall angle at all.
+    Within a class, ``differ`` when two angles are more than ``within`` degrees apart; then
+    the largest groups of maps within ``within`` of each other are found, and when such a
+    group holds more than half of the class, the maps in none of them are ``turned``.
+
+    Examples
+    --------
+    >>> o = orientation(["a", "b", "c"], [0.2, 0.6, 1.9])
+    >>> o.differ, o.turned
+    (True, ('c',))
+    >>> o = orientation("abcd", [29.8, -29.9, 29.5, -29.6], ["hexagonal"] * 4)
+    >>> o.differ, o.turned
+    (False, ())
+    >>> orientation("ab", [3.0, 40.0], ["irregular", "rectilinear"]).differ
+    False
+    """
+    by_class: dict[str, list[tuple[str, float]]] = {}
+    classes: dict[str, str] = {}
+    syms = list(symmetries) if symmetries is not None else None
+    for i, (name, angle) in enumerate(zip(names, angles, strict=False)):
+        try:
+            a = float(angle)
+        except (TypeError, ValueError):
+            continue
+        if not math.isfinite(a):
+            continue
+        s = syms[i] if syms is not None and i < len(syms) else None
+        cls = s if isinstance(s, str) and s else "rectilinear"
+        classes[str(name)] = cls
+        if cls in WALL_PERIODS:
+            by_class.setdefault(cls, []).append((str(name), a))
+    differ = False
+    turned: list[str] = []
+    for cls, items in by_class.items():
+        period = WALL_PERIODS[cls]
+        vals = [a for _, a in items]
+        if angle_spread(vals, period) <= within:
+            continue
+        differ = True
+        # the maps within [vals[i], vals[i] + within] modulo the period, for each i
+        ahead = [[(b - a) % period <= within + 1e-9 for b in vals] for a in vals]
+        sizes = [sum(row) for row in ahead]
+        top = max(sizes)
+        if 2 * top > len(items):
+            kept = [any(ahead[i][j] for i in range(len(vals)) if sizes[i] == top)
+                    for j in range(len(vals))]
+            turned += [n for (n, _), k in zip(items, kept, strict=True) if not k]
+    return Orientation(differ, tuple(turned), by_class, classes)
+
+
+def orientation_sentence(o: Orientation, hint: str = "") -> list[str]:
+    """The comparability warnings of :func:`orientation` (without the sequence): maps turned
+    differently (naming the turned ones), maps whose walls differ in symmetry, maps that are
+    not rectilinear. ``hint``: what to compare instead, appended to the first.
+
+    Examples
+    --------
+    >>> o = orientation(["a", "b", "c"], [0.2, 0.6, 1.9])
+    >>> print(orientation_sentence(o)[0])  # doctest: +NORMALIZE_WHITESPACE
+    the maps are turned differently (wall angles modulo 90: a 0.2, b 0.6, c 1.9 deg; c is
+    turned against the others): their corners are not comparable
+    >>> print(orientation_sentence(orientation("ab", [1.0, 2.0], ["irregular"] * 2))[0])
+    ... # doctest: +NORMALIZE_WHITESPACE
+    the maps' walls are not rectilinear (irregular: a, b; no clear direction period): their
+    wall angles are not compared, so whether they are turned against each other is not known
+    """
+    out = []
+    if o.differ:
+        parts = []
+        for cls, items in o.angles.items():
+            shown = ", ".join(f"{n} {a:.1f}" for n, a in sorted(items, key=lambda t: t[1]))
+            parts.append(f"wall angles modulo {WALL_PERIODS[cls]:g}: {shown} deg")
+        who = ""
+        if o.turned:
+            verb = "is" if len(o.turned) == 1 else "are"
+            who = f"; {', '.join(o.turned)} {verb} turned against the others"
+        out.append(f"the maps are turned differently ({'; '.join(parts)}{who}): their "
+                   f"corners are not comparable{'; ' + hint if hint else ''}")
+    if o.mixed:
+        shown = "; ".join(f"{cls}: {', '.join(n for n, _ in items)}"
+                          for cls, items in o.angles.items())
+        out.append(f"the maps' walls differ in symmetry ({shown}): their wall angles are "
+                   "not compared across classes")
+    odd = o.not_periodic
+    if odd:
+        names = ", ".join(f"{n}" + ("" if o.classes[n] == "irregular" else
+                                    f" ({o.classes[n]})") for n in odd)
+        whom = ("they are turned against each other" if len(odd) == len(o.classes) else
+                "they are turned against the other maps")
+        out.append(f"the maps' walls are not rectilinear (irregular: {names}; no clear "
+                   f"direction period): their wall angles are not compared, so whether "
+                   f"{whom} is not known")
+    return out
 
 
 def comparability_warnings(records: Any) -> list[str]:
@@ -320,16 +468,13 @@ def comparability_warnings(records: Any) -> list[str]:
         part = recs.take(pos)
         if "wall_angle" in part.columns:
             angles = [_number(a) for a in part.col("wall_angle")]
-            if angle_spread(a for a in angles if a == a) > ANGLE_TOLERANCE_DEG:
-                shown = ", ".join(f"{n} {a:.1f}" for n, a in sorted(
-                    zip(_map_names(part), angles, strict=False), key=lambda t: t[1])
-                    if math.isfinite(a))
-                have = "corners_canonical" in part.columns and any(
-                    _number(v) == _number(v) for v in part.col("corners_canonical"))
-                hint = ("compare their corners_canonical" if have else
-                        "compare corners_canonical (canonical_resolution=0.07)")
-                out.append(f"{seq}: the maps are turned differently (wall angles modulo 90: "
-                           f"{shown} deg): their corners are not comparable; {hint}")
+            syms = part.col("wall_symmetry") if "wall_symmetry" in part.columns else None
+            o = orientation(_map_names(part), angles, syms)
+            have = "corners_canonical" in part.columns and any(
+                _number(v) == _number(v) for v in part.col("corners_canonical"))
+            hint = ("compare their corners_canonical" if have else
+                    "compare corners_canonical (canonical_resolution=0.07)")
+            out.extend(f"{seq}: {msg}" for msg in orientation_sentence(o, hint))
         if "saver" in part.columns:
             savers = sorted({str(x) for x in part.col("saver") if isinstance(x, str) and x})
             if len(savers) > 1:
@@ -430,6 +575,7 @@ def summary_rows(
         metrics += [m for m in GT_METRICS if m in recs.columns]
     if any_value("rel_n"):
         metrics += [m for m in REL_METRICS if m in recs.columns]
+    has_symmetry = "wall_symmetry" in recs.columns
     rows = []
     keys = [(_key(r.get("algorithm")), _key(r.get("sequence"))) for r in recs.rows]
     for (alg, seq), pos in _groups(keys):
@@ -439,15 +585,27 @@ def summary_rows(
         }
         if has_ate:
             row["ate_runs"] = sum(not _missing(r.get("ate_rmse")) for r in ok)
+        symmetry = _symmetry(ok, has_symmetry)
+        if symmetry is not None:
+            row["wall_symmetry"] = symmetry
         for m in metrics:
             vals = [v for v in (_number(r.get(m)) for r in ok) if v == v]
+            if m == "wall_angle":
+                vals = _unwrapped(vals, WALL_PERIODS.get(symmetry or "", 90.0))
             row[f"{m}_n"] = len(vals)
             mean, std = _mean_std(vals, ddof) if vals else (math.nan, math.nan)
+            if m == "wall_angle" and symmetry is not None and math.isfinite(mean):
+                # the mean of angles unwrapped about the first run, back into the period
+                p = WALL_PERIODS.get(symmetry, 90.0)
+                if not -p / 2 < mean <= p / 2:
+                    mean = p / 2 - (p / 2 - mean) % p
             row[f"{m}_mean"] = mean
             row[f"{m}_std"] = std
         rows.append(row)
     cols = ["algorithm", "sequence", "n", "failed"] + (["ate_runs"] if has_ate else [])
     cols += [f"{m}_{s}" for m in metrics for s in ("mean", "std", "n")]
+    if has_symmetry:
+        cols.append("wall_symmetry")
     return cols, rows
 
 
@@ -503,6 +661,29 @@ def summarize(
 
     cols, rows = summary_rows(results, ddof=ddof, check_settings=check_settings)
     return pd.DataFrame(rows, columns=cols)
+
+
+def _symmetry(runs: list[dict[str, Any]], has_column: bool) -> str | None:
+    """The wall symmetry of an algorithm's runs (records): their common class, ``"mixed"``
+    when they differ (no wall angle of theirs is then compared), None without the column
+    (results written before it: read as rectilinear)."""
+    if not has_column:
+        return None
+    found = sorted({s for s in (r.get("wall_symmetry") for r in runs)
+                    if isinstance(s, str) and s})
+    if not found:
+        return None
+    return found[0] if len(found) == 1 else "mixed"
+
+
+def _unwrapped(angles: list[float], period: float) -> list[float]:
+    """Wall angles of one algorithm's runs, as they are unless they straddle the ends of the
+    period (one run at +44.9 degrees, another at -44.8 modulo 90): then each unwrapped to
+    within half a period of the first, so that their mean and spread are the angles'."""
+    if len(angles) < 2 or max(angles) - min(angles) <= period / 2:
+        return angles
+    half = period / 2
+    return [angles[0] + ((a - angles[0] + half) % period - half) for a in angles]
 
 
 def _pm(mean: float, std: float, col: Column) -> str:

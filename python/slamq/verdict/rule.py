@@ -14,8 +14,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from slamq.models.quality import WALL_PERIODS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
-from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_resolutions
+from slamq.results.summary import Orientation, distinct_resolutions, orientation
 
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "basis_name", "known_share",
@@ -88,11 +89,40 @@ def _ground_truth_decides(block: pd.DataFrame) -> bool:
     return any(len(_means(block, k)) >= 2 for k, *_ in _BASES[:3])
 
 
+def _orientation(block: pd.DataFrame) -> Orientation:
+    """How the wall angles of ``block``'s algorithms compare (each modulo the period of its
+    walls' symmetry; irregular maps and maps of different classes are not compared):
+    :func:`slamq.results.summary.orientation`."""
+    return orientation([str(a) for a in block.index],
+                       block.get("wall_angle_mean", pd.Series(math.nan, index=block.index)),
+                       block.get("wall_symmetry"))
+
+
 def _differences(block: pd.DataFrame) -> tuple[bool, bool]:
-    """Whether the maps of ``block`` differ in resolution, and in orientation (wall angles
-    more than ``ANGLE_TOLERANCE_DEG`` apart modulo 90): then plain corners do not compare."""
+    """Whether the maps of ``block`` differ in resolution, and in orientation (two wall
+    angles of one symmetry class more than ``ANGLE_TOLERANCE_DEG``, 1 degree, apart modulo
+    its period, :func:`_orientation`): then plain corners do not compare."""
     return (len(distinct_resolutions(block.get("resolution_mean", []))) > 1,
-            angle_spread(block.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG)
+            _orientation(block).differ)
+
+
+def _turned_note(block: pd.DataFrame) -> str:
+    """``"; X is turned against the others (wall angle A, the others B-C modulo P)"``
+    when the orientation check singles out turned maps among ``block``'s, else ""."""
+    o = _orientation(block)
+    if not o.turned:
+        return ""
+    parts = []
+    for cls, items in o.angles.items():
+        mine = [(n, a) for n, a in items if n in o.turned]
+        rest = [a for n, a in items if n not in o.turned]
+        if not mine or not rest:
+            continue
+        shown = ", ".join(f"{n} at {a:.1f}" for n, a in mine)
+        parts.append(f"{shown} deg, the others at {min(rest):.1f} to {max(rest):.1f} deg "
+                     f"modulo {WALL_PERIODS[cls]:g}")
+    verb = "is" if len(o.turned) == 1 else "are"
+    return f"; {', '.join(o.turned)} {verb} turned against the others ({'; '.join(parts)})"
 
 
 def _corner_key(block: pd.DataFrame, names: list[str]) -> tuple[str | None, pd.Series]:
@@ -193,7 +223,8 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     if key is None and len(candidates) > 1:
         confidence += (f"; the {len(candidates)} maps they confirm equally differ in "
                        "resolution or orientation, so corners cannot compare them: their "
-                       "support orders them")
+                       "support orders them"
+                       + _turned_note(block.loc[[a for a in candidates if a in block.index]]))
     if key is not None and len(candidates) > 1:
         confidence += (f"; among the {len(candidates)} maps they confirm equally, {key} "
                        "decide")
@@ -263,7 +294,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
             key = "corners_canonical"
             warnings.append(f"the maps differ in {differ}: ranked by corners_canonical (each "
                             "map turned to its walls and resampled to one resolution) instead "
-                            "of corners")
+                            "of corners" + _turned_note(block))
         means = _means(block, key)
         if len(means) < 2 and not (key.startswith("corners") and len(means) == 1):
             continue
@@ -295,7 +326,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
             if key == "corners" and (res_differ or turned):
                 warnings.append("the maps differ in resolution or orientation: corners are "
                                 "not comparable (evaluate with canonical_resolution=0.07 "
-                                "to rank them by corners_canonical)")
+                                "to rank them by corners_canonical)" + _turned_note(block))
                 best, confidence = None, "none: the maps are not comparable"
         return {"sequence": str(sequence), "best": best, "ranking": ranking,
                 "basis": [key] + ([tie] if tie and len(ties) else []),
