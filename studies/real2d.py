@@ -54,6 +54,9 @@ def table(output: Path) -> pd.DataFrame:
     recs = pd.DataFrame(read_records(output / "results.jsonl"))
     recs = recs.rename(columns={"run": "iteration", **{f"rel_{s}": s for s in STATS}})
     recs["iteration"] = recs["iteration"].astype(str)
+    for s in STATS:  # None in a failed run's record makes the column an object column
+        if s in recs:
+            recs[s] = pd.to_numeric(recs[s], errors="coerce")
     cols = ["algorithm", "sequence", "iteration", "map", *[s for s in STATS if s in recs],
             *[c for c in ("rel_error", "error") if c in recs]]
     out = runs.merge(recs[cols], on=["algorithm", "sequence", "iteration"], how="left")
