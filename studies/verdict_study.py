@@ -96,7 +96,7 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
     df = df[df["outcome"] == "ok"]
     if sequences is not None:
         df = df[df["sequence"].isin(set(sequences))]
-    df = _with_canonical_corners(df)
+    df = _with_wall_symmetry(_with_canonical_corners(df))
     hidden = _hidden(df)
     summary = summarize(hidden)
     rows = []
@@ -122,6 +122,29 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
                      "old_broken_named": bool(block.loc[block["algorithm"] == old,
                                                         "broken"].any()) if old else False})
     return pd.DataFrame(rows)
+
+
+def _with_wall_symmetry(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with ``wall_symmetry`` (docs/spec.md 3a.2) filled in where it is missing, and
+    a hexagonal map's ``wall_angle`` taken modulo 60 as the core now gives it: sets scored
+    before the classes existed are measured as a scoring today would give them (a
+    rectilinear or irregular map's wall angle is the one it has)."""
+    from slamq import native
+    from slamq.models.quality import wall_symmetry
+    from slamq.sources import load_map
+
+    df = df.copy()
+    if "wall_symmetry" not in df.columns:
+        df["wall_symmetry"] = None
+    missing = df["wall_symmetry"].isna() & df["map"].notna()
+    for i in df.index[missing]:
+        m = load_map(str(df.at[i, "map"]))
+        cls, angle = wall_symmetry(native.wall_harmonics(m.values, m.unknown),
+                                   math.radians(float(df.at[i, "wall_angle"])))
+        df.at[i, "wall_symmetry"] = cls
+        if cls == "hexagonal":
+            df.at[i, "wall_angle"] = angle
+    return df
 
 
 def _with_canonical_corners(df: pd.DataFrame) -> pd.DataFrame:

@@ -109,14 +109,17 @@ def real_rows(root: Path) -> pd.DataFrame:
 
 
 def synthetic_rows() -> pd.DataFrame:
-    """:func:`classify` of generated worlds (every kind, seeds 0-2, upright and turned 20
-    degrees), floor plans 0-1 clean and damaged, and drawn polygons.
+    """:func:`classify` of generated worlds (every kind of :data:`slamq.synth.worldgen.KINDS`,
+    the hexagonal one included, seeds 0-2, upright and turned 20 degrees), floor plans 0-1
+    clean and damaged, and drawn polygons.
 
     Examples
     --------
     >>> df = synthetic_rows()
-    >>> sorted(set(df.loc[df["set"] == "worlds", "class"]))
-    ['rectilinear']
+    >>> worlds = df[df["set"] == "worlds"]
+    >>> hexagonal = worlds["map"].str.startswith("hexagonal")
+    >>> sorted(set(worlds.loc[hexagonal, "class"])), sorted(set(worlds.loc[~hexagonal, "class"]))
+    (['hexagonal'], ['rectilinear'])
     """
     rows = []
     for kind in KINDS:
