@@ -18,7 +18,10 @@ on three labelled sets, none of which the thresholds were tuned on.
 
 ``python studies/defects_study.py --benchmark DIR --real [DIR] --markdown
 docs/validity.md`` regenerates the tables of docs/validity.md ("Defect detectors");
-``--real`` alone reads the corpus at :data:`_common.SHARED_MAPS`.
+``--real`` alone reads the corpus at :data:`_common.SHARED_MAPS`. ``--scale F`` resamples
+every synthetic and real map F times finer (nearest cell: 2.5 turns a 0.05 m map into a
+0.02 m one with the same walls in metres) before the detectors see it, so that the same
+maps are measured at two resolutions.
 """
 
 from __future__ import annotations
@@ -30,6 +33,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import cv2
+import numpy as np
 import pandas as pd
 from _common import SHARED_MAPS, print_or_write_section
 
@@ -115,6 +120,28 @@ REAL_CLEAN: tuple[str, ...] = (
 )
 
 
+def finer(m: OccupancyMap, scale: float) -> OccupancyMap:
+    """``m`` resampled ``scale`` times finer (nearest cell; a map without a resolution is
+    taken at 0.05 m): the same walls in metres on a finer grid. ``scale`` 1 returns ``m``.
+
+    Examples
+    --------
+    >>> from slamq.synth import floor_plan
+    >>> f = finer(floor_plan(0), 2.5)
+    >>> f.resolution, f.shape[0] == round(floor_plan(0).shape[0] * 2.5)
+    (0.02, True)
+    """
+    if scale == 1:
+        return m
+    h, w = m.shape
+    size = (int(round(w * scale)), int(round(h * scale)))
+    values = cv2.resize(m.values, size, interpolation=cv2.INTER_NEAREST)
+    unknown = cv2.resize(m.unknown.view(np.uint8), size,
+                         interpolation=cv2.INTER_NEAREST).astype(bool)
+    res = round((m.resolution or 0.05) / scale, 9)
+    return OccupancyMap(values, unknown, resolution=res, origin=m.origin, source=m.source)
+
+
 def flags(m: OccupancyMap, timing: dict[str, float] | None = None) -> dict[str, Any]:
     """Every detector's verdict on one map: ``{detector: score or None}``, plus
     ``{detector}_bbox`` and ``{detector}_note``; ``timing`` (optional) accumulates CPU
@@ -138,10 +165,12 @@ def flags(m: OccupancyMap, timing: dict[str, float] | None = None) -> dict[str, 
     return out
 
 
-def synthetic_records(plans: int = 10, seed: int = 700, n_worlds: int = 12
-                      ) -> pd.DataFrame:
-    """One row per held-out synthetic map: ``base`` (plan or world), ``seed``, ``damage``,
-    ``severity`` and :func:`flags`; every base gets every damage of :data:`EXPECTED`.
+def synthetic_records(plans: int = 10, seed: int = 700, n_worlds: int = 12,
+                      scale: float = 1.0, resolution: float = 0.05) -> pd.DataFrame:
+    """One row per held-out synthetic map: ``base`` (plan or world, drawn at ``resolution``
+    metres per cell), ``seed``, ``damage``, ``severity`` and :func:`flags`; every base gets
+    every damage of :data:`EXPECTED`, then is resampled ``scale`` times finer
+    (:func:`finer`).
 
     Examples
     --------
@@ -149,13 +178,14 @@ def synthetic_records(plans: int = 10, seed: int = 700, n_worlds: int = 12
     >>> len(df) == len(EXPECTED), bool(df.loc[df["damage"] == "clean", "superposed"].isna().all())
     (True, True)
     """
-    bases = [floor_plan(seed + k) for k in range(plans)] + worlds(n_worlds, seed=seed)
+    bases = [floor_plan(seed + k, resolution=resolution) for k in range(plans)] + worlds(
+        n_worlds, seed=seed, resolution=resolution)
     rows = []
     for k, base in enumerate(bases):
         for damage, sev in EXPECTED:
             m = base if damage == "clean" else degrade(base, damage, sev, seed=seed + k)
             rows.append({"base": base.source, "seed": seed, "damage": damage,
-                         "severity": sev, **flags(m)})
+                         "severity": sev, **flags(finer(m, scale))})
     return pd.DataFrame(rows)
 
 
@@ -258,10 +288,11 @@ def benchmark_table(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
-def real_records(root: Path, timing: dict[str, float] | None = None) -> pd.DataFrame:
+def real_records(root: Path, timing: dict[str, float] | None = None,
+                 scale: float = 1.0) -> pd.DataFrame:
     """:func:`flags` of the labelled real maps under ``root`` (the corpus's maps folder,
-    :data:`_common.SHARED_MAPS`); maps that are absent are left out (a folder without them
-    gives an empty table).
+    :data:`_common.SHARED_MAPS`), each resampled ``scale`` times finer (:func:`finer`);
+    maps that are absent are left out (a folder without them gives an empty table).
 
     Examples
     --------
@@ -276,7 +307,7 @@ def real_records(root: Path, timing: dict[str, float] | None = None) -> pd.DataF
         path = Path(root) / rel
         if not path.exists():
             continue
-        m = load_map(path)
+        m = finer(load_map(path), scale)
         rows.append({"map": rel, "label": label, "expected": ",".join(exp),
                      "mcells": m.values.size / 1e6, **flags(m, timing)})
     return pd.DataFrame(rows)
@@ -423,13 +454,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--benchmark", type=Path, help="a `slamq run` output folder")
     ap.add_argument("--real", type=Path, nargs="?", const=SHARED_MAPS, metavar="DIR",
                     help=f"the labelled maps folder (alone: {SHARED_MAPS})")
+    ap.add_argument("--resolution", type=float, default=0.05,
+                    help="draw the synthetic plans and worlds at this many metres per cell")
+    ap.add_argument("--scale", type=float, default=1.0,
+                    help="resample every map this many times finer (nearest cell) first")
     ap.add_argument("--csv", type=Path, help="write every map's flags to this folder")
     ap.add_argument("--markdown", type=Path, help="file whose marked section to replace")
     args = ap.parse_args(argv)
-    syn = None if args.no_synthetic else synthetic_records(args.plans, args.seed, args.worlds)
+    syn = None if args.no_synthetic else synthetic_records(args.plans, args.seed, args.worlds,
+                                                           args.scale, args.resolution)
     bench = benchmark_records(args.benchmark) if args.benchmark else None
     timing: dict[str, float] = {}
-    real = real_records(args.real, timing) if args.real else None
+    real = real_records(args.real, timing, args.scale) if args.real else None
     if args.csv:
         args.csv.mkdir(parents=True, exist_ok=True)
         for name, df in (("synthetic", syn), ("benchmark", bench), ("real", real)):
@@ -439,6 +475,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         f" --plans {args.plans} --worlds {args.worlds} --seed {args.seed}" if syn is not None else
         " --no-synthetic") + (f" --benchmark {args.benchmark}" if bench is not None else "") \
         + (f" --real {args.real}" if real is not None else "") + (
+        f" --scale {args.scale:g}" if args.scale != 1 else "") + (
+        f" --resolution {args.resolution:g}" if args.resolution != 0.05 else "") + (
         f" --markdown {args.markdown}" if args.markdown else "")
     mcells = float(real["mcells"].sum()) if real is not None and len(real) else 0.0
     text = markdown(syn, bench, real, timing if mcells else None, mcells, command)

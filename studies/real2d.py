@@ -1,113 +1,72 @@
-"""The real-robot benchmark of issue 40 (examples/real2d.yaml, docs/real-datasets.md).
+"""The real-robot benchmark of issue 40 (examples/real2d.yaml, docs/real-datasets.md): its
+tables, from the output folder of ``slamq run examples/real2d.yaml``.
 
-``python studies/real2d.py prepare OUTPUT``: convert the four CARMEN logs of
-``../shared/data/datasets2d/`` into MRPT rawlogs that keep the logs' timestamps
-(:func:`slamq.synth.writers.carmen_rawlog.carmen_to_rawlog`) under
-``OUTPUT/sequences/NAME/``, with the node-time sidecars of graphslam-engine for each node
-spacing of the config (``NAME.rawlog.nodes-<m>m.txt``); a rawlog that exists is kept.
-
-``python studies/real2d.py score OUTPUT``: the relations error (Kümmerle et al. 2009;
-:func:`slamq.relations`, interpolated, ``--max-gap`` 60 s) of every run of
-``slamq run examples/real2d.yaml``, read from each run's own output files (the poses sorted
-by time: the Intel log's stamps run backwards 631 times, as in the original), written to
-``OUTPUT/relations.csv`` and printed as the Markdown tables of docs/real-datasets.md.
+``slamq run`` does the benchmark itself: it converts the four CARMEN logs of
+``../shared/data/datasets2d/`` (``carmen:`` sequences, the logs' own timestamps), runs MRPT's
+three programs and scores every run by the relations error of Kümmerle et al. 2009
+(``relations:``; the ``rel_*`` columns of ``OUTPUT/results.jsonl``, docs/spec.md 6a).
+``python studies/real2d.py OUTPUT`` joins those columns with each run's CPU time and peak
+memory (``OUTPUT/runs.csv``), writes ``OUTPUT/relations.csv`` (one row per run) and prints
+the Markdown tables of docs/real-datasets.md (per dataset and program variant: the mean over
+the iterations of each statistic, the spread of the mean absolute translational error over
+the iterations, CPU seconds per run).
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
-import json
-import math
 import sys
 from pathlib import Path
 
-import numpy as np
+import pandas as pd
 
-import slamq
-from slamq.models import Trajectory
-from slamq.sources.carmen import CarmenLog
-from slamq.synth.writers.carmen_rawlog import carmen_to_rawlog
-from slamq.synth.writers.rawlog import graphslam_nodes
-
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "datasets2d"
-LOGS = {"intel": "intel/intel.from-rosbag.clf", "aces": "aces/aces.from-rosbag.clf",
-        "fr079": "fr079/fr079.from-rosbag.clf", "mit-csail": "mit-csail/mit-csail.clf"}
-SPACINGS = (0.5, 1.0)
-#: Largest time between two poses a relation stamp is interpolated between: only
-#: graphslam-engine's node poses need it (between two nodes the odometry moved less than
-#: the node spacing, however long the robot stood).
-MAX_GAP = 60.0
+#: The relations statistics (``rel_<name>`` in results.jsonl), as relations.csv names them.
 STATS = ("n", "n_unplaced", "n_interpolated", "trans_abs_mean", "trans_abs_std",
          "trans_sq_mean", "trans_sq_std", "trans_max", "rot_abs_mean", "rot_abs_std",
          "rot_sq_mean", "rot_sq_std", "rot_max")
 
 
-def prepare(output: Path, data: Path) -> None:
-    for name, log in LOGS.items():
-        rawlog = output / "sequences" / name / f"{name}.rawlog"
-        if not rawlog.exists():
-            info = carmen_to_rawlog(data / log, rawlog)
-            print(f"{name}: {info['scans']} scans -> {rawlog}")
-        odom = np.array([s.odom for s in CarmenLog(data / log).scans()], np.float64)
-        stamps = np.loadtxt(f"{rawlog}.steps.txt", ndmin=1)
-        for m in SPACINGS:
-            nodes = graphslam_nodes(odom, m, math.radians(30.0))
-            np.savetxt(f"{rawlog}.nodes-{m}m.txt", stamps[nodes], fmt="%.6f")
+def table(output: Path) -> pd.DataFrame:
+    """One row per run: where it belongs, its CPU time and memory, its relations error
+    (``error`` when it has none: the run failed, or its trajectory could not be scored).
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> _ = (d / "runs.csv").write_text("algorithm,program,variant,sequence,iteration,wall,"
+    ...     "user_cpu,sys_cpu,max_rss_kb,outcome\\nicp-slam[grid=1],icp-slam,grid=1,aces,1,"
+    ...     "9.5,3.0,0.5,81000,ok\\n")
+    >>> rec = {"algorithm": "icp-slam[grid=1]", "sequence": "aces", "run": "1",
+    ...        "map": "m.yaml", "rel_trans_abs_mean": 0.8, "rel_error": None}
+    >>> _ = (d / "results.jsonl").write_text(json.dumps(rec) + "\\n")
+    >>> row = table(d).iloc[0]
+    >>> row["program"], float(row["cpu"]), float(row["trans_abs_mean"])
+    ('icp-slam', 3.5, 0.8)
+    """
+    from slamq.results.formats import read_records
+
+    runs = pd.read_csv(output / "runs.csv", dtype={"iteration": str})
+    runs["cpu"] = runs["user_cpu"].fillna(0.0) + runs["sys_cpu"].fillna(0.0)
+    keep = [c for c in ("algorithm", "program", "variant", "sequence", "iteration", "wall",
+                        "max_rss_kb", "cpu", "outcome", "reason") if c in runs.columns]
+    runs = runs[keep]
+    recs = pd.DataFrame(read_records(output / "results.jsonl"))
+    recs = recs.rename(columns={"run": "iteration", **{f"rel_{s}": s for s in STATS}})
+    recs["iteration"] = recs["iteration"].astype(str)
+    for s in STATS:  # None in a failed run's record makes the column an object column
+        if s in recs:
+            recs[s] = pd.to_numeric(recs[s], errors="coerce")
+    cols = ["algorithm", "sequence", "iteration", "map", *[s for s in STATS if s in recs],
+            *[c for c in ("rel_error", "error") if c in recs]]
+    out = runs.merge(recs[cols], on=["algorithm", "sequence", "iteration"], how="left")
+    return out.sort_values(["sequence", "algorithm", "iteration"], kind="stable")
 
 
-def estimate(folder: Path, run: dict, output: Path) -> Trajectory:
-    """A run's poses on the log's clock, sorted by time."""
-    out, seq = folder / "out", run["sequence"]
-    rawlog = output / "sequences" / seq / f"{seq}.rawlog"
-    if run["program"] == "rbpf-slam":
-        a = np.loadtxt(out / "log_estimated_path.txt", comments=("%", "#"), ndmin=2)
-        t, x, y, yaw = a[:, 7], a[:, 1], a[:, 2], a[:, 4]
-    elif run["program"] == "icp-slam":
-        a = np.loadtxt(out / "log_estimated_path.txt", comments=("%", "#"), ndmin=2)
-        steps = np.loadtxt(f"{rawlog}.steps.txt", ndmin=1)
-        t, x, y, yaw = steps[a[:, 0].astype(int)], a[:, 1], a[:, 2], a[:, 3]
-    else:
-        with open(out / "graphslam" / "output_graph.graph") as f:
-            g = np.array([[float(v) for v in line.split()[1:5]] for line in f
-                          if line.startswith("VERTEX")])
-        g = g[np.argsort(g[:, 0])]
-        nodes = np.loadtxt(f"{rawlog}.nodes-{run['params']['spacing']}m.txt", ndmin=1)
-        g = g[g[:, 0] < len(nodes)]
-        t, x, y, yaw = nodes[g[:, 0].astype(int)], g[:, 1], g[:, 2], g[:, 3]
-    o = np.argsort(t, kind="stable")
-    return Trajectory.from_xy_yaw(t[o], x[o], y[o], yaw[o], source=str(folder))
-
-
-def score(output: Path, data: Path) -> list[dict]:
-    rels = {d: slamq.load_relations(data / d / f"{d}.relations") for d in LOGS}
-    rows = []
-    for rj in sorted(output.glob("*/*/*/*/run.json")):
-        run = json.loads(rj.read_text())
-        row = {k: run.get(k) for k in ("algorithm", "program", "variant", "sequence",
-                                      "iteration", "wall", "max_rss_kb")}
-        row["cpu"] = (run.get("user_cpu") or 0.0) + (run.get("sys_cpu") or 0.0)
-        try:
-            res = slamq.relations(estimate(rj.parent, run, output), rels[run["sequence"]],
-                                  interpolate=True, max_gap=MAX_GAP)
-            row.update({s: getattr(res, s) for s in STATS})
-        except (OSError, ValueError, IndexError, slamq.SlamqError) as exc:
-            row["error"] = str(exc)[:200]
-        rows.append(row)
-    keys = list(dict.fromkeys(k for r in rows for k in r))
-    with open(output / "relations.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=keys)
-        w.writeheader()
-        w.writerows(rows)
-    return rows
-
-
-def markdown(rows: list[dict]) -> str:
-    import pandas as pd
-
-    d = pd.DataFrame(rows)
+def markdown(rows: pd.DataFrame) -> str:
+    """The per-dataset tables of docs/real-datasets.md."""
     out = []
-    for seq, b in d.groupby("sequence"):
+    for seq, b in rows.groupby("sequence"):
         out += [f"\n#### {seq}\n", "| program [variant] | abs trans (m) | sq trans (m²) | "
                 "abs rot (deg) | sq rot (deg²) | max trans (m) | std of abs trans over seeds "
                 "| CPU s / run |", "|---|---|---|---|---|---|---|---|"]
@@ -122,15 +81,13 @@ def markdown(rows: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("step", choices=("prepare", "score"))
-    p.add_argument("output", type=Path)
-    p.add_argument("--data", type=Path, default=DATA)
+    p = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    p.add_argument("output", type=Path,
+                   help="the output folder of slamq run examples/real2d.yaml")
     a = p.parse_args(argv)
-    if a.step == "prepare":
-        prepare(a.output, a.data)
-    else:
-        sys.stdout.write(markdown(score(a.output, a.data)))
+    rows = table(a.output)
+    rows.to_csv(a.output / "relations.csv", index=False)
+    sys.stdout.write(markdown(rows))
     return 0
 
 

@@ -1,6 +1,7 @@
 """Validity of the map metrics and of the GT-free verdict on the real logs of issue 40
 (docs/validity.md, "Real robots"): ``python studies/real2d_validity.py OUTPUT`` after
-``python studies/real2d.py score OUTPUT`` (which writes ``OUTPUT/relations.csv``).
+``slamq run examples/real2d.yaml`` (whose ``OUTPUT/results.jsonl`` holds each run's map and
+its relations error, the ``rel_*`` columns).
 
 Every run's map is scored (:func:`slamq.evaluate`, ``canonical_resolution=0.07``); each
 metric's concordance with the relations error is measured pooled and per dataset
@@ -17,6 +18,7 @@ from pathlib import Path
 import pandas as pd
 
 from slamq.api import evaluate
+from slamq.results.formats import read_records
 from slamq.results.validity import validate
 from slamq.verdict.maps import maps_verdict
 
@@ -27,19 +29,18 @@ def main(argv: list[str] | None = None) -> int:
     import argparse
 
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
-    ap.add_argument("runs", help="the output folder of slamq run examples/real2d.yaml, "
-                    "scored by python studies/real2d.py score (its relations.csv)")
+    ap.add_argument("runs", help="the output folder of slamq run examples/real2d.yaml (its "
+                    "results.jsonl)")
     root = Path(ap.parse_args(argv if argv is not None else sys.argv[1:]).runs)
-    rel = pd.read_csv(root / "relations.csv")
     rows = []
-    for _, r in rel.iterrows():
-        m = (root / r.algorithm.split("[")[0] / r.variant / r.sequence / str(r.iteration)
-             / "map.yaml")
-        if m.exists():
+    for r in read_records(root / "results.jsonl"):
+        m = Path(str(r.get("map")))
+        if m.exists() and pd.notna(r.get("rel_trans_abs_mean")):
             e = evaluate(str(m), canonical_resolution=0.07)
-            rows.append({"sequence": r.sequence, "algorithm": r.algorithm, "run": r.iteration,
-                         "map": str(m), "rel_trans_abs_mean": r.trans_abs_mean,
-                         "rel_rot_abs_mean": r.rot_abs_mean,
+            rows.append({"sequence": r["sequence"], "algorithm": r["algorithm"],
+                         "run": r["run"], "map": str(m),
+                         "rel_trans_abs_mean": r["rel_trans_abs_mean"],
+                         "rel_rot_abs_mean": r["rel_rot_abs_mean"],
                          **{k: getattr(e, k) for k in METRICS}})
     df = pd.DataFrame(rows)
     df.to_csv(root / "validity-rows.csv", index=False)

@@ -8,9 +8,8 @@ the verdict with the ground truth hidden (sequences, and every pair of programs 
 two-map case).
 
 ``python studies/scans_study.py real OUTPUT``: the same for the runs of
-``examples/real2d.yaml`` (after ``python studies/real2d.py score OUTPUT``, which writes
-``OUTPUT/relations.csv``), beside the relations error; each run's estimate read as
-studies/real2d.py reads it (the program's own pose log, sorted by time).
+``examples/real2d.yaml`` beside the relations error (:func:`real_rows`: the ``rel_*``
+columns of ``slamq run``'s results, or an earlier pipeline's ``relations.csv``).
 
 Both write ``OUTPUT/scans-rows.csv`` (one row per run) and print Markdown.
 """
@@ -156,37 +155,43 @@ def benchmark_rows(output: Path) -> pd.DataFrame:
     return df
 
 
-def real_rows(output: Path) -> tuple[pd.DataFrame, Any]:
-    """The real2d runs with their relations error, map, scans and estimate reader."""
-    sys.path.insert(0, str(Path(__file__).parent))
-    import json
+def real_rows(output: Path) -> pd.DataFrame:
+    """The real2d runs with their relations error, map, scans and trajectory.
 
-    from real2d import estimate
+    From ``OUTPUT/results.jsonl`` when its records have the ``rel_*`` columns (``slamq run
+    examples/real2d.yaml`` scores them since 2026-11-28); else, for an output of the
+    earlier pipeline (``studies/real2d.py prepare`` / ``score`` before then), from
+    ``OUTPUT/relations.csv`` with each run's ``map.yaml`` and the sorted estimate an
+    earlier call of this study wrote beside it (``estimate-sorted.tum``).
+    """
+    from slamq.results.formats import read_results
 
-    rel = pd.read_csv(output / "relations.csv")
-    rows = []
-    for r in rel.to_dict("records"):
-        folder = (output / r["algorithm"].split("[")[0] / r["variant"] / r["sequence"]
-                  / str(r["iteration"]))
-        if not (folder / "map.yaml").exists():
-            continue
-        rows.append({"sequence": r["sequence"], "algorithm": r["algorithm"],
-                     "run": r["iteration"], "map": str(folder / "map.yaml"),
-                     "folder": str(folder),
-                     "scans": str(output / "sequences" / r["sequence"]
-                                  / f"{r['sequence']}.rawlog"),
-                     "rel_trans_abs_mean": r["trans_abs_mean"],
-                     "rel_rot_abs_mean": r["rot_abs_mean"]})
-    df = pd.DataFrame(rows)
+    recs = read_results(output / "results.jsonl")
+    if "rel_trans_abs_mean" in recs and recs["rel_trans_abs_mean"].notna().any():
+        ok = recs[recs["error"].isna() | (recs["error"].astype(str) == "")]
+        df = ok.assign(rel_trans_abs_mean=ok["rel_trans_abs_mean"],
+                       rel_rot_abs_mean=ok.get("rel_rot_abs_mean"))[
+            ["sequence", "algorithm", "run", "map", "scans", "trajectory",
+             "rel_trans_abs_mean", "rel_rot_abs_mean"]].copy()
+    else:
+        rel = pd.read_csv(output / "relations.csv")
+        rows = []
+        for r in rel.to_dict("records"):
+            folder = (output / r["algorithm"].split("[")[0] / r["variant"] / r["sequence"]
+                      / str(r["iteration"]))
+            if not (folder / "map.yaml").exists():
+                continue
+            rows.append({"sequence": r["sequence"], "algorithm": r["algorithm"],
+                         "run": r["iteration"], "map": str(folder / "map.yaml"),
+                         "scans": str(output / "sequences" / r["sequence"]
+                                      / f"{r['sequence']}.rawlog"),
+                         "trajectory": str(folder / "estimate-sorted.tum"),
+                         "rel_trans_abs_mean": r["trans_abs_mean"],
+                         "rel_rot_abs_mean": r["rot_abs_mean"]})
+        df = pd.DataFrame(rows)
     best = df.groupby(["sequence", "run"])["rel_trans_abs_mean"].transform("min")
     df["broken"] = (df["rel_trans_abs_mean"] > 3 * best) & (df["rel_trans_abs_mean"] > 0.2)
-
-    def trajectory_of(r: dict) -> Any:
-        folder = Path(r["folder"])
-        run = json.loads((folder / "run.json").read_text())
-        return estimate(folder, run, output)
-
-    return df, trajectory_of
+    return df
 
 
 def pairs(df: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
@@ -329,17 +334,8 @@ def main(argv: list[str] | None = None) -> int:
         df = score_runs(benchmark_rows(a.output))
         truth, label = "ate_rmse", "the ATE RMSE"
     else:  # real
-        rows, trajectory_of = real_rows(a.output)
-        df = score_runs(rows, trajectory_of=trajectory_of)
+        df = score_runs(real_rows(a.output))
         truth, label = "rel_trans_abs_mean", "the mean abs translational relations error"
-        # the verdict reads trajectories from files: the estimates as studies/real2d.py
-        # reads them, written beside each run
-        paths = []
-        for r in df.to_dict("records"):
-            p = Path(r["folder"]) / "estimate-sorted.tum"
-            trajectory_of(r).write_tum(p)
-            paths.append(str(p))
-        df["trajectory"] = paths
     df.to_csv(a.output / "scans-rows.csv", index=False)
     sys.stdout.write(tables(df, truth, label))
     if a.no_verdict:

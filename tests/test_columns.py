@@ -36,7 +36,7 @@ def test_the_map_columns_are_the_fields_of_map_quality_in_order() -> None:
     # a map result's keys are the record's map and parameter columns, in the table's order
     q = slamq.evaluate(np.full((4, 4), 254, np.uint8), curve=True)
     assert tuple(q.to_dict()) == group_names("map", "param")
-    assert record_columns(curve=True) == group_names("run", "map", "param", "ate", "gt")
+    assert record_columns(curve=True) == group_names("run", "map", "param", "ate", "gt", "rel")
 
 
 def test_every_place_names_a_direction_or_a_unit_where_it_needs_one() -> None:
@@ -68,6 +68,7 @@ def test_the_outputs_keep_their_columns() -> None:
         ("enclosed_areas", "enclosed areas", False, True),
         ("gt_f1", "GT F1", True, False),
         ("gt_chamfer", "GT chamfer (m)", False, True),
+        ("rel_trans_abs_mean", "relations trans. error (m)", False, True),
     ]
     assert tuple(summary.SUMMARY_METRICS) == (
         "occupied_fraction", "proportion", "threshold", "corners", "corners_canonical",
@@ -78,9 +79,14 @@ def test_the_outputs_keep_their_columns() -> None:
     assert tuple(summary.GT_METRICS) == (
         "gt_precision", "gt_recall", "gt_f1", "gt_iou", "gt_ne", "gt_reverse", "gt_chamfer",
         "gt_coverage")
+    assert tuple(summary.REL_METRICS) == (
+        "rel_trans_abs_mean", "rel_trans_abs_std", "rel_trans_sq_mean", "rel_trans_sq_std",
+        "rel_trans_max", "rel_rot_abs_mean", "rel_rot_abs_std", "rel_rot_sq_mean",
+        "rel_rot_sq_std", "rel_rot_max", "rel_n", "rel_n_unplaced")
     assert tuple(validity.METRICS) == ("corners", "corners_canonical", "occupied_fraction",
                                        "proportion", "enclosed_areas")
-    assert dict(validity.TRUTHS) == {"ate_rmse": False, "gt_chamfer": False, "gt_f1": True}
+    assert dict(validity.TRUTHS) == {"ate_rmse": False, "gt_chamfer": False, "gt_f1": True,
+                                     "rel_trans_abs_mean": False, "rel_rot_abs_mean": False}
     assert [(c.short, c.format) for c in shown("eval")] == [
         ("known", ".1f"), ("occupied", ".1f"), ("occupied_fraction", ".4f"),
         ("proportion", ".4f"), ("corners", ".1f"), ("canonical", ".1f"),

@@ -5,9 +5,10 @@ A results record (``slamq eval --json/--csv``, ``slamq batch``) holds, in this o
 ``run`` columns (where the map belongs, how the record was made), the ``map`` columns (the
 fields of :class:`slamq.MapQuality`), the ``param`` columns (``param_<name>`` of every
 :class:`slamq.Params` field, generated from that schema), the ``ate`` columns (trajectory
-error, docs/spec.md section 6) and the ``gt`` columns (the map against its sequence's
-ground-truth map, section 7). Rows of the ``verdict`` group are figures the verdict computes
-per algorithm (never in a record).
+error, docs/spec.md section 6), the ``gt`` columns (the map against its sequence's
+ground-truth map, section 7) and the ``rel`` columns (the run's trajectory against its
+sequence's relations, Kümmerle et al. 2009, section 6a). Rows of the ``verdict`` group
+are figures the verdict computes per algorithm (never in a record).
 
 Generated from the table: the record's keys and their order and the typed columns of
 results files (:mod:`slamq.results.formats`); the statistics of :func:`slamq.summarize` and
@@ -59,7 +60,7 @@ __all__ = [
 #: A column's type: text, whole number, real number (NaN when undefined), list of counts.
 DTYPES = ("str", "int", "float", "ints")
 #: The groups of a record, in record order (``verdict``: computed per algorithm, no record).
-GROUPS = ("run", "map", "param", "ate", "gt", "verdict")
+GROUPS = ("run", "map", "param", "ate", "gt", "rel", "verdict")
 #: Where a column can be shown (``at``):
 #:
 #: * ``summary``: :func:`slamq.summarize` gives its mean, std and count;
@@ -244,6 +245,7 @@ _MAP = (
            "and resampled to one resolution, comparable between maps saved differently",
        at={"summary": 5, "eval": 6, "validity": 2}),
     _c("wall_angle", "float", "map", unit="deg", at={"summary": 16}),
+    _c("wall_symmetry", "str", "map"),
     _c("saver", "str", "map"),
     _c("flags", "str", "map"),
     _c("known_box_m2", "float", "map", unit="m2", at={"summary": 14}),
@@ -291,6 +293,46 @@ _GT = (
     _c("gt_outside", "int", "gt", unit="cells", at={"detail": 21}),
     _c("gt_error", "str", "gt", at={"files": 6}),
 )
+_SECTION6A = "docs/spec.md section 6a (Kümmerle et al. 2009)"
+_REL = (
+    _c("relations", "str", "rel", at={"files": 8}),
+    _c("rel_trans_abs_mean", "float", "rel", label="relations trans. error", unit="m",
+       better="lower", log=True, format=".3f",
+       why=f"{_SECTION6A}: the mean error of the estimate's motion between the stamps of "
+           "each manually verified relation; the figure the 2D SLAM papers report",
+       at={"summary": 1, "console": 6, "ranked": 7, "truth": 4, "detail": 36,
+           "resources": 3}),
+    _c("rel_trans_abs_std", "float", "rel", unit="m", better="lower",
+       at={"summary": 2, "detail": 37}),
+    _c("rel_trans_sq_mean", "float", "rel", unit="m2", better="lower",
+       at={"summary": 3, "detail": 38}),
+    _c("rel_trans_sq_std", "float", "rel", unit="m2", better="lower",
+       at={"summary": 4, "detail": 39}),
+    _c("rel_trans_max", "float", "rel", unit="m", better="lower",
+       at={"summary": 5, "detail": 40}),
+    _c("rel_rot_abs_mean", "float", "rel", label="relations rot. error", unit="deg",
+       better="lower", format=".2f",
+       why=f"{_SECTION6A}: the mean error of the estimate's turn between the stamps of "
+           "each relation",
+       at={"summary": 6, "console": 7, "truth": 5, "detail": 41}),
+    _c("rel_rot_abs_std", "float", "rel", unit="deg", better="lower",
+       at={"summary": 7, "detail": 42}),
+    _c("rel_rot_sq_mean", "float", "rel", unit="deg2", better="lower",
+       at={"summary": 8, "detail": 43}),
+    _c("rel_rot_sq_std", "float", "rel", unit="deg2", better="lower",
+       at={"summary": 9, "detail": 44}),
+    _c("rel_rot_max", "float", "rel", unit="deg", better="lower",
+       at={"summary": 10, "detail": 45}),
+    _c("rel_n", "int", "rel", label="relations placed", unit="relations",
+       at={"summary": 11, "detail": 46}),
+    _c("rel_n_relations", "int", "rel", unit="relations", at={"detail": 47}),
+    _c("rel_n_unplaced", "int", "rel", label="relations not placed", unit="relations",
+       at={"summary": 12, "detail": 48}),
+    _c("rel_n_interpolated", "int", "rel", unit="relations", at={"detail": 49}),
+    _c("rel_n_reversed", "int", "rel", unit="relations"),
+    _c("rel_n_duplicates", "int", "rel", unit="relations"),
+    _c("rel_error", "str", "rel", at={"files": 9}),
+)
 _VERDICT = (
     _c("agreement", "float", "verdict", better="higher",
        why="docs/spec.md section 9: the median consistency of the map's walls with the other "
@@ -320,7 +362,7 @@ def _rebuild(columns: Sequence[Column]) -> None:
     _CACHE.clear()
 
 
-_rebuild((*_RUN, *_MAP, *_PARAMS, *_ATE, *_GT, *_VERDICT))
+_rebuild((*_RUN, *_MAP, *_PARAMS, *_ATE, *_GT, *_REL, *_VERDICT))
 #: The columns slamq itself computes (never unregistered).
 _SHIPPED = frozenset(_TABLE)
 
@@ -401,10 +443,10 @@ def record_columns(curve: bool = False) -> tuple[str, ...]:
     Examples
     --------
     >>> cols = record_columns()
-    >>> cols[:3], "corners" in cols, "curve" in cols, "ate_rmse" in cols, "gt_f1" in cols
+    >>> cols[:3], "corners" in cols, "curve" in cols, "ate_rmse" in cols, "rel_n" in cols
     (('map', 'algorithm', 'sequence'), True, False, True, True)
     """
-    names = group_names("run", "map", "param", "ate", "gt")
+    names = group_names("run", "map", "param", "ate", "gt", "rel")
     return names if curve else tuple(n for n in names if n != "curve")
 
 
@@ -498,8 +540,9 @@ def shown(place: str, *groups: str) -> Shown:
 
     Examples
     --------
-    >>> shown("ranked").names()
-    ('ate_rmse', 'occupied_fraction', 'corners', 'enclosed_areas', 'gt_f1', 'gt_chamfer')
+    >>> shown("ranked").names()  # doctest: +NORMALIZE_WHITESPACE
+    ('ate_rmse', 'occupied_fraction', 'corners', 'enclosed_areas', 'gt_f1', 'gt_chamfer',
+     'rel_trans_abs_mean')
     >>> shown("validity").names()
     ('corners', 'corners_canonical', 'occupied_fraction', 'proportion', 'enclosed_areas')
     """
@@ -512,7 +555,7 @@ def shown_names(place: str, *groups: str) -> Names:
     Examples
     --------
     >>> tuple(shown_names("truth"))
-    ('ate_rmse', 'gt_chamfer', 'gt_f1')
+    ('ate_rmse', 'gt_chamfer', 'gt_f1', 'rel_trans_abs_mean', 'rel_rot_abs_mean')
     """
     view = shown(place, *groups)
     return Names(view.names, view._what)

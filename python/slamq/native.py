@@ -4,8 +4,8 @@ Every other module calls the core through these names, so that one file shows ev
 Python asks of Rust (the typed signatures are in ``_core.pyi``):
 
 * the map metrics (rust/src/bindings/maps.rs): :func:`evaluate`, :func:`evaluate_many`,
-  :func:`otsu_table`, :func:`default_params`, :data:`WORK_BYTES_PER_CELL`,
-  :class:`RawQuality`;
+  :func:`otsu_table`, :func:`wall_harmonics`, :func:`default_params`,
+  :data:`WORK_BYTES_PER_CELL`, :class:`RawQuality`;
 * the loaders' fast paths (bindings/loading.rs): :func:`map_saver_shades`,
   :func:`read_table`, :func:`read_tum`;
 * the trajectory passes (bindings/trajectory.rs): :func:`match_stamps`,
@@ -49,6 +49,7 @@ from slamq._core import (
     register,
     register_many,
     scan_consistency,
+    wall_harmonics,
 )
 
 __all__ = [
@@ -72,4 +73,5 @@ __all__ = [
     "register",
     "register_many",
     "scan_consistency",
+    "wall_harmonics",
 ]

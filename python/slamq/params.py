@@ -293,7 +293,7 @@ SETTINGS = _Rows((s.name, s) for s in (
             type=str, choices=_TRAJECTORY_ALIGNMENTS),
     Setting("trajectory", "trajectory_format", None,
             "file format of a trajectory (default: guessed from the file)", type=str,
-            choices=("tum", "kitti", "euroc", "csv", "bag", "pbstream")),
+            choices=("tum", "kitti", "euroc", "csv", "mrpt", "bag", "pbstream")),
     Setting("trajectory", "unsorted", "error",
             "timestamps going backwards (a restarted log): fail, keep the last run of the "
             "log, or sort", type=str, choices=("error", "last", "sort")),
@@ -331,7 +331,8 @@ SETTINGS = _Rows((s.name, s) for s in (
             "best (an ambiguous, symmetric place)", "", float, 0.0, 1.0),
     Setting("synth", "world_kind", "office",
             "kind of generated building (slamq.synth.KINDS says what each is)", type=str,
-            choices=("office", "loop", "corridor", "hall", "symmetric", "mixed")),
+            choices=("office", "loop", "corridor", "hall", "symmetric", "mixed",
+                     "hexagonal")),
     Setting("synth", "noise", "low", "odometry noise preset (slamq.synth.NOISE)", type=str,
             choices=("none", "low", "high")),
     Setting("consensus", "quorum", 0.5,

@@ -1,6 +1,6 @@
 //! All three metrics of one map (SPEC sections 2-4, and 3a), and of many maps in parallel.
 
-use crate::canonical::canonical_corners_in;
+use crate::canonical::{canonical_corners_in, WallSums};
 use crate::corners::count_corners;
 use crate::enclosed::sweep;
 use crate::grid::{known_bounds, Bounds, Grid};
@@ -17,6 +17,9 @@ pub struct Quality {
     /// SPEC 3a: the dominant wall angle (radians; always computed) and `corners_canonical`
     /// (`None` when skipped, the default, or too large).
     pub wall_angle: f64,
+    /// SPEC 3a.2: the wall-direction sums the angle comes from (fourth and sixth harmonic,
+    /// weight), always computed.
+    pub wall_sums: WallSums,
     pub corners_canonical: Option<usize>,
     /// `count_u` for every swept `u`.
     pub curve: Vec<usize>,
@@ -35,6 +38,7 @@ impl PartialEq for Quality {
         self.occupancy == other.occupancy
             && self.corners == other.corners
             && self.wall_angle.to_bits() == other.wall_angle.to_bits()
+            && self.wall_sums == other.wall_sums
             && self.corners_canonical == other.corners_canonical
             && self.curve == other.curve
             && (self.known_levels, self.unknown_shade, self.known_box)
@@ -74,6 +78,7 @@ pub fn evaluate(
         occupancy,
         corners,
         wall_angle: canonical.angle,
+        wall_sums: canonical.sums,
         corners_canonical: canonical.corners,
         curve,
         known_levels: hist.known.iter().filter(|&&c| c > 0).count(),

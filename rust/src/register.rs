@@ -20,6 +20,10 @@
 //! 5. Confidence: both maps' consistency where they overlap, their overlap, and the margin
 //!    to the best *distinct* runner-up; the registration is refused (`ok = false`, with a
 //!    reason) rather than forced when one of them is too low.
+//! 6. When steps 1-5 refuse, the wide search ([`register_prepared`]'s second chance): both
+//!    maps on the coarser map's grid, rotations every [`SWEEP_DEG`] degrees, finer coarse
+//!    rasters, an ICP robust to partial overlap, runner-ups refined before they count, and
+//!    a stricter margin; its answer is kept only when it places the map.
 //!
 //! Deterministic: candidates are evaluated in parallel but collected and reduced in a fixed
 //! order, counts are integers summed per fixed chunk; the FFT runs the same plan for any
@@ -27,7 +31,8 @@
 
 use crate::edt::{filled, Columns, EdtError};
 use crate::error::Error;
-use crate::icp::{icp, scatter, Scatter, Target};
+use crate::grid::Grid;
+use crate::icp::{icp, scatter, IcpResult, Scatter, Target};
 use crate::se2::{floor_i64, wrap, Affine, Frame, Placed, Se2};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
@@ -60,6 +65,29 @@ pub const MIN_POINTS: usize = 20;
 const CHUNK: usize = 4096;
 /// The margin at which the confidence stops growing.
 pub const MARGIN_FULL: f64 = 0.5;
+
+/// The wide search (for maps the first search refused) tries rotations every this many
+/// degrees, besides the histogram peaks.
+pub const SWEEP_DEG: f64 = 3.0;
+/// Candidates the wide search refines by the short ICP (at most one per place).
+pub const WIDE_REFINED: usize = 16;
+/// Share of the pairs the wide search's ICP drops at every iteration (at least the
+/// parameters' trim): with half of a map outside the other, a trim of 0.2 leaves the
+/// unmatched walls to pull the fit away.
+pub const WIDE_TRIM: f64 = 0.5;
+/// The wide search's coarse rasters have at most this many cells a side (a small overlap
+/// is lost in cells of 0.5 m).
+pub const WIDE_COARSE_CELLS: f64 = 256.0;
+/// Two motions turning a map by less than this (degrees) apart, its centroid within the
+/// distinct distance, put it in one place (the wide search).
+pub const SAME_PLACE_DEG: f64 = 10.0;
+/// Runner-ups the wide search refines by the full ICP to find one in another place.
+pub const RUNNER_TRIES: usize = 4;
+/// The wide search places a map only when its best score is at least 1.5 times the
+/// runner-up's (margin 1/3, at least the parameters' `min_margin`): it tries 15 times more
+/// rotations than the first search, so more wrong motions fit by chance (a symmetric
+/// world's half turn passed a margin of 0.05).
+pub const WIDE_MIN_MARGIN: f64 = 1.0 / 3.0;
 
 /// Parameters of a registration.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -476,12 +504,17 @@ fn ifft2(
 
 impl Coarse {
     fn new(moving: &Prepared, fixed: &Prepared) -> Coarse {
+        Coarse::with_cells(moving, fixed, COARSE_CELLS)
+    }
+
+    /// The rasters at most `cells` cells a side (and at least two cells of the coarser map).
+    fn with_cells(moving: &Prepared, fixed: &Prepared, cells: f64) -> Coarse {
         let fb = bounds(&fixed.points);
         let mb = bounds(&moving.points);
         let diag = (mb.2 - mb.0).hypot(mb.3 - mb.1);
         let extent = (fb.2 - fb.0).max(fb.3 - fb.1).max(diag);
         let floor = 2.0 * moving.frame.resolution.max(fixed.frame.resolution);
-        let res = (extent / COARSE_CELLS).max(floor);
+        let res = (extent / cells).max(floor);
         let fh = ((fb.3 - fb.1) / res).floor() as usize + 1;
         let fw = ((fb.2 - fb.0) / res).floor() as usize + 1;
         let md = (diag / res).floor() as usize + 2;
@@ -678,8 +711,28 @@ fn apart(a: &Se2, b: &Se2, centroid: (f64, f64), radius: f64) -> f64 {
     (p.0 - q.0).hypot(p.1 - q.1) + wrap(a.theta - b.theta).abs() * radius
 }
 
-/// Register `moving` onto `fixed` (both prepared): see the module documentation.
+/// Register `moving` onto `fixed` (both prepared): see the module documentation. The
+/// first search (wall directions, steps 1-5) decides when it places the map; when it
+/// refuses, the wide search ([`wide`]: both maps on the coarser one's grid, every
+/// [`SWEEP_DEG`] degrees, runner-ups refined before they count) is tried, and its answer
+/// is kept only when it places the map; else the first search's refusal stands.
 pub fn register_prepared(
+    moving: &Prepared,
+    fixed: &Prepared,
+    params: &RegisterParams,
+) -> Result<Registration, Error> {
+    let first = search(moving, fixed, params)?;
+    if first.ok || first.candidates == 0 {
+        return Ok(first);
+    }
+    match wide(moving, fixed, params, first.tolerance)? {
+        Some(r) if r.ok => Ok(r),
+        _ => Ok(first),
+    }
+}
+
+/// Steps 1-5 of the module documentation on the maps as given.
+fn search(
     moving: &Prepared,
     fixed: &Prepared,
     params: &RegisterParams,
@@ -720,22 +773,12 @@ pub fn register_prepared(
     let target = Target::new(fixed.frame, &fixed.columns, &fixed.mask, &fixed.cells)?;
     let sample = subsample(&moving.points, SCORE_POINTS);
     let back = subsample(&fixed.points, SCORE_POINTS);
-    let n = sample.len() as f64;
     let refined: Vec<(f64, Se2)> = candidates
         .par_iter()
         .map(|&(_, start)| {
             let t = icp(&sample, &target, start, params.trim, SHORT_ITERATIONS)
                 .map_or(start, |r| r.transform);
-            let (_, near) = agreement(&sample, &t, fixed, tol);
-            // the fixed walls that land on the moving map's known cells must agree too: a
-            // turned copy that fits some walls puts others in the moving map's free space
-            let (landed, agree) = agreement(&back, &t.inverse(), moving, tol);
-            let consistent = if landed == 0 {
-                0.0
-            } else {
-                agree as f64 / landed as f64
-            };
-            (near as f64 / n * consistent, t)
+            (candidate_score(&sample, &back, &t, moving, fixed, tol), t)
         })
         .collect();
     let Some(best) =
@@ -756,18 +799,7 @@ pub fn register_prepared(
     );
     let transform = final_icp.map_or(start, |r| r.transform);
     // the best distinct runner-up
-    let m = moving.points.len() as f64;
-    let centroid = moving
-        .points
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
-    let radius = (moving
-        .points
-        .iter()
-        .map(|p| (p.0 - centroid.0).powi(2) + (p.1 - centroid.1).powi(2))
-        .sum::<f64>()
-        / m)
-        .sqrt();
+    let (centroid, radius) = spread(&moving.points);
     let distinct = (5.0 * tol).max(1.0);
     let runner = refined
         .iter()
@@ -781,6 +813,91 @@ pub fn register_prepared(
         Some(_) => 0.0,
         None => 1.0,
     };
+    Ok(finish(
+        moving,
+        fixed,
+        params,
+        tol,
+        Found {
+            transform,
+            score,
+            runner,
+            margin,
+            icp: final_icp,
+            rotations: thetas.len(),
+            candidates: refined.len(),
+        },
+    ))
+}
+
+/// What a search found, before its figures: the motion, its score, the best distinct
+/// runner-up, the margin, the final ICP, rotations tried and candidates refined.
+struct Found {
+    transform: Se2,
+    score: f64,
+    runner: Option<(f64, Se2)>,
+    margin: f64,
+    icp: Option<IcpResult>,
+    rotations: usize,
+    candidates: usize,
+}
+
+/// The centroid of points and their RMS distance to it.
+fn spread(points: &[(f64, f64)]) -> ((f64, f64), f64) {
+    let m = points.len() as f64;
+    let centroid = points
+        .iter()
+        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
+    let radius = (points
+        .iter()
+        .map(|p| (p.0 - centroid.0).powi(2) + (p.1 - centroid.1).powi(2))
+        .sum::<f64>()
+        / m)
+        .sqrt();
+    (centroid, radius)
+}
+
+/// A candidate's score (module documentation, step 4): the share of the moving `sample`
+/// within `tol` of a fixed wall at `t`, times the consistency of the fixed sample `back`
+/// where it lands on the moving map.
+fn candidate_score(
+    sample: &[(f64, f64)],
+    back: &[(f64, f64)],
+    t: &Se2,
+    moving: &Prepared,
+    fixed: &Prepared,
+    tol: f64,
+) -> f64 {
+    let (_, near) = agreement(sample, t, fixed, tol);
+    // the fixed walls that land on the moving map's known cells must agree too: a
+    // turned copy that fits some walls puts others in the moving map's free space
+    let (landed, agree) = agreement(back, &t.inverse(), moving, tol);
+    let consistent = if landed == 0 {
+        0.0
+    } else {
+        agree as f64 / landed as f64
+    };
+    near as f64 / sample.len() as f64 * consistent
+}
+
+/// The figures of a found motion, both ways, and the refusal test (module documentation,
+/// step 5).
+fn finish(
+    moving: &Prepared,
+    fixed: &Prepared,
+    params: &RegisterParams,
+    tol: f64,
+    found: Found,
+) -> Registration {
+    let Found {
+        transform,
+        score,
+        runner,
+        margin,
+        icp: final_icp,
+        rotations,
+        candidates,
+    } = found;
     // final figures, both ways
     let ms = subsample(&moving.points, FIGURE_POINTS);
     let fs = subsample(&fixed.points, FIGURE_POINTS);
@@ -824,7 +941,7 @@ pub fn register_prepared(
     } else {
         0.0
     };
-    Ok(Registration {
+    Registration {
         ok,
         reason: reasons.join("; "),
         transform,
@@ -841,10 +958,234 @@ pub fn register_prepared(
         confidence,
         icp_rms: final_icp.map_or(f64::NAN, |r| r.rms),
         icp_iterations: final_icp.map_or(0, |r| r.iterations),
-        rotations: thetas.len(),
-        candidates: refined.len(),
+        rotations,
+        candidates,
         tolerance: tol,
-    })
+    }
+}
+
+/// A map drawn again on a coarser grid of the same origin and yaw (`res` metres a cell): a
+/// coarse cell is occupied when the centre of an occupied fine cell falls in it, known when
+/// the centre of a known fine cell does (free cells are 255, occupied 0).
+struct Pooled {
+    values: Vec<u8>,
+    unknown: Vec<bool>,
+    frame: Frame,
+}
+
+impl Pooled {
+    fn new(p: &Prepared, res: f64) -> Result<Pooled, Error> {
+        let f = p.frame;
+        let k = f.resolution / res;
+        let ch = ((f.height as f64 * k).ceil() as usize).max(1);
+        let cw = ((f.width as f64 * k).ceil() as usize).max(1);
+        let mut values = filled(ch * cw, 255u8)?;
+        let mut unknown = filled(ch * cw, true)?;
+        let cols: Vec<usize> = (0..f.width)
+            .map(|c| (((c as f64 + 0.5) * k).floor() as usize).min(cw - 1))
+            .collect();
+        for r in 0..f.height {
+            // rows count down from the top; the origin is the bottom-left corner
+            let up = (((f.height - 1 - r) as f64 + 0.5) * k).floor() as usize;
+            let cr = ch - 1 - up.min(ch - 1);
+            for (c, &cc) in cols.iter().enumerate() {
+                let i = r * f.width + c;
+                let j = cr * cw + cc;
+                if !p.unknown[i] {
+                    unknown[j] = false;
+                }
+                if p.mask[i] {
+                    values[j] = 0;
+                }
+            }
+        }
+        Ok(Pooled {
+            values,
+            unknown,
+            frame: Frame {
+                resolution: res,
+                height: ch,
+                width: cw,
+                origin: f.origin,
+            },
+        })
+    }
+
+    fn placed(&self) -> Result<Placed<'_>, Error> {
+        let grid = Grid::new(
+            &self.values,
+            &self.unknown,
+            self.frame.height,
+            self.frame.width,
+        )
+        .map_err(|e| Error::Invalid(e.to_string()))?;
+        Ok(Placed {
+            grid,
+            frame: self.frame,
+        })
+    }
+}
+
+/// Whether two motions put the moving map in one place: they turn it by less than
+/// [`SAME_PLACE_DEG`] apart and move its centroid less than `distinct` metres apart (two
+/// fits of one place, a few degrees apart when the map is bent, are one hypothesis; a
+/// symmetric place's alternatives are turned by 90 or 180 degrees, or shifted by a room).
+fn same_place(a: &Se2, b: &Se2, centroid: (f64, f64), distinct: f64) -> bool {
+    let (p, q) = (
+        a.apply(centroid.0, centroid.1),
+        b.apply(centroid.0, centroid.1),
+    );
+    (p.0 - q.0).hypot(p.1 - q.1) <= distinct
+        && wrap(a.theta - b.theta).abs() < SAME_PLACE_DEG.to_radians()
+}
+
+/// The wide search, for maps the first search refused: both maps on the coarser map's
+/// grid ([`Pooled`]: a finer map's walls thinned to one cell of the coarser grid, so that
+/// wall directions, rasters and counts are alike), rotations every [`SWEEP_DEG`] degrees
+/// besides the histogram peaks (the peaks of a small overlap drown in the walls outside
+/// it), the [`WIDE_REFINED`] best candidates by coarse score that are not one place
+/// refined by the short ICP and scored as in step 4, the best by the full ICP; then the
+/// runner-ups in order of score, each refined by the full ICP, until one lands in another
+/// place ([`same_place`], at most [`RUNNER_TRIES`]): the margin is to its score, both
+/// scores taken after the full ICP. The figures and the refusal test are the first
+/// search's, on the common grid. None when a map has too few walls on that grid.
+fn wide(
+    moving: &Prepared,
+    fixed: &Prepared,
+    params: &RegisterParams,
+    tol: f64,
+) -> Result<Option<Registration>, Error> {
+    let res = moving.frame.resolution.max(fixed.frame.resolution);
+    let coarser = |p: &Prepared| p.frame.resolution < res * (1.0 - 1e-9);
+    let pooled_m = if coarser(moving) {
+        Some(Pooled::new(moving, res)?)
+    } else {
+        None
+    };
+    let pooled_f = if coarser(fixed) {
+        Some(Pooled::new(fixed, res)?)
+    } else {
+        None
+    };
+    let placed_m = pooled_m.as_ref().map(Pooled::placed).transpose()?;
+    let placed_f = pooled_f.as_ref().map(Pooled::placed).transpose()?;
+    let prep_m = placed_m
+        .as_ref()
+        .map(|p| prepare(p, params.occupied_threshold, "moving"))
+        .transpose()?;
+    let prep_f = placed_f
+        .as_ref()
+        .map(|p| prepare(p, params.occupied_threshold, "fixed"))
+        .transpose()?;
+    let m = prep_m.as_ref().unwrap_or(moving);
+    let f = prep_f.as_ref().unwrap_or(fixed);
+    if m.points.len() < MIN_POINTS || f.points.len() < MIN_POINTS {
+        return Ok(None);
+    }
+    let mut thetas =
+        if m.histogram.iter().sum::<f64>() > 1e-9 && f.histogram.iter().sum::<f64>() > 1e-9 {
+            rotations(&m.histogram, &f.histogram)
+        } else {
+            Vec::new()
+        };
+    let steps = (360.0 / SWEEP_DEG).round() as usize;
+    let half = (0.5 * SWEEP_DEG).to_radians();
+    for k in 0..steps {
+        let a = (k as f64 * SWEEP_DEG).to_radians();
+        let close = thetas.iter().any(|&b| {
+            let d = (a - b).rem_euclid(std::f64::consts::TAU);
+            d.min(std::f64::consts::TAU - d) < half
+        });
+        if !close {
+            thetas.push(a);
+        }
+    }
+    let coarse = Coarse::with_cells(m, f, WIDE_COARSE_CELLS);
+    let pairs: Vec<&[f64]> = thetas.chunks(2).collect();
+    let found: Vec<Vec<(f64, Se2)>> = pairs
+        .par_iter()
+        .map(|ts| coarse.shifts(&m.points, ts))
+        .collect();
+    let mut all: Vec<(f64, Se2)> = found.into_iter().flatten().collect();
+    all.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let (centroid, _) = spread(&m.points);
+    let distinct = (5.0 * tol).max(1.0);
+    let mut candidates: Vec<(f64, Se2)> = Vec::new();
+    for c in all {
+        if !candidates
+            .iter()
+            .any(|k| same_place(&k.1, &c.1, centroid, distinct))
+        {
+            candidates.push(c);
+            if candidates.len() == WIDE_REFINED {
+                break;
+            }
+        }
+    }
+    let target = Target::new(f.frame, &f.columns, &f.mask, &f.cells)?;
+    let trim = WIDE_TRIM.max(params.trim);
+    let sample = subsample(&m.points, SCORE_POINTS);
+    let back = subsample(&f.points, SCORE_POINTS);
+    let refined: Vec<(f64, Se2)> = candidates
+        .par_iter()
+        .map(|&(_, start)| {
+            let t =
+                icp(&sample, &target, start, trim, SHORT_ITERATIONS).map_or(start, |r| r.transform);
+            (candidate_score(&sample, &back, &t, m, f, tol), t)
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..refined.len()).collect();
+    // best first; ties keep the order found (stable sort)
+    order.sort_by(|&a, &b| refined[b].0.total_cmp(&refined[a].0));
+    let Some(&best) = order.first() else {
+        return Ok(None);
+    };
+    let full = |start: Se2| {
+        let r = icp(&m.points, &target, start, trim, params.max_iterations);
+        (r.map_or(start, |r| r.transform), r)
+    };
+    let (transform, final_icp) = full(refined[best].1);
+    let score = candidate_score(&sample, &back, &transform, m, f, tol);
+    let mut runner = None;
+    let mut tries = 0;
+    for &k in &order[1..] {
+        if tries == RUNNER_TRIES {
+            break;
+        }
+        if same_place(&refined[k].1, &transform, centroid, distinct) {
+            continue;
+        }
+        tries += 1;
+        let (t, _) = full(refined[k].1);
+        if !same_place(&t, &transform, centroid, distinct) {
+            runner = Some((candidate_score(&sample, &back, &t, m, f, tol), t));
+            break;
+        }
+    }
+    let margin = match runner {
+        Some((s, _)) if score > 0.0 => (1.0 - s / score).clamp(0.0, 1.0),
+        Some(_) => 0.0,
+        None => 1.0,
+    };
+    let strict = RegisterParams {
+        min_margin: params.min_margin.max(WIDE_MIN_MARGIN),
+        ..*params
+    };
+    Ok(Some(finish(
+        m,
+        f,
+        &strict,
+        tol,
+        Found {
+            transform,
+            score,
+            runner,
+            margin,
+            icp: final_icp,
+            rotations: thetas.len(),
+            candidates: refined.len(),
+        },
+    )))
 }
 
 /// Register `moving` onto `fixed`: [`prepare`] both, then [`register_prepared`].
@@ -1044,6 +1385,58 @@ mod tests {
             ..empty
         };
         assert!(register(&bad, &fixed, &RegisterParams::default()).is_err());
+    }
+
+    #[test]
+    fn pooling_keeps_walls_in_place_and_unknown_where_nothing_was_seen() {
+        // a 0.02 m map: a wall row, a wall column, an unknown band on the right
+        let (h, w) = (50, 60);
+        let mut v = vec![254u8; h * w];
+        let mut u = vec![false; h * w];
+        for c in 5..40 {
+            v[20 * w + c] = 0;
+        }
+        for r in 5..45 {
+            v[r * w + 10] = 0;
+        }
+        for r in 0..h {
+            for c in 45..w {
+                u[r * w + c] = true;
+            }
+        }
+        let origin = Se2 {
+            theta: 0.3,
+            tx: 1.0,
+            ty: -2.0,
+        };
+        let fine = Placed {
+            grid: Grid::new(&v, &u, h, w).unwrap(),
+            frame: frame(h, w, 0.02, origin),
+        };
+        let p = prepare(&fine, 0.5, "fine").unwrap();
+        let pooled = Pooled::new(&p, 0.05).unwrap();
+        assert_eq!((pooled.frame.height, pooled.frame.width), (20, 24));
+        let coarse = prepare(&pooled.placed().unwrap(), 0.5, "coarse").unwrap();
+        // every fine wall point lies in an occupied coarse cell, and every occupied coarse
+        // cell holds one
+        for &(x, y) in &p.points {
+            let (r, c) = pooled.frame.cell_of(x, y).unwrap();
+            assert_eq!(pooled.values[r * 24 + c], 0);
+        }
+        for &(x, y) in &coarse.points {
+            assert!(p
+                .points
+                .iter()
+                .any(|q| (q.0 - x).abs() <= 0.035 && (q.1 - y).abs() <= 0.035));
+        }
+        // the unknown band (fine columns 45.., from 0.9 m on: coarse columns 18..) is
+        // unknown, the rest known
+        for r in 0..20 {
+            for c in 0..24 {
+                let want = c >= 18;
+                assert_eq!(pooled.unknown[r * 24 + c], want, "{r} {c}");
+            }
+        }
     }
 
     #[test]

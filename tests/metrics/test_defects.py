@@ -164,3 +164,31 @@ def test_a_map_without_resolution_and_an_empty_map() -> None:
 def test_dominant_direction_reads_a_turned_map() -> None:
     assert defects.dominant_direction(degrade(floor_plan(7), "rotation", 20.0)) \
         == pytest.approx(20.0, abs=1.0)
+
+
+def _with_holes(m: OccupancyMap, hole: float, every: float = 0.3) -> OccupancyMap:
+    """``m`` with its occupied cells cleared along stripes ``hole`` metres wide every
+    ``every`` metres, both ways: walls broken every 0.3 m, as a noisy scan leaves them."""
+    res = m.resolution
+    h, w = m.shape
+    ys, xs = np.mgrid[0:h, 0:w]
+    period, width = round(every / res), round(hole / res)
+    stripes = ((xs % period) < width) | ((ys % period) < width)
+    values = m.values.copy()
+    values[(values < 128) & ~m.unknown & stripes] = 254
+    return OccupancyMap(values, m.unknown.copy(), resolution=res, origin=m.origin)
+
+
+def test_doubled_walls_with_holes_are_found_alike_on_any_grid() -> None:
+    """Issue 41: the stretches bridge holes of LINK (0.05 m), not of one cell: walls
+    doubled 0.3 m apart and broken by 6 cm holes every 0.3 m are one cell's holes at 0.05 m
+    and three cells' at 0.02 m, where one-cell bridging found nothing."""
+    assert (defects._cells(defects.LINK, 0.05), defects._cells(defects.LINK, 0.02),
+            defects._cells(defects.LINK, 0.1)) == (1, 2, 1)
+    found = {}
+    for res in (0.05, 0.025, 0.02):
+        m = degrade(floor_plan(7, resolution=res), "doubling", 0.3, seed=7)
+        (d,) = doubled_walls(_with_holes(m, 0.06))
+        found[res] = d.score
+        assert " m apart (" in d.note
+    assert max(found.values()) <= 1.15 * min(found.values()), found

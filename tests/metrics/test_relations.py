@@ -352,3 +352,33 @@ def test_mit_csail_odometry_against_its_relations() -> None:
     assert 0 < r.trans_abs_mean < 10 and r.rot_max <= 180
     moved = relations(_moved(odom, 100.0, -40.0, 2.0), rel)
     np.testing.assert_allclose(moved.trans_errors, r.trans_errors, atol=1e-7)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.booleans(), st.booleans())
+def test_the_lookup_places_poses_as_interpolate_poses_does(seed: int, planar: bool,
+                                                           interpolate: bool) -> None:
+    """The relations error looks its poses up on its own (one gather of the poses before
+    and after each stamp; a planar trajectory's heading interpolated on the shorter arc,
+    any other by slerp): it places the same relations, with the same poses, as the general
+    association of section 6b (interpolate_poses) would."""
+    from slamq.metrics.relations import _poses_at, _yaw
+    from slamq.metrics.sync import interpolate_poses
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 60))
+    t = 50 + np.cumsum(rng.choice([0.0, 0.1, 0.3, 1.0], n))  # equal stamps too
+    pos = np.column_stack([rng.normal(0, 3, (n, 2)), np.zeros(n)])
+    if planar:
+        tr = Trajectory.from_xy_yaw(t, pos[:, 0], pos[:, 1], rng.uniform(-4, 4, n))
+    else:
+        tr = Trajectory(t, pos, rng.normal(size=(n, 4)))
+    times = np.concatenate([rng.choice(t, 20), rng.uniform(t[0] - 1, t[-1] + 1, 20)])
+    ok, interp, p, q = interpolate_poses(tr, times, interpolate=interpolate, max_gap=0.5)
+    ok2, interp2, x, y, yaw = _poses_at(tr, times, interpolate, 0.5, 1e-5)
+    np.testing.assert_array_equal(ok, ok2)
+    np.testing.assert_array_equal(interp, interp2)
+    np.testing.assert_allclose(x[ok], p[ok, 0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(y[ok], p[ok, 1], rtol=0, atol=1e-12)
+    d = np.angle(np.exp(1j * (yaw[ok] - _yaw(q[ok]))))
+    np.testing.assert_allclose(d, 0, atol=1e-9)

@@ -25,7 +25,7 @@ from slamq.errors import SlamqError
 from slamq.metrics import reference
 from slamq.report import build_report
 from slamq.report.formatting import format_mean_std, format_value
-from slamq.report.overlays import CORNER_RGB, draw_overlay
+from slamq.report.overlays import CORNER_RGB, compact_image, draw_overlay
 from slamq.report.plots import metric_figure
 from slamq.report.timeline import write_timeline_gif
 from slamq.sources.snapshots import find_snapshots
@@ -137,7 +137,7 @@ def test_summarize_uses_sample_std_and_skips_nan():
 
 
 def test_every_metric_is_lower_is_better_and_log_where_the_paper_uses_it():
-    paper = [m for m in METRICS if not m.key.startswith("gt_")]
+    paper = [m for m in METRICS if not m.key.startswith(("gt_", "rel_"))]
     assert {m.key: m.log for m in paper} == {
         "ate_rmse": True, "occupied_fraction": False, "corners": True, "enclosed_areas": True}
     assert all("paper" in m.why and not m.higher for m in paper)
@@ -145,6 +145,10 @@ def test_every_metric_is_lower_is_better_and_log_where_the_paper_uses_it():
     gt = {m.key: (m.higher, m.log) for m in METRICS if m.key.startswith("gt_")}
     assert gt == {"gt_f1": (True, False), "gt_chamfer": (False, True)}
     assert all("section 7" in m.why for m in METRICS if m.key.startswith("gt_"))
+    # the relations error (docs/spec.md section 6a): lower is better, log as ATE
+    rel = {m.key: (m.higher, m.log) for m in METRICS if m.key.startswith("rel_")}
+    assert rel == {"rel_trans_abs_mean": (False, True)}
+    assert all("section 6a" in m.why for m in METRICS if m.key.startswith("rel_"))
 
 
 def test_gt_f1_ranks_the_highest_first_and_the_reference_is_not_ranked():
@@ -244,6 +248,34 @@ def test_overlay_of_a_map_without_structure():
     ov = draw_overlay(grid, counted_marks(grid, 0))
     assert ov.n_corners == 0 and ov.n_regions == 0
     assert (ov.image == FREE).all()
+
+
+def test_layers_alone_are_the_layers_of_the_composite_and_compact_pngs_keep_pixels(
+        tmp_path: Path) -> None:
+    """A detail page draws only the layers (composite=False): the same plain map and
+    regions as the full overlay; written compactly (grey, palette), the PNGs read back as
+    the same RGB(A) pixels."""
+    img = rooms_image(3)
+    grid = OccupancyMap(img, img == UNKNOWN)
+    q = evaluate_map(grid, Params(), curve=False)
+    marks = counted_marks(grid, q.enclosed_unknown_value)
+    full, layers = draw_overlay(grid, marks), draw_overlay(grid, marks, composite=False)
+    assert layers.scale == full.scale > 1 and layers.offset == full.offset
+    assert layers.image is None and full.image.shape == full.plain.shape
+    assert np.array_equal(layers.plain, full.plain)
+    assert np.array_equal(layers.regions, full.regions)
+    assert layers.cells == full.cells and layers.n_regions == full.n_regions == 3
+    rgb = full.image.copy()
+    rgb[: rgb.shape[0] // 2, :, 0] = np.arange(rgb.shape[1]) % 256  # > 256 colours: kept RGB
+    for array, mode in ((full.plain, "L"), (full.regions, "P"), (full.image, "P"),
+                        (rgb, "RGB")):
+        out = tmp_path / f"{mode}.png"
+        made = compact_image(array)
+        made.save(out)
+        with Image.open(out) as back:
+            assert back.mode == made.mode == mode
+            pixels = np.asarray(back.convert("RGBA" if array.shape[2] == 4 else "RGB"))
+        assert np.array_equal(pixels, array), mode
 
 
 # ----------------------------------------------------------------------------- plots

@@ -215,7 +215,7 @@ def test_gallery_shows_plain_maps_and_detail_pages_have_layers(tmp_path: Path) -
                           render_base(grid)[r0:r0 + h, c0:c0 + w])
     # regions: transparent except the counted cells
     regions = re.search(r'class="layer layer-regions" src="\.\./(img/[^"]+)"', page).group(1)
-    alpha = np.asarray(Image.open(site / regions))[::ov.scale, ::ov.scale, 3]
+    alpha = np.asarray(Image.open(site / regions).convert("RGBA"))[::ov.scale, ::ov.scale, 3]
     assert np.array_equal(alpha > 0, ov.labels[r0:r0 + h, c0:c0 + w] > 0)
     # corners: one ring per counted corner, centred on the corner's cell
     svg = re.search(r'<svg class="layer layer-corners" viewBox="([^"]+)".*?</svg>', page)

@@ -121,3 +121,37 @@ def test_the_shipped_figures_are_those_of_the_docs() -> None:
         label = metric.replace("_", " ") if metric != "corners_canonical" else metric
         row = next(line for line in readme.splitlines() if line.startswith(f"| {label} |"))
         assert re.search(rf"\| {values[0]:.2f}", row), (metric, row)
+
+
+def _loop_p_value(groups: list[tuple[np.ndarray, np.ndarray]], seed: int,
+                  permutations: int) -> float:
+    """The permutation p-value drawn one shuffle at a time, as validity.py did before it
+    drew them all at once: shuffle k of every group in turn."""
+    from slamq.results.validity import _centred_ranks, _pooled_centred
+
+    rng = np.random.default_rng(seed)
+    centred = [(_centred_ranks(a), _centred_ranks(b)) for a, b in groups]
+    observed = abs(_pooled_centred(centred))
+    hits = 0
+    for _ in range(permutations):
+        shuffled = [(ra, rb[rng.permutation(len(rb))]) for ra, rb in centred]
+        hits += abs(_pooled_centred(shuffled)) >= observed - 1e-12
+    return (1 + hits) / (1 + permutations)
+
+
+@pytest.mark.parametrize("sizes", [[5], [7, 7, 7], [6, 9], [4, 4, 11]])
+def test_shuffles_drawn_at_once_are_the_shuffles_drawn_one_by_one(sizes: list[int]) -> None:
+    from slamq.results.validity import _p_value
+
+    rng = np.random.default_rng(11)
+    groups = [(rng.normal(size=n), rng.normal(size=n)) for n in sizes]
+    groups[0] = (groups[0][0], groups[0][0] + 0.3 * rng.normal(size=sizes[0]))  # a signal
+    mine = np.random.default_rng(3)
+    got = _p_value(groups, mine, 300)
+    assert got == _loop_p_value(groups, 3, 300)
+    # and the generator is left where the one-by-one draws leave it
+    theirs = np.random.default_rng(3)
+    for _ in range(300):
+        for n in sizes:
+            theirs.permutation(n)
+    assert mine.integers(1 << 62) == theirs.integers(1 << 62)

@@ -268,7 +268,7 @@ def test_the_report_draws_where_a_map_contradicts_its_scans(drive: dict, tmp_pat
     assert "drive.rawlog" in page and "docs/spec.md 7b" in page
     # the red cells lie on the ghost wall (the middle row of the map)
     (png,) = re.findall(r'<img class="layer layer-scans" src="\.\./([^"]+)"', page)
-    alpha = np.asarray(Image.open(site / png))[..., 3]
+    alpha = np.asarray(Image.open(site / png).convert("RGBA"))[..., 3]
     base = Image.open(site / re.search(r'<img class="base" src="\.\./([^"]+)"', page).group(1))
     assert alpha.shape == (base.height, base.width)
     c0, r0, cols, rows = map(float, re.search(
@@ -282,8 +282,8 @@ def test_the_report_draws_where_a_map_contradicts_its_scans(drive: dict, tmp_pat
     assert weight[near].sum() > 0.3 * weight.sum()
     # the exact maps have the layer too, with fewer red cells
     assert (np.asarray(Image.open(site / re.findall(
-        r'<img class="layer layer-scans" src="\.\./([^"]+)"', pages["a"])[0]))[..., 3] > 0
-            ).sum() < (alpha > 0).sum()
+        r'<img class="layer layer-scans" src="\.\./([^"]+)"', pages["a"])[0]).convert(
+            "RGBA"))[..., 3] > 0).sum() < (alpha > 0).sum()
 
 
 def test_slamq_verdict_with_the_recording_and_the_trajectories(drive: dict) -> None:

@@ -33,9 +33,10 @@ def test_a_benchmark_of_worlds(tmp_path: Path, capsys) -> None:
     assert main(["synth", "world", "--kind", "all", "--count", "7", "--seed", "10",
                  "--resolution", "0.2", "--out", str(tmp_path)]) == 0
     names = sorted(p.name for p in tmp_path.glob("*.yaml"))
+    # every kind in turn, the later hexagonal one too
     assert names == sorted(["office_10.yaml", "loop_11.yaml", "corridor_12.yaml",
                             "hall_13.yaml", "symmetric_14.yaml", "mixed_15.yaml",
-                            "office_16.yaml"])
+                            "hexagonal_16.yaml"])
     assert main(["synth", "world", "--count", "2", "--name", "x", "--out",
                  str(tmp_path)]) == 2
 

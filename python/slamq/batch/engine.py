@@ -81,6 +81,10 @@ def evaluate_many(
     gt_align: str = SETTINGS.compare_align.default,
     gt_tolerance: float | None = SETTINGS.tolerance.default,
     gt_max_distance: float | None = SETTINGS.max_distance.default,
+    rel_interpolate: bool = False,
+    rel_max_gap: float | None = None,
+    rel_stamp_tol: float | None = None,
+    relations: Any = None,
     **params: Any,
 ) -> Iterator[dict[str, Any]]:
     """Evaluate many maps; yield one record per map, in input order.
@@ -120,6 +124,15 @@ def evaluate_many(
         :func:`slamq.compare` for runs whose sequence has a ground-truth map (``gt_map``,
         see :func:`slamq.discover_runs`): they get the ``gt_*`` columns. A ground truth
         that cannot be compared sets ``gt_error``, not ``error``.
+    rel_interpolate, rel_max_gap, rel_stamp_tol
+        ``interpolate``, ``max_gap`` (seconds; None: 0.5) and ``stamp_tol`` (seconds; None:
+        1e-5) of :func:`slamq.relations` (docs/spec.md 6a) for runs with a trajectory and a
+        relations file (the run's ``relations``, found beside its sequence, see
+        :func:`slamq.discover_runs`, or given by ``relations``): they get the ``rel_*``
+        columns; a trajectory or relations file that cannot be scored sets ``rel_error``.
+    relations : path or dict, optional
+        The relations file of every run with a trajectory that has none of its own, or
+        ``{sequence: file}``.
     **params
         Keywords of :func:`slamq.evaluate`: metric parameters, ``unknown_value``,
         ``curve``, ``verify``.
@@ -129,8 +142,9 @@ def evaluate_many(
     dict
         The record of one map: ``map, algorithm, sequence, run, trajectory, groundtruth,
         hash, unknown_value, error, seconds``, every ``MapQuality.to_dict()`` key
-        (``curve`` only when asked for), ``ate_*`` (None without trajectory) and ``gt_*``
-        (None without a ground-truth map).
+        (``curve`` only when asked for), ``ate_*`` (None without trajectory), ``gt_*``
+        (None without a ground-truth map) and ``relations``, ``rel_*`` (None without
+        relations).
         A map that cannot be read or evaluated gives a record whose ``error`` is
         ``"file: reason"``; the batch goes on.
 
@@ -154,6 +168,8 @@ def evaluate_many(
     options = EvalOptions(
         params, ate_align=ate_align, ate_max_dt=ate_max_dt, ate_unsorted=ate_unsorted,
         gt_align=gt_align, gt_tolerance=gt_tolerance, gt_max_distance=gt_max_distance,
+        rel_interpolate=rel_interpolate, rel_max_gap=rel_max_gap, rel_stamp_tol=rel_stamp_tol,
+        relations=relations,
     )
     if threads is not None:
         _positive("threads", threads)

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from slamq.batch.pairing import (
     find_groundtruth,
+    find_relations,
     flat_trajectories,
     groundtruth_among,
     is_paired_log,
@@ -100,7 +101,9 @@ def discover_folder(root: Path) -> Iterator[Run]:
                 [here.parent], sequence, root)
             if gt is None and traj is not None and is_paired_log(traj):
                 gt = traj
-            yield Run(maps[0], algorithm, sequence, run_id, traj, gt, layout="runs")
+            rel = find_relations([here, here.parent], sequence, root) if traj else None
+            yield Run(maps[0], algorithm, sequence, run_id, traj, gt, layout="runs",
+                      relations=rel)
             continue
         folder_seq = here.name if rel else root_name
         names_here = [flat_names(m.stem) for m in maps]
@@ -114,7 +117,9 @@ def discover_folder(root: Path) -> Iterator[Run]:
                 yield Run(m, GROUND_TRUTH, folder_seq, "0", layout="flat")
                 continue
             traj, gt = flat_trajectories(here, algorithm, algos, folder_seq, root)
-            yield Run(m, algorithm, folder_seq, run_id, traj, gt, layout="flat")
+            rel = find_relations([here], folder_seq, root) if traj else None
+            yield Run(m, algorithm, folder_seq, run_id, traj, gt, layout="flat",
+                      relations=rel)
 
 
 def describe_layout(runs: Iterable[Run]) -> list[str]:

@@ -28,8 +28,8 @@ from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources.trajectories import paired_columns
 
 __all__ = ["TRAJECTORY_SUFFIXES", "add_ground_truth", "clear_caches", "find_groundtruth",
-           "flat_trajectories", "groundtruth_among", "is_ground_truth", "is_paired_log",
-           "pick_trajectory", "trajectory_files", "with_ground_truth_map"]
+           "find_relations", "flat_trajectories", "groundtruth_among", "is_ground_truth",
+           "is_paired_log", "pick_trajectory", "trajectory_files", "with_ground_truth_map"]
 
 #: The suffixes of trajectory files.
 TRAJECTORY_SUFFIXES = frozenset({".txt", ".csv", ".tum", ".kitti"})
@@ -221,9 +221,56 @@ def _owner(stem: str, algos: frozenset[str]) -> str | None:
     return None
 
 
+#: The suffixes of relations files (Kümmerle et al. 2009).
+RELATIONS_SUFFIXES = (".relations", ".relations.gz")
+
+
+@functools.lru_cache(maxsize=256)
+def _folder_relations(folder: Path) -> tuple[Path, ...]:
+    """The relations files directly in ``folder``, sorted (none when it cannot be listed)."""
+    try:
+        with os.scandir(folder) as it:
+            names = [e.name for e in it if e.name.lower().endswith(RELATIONS_SUFFIXES)
+                     and not e.name.startswith(".") and e.is_file()]
+    except OSError:
+        return ()
+    return tuple(sorted(folder / n for n in names))
+
+
+def find_relations(folders: list[Path], sequence: str, root: Path | None = None
+                   ) -> Path | None:
+    """The relations file of ``sequence``: in each of ``folders`` (the run's, the
+    sequence's), ``<sequence>.relations`` (or ``.relations.gz``) or the folder's only
+    relations file; then ``<sequence>.relations`` in ``root``.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "intel.relations").write_text("0 1 0 0 0 0 0 0\\n")
+    >>> find_relations([d / "x"], "intel", d).name, find_relations([], "aces", d)
+    ('intel.relations', None)
+    >>> find_relations([d], "aces").name  # the only one in a folder of the sequence
+    'intel.relations'
+    """
+    names = {f"{sequence}{suffix}".lower() for suffix in RELATIONS_SUFFIXES}
+    for folder in folders:
+        found = _folder_relations(folder)
+        named = [p for p in found if p.name.lower() in names]
+        if named:
+            return named[0]
+        if len(found) == 1:
+            return found[0]
+    if root is not None:
+        named = [p for p in _folder_relations(root) if p.name.lower() in names]
+        if named:
+            return named[0]
+    return None
+
+
 _CACHES = (
     _folder_trajectories, _groundtruth_in, _owned_trajectories, _mirror_folders,
-    _mirror_cached,
+    _mirror_cached, _folder_relations,
 )
 
 

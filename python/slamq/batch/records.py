@@ -7,8 +7,11 @@ becomes the record's ``error`` (``"file: reason"``) and the batch goes on.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import hashlib
 import json
+import math
 import os
 import stat
 import time
@@ -133,6 +136,13 @@ class EvalOptions:
     gt_align, gt_tolerance, gt_max_distance
         ``align``, ``tolerance`` and ``max_distance`` of :func:`slamq.compare`, for runs
         with a ground-truth map (``gt_*`` columns).
+    rel_interpolate, rel_max_gap, rel_stamp_tol
+        ``interpolate``, ``max_gap`` and ``stamp_tol`` of :func:`slamq.relations`, for runs
+        with a trajectory and relations (``rel_*`` columns; docs/spec.md 6a); None: the
+        function's defaults (0.5 s, 1e-5 s).
+    relations : path or dict, optional
+        The relations file of every run with a trajectory and none of its own, or
+        ``{sequence: file}``.
     """
 
     _EVAL_KEYS = frozenset({"unknown_value", "curve", "verify"})
@@ -145,6 +155,10 @@ class EvalOptions:
         gt_align: str = SETTINGS.compare_align.default,
         gt_tolerance: float | None = SETTINGS.tolerance.default,
         gt_max_distance: float | None = SETTINGS.max_distance.default,
+        rel_interpolate: bool = False,
+        rel_max_gap: float | None = None,
+        rel_stamp_tol: float | None = None,
+        relations: Any = None,
     ) -> None:
         params = dict(params or {})
         extra = {k: params.pop(k) for k in list(params) if k in self._EVAL_KEYS}
@@ -176,6 +190,14 @@ class EvalOptions:
         self.gt_align = gt_align
         self.gt_tolerance = gt_tolerance
         self.gt_max_distance = gt_max_distance
+        for name, value in (("rel_max_gap", rel_max_gap), ("rel_stamp_tol", rel_stamp_tol)):
+            if value is not None and (isinstance(value, bool) or not isinstance(
+                    value, (int, float)) or not math.isfinite(value) or value < 0):
+                raise ParamError(f"{name} must be a number >= 0, got {value!r}")
+        self.rel_interpolate = bool(rel_interpolate)
+        self.rel_max_gap = None if rel_max_gap is None else float(rel_max_gap)
+        self.rel_stamp_tol = None if rel_stamp_tol is None else float(rel_stamp_tol)
+        self.relations = _relations_option(relations)
         #: ``threads`` of each ``slamq.evaluate`` call: one core per map, the maps in
         #: parallel (each calling thread gets its own 1-thread pool in the core).
         self.core_threads: int | None = 1
@@ -215,10 +237,26 @@ class EvalOptions:
                 "curve": self.curve,
                 "ate": [self.ate_align, self.ate_max_dt, self.ate_unsorted],
                 "gt": [self.gt_align, self.gt_tolerance, self.gt_max_distance],
+                # only when not the defaults: records made before relations existed stay
+                **({"rel": self._rel_settings} if self._rel_settings != _REL_DEFAULTS
+                   else {}),
             },
             sort_keys=True,
             separators=(",", ":"),
         )
+
+    @property
+    def _rel_settings(self) -> list[Any]:
+        return [self.rel_interpolate, self.rel_max_gap, self.rel_stamp_tol]
+
+    def with_relations(self, run: Run) -> Run:
+        """``run`` with the relations file the batch names for it (``relations``), unless it
+        has its own; only a run with a trajectory gets one."""
+        if run.relations is not None or self.relations is None or run.trajectory is None:
+            return run
+        rel = self.relations.get(run.sequence) if isinstance(self.relations, dict) \
+            else self.relations
+        return run if rel is None else dataclasses.replace(run, relations=rel)
 
     @staticmethod
     def fingerprint(record: dict[str, Any]) -> str:
@@ -231,17 +269,43 @@ class EvalOptions:
                 record.get("trajectory") or None,
                 record.get("groundtruth") or None,
             ] + ([record["gt_map"]] if record.get("gt_map") else [])
+            + ([["relations", record["relations"]]] if record.get("relations") else [])
         )
 
     def expected_fingerprint(self, run: Run, digest: str | None) -> str:
         return self.fingerprint(
             {"hash": digest, "config": self.config, "trajectory": _str(run.trajectory),
-             "groundtruth": _str(run.groundtruth), "gt_map": _str(_gt_map(run))}
+             "groundtruth": _str(run.groundtruth), "gt_map": _str(_gt_map(run)),
+             "relations": _str(_relations(run))}
         )
 
 
 def _str(p: Path | None) -> str | None:
     return None if p is None else str(p)
+
+
+#: ``interpolate``, ``max_gap``, ``stamp_tol`` of :func:`slamq.relations` by default.
+_REL_DEFAULTS = [False, None, None]
+
+
+def _relations_option(value: Any) -> Path | dict[str, Path] | None:
+    """``relations=`` of a batch: one file, or ``{sequence: file}``."""
+    if value is None:
+        return None
+    if isinstance(value, (str, os.PathLike)):
+        return Path(value)
+    if isinstance(value, dict) and all(isinstance(v, (str, os.PathLike))
+                                       for v in value.values()):
+        return {str(k): Path(v) for k, v in value.items()}
+    raise ParamError(f"relations must be a path or a mapping sequence -> path, got {value!r}")
+
+
+def _relations(run: Run) -> Path | None:
+    """The relations the run is scored against (none without a trajectory, or for a
+    reference map)."""
+    if run.trajectory is None or is_ground_truth(run.algorithm):
+        return None
+    return run.relations
 
 
 def _message(where: str, exc: BaseException) -> str:
@@ -278,12 +342,13 @@ def evaluate_run(
     'no/such/map.yaml: no such file or directory'
     """
     t0 = time.perf_counter()
+    run = options.with_relations(run)
     rec: dict[str, Any] = dict.fromkeys(options.columns())
     rec.update(
         map=str(run.map), algorithm=run.algorithm, sequence=run.sequence, run=run.run,
         trajectory=_str(run.trajectory), groundtruth=_str(run.groundtruth),
         unknown_value=options.unknown_value, config=options.config,
-        gt_map=_str(_gt_map(run)), scans=_str(run.scans),
+        gt_map=_str(_gt_map(run)), relations=_str(_relations(run)), scans=_str(run.scans),
     )
     rec.update(options.param_fields)
     where = str(run.map)
@@ -322,6 +387,8 @@ def evaluate_run(
         rec["error"] = f"{where}: changed while being read; not scored (run the batch again)"
     if rec["error"] is None and run.trajectory is not None and run.groundtruth is not None:
         rec.update(_ate_fields(run, options))
+    if rec["error"] is None and _relations(run) is not None:
+        rec.update(_rel_fields(run, options))
     rec["seconds"] = time.perf_counter() - t0
     return rec
 
@@ -339,6 +406,40 @@ def _ate_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
     out: dict[str, Any] = {f"ate_{s}": float(getattr(res, s)) for s in ATE_STATS if s != "n"}
     out["ate_n"] = int(res.n)
     return out
+
+
+@functools.lru_cache(maxsize=16)
+def _read_relations(path: str, size: int, mtime_ns: int) -> Any:
+    """A relations file, read once per batch (the same file scores every run of its
+    sequence; its size and time in the key: a changed file is read again)."""
+    from slamq.sources.relations import read_relations
+
+    return read_relations(path)
+
+
+def _rel_fields(run: Run, options: EvalOptions) -> dict[str, Any]:
+    """``rel_*``: the run's trajectory against its sequence's relations (SPEC section 6a)."""
+    from slamq.metrics.relations import relations
+    from slamq.sources.trajectories import load_trajectory
+
+    rel_path = _relations(run)
+    assert rel_path is not None and run.trajectory is not None
+    try:
+        st = os.stat(rel_path)
+        rel = _read_relations(str(rel_path), st.st_size, st.st_mtime_ns)
+    except Exception as exc:  # noqa: BLE001 - a bad relations file is a field, never a crash
+        return {"rel_error": _message(str(rel_path), exc)}
+    try:
+        est = load_trajectory(run.trajectory, unsorted=options.ate_unsorted)
+        kw: dict[str, Any] = {"interpolate": options.rel_interpolate}
+        if options.rel_max_gap is not None:
+            kw["max_gap"] = options.rel_max_gap
+        if options.rel_stamp_tol is not None:
+            kw["stamp_tol"] = options.rel_stamp_tol
+        res = relations(est, rel, **kw)
+    except Exception as exc:  # noqa: BLE001 - a bad trajectory is a field, never a crash
+        return {"rel_error": _message(str(run.trajectory), exc)}
+    return {f"rel_{k}": v for k, v in res.stats().items()}
 
 
 def _gt_map(run: Run) -> Path | None:

@@ -44,8 +44,10 @@ def add_parser(subparsers: Any) -> None:
             "from, which the report's verdict scores the map against). A sequence's "
             "ground-truth map (<sequence>_ground_truth, "
             "ground_truth*.yaml or gt_map.yaml in the sequence folder, or the gt_map column) "
-            "adds gt_* columns (slamq compare) to every other run of the sequence. "
-            "Rerunning the same command skips maps already in the results file."
+            "adds gt_* columns (slamq compare) to every other run of the sequence; its "
+            "relations file (<sequence>.relations beside the runs, the relations column, or "
+            "--relations) adds rel_* columns (slamq relations) to every run with a "
+            "trajectory. Rerunning the same command skips maps already in the results file."
         ),
     )
     p.add_argument("sources", nargs="+", metavar="DIR_OR_MANIFEST",
@@ -69,6 +71,16 @@ def add_parser(subparsers: Any) -> None:
     SETTINGS.max_dt.add_option(p)
     SETTINGS.unsorted.add_option(p, note="error: an ATE error in the record")
     add_compare_options(p, "gt-")  # each map against its sequence's ground-truth map
+    p.add_argument("--relations", metavar="[SEQUENCE=]FILE", action="append", default=None,
+                   help="relations file (Kümmerle et al. 2009) of every run with a trajectory "
+                   "and none found beside it, or SEQUENCE=FILE for one sequence (repeat); "
+                   "adds the rel_* columns (docs/spec.md 6a)")
+    p.add_argument("--rel-interpolate", action="store_true",
+                   help="relations: place a stamp between the two neighbouring poses when no "
+                   "pose is at it (slamq relations --interpolate)")
+    p.add_argument("--rel-max-gap", metavar="S", type=float, default=None,
+                   help="relations: largest time between two poses interpolated between "
+                   "(default 0.5, as slamq relations --max-gap)")
     p.add_argument("--report", metavar="DIR", default=None,
                    help="then write the HTML report of the results to DIR (slamq report)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -112,6 +124,11 @@ def handle(args: argparse.Namespace) -> int:
         executor = args.scheduler
     params = params_from_args(args).to_dict()
     params.update(unknown_value=args.unknown_value, curve=args.curve, verify=args.verify)
+    try:
+        relations = _relations_arg(args.relations)
+    except SlamqError as exc:
+        error_line("", exc)
+        return EXIT_BAD_INPUT
     failed = 0
     no_ate: dict[str, int] = {}  # why an evaluated map has no ATE -> how many
     evaluated = 0
@@ -130,7 +147,8 @@ def handle(args: argparse.Namespace) -> int:
                 chunk_size=args.chunk_size, out=out, progress=on_progress,
                 ate_align=args.align, ate_max_dt=args.max_dt, ate_unsorted=args.unsorted,
                 gt_align=args.gt_align, gt_tolerance=args.gt_tolerance,
-                gt_max_distance=args.gt_max_distance, **params,
+                gt_max_distance=args.gt_max_distance, relations=relations,
+                rel_interpolate=args.rel_interpolate, rel_max_gap=args.rel_max_gap, **params,
             )
             for rec in records:
                 evaluated += 1
@@ -167,6 +185,42 @@ def handle(args: argparse.Namespace) -> int:
 
         print(f"report written: {build_report(out, args.report)}")
     return EXIT_BAD_INPUT if failed else EXIT_OK
+
+
+def _relations_arg(values: list[str] | None) -> Any:
+    """``--relations`` as ``relations=`` of :func:`slamq.evaluate_many`: one file, or
+    ``{sequence: file}``; each file must exist.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "a.relations"; _ = f.write_text("")
+    >>> _relations_arg([f"intel={f}"]) == {"intel": str(f)}, _relations_arg(None)
+    (True, None)
+    """
+    from slamq.errors import ParamError
+
+    if not values:
+        return None
+    files: dict[str, str] = {}
+    every = None
+    for v in values:
+        seq, eq, path = v.partition("=")
+        if not eq or not seq or os.path.exists(v):
+            seq, path = "", v
+        if not os.path.isfile(path):
+            raise ParamError(f"{path}: --relations: no such file")
+        if seq:
+            files[seq] = path
+        elif every is not None:
+            raise ParamError("--relations FILE is given twice; name each sequence's file "
+                             "with --relations SEQUENCE=FILE")
+        else:
+            every = path
+    if every is not None and files:
+        raise ParamError("--relations: give one FILE for every run, or SEQUENCE=FILE for "
+                         "each sequence, not both")
+    return every if every is not None else files
 
 
 def _why_no_ate(rec: dict) -> str | None:

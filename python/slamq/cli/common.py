@@ -137,12 +137,13 @@ class Progress:
     """
 
     def __init__(self, label: str, unit: str, enabled: bool) -> None:
-        from rich.console import Console
-
-        self.console = Console(stderr=True)
         self.unit = unit
         self.bar: Any | None = None
         self.task: Any = None
+        if enabled:  # rich only when a bar may be drawn (-q: not imported at all)
+            from rich.console import Console
+
+            self.console = Console(stderr=True)
         if enabled and self.console.is_terminal:
             from rich.progress import (
                 BarColumn,

@@ -26,16 +26,21 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def handle(args: argparse.Namespace) -> int:
     """Print the summary table; optionally write it as CSV / JSON."""
-    from slamq.results import read_results, summarize, summary_table
-    from slamq.results.summary import spreadsheet_safe
+    # plain rows, not a DataFrame: printing the table imports neither pandas nor numpy
+    # (most of the command's time); writing --csv / --json does, to write what it did
+    from slamq.results.summary import spreadsheet_safe, summary_rows, summary_table
 
-    summary = summarize(read_results(args.results), ddof=args.ddof)
-    if summary.empty:
+    columns, rows = summary_rows(args.results, ddof=args.ddof)
+    if not rows:
         error_line(args.results, "no records")
         return EXIT_BAD_INPUT
-    stdout_console().print(summary_table(summary, title=str(args.results)))
-    if args.csv:
-        spreadsheet_safe(summary).to_csv(args.csv, index=False)
-    if args.json:
-        summary.to_json(args.json, orient="records", indent=1)
+    stdout_console().print(summary_table(rows, title=str(args.results)))
+    if args.csv or args.json:
+        import pandas as pd
+
+        summary = pd.DataFrame(rows, columns=columns)
+        if args.csv:
+            spreadsheet_safe(summary).to_csv(args.csv, index=False)
+        if args.json:
+            summary.to_json(args.json, orient="records", indent=1)
     return EXIT_OK

@@ -8,22 +8,29 @@ well each one works on synthetic damage, on the ground-truth benchmark and on re
 
 - ``superposed``: two copies of (a part of) the building laid over each other at an angle
   (a failed loop closure, scan matching that diverged): a second strong wall direction
-  (the wall-orientation histogram modulo 90 degrees, weighted by wall length, has two peaks
-  more than ``superposed_min_separation`` apart) whose walls lie in the same places as the
-  walls of the main direction (a building with an angled wing has its second direction
-  somewhere else).
-- ``doubled_walls``: parallel wall pairs a few cells apart (occupied, a gap of
-  ``doubled_min_gap``..``doubled_max_gap`` free cells, occupied, across the walls) over a
+  (the wall-orientation histogram modulo the building's period, weighted by wall length,
+  has two peaks more than ``superposed_min_separation`` apart) whose walls lie in the same
+  places as the walls of the main direction (a building with an angled wing has its second
+  direction somewhere else).
+- ``doubled_walls``: parallel wall pairs a few centimetres apart (occupied, a free gap of
+  ``doubled_min_gap``..``doubled_max_gap`` metres, occupied, across the walls) over a
   substantial wall length: a copy shifted by a few centimetres.
 - ``smeared``: smeared or fan-shaped walls: occupied blobs and wedges thicker than
   ``smeared_min_thickness`` (distance transform of the occupied mask) that are not a solid
   rectangular or round object (furniture, pillars).
 - ``fragmented``: the known area split into several sizeable disconnected pieces.
 
+The building's period is that of its walls' symmetry (docs/spec.md 3a.2,
+:func:`slamq.models.quality.wall_symmetry`): 60 degrees for a hexagonal building (walls 60
+degrees apart: a clean hexagonal arena is not two copies turned 30 degrees against each
+other), else 90.
+
 Every detector takes an :class:`~slamq.OccupancyMap` and returns a list of
 :class:`Defect` (empty when it sees nothing); :func:`detect_defects` runs them all. The
 thresholds are rows of :data:`slamq.params.SETTINGS` (family ``defects``), in metres where
-they are lengths: a map without a resolution is read as 0.05 m per cell.
+they are lengths, and so are the detectors' own small lengths (:data:`LINK`): a map
+without a resolution is read as 0.05 m per cell. Only the quantisation floors stay in
+cells (a gap of one cell, a wall a few cells thick, is the grid's own noise on any grid).
 """
 
 from __future__ import annotations
@@ -36,15 +43,23 @@ from typing import Any
 import cv2
 import numpy as np
 
+from slamq import native
 from slamq.errors import ParamError
 from slamq.models import OccupancyMap
+from slamq.models.quality import WALL_PERIODS, wall_symmetry
 from slamq.params import SETTINGS
 
-__all__ = ["DETECTORS", "Defect", "detect_defects", "doubled_walls", "fragmented",
-           "smeared", "superposed"]
+__all__ = ["DETECTORS", "LINK", "Defect", "detect_defects", "doubled_walls", "fragmented",
+           "smeared", "superposed", "wall_period"]
 
 #: Metres per cell assumed for a map without a resolution.
 DEFAULT_RESOLUTION = 0.05
+#: The detectors' own small lengths, metres (one cell of a 0.05 m grid, where they were
+#: set in cells; on a finer grid more cells, on a coarser one still one cell): the holes a
+#: doubled stretch bridges and how far its gap centre moves from one cell to the next, the
+#: gaps the smear closing fills, the smallest thick core and the outline's tolerance of
+#: the object test.
+LINK = 0.05
 _S = SETTINGS
 
 
@@ -95,6 +110,26 @@ class Defect:
 
 def _res(m: OccupancyMap) -> float:
     return float(m.resolution) if m.resolution else DEFAULT_RESOLUTION
+
+
+def _cells(metres: float, res: float) -> int:
+    """``metres`` in cells of ``res``, at least 1 (:data:`LINK` is 1 cell at 0.05 m)."""
+    return max(1, int(round(metres / res)))
+
+
+def wall_period(m: OccupancyMap) -> float:
+    """The period of a map's wall directions, degrees: 60 for a hexagonal map, else 90
+    (rectilinear and irregular maps: docs/spec.md 3a.2).
+
+    Examples
+    --------
+    >>> from slamq.synth import floor_plan
+    >>> wall_period(floor_plan(1))
+    90.0
+    """
+    harmonics = native.wall_harmonics(np.ascontiguousarray(m.values, np.uint8),
+                                      np.ascontiguousarray(m.unknown, bool))
+    return WALL_PERIODS.get(wall_symmetry(harmonics)[0], 90.0)
 
 
 def _check(name: str, value: Any) -> float:
@@ -195,6 +230,12 @@ def _orientation(occ: np.ndarray, res: float) -> tuple[np.ndarray, np.ndarray]:
     return angle * 0.5, weight
 
 
+def _along(angle: np.ndarray, period: float) -> np.ndarray:
+    """:func:`_orientation`'s angles as the walls' own directions where it matters: modulo
+    90 degrees a wall and its gradient have one direction; modulo 60 they are 30 apart."""
+    return angle if period == 90.0 else np.mod(angle + 90.0, 180.0)
+
+
 _PER_CELL: float | None = None
 
 
@@ -210,27 +251,31 @@ def _weight_per_cell() -> float:
     return _PER_CELL
 
 
-_BINS = 180  # 0.5 degree bins over [0, 90)
+def _bins(period: float) -> int:
+    """0.5 degree bins over ``[0, period)``."""
+    return int(round(2 * period))
 
 
-def _histogram(angle: np.ndarray, weight: np.ndarray) -> np.ndarray:
+def _histogram(angle: np.ndarray, weight: np.ndarray, period: float = 90.0) -> np.ndarray:
+    n = _bins(period)
     sel = weight > 1e-3 * (float(weight.max()) if weight.size else 0.0)
-    b = np.minimum((np.mod(angle[sel], 90.0) * (_BINS / 90.0)).astype(np.int64), _BINS - 1)
-    hist = np.bincount(b, weights=weight[sel], minlength=_BINS)
+    b = np.minimum((np.mod(angle[sel], period) * (n / period)).astype(np.int64), n - 1)
+    hist = np.bincount(b, weights=weight[sel], minlength=n)
     k = np.exp(-0.5 * (np.arange(-6, 7) / 2.0) ** 2)  # sigma 1 degree
     k /= k.sum()
     return np.convolve(np.concatenate([hist[-6:], hist, hist[:6]]), k, "valid")
 
 
-def _circ(a: np.ndarray | float, b: float) -> np.ndarray | float:
-    d = np.abs(np.asarray(a) - b) % 90.0
-    return np.minimum(d, 90.0 - d)
+def _circ(a: np.ndarray | float, b: float, period: float = 90.0) -> np.ndarray | float:
+    d = np.abs(np.asarray(a) - b) % period
+    return np.minimum(d, period - d)
 
 
 def dominant_direction(m: OccupancyMap, *,
                        occupied_threshold: float = _S.occupied_threshold.default) -> float:
-    """The main wall direction of a map, degrees counter-clockwise in ``[0, 90)`` (the peak
-    of the length-weighted orientation histogram modulo 90 degrees).
+    """The main wall direction of a map, degrees counter-clockwise in ``[0, P)`` (the peak
+    of the length-weighted orientation histogram modulo the map's period ``P``,
+    :func:`wall_period`: 90 degrees, or 60 for a hexagonal map).
 
     Examples
     --------
@@ -239,14 +284,17 @@ def dominant_direction(m: OccupancyMap, *,
     7
     """
     occ, _, _ = _masks(m, occupied_threshold)
-    return float((90.0 - _dominant(occ, _res(m))) % 90.0)
+    period = wall_period(m)
+    return float((period - _dominant(occ, _res(m), period)) % period)
 
 
-def _dominant(occ: np.ndarray, res: float) -> float:
-    """The main wall direction as measured in the image (rows down), ``[0, 90)``."""
+def _dominant(occ: np.ndarray, res: float, period: float = 90.0) -> float:
+    """The main wall direction as measured in the image (rows down), ``[0, period)``."""
     c, cres, _ = _coarse(occ, res)
     angle, weight = _orientation(c, cres)
-    return float((np.argmax(_histogram(angle, weight)) + 0.5) * 90.0 / _BINS)
+    angle = _along(angle, period)
+    return float((np.argmax(_histogram(angle, weight, period)) + 0.5) * period
+                 / _bins(period))
 
 
 # ---------------------------------------------------------------------------- superposed
@@ -262,13 +310,15 @@ def superposed(m: OccupancyMap, *,
                occupied_threshold: float = _S.occupied_threshold.default) -> list[Defect]:
     """Rotated copies laid over each other: a second wall direction in the same places.
 
-    The wall-orientation histogram (structure tensor of the occupied mask, modulo 90
-    degrees, weighted by wall length) must have a second peak at least
+    The wall-orientation histogram (structure tensor of the occupied mask, modulo the
+    map's period, :func:`wall_period`: 90 degrees, 60 for a hexagonal map; weighted by wall
+    length) must have a second peak at least
     ``superposed_min_separation`` degrees from the first, holding at least
     ``superposed_min_length`` metres of wall (occupied cells of that direction times the
     cell size), and either hold at least ``superposed_min_share`` of the first peak's height
     (above the histogram's median), running both ways (the second direction and its
-    perpendicular, the lesser at least ``superposed_min_square`` of the greater: a lone
+    perpendicular, or its copies 60 degrees on for a hexagonal map, the lesser at least
+    ``superposed_min_square`` of the greater: a lone
     diagonal wall runs one way) with at least ``superposed_min_mixed`` of its walls in 2 m
     tiles that also hold walls of the first direction (a rotated copy laid over the
     original), or hold at least ``superposed_split_share`` of it wherever it lies (parts of
@@ -299,7 +349,8 @@ def superposed(m: OccupancyMap, *,
     square_min = _check("superposed_min_square", superposed_min_square)
     occ, _, off = _masks(m, occupied_threshold)
     split_min = _check("superposed_split_share", superposed_split_share)
-    ev = _superposed_evidence(occ, _res(m), sep)
+    period = wall_period(m)
+    ev = _superposed_evidence(occ, _res(m), sep, period)
     if not ev or ev["length"] < length_min:
         return []
     laid_over = ev["share"] >= share_min and ev["mixed"] >= mixed_min \
@@ -310,23 +361,27 @@ def superposed(m: OccupancyMap, *,
     bbox = _shift(ev["bbox"], off)
     how = (f"{ev['mixed']:.0%} of it among main-direction walls" if laid_over else
            "the parts of the map turned against each other")
-    note = (f"second wall direction {ev['a2']:.1f} deg beside {ev['a1']:.1f} deg (mod 90): "
+    note = (f"second wall direction {ev['a2']:.1f} deg beside {ev['a1']:.1f} deg "
+            f"(mod {period:g}): "
             f"{ev['share']:.2f} of the main peak, {ev['length']:.1f} m of wall, {how}")
     return [Defect("superposed", round(ev["share"], 4), bbox, _where(m, bbox), note)]
 
 
-def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, Any]:
+def _superposed_evidence(occ: np.ndarray, res: float, sep: float, period: float = 90.0
+                         ) -> dict[str, Any]:
     """The numbers :func:`superposed` decides on (empty when there is no second peak)."""
     occ, res, f = _coarse(occ, res)
     angle2d, weight2d = _orientation(occ, res)
+    angle2d = _along(angle2d, period)
     h, w = occ.shape
     # from here on only the cells near walls (weight above a floor), as flat arrays
     wmax = float(weight2d.max()) if weight2d.size else 0.0
     sel = np.flatnonzero(weight2d.ravel() > 1e-3 * wmax)
     angle = angle2d.ravel()[sel]
     weight = weight2d.ravel()[sel]
-    hist = _histogram(angle, weight)
-    centres = (np.arange(_BINS) + 0.5) * 90.0 / _BINS
+    hist = _histogram(angle, weight, period)
+    nbins = _bins(period)
+    centres = (np.arange(nbins) + 0.5) * period / nbins
     i1 = int(np.argmax(hist))
     a1 = float(centres[i1])
     base = float(np.median(hist))
@@ -334,22 +389,23 @@ def _superposed_evidence(occ: np.ndarray, res: float, sep: float) -> dict[str, A
     if h1 <= 0:
         return {}
     local_max = (hist >= np.roll(hist, 1)) & (hist >= np.roll(hist, -1))
-    cand = np.flatnonzero(local_max & (_circ(centres, a1) >= sep))
+    cand = np.flatnonzero(local_max & (_circ(centres, a1, period) >= sep))
     if not len(cand):
         return {}
     i2 = int(cand[np.argmax(hist[cand])])
     a2 = float(centres[i2])
     # the valley between the peaks (the shorter arc), so a shoulder is not a peak
     lo, hi = sorted((i1, i2))
-    arc = hist[lo:hi + 1] if hi - lo <= _BINS // 2 else np.concatenate([hist[hi:],
+    arc = hist[lo:hi + 1] if hi - lo <= nbins // 2 else np.concatenate([hist[hi:],
                                                                        hist[:lo + 1]])
     prominence = float(hist[i2]) - max(float(arc.min()), base)
     share = prominence / h1
     band = 1.5
-    in_b = _circ(angle, a2) <= band
-    wa = np.where(_circ(angle, a1) <= band, weight, 0.0)
+    in_b = _circ(angle, a2, period) <= band
+    wa = np.where(_circ(angle, a1, period) <= band, weight, 0.0)
     wb = np.where(in_b, weight, 0.0)
-    # both ways: the second direction and its perpendicular (angle modulo 180)
+    # both ways: the second direction and its perpendicular, or its copies 60 degrees on
+    # (angle modulo 180)
     d180 = np.abs(np.mod(angle - a2, 180.0))
     one = float(wb[in_b & ((d180 <= band) | (d180 >= 180.0 - band))].sum())
     other = float(wb.sum()) - one
@@ -441,17 +497,18 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
                   doubled_min_length: float = _S.doubled_min_length.default,
                   doubled_min_run: float = _S.doubled_min_run.default,
                   occupied_threshold: float = _S.occupied_threshold.default) -> list[Defect]:
-    """Parallel wall pairs a few cells apart: a copy of the walls shifted a little.
+    """Parallel wall pairs a few centimetres apart: a copy of the walls shifted a little.
 
-    The map is turned to its main wall direction; down every column and along every row,
-    an occupied cell, ``doubled_min_gap``..``doubled_max_gap`` free cells (all seen free:
-    the two sides of one real wall have unknown cells between them), then occupied again is
-    one pair (the gap is at least 2 cells on any grid; each wall of the pair at most 0.2 m
-    and 3 cells thick, so the holes of one thick, noisy wall are not a pair). Pairs in a row
-    along a wall (the
-    gap centre moving by one cell at most, holes of one cell bridged) for at least
-    ``doubled_min_run`` metres are a doubled stretch; the map is flagged when the stretches
-    add up to ``doubled_min_length`` metres.
+    The map is turned to its main wall direction; down every column and along every row
+    (a hexagonal map, :func:`wall_period`: turned to each of its three directions, down
+    every column), an occupied cell, a gap of ``doubled_min_gap``..``doubled_max_gap``
+    metres of free cells (all seen free: the two sides of one real wall have unknown cells
+    between them), then occupied again is one pair (the gap is at least 2 cells on any
+    grid; each wall of the pair at most 0.2 m thick, and 3 cells, so the holes of one thick,
+    noisy wall are not a pair). Pairs in a row along a wall (the gap centre moving by at
+    most :data:`LINK` from one column to the next, holes of up to :data:`LINK` bridged: one
+    cell at 0.05 m) for at least ``doubled_min_run`` metres are a doubled stretch; the map
+    is flagged when the stretches add up to ``doubled_min_length`` metres.
 
     Returns
     -------
@@ -476,51 +533,66 @@ def doubled_walls(m: OccupancyMap, *, doubled_min_gap: float = _S.doubled_min_ga
     gmax = max(gmin, int(round(gmax_m / res)))
     if gmax > 250:
         raise ParamError(f"doubled_max_gap is {gmax} cells; at most 250")
-    a = _dominant(occ, res)  # measured in the image (rows down): clockwise as seen
-    a = a - 90.0 if a > 45.0 else a
-    turn = abs(a) > 1.0
-    if turn:
-        # a wall turned clockwise by a (as seen) is level after turning the image by a
-        # counter-clockwise (cv2's positive angle)
-        o, back = _rotate(occ, a)
-        f, _ = _rotate(free, a)
-    else:
-        o, f, back = occ, free, None
+    period = wall_period(m)
+    a = _dominant(occ, res, period)  # measured in the image (rows down): clockwise as seen
+    a = a - period if a > period / 2 else a
+    # the turns that bring the building's wall directions level: a rectilinear one read
+    # down the columns and along the rows once turned; a hexagonal one turned three times
+    # (its directions 60 degrees apart), read down the columns each time
+    turns = [(a, (0, 1))] if period != 60.0 else [
+        ((a + k * 60.0 + 90.0) % 180.0 - 90.0, (0,)) for k in range(3)]
     run = max(2, int(round(min_run / res)))
     thick = max(_MIN_WALL_CELLS, int(round(_THIN_WALL / res)))
+    link = 2 * _cells(LINK, res) + 1  # 3 cells at 0.05 m
     total = 0.0
-    boxes = []
-    for axis in (0, 1):
-        oo, ff = (o, f) if axis == 0 else (o.T, f.T)
-        centre = _pairs(np.ascontiguousarray(oo), np.ascontiguousarray(ff), gmin, gmax,
-                        thick)
-        # stretches: gap centres in a row along the wall (one cell up or down), bridging
-        # holes of one cell
-        sel = cv2.dilate(centre, np.ones((3, 1), np.uint8))
-        sel = cv2.morphologyEx(sel, cv2.MORPH_CLOSE, np.ones((1, 3), np.uint8))
-        r0, c0, r1, c1 = _known_box(sel > 0)  # label only where there are pairs
-        n, _, stats, _ = cv2.connectedComponentsWithStats(
-            np.ascontiguousarray(sel[r0:r1, c0:c1]), connectivity=8)
-        stats[:, 0] += c0
-        stats[:, 1] += r0
-        for k in range(1, n):
-            x, y, bw, bh, _ = stats[k]
-            if bw >= run:
-                total += bw * res
-                boxes.append((x, y, x + bw, y + bh) if axis == 0 else (y, x, y + bh, x + bw))
-    if total < min_len or not boxes:
+    points = []
+    stretches = 0
+    for turn, axes in turns:
+        if abs(turn) > 1.0:
+            # a wall turned clockwise by a (as seen) is level after turning the image by a
+            # counter-clockwise (cv2's positive angle)
+            o, back = _rotate(occ, turn)
+            f, _ = _rotate(free, turn)
+        else:
+            o, f, back = occ, free, None
+        boxes = []
+        for axis in axes:
+            oo, ff = (o, f) if axis == 0 else (o.T, f.T)
+            centre = _pairs(np.ascontiguousarray(oo), np.ascontiguousarray(ff), gmin, gmax,
+                            thick)
+            # stretches: gap centres in a row along the wall (moving by LINK at most from
+            # one column to the next), bridging holes of LINK
+            sel = cv2.dilate(centre, np.ones((link, 1), np.uint8))
+            sel = cv2.morphologyEx(sel, cv2.MORPH_CLOSE, np.ones((1, link), np.uint8))
+            r0, c0, r1, c1 = _known_box(sel > 0)  # label only where there are pairs
+            n, _, stats, _ = cv2.connectedComponentsWithStats(
+                np.ascontiguousarray(sel[r0:r1, c0:c1]), connectivity=8)
+            stats[:, 0] += c0
+            stats[:, 1] += r0
+            for k in range(1, n):
+                x, y, bw, bh, _ = stats[k]
+                if bw >= run:
+                    total += bw * res
+                    boxes.append((x, y, x + bw, y + bh) if axis == 0 else
+                                 (y, x, y + bh, x + bw))
+        if not boxes:
+            continue
+        stretches += len(boxes)
+        b = np.array(boxes, float)
+        corners = np.array([[b[:, 0].min(), b[:, 1].min()], [b[:, 2].max(), b[:, 1].min()],
+                            [b[:, 0].min(), b[:, 3].max()], [b[:, 2].max(), b[:, 3].max()]])
+        if back is not None:
+            corners = corners @ back[:, :2].T + back[:, 2]
+        points.append(corners)
+    if total < min_len or not points:
         return []
-    b = np.array(boxes, float)
-    corners = np.array([[b[:, 0].min(), b[:, 1].min()], [b[:, 2].max(), b[:, 1].min()],
-                        [b[:, 0].min(), b[:, 3].max()], [b[:, 2].max(), b[:, 3].max()]])
-    if back is not None:
-        corners = corners @ back[:, :2].T + back[:, 2]
+    corners = np.concatenate(points)
     h, w = occ.shape
     bbox = _shift((int(max(0, corners[:, 0].min())), int(max(0, corners[:, 1].min())),
                    int(min(w, math.ceil(corners[:, 0].max()))),
                    int(min(h, math.ceil(corners[:, 1].max())))), off)
-    note = (f"{total:.1f} m of parallel wall pairs {gmin}-{gmax} cells apart "
-            f"({len(boxes)} stretches of at least {min_run:g} m)")
+    note = (f"{total:.1f} m of parallel wall pairs {gmin * res:.2f}-{gmax * res:.2f} m apart "
+            f"({gmin}-{gmax} cells; {stretches} stretches of at least {min_run:g} m)")
     return [Defect("doubled_walls", round(total, 3), bbox, _where(m, bbox), note)]
 
 
@@ -532,13 +604,14 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
             occupied_threshold: float = _S.occupied_threshold.default) -> list[Defect]:
     """Smeared or fan-shaped walls: thick occupied blobs and wedges.
 
-    The occupied mask (closed by one cell, so a fuzzy band of occupied and free cells counts
-    as one blob) is measured by its distance transform: the cells deeper than half of
-    ``smeared_min_thickness`` (and than 3 cells: noise alone draws walls a few cells thick
-    on a coarse grid) form thick cores. A core that is a solid rectangle or disc
-    (its area at least 0.8 of its rotated bounding rectangle's, or 0.75 and nearly round:
-    furniture, pillars) is an object, not a smear. The map is flagged when the other cores
-    cover ``smeared_min_area`` square metres.
+    The occupied mask (closed by :data:`LINK`, one cell at 0.05 m, so a fuzzy band of
+    occupied and free cells counts as one blob) is measured by its distance transform: the
+    cells deeper than half of ``smeared_min_thickness`` (and than 3 cells: noise alone draws
+    walls a few cells thick on a coarse grid) form thick cores (of at least three cells of
+    0.05 m). A core that is a solid rectangle or disc (its area at least 0.8 of its rotated
+    bounding rectangle's, or 0.7 and nearly round: furniture, pillars) or whose outline
+    runs along the building's directions (boxes side by side) is an object, not a smear.
+    The map is flagged when the other cores cover ``smeared_min_area`` square metres.
 
     Returns
     -------
@@ -557,7 +630,9 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
     area_min = _check("smeared_min_area", smeared_min_area)
     occ, _, off = _masks(m, occupied_threshold)
     res = _res(m)
-    closed = cv2.morphologyEx(occ.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
+    side = 2 * _cells(LINK, res) + 1  # 3 cells at 0.05 m
+    closed = cv2.morphologyEx(occ.astype(np.uint8), cv2.MORPH_CLOSE,
+                              np.ones((side, side), np.uint8))
     dt = cv2.distanceTransform(closed, cv2.DIST_L2, 3)
     core = (dt >= max(thick_m / res, _MIN_THICK_CELLS) / 2.0).astype(np.uint8)
     if not core.any():
@@ -565,9 +640,12 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
     n, lab, stats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)
     keep = np.zeros(n, bool)
     axis = None
+    period = 90.0
+    link = max(1.0, LINK / res)  # 1 cell at 0.05 m, never less
+    min_cells = int(round(3 * link * link))
     for k in range(1, n):
         x, y, bw, bh, area = stats[k]
-        if area < 3:
+        if area < min_cells:
             continue
         blob = (lab[y:y + bh, x:x + bw] == k).astype(np.uint8)
         (_, _), (rw, rh), _ = cv2.minAreaRect(cv2.findNonZero(blob))
@@ -576,8 +654,9 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
         if fill >= 0.8 or (round_ and fill >= 0.7):
             continue  # a solid object: furniture, a pillar
         if axis is None:
-            axis = _dominant(occ, res)
-        if _rectilinear(blob, axis) >= 0.85:
+            period = wall_period(m)
+            axis = _dominant(occ, res, period)
+        if _rectilinear(blob, axis, period, link) >= 0.85:
             continue  # boxes side by side or against a wall, square to the building
         keep[k] = True
     mask = keep[lab]
@@ -590,18 +669,35 @@ def smeared(m: OccupancyMap, *, smeared_min_thickness: float = _S.smeared_min_th
     return [Defect("smeared", round(area, 4), bbox, _where(m, bbox), note)]
 
 
-def _rectilinear(blob: np.ndarray, axis: float) -> float:
-    """The share of a blob's outline (a polygon within one cell) that runs along the
-    building's directions (``axis`` and its perpendicular, within 10 degrees)."""
+def _rectilinear(blob: np.ndarray, axis: float, period: float = 90.0,
+                 epsilon: float = 1.0) -> float:
+    """The share of a blob's outline (a polygon within ``epsilon`` cells) that runs along
+    the building's directions (``axis``, measured in the image as :func:`_dominant` gives
+    it, modulo ``period``: and its perpendicular, or its copies 60 degrees on, within 10
+    degrees).
+
+    Examples
+    --------
+    >>> import cv2, numpy as np
+    >>> blob = np.zeros((200, 200), np.uint8)
+    >>> blob[50:150, 50:80] = 1
+    >>> blob[120:150, 50:150] = 1                   # an L of two boxes
+    >>> turn = cv2.getRotationMatrix2D((100, 100), 12, 1.0)  # 12 degrees anticlockwise
+    >>> b = cv2.warpAffine(blob, turn, (200, 200), flags=cv2.INTER_NEAREST)
+    >>> round(_rectilinear(b, -12.0), 2), round(_rectilinear(b, 12.0), 2)
+    (1.0, 0.0)
+    """
     contours, _ = cv2.findContours(blob, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     along = total = 0.0
     for c in contours:
-        poly = cv2.approxPolyDP(c, 1.0, True).reshape(-1, 2).astype(float)
+        poly = cv2.approxPolyDP(c, epsilon, True).reshape(-1, 2).astype(float)
         d = np.roll(poly, -1, axis=0) - poly
         length = np.hypot(d[:, 0], d[:, 1])
-        # image rows point down: a segment's direction counter-clockwise is atan2(-dy, dx)
-        ang = np.degrees(np.arctan2(-d[:, 1], d[:, 0]))
-        along += float(length[_circ(ang, axis) <= 10.0].sum())
+        # measured in the image (rows down, clockwise as seen), as ``axis`` is
+        # (:func:`_dominant`); counter-clockwise, atan2(-dy, dx), a building turned by t
+        # had its outlines at -t against an axis at t
+        ang = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+        along += float(length[_circ(ang, axis, period) <= 10.0].sum())
         total += float(length.sum())
     return along / total if total else 1.0
 

@@ -99,6 +99,7 @@ def evaluate(
         resolution=grid.resolution,
         corners_canonical=raw.corners_canonical,
         wall_angle=raw.wall_angle,
+        wall_harmonics=raw.wall_harmonics,
         facts=facts_from_counts(grid, raw.known_levels, raw.unknown_shade, raw.known_box),
     )
     if verify:

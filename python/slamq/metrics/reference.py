@@ -74,6 +74,7 @@ __all__ = [
     "structure_image",
     "structure_mask",
     "wall_angle",
+    "wall_harmonics",
 ]
 
 #: OpenCV's 5-tap Gaussian kernel for ksize 5, sigma 0 (``getGaussianKernel(5, 0) * 16``).
@@ -381,15 +382,10 @@ def _crop(grid: OccupancyMap) -> OccupancyMap | None:
 
 
 def wall_angle(grid: OccupancyMap) -> float:
-    """Dominant wall direction modulo 90 degrees, in radians in (-pi/4, pi/4] (SPEC 3a.2).
-
-    On the known cells' bounding box: the structure image's 9x9 binomial sum
-    (``[1 8 28 56 70 56 28 8 1]``, two 5x5 blurs in one; reflect-101) taken at every second
-    row and column (``D``, integers), the 3x3 Sobel derivatives ``gx, gy`` of ``D``
-    (reflect-101), and per cell with ``g = gx + i gy != 0`` the term ``g**4 / |g|**3``
-    (weight ``|g|``, angle ``4 phi``) rounded half to even to integers and summed exactly;
-    the angle is ``atan2(sum Im, sum Re) / 4``. An image-style angle: positive turns +x
-    towards +y (rows down). A map with no known cell or no gradient has angle 0.
+    """Dominant wall direction modulo 90 degrees, in radians in (-pi/4, pi/4] (SPEC 3a.2):
+    ``atan2(sum im4, sum re4) / 4`` of :func:`wall_harmonics`, 0 when both sums are 0 (a
+    map with no known cell or no gradient). The canonical map is turned by it. An
+    image-style angle: positive turns +x towards +y (rows down).
 
     Examples
     --------
@@ -401,9 +397,37 @@ def wall_angle(grid: OccupancyMap) -> float:
     >>> abs(wall_angle(OccupancyMap(img, np.zeros_like(img, bool)))) < 1e-9
     True
     """
+    re4, im4, *_ = wall_harmonics(grid)
+    if re4 == 0 and im4 == 0:
+        return 0.0
+    return math.atan2(float(im4), float(re4)) / 4.0
+
+
+def wall_harmonics(grid: OccupancyMap) -> tuple[int, int, int, int, int]:
+    """The wall-direction sums of SPEC 3a.2, ``(re4, im4, re6, im6, weight)``.
+
+    On the known cells' bounding box: the structure image's 9x9 binomial sum
+    (``[1 8 28 56 70 56 28 8 1]``, two 5x5 blurs in one; reflect-101) taken at every second
+    row and column (``D``, integers), the 3x3 Sobel derivatives ``gx, gy`` of ``D``
+    (reflect-101), and per cell with ``g = gx + i gy != 0`` the terms ``g**4 / |g|**3``
+    (weight ``|g|``, angle ``4 phi``), ``g**6 / |g|**5`` (angle ``6 phi``) and ``|g|``,
+    each rounded half to even to an integer and summed exactly. All 0 for a map with no
+    known cell. :func:`slamq.models.quality.wall_symmetry` classifies the map from them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from slamq import OccupancyMap
+    >>> img = np.full((40, 40), 254, np.uint8)
+    >>> img[10, 5:35] = 0
+    >>> img[5:35, 20] = 0
+    >>> re4, im4, re6, im6, weight = wall_harmonics(OccupancyMap(img, img < 0))
+    >>> re4 > 0.5 * weight, im4
+    (True, 0)
+    """
     crop = _crop(grid)
     if crop is None:
-        return 0.0
+        return (0, 0, 0, 0, 0)
     b9 = np.array([1.0, 8.0, 28.0, 56.0, 70.0, 56.0, 28.0, 8.0, 1.0])
     g2 = cv2.sepFilter2D(structure_image(crop), cv2.CV_64F, b9, b9, borderType=_BORDER)
     g2 = np.ascontiguousarray(g2[::2, ::2])
@@ -414,13 +438,14 @@ def wall_angle(grid: OccupancyMap) -> float:
     x, y, r2 = x[keep], y[keep], r2[keep]
     a = x * x - y * y
     b = 2.0 * (x * y)
-    w = r2 * np.sqrt(r2)
-    re = np.rint((a * a - b * b) / w).astype(np.int64)
-    im = np.rint((2.0 * (a * b)) / w).astype(np.int64)
-    sre, sim = int(re.sum()), int(im.sum())
-    if sre == 0 and sim == 0:
-        return 0.0
-    return math.atan2(float(sim), float(sre)) / 4.0
+    root = np.sqrt(r2)
+    w = r2 * root
+    v = w * r2
+    p = a * a - b * b
+    q = 2.0 * (a * b)
+    sums = (p / w, q / w, (p * a - q * b) / v, (p * b + q * a) / v, root)
+    re4, im4, re6, im6, weight = (int(np.rint(t).astype(np.int64).sum()) for t in sums)
+    return (re4, im4, re6, im6, weight)
 
 
 #: Canonical maps larger than this are not built (``corners_canonical`` is None).
@@ -794,7 +819,9 @@ def evaluate(
         keep_curve=curve,
         resolution=grid.resolution,
         corners_canonical=canonical_corner_count(grid, params),
-        wall_angle=wall_angle(grid),  # always: the verdict needs every map's orientation
+        # always: the verdict needs every map's orientation and symmetry
+        wall_angle=wall_angle(grid),
+        wall_harmonics=wall_harmonics(grid),
         facts=map_facts(grid),
     )
 

@@ -61,9 +61,12 @@ def register(
     Any rotation, any translation, other resolution, origin and extent: the rotation from
     the two maps' wall-direction histograms, the translation by FFT correlation of coarse
     rasters, each candidate refined by ICP and scored by the share of walls that agree; the
-    best refined by the full trimmed ICP. Refused (``ok=False`` with a ``reason``) rather
-    than forced when the walls disagree where the maps overlap, when they barely overlap,
-    or when a distinct alignment fits nearly as well (a symmetric place).
+    best refined by the full trimmed ICP. When that refuses, a wider search runs (both maps
+    on the coarser map's grid, rotations every 3 degrees, an ICP robust to partial overlap;
+    kept only when its best fit scores at least 1.5 times any fit elsewhere). Refused
+    (``ok=False`` with a ``reason``) rather than forced when the walls disagree where the
+    maps overlap, when they barely overlap, or when a distinct alignment fits nearly as
+    well (a symmetric place).
 
     Parameters
     ----------
@@ -132,10 +135,12 @@ def register_many(
 ) -> dict[tuple[str, str], Registration]:
     """Register every pair of several maps of one place (docs/spec.md section 7a).
 
-    Each map is prepared once (walls, directions, nearest-wall queries); for every pair
-    ``a`` before ``b`` in the order given, ``b`` is registered onto ``a`` and the result is
-    stored under ``(b, a)`` ("b onto a"), and its :meth:`~slamq.Registration.inverse`
-    under ``(a, b)``: the transform of any ordered pair is one lookup.
+    Each map is prepared once (walls, directions, nearest-wall queries; a pair that goes
+    to the wide search of :func:`register` draws the finer map again on the coarser grid);
+    for every pair ``a`` before ``b`` in the order given, ``b`` is registered onto ``a``
+    and the result is stored under ``(b, a)`` ("b onto a"), and its
+    :meth:`~slamq.Registration.inverse` under ``(a, b)``: the transform of any ordered
+    pair is one lookup.
 
     Parameters
     ----------

@@ -11,7 +11,64 @@ from typing import Any
 from slamq.columns import computed_columns, group_names
 from slamq.params import Params
 
-__all__ = ["MapQuality", "facts_from_counts", "map_facts", "shade_source"]
+__all__ = ["HEXAGONAL_MARGIN", "MIN_RESULTANT", "WALL_PERIODS", "MapQuality",
+           "facts_from_counts", "map_facts", "shade_source", "wall_symmetry"]
+
+#: The wall-direction classes with a period (degrees): their wall angle is taken modulo it
+#: (docs/spec.md 3a.2). A third class, ``irregular``, has none: its angle is not compared.
+WALL_PERIODS: dict[str, float] = {"rectilinear": 90.0, "hexagonal": 60.0}
+#: A class needs the resultant of its harmonic (its share of the gradient weight that
+#: agrees on one direction modulo the period) to be at least this.
+MIN_RESULTANT = 0.1
+#: Hexagonal needs the sixth harmonic's resultant at least this many times the fourth's.
+HEXAGONAL_MARGIN = 2.0
+
+
+def wall_symmetry(harmonics: Sequence[int] | None, angle4: float = math.nan
+                  ) -> tuple[str, float]:
+    """The symmetry class of a map's walls and its wall angle modulo the class's period,
+    from the wall-direction sums of docs/spec.md 3a.2.
+
+    ``harmonics`` = ``(re4, im4, re6, im6, weight)``: the sums of ``g^4/|g|^3``,
+    ``g^6/|g|^5`` and ``|g|`` over the map's Sobel gradients ``g``. With
+    ``R4 = |re4 + i im4| / weight`` and ``R6 = |re6 + i im6| / weight`` (1 when every
+    gradient agrees on one direction modulo 90, respectively 60 degrees; 0 for walls in
+    every direction): ``rectilinear`` when ``R4 >= R6`` and ``R4 >= MIN_RESULTANT``;
+    ``hexagonal`` (walls 60 degrees apart: hexagons, triangles) when
+    ``R6 >= HEXAGONAL_MARGIN * R4`` and ``R6 >= MIN_RESULTANT``; ``irregular`` otherwise
+    (no direction period, or one that is not clear). A rectilinear building whose walls
+    run mostly one way has an ``R6`` as well (the imbalance of its two directions), but
+    never above its ``R4``; a hexagonal one has ``R4`` only from the imbalance of its three.
+
+    The angle, degrees: ``angle4`` (radians, ``atan2(im4, re4) / 4``, the angle the
+    canonical map is turned by) for ``rectilinear`` and ``irregular``; for ``hexagonal``,
+    ``atan2(-im6, -re6) / 6`` (a wall's gradient is perpendicular to it, which turns the
+    sixth harmonic by 540 degrees), in (-30, 30]. Image axes, as the wall angle.
+    ``harmonics`` None (an older core): ``("", angle4)`` in degrees.
+
+    Examples
+    --------
+    >>> wall_symmetry((1000, 0, 40, 0, 1100), 0.0)
+    ('rectilinear', 0.0)
+    >>> c, a = wall_symmetry((30, 0, 0, -900, 1000), 0.0)
+    >>> c, round(a, 6)
+    ('hexagonal', 15.0)
+    >>> wall_symmetry((50, 0, 60, 0, 1000), 0.0)[0]
+    'irregular'
+    """
+    if harmonics is None:
+        return "", math.degrees(float(angle4))
+    re4, im4, re6, im6, weight = (int(v) for v in harmonics)
+    deg4 = math.degrees(float(angle4)) if math.isfinite(angle4) else math.nan
+    if weight <= 0:
+        return "irregular", deg4
+    r4 = math.hypot(re4, im4) / weight
+    r6 = math.hypot(re6, im6) / weight
+    if r4 >= r6 and r4 >= MIN_RESULTANT:
+        return "rectilinear", deg4
+    if r6 >= HEXAGONAL_MARGIN * r4 and r6 >= MIN_RESULTANT:
+        return "hexagonal", math.degrees(math.atan2(-im6, -re6) / 6.0)
+    return "irregular", deg4
 
 
 def shade_source(grid: Any) -> Any:
@@ -151,8 +208,14 @@ class MapQuality:
         orientation or resolution on this (``canonical_resolution=0.07``), not on
         ``corners``.
     wall_angle : float
-        The dominant wall direction modulo 90 degrees, in degrees in (-45, 45] (image axes:
-        positive turns +x towards +y, rows down); always computed (SPEC 3a.2).
+        The dominant wall direction modulo the period of the map's ``wall_symmetry``, in
+        degrees (image axes: positive turns +x towards +y, rows down); always computed
+        (SPEC 3a.2): in (-45, 45] for a rectilinear or irregular map (the angle the
+        canonical map is turned by), in (-30, 30] for a hexagonal one.
+    wall_symmetry : str
+        ``"rectilinear"`` (walls 90 degrees apart), ``"hexagonal"`` (60 degrees apart) or
+        ``"irregular"`` (neither): :func:`wall_symmetry`. Only maps of one periodic class
+        have comparable wall angles.
     saver, flags, known_box_m2 : str, str, float
         How the map was saved and loaded, and the area of its known cells' bounding box:
         see :func:`map_facts`. Maps ranked together should agree on these.
@@ -194,6 +257,7 @@ class MapQuality:
     known_area_m2: float = math.nan
     corners_canonical: int | None = None
     wall_angle: float = math.nan
+    wall_symmetry: str = ""
     saver: str = ""
     flags: str = ""
     known_box_m2: float = math.nan
@@ -217,12 +281,14 @@ class MapQuality:
         resolution: float | None = None,
         corners_canonical: int | None = None,
         wall_angle: float = math.nan,
+        wall_harmonics: Sequence[int] | None = None,
         facts: dict[str, Any] | None = None,
     ) -> MapQuality:
         """Build the result from the integers both implementations produce.
 
         ``curve`` holds ``count_u`` for every ``u`` in ``params.sweep_values``;
-        ``wall_angle`` is in radians (the field holds degrees).
+        ``wall_angle`` is in radians (the field holds degrees, modulo the period of the
+        class :func:`wall_symmetry` gives ``wall_harmonics``).
         """
         height, width = int(shape[0]), int(shape[1])
         total = height * width
@@ -238,6 +304,7 @@ class MapQuality:
         counts = tuple(map(int, curve))
         best = max(counts) if counts else 0
         best_u = params.sweep_values[counts.index(best)] if counts else 0
+        symmetry, angle = wall_symmetry(wall_harmonics, float(wall_angle))
         return cls(
             source=source,
             height=height,
@@ -256,7 +323,8 @@ class MapQuality:
             resolution=None if resolution is None else float(resolution),
             known_area_m2=nan if resolution is None else known * float(resolution) ** 2,
             corners_canonical=None if corners_canonical is None else int(corners_canonical),
-            wall_angle=math.degrees(float(wall_angle)),
+            wall_angle=angle,
+            wall_symmetry=symmetry,
             **(facts or {}),
             curve=counts if keep_curve else None,
             params=params,

@@ -9,13 +9,14 @@ and the planar motion ``(x, y, yaw)`` from the robot's pose at ``t1`` to its pos
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from slamq.errors import TrajectoryError
 
-__all__ = ["Relations", "RelationsResult", "RELATIONS_STATS"]
+__all__ = ["Relations", "RelationsResult", "RELATIONS_STATS", "invert_motion"]
 
 #: The statistics of a :class:`RelationsResult`, in output order: translational (m, m^2)
 #: then rotational (deg, deg^2), absolute and squared, mean and std, and the maxima.
@@ -23,6 +24,21 @@ RELATIONS_STATS = (
     "trans_abs_mean", "trans_abs_std", "trans_sq_mean", "trans_sq_std", "trans_max",
     "rot_abs_mean", "rot_abs_std", "rot_sq_mean", "rot_sq_std", "rot_max",
 )
+
+
+def invert_motion(m: np.ndarray) -> np.ndarray:
+    """The inverse SE(2) motions ``(N, 3)`` of ``x, y, yaw`` rows: ``(-R^T t, -yaw)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> (invert_motion(np.array([[1.0, 0.0, np.pi / 2]])).round(12) + 0.0).tolist()
+    [[0.0, 1.0, -1.570796326795]]
+    """
+    m = np.asarray(m, dtype=np.float64)
+    c, s = np.cos(m[:, 2]), np.sin(m[:, 2])
+    x, y = m[:, 0], m[:, 1]
+    return np.column_stack([-(c * x + s * y), s * x - c * y, -m[:, 2]])
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,6 +101,43 @@ class Relations:
 
     def __repr__(self) -> str:
         return f"Relations({len(self)} rows, source={self.source!r})"
+
+    @functools.cached_property
+    def forward(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(t1, t2, motion, reversed)``: every row stated forwards, a row with
+        ``t2 < t1`` as ``(t2, t1, motion^-1)`` (docs/spec.md 6a), and which rows were.
+        Computed once per Relations (a batch scores many trajectories against one file).
+
+        Examples
+        --------
+        >>> r = Relations([0.0, 2.0], [1.0, 1.0], [[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+        >>> t1, t2, m, rev = r.forward
+        >>> t1.tolist(), t2.tolist(), m[1].tolist(), rev.tolist()
+        ([0.0, 1.0], [1.0, 2.0], [-1.0, 0.0, -0.0], [False, True])
+        """
+        rev = self.t2 < self.t1
+        t1 = np.where(rev, self.t2, self.t1)
+        t2 = np.where(rev, self.t1, self.t2)
+        motion = self.motion
+        if rev.any():
+            motion = motion.copy()
+            motion[rev] = invert_motion(motion[rev])
+        for arr in (t1, t2, motion, rev):
+            arr.flags.writeable = False
+        return t1, t2, motion, rev
+
+    @functools.cached_property
+    def n_duplicates(self) -> int:
+        """Rows whose forward ``(t1, t2)`` pair repeats an earlier row's.
+
+        Examples
+        --------
+        >>> Relations([0.0, 1.0, 0.0], [1.0, 0.0, 1.0], [[0, 0, 0]] * 3).n_duplicates
+        2
+        """
+        t1, t2, _, _ = self.forward
+        z = np.sort(t1 + 1j * t2)  # lexicographic: t1, then t2
+        return int((z[1:] == z[:-1]).sum())
 
 
 @dataclass(frozen=True, eq=False)

@@ -16,6 +16,7 @@ from slamq.errors import TrajectoryError
 
 __all__ = [
     "Trajectory",
+    "order_rows",
     "quat_to_matrix",
     "matrix_to_quat",
     "quat_multiply",
@@ -238,8 +239,9 @@ class Trajectory:
                 i = _first_bad_row(back)
                 raise TrajectoryError(
                     f"{src}: non-monotonic timestamps: pose {i + 2} ({float(t[i + 1])!r} s) is "
-                    f"earlier than pose {i + 1} ({float(t[i])!r} s); a log that restarts can be "
-                    f"read with unsorted='last' or 'sort' (CLI: --unsorted last)"
+                    f"earlier than pose {i + 1} ({float(t[i])!r} s); read it in time order with "
+                    f"unsorted='sort', or from its last restart with unsorted='last' (CLI: "
+                    f"--unsorted sort|last; docs/spec.md 6c)"
                 )
         for arr in (t, p, q):
             arr.flags.writeable = False
@@ -403,3 +405,32 @@ class Trajectory:
         with open(path, "w") as f:
             np.savetxt(f, data, fmt="%.17g")
         return path
+
+
+def order_rows(t: np.ndarray, unsorted: str) -> np.ndarray:
+    """The rows of a trajectory whose timestamps are ``t`` to keep, in order, by the
+    ``unsorted`` policy (docs/spec.md 6c): ``"error"`` keeps every row as it is (the
+    :class:`~slamq.Trajectory` then refuses stamps that go backwards), ``"sort"`` sorts
+    them by time (stable: equal stamps keep the file's order), ``"last"`` keeps the rows
+    after the last stamp that goes backwards (a log that restarted).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.array([0.0, 0.2, 0.1, 0.3])
+    >>> order_rows(t, "sort").tolist(), order_rows(t, "last").tolist()
+    ([0, 2, 1, 3], [2, 3])
+    >>> order_rows(t, "error").tolist()
+    [0, 1, 2, 3]
+    """
+    rows = np.arange(t.shape[0])
+    if unsorted not in ("error", "last", "sort"):
+        raise TrajectoryError(f"unsorted must be 'error', 'last' or 'sort', not {unsorted!r}")
+    if unsorted == "error" or t.shape[0] < 2:
+        return rows
+    back = np.flatnonzero(np.diff(t) < 0)
+    if back.size == 0:
+        return rows
+    if unsorted == "last":
+        return rows[back[-1] + 1:]
+    return rows[np.argsort(t, kind="stable")]

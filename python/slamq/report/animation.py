@@ -62,8 +62,12 @@ def render_map(map: OccupancyMap, *, max_size: int | None = None) -> np.ndarray:
     ...                               np.zeros((40, 80), bool)), max_size=20).shape
     (10, 20, 3)
     """
-    grey = np.repeat(map.values[:, :, None], 3, axis=2)
-    grey[map.unknown] = UNKNOWN_RGB
+    if len(set(UNKNOWN_RGB)) == 1:  # grey: one channel set, then copied to three
+        grey = np.repeat(np.where(map.unknown, np.uint8(UNKNOWN_RGB[0]),
+                                  map.values)[:, :, None], 3, axis=2)
+    else:
+        grey = np.repeat(map.values[:, :, None], 3, axis=2)
+        grey[map.unknown] = UNKNOWN_RGB
     if max_size is not None:
         if int(max_size) < 1:
             raise ValueError(f"max_size must be >= 1, got {max_size}")

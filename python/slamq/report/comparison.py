@@ -16,7 +16,7 @@ from slamq.errors import SlamqError
 from slamq.models import MapComparison, OccupancyMap
 
 __all__ = ["COMPARISON_COLOURS", "comparison_image", "ground_truth_layer",
-           "write_comparison_png"]
+           "ground_truth_layer_colours", "ground_truth_layer_index", "write_comparison_png"]
 
 #: RGB of each kind of cell, painted in this order (later ones on top).
 COMPARISON_COLOURS: dict[str, tuple[int, int, int]] = {
@@ -26,6 +26,11 @@ COMPARISON_COLOURS: dict[str, tuple[int, int, int]] = {
     "missing": (220, 0, 0),        # a ground-truth wall the estimate lacks
     "ghost": (30, 80, 230),        # an estimate wall the ground truth lacks
 }
+
+#: The kinds of comparison_image, in painting order.
+_PAINTED = ("unknown", "free", "matched", "missing", "ghost")
+#: The kinds of ground_truth_layer, after the transparent 0, in painting order.
+_LAYERED = ("ghost", "matched", "missing")
 
 # bits of MapComparison.cells (rust/src/compare/flag.rs)
 _E, _G, _E_OK, _G_OK, _FREE = 1, 2, 4, 8, 32
@@ -62,14 +67,15 @@ def comparison_image(comparison: MapComparison, scale: int | None = None) -> np.
     h, w = cells.shape
     if scale is None:
         scale = max(1, min(8, 800 // max(h, w)))
-    img = np.empty((h, w, 3), np.uint8)
-    img[:] = COMPARISON_COLOURS["unknown"]
-    img[(cells & _FREE) != 0] = COMPARISON_COLOURS["free"]
-    img[((cells & _G_OK) != 0) | ((cells & _E_OK) != 0)] = COMPARISON_COLOURS["matched"]
-    img[((cells & _G) != 0) & ((cells & _G_OK) == 0)] = COMPARISON_COLOURS["missing"]
-    img[((cells & _E) != 0) & ((cells & _E_OK) == 0)] = COMPARISON_COLOURS["ghost"]
+    # each cell's kind (an index into _PAINTED), painted in order, then coloured once
+    kind = np.zeros((h, w), np.uint8)  # unknown
+    kind[(cells & _FREE) != 0] = 1
+    kind[((cells & _G_OK) != 0) | ((cells & _E_OK) != 0)] = 2
+    kind[((cells & _G) != 0) & ((cells & _G_OK) == 0)] = 3
+    kind[((cells & _E) != 0) & ((cells & _E_OK) == 0)] = 4
     if scale > 1:
-        img = np.repeat(np.repeat(img, scale, axis=0), scale, axis=1)
+        kind = np.repeat(np.repeat(kind, scale, axis=0), scale, axis=1)
+    img = np.asarray([COMPARISON_COLOURS[k] for k in _PAINTED], np.uint8)[kind]
     return img
 
 
@@ -137,6 +143,40 @@ def ground_truth_layer(
     >>> layer[5, 3].tolist(), int(layer[6, 3, 3])
     ([220, 0, 0, 255], 0)
     """
+    index = ground_truth_layer_index(comparison, estimate, ground_truth, offset=offset,
+                                     shape=shape, scale=scale)
+    return np.asarray(ground_truth_layer_colours(), np.uint8)[index]
+
+
+def ground_truth_layer_colours() -> list[tuple[int, int, int, int]]:
+    """RGBA of each value of :func:`ground_truth_layer_index` (0: transparent)."""
+    return [(0, 0, 0, 0), *(COMPARISON_COLOURS[k] + (255,) for k in _LAYERED)]
+
+
+def ground_truth_layer_index(
+    comparison: MapComparison,
+    estimate: OccupancyMap,
+    ground_truth: OccupancyMap,
+    *,
+    offset: tuple[int, int],
+    shape: tuple[int, int],
+    scale: int,
+) -> np.ndarray:
+    """:func:`ground_truth_layer` as a ``(rows*scale, cols*scale)`` uint8 array of
+    indices into :func:`ground_truth_layer_colours` (0 transparent, 1 ghost, 2 matched,
+    3 missing): one byte a pixel, written as a palette PNG.
+
+    Examples
+    --------
+    >>> import numpy as np, slamq
+    >>> gt = np.full((20, 20), 254, np.uint8); gt[5, 2:18] = 0
+    >>> est = np.full((20, 20), 254, np.uint8)
+    >>> e, g = slamq.OccupancyMap(est, est == 205), slamq.OccupancyMap(gt, gt == 205)
+    >>> c = slamq.compare(e, g, align="origin", cells=True)
+    >>> idx = ground_truth_layer_index(c, e, g, offset=(0, 0), shape=(20, 20), scale=1)
+    >>> int(idx[5, 3]), int(idx[6, 3])
+    (3, 0)
+    """
     cells = comparison.cells
     if cells is None:
         raise SlamqError("the comparison has no cells: call slamq.compare(..., cells=True)")
@@ -145,16 +185,16 @@ def ground_truth_layer(
     hg = cells.shape[0]
     he = estimate.values.shape[0]
     rows, cols = shape
-    layer = np.zeros((rows * scale, cols * scale, 4), np.uint8)
+    layer = np.zeros((rows * scale, cols * scale), np.uint8)
     side = max(1, int(round(res_g / res_e * scale)))
     # T (estimate world -> ground-truth world) is p -> R(dyaw) p + (dx, dy); its inverse
     # takes the ground truth's cell centres into the estimate's world
     yaw = np.radians(comparison.dyaw)
-    for kind, mask in (
-        ("ghost", ((cells & _E) != 0) & ((cells & _E_OK) == 0)),
-        ("matched", ((cells & _G) != 0) & ((cells & _G_OK) != 0)),
-        ("missing", ((cells & _G) != 0) & ((cells & _G_OK) == 0)),
-    ):
+    for value, mask in enumerate((
+        ((cells & _E) != 0) & ((cells & _E_OK) == 0),      # ghost
+        ((cells & _G) != 0) & ((cells & _G_OK) != 0),      # matched
+        ((cells & _G) != 0) & ((cells & _G_OK) == 0),      # missing
+    ), start=1):
         r, c = np.nonzero(mask)
         if not len(r):
             continue
@@ -176,10 +216,9 @@ def ground_truth_layer(
         row = he - ly / res_e - 0.5
         x0 = np.rint((col - offset[1] + 0.5) * scale - side / 2).astype(np.int64)
         y0 = np.rint((row - offset[0] + 0.5) * scale - side / 2).astype(np.int64)
-        rgba = np.array(COMPARISON_COLOURS[kind] + (255,), np.uint8)
         for dy in range(side):
             for dx in range(side):
                 yy, xx = y0 + dy, x0 + dx
                 keep = (yy >= 0) & (yy < layer.shape[0]) & (xx >= 0) & (xx < layer.shape[1])
-                layer[yy[keep], xx[keep]] = rgba
+                layer[yy[keep], xx[keep]] = value
     return layer

@@ -30,7 +30,8 @@ from slamq.verdict.exhibits import MapExhibit, ScanExhibit
 from slamq.verdict.records import usable
 from slamq.verdict.trajectory import TrajectoryEvidence
 
-__all__ = ["detail_page", "run_info", "scan_layer", "standing", "with_unit"]
+__all__ = ["SCAN_LAYER_COLOURS", "detail_page", "run_info", "scan_layer", "standing",
+           "with_unit"]
 
 
 def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajectories: bool
@@ -63,7 +64,7 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
     mp.notes.extend(ex.notes)
     if grid is not None and quality is not None and ex.marks is not None:
         u = ex.marks.unknown_value
-        ov = draw_overlay(grid, ex.marks)
+        ov = draw_overlay(grid, ex.marks, composite=False)  # the page draws its layers
         mp.full = f"img/{mp.slug}.png"
         mp.thumb = f"img/{mp.slug}_thumb.png"
         ov.save(str(out / mp.full), which="plain")
@@ -363,11 +364,11 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
     """The map with its layers (corners, enclosed areas, ground truth, defects, missing
     walls, its own scans), each shown or hidden by a checkbox (CSS only:
     ``.layers:has(#show-X:not(:checked)) .layer-X``)."""
-    from PIL import Image
+    from slamq.report.overlays import palette_image
 
     rows, cols = ov.cells
     r0, c0 = ov.offset
-    h, w = ov.plain.shape[:2]
+    h, w = ov.grey.shape[:2]
     view = f"{c0} {r0} {cols} {rows}"  # SVG user units = map cells
     layers: list[str] = []
     toggles: list[str] = []
@@ -380,7 +381,7 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
 
     if ov.n_regions:
         png = f"img/{mp.slug}_regions.png"
-        Image.fromarray(ov.regions).save(out / png)
+        ov.save(str(out / png), which="regions")
         layers.append(f"<img class=\"layer layer-regions\" src=\"../{png}\" alt=\"\">")
     toggle("regions", f"<i class=\"swatch\"></i> {ov.n_regions} enclosed areas "
            f"(unknown cells set to u = {u})", False, ov.n_regions > 0)
@@ -393,11 +394,12 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
     toggle("corners", f"<i class=\"ring\"></i> {ov.n_corners} corners", False,
            ov.n_corners > 0)
     if gt is not None:
-        from slamq.report.comparison import ground_truth_layer
+        from slamq.report.comparison import ground_truth_layer_colours, ground_truth_layer_index
 
         png = f"img/{mp.slug}_gtlayer.png"
-        Image.fromarray(ground_truth_layer(gt[0], grid, gt[1], offset=(r0, c0),
-                                           shape=(rows, cols), scale=ov.scale)).save(out / png)
+        index = ground_truth_layer_index(gt[0], grid, gt[1], offset=(r0, c0),
+                                         shape=(rows, cols), scale=ov.scale)
+        palette_image(index, ground_truth_layer_colours()).save(out / png)
         layers.append(f"<img class=\"layer layer-gt\" src=\"../{png}\" alt=\"\">")
         toggle("gt", f"ground truth (F1 {gt[0].f1:.3f})", False)
     if mp.defects:
@@ -430,8 +432,8 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
         legend += legend_missing
     if isinstance(scans, ScanExhibit):
         png = f"img/{mp.slug}_scans.png"
-        Image.fromarray(scan_layer(scans.density, offset=(r0, c0), shape=(rows, cols),
-                                   scale=ov.scale)).save(out / png)
+        palette_image(scan_layer(scans.density, offset=(r0, c0), shape=(rows, cols),
+                                 scale=ov.scale), SCAN_LAYER_COLOURS).save(out / png)
         layers.append(f"<img class=\"layer layer-scans\" src=\"../{png}\" alt=\"\">")
         f = scans.figures
         toggle("scans", f"<i class=\"heat\"></i> against its own scans: "
@@ -468,29 +470,30 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
 _MISSING_COLOUR = "#e00000"
 
 
+#: The heat map's colours: index 0 transparent, then red, ever more opaque.
+SCAN_LAYER_COLOURS = [(0, 0, 0, 0)] + [(220, 0, 0, 60 + 195 * k // 7) for k in range(8)]
+
+
 def scan_layer(density: np.ndarray, *, offset: tuple[int, int], shape: tuple[int, int],
                scale: int) -> np.ndarray:
-    """The heat map of :func:`slamq.verdict.exhibits.violation_density` as a transparent
-    RGBA layer over the picture of the map (its crop ``offset`` and ``shape`` in cells, and
-    its ``scale`` in pixels per cell): red, the more opaque the denser.
+    """The heat map of :func:`slamq.verdict.exhibits.violation_density` over the picture of
+    the map (its crop ``offset`` and ``shape`` in cells, and its ``scale`` in pixels per
+    cell), as indices into :data:`SCAN_LAYER_COLOURS`: 0 where no beam crossed a wall, else
+    1 to 8, the denser the higher (a palette PNG, as the other layers).
 
     Examples
     --------
-    >>> d = np.zeros((4, 4), np.float32); d[1, 2] = 1.0
-    >>> img = scan_layer(d, offset=(1, 1), shape=(2, 3), scale=2)
-    >>> img.shape, img[0, 2].tolist(), img[0, 0, 3]
-    ((4, 6, 4), [220, 0, 0, 255], np.uint8(0))
+    >>> d = np.zeros((4, 4), np.float32); d[1, 2] = 1.0; d[2, 1] = 0.1
+    >>> scan_layer(d, offset=(1, 1), shape=(2, 3), scale=1).tolist()
+    [[0, 8, 0], [1, 0, 0]]
     """
     r0, c0 = offset
     rows, cols = shape
     part = np.zeros((rows, cols), np.float32)
     crop = density[r0:r0 + rows, c0:c0 + cols]
     part[:crop.shape[0], :crop.shape[1]] = crop
-    big = np.repeat(np.repeat(part, scale, axis=0), scale, axis=1)
-    img = np.zeros(big.shape + (4,), np.uint8)
-    img[..., 0] = 220
-    img[..., 3] = np.where(big > 0, 60 + 195 * big, 0).astype(np.uint8)
-    return img
+    index = np.where(part > 0, 1 + np.minimum(7, (part * 8).astype(np.int64)), 0)
+    return np.repeat(np.repeat(index.astype(np.uint8), scale, axis=0), scale, axis=1)
 
 
 def _missing_layer(missing: list[dict], view: tuple[int, int, int, int]

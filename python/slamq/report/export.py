@@ -28,8 +28,8 @@ def write_tables(summary: pd.DataFrame, out: Path) -> tuple[Path, Path]:
     >>> print(md.read_text().splitlines()[2])
     | office | gmapping | 3 | – | – | 12 ± 2 | – |
     """
-    # the ground-truth columns only when some map had a ground truth
-    metrics = [m for m in METRICS if not m.key.startswith("gt_")
+    # the ground-truth map's and the relations' columns only when some map had them
+    metrics = [m for m in METRICS if not m.key.startswith(("gt_", "rel_"))
                or int(pd.to_numeric(summary.get(f"{m.key}_n", pd.Series(dtype=float)),
                                     errors="coerce").fillna(0).sum()) > 0]
     heads = [m.heading for m in metrics]

@@ -7,7 +7,8 @@
   ``.jsonl``, ``.parquet``) and the ``slamq eval`` writers.
 - :mod:`slamq.results.store`: :class:`ResultsFile`, the resumable batch writer (journal,
   lock, compaction, key digests).
-- :mod:`slamq.results.summary`: :func:`summarize`, mean and std per (algorithm, sequence).
+- :mod:`slamq.results.summary`: :func:`summarize`, mean and std per (algorithm, sequence)
+  (:func:`summary_rows`: the same as plain rows, without pandas).
 - :mod:`slamq.results.table`: the terminal table of ``slamq eval``.
 """
 
@@ -20,7 +21,7 @@ from slamq.lazy import exports
 if TYPE_CHECKING:
     from slamq.results.formats import read_records, read_results, write_csv, write_json
     from slamq.results.store import ResultsFile
-    from slamq.results.summary import summarize, summary_table
+    from slamq.results.summary import summarize, summary_rows, summary_table
 
 #: Public names, imported on first use: name -> module.
 _WHERE = {
@@ -28,6 +29,7 @@ _WHERE = {
     "read_records": "slamq.results.formats",
     "read_results": "slamq.results.formats",
     "summarize": "slamq.results.summary",
+    "summary_rows": "slamq.results.summary",
     "summary_table": "slamq.results.summary",
     "write_csv": "slamq.results.formats",
     "write_json": "slamq.results.formats",
@@ -40,6 +42,7 @@ __all__ = [
     "read_records",
     "read_results",
     "summarize",
+    "summary_rows",
     "summary_table",
     "write_csv",
     "write_json",

@@ -19,13 +19,15 @@ import json
 import math
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
 from slamq.columns import COLUMNS, group_names, record_columns
 from slamq.errors import MapError, ParamError, SlamqError
-from slamq.models import MapQuality
 from slamq.results.columns import KEY, json_value
-from slamq.sources.files import PathLike
+
+if TYPE_CHECKING:  # annotations only: reading a results file needs neither (nor numpy)
+    from slamq.models import MapQuality
+    from slamq.sources.files import PathLike
 
 __all__ = [
     "dumps_record",
@@ -149,6 +151,45 @@ def parquet_rows(path: Path, columns: list[str], batch: int = 1024) -> Iterator[
         raise MapError(f"{path}: not a readable Parquet file: {exc}") from exc
 
 
+def _jsonl_records(path: Path) -> list[dict[str, Any]]:
+    """The current records of a JSON Lines results file, without Arrow: what
+    ``_results_table(path).to_pylist()`` gives for the columns of
+    :data:`slamq.columns.COLUMNS` (each record has every column, typed as the table says;
+    the last record of each key wins, in file order), other columns as the file has them."""
+    if not path.exists():
+        raise MapError(f"{path}: no such results file")
+    rows = list(iter_jsonl(path))
+    cols = _ordered_columns(rows)
+    typed = []
+    for name in cols:
+        convert = _PLAIN_TYPES.get(_dtype(name) or "")
+        values = [json_value(r.get(name)) for r in rows]
+        if convert is not None:
+            try:
+                values = [None if v is None else convert(v) for v in values]
+            except (TypeError, ValueError, OverflowError) as exc:
+                raise MapError(f"{path}: not a slamq results file: column {name!r}: "
+                               f"{' '.join(str(exc).split())[:120]}") from None
+        typed.append(values)
+    records = [dict(zip(cols, values, strict=True)) for values in zip(*typed, strict=True)]
+    if not records:
+        return []
+    last: dict[tuple[Any, ...], int] = {}
+    for i, rec in enumerate(records):
+        last[tuple(None if rec[k] is None else str(rec[k]) for k in KEY)] = i
+    return [records[i] for i in sorted(last.values())]
+
+
+def _ints(value: Any) -> list[int | None]:
+    if not isinstance(value, list):
+        raise TypeError(f"expected a list of integers, got {type(value).__name__}")
+    return [None if v is None else int(v) for v in value]
+
+
+#: How a record's value of each column type is converted (as :func:`_arrow_column` does).
+_PLAIN_TYPES: dict[str, Any] = {"str": str, "int": int, "float": float, "ints": _ints}
+
+
 def _concat(tables: list[Any]) -> Any:
     import pyarrow as pa
 
@@ -206,8 +247,11 @@ def read_records(path: PathLike) -> list[dict[str, Any]]:
     [{'corners': 3, 'proportion': nan}]
     """
     path = Path(path)
-    if _readable_format(path) == "plain":
+    fmt = _readable_format(path)
+    if fmt == "plain":
         return _read_plain(path)
+    if fmt == "jsonl":
+        return _jsonl_records(path)
     return _results_table(path).to_pylist()
 
 

@@ -49,7 +49,8 @@ __all__ = [
 ]
 
 #: Besides the key, what resuming reads back from a results file.
-_RESUME_COLUMNS = ("hash", "config", "trajectory", "groundtruth", "gt_map", "error")
+_RESUME_COLUMNS = ("hash", "config", "trajectory", "groundtruth", "gt_map", "relations",
+                   "error")
 
 
 def _key(rec: dict[str, Any]) -> tuple[str, str, str, str]:
@@ -341,7 +342,7 @@ class ResultsFile:
     def done(self) -> Iterator[tuple[tuple[str, str, str, str], dict[str, Any]]]:
         """``(key, record)`` of every stored run (its last row), read from the file again
         as it is iterated; the record holds the key columns and ``hash, config,
-        trajectory, groundtruth, gt_map, error``."""
+        trajectory, groundtruth, gt_map, relations, error``."""
         rows = itertools.islice(self._stored_records(KEY + _RESUME_COLUMNS), self._count)
         for rec, last in zip(rows, self._last):
             if last:

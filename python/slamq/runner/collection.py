@@ -4,7 +4,8 @@ Takes a run whose program has ended (its :class:`~slamq.runner.planning.RunSpec`
 ``out/`` folder as the program left it); finds the files the algorithm's ``outputs``
 name (:func:`output_files`, glob patterns under ``out/``), turns each into what slamq
 scores (a map in its own format, or as a map_server ``map.yaml``;
-``snapshots/map_NNNN.yaml``; the trajectory as ``trajectory.tum``) and gives the run's
+``snapshots/map_NNNN.yaml``; the trajectory as ``trajectory.tum``, in time order when the
+sequence says ``unsorted: sort``) and gives the run's
 outcome (:func:`collect`): ``ok``, ``no_output`` (a configured output missing or
 unreadable) or ``degenerate`` (no occupied cell, or fewer than ``min_poses`` poses), with
 the collected files.
@@ -77,25 +78,32 @@ def collect(spec: RunSpec, config: RunConfig) -> tuple[str, str, dict[str, Any]]
         found = output_files(out, algo.trajectory.path)
         if not found:
             return "no_output", f"no trajectory matching {algo.trajectory.path}", files
+        unsorted = spec.sequence.unsorted
         try:
             if algo.trajectory.format == "mrpt":
                 from slamq.sources.mrpt import read_mrpt_path
 
-                traj = read_mrpt_path(found[-1])
+                traj = read_mrpt_path(found[-1], unsorted=unsorted)
             else:
                 from slamq.sources.trajectories import load_trajectory
 
                 fmt = None if algo.trajectory.format == "auto" else algo.trajectory.format
-                traj = load_trajectory(found[-1], format=fmt, topic=algo.trajectory.topic)
+                traj = load_trajectory(found[-1], format=fmt, topic=algo.trajectory.topic,
+                                       unsorted=unsorted)
             if algo.trajectory.times is not None:
                 from slamq.sources.mrpt import apply_step_times
 
                 times = Path(render(algo.trajectory.times, run_values(spec, 0, config),
                                     f"algorithms.{algo.name}.outputs.trajectory.times"))
-                traj = apply_step_times(traj, times if times.is_absolute() else out / times)
+                traj = apply_step_times(traj, times if times.is_absolute() else out / times,
+                                        unsorted=unsorted)
             traj.write_tum(folder / "trajectory.tum")
         except (SlamqError, OSError) as exc:
-            return "no_output", f"trajectory unreadable: {exc}", files
+            reason = f"trajectory unreadable: {exc}"
+            if "non-monotonic" in str(exc):
+                reason += (f" [sequences.{spec.sequence.name}.unsorted: sort reads it in "
+                           "time order]")
+            return "no_output", reason, files
         files["trajectory"] = str(folder / "trajectory.tum")
         if len(traj) < config.min_poses:
             return "degenerate", f"{len(traj)} poses (< {config.min_poses})", files

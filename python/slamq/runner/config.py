@@ -15,6 +15,7 @@
     sequences:
       loop: {input: data/loop.rawlog, groundtruth: gt.txt}
       gen: {synth: {worlds: 20, noise: [low, high], seeds: [0, 1, 2]}}   # generated
+      csail: {carmen: data/csail.clf, relations: data/csail.relations}   # converted
     algorithms:
       rbpf:
         command: [rbpf-slam, "{config}", "{input}"]   # list: no shell; a string: sh -c
@@ -32,7 +33,16 @@ Placeholders in commands, overrides and environment values: ``{sequence} {input}
 {iteration} {seed} {config} {slot} {ros_domain_id} {ros_master_port} {param.NAME}``;
 other braces are left alone. ``{out}`` is ``<run folder>/out``, the command's working
 folder. A ``synth:`` sequence is a recipe for generated sequences with exact ground truth
-(:mod:`slamq.synth.benchmark`). A ROS algorithm gives ``recipe:`` (a list of steps)
+(:mod:`slamq.synth.benchmark`); a ``carmen:`` or ``bag:`` sequence is a real robot's log,
+written as an MRPT rawlog with its own timestamps before the runs
+(:mod:`slamq.runner.recorded`).
+
+A sequence's ground truth: ``groundtruth`` (a trajectory: ``ate_*`` columns),
+``groundtruth_map`` (``gt_*``) and ``relations`` (the relations of Kümmerle et al. 2009:
+``rel_*``, docs/spec.md 6a). ``unsorted: error | sort | last`` says what reading a run's
+trajectory does when its timestamps go backwards (as the Intel log's do): refuse it (the
+run ends ``no_output``), sort the poses by time, or keep those after the last jump back.
+A ROS algorithm gives ``recipe:`` (a list of steps)
 instead of ``command:``; see :mod:`slamq.runner.runner`.
 """
 
@@ -46,6 +56,9 @@ from pathlib import Path
 from typing import Any
 
 from slamq.errors import ParamError
+from slamq.params import SETTINGS
+from slamq.runner.recorded import KINDS as RECORDED_KINDS
+from slamq.runner.recorded import Recorded, parse_recorded
 from slamq.synth.benchmark import Generated, expand
 
 __all__ = ["RunConfig", "Algorithm", "SequenceSpec", "Output", "Step", "load_config", "render"]
@@ -153,6 +166,14 @@ class SequenceSpec:
     #: A generated sequence's recipe (``synth:``; :mod:`slamq.synth.benchmark`): its files
     #: are made before the runs that read them.
     generated: Generated | None = None
+    #: The relations ground truth (Kümmerle et al. 2009; ``rel_*`` columns).
+    relations: Path | None = None
+    #: What reading a run's trajectory does when its timestamps go backwards: ``error``,
+    #: ``sort`` or ``last`` (``unsorted`` of :func:`slamq.load_trajectory`).
+    unsorted: str = "error"
+    #: A real robot's log converted before the runs (``carmen:`` / ``bag:``;
+    #: :mod:`slamq.runner.recorded`): ``input`` is its rawlog.
+    recorded: Recorded | None = None
 
 
 @dataclass(frozen=True)
@@ -361,6 +382,60 @@ def _algorithm(name: str, doc: Any, base: Path, source: str) -> Algorithm:
     )
 
 
+_TRUTH_KEYS = ("groundtruth", "groundtruth_map", "relations", "unsorted")
+
+
+def _existing(base: Path, value: Any, where: str, what: str) -> Path:
+    path = _path(base, value, where)
+    if not path.exists():
+        raise ParamError(f"{where}: {path}: no such {what}")
+    return path
+
+
+def _sequence(name: str, s: Any, base: Path, output: Path, source: str
+              ) -> list[SequenceSpec]:
+    """The sequences of one ``sequences:`` entry (a generated recipe gives several)."""
+    if isinstance(s, str):
+        s = {"input": s}
+    w = f"{source}: sequences.{name}"
+    if isinstance(s, dict) and "synth" in s:
+        if set(s) != {"synth"}:
+            raise ParamError(f"{w}: a generated sequence has only the key synth")
+        return [SequenceSpec(g.name, g.input, g.groundtruth, g.groundtruth_map, g)
+                for g in expand(name, s["synth"], output, base, f"{w}.synth")]
+    kinds = [k for k in ("input", *RECORDED_KINDS) if isinstance(s, dict) and k in s]
+    if len(kinds) != 1:
+        what = " and ".join(kinds) if kinds else "none"
+        raise ParamError(f"{w} needs exactly one of input, carmen, bag (or a synth recipe); "
+                         f"found {what}")
+    kind = kinds[0]
+    known = ("input",) if kind == "input" else RECORDED_KINDS[kind]
+    refuse_unknown(s, (*known, *_TRUTH_KEYS), w)
+    unsorted = s.get("unsorted", "error")
+    if unsorted not in SETTINGS.unsorted.choices:
+        raise ParamError(f"{w}.unsorted must be one of {', '.join(SETTINGS.unsorted.choices)},"
+                         f" got {unsorted!r}")
+    truth = {
+        "groundtruth": _path(base, s["groundtruth"], f"{w}.groundtruth")
+        if s.get("groundtruth") else None,
+        "groundtruth_map": _path(base, s["groundtruth_map"], f"{w}.groundtruth_map")
+        if s.get("groundtruth_map") else None,
+        "relations": _existing(base, s["relations"], f"{w}.relations", "relations file")
+        if s.get("relations") else None,
+        "unsorted": unsorted,
+    }
+    if kind == "input":
+        return [SequenceSpec(name, _path(base, s["input"], f"{w}.input"), **truth)]
+    log = _existing(base, s[kind], f"{w}.{kind}",
+                    "CARMEN log" if kind == "carmen" else "bag")
+    if isinstance(s.get("motion_model"), dict):
+        from slamq.synth.writers.rawlog import MOTION_MODEL
+
+        refuse_unknown(s["motion_model"], MOTION_MODEL, f"{w}.motion_model")
+    rec = parse_recorded(name, s, kind, log, output, w)
+    return [SequenceSpec(name, rec.input, recorded=rec, **truth)]
+
+
 def load_config(config: Any) -> RunConfig:
     """Read a runner configuration from a YAML file, a dict or a :class:`RunConfig`.
 
@@ -412,27 +487,8 @@ def load_config(config: Any) -> RunConfig:
     if not isinstance(algos, dict) or not algos:
         raise ParamError(f"{source}: algorithms must be a non-empty mapping")
     output = _path(base, doc.get("output", "slamq-runs"), f"{source}: output")
-    sequences = []
-    for name, s in seqs.items():
-        if isinstance(s, str):
-            s = {"input": s}
-        w = f"{source}: sequences.{name}"
-        if isinstance(s, dict) and "synth" in s:
-            if set(s) != {"synth"}:
-                raise ParamError(f"{w}: a generated sequence has only the key synth")
-            sequences.extend(SequenceSpec(g.name, g.input, g.groundtruth, g.groundtruth_map, g)
-                             for g in expand(str(name), s["synth"], output, base,
-                                             f"{w}.synth"))
-            continue
-        if not isinstance(s, dict) or "input" not in s:
-            raise ParamError(f"{w} needs an input (or a synth recipe)")
-        refuse_unknown(s, ("input", "groundtruth", "groundtruth_map"), w)
-        sequences.append(SequenceSpec(
-            str(name), _path(base, s["input"], f"{w}.input"),
-            _path(base, s["groundtruth"], f"{w}.groundtruth") if s.get("groundtruth") else None,
-            _path(base, s["groundtruth_map"], f"{w}.groundtruth_map")
-            if s.get("groundtruth_map") else None,
-        ))
+    sequences = [seq for name, s in seqs.items()
+                 for seq in _sequence(str(name), s, base, output, source)]
     if len({s.name for s in sequences}) != len(sequences):
         raise ParamError(f"{source}: two sequences have the same name")
     grace = doc.get("grace", [5.0, 5.0])

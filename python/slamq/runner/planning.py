@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from slamq.errors import ParamError
-from slamq.runner.config import Algorithm, RunConfig, SequenceSpec
+from slamq.runner.config import Algorithm, RunConfig, SequenceSpec, render
 from slamq.runner.rendering import render_command, render_config_file
 
 __all__ = ["RunSpec", "input_hash", "pending", "plan", "portable", "prepare_inputs", "run_key",
@@ -81,11 +81,35 @@ def slug(text: str) -> str:
 
 
 def prepare_inputs(config: RunConfig) -> None:
-    """Make the inputs a configuration generates (``synth:`` sequences) that are not made
-    yet, once: under an exclusive lock on ``<output>/sequences/.lock``, so that two shards
-    starting together do not both write one sequence's folder; the second finds it made."""
+    """Make the inputs a configuration generates or converts that are not made yet, once:
+    ``synth:`` sequences (:mod:`slamq.synth.benchmark`) and ``carmen:`` / ``bag:``
+    sequences with the sidecars their runs' ``times:`` name (:mod:`slamq.runner.recorded`);
+    under an exclusive lock on ``<output>/sequences/.lock``, so that two shards starting
+    together do not both write one sequence's folder; the second finds it made. Every
+    sequence's relations file is read first, so that a malformed one fails before any run.
+
+    Raises
+    ------
+    slamq.ParamError
+        A ``times:`` file in a converted sequence's folder that the conversion does not
+        write.
+    slamq.SequenceError, slamq.BagError, slamq.TrajectoryError
+        A log that cannot be converted, a relations file that cannot be read (the messages
+        name the file, and the line when there is one).
+    """
+    from slamq.sources.relations import read_relations
+
+    for s in config.sequences:
+        if s.relations is not None:
+            read_relations(s.relations)
     todo = [s.generated for s in config.sequences if s.generated is not None]
-    if not todo or all(g.complete() for g in todo):
+    recorded = [(s.recorded, _sidecars(config, s)) for s in config.sequences
+                if s.recorded is not None]
+
+    def done(rec: Any, sidecars: dict[Path, tuple[float, float]]) -> bool:
+        return rec.complete() and all(p.is_file() for p in sidecars)
+
+    if all(g.complete() for g in todo) and all(done(r, n) for r, n in recorded):
         return
     import fcntl
 
@@ -96,9 +120,42 @@ def prepare_inputs(config: RunConfig) -> None:
     with open(lock, "a") as fh:
         fcntl.flock(fh, fcntl.LOCK_EX)
         try:
-            generate_missing(todo, parallel=config.parallel)
+            if todo:
+                generate_missing(todo, parallel=config.parallel)
+            for rec, sidecars in recorded:
+                if not rec.complete():
+                    rec.convert()
+                    _HASHES.pop(str(rec.input), None)
+                for path, (metres, degrees) in sidecars.items():
+                    if not path.is_file():
+                        rec.write_nodes(path, metres, degrees)
         finally:
             fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def _sidecars(config: RunConfig, seq: SequenceSpec) -> dict[Path, tuple[float, float]]:
+    """The node sidecars of a converted sequence that its runs' ``times:`` name, with
+    their node spacing (metres, degrees); a ``times:`` file in its folder that the
+    conversion does not write is refused."""
+    assert seq.recorded is not None
+    out: dict[Path, tuple[float, float]] = {}
+    for algo in config.algorithms:
+        if algo.trajectory is None or algo.trajectory.times is None:
+            continue
+        for variant, params in algo.variants():
+            spec = RunSpec(algo, variant, params, seq, 1, config.output / "_")
+            where = f"algorithms.{algo.name}.outputs.trajectory.times"
+            path = Path(render(algo.trajectory.times, run_values(spec, 0, config), where))
+            what = seq.recorded.sidecar(path)
+            if what is False:
+                raise ParamError(
+                    f"{config.source}: {where}: {path.name} is not a file that sequence "
+                    f"{seq.name} (a {seq.recorded.kind}: log) is converted with; it writes "
+                    f"{seq.input.name}.steps.txt, .nodes.txt, .nodes-<M>m.txt and "
+                    ".nodes-<M>m-<D>deg.txt")
+            if isinstance(what, tuple):
+                out[path] = what
+    return out
 
 
 def plan(config: RunConfig) -> list[RunSpec]:
@@ -133,9 +190,12 @@ def run_values(spec: RunSpec, slot: int, config: RunConfig) -> dict[str, Any]:
 
 def _input_key(seq: SequenceSpec) -> str:
     """What a run key holds of its input: the file's hash; for a generated sequence not made
-    yet (a dry run), its recipe's."""
+    yet or a log not converted yet (a dry run), its recipe's."""
     if seq.generated is not None and not seq.generated.complete():
         blob = json.dumps(seq.generated.recipe, sort_keys=True).encode()
+        return "recipe:" + hashlib.sha1(blob, usedforsecurity=False).hexdigest()
+    if seq.recorded is not None and not seq.input.exists():
+        blob = json.dumps(seq.recorded.recipe(), sort_keys=True).encode()
         return "recipe:" + hashlib.sha1(blob, usedforsecurity=False).hexdigest()
     return input_hash(seq.input)
 

@@ -3,7 +3,8 @@
 Takes the rows of the finished runs (what :func:`slamq.runner.execution.run_row` gives:
 outcome, collected ``map`` and ``trajectory``, folder) and the configuration; gives, in
 the output folder, ``results.jsonl`` (one record per map from
-:func:`slamq.batch.evaluate_many`, with the sequence's ground truth), ``runs.csv``,
+:func:`slamq.batch.evaluate_many`, with the sequence's ground truth: ``ate_*``, ``gt_*``
+and, with a ``relations:`` file, ``rel_*``), ``runs.csv``,
 ``scores.csv`` and ``summary.csv`` (:mod:`slamq.runner.resources`: mean and standard
 deviation per algorithm[variant] and sequence, failure rate, time and memory), a
 ``building.gif`` per run from its snapshots, and the HTML report
@@ -30,10 +31,11 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
     """Score the runs with the batch engine, summarise, write GIFs and the report.
 
     What did not change since the last call is skipped (:mod:`slamq.runner.cache`): a run
-    is scored again only when its map, trajectory, ground truth, place, the ``evaluate``
-    settings or slamq's version changed (or its record is missing or failed); a GIF when
-    its snapshots changed; the report when any of its inputs did. ``stages`` in the
-    result says what was done and skipped, and why (also ``OUTPUT/stages.jsonl``).
+    is scored again only when its map, trajectory, ground truth (trajectory, map or
+    relations file), place, the ``evaluate`` settings or slamq's version changed (or its
+    record is missing or failed); a GIF when its snapshots changed; the report when any of
+    its inputs did. ``stages`` in the result says what was done and skipped, and why (also
+    ``OUTPUT/stages.jsonl``).
     """
     import pandas as pd
 
@@ -52,6 +54,7 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
                         trajectory=r.get("trajectory"),
                         groundtruth=seq.groundtruth if seq else None,
                         gt_map=seq.groundtruth_map if seq else None,
+                        relations=seq.relations if seq else None,
                         scans=seq.input if seq else None))
     out = config.output
     results_path = out / "results.jsonl"
@@ -96,6 +99,7 @@ def _why(reasons: dict[str, list[str]], limit: int = 3) -> str:
 _INPUT_NAMES = {"new": "not done before", "record": "no stored record (or it failed)",
                 "map": "map changed", "trajectory": "trajectory changed",
                 "groundtruth": "ground truth changed", "gt_map": "ground-truth map changed",
+                "relations": "relations file changed",
                 "settings": "evaluate settings changed", "version": "slamq version changed",
                 "place": "other paths or names", "snapshots": "snapshots changed",
                 "gif": "GIF missing", "size": "other frame size"}
@@ -139,6 +143,9 @@ def _score_changed(config: RunConfig, runs: list[Any], results_path: Path, stamp
                "version": __version__,
                "place": stamp([str(x) for x in (*run.key, run.trajectory, run.groundtruth,
                                                  run.gt_map)])}
+        if run.relations is not None:  # absent before relations existed: no rescoring
+            new["relations"] = once("file", run.relations)
+            new["place"] = stamp([new["place"], str(run.relations)])
         run_stamps[item] = new
         why = changes(stamps.get("score", item), new)
         if not why and item not in stored:

@@ -29,6 +29,7 @@ import numpy as np
 
 from slamq.errors import MapWarning, TrajectoryError
 from slamq.models import OccupancyMap, Trajectory
+from slamq.models.trajectory import order_rows
 from slamq.sources.files import PathLike
 from slamq.sources.formats.mrpt_grid import limits_path, read_limits, write_yaml
 from slamq.sources.formats.mrpt_grid import read as read_grid
@@ -82,7 +83,7 @@ def load_mrpt_grid(png: PathLike, limits: PathLike | None = None) -> OccupancyMa
     return grid
 
 
-def read_mrpt_path(path: PathLike) -> Trajectory:
+def read_mrpt_path(path: PathLike, *, unsorted: str = "error") -> Trajectory:
     """Read an MRPT pose log as a 2D trajectory.
 
     Rows are ``index x y z yaw pitch roll t`` (``rbpf-slam``) or ``index x y yaw``
@@ -135,14 +136,15 @@ def read_mrpt_path(path: PathLike) -> Trajectory:
     a = np.asarray(rows).reshape(-1, 8)
     if width == 8:
         a = a[a[:, 7] != 0.0]  # MRPT's invalid timestamp
-    return _traj(a, p)
+    return _traj(a, p, unsorted)
 
 
-def _traj(a: np.ndarray, p: Path) -> Trajectory:
+def _traj(a: np.ndarray, p: Path, unsorted: str = "error") -> Trajectory:
     if not len(a):
         raise TrajectoryError(f"{p}: MRPT pose log has no timestamped poses")
     if not np.all(np.isfinite(a[:, [1, 2, 4, 7]])):
         raise TrajectoryError(f"{p}: MRPT pose log holds non-finite values")
+    a = a[order_rows(a[:, 7], unsorted)]
     return Trajectory.from_xy_yaw(a[:, 7], a[:, 1], a[:, 2], a[:, 4], source=str(p))
 
 
@@ -190,16 +192,20 @@ def _graph(lines: list[str], p: Path) -> Trajectory:
     return _traj(a, p)
 
 
-def apply_step_times(traj: Trajectory, times: PathLike) -> Trajectory:
+def apply_step_times(traj: Trajectory, times: PathLike, *, unsorted: str = "error"
+                     ) -> Trajectory:
     """Give an index-timed trajectory (``icp-slam``'s pose log, a ``graphslam-engine``
     graph) clock times: pose ``k`` gets the ``k``-th number of ``times`` (one per line,
     ``#``/``%`` comments skipped), e.g. the ``<rawlog>.steps.txt`` / ``.nodes.txt`` files
-    that :func:`slamq.synth.writers.write_rawlog`'s sequences come with.
+    that :func:`slamq.synth.writers.write_rawlog`'s sequences come with. Times that go
+    backwards (a log whose stamps do) are refused, sorted or cut by ``unsorted``
+    (``"error"``, ``"sort"``, ``"last"``; :func:`slamq.models.trajectory.order_rows`).
 
     Raises
     ------
     slamq.TrajectoryError
-        A time is not an integer index, or an index past the end of the file.
+        A time is not an integer index, or an index past the end of the file; times that
+        go backwards with ``unsorted="error"``.
 
     Examples
     --------
@@ -230,4 +236,9 @@ def apply_step_times(traj: Trajectory, times: PathLike) -> Trajectory:
     if len(idx) and (not np.allclose(idx, k) or k.min() < 0 or k.max() >= len(t)):
         raise TrajectoryError(f"{traj.source}: poses indexed {int(idx.min())}..{idx.max():g} "
                               f"do not fit the {len(t)} step times of {p}")
-    return dataclasses.replace(traj, timestamps=t[k])
+    t = t[k]
+    keep = order_rows(t, unsorted)
+    if keep.shape[0] != t.shape[0] or (keep != np.arange(t.shape[0])).any():
+        return dataclasses.replace(traj, timestamps=t[keep], positions=traj.positions[keep],
+                                   orientations=traj.orientations[keep])
+    return dataclasses.replace(traj, timestamps=t)

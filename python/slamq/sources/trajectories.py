@@ -7,6 +7,7 @@ million TUM lines), else by :func:`numpy.loadtxt` (several times slower, same nu
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import stat
 from collections.abc import Mapping
@@ -17,11 +18,11 @@ import numpy as np
 
 from slamq import native
 from slamq.errors import TrajectoryError
-from slamq.models.trajectory import Trajectory, yaw_to_quat
+from slamq.models.trajectory import Trajectory, order_rows, yaw_to_quat
 from slamq.params import SETTINGS
 from slamq.sources.files import PathLike, is_bag
 
-__all__ = ["load_trajectory", "parse_columns", "FORMATS", "ROLES"]
+__all__ = ["load_trajectory", "order_rows", "parse_columns", "FORMATS", "ROLES"]
 
 #: Formats :func:`load_trajectory` reads (``None`` = guess from the name and content).
 FORMATS = SETTINGS.trajectory_format.choices
@@ -161,22 +162,6 @@ def _check_cols(arr: np.ndarray, path: Path, want: int, fmt: str, at_least: bool
 
 
 # ---------------------------------------------------------------------- row order
-def _fix_order(
-    t: np.ndarray, rows: np.ndarray, unsorted: str, path: Path
-) -> np.ndarray:
-    """Row indices to keep according to the ``unsorted`` policy."""
-    if unsorted == "error" or t.shape[0] < 2:
-        return rows
-    back = np.flatnonzero(np.diff(t) < 0)
-    if back.size == 0:
-        return rows
-    if unsorted == "last":
-        return rows[back[-1] + 1:]
-    if unsorted == "sort":
-        return rows[np.argsort(t, kind="stable")]
-    raise TrajectoryError(f"unsorted must be 'error', 'last' or 'sort', not {unsorted!r}")
-
-
 def _build(
     path: Path,
     t: np.ndarray,
@@ -185,7 +170,7 @@ def _build(
     unsorted: str,
     meta: dict | None = None,
 ) -> Trajectory:
-    keep = _fix_order(t, np.arange(t.shape[0]), unsorted, path)
+    keep = order_rows(t, unsorted)
     if keep.shape[0] != t.shape[0] or not np.array_equal(keep, np.arange(t.shape[0])):
         t, pos = t[keep], pos[keep]
         quat = None if quat is None else quat[keep]
@@ -462,6 +447,31 @@ def _read_pbstream(path: Path, topic: str | None) -> Trajectory:
     return read_pbstream_trajectory(path, int(topic))
 
 
+def _mrpt_pose_log(path: Path, rows: int = 50) -> bool:
+    """Whether an 8-column file is an MRPT pose log (``rbpf-slam``'s ``index x y z yaw pitch
+    roll t``) rather than TUM (``t x y z qx qy qz qw``): its first column counts the rows
+    from 0 and its last holds a time, not a quaternion's w (some ``|value| > 1.5``)."""
+    first: list[float] = []
+    last: list[float] = []
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            for line in f:
+                s = line.strip()
+                if not s or s[0] in "#%":
+                    continue
+                cells = s.split()
+                if len(cells) != 8:
+                    return False
+                first.append(float(cells[0]))
+                last.append(float(cells[7]))
+                if len(first) >= rows:
+                    break
+    except (OSError, ValueError):
+        return False
+    return bool(first) and first == [float(i) for i in range(len(first))] and \
+        max(abs(v) for v in last) > 1.5
+
+
 def _guess_format(path: Path) -> str:
     if is_bag(path):
         return "bag"
@@ -481,7 +491,7 @@ def _guess_format(path: Path) -> str:
     cells = _split(data, sep)
     if sep == "ws" and all(_is_number(c) for c in cells):
         if len(cells) == 8:
-            return "tum"
+            return "mrpt" if _mrpt_pose_log(path) else "tum"
         if len(cells) == 12:
             return "kitti"
     if not all(_is_number(c) for c in cells):
@@ -511,9 +521,13 @@ def load_trajectory(
         A TUM, KITTI, EuRoC or CSV/whitespace table file, a ROS1/ROS2 bag
         (``.bag``, ``.mcap``, ``.db3`` or a folder with ``metadata.yaml``), or a
         Cartographer ``.pbstream`` (its trajectory node poses).
-    format : {"tum", "kitti", "euroc", "csv", "bag", "pbstream"}, optional
+    format : {"tum", "kitti", "euroc", "csv", "mrpt", "bag", "pbstream"}, optional
         Guessed when omitted: bags and pbstreams by name; ``#timestamp`` headers are
-        EuRoC; a header line means CSV; 8 numbers a row TUM, 12 KITTI. ``columns`` implies
+        EuRoC; a header line means CSV; 8 numbers a row TUM, 12 KITTI, except an MRPT pose
+        log (``rbpf-slam``'s ``log_estimated_path.txt``: ``index x y z yaw pitch roll t``,
+        its first column counting the rows from 0 and its last a time), read by
+        :func:`slamq.sources.mrpt.read_mrpt_path` (also ``graphslam-engine``'s graphs and
+        ``icp-slam``'s index-timed logs with ``format="mrpt"``). ``columns`` implies
         ``"csv"``.
     columns : mapping or str, optional
         For tables: role -> column name or 0-based index, see :func:`read_table`.
@@ -575,6 +589,11 @@ def load_trajectory(
         return read_euroc(path, unsorted=unsorted)
     if format == "pbstream":
         return _read_pbstream(path, topic)
+    if format == "mrpt":
+        from slamq.sources.mrpt import read_mrpt_path
+
+        traj = read_mrpt_path(path, unsorted=unsorted)
+        return dataclasses.replace(traj, meta={**traj.meta, "format": "mrpt"})
     if format == "csv":
         return read_table(path, columns, unsorted=unsorted, by_index=by_index)
     raise TrajectoryError(f"{path}: columns= only applies to format 'csv'")

@@ -123,10 +123,10 @@ def _list(value: Any, where: str) -> list[Any]:
 
 
 def _worlds(doc: dict[str, Any], base: Path, where: str) -> list[dict[str, Any]]:
-    from slamq.synth.worldgen import KINDS
+    from slamq.synth.worldgen import DEFAULT_KINDS, KINDS
 
     worlds = doc.get("worlds", 1)
-    kinds = _list(doc.get("kinds", list(KINDS)), f"{where}.kinds")
+    kinds = _list(doc.get("kinds", list(DEFAULT_KINDS)), f"{where}.kinds")
     for k in kinds:
         if k not in KINDS:
             raise ParamError(f"{where}.kinds: unknown world kind {k!r} "

@@ -14,8 +14,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from slamq.models.quality import WALL_PERIODS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
-from slamq.results.summary import ANGLE_TOLERANCE_DEG, angle_spread, distinct_resolutions
+from slamq.results.summary import Orientation, distinct_resolutions, orientation
 
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "SCAN_FLOOR", "SCAN_SHARE",
@@ -46,6 +47,8 @@ _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
     ("ate_rmse", False, "gt_f1", True,
      "high: ranked by trajectory error against the ground truth"),
+    ("rel_trans_abs_mean", False, "rel_rot_abs_mean", False,
+     "high: ranked by the relations error (Kümmerle et al. 2009) against the ground truth"),
     ("gt_f1", True, "gt_chamfer", False,
      "high: ranked by agreement with the ground-truth map"),
     ("corners", False, None, False,
@@ -90,15 +93,45 @@ def _algorithms(summary: pd.DataFrame, sequence: str) -> pd.DataFrame:
 
 
 def _ground_truth_decides(block: pd.DataFrame) -> bool:
-    """At least two algorithms have an ATE, or a GT-map F1: the ground truth ranks them."""
-    return any(len(_means(block, k)) >= 2 for k, *_ in _BASES[:2])
+    """At least two algorithms have an ATE, a relations error or a GT-map F1: the ground
+    truth ranks them."""
+    return any(len(_means(block, k)) >= 2 for k, *_ in _BASES[:3])
+
+
+def _orientation(block: pd.DataFrame) -> Orientation:
+    """How the wall angles of ``block``'s algorithms compare (each modulo the period of its
+    walls' symmetry; irregular maps and maps of different classes are not compared):
+    :func:`slamq.results.summary.orientation`."""
+    return orientation([str(a) for a in block.index],
+                       block.get("wall_angle_mean", pd.Series(math.nan, index=block.index)),
+                       block.get("wall_symmetry"))
 
 
 def _differences(block: pd.DataFrame) -> tuple[bool, bool]:
-    """Whether the maps of ``block`` differ in resolution, and in orientation (wall angles
-    more than ``ANGLE_TOLERANCE_DEG`` apart modulo 90): then plain corners do not compare."""
+    """Whether the maps of ``block`` differ in resolution, and in orientation (two wall
+    angles of one symmetry class more than ``ANGLE_TOLERANCE_DEG``, 1 degree, apart modulo
+    its period, :func:`_orientation`): then plain corners do not compare."""
     return (len(distinct_resolutions(block.get("resolution_mean", []))) > 1,
-            angle_spread(block.get("wall_angle_mean", [])) > ANGLE_TOLERANCE_DEG)
+            _orientation(block).differ)
+
+
+def _turned_note(block: pd.DataFrame) -> str:
+    """``"; X is turned against the others (wall angle A, the others B-C modulo P)"``
+    when the orientation check singles out turned maps among ``block``'s, else ""."""
+    o = _orientation(block)
+    if not o.turned:
+        return ""
+    parts = []
+    for cls, items in o.angles.items():
+        mine = [(n, a) for n, a in items if n in o.turned]
+        rest = [a for n, a in items if n not in o.turned]
+        if not mine or not rest:
+            continue
+        shown = ", ".join(f"{n} at {a:.1f}" for n, a in mine)
+        parts.append(f"{shown} deg, the others at {min(rest):.1f} to {max(rest):.1f} deg "
+                     f"modulo {WALL_PERIODS[cls]:g}")
+    verb = "is" if len(o.turned) == 1 else "are"
+    return f"; {', '.join(o.turned)} {verb} turned against the others ({'; '.join(parts)})"
 
 
 def _corner_key(block: pd.DataFrame, names: list[str]) -> tuple[str | None, pd.Series]:
@@ -264,7 +297,8 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     if key is None and len(candidates) > 1:
         confidence += (f"; the {len(candidates)} maps they confirm equally differ in "
                        "resolution or orientation, so corners cannot compare them: their "
-                       "support orders them")
+                       "support orders them"
+                       + _turned_note(block.loc[[a for a in candidates if a in block.index]]))
     if key is not None and len(candidates) > 1:
         confidence += (f"; among the {len(candidates)} maps they confirm equally, {key} "
                        "decide")
@@ -375,7 +409,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
             key = "corners_canonical"
             warnings.append(f"the maps differ in {differ}: ranked by corners_canonical (each "
                             "map turned to its walls and resampled to one resolution) instead "
-                            "of corners")
+                            "of corners" + _turned_note(block))
         means = _means(block, key)
         if len(means) < 2 and not (key.startswith("corners") and len(means) == 1):
             continue
@@ -407,7 +441,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
             if key == "corners" and (res_differ or turned):
                 warnings.append("the maps differ in resolution or orientation: corners are "
                                 "not comparable (evaluate with canonical_resolution=0.07 "
-                                "to rank them by corners_canonical)")
+                                "to rank them by corners_canonical)" + _turned_note(block))
                 best, confidence = None, "none: the maps are not comparable"
         return {"sequence": str(sequence), "best": best, "ranking": ranking,
                 "basis": [key] + ([tie] if tie and len(ties) else []),
@@ -417,6 +451,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
 
 
 _BASIS_NAMES = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
+                "rel_trans_abs_mean": "relations error",
                 "agreement": "agreement with the other maps",
                 "scan_violation": "consistency with its own scans",
                 "corners_canonical": "canonical corners"}
@@ -455,8 +490,9 @@ def verdict_sentence(v: dict[str, Any]) -> str:
 
 
 def needs_evidence(summary: pd.DataFrame, sequence: str) -> bool:
-    """Whether a sequence is judged without ground truth (no two algorithms with an ATE or
-    a GT-map F1) and has at least two algorithms: then the maps' agreement decides.
+    """Whether a sequence is judged without ground truth (no two algorithms with an ATE, a
+    relations error or a GT-map F1) and has at least two algorithms: then the maps'
+    agreement decides.
 
     Examples
     --------
@@ -477,18 +513,19 @@ def rule_summary() -> str:
     Examples
     --------
     >>> print(rule_summary())  # doctest: +NORMALIZE_WHITESPACE
-    by ATE RMSE when the sequence has ground truth, else by GT F1 against its ground-truth
-    map; else by how far the other maps confirm each map (a map they cannot place, whose
-    support is under 90% of the best, that a defect detector flags, whose completeness is
-    under 80% of the highest, or whose own scans pass through its walls more than
-    max(10%, 2x the most consistent map's) is never named best; corners order the maps
-    confirmed equally on one grid; of two maps, or of maps that disagree, one is named only
-    when another is wrong on its own and its own scans confirm it); with figures alone, by
-    corners (no clear winner within 25%)
+    by ATE RMSE when the sequence has ground truth, else by relations error, else by GT F1
+    against its ground-truth map; else by how far the other maps confirm each map (a map
+    they cannot place, whose support is under 90% of the best, that a defect detector
+    flags, whose completeness is under 80% of the highest, or whose own scans pass through
+    its walls more than max(10%, 2x the most consistent map's) is never named best;
+    corners order the maps confirmed equally on one grid; of two maps, or of maps that
+    disagree, one is named only when another is wrong on its own and its own scans confirm
+    it); with figures alone, by corners (no clear winner within 25%)
     """
     return (
         f"by {basis_name(_BASES[0][0])} when the sequence has ground truth, else by "
-        f"{basis_name(_BASES[1][0])} against its ground-truth map; else by how far the other "
+        f"{basis_name(_BASES[1][0])}, else by {basis_name(_BASES[2][0])} against its "
+        "ground-truth map; else by how far the other "
         "maps confirm each map (a map they cannot place, whose support is under "
         f"{AGREEMENT_SHARE:.0%} of the best, that a defect detector flags, whose "
         f"completeness is under {COMPLETE_SHARE:.0%} of the highest, or whose own scans pass "

@@ -1,5 +1,5 @@
 //! Bindings of the three map metrics (rust/src/evaluate.rs): `evaluate`, `evaluate_many`,
-//! `otsu_table`, `default_params`, and the `RawQuality` they return.
+//! `otsu_table`, `wall_harmonics`, `default_params`, and the `RawQuality` they return.
 
 use super::grid;
 use super::runtime::compute;
@@ -84,6 +84,10 @@ pub(crate) struct RawQuality {
     corners: usize,
     /// Dominant wall angle, radians in (-pi/4, pi/4] (SPEC 3a; NaN when skipped).
     wall_angle: f64,
+    /// The wall-direction sums of SPEC 3a.2, `(re4, im4, re6, im6, weight)`: the fourth
+    /// and sixth harmonic of the gradient directions and the gradient weight, each term
+    /// rounded; `slamq.models.quality.wall_symmetry` classifies the map from them.
+    wall_harmonics: (i64, i64, i64, i64, i64),
     /// Corner count of the canonical map (SPEC 3a; None when skipped or too large).
     corners_canonical: Option<usize>,
     /// `count_u` for every swept `u` (SPEC 4).
@@ -104,6 +108,7 @@ impl PartialEq for RawQuality {
         (self.known, self.occupied, self.sum_darkness, self.corners)
             == (o.known, o.occupied, o.sum_darkness, o.corners)
             && self.wall_angle.to_bits() == o.wall_angle.to_bits()
+            && self.wall_harmonics == o.wall_harmonics
             && self.corners_canonical == o.corners_canonical
             && self.curve == o.curve
             && (self.known_levels, self.unknown_shade, self.known_box)
@@ -119,6 +124,7 @@ impl From<Quality> for RawQuality {
             sum_darkness: q.occupancy.sum_darkness,
             corners: q.corners,
             wall_angle: q.wall_angle,
+            wall_harmonics: q.wall_sums.to_tuple(),
             corners_canonical: q.corners_canonical,
             curve: q.curve,
             known_levels: q.known_levels,
@@ -257,4 +263,22 @@ pub(crate) fn otsu_table(
     let g = grid(&values, &unknown)?;
     let t = compute(py, 0, || crate::otsu::threshold_table(&g.histogram()))?;
     Ok(t.to_vec())
+}
+
+/// wall_harmonics(values, unknown, threads=0) -> (re4, im4, re6, im6, weight): the
+/// wall-direction sums of SPEC 3a.2 alone (`RawQuality.wall_harmonics` without the metrics),
+/// for the defect detectors' wall period.
+#[pyfunction]
+#[pyo3(signature = (values, unknown, threads=0))]
+pub(crate) fn wall_harmonics(
+    py: Python<'_>,
+    values: PyReadonlyArray2<'_, u8>,
+    unknown: PyReadonlyArray2<'_, bool>,
+    threads: usize,
+) -> PyResult<(i64, i64, i64, i64, i64)> {
+    let g = grid(&values, &unknown)?;
+    let sums = compute(py, threads, || {
+        crate::canonical::wall_sums_in(&g, crate::grid::known_bounds(&g))
+    })?;
+    Ok(sums.map_err(|e| memory_error(&e, None))?.to_tuple())
 }

@@ -64,6 +64,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(maps::evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(maps::evaluate_many, m)?)?;
     m.add_function(wrap_pyfunction!(maps::otsu_table, m)?)?;
+    m.add_function(wrap_pyfunction!(maps::wall_harmonics, m)?)?;
     m.add_function(wrap_pyfunction!(maps::default_params, m)?)?;
     m.add("WORK_BYTES_PER_CELL", crate::memory::WORK_BYTES_PER_CELL)?;
     m.add_class::<maps::RawQuality>()?;

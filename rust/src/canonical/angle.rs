@@ -78,19 +78,72 @@ pub(super) fn rint_f(x: f64) -> f64 {
     (x + MAGIC) - MAGIC
 }
 
-/// The `g**4 / |g|**3` terms of one cell's Sobel gradient, rounded half to even (SPEC 3a.2),
-/// as integer-valued floats: `(0, 0)` for a zero gradient. Branch-free, so that a row of
-/// them vectorises: a zero gradient divides its zero numerators by 1 instead of by 0.
+/// The sums of the wall-direction terms of SPEC 3a.2 over a box: the fourth harmonic
+/// (`g**4 / |g|**3`: the wall angle modulo 90 degrees), the sixth (`g**6 / |g|**5`: modulo
+/// 60 degrees) and the weight (`|g|`), each term rounded half to even and summed exactly.
+/// `slamq.models.quality.wall_symmetry` tells from them whether the walls are rectilinear,
+/// hexagonal or neither.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WallSums {
+    pub re4: i64,
+    pub im4: i64,
+    pub re6: i64,
+    pub im6: i64,
+    pub weight: i64,
+}
+
+impl std::ops::Add for WallSums {
+    type Output = WallSums;
+    fn add(self, o: WallSums) -> WallSums {
+        WallSums {
+            re4: self.re4 + o.re4,
+            im4: self.im4 + o.im4,
+            re6: self.re6 + o.re6,
+            im6: self.im6 + o.im6,
+            weight: self.weight + o.weight,
+        }
+    }
+}
+
+impl WallSums {
+    /// The wall angle modulo 90 degrees, radians in (-pi/4, pi/4]: `atan2(im4, re4) / 4`,
+    /// 0 when both sums are 0 (SPEC 3a.2; the canonical map is turned by it).
+    pub fn angle(&self) -> f64 {
+        if self.re4 == 0 && self.im4 == 0 {
+            return 0.0;
+        }
+        (self.im4 as f64).atan2(self.re4 as f64) / 4.0
+    }
+
+    /// The five sums in the order `(re4, im4, re6, im6, weight)`.
+    pub fn to_tuple(self) -> (i64, i64, i64, i64, i64) {
+        (self.re4, self.im4, self.re6, self.im6, self.weight)
+    }
+}
+
+/// The terms of one cell's Sobel gradient `g = x + i y` (SPEC 3a.2), rounded half to even,
+/// as integer-valued floats: `g**4 / |g|**3` (re, im), `g**6 / |g|**5` (re, im) and `|g|`;
+/// all 0 for a zero gradient. Branch-free, so that a row of them vectorises: a zero
+/// gradient divides its zero numerators by 1 instead of by 0.
 #[inline]
-fn angle_terms(x: f64, y: f64) -> (f64, f64) {
+fn angle_terms(x: f64, y: f64) -> [f64; 5] {
     let r2 = x * x + y * y;
     let a = x * x - y * y;
     let b = 2.0 * (x * y);
-    let w = if r2 > 0.0 { r2 * r2.sqrt() } else { 1.0 };
-    (rint_f((a * a - b * b) / w), rint_f((2.0 * (a * b)) / w))
+    let root = r2.sqrt();
+    let w = if r2 > 0.0 { r2 * root } else { 1.0 };
+    let v = if r2 > 0.0 { (r2 * root) * r2 } else { 1.0 };
+    let (p, q) = (a * a - b * b, 2.0 * (a * b));
+    [
+        rint_f(p / w),
+        rint_f(q / w),
+        rint_f((p * a - q * b) / v),
+        rint_f((p * b + q * a) / v),
+        rint_f(root),
+    ]
 }
 
-/// Cells per partial sum of the angle terms: each term is an integer below `|g| < 2^27`
+/// Cells per partial sum of the angle terms: each term is an integer of at most `|g| < 2^27`
 /// (`D < 2^24`, a Sobel derivative at most 4 of them), so a float sum of this many is
 /// exact (below 2^53) whatever the order.
 const TERMS_PER_SUM: usize = 1 << 20;
@@ -106,12 +159,12 @@ pub(super) struct SobelRows {
     gy: Vec<i32>,
 }
 
-/// The sums of the rounded angle terms (SPEC 3a.2) of one row of `D`, given its rows
+/// The sums of the rounded wall-direction terms (SPEC 3a.2) of one row of `D`, given its rows
 /// `[up, mid, down]` (reflect-101 already applied). The 3x3 Sobel derivatives are exact in
 /// `i32` (at most 4 * 255 * 256^2), so `gy` may be formed from the vertical differences.
 /// Inlined into its callers, so that in [`angle_task_avx2`] the integer loops are AVX2 too.
 #[inline(always)]
-pub(super) fn sobel_terms_row([up, mid, down]: [&[i32]; 3], s: &mut SobelRows) -> (i64, i64) {
+pub(super) fn sobel_terms_row([up, mid, down]: [&[i32]; 3], s: &mut SobelRows) -> WallSums {
     let w = mid.len();
     for v in [&mut s.col, &mut s.dv, &mut s.gx, &mut s.gy] {
         v.resize(w, 0);
@@ -143,23 +196,30 @@ pub(super) fn sobel_terms_row([up, mid, down]: [&[i32]; 3], s: &mut SobelRows) -
             *gy = dl + 2 * dm + dr;
         }
     }
-    let (mut sre, mut sim) = (0i64, 0i64);
+    let mut sums = [0i64; 5];
     for (xs, ys) in s.gx.chunks(TERMS_PER_SUM).zip(s.gy.chunks(TERMS_PER_SUM)) {
         // four partial sums, so that the loop vectorises (exact in any order)
-        let (re4, im4) = angle_sums(xs, ys, true);
-        sre += re4.iter().map(|&v| v as i64).sum::<i64>();
-        sim += im4.iter().map(|&v| v as i64).sum::<i64>();
+        for (total, lanes) in sums.iter_mut().zip(angle_sums(xs, ys, true)) {
+            *total += lanes.iter().map(|&v| v as i64).sum::<i64>();
+        }
     }
-    (sre, sim)
+    let [re4, im4, re6, im6, weight] = sums;
+    WallSums {
+        re4,
+        im4,
+        re6,
+        im6,
+        weight,
+    }
 }
 
-/// Four partial sums (lanes) of the [`angle_terms`] of `xs`, `ys` (at most
+/// Four partial sums (lanes) of each of the five [`angle_terms`] of `xs`, `ys` (at most
 /// [`TERMS_PER_SUM`] cells: exact in any order); with AVX2 when `best` and the processor has
 /// it (the same terms).
-pub(super) fn angle_sums(xs: &[i32], ys: &[i32], best: bool) -> ([f64; 4], [f64; 4]) {
+pub(super) fn angle_sums(xs: &[i32], ys: &[i32], best: bool) -> [[f64; 4]; 5] {
     let (xq, yq) = (xs.chunks_exact(4), ys.chunks_exact(4));
     let (xr, yr) = (xq.remainder(), yq.remainder());
-    let (mut re4, mut im4) = ([0.0f64; 4], [0.0f64; 4]);
+    let mut lanes = [[0.0f64; 4]; 5];
     #[cfg(target_arch = "x86_64")]
     let simd = best && has_avx2();
     #[cfg(not(target_arch = "x86_64"))]
@@ -168,7 +228,7 @@ pub(super) fn angle_sums(xs: &[i32], ys: &[i32], best: bool) -> ([f64; 4], [f64;
         #[cfg(target_arch = "x86_64")]
         {
             // SAFETY: the processor has AVX2, checked just above
-            (re4, im4) = unsafe { angle_sums_avx2(xs, ys) };
+            lanes = unsafe { angle_sums_avx2(xs, ys) };
         }
     } else {
         for (x4, y4) in xq.zip(yq) {
@@ -178,18 +238,20 @@ pub(super) fn angle_sums(xs: &[i32], ys: &[i32], best: bool) -> ([f64; 4], [f64;
                 continue;
             }
             for l in 0..4 {
-                let (a, b) = angle_terms(f64::from(x4[l]), f64::from(y4[l]));
-                re4[l] += a;
-                im4[l] += b;
+                let terms = angle_terms(f64::from(x4[l]), f64::from(y4[l]));
+                for (lane, t) in lanes.iter_mut().zip(terms) {
+                    lane[l] += t;
+                }
             }
         }
     }
     for (&x, &y) in xr.iter().zip(yr) {
-        let (a, b) = angle_terms(f64::from(x), f64::from(y));
-        re4[0] += a;
-        im4[0] += b;
+        let terms = angle_terms(f64::from(x), f64::from(y));
+        for (lane, t) in lanes.iter_mut().zip(terms) {
+            lane[0] += t;
+        }
     }
-    (re4, im4)
+    lanes
 }
 
 /// The four lanes' sums of [`angle_terms`] over the whole groups of four of `xs`, `ys` (the
@@ -200,9 +262,14 @@ pub(super) fn angle_sums(xs: &[i32], ys: &[i32], best: bool) -> ([f64; 4], [f64;
 /// The processor must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn angle_sums_avx2(xs: &[i32], ys: &[i32]) -> ([f64; 4], [f64; 4]) {
+unsafe fn angle_sums_avx2(xs: &[i32], ys: &[i32]) -> [[f64; 4]; 5] {
     use std::arch::x86_64::*;
     let (mut re, mut im) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+    let (mut re6, mut im6, mut weight) = (
+        _mm256_setzero_pd(),
+        _mm256_setzero_pd(),
+        _mm256_setzero_pd(),
+    );
     let zero = _mm256_setzero_pd();
     let (one, two) = (_mm256_set1_pd(1.0), _mm256_set1_pd(2.0));
     let magic = _mm256_set1_pd(6_755_399_441_055_744.0);
@@ -222,22 +289,29 @@ unsafe fn angle_sums_avx2(xs: &[i32], ys: &[i32]) -> ([f64; 4], [f64; 4]) {
         let r2 = _mm256_add_pd(xx, yy);
         let a = _mm256_sub_pd(xx, yy);
         let b = _mm256_mul_pd(two, _mm256_mul_pd(x, y));
-        let wr = _mm256_mul_pd(r2, _mm256_sqrt_pd(r2));
+        let root = _mm256_sqrt_pd(r2);
+        let wr = _mm256_mul_pd(r2, root);
         // a zero gradient divides its zero numerators by 1
-        let w = _mm256_blendv_pd(one, wr, _mm256_cmp_pd::<_CMP_GT_OQ>(r2, zero));
+        let nonzero = _mm256_cmp_pd::<_CMP_GT_OQ>(r2, zero);
+        let w = _mm256_blendv_pd(one, wr, nonzero);
+        let v = _mm256_blendv_pd(one, _mm256_mul_pd(wr, r2), nonzero);
         let num_re = _mm256_sub_pd(_mm256_mul_pd(a, a), _mm256_mul_pd(b, b));
         let num_im = _mm256_mul_pd(two, _mm256_mul_pd(a, b));
+        let num_re6 = _mm256_sub_pd(_mm256_mul_pd(num_re, a), _mm256_mul_pd(num_im, b));
+        let num_im6 = _mm256_add_pd(_mm256_mul_pd(num_re, b), _mm256_mul_pd(num_im, a));
         let rint = |v: __m256d| _mm256_sub_pd(_mm256_add_pd(v, magic), magic);
         re = _mm256_add_pd(re, rint(_mm256_div_pd(num_re, w)));
         im = _mm256_add_pd(im, rint(_mm256_div_pd(num_im, w)));
+        re6 = _mm256_add_pd(re6, rint(_mm256_div_pd(num_re6, v)));
+        im6 = _mm256_add_pd(im6, rint(_mm256_div_pd(num_im6, v)));
+        weight = _mm256_add_pd(weight, rint(root));
     }
-    let (mut r4, mut i4) = ([0.0f64; 4], [0.0f64; 4]);
-    // SAFETY: 32 bytes into each [f64; 4]
-    unsafe {
-        _mm256_storeu_pd(r4.as_mut_ptr(), re);
-        _mm256_storeu_pd(i4.as_mut_ptr(), im);
+    let mut lanes = [[0.0f64; 4]; 5];
+    for (lane, sum) in lanes.iter_mut().zip([re, im, re6, im6, weight]) {
+        // SAFETY: 32 bytes into each [f64; 4]
+        unsafe { _mm256_storeu_pd(lane.as_mut_ptr(), sum) };
     }
-    (r4, i4)
+    lanes
 }
 
 /// The dominant wall direction modulo 90 degrees of the known bounding box, radians in
@@ -251,9 +325,15 @@ pub fn wall_angle(grid: &Grid) -> Result<f64, OutOfMemory> {
 
 /// [`wall_angle`] with the known cells' bounding box already found ([`known_bounds`]).
 pub fn wall_angle_in(grid: &Grid, bounds: Option<Bounds>) -> Result<f64, OutOfMemory> {
+    Ok(wall_sums_in(grid, bounds)?.angle())
+}
+
+/// The wall-direction sums of SPEC 3a.2 ([`WallSums`]) of the known bounding box (all 0
+/// for a map without known cells).
+pub fn wall_sums_in(grid: &Grid, bounds: Option<Bounds>) -> Result<WallSums, OutOfMemory> {
     Ok(match bounds {
         Some(b) => angle_of_box(grid, b),
-        None => 0.0,
+        None => WallSums::default(),
     })
 }
 
@@ -310,11 +390,11 @@ impl StructureRows {
 /// three rows of `D` (the one above its first row and the one below its last made again),
 /// so that neither the structure image nor `D` is ever whole in memory. The integer sums do
 /// not depend on the tasks.
-pub(super) fn angle_of_box(grid: &Grid, b: Bounds) -> f64 {
+pub(super) fn angle_of_box(grid: &Grid, b: Bounds) -> WallSums {
     let (h, w) = (b.1 - b.0, b.3 - b.2);
     let (hd, wd) = (h.div_ceil(2), w.div_ceil(2));
     let tasks = hd.div_ceil(ANGLE_TASK_ROWS);
-    let (re, im) = (0..tasks)
+    (0..tasks)
         .into_par_iter()
         .map_init(
             || AngleScratch {
@@ -326,11 +406,7 @@ pub(super) fn angle_of_box(grid: &Grid, b: Bounds) -> f64 {
             },
             |scratch, t| angle_task(grid, b, t, scratch),
         )
-        .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
-    if re == 0 && im == 0 {
-        return 0.0;
-    }
-    (im as f64).atan2(re as f64) / 4.0
+        .reduce(WallSums::default, |x, y| x + y)
 }
 
 /// What one task of [`angle_of_box`] works in: its structure rows, the blur's two rows, three
@@ -346,12 +422,7 @@ pub(super) struct AngleScratch {
 /// The sums of the angle terms of rows `t * ANGLE_TASK_ROWS ..` of `D` (at most
 /// [`ANGLE_TASK_ROWS`] of them) in the known box `b`; with AVX2 when the processor has it
 /// (integer arithmetic and the same angle terms: the same sums).
-pub(super) fn angle_task(
-    grid: &Grid,
-    b: Bounds,
-    t: usize,
-    scratch: &mut AngleScratch,
-) -> (i64, i64) {
+pub(super) fn angle_task(grid: &Grid, b: Bounds, t: usize, scratch: &mut AngleScratch) -> WallSums {
     #[cfg(target_arch = "x86_64")]
     if has_avx2() {
         // SAFETY: the processor has AVX2, checked just above
@@ -362,7 +433,7 @@ pub(super) fn angle_task(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn angle_task_avx2(grid: &Grid, b: Bounds, t: usize, scratch: &mut AngleScratch) -> (i64, i64) {
+fn angle_task_avx2(grid: &Grid, b: Bounds, t: usize, scratch: &mut AngleScratch) -> WallSums {
     angle_task_in(grid, b, t, scratch)
 }
 
@@ -372,7 +443,7 @@ pub(super) fn angle_task_in(
     b: Bounds,
     t: usize,
     scratch: &mut AngleScratch,
-) -> (i64, i64) {
+) -> WallSums {
     let (h, w) = (b.1 - b.0, b.3 - b.2);
     let (hd, wd) = (h.div_ceil(2), w.div_ceil(2));
     let (a, z) = (t * ANGLE_TASK_ROWS, ((t + 1) * ANGLE_TASK_ROWS).min(hd));
@@ -383,7 +454,7 @@ pub(super) fn angle_task_in(
         ring,
         sobel,
     } = scratch;
-    let (mut re, mut im) = (0i64, 0i64);
+    let mut sums = WallSums::default();
     // rows a - 1 ..= z of D (reflect-101 at D's edges), in ring slots by their place; the
     // Sobel terms of row k as soon as row k + 1 is made
     for (n, k) in (a as isize - 1..=z as isize).enumerate() {
@@ -394,10 +465,8 @@ pub(super) fn angle_task_in(
         blur_row_in(structure.get(grid, b, rows), vert, split, o);
         if n >= 2 {
             let row = |m: usize| &ring[(m % 3) * wd..(m % 3 + 1) * wd];
-            let (r, i) = sobel_terms_row([row(n - 2), row(n - 1), row(n)], sobel);
-            re += r;
-            im += i;
+            sums = sums + sobel_terms_row([row(n - 2), row(n - 1), row(n)], sobel);
         }
     }
-    (re, im)
+    sums
 }

@@ -11,7 +11,7 @@
 //! the general one; output tiles (32 x 32, and 8 x 8 inside them on the fast path) whose
 //! samples all fall on unknown 8 x 8 blocks of the box are left unknown, and those whose
 //! samples all fall on known blocks of one value take that value, without sampling. The
-//! wall angle's tasks (blur, Sobel and `g^4/|g|^3` terms) and the fast resample run as AVX2
+//! wall angle's tasks (blur, Sobel and the `g^4/|g|^3`, `g^6/|g|^5` and `|g|` terms) and the fast resample run as AVX2
 //! copies of themselves when the processor has it (runtime detection; the same operations,
 //! so the same results). The tests compare every path with each other and the resample with
 //! a literal one.
@@ -24,7 +24,7 @@ use crate::grid::{known_bounds, Bounds, Grid};
 use crate::memory::{reserve_working_set, OutOfMemory};
 use crate::params::CornerParams;
 use angle::angle_of_box;
-pub use angle::{wall_angle, wall_angle_in};
+pub use angle::{wall_angle, wall_angle_in, wall_sums_in, WallSums};
 use pack::pack_box;
 pub use resample::MAX_CANONICAL_CELLS;
 use resample::{resample, Path};
@@ -44,11 +44,13 @@ pub struct CanonicalMap {
     pub width: usize,
 }
 
-/// What the canonical step found: the wall angle, and the corner count of the canonical map
-/// (`None` when it would exceed [`MAX_CANONICAL_CELLS`]).
+/// What the canonical step found: the wall angle (from `sums`, [`WallSums::angle`]), the
+/// wall-direction sums, and the corner count of the canonical map (`None` when it would
+/// exceed [`MAX_CANONICAL_CELLS`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Canonical {
     pub angle: f64,
+    pub sums: WallSums,
     pub corners: Option<usize>,
 }
 
@@ -124,8 +126,10 @@ pub fn canonical_corners_in(
 ) -> Result<Canonical, OutOfMemory> {
     if params.canonical_resolution.is_nan() || params.canonical_resolution <= 0.0 {
         // no reference resolution: the wall angle alone, as `evaluate` gives it
+        let sums = wall_sums_in(grid, bounds)?;
         return Ok(Canonical {
-            angle: wall_angle_in(grid, bounds)?,
+            angle: sums.angle(),
+            sums,
             corners: None,
         });
     }
@@ -133,10 +137,12 @@ pub fn canonical_corners_in(
     let Some(b) = bounds else {
         return Ok(Canonical {
             angle: 0.0,
+            sums: WallSums::default(),
             corners: Some(0),
         });
     };
-    let angle = angle_of_box(grid, b);
+    let sums = angle_of_box(grid, b);
+    let angle = sums.angle();
     let packed = pack_box(grid, b)?;
     // the structure image of the canonical map is all the corners need (no unknown mask)
     let map = resample(
@@ -153,6 +159,7 @@ pub fn canonical_corners_in(
     let Some(map) = map else {
         return Ok(Canonical {
             angle,
+            sums,
             corners: None,
         });
     };
@@ -160,6 +167,7 @@ pub fn canonical_corners_in(
     let corners = count_corners_of_structure(&map.values, map.height, map.width, params);
     Ok(Canonical {
         angle,
+        sums,
         corners: Some(corners),
     })
 }

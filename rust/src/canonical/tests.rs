@@ -318,17 +318,47 @@ fn angle_sums_are_the_same_on_every_path() {
         let (xs, ys) = (gen(3000), gen(70_000));
         let scalar = angle_sums(&xs, &ys, false);
         let best = angle_sums(&xs, &ys, true);
-        assert_eq!(
-            scalar.0.map(f64::to_bits),
-            best.0.map(f64::to_bits),
-            "{len}"
-        );
-        assert_eq!(
-            scalar.1.map(f64::to_bits),
-            best.1.map(f64::to_bits),
-            "{len}"
-        );
+        for (k, (s, b)) in scalar.iter().zip(&best).enumerate() {
+            assert_eq!(s.map(f64::to_bits), b.map(f64::to_bits), "{len}, sum {k}");
+        }
     }
+}
+
+#[test]
+fn wall_sums_follow_the_walls_symmetry() {
+    // a square room: the fourth harmonic holds the walls' whole weight, the sixth none; a
+    // triangle (walls 60 degrees apart): the other way round
+    let n = 120usize;
+    let (mut v, u) = (vec![254u8; n * n], vec![false; n * n]);
+    for i in 20..100 {
+        for t in 0..2 {
+            v[(20 + t) * n + i] = 0;
+            v[(98 + t) * n + i] = 0;
+            v[i * n + 20 + t] = 0;
+            v[i * n + 98 + t] = 0;
+        }
+    }
+    let g = Grid::new(&v, &u, n, n).unwrap();
+    let s = wall_sums_in(&g, known_bounds(&g)).unwrap();
+    let r4 = ((s.re4 as f64).hypot(s.im4 as f64)) / s.weight as f64;
+    let r6 = ((s.re6 as f64).hypot(s.im6 as f64)) / s.weight as f64;
+    assert!(r4 > 0.8 && r6 < 0.05, "square: {s:?}");
+    assert_eq!(s.angle(), wall_angle(&g).unwrap());
+    let mut v = vec![254u8; n * n];
+    let corners = [(10.0f64, 100.0f64), (110.0, 100.0), (60.0, 100.0 - 86.6)];
+    for k in 0..3 {
+        let ((x0, y0), (x1, y1)) = (corners[k], corners[(k + 1) % 3]);
+        for i in 0..=400 {
+            let f = i as f64 / 400.0;
+            let (x, y) = (x0 + f * (x1 - x0), y0 + f * (y1 - y0));
+            v[y.round() as usize * n + x.round() as usize] = 0;
+        }
+    }
+    let g = Grid::new(&v, &u, n, n).unwrap();
+    let s = wall_sums_in(&g, known_bounds(&g)).unwrap();
+    let r4 = ((s.re4 as f64).hypot(s.im4 as f64)) / s.weight as f64;
+    let r6 = ((s.re6 as f64).hypot(s.im6 as f64)) / s.weight as f64;
+    assert!(r6 > 0.5 && r4 < 0.2, "triangle: {s:?} r4 {r4} r6 {r6}");
 }
 
 #[test]
@@ -386,9 +416,9 @@ fn the_wall_angle_by_tasks_equals_the_one_from_the_whole_blur() {
         }
         let g = Grid::new(&v, &u, h + 6, w + 4).unwrap();
         let Some(b) = known_bounds(&g) else { continue };
-        let want = angle_in(&pack_box(&g, b).unwrap(), b.1 - b.0, b.3 - b.2);
-        assert_eq!(angle_of_box(&g, b).to_bits(), want.to_bits(), "{h} x {w}");
-        assert_eq!(wall_angle(&g).unwrap().to_bits(), want.to_bits());
+        let want = sums_in(&pack_box(&g, b).unwrap(), b.1 - b.0, b.3 - b.2);
+        assert_eq!(angle_of_box(&g, b), want, "{h} x {w}");
+        assert_eq!(wall_angle(&g).unwrap().to_bits(), want.angle().to_bits());
         // each task's sums: the AVX2 path (where there is one) and the baseline one
         let (bh, bw) = (b.1 - b.0, b.3 - b.2);
         let scratch = || AngleScratch {
@@ -495,12 +525,11 @@ fn rint(x: f64) -> i64 {
     rint_f(x) as i64
 }
 
-/// [`wall_angle`] of the packed box ([`pack_box`], `h x w`), from the whole of `D`: the
+/// The [`WallSums`] of the packed box ([`pack_box`], `h x w`), from the whole of `D`: the
 /// tests' baseline for [`angle_of_box`].
-fn angle_in(packed: &[u16], h: usize, w: usize) -> f64 {
+fn sums_in(packed: &[u16], h: usize, w: usize) -> WallSums {
     let (g2, h, w) = blur9_decimated(packed, h, w).unwrap();
-    let (re, im) = g2
-        .par_chunks(w)
+    g2.par_chunks(w)
         .enumerate()
         .map_init(SobelRows::default, |scratch, (r, _)| {
             let row = |k: isize| {
@@ -509,9 +538,5 @@ fn angle_in(packed: &[u16], h: usize, w: usize) -> f64 {
             };
             sobel_terms_row([row(-1), row(0), row(1)], scratch)
         })
-        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-    if re == 0 && im == 0 {
-        return 0.0;
-    }
-    (im as f64).atan2(re as f64) / 4.0
+        .reduce(WallSums::default, |a, b| a + b)
 }

@@ -1,0 +1,178 @@
+"""How often each confidence level of the verdict is right, on every labelled set there is
+(issue 41, item 6; docs/validity.md, "Calibrated confidence").
+
+``python studies/confidence_study.py --benchmark studies/benchmark-holdout-runs ...
+--real ../shared/data/maps studies/by_eye.csv --real2d examples/real2d-runs/verdicts.csv
+--markdown docs/validity.md`` regenerates the table.
+
+A verdict's level is the first word of its ``confidence`` ("high", "medium", "low";
+"none" when it abstains). It is *right* when:
+
+- generated benchmark (ground truth hidden from the verdict): the named algorithm is in the
+  ATE top two of its sequence and its ATE is at most 3x the best (not a broken run);
+- real folders ranked by eye (studies/by_eye.csv): the named map is in the folder's best
+  by-eye class and not marked broken;
+- real logs with relations (``studies/real2d_validity.py``'s ``verdicts.csv``): the named
+  program is in the top two by the relations error and at most 3x the best.
+
+Each level gets its count, the share right and the lower end of its 95% Wilson interval:
+a level may call itself "high" only when that lower end is at least 0.95 (the issue's bar
+is the share; the interval says how much the share can be trusted on the counts there are).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import pandas as pd
+from _common import print_or_write_section
+from verdict_study import benchmark_verdicts, folder_verdicts
+
+__all__ = ["level", "wilson_lower", "calibration", "markdown", "main"]
+
+BEGIN, END = "<!-- confidence-study:begin -->", "<!-- confidence-study:end -->"
+LEVELS = ("high", "medium", "low", "none")
+
+
+def level(confidence: object) -> str:
+    """The level of a verdict's ``confidence`` text.
+
+    Examples
+    --------
+    >>> level("medium: no ground truth; the maps confirm each other"), level(None)
+    ('medium', 'none')
+    """
+    if not isinstance(confidence, str) or not confidence:
+        return "none"
+    word = confidence.split(":", 1)[0].strip().lower()
+    return word if word in LEVELS else "none"
+
+
+def wilson_lower(right: int, n: int, z: float = 1.96) -> float:
+    """Lower end of the Wilson score interval of ``right`` successes in ``n`` trials.
+
+    Examples
+    --------
+    >>> round(wilson_lower(19, 20), 3), round(wilson_lower(100, 100), 3)
+    (0.764, 0.963)
+    """
+    if n <= 0:
+        return math.nan
+    p = right / n
+    centre = p + z * z / (2 * n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return (centre - half) / (1 + z * z / n)
+
+
+def benchmark_rows(outputs: Sequence[Path]) -> list[dict]:
+    """One row per generated sequence: set, level, named, right."""
+    rows = []
+    for out in outputs:
+        for r in benchmark_verdicts(Path(out)).itertuples():
+            named = isinstance(r.best, str)
+            rows.append({"data": f"generated: {Path(out).name}", "item": r.sequence,
+                         "level": level(r.reason) if named else "none", "named": named,
+                         "right": bool(named and r.ate_rank <= 2 and not r.broken_named)})
+    return rows
+
+
+def folder_rows(root: Path, by_eye: Path) -> list[dict]:
+    """One row per real folder ranked by eye."""
+    eye, verdicts = folder_verdicts(Path(root), Path(by_eye))
+    rows = []
+    for folder, v in verdicts.items():
+        block = eye[eye["folder"] == folder].set_index("map")
+        best = v.get("best")
+        named = isinstance(best, str) and best in block.index
+        right = bool(named and block.loc[best, "class"] == block["class"].min()
+                     and not block.loc[best, "broken"])
+        rows.append({"data": "real folders ranked by eye", "item": folder,
+                     "level": level(v.get("confidence")) if named else "none",
+                     "named": named, "right": right})
+    return rows
+
+
+def real2d_rows(verdicts_csv: Path) -> list[dict]:
+    """One row per verdict of ``studies/real2d_validity.py`` (real logs, relations)."""
+    df = pd.read_csv(verdicts_csv)
+    rows = []
+    for r in df.itertuples():
+        named = isinstance(r.best, str) and r.best != ""
+        right = bool(named and r.rank <= 2 and r.ratio <= 3.0)
+        rows.append({"data": "real logs, relations error", "item": f"{r.sequence}/{r.iteration}",
+                     "level": level(r.confidence) if named else "none", "named": named,
+                     "right": right})
+    return rows
+
+
+def calibration(rows: pd.DataFrame) -> pd.DataFrame:
+    """Per data set and level (and over all data): verdicts, right, share right, Wilson
+    lower bound.
+
+    Examples
+    --------
+    >>> rows = pd.DataFrame({"data": ["a"] * 3, "level": ["medium", "medium", "low"],
+    ...                      "named": [True] * 3, "right": [True, False, True]})
+    >>> calibration(rows)[["data", "level", "n", "right"]].values.tolist()
+    [['a', 'medium', 2, 1], ['a', 'low', 1, 1], ['all', 'medium', 2, 1], ['all', 'low', 1, 1]]
+    """
+    out = []
+    for data, block in [*rows.groupby("data", sort=False), ("all", rows)]:
+        for lv in LEVELS:
+            b = block[block["level"] == lv]
+            if not len(b):
+                continue
+            n, right = len(b), int(b["right"].sum())
+            out.append({"data": data, "level": lv, "n": n, "right": right,
+                        "share": right / n if lv != "none" else math.nan,
+                        "wilson_lower": wilson_lower(right, n) if lv != "none" else math.nan})
+    return pd.DataFrame(out)
+
+
+def markdown(table: pd.DataFrame, command: str) -> str:
+    """The calibration table as Markdown."""
+    lines = [f"Regenerate: `{command}`\n\n",
+             "| data | level | verdicts | right | share right | 95% lower bound |\n",
+             "|---|---|---|---|---|---|\n"]
+    for r in table.itertuples():
+        if r.level == "none":
+            lines.append(f"| {r.data} | abstained | {r.n} | - | - | - |\n")
+        else:
+            lines.append(f"| {r.data} | {r.level} | {r.n} | {r.right} | {r.share:.2f} | "
+                         f"{r.wilson_lower:.2f} |\n")
+    return "".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    ap.add_argument("--benchmark", nargs="+", default=[], type=Path,
+                    help="slamq run outputs of generated sequences")
+    ap.add_argument("--real", nargs=2, metavar=("MAPS", "BY_EYE_CSV"), type=Path,
+                    help="the real maps' root folder and the by-eye classes")
+    ap.add_argument("--real2d", type=Path, help="verdicts.csv of studies/real2d_validity.py")
+    ap.add_argument("--markdown", type=Path, help="write into this file's section")
+    args = ap.parse_args(argv)
+    rows: list[dict] = benchmark_rows(args.benchmark)
+    if args.real:
+        rows += folder_rows(*args.real)
+    if args.real2d:
+        rows += real2d_rows(args.real2d)
+    if not rows:
+        ap.error("give at least one of --benchmark, --real, --real2d")
+    frame = pd.DataFrame(rows)
+    wrong = frame[frame["named"] & ~frame["right"]]
+    command = "python studies/confidence_study.py " + " ".join(
+        sys.argv[1:] if argv is None else argv)
+    text = markdown(calibration(frame), command)
+    if len(wrong):
+        text += "\nWrong picks: " + ", ".join(
+            f"{r.item} ({r.level})" for r in wrong.itertuples()) + ".\n"
+    return print_or_write_section(text, args.markdown, BEGIN, END)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
