@@ -50,7 +50,9 @@ if TYPE_CHECKING:  # what the names below are, for type checkers (imported on fi
     from slamq.batch.engine import evaluate_many
     from slamq.batch.runs import discover_runs
     from slamq.metrics import reference  # noqa: F401
+    from slamq.metrics.scans import scan_consistency
     from slamq.models import MapComparison, MapQuality, OccupancyMap, Registration, Trajectory
+    from slamq.models.scans import Scans
     from slamq.params import Params
     from slamq.results.formats import read_results
     from slamq.results.summary import summarize
@@ -60,6 +62,7 @@ if TYPE_CHECKING:  # what the names below are, for type checkers (imported on fi
     from slamq.sources.bag_poses import read_bag_trajectory
     from slamq.sources.maps import load_map
     from slamq.sources.pbstream import read_pbstream_trajectory
+    from slamq.sources.scans import load_scans
     from slamq.sources.trajectories import load_trajectory
     from slamq.version import __version__ as __version__
 
@@ -78,6 +81,8 @@ _LAZY = {
     "rpe": "slamq.api",
     "ate_runs": "slamq.api",
     "relations": "slamq.metrics.relations", "load_relations": "slamq.sources.relations",
+    "load_scans": "slamq.sources.scans", "scan_consistency": "slamq.metrics.scans",
+    "Scans": "slamq.models.scans",
     "MapComparison": "slamq.models.comparison",
     "MapQuality": "slamq.models.quality",
     "OccupancyMap": "slamq.models.occupancy",
@@ -136,6 +141,7 @@ __all__ = [
     "read_pbstream_trajectory",
     "read_results",
     "relations", "load_relations",
+    "load_scans", "scan_consistency", "Scans",
     "rpe",
     "summarize",
     "synth",

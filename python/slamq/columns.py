@@ -201,6 +201,7 @@ _RUN = (
     _c("run", "str", "run"),
     _c("trajectory", "str", "run", at={"files": 2}),
     _c("groundtruth", "str", "run", at={"files": 3}),
+    _c("scans", "str", "run", at={"files": 8}),
     _c("hash", "str", "run", at={"files": 7}),
     _c("config", "str", "run"),
     _c("unknown_value", "int", "run"),
@@ -337,6 +338,11 @@ _VERDICT = (
        why="docs/spec.md section 9: the median consistency of the map's walls with the other "
            "maps of the sequence, once laid over each other (no ground truth needed); a map "
            "under 0.9 of the best, or flagged by a defect detector, is never named best"),
+    _c("scan_violation", "float", "verdict", label="violation share", better="lower",
+       why="docs/spec.md sections 7b and 9: the share of the map's own laser beams, placed "
+           "at its own trajectory, that pass through a wall of the map (no ground truth "
+           "needed); a map above max(0.05, 2x the lowest of the sequence) is inconsistent "
+           "with its own data and never named best"),
 )
 
 

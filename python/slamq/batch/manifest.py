@@ -22,7 +22,7 @@ from slamq.sources.files import PathLike
 __all__ = ["MANIFEST_COLUMNS", "read_manifest"]
 
 MANIFEST_COLUMNS = ("algorithm", "sequence", "run", "map", "trajectory", "groundtruth",
-                    "gt_map", "relations")
+                    "gt_map", "relations", "scans")
 
 
 def read_manifest(path: PathLike) -> list[Run]:
@@ -30,7 +30,8 @@ def read_manifest(path: PathLike) -> list[Run]:
 
     Columns (header row required, any order, case-insensitive): ``map`` (required),
     ``algorithm``, ``sequence``, ``run``, ``trajectory``, ``groundtruth``, ``gt_map`` (the
-    sequence's ground-truth map), ``relations`` (the sequence's relations file). Blank
+    sequence's ground-truth map), ``relations`` (the sequence's relations file), ``scans``
+    (the recording the map was built from, :func:`slamq.load_scans`). Blank
     algorithm defaults to the flat-layout name of the map, blank sequence to the map's
     folder name, blank run to ``"0"``; blank trajectory/groundtruth mean none, except that
     a trajectory that is a paired pose log (a CSV whose header names ``gt_x`` and
@@ -88,8 +89,9 @@ def read_manifest(path: PathLike) -> list[Run]:
             gt = traj  # a paired pose log is its own ground truth, as in `slamq ate LOG`
         gt_map = _resolve(base, cells["gt_map"]) if cells.get("gt_map") else None
         rel = _resolve(base, cells["relations"]) if cells.get("relations") else None
+        scans = _resolve(base, cells["scans"]) if cells.get("scans") else None
         run = Run(map_path, algorithm, sequence, run_id, traj, gt, layout="manifest",
-                  gt_map=gt_map, relations=rel)
+                  gt_map=gt_map, relations=rel, scans=scans)
         if run.key in seen:
             raise MapError(
                 f"{path}: line {lineno}: run {algorithm}/{sequence}/{run_id} with map "

@@ -348,7 +348,7 @@ def evaluate_run(
         map=str(run.map), algorithm=run.algorithm, sequence=run.sequence, run=run.run,
         trajectory=_str(run.trajectory), groundtruth=_str(run.groundtruth),
         unknown_value=options.unknown_value, config=options.config,
-        gt_map=_str(_gt_map(run)), relations=_str(_relations(run)),
+        gt_map=_str(_gt_map(run)), relations=_str(_relations(run)), scans=_str(run.scans),
     )
     rec.update(options.param_fields)
     where = str(run.map)

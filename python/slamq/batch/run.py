@@ -31,6 +31,11 @@ class Run:
     relations : pathlib.Path or None
         The sequence's relations file (Kümmerle et al. 2009; the ``rel_*`` columns), when
         known (not part of the key).
+    scans : pathlib.Path or None
+        The recording the map was built from, when known (a CARMEN log, an MRPT rawlog or
+        a bag with laser scans, :func:`slamq.load_scans`): the verdict scores the map
+        against its own scans at ``trajectory`` (docs/spec.md sections 7b and 9). Not part
+        of the key.
 
     Examples
     --------
@@ -50,10 +55,11 @@ class Run:
     layout: str = field(default="", compare=False)
     gt_map: Path | None = field(default=None, compare=False)
     relations: Path | None = field(default=None, compare=False)
+    scans: Path | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "map", Path(self.map))
-        for name in ("trajectory", "groundtruth", "gt_map", "relations"):
+        for name in ("trajectory", "groundtruth", "gt_map", "relations", "scans"):
             value = getattr(self, name)
             if value is not None and not isinstance(value, Path):
                 object.__setattr__(self, name, Path(value))

@@ -45,8 +45,9 @@ followed once.
   [SEQUENCE=]FILE`` and the ``relations=`` of :func:`slamq.evaluate_many` name it
   instead.)
 * **Manifest** (``.csv``): columns ``algorithm, sequence, run, map, trajectory,
-  groundtruth, gt_map, relations`` (only ``map`` required; others may be blank), paths relative to
-  the manifest's folder, ``#`` lines are comments, spaces after commas are ignored. A
+  groundtruth, gt_map, relations, scans`` (only ``map`` required; others may be blank),
+  paths relative to the manifest's folder, ``#`` lines are comments, spaces after commas
+  are ignored. A
   ``gt_map`` cell sets that run's ground-truth map (it wins over a reference run). A
   ``trajectory`` cell naming a paired pose log with a blank ``groundtruth`` is paired
   with itself.
@@ -261,6 +262,7 @@ class _RunSpill:
             None if run.groundtruth is None else os.fspath(run.groundtruth),
             run.layout, None if run.gt_map is None else os.fspath(run.gt_map),
             None if run.relations is None else os.fspath(run.relations),
+            None if run.scans is None else os.fspath(run.scans),
         ))
         if len(self._rows) >= Discovery.CHUNK:
             self._flush()
@@ -283,11 +285,12 @@ class _RunSpill:
         for end in self._ends:
             rows = pickle.loads(_pread_all(fd, end - start, start))
             start = end
-            for m, a, s, r, t, g, layout, gm, rel in rows:
+            for m, a, s, r, t, g, layout, gm, rel, sc in rows:
                 yield Run(Path(m), a, s, r, None if t is None else Path(t),
                           None if g is None else Path(g), layout,
                           None if gm is None else Path(gm),
-                          None if rel is None else Path(rel))
+                          None if rel is None else Path(rel),
+                          None if sc is None else Path(sc))
 
     def close(self) -> None:
         self._fh.close()

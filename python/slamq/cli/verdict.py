@@ -37,6 +37,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="write the verdict and the evidence as JSON ('-': standard output)")
     p.add_argument("--no-defects", action="store_true",
                    help="agreement alone, without the defect detectors")
+    p.add_argument("--scans", metavar="RECORDING",
+                   help="the recording the maps were built from (CARMEN log, MRPT rawlog or "
+                   "bag with laser scans); with --trajectory, each map is also scored "
+                   "against its own scans, which can decide between two maps")
+    p.add_argument("--trajectory", metavar="FILE", action="append",
+                   help="the trajectory of the run that made each map, in the order the "
+                   "maps are given (once per map; map files only, not folders)")
     add_threads_option(p)
     p.set_defaults(func=handle)
 
@@ -44,16 +51,23 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def handle(args: argparse.Namespace) -> int:
     """Score every map found, then the verdict; a bad map is one error line and takes no
     part, the others are still judged."""
+    from slamq.errors import ParamError
     from slamq.params import check_threads
     from slamq.sources.walk import discover_maps
     from slamq.verdict.maps import maps_verdict
     from slamq.verdict.rule import verdict_sentence
 
     check_threads(args.threads, "--threads")
+    if (args.scans is None) != (args.trajectory is None):
+        raise ParamError("--scans and --trajectory go together")
     sources, problems = discover_maps(args.paths)
+    if args.trajectory is not None and len(args.trajectory) != len(sources):
+        raise ParamError(f"{len(args.trajectory)} --trajectory for {len(sources)} maps "
+                         "(give one per map, in the order of the maps)")
     for where, reason in problems:
         error_line(where, reason)
-    result = maps_verdict(sources, defects=not args.no_defects, threads=args.threads)
+    result = maps_verdict(sources, defects=not args.no_defects, threads=args.threads,
+                          scans=args.scans, trajectories=args.trajectory)
     for where, reason in result["errors"]:
         error_line(where, reason)
     failed = len(problems) + len(result["errors"])
@@ -94,7 +108,8 @@ def _print(result: dict[str, Any], out: Any) -> None:
     """The maps in the verdict's order: rank, support, completeness, flags, corners."""
     v, ev = result["verdict"], result["evidence"]
     info = ev["algorithms"] if ev else {}
-    rows = [("rank", "map", "support", "complete", "corners", "canonical", "flags")]
+    rows = [("rank", "map", "support", "complete", "violation", "corners", "canonical",
+             "flags")]
     order = list(v["ranking"]) + sorted(set(result["maps"]) - set(v["ranking"]))
     for i, name in enumerate(order, 1):
         e = info.get(name, {})
@@ -103,6 +118,7 @@ def _print(result: dict[str, Any], out: Any) -> None:
             kinds.insert(0, "not placed")
         rank = str(i) if name in v["ranking"] else "-"
         rows.append((rank, name, _fmt(e.get("support")), _fmt(e.get("completeness")),
+                     _fmt(e.get("scan_violation"), 3),
                      _fmt(result["maps"][name].get("corners"), 0),
                      _fmt(result["maps"][name].get("corners_canonical"), 0),
                      ", ".join(kinds) or "-"))

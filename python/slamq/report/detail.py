@@ -4,7 +4,9 @@ areas, the comparison with the sequence's ground-truth map (when there is one), 
 defects and, in a sequence judged without ground truth, its missing walls against the other
 maps of the sequence (walls most other maps have where this map sees free space;
 informational, off at first, not used by the verdict, docs/validity.md "Missing walls
-against the other maps"); then its numbers, the enclosed-area curve, the trajectory coloured
+against the other maps") and, when its record names the recording it was built from, where
+the map contradicts its own scans (a heat map of the beams that pass through its walls,
+docs/spec.md 7b; off at first); then its numbers, the enclosed-area curve, the trajectory coloured
 by ATE and the map being built. Everything drawn comes from
 :func:`slamq.verdict.exhibits.map_exhibit`.
 """
@@ -24,11 +26,12 @@ from slamq.report.markup import MapPage, page
 from slamq.report.markup import esc as _e
 from slamq.verdict.building import Timeline
 from slamq.verdict.evidence import MISSING_MIN_LENGTH
-from slamq.verdict.exhibits import MapExhibit
+from slamq.verdict.exhibits import MapExhibit, ScanExhibit
 from slamq.verdict.records import usable
 from slamq.verdict.trajectory import TrajectoryEvidence
 
-__all__ = ["detail_page", "run_info", "standing", "with_unit"]
+__all__ = ["SCAN_LAYER_COLOURS", "detail_page", "run_info", "scan_layer", "standing",
+           "with_unit"]
 
 
 def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajectories: bool
@@ -68,7 +71,7 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
         ov.save(str(out / mp.thumb), max_size=230, which="plain")
         mp.defects = ex.defects
         gt = ex.ground_truth
-        sections.append(_map_layers(mp, out, ov, u, grid, gt))
+        sections.append(_map_layers(mp, out, ov, u, grid, gt, ex.scans))
         curve_png = f"img/{mp.slug}_curve.svg"
         curve_figure(list(quality.curve), list(params.sweep_values),
                      int(quality.enclosed_unknown_value), out / curve_png)
@@ -357,10 +360,10 @@ _DEFECT_COLOURS = ("#ff00ff", "#ff8800", "#00c8ff", "#ffd400", "#8a2be2", "#00b0
 
 
 def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
-                gt: tuple[Any, Any] | None) -> str:
+                gt: tuple[Any, Any] | None, scans: Any = None) -> str:
     """The map with its layers (corners, enclosed areas, ground truth, defects, missing
-    walls), each shown or hidden by a checkbox (CSS only: ``.layers:has(#show-X:not(:checked))
-    .layer-X``)."""
+    walls, its own scans), each shown or hidden by a checkbox (CSS only:
+    ``.layers:has(#show-X:not(:checked)) .layer-X``)."""
     from slamq.report.overlays import palette_image
 
     rows, cols = ov.cells
@@ -427,6 +430,25 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
             layers.append(layer)
         toggle("missing", label, False, bool(mp.missing))
         legend += legend_missing
+    if isinstance(scans, ScanExhibit):
+        png = f"img/{mp.slug}_scans.png"
+        palette_image(scan_layer(scans.density, offset=(r0, c0), shape=(rows, cols),
+                                 scale=ov.scale), SCAN_LAYER_COLOURS).save(out / png)
+        layers.append(f"<img class=\"layer layer-scans\" src=\"../{png}\" alt=\"\">")
+        f = scans.figures
+        toggle("scans", f"<i class=\"heat\"></i> against its own scans: "
+               f"{100 * f['violation_share']:.1f}% of its beams pass through its walls",
+               False, bool(scans.density.max() > 0))
+        legend += (
+            "<p class=\"legend scans-legend\"><i class=\"heat\"></i> <b>Its own scans</b>: "
+            f"{f['scans']} scans of {_e(scans.recording)} ({f['beams']} beams) placed at the "
+            "run's trajectory; red where its beams pass through walls of the map (the "
+            f"darker, the more): {100 * f['violation_share']:.1f}% of the beams per scan "
+            f"do, {100 * f['hit_share']:.1f}% end on a wall of the map (docs/spec.md 7b; "
+            "the verdict never names a map much less consistent with its scans than the "
+            "sequence's most consistent one).</p>")
+    elif isinstance(scans, Exception):
+        mp.notes.append(f"not scored against its own scans: {scans}")
     table = ""
     if mp.defects:
         table = ("<div class=\"scroll\"><table class=\"defects\"><tr><th>#</th><th>kind</th>"
@@ -446,6 +468,32 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
 
 
 _MISSING_COLOUR = "#e00000"
+
+
+#: The heat map's colours: index 0 transparent, then red, ever more opaque.
+SCAN_LAYER_COLOURS = [(0, 0, 0, 0)] + [(220, 0, 0, 60 + 195 * k // 7) for k in range(8)]
+
+
+def scan_layer(density: np.ndarray, *, offset: tuple[int, int], shape: tuple[int, int],
+               scale: int) -> np.ndarray:
+    """The heat map of :func:`slamq.verdict.exhibits.violation_density` over the picture of
+    the map (its crop ``offset`` and ``shape`` in cells, and its ``scale`` in pixels per
+    cell), as indices into :data:`SCAN_LAYER_COLOURS`: 0 where no beam crossed a wall, else
+    1 to 8, the denser the higher (a palette PNG, as the other layers).
+
+    Examples
+    --------
+    >>> d = np.zeros((4, 4), np.float32); d[1, 2] = 1.0; d[2, 1] = 0.1
+    >>> scan_layer(d, offset=(1, 1), shape=(2, 3), scale=1).tolist()
+    [[0, 8, 0], [1, 0, 0]]
+    """
+    r0, c0 = offset
+    rows, cols = shape
+    part = np.zeros((rows, cols), np.float32)
+    crop = density[r0:r0 + rows, c0:c0 + cols]
+    part[:crop.shape[0], :crop.shape[1]] = crop
+    index = np.where(part > 0, 1 + np.minimum(7, (part * 8).astype(np.int64)), 0)
+    return np.repeat(np.repeat(index.astype(np.uint8), scale, axis=0), scale, axis=1)
 
 
 def _missing_layer(missing: list[dict], view: tuple[int, int, int, int]

@@ -54,7 +54,8 @@ def score(config: RunConfig, rows: list[dict[str, Any]]) -> dict[str, Any]:
                         trajectory=r.get("trajectory"),
                         groundtruth=seq.groundtruth if seq else None,
                         gt_map=seq.groundtruth_map if seq else None,
-                        relations=seq.relations if seq else None))
+                        relations=seq.relations if seq else None,
+                        scans=seq.input if seq else None))
     out = config.output
     results_path = out / "results.jsonl"
     stamps = Stamps(out)

@@ -7,6 +7,8 @@
 - :func:`load_trajectory`: TUM, KITTI, EuRoC, CSV, ROS bags, Cartographer ``.pbstream``
   (:mod:`slamq.sources.trajectories`, :mod:`~slamq.sources.bag_poses`,
   :mod:`~slamq.sources.pbstream`).
+- :func:`load_scans`: a planar laser's scans from CARMEN logs, MRPT rawlogs and ROS bags
+  (:mod:`slamq.sources.scans`), what a map is scored against (docs/spec.md section 7b).
 - :func:`discover_maps`: the one folder walk (:mod:`slamq.sources.walk`), shared by
   ``slamq eval`` and ``slamq batch``; it asks the format registry which files are maps.
 - :mod:`slamq.sources.files`: the size budgets and the regular-file rule every reader obeys.
@@ -27,6 +29,7 @@ if TYPE_CHECKING:
     from slamq.sources.grids import from_occupancy_grid
     from slamq.sources.maps import load_map
     from slamq.sources.pbstream import read_pbstream_trajectory
+    from slamq.sources.scans import load_scans
     from slamq.sources.trajectories import FORMATS, load_trajectory, parse_columns
     from slamq.sources.walk import discover_maps
 
@@ -37,6 +40,7 @@ _WHERE = {
     "from_occupancy_grid": "slamq.sources.grids",
     "is_bag": "slamq.sources.files",
     "load_map": "slamq.sources.maps",
+    "load_scans": "slamq.sources.scans",
     "load_trajectory": "slamq.sources.trajectories",
     "parse_columns": "slamq.sources.trajectories",
     "read_pbstream_trajectory": "slamq.sources.pbstream",
@@ -52,6 +56,7 @@ __all__ = [
     "from_occupancy_grid",
     "is_bag",
     "load_map",
+    "load_scans",
     "load_trajectory",
     "parse_columns",
     "read_pbstream_trajectory",

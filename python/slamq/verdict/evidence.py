@@ -5,7 +5,10 @@ each other (:func:`slamq.agreement`) and what is wrong with each of them on its 
 :func:`sequence_evidence` loads the maps of one sequence (at most ``runs_per_algorithm``
 runs of each algorithm, the first by run number: the pairwise comparison grows with the
 square of the maps), scores them against each other and runs the defect detectors, and
-sums that up per algorithm for :func:`slamq.verdict.rule.sequence_verdict`. Beside it,
+sums that up per algorithm for :func:`slamq.verdict.rule.sequence_verdict`. A record that
+names the recording its map was built from (``scans``) and its ``trajectory`` is also
+scored against its own scans (:func:`slamq.verdict.scans.record_consistency`, docs/spec.md
+section 7b), which the rule weighs too (section 9). Beside it,
 for the detail pages only, the missing walls of each map against the others
 (:func:`slamq.metrics.agreement.missing_walls`, read off the same agreement): the verdict does
 not read them (docs/validity.md, "Missing walls against the other maps").
@@ -34,7 +37,7 @@ RUNS_PER_ALGORITHM = 3
 def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
                       align: str = SETTINGS.agreement_align.default,
                       runs_per_algorithm: int = RUNS_PER_ALGORITHM,
-                      defects: bool = True, threads: int | None = None,
+                      defects: bool = True, scans: bool = True, threads: int | None = None,
                       loaded: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Cross-map agreement and defect flags of the maps of one sequence, per algorithm.
 
@@ -49,6 +52,9 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         At most this many runs of each algorithm take part.
     defects : bool, default True
         Run the defect detectors.
+    scans : bool, default True
+        Score each map against its own scans, where its record names them (``scans``) and
+        its ``trajectory``.
     threads : int, optional
         Cap on the Rust worker threads.
     loaded : mapping, optional
@@ -58,15 +64,19 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     -------
     dict
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
-        "defects", "in_group", "group_support"}}, "majority": bool, "group": [alg],
-        "maps": int, "notes": [str], "missing_walls":
-        {path: [dict]}}``. ``defects`` maps a run's map path to its defects (dicts of
+        "defects", "in_group", "group_support", "scan_violation", "scan_hit",
+        "scan_runs"}}, "majority": bool, "group": [alg], "maps": int, "notes": [str],
+        "missing_walls": {path: [dict]}, "scans": {path: dict}}``. ``defects`` maps a
+        run's map path to its defects (dicts of
         :meth:`Defect.to_dict`); an algorithm's support and completeness are the medians
         over its runs. ``missing_walls`` maps the path of each map placed with the others
         (none when fewer than two maps) to its
         :func:`~slamq.metrics.agreement.missing_walls` flags (``kind="missing_walls"``,
         ``bbox`` in the map's own cells), for the report's pages: the verdict does not
-        read them.
+        read them. ``scan_violation`` and ``scan_hit`` are the medians over an algorithm's
+        runs of their maps' violation and hit shares against their own scans (NaN, and
+        ``scan_runs`` 0, when none has them); ``scans`` maps the path of each map scored so
+        to its :meth:`~slamq.models.ScanConsistency.to_dict`.
 
     Examples
     --------
@@ -100,6 +110,20 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             continue
         owner[key] = str(rec.algorithm)
         paths[key] = str(rec.map)
+    checked: dict[str, dict[str, Any]] = {}
+    if scans:
+        from slamq.verdict.scans import has_scans, record_consistency
+
+        for rec in picked.itertuples():
+            key = f"{rec.algorithm}#{rec.run}"
+            if key not in maps or not has_scans(rec._asdict()):
+                continue
+            try:
+                c = record_consistency(rec._asdict(), maps[key], threads=threads)
+            except SlamqError as exc:
+                notes.append(f"{rec.map}: not scored against its scans ({exc})")
+                continue
+            checked[key] = c.to_dict()
     found: dict[str, list[dict[str, Any]]] = {}
     if defects:
         from slamq.metrics.defects import detect_defects  # on first use
@@ -136,9 +160,15 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "defects": {str(maps[k].source): found.get(k, []) for k in keys},
             "in_group": sum(k in in_group for k in keys) / len(keys) if keys else 0.0,
             "group_support": finite_median([group_support[k] for k in keys]),
+            "scan_violation": finite_median([checked[k]["violation_share"] for k in keys
+                                             if k in checked]),
+            "scan_hit": finite_median([checked[k]["hit_share"] for k in keys
+                                       if k in checked]),
+            "scan_runs": sum(1 for k in keys if k in checked),
         }
     # the agreeing group, by program: those whose runs are mostly in it
     group = sorted(a for a, e in algorithms.items() if e["in_group"] > 0.5)
     return {"algorithms": algorithms, "majority": bool(majority), "maps": len(maps),
             "notes": notes, "missing_walls": gaps, "group": group,
+            "scans": {paths[k]: v for k, v in checked.items()},
             "min_support": SETTINGS.min_support.default}

@@ -1,8 +1,9 @@
 """What one map's detail page shows, computed for the report to draw: the map loaded and
 scored with the parameters of its record, the corners and enclosed areas that were counted,
-its defects, its comparison with the sequence's ground-truth map, its trajectory errors and
-the stages of its building. Anything that cannot be computed becomes a note (the page says
-why a part is missing), never an exception.
+its defects, its comparison with the sequence's ground-truth map, where it contradicts its
+own scans (docs/spec.md section 7b: a density of the beams that pass through its walls),
+its trajectory errors and the stages of its building. Anything that cannot be computed
+becomes a note (the page says why a part is missing), never an exception.
 
 Defects are boxes ``{"kind": str, "bbox": [col0, row0, col1, row1], "note": str}`` in the
 map's cells (row 0 at the top, as the map's image; ``col1`` and ``row1`` exclusive, as
@@ -30,8 +31,8 @@ from slamq.verdict.building import Timeline
 from slamq.verdict.records import evaluate_map, params_of, usable
 from slamq.verdict.trajectory import TrajectoryEvidence
 
-__all__ = ["MapExhibit", "Marks", "counted_marks", "detected_defects", "map_exhibit",
-           "source_digests"]
+__all__ = ["MapExhibit", "Marks", "ScanExhibit", "counted_marks", "detected_defects",
+           "map_exhibit", "source_digests", "violation_density"]
 
 #: What draws the defects layer: ``defects_for(map)`` -> list of defect dicts.
 DefectsFor = Callable[[Any], list[dict]]
@@ -90,6 +91,67 @@ def counted_marks(grid: OccupancyMap, unknown_value: int, params: Params | None 
 
 
 @dataclass
+class ScanExhibit:
+    """Where a map contradicts its own scans (docs/spec.md 7b), as its page draws it.
+
+    Attributes
+    ----------
+    figures : dict
+        :meth:`slamq.models.ScanConsistency.to_dict` (``violation_share``, ``hit_share``,
+        ``scans``, ``beams``...).
+    density : numpy.ndarray
+        ``(H, W)`` float32 on the map's cells, in [0, 1]: :func:`violation_density` of the
+        beams that passed through each occupied cell (0: none).
+    recording : str
+        The recording's file name.
+    """
+
+    figures: dict[str, Any]
+    density: np.ndarray
+    recording: str
+
+
+def violation_density(counts: np.ndarray, *, block: int | None = None) -> np.ndarray:
+    """How densely a map's walls are crossed by its own beams, per block of cells, for a
+    heat map: the violations of each ``block x block`` square of cells summed, divided by
+    the 99th percentile of the blocks that have any (at least 1) and clipped to 1, on the
+    map's cells again.
+
+    Parameters
+    ----------
+    counts : numpy.ndarray
+        ``(H, W)``: :attr:`slamq.models.ScanConsistency.violation_grid`.
+    block : int, optional
+        Cells per side of a block (default: about 1/300 of the map's longer side, at least
+        1, so that the spots stay visible in a picture of the whole map).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(H, W)`` float32 in [0, 1].
+
+    Examples
+    --------
+    >>> c = np.zeros((4, 6), np.uint32); c[0, 0] = 5; c[3, 5] = 1
+    >>> violation_density(c, block=2)[:, :2].tolist()
+    [[1.0, 1.0], [1.0, 1.0], [0.0, 0.0], [0.0, 0.0]]
+    """
+    counts = np.asarray(counts, dtype=np.float64)
+    h, w = counts.shape
+    b = int(block) if block else max(1, -(-max(h, w) // 300))
+    hp, wp = -(-h // b) * b, -(-w // b) * b
+    padded = np.zeros((hp, wp))
+    padded[:h, :w] = counts
+    sums = padded.reshape(hp // b, b, wp // b, b).sum(axis=(1, 3))
+    nonzero = sums[sums > 0]
+    if nonzero.size == 0:
+        return np.zeros((h, w), np.float32)
+    top = max(1.0, float(np.percentile(nonzero, 99)))
+    dens = np.clip(sums / top, 0.0, 1.0)
+    return np.repeat(np.repeat(dens, b, axis=0), b, axis=1)[:h, :w].astype(np.float32)
+
+
+@dataclass
 class MapExhibit:
     """Everything one detail page draws of its map.
 
@@ -115,6 +177,9 @@ class MapExhibit:
     building : (str, Timeline or None), Exception or None
         What the map's building stages are and their timeline (None when there are fewer
         than two), the reason they could not be read, or None (not asked for).
+    scans : ScanExhibit, Exception or None
+        Where the map contradicts its own scans (the record names its ``scans`` and its
+        ``trajectory``), the reason it could not be computed, or None.
     """
 
     grid: OccupancyMap | None
@@ -126,6 +191,7 @@ class MapExhibit:
     ground_truth: tuple[MapComparison, OccupancyMap] | None = None
     trajectory: TrajectoryEvidence | Exception | None = None
     building: tuple[str, Timeline | None] | Exception | None = None
+    scans: ScanExhibit | Exception | None = None
 
 
 def detected_defects(grid: Any) -> list[dict]:
@@ -199,6 +265,7 @@ def map_exhibit(record: dict, *, gifs: bool = True, trajectories: bool = True,
                 f"gives {drawn} (file changed, or other parameters?)")
     ex.defects = _defects(rec, grid, defects_for, ex.notes)
     ex.ground_truth = _compare_gt(rec, grid, ex.notes)
+    ex.scans = _scans(rec, grid)
     if trajectories and usable(rec.get("trajectory")):
         from slamq.verdict.trajectory import trajectory_evidence
 
@@ -209,6 +276,20 @@ def map_exhibit(record: dict, *, gifs: bool = True, trajectories: bool = True,
     if gifs:
         ex.building = _building(rec, params)
     return ex
+
+
+def _scans(rec: dict, grid: Any) -> ScanExhibit | Exception | None:
+    """Where the record's map contradicts its own scans, or why that is not known."""
+    from slamq.verdict.scans import has_scans, record_consistency
+
+    if not has_scans(rec):
+        return None
+    try:
+        c = record_consistency(rec, grid)
+    except (SlamqError, OSError, ValueError) as exc:
+        return exc
+    return ScanExhibit(c.to_dict(), violation_density(c.violation_grid),
+                       Path(str(rec["scans"])).name)
 
 
 def _compare_gt(rec: dict, grid: Any, notes: list[str]
@@ -292,8 +373,8 @@ def _building(rec: dict, params: Params) -> tuple[str, Timeline | None] | Except
 
 def source_digests(record: dict, *, gifs: bool) -> dict[str, Any]:
     """Content stamps of the files a record's detail page is drawn from: its map, ground-truth
-    map, trajectory, ground-truth trajectory and (with ``gifs``) the map's snapshots; None
-    for a file that is absent or unreadable.
+    map, trajectory, ground-truth trajectory, recording (``scans``: its size and time) and
+    (with ``gifs``) the map's snapshots; None for a file that is absent or unreadable.
 
     Examples
     --------
@@ -317,9 +398,18 @@ def source_digests(record: dict, *, gifs: bool) -> dict[str, Any]:
         except OSError:
             return None
 
+    def stat_digest(p: Any) -> str | None:
+        # a recording may be large: its size and time stand for its content
+        try:
+            st = Path(p).stat() if usable(p) else None
+        except OSError:
+            return None
+        return None if st is None else f"{st.st_size}:{st.st_mtime_ns}"
+
     snaps: list[Any] = []
     if gifs and usable(record.get("map")):
         snaps = [[q.name, map_digest(q)] for q in find_snapshots(Path(record["map"]).parent)]
     return {"map": map_digest(record.get("map")), "gt_map": map_digest(record.get("gt_map")),
             "trajectory": file_digest(record.get("trajectory")),
-            "groundtruth": file_digest(record.get("groundtruth")), "snapshots": snaps}
+            "groundtruth": file_digest(record.get("groundtruth")), "snapshots": snaps,
+            "scans": stat_digest(record.get("scans"))}

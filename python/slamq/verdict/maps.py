@@ -26,7 +26,9 @@ __all__ = ["maps_verdict"]
 
 
 def maps_verdict(sources: Sequence[str | Path], *, names: Sequence[str] | None = None,
-                 defects: bool = True, threads: int | None = None) -> dict[str, Any]:
+                 defects: bool = True, threads: int | None = None,
+                 scans: str | Path | None = None,
+                 trajectories: Sequence[str | Path] | None = None) -> dict[str, Any]:
     """The verdict on several maps of one place without ground truth (``slamq verdict``).
 
     Each map is scored (:func:`slamq.evaluate`), laid over the others and checked by the
@@ -45,6 +47,13 @@ def maps_verdict(sources: Sequence[str | Path], *, names: Sequence[str] | None =
         Run the defect detectors.
     threads : int, optional
         Cap on the Rust worker threads.
+    scans : path, optional
+        The recording every map was built from (:func:`slamq.load_scans`); with
+        ``trajectories``, each map is also scored against its own scans (docs/spec.md
+        section 9, "Against its own scans").
+    trajectories : sequence of path, optional
+        One per source, in order: the trajectory of the run that made the map (in the
+        map's frame, on the recording's clock).
 
     Returns
     -------
@@ -74,9 +83,11 @@ def maps_verdict(sources: Sequence[str | Path], *, names: Sequence[str] | None =
     label = Path(root).name or "maps"
     if len(names) != len(paths):
         raise ValueError(f"{len(names)} names for {len(paths)} maps")
+    if trajectories is not None and len(trajectories) != len(paths):
+        raise ValueError(f"{len(trajectories)} trajectories for {len(paths)} maps")
     records, metrics, errors = [], {}, []
     loaded: dict[str, Any] = {}
-    for path, name in zip(paths, names):
+    for i, (path, name) in enumerate(zip(paths, names)):
         try:
             loaded[str(path)] = grid = load_map(path)
             q = evaluate(grid, threads=threads)
@@ -86,7 +97,9 @@ def maps_verdict(sources: Sequence[str | Path], *, names: Sequence[str] | None =
         row = q.to_dict()
         metrics[str(name)] = row
         records.append({**row, "map": str(path), "sequence": label, "algorithm": str(name),
-                        "run": 1})
+                        "run": 1,
+                        "scans": str(scans) if scans and trajectories is not None else None,
+                        "trajectory": str(trajectories[i]) if trajectories else None})
     if not records:
         return {"verdict": None, "evidence": None, "maps": metrics, "errors": errors}
     ok = pd.DataFrame(records)

@@ -49,6 +49,7 @@ __all__ = [
     "CANONICAL",
     "METRICS",
     "Metric",
+    "SCANS",
     "SequenceRanking",
     "rank_sequence",
     "summarize",
@@ -67,6 +68,9 @@ CANONICAL = COLUMNS["corners_canonical"]
 #: Without ground truth: the median consistency of a map's walls with the other maps' of
 #: the sequence (slamq.agreement); a column of the table when the verdict rests on it.
 AGREEMENT = COLUMNS["agreement"]
+#: Without ground truth, where the maps' own scans are known: the share of a map's beams
+#: that pass through its walls (docs/spec.md 7b); a column when the verdict weighs it.
+SCANS = COLUMNS["scan_violation"]
 
 
 def summarize(ok: pd.DataFrame) -> pd.DataFrame:
@@ -249,7 +253,8 @@ def rank_sequence(summary: pd.DataFrame, sequence: str, verdict: dict | None = N
     ranks: dict[str, dict[str, float]] = {}
     best: dict[str, list[str]] = {}
     used: list[Metric] = []
-    shown = METRICS + tuple(m for m in (AGREEMENT, CANONICAL) if m.key in verdict["basis"])
+    shown = METRICS + tuple(m for m in (AGREEMENT, SCANS, CANONICAL)
+                            if m.key in verdict["basis"])
     for m in shown:
         col = f"{m.key}_mean"
         if col not in block:

@@ -2,7 +2,8 @@
 page needs more than its record holds.
 
 Results are batch records (see ``slamq.batch``): one per map, with ``map``, ``algorithm``,
-``sequence``, ``run``, ``trajectory``, ``groundtruth``, ``error`` and the metric columns.
+``sequence``, ``run``, ``trajectory``, ``groundtruth``, ``scans``, ``error`` and the metric
+columns.
 """
 
 from __future__ import annotations
@@ -58,7 +59,7 @@ def load_results(results: ResultsLike) -> pd.DataFrame:
     if "map" not in frame or frame["map"].map(_missing).all():
         raise SlamqError(f"{where}: results have no 'map' column (not a slamq batch file?)")
     frame = frame.reset_index(drop=True)
-    for col in ("trajectory", "groundtruth", "error"):
+    for col in ("trajectory", "groundtruth", "scans", "error"):
         if col not in frame:
             frame[col] = None
     frame["error"] = [

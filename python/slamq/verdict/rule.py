@@ -19,8 +19,9 @@ from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import Orientation, distinct_resolutions, orientation
 
 __all__ = [
-    "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "basis_name", "known_share",
-    "needs_evidence", "rule_summary", "sequence_verdict", "verdict_sentence",
+    "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "SCAN_FLOOR", "SCAN_SHARE",
+    "basis_name", "known_share", "needs_evidence", "rule_summary", "scan_limit",
+    "sequence_verdict", "verdict_sentence",
 ]
 
 #: A map knowing less area than this share of the sequence's most complete map is partial:
@@ -33,6 +34,14 @@ CLEAR_MARGIN = 0.25
 #: below this share of the sequence's best support disagrees with the others and is never
 #: named best; the maps at or above it are confirmed equally (corners break that tie).
 AGREEMENT_SHARE = 0.9
+#: Against its own scans (docs/spec.md 7b): a map whose violation share (beams that pass
+#: through a wall of the map) is above ``max(SCAN_FLOOR, SCAN_SHARE x`` the lowest of the
+#: sequence's maps scored so``)`` is inconsistent with its own data and never named best;
+#: where no other map confirms it (one of two maps, maps that disagree), a map is named on
+#: its scans only when its violation share is at most ``SCAN_FLOOR``. Chosen on the tuning
+#: set of docs/validity.md ("A map against its own scans in the verdict").
+SCAN_FLOOR = 0.10
+SCAN_SHARE = 2.0
 
 _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
@@ -139,9 +148,45 @@ def _corner_key(block: pd.DataFrame, names: list[str]) -> tuple[str | None, pd.S
     return None, pd.Series(dtype=float)
 
 
+def scan_limit(violations: dict[str, float]) -> float:
+    """The violation share above which a map is inconsistent with its own scans:
+    ``max(SCAN_FLOOR, SCAN_SHARE x`` the lowest of ``violations``) (NaN: none).
+
+    Examples
+    --------
+    >>> scan_limit({"a": 0.01, "b": 0.2}), scan_limit({"a": 0.08, "b": 0.3})
+    (0.1, 0.16)
+    """
+    finite = [v for v in violations.values() if math.isfinite(v)]
+    return max(SCAN_FLOOR, SCAN_SHARE * min(finite)) if finite else math.nan
+
+
+def _scan_flags(info: dict[str, Any]) -> tuple[dict[str, float], dict[str, str]]:
+    """Each algorithm's violation share against its own scans, and the reason of those
+    above :func:`scan_limit`."""
+    scans = {a: float(e.get("scan_violation", math.nan)) for a, e in info.items()}
+    scans = {a: v for a, v in scans.items() if math.isfinite(v)}
+    limit = scan_limit(scans)
+    lowest = min(scans.values()) if scans else math.nan
+    return scans, {a: (f"inconsistent with its own scans ({100 * v:.0f}% of its beams pass "
+                       f"through its walls, the most consistent map's {100 * lowest:.0f}%)")
+                   for a, v in scans.items() if v > limit}
+
+
+def _separating(a: str, flagged: dict[str, str], scan_flags: dict[str, str],
+                partial: set[str]) -> str | None:
+    """What is wrong with map ``a`` on its own (a defect flag, its own scans, partial), which
+    can tell two maps apart; None when nothing is."""
+    reasons = [flagged[a]] if flagged.get(a, "").startswith("defects") else []
+    reasons += [scan_flags[a]] if a in scan_flags else []
+    reasons += ["a partial map"] if a in partial else []
+    return "; ".join(reasons) or None
+
+
 def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, Any],
                        warnings: list[str]) -> dict[str, Any]:
-    """The verdict without ground truth, from the maps' agreement and defect flags."""
+    """The verdict without ground truth, from the maps' agreement, defect flags and their
+    own scans."""
     info = {str(a): e for a, e in evidence["algorithms"].items() if a in block.index}
     warnings.extend(evidence.get("notes", []))
     flagged: dict[str, str] = {}
@@ -151,6 +196,9 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
         elif e["flagged_runs"] and 2 * e["flagged_runs"] >= e["runs"]:
             kinds = sorted({d["kind"] for ds in e["defects"].values() for d in ds})
             flagged[a] = f"defects: {', '.join(kinds)}"
+    scans, scan_flags = _scan_flags(info)
+    for a, why in scan_flags.items():
+        flagged.setdefault(a, why)
     support = {a: e["support"] for a, e in info.items() if math.isfinite(e["support"])}
     complete = {a: e["completeness"] for a, e in info.items()
                 if math.isfinite(e["completeness"])}
@@ -194,15 +242,41 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                       if str(a) not in support and str(a) not in unplaced)
     if unranked:
         warnings.append(f"not ranked, no agreement figure: {', '.join(unranked)}")
-    basis = ["agreement"] + ([key] if key and len(candidates) > 1 else [])
+    basis = ["agreement"] + (["scan_violation"] if scans else []) + (
+        [key] if key and len(candidates) > 1 else [])
+    alone = {a: _separating(a, flagged, scan_flags, partial) for a in info}
     why = None
-    if len(support) < 3:
+    defect_decides = len(support) == 2 and len(candidates) == 1 and any(
+        flagged.get(a, "").startswith("defects") for a in support)
+    if len(support) < 3 and len(info) == 2 and len(scans) == 2 and not defect_decides:
+        # two maps, each scored against its own scans (item 5 of issue 41): one is named
+        # when the other is wrong on its own (vetoed by its scans, or partial) and it is
+        # not, and its own scans confirm it; a defect flag decides as without scans (below)
+        named = [a for a in info if alone[a] is None]
+        if len(named) == 1:
+            x = named[0]
+            y = next(a for a in info if a != x)
+            if scans[x] <= SCAN_FLOOR and scans[x] < scans[y]:
+                return _two_maps(sequence, x, y, alone[y] or "", scans, basis, warnings)
+            why = (f"fewer than three maps take part: {y} is wrong on its own ({alone[y]}), "
+                   f"but {x}'s own scans do not confirm it ({100 * scans[x]:.0f}% of its "
+                   f"beams pass through its walls; a map named of two needs at most "
+                   f"{100 * SCAN_FLOOR:.0f}% and fewer than the other's)")
+        elif named:
+            why = ("fewer than three maps take part: two maps that differ cannot tell which "
+                   "of them is right, and neither is wrong on its own (a defect flag, a "
+                   "partial map, or inconsistent with its own scans)")
+        else:
+            why = ("fewer than three maps take part, and both are wrong on their own: "
+                   + "; ".join(f"{a}: {alone[a]}" for a in sorted(info)))
+    elif len(support) < 3:
         why = ("fewer than three maps take part: two maps that differ cannot tell which "
                "of them is right")
-        if len(support) == 2 and len(candidates) == 1 and any(
-                flagged.get(a, "").startswith("defects") for a in support):
+        if defect_decides:
             why = None  # one map is flagged on its own: the other is named
     elif not evidence["majority"] and not by_group:
+        if len(scans) == len(info):
+            return _by_scans(sequence, info, scans, scan_flags, alone, warnings)
         why = ("the maps disagree among themselves (most of them are not confirmed by the "
                "others, and no two programs' maps agree with each other): the evidence does "
                "not say which is right")
@@ -234,6 +308,47 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                            f"within {int(CLEAR_MARGIN * 100)}% ({first:g} and {second:g})")
     return {"sequence": str(sequence), "best": candidates[0], "ranking": ranking,
             "basis": basis, "confidence": confidence, "warnings": warnings}
+
+
+def _two_maps(sequence: str, named: str, other: str, why: str, scans: dict[str, float],
+              basis: list[str], warnings: list[str]) -> dict[str, Any]:
+    """The verdict on two maps when one of them is wrong on its own and the other is not."""
+    confidence = (f"low: two maps; {other} is wrong on its own ({why}) and {named} is not "
+                  "(no defect flag, not partial")
+    confidence += (", consistent with its own scans)" if named in scans else ")")
+    return {"sequence": str(sequence), "best": named, "ranking": [named, other],
+            "basis": basis, "confidence": confidence, "warnings": warnings}
+
+
+def _by_scans(sequence: str, info: dict[str, Any], scans: dict[str, float],
+              scan_flags: dict[str, str], alone: dict[str, str | None],
+              warnings: list[str]) -> dict[str, Any]:
+    """Maps that disagree among themselves, each with its own scans: ordered by their
+    violation share; the first named when another map is inconsistent with its own scans,
+    the first is not wrong on its own and its own scans confirm it (a violation share of
+    at most :data:`SCAN_FLOOR`)."""
+    order = sorted(info, key=lambda a: (alone[a] is not None, scans[a], a))
+    first = order[0]
+    best = first if (scan_flags and alone[first] is None
+                     and scans[first] <= SCAN_FLOOR) else None
+    basis = ["scan_violation"]
+    if best is None:
+        why = ("the maps disagree among themselves and their own scans do not separate them "
+               + ("(no map is inconsistent with its scans)" if not scan_flags else
+                  "(every map is wrong on its own)" if alone[first] is not None else
+                  f"(the most consistent of the maps not wrong on their own, {first}, has "
+                  f"{100 * scans[first]:.0f}% of its beams pass through its walls: more than "
+                  f"{100 * SCAN_FLOOR:.0f}%)"))
+        return {"sequence": str(sequence), "best": None, "ranking": order, "basis": basis,
+                "confidence": f"none: {why}", "warnings": warnings}
+    bad = sorted(scan_flags)
+    confidence = (f"low: no ground truth and the maps disagree among themselves; {best} is "
+                  f"the most consistent with its own scans ({100 * scans[best]:.0f}% of its "
+                  f"beams pass through its walls) and has no defect flag, while "
+                  f"{', '.join(bad)} {'is' if len(bad) == 1 else 'are'} inconsistent with "
+                  "their own")
+    return {"sequence": str(sequence), "best": best, "ranking": order, "basis": basis,
+            "confidence": confidence, "warnings": warnings}
 
 
 def sequence_verdict(summary: pd.DataFrame, sequence: str,
@@ -338,6 +453,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
 _BASIS_NAMES = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
                 "rel_trans_abs_mean": "relations error",
                 "agreement": "agreement with the other maps",
+                "scan_violation": "consistency with its own scans",
                 "corners_canonical": "canonical corners"}
 
 
@@ -400,16 +516,21 @@ def rule_summary() -> str:
     by ATE RMSE when the sequence has ground truth, else by relations error, else by GT F1
     against its ground-truth map; else by how far the other maps confirm each map (a map
     they cannot place, whose support is under 90% of the best, that a defect detector
-    flags, or whose completeness is under 80% of the highest is never named best; corners
-    order the maps confirmed equally on one grid); with figures alone, by corners (no
-    clear winner within 25%)
+    flags, whose completeness is under 80% of the highest, or whose own scans pass through
+    its walls more than max(10%, 2x the most consistent map's) is never named best;
+    corners order the maps confirmed equally on one grid; of two maps, or of maps that
+    disagree, one is named only when another is wrong on its own and its own scans confirm
+    it); with figures alone, by corners (no clear winner within 25%)
     """
     return (
         f"by {basis_name(_BASES[0][0])} when the sequence has ground truth, else by "
         f"{basis_name(_BASES[1][0])}, else by {basis_name(_BASES[2][0])} against its "
         "ground-truth map; else by how far the other "
         "maps confirm each map (a map they cannot place, whose support is under "
-        f"{AGREEMENT_SHARE:.0%} of the best, that a defect detector flags, or whose "
-        f"completeness is under {COMPLETE_SHARE:.0%} of the highest is never named best; "
-        "corners order the maps confirmed equally on one grid); with figures alone, by "
-        f"corners (no clear winner within {CLEAR_MARGIN:.0%})")
+        f"{AGREEMENT_SHARE:.0%} of the best, that a defect detector flags, whose "
+        f"completeness is under {COMPLETE_SHARE:.0%} of the highest, or whose own scans pass "
+        f"through its walls more than max({SCAN_FLOOR:.0%}, {SCAN_SHARE:g}x the most "
+        "consistent map's) is never named best; corners order the maps confirmed equally on "
+        "one grid; of two maps, or of maps that disagree, one is named only when another is "
+        "wrong on its own and its own scans confirm it); with figures alone, by corners (no "
+        f"clear winner within {CLEAR_MARGIN:.0%})")

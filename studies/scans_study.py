@@ -1,0 +1,383 @@
+"""A map against its own scans (docs/spec.md 7b) on SLAM programs' maps, and the verdict
+that uses it (docs/validity.md, "A map against its own scans in the verdict").
+
+``python studies/scans_study.py benchmark OUTPUT``: every ok run of a ``slamq run`` output
+of generated sequences (studies/scans-benchmark-a.yaml, -b.yaml) scored against the scans
+of its sequence's rawlog at its own trajectory, beside its ATE; the concordance tables; and
+the verdict with the ground truth hidden (sequences, and every pair of programs as a
+two-map case).
+
+``python studies/scans_study.py real OUTPUT``: the same for the runs of
+``examples/real2d.yaml`` beside the relations error (:func:`real_rows`: the ``rel_*``
+columns of ``slamq run``'s results, or an earlier pipeline's ``relations.csv``).
+
+Both write ``OUTPUT/scans-rows.csv`` (one row per run) and print Markdown.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from slamq.metrics.scans import scan_consistency
+from slamq.results.validity import validate
+from slamq.sources import load_map, load_scans, load_trajectory
+
+#: The figures of a map against its scans, lower is better (miss_share = 1 - hit_share).
+FIGURES = ("violation_share", "miss_share", "unknown_share")
+
+
+def score_runs(runs: pd.DataFrame, *, trajectory_of: Any = None) -> pd.DataFrame:
+    """``runs`` (``map``, ``scans``, ``trajectory``) with the scan figures of each map.
+
+    ``trajectory_of(row)`` gives a row's Trajectory (default: ``load_trajectory`` of its
+    ``trajectory`` column, sorted by time).
+    """
+    cache: dict[str, Any] = {}
+    out = []
+    for r in runs.to_dict("records"):
+        row = dict(r)
+        try:
+            scans = cache.get(r["scans"])
+            if scans is None:
+                scans = cache[r["scans"]] = load_scans(r["scans"])
+            traj = (trajectory_of(r) if trajectory_of is not None
+                    else load_trajectory(r["trajectory"], unsorted="sort"))
+            grid = load_map(r["map"])
+            t0 = time.process_time()
+            c = scan_consistency(grid, scans, traj)
+            row["scan_cpu_s"] = time.process_time() - t0
+            fig = c.to_dict()
+            fig["scans_scored"] = fig.pop("scans")  # "scans" names the recording
+            row.update(fig)
+            row["miss_share"] = 1.0 - c.hit_share
+            row["placed_share"] = float(c.placed.mean())
+        except Exception as exc:  # noqa: BLE001 - a study row records why it failed
+            row["scan_error"] = f"{type(exc).__name__}: {exc}"[:200]
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def concordance(df: pd.DataFrame, truths: tuple[str, ...], metrics: tuple[str, ...]
+                ) -> pd.DataFrame:
+    """Pooled and per-group concordance of each figure with each truth (validate)."""
+    return validate(df, truths=truths, permutations=1000, metrics=metrics)
+
+
+def failures_seen(df: pd.DataFrame, figure: str, broken: str = "broken") -> dict[str, Any]:
+    """Over the sequences with a broken and an unbroken map: how often the figure's worst
+    map is a broken one, and how often its best is.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"sequence": "s", "v": [0.1, 0.4, 0.2],
+    ...                    "broken": [False, True, False]})
+    >>> failures_seen(df, "v")
+    {'sequences': 1, 'worst_is_broken': 1, 'best_is_broken': 0}
+    """
+    n = worst = best = 0
+    for _, b in df.dropna(subset=[figure]).groupby("sequence"):
+        if not (b[broken].any() and (~b[broken]).any()):
+            continue
+        n += 1
+        worst += bool(b.loc[b[figure].idxmax(), broken])
+        best += bool(b.loc[b[figure].idxmin(), broken])
+    return {"sequences": n, "worst_is_broken": worst, "best_is_broken": best}
+
+
+def _fmt(x: Any, f: str = ".3f") -> str:
+    return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, f)
+
+
+def tables(df: pd.DataFrame, truth: str, label: str) -> str:
+    """The Markdown of the figures against ``truth``."""
+    out = []
+    ok = df[df.get("scan_error", pd.Series(index=df.index, dtype=object)).isna()]
+    t = concordance(ok, (truth,), FIGURES)
+    pooled = t[t["sequence"] == "(pooled)"]
+    out.append(f"Concordance with {label} within each sequence (0.5 = chance; Spearman / "
+               "concordance / permutation p, 1000 shuffles):\n")
+    out.append("| figure | pooled |\n|---|---|")
+    for _, r in pooled.iterrows():
+        out.append(f"| {r['metric']} | {r['spearman']:+.2f} / {r['concordance']:.2f} / "
+                   f"{r['p_value']:.3f} (n={int(r['n'])}) |")
+    out.append("")
+    if "broken" in ok:
+        out.append("Broken maps (truth > 3x the sequence's best and > 0.2 m): violation "
+                   "share of broken and unbroken maps, and over the sequences with both, "
+                   "how often the highest violation share is a broken map's and how often "
+                   "the lowest is:\n")
+        b, g = ok[ok["broken"]], ok[~ok["broken"]]
+        seen = failures_seen(ok, "violation_share")
+        out.append("| maps | n | violation share: median | min | max |\n|---|---|---|---|---|")
+        for name, part in (("broken", b), ("unbroken", g)):
+            v = part["violation_share"]
+            out.append(f"| {name} | {len(part)} | {_fmt(v.median())} | {_fmt(v.min())} | "
+                       f"{_fmt(v.max())} |")
+        out.append(f"\nSequences with both: {seen['sequences']}; highest violation share "
+                   f"broken in {seen['worst_is_broken']}, lowest broken in "
+                   f"{seen['best_is_broken']}.\n")
+    out.append("Per program (medians over its maps):\n")
+    out.append("| program | maps | truth | violation share | hit share | scans scored |\n"
+               "|---|---|---|---|---|---|")
+    for alg, b in ok.groupby(ok["algorithm"].astype(str).str.split("[").str[0]):
+        out.append(f"| {alg} | {len(b)} | {_fmt(b[truth].median())} | "
+                   f"{_fmt(b['violation_share'].median())} | {_fmt(b['hit_share'].median())} "
+                   f"| {_fmt(b['scans_scored'].median(), '.0f')} |")
+    out.append("")
+    out.append("| sequence | algorithm | truth | violation | hit | unknown | outside | scans "
+               "| CPU s |\n|---|---|---|---|---|---|---|---|---|")
+    for r in df.sort_values(["sequence", "algorithm"]).to_dict("records"):
+        out.append(f"| {r['sequence']} | {r['algorithm']} | {_fmt(r.get(truth))} | "
+                   f"{_fmt(r.get('violation_share'))} | {_fmt(r.get('hit_share'))} | "
+                   f"{_fmt(r.get('unknown_share'))} | {_fmt(r.get('outside_share'))} | "
+                   f"{r.get('scans_scored', '-')} | {_fmt(r.get('scan_cpu_s'), '.2f')} |"
+                   + (f" {r['scan_error']}" if isinstance(r.get("scan_error"), str) else ""))
+    return "\n".join(out) + "\n"
+
+
+def benchmark_rows(output: Path) -> pd.DataFrame:
+    """The ok runs of a generated benchmark with their scans file and ATE."""
+    sys.path.insert(0, str(Path(__file__).parent))
+    from benchmark_study import load_benchmark
+
+    df = load_benchmark(output)
+    df = df[(df["outcome"] == "ok") & df["map"].notna()].copy()
+    df["scans"] = [str(output / "sequences" / s / f"{s}.rawlog") for s in df["sequence"]]
+    return df
+
+
+def real_rows(output: Path) -> pd.DataFrame:
+    """The real2d runs with their relations error, map, scans and trajectory.
+
+    From ``OUTPUT/results.jsonl`` when its records have the ``rel_*`` columns (``slamq run
+    examples/real2d.yaml`` scores them since 2026-11-28); else, for an output of the
+    earlier pipeline (``studies/real2d.py prepare`` / ``score`` before then), from
+    ``OUTPUT/relations.csv`` with each run's ``map.yaml`` and the sorted estimate an
+    earlier call of this study wrote beside it (``estimate-sorted.tum``).
+    """
+    from slamq.results.formats import read_results
+
+    recs = read_results(output / "results.jsonl")
+    if "rel_trans_abs_mean" in recs and recs["rel_trans_abs_mean"].notna().any():
+        ok = recs[recs["error"].isna() | (recs["error"].astype(str) == "")]
+        df = ok.assign(rel_trans_abs_mean=ok["rel_trans_abs_mean"],
+                       rel_rot_abs_mean=ok.get("rel_rot_abs_mean"))[
+            ["sequence", "algorithm", "run", "map", "scans", "trajectory",
+             "rel_trans_abs_mean", "rel_rot_abs_mean"]].copy()
+    else:
+        rel = pd.read_csv(output / "relations.csv")
+        rows = []
+        for r in rel.to_dict("records"):
+            folder = (output / r["algorithm"].split("[")[0] / r["variant"] / r["sequence"]
+                      / str(r["iteration"]))
+            if not (folder / "map.yaml").exists():
+                continue
+            rows.append({"sequence": r["sequence"], "algorithm": r["algorithm"],
+                         "run": r["iteration"], "map": str(folder / "map.yaml"),
+                         "scans": str(output / "sequences" / r["sequence"]
+                                      / f"{r['sequence']}.rawlog"),
+                         "trajectory": str(folder / "estimate-sorted.tum"),
+                         "rel_trans_abs_mean": r["trans_abs_mean"],
+                         "rel_rot_abs_mean": r["rot_abs_mean"]})
+        df = pd.DataFrame(rows)
+    best = df.groupby(["sequence", "run"])["rel_trans_abs_mean"].transform("min")
+    df["broken"] = (df["rel_trans_abs_mean"] > 3 * best) & (df["rel_trans_abs_mean"] > 0.2)
+    return df
+
+
+def pairs(df: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+    """Every pair of programs of each sequence: ``(label, rows)``.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b", "c"]})
+    >>> [label for label, _ in pairs(df)]
+    ['s: a | b', 's: a | c', 's: b | c']
+    """
+    out = []
+    for seq, b in df.groupby("sequence"):
+        for a1, a2 in itertools.combinations(sorted(b["algorithm"].unique()), 2):
+            out.append((f"{seq}: {a1} | {a2}", b[b["algorithm"].isin((a1, a2))]))
+    return out
+
+
+#: The (SCAN_FLOOR, SCAN_SHARE) grid the rule's veto was chosen from on set A.
+GRID = tuple((v, k) for v in (0.02, 0.05, 0.10) for k in (1.5, 2.0, 3.0))
+
+
+def _hidden(df: pd.DataFrame) -> pd.DataFrame:
+    """The rows with every ground-truth column dropped (as verdict_study does)."""
+    return df.drop(columns=[c for c in df.columns if c.startswith(
+        ("ate_", "gt_", "groundtruth", "rel_")) or c in ("broken",)])
+
+
+def _without_scans(ev: dict[str, Any]) -> dict[str, Any]:
+    """The evidence as it would be without scans (every scan figure removed)."""
+    out = dict(ev)
+    out["algorithms"] = {a: {**e, "scan_violation": math.nan, "scan_hit": math.nan,
+                             "scan_runs": 0} for a, e in ev["algorithms"].items()}
+    return out
+
+
+def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series,
+           broken: pd.Series, rule: tuple[float, float] | None) -> dict[str, Any]:
+    """One verdict (``rule`` = (floor, share), None: the evidence without scans) and how its
+    choice ranks by the truth."""
+    from slamq.verdict import rule as r
+    from slamq.verdict.rule import sequence_verdict
+
+    saved = (r.SCAN_FLOOR, r.SCAN_SHARE)
+    try:
+        if rule is not None:
+            r.SCAN_FLOOR, r.SCAN_SHARE = rule
+        v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
+    finally:
+        r.SCAN_FLOOR, r.SCAN_SHARE = saved
+    best = v["best"]
+    return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
+            else math.nan,
+            "ratio": float(truth[best] / truth.min()) if best in truth.index else math.nan,
+            "broken_named": bool(broken.get(best, False)) if best else False,
+            "reason": v["confidence"]}
+
+
+def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool = False,
+             cache: dict | None = None) -> pd.DataFrame:
+    """The verdict of each sequence (or, with ``pair``, each pair of programs of each
+    sequence) with the truth hidden, for each rule of ``rules`` ((floor, share) of the
+    scan veto; None: without the scans); ``cache`` keeps each case's evidence (the costly
+    part) between calls."""
+    from slamq.verdict.evidence import sequence_evidence
+    from slamq.verdict.ranking import summarize
+
+    ok = df[df["map"].notna()].copy()
+    hidden = _hidden(ok)
+    cases = pairs(ok) if pair else [(str(s), b) for s, b in ok.groupby("sequence")]
+    rows = []
+    for label, block in cases:
+        seq = str(block["sequence"].iloc[0])
+        sub = hidden.loc[block.index]
+        key = (label, tuple(sorted(sub["map"])))
+        if cache is not None and key in cache:
+            ev = cache[key]
+        else:
+            ev = sequence_evidence(sub, seq)
+            if cache is not None:
+                cache[key] = ev
+        summary = summarize(sub)
+        t = block.groupby("algorithm")[truth].mean()
+        best = t.min()
+        broken = (t > 3 * best) & (t > 0.2)
+        row: dict[str, Any] = {"case": label, "sequence": seq,
+                               "algorithms": ", ".join(sorted(t.index)),
+                               "truth_best": str(t.idxmin()),
+                               "scans": {a: e["scan_violation"]
+                                         for a, e in ev["algorithms"].items()},
+                               "majority": ev["majority"], "group": ev.get("group")}
+        for rule in rules:
+            name = "none" if rule is None else f"{rule[0]:g}/{rule[1]:g}"
+            for k, v in _judge(summary, seq, ev, t, broken, rule).items():
+                row[f"{k}@{name}"] = v
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
+    """Per rule: cases, named, named in the truth's top two (top one for pairs), broken
+    named, abstained."""
+    out = ["| rule | cases | named | " + ("named the better of the two" if pair else
+                                        "named in the truth's top two")
+           + " | named a run > 3x the best (broken) | abstained |", "|---|---|---|---|---|---|"]
+    for rule in rules:
+        name = "none" if rule is None else f"{rule[0]:g}/{rule[1]:g}"
+        best = v[f"best@{name}"]
+        named = best.notna()
+        good = (v[f"rank@{name}"] <= (1 if pair else 2)) & named
+        label = "without scans" if rule is None else f"floor {rule[0]:g}, share {rule[1]:g}"
+        out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
+                   f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
+                   f" | {int((~named).sum())} |")
+    return "\n".join(out) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    ap.add_argument("kind", choices=("benchmark", "real"))
+    ap.add_argument("output", type=Path)
+    ap.add_argument("--grid", action="store_true",
+                    help="the verdicts for every (floor, share) of the veto's grid (set A)")
+    ap.add_argument("--no-verdict", action="store_true", help="the figures only")
+    ap.add_argument("--cached", action="store_true",
+                    help="reuse the evidence of an earlier call (OUTPUT/scans-evidence.pkl): "
+                    "only the rule is applied again")
+    ap.add_argument("--max-scans", type=int, default=None,
+                    help="with --cached: the scans' figures again with at most N scans a map")
+    ap.add_argument("--rows", action="store_true",
+                    help="reuse the scored rows of an earlier call (OUTPUT/scans-rows.csv)")
+    a = ap.parse_args(argv if argv is not None else sys.argv[1:])
+    if a.rows and a.kind == "benchmark":
+        df = pd.read_csv(a.output / "scans-rows.csv")
+        truth, label = "ate_rmse", "the ATE RMSE"
+    elif a.rows:
+        df = pd.read_csv(a.output / "scans-rows.csv")
+        truth, label = "rel_trans_abs_mean", "the mean abs translational relations error"
+    elif a.kind == "benchmark":
+        df = score_runs(benchmark_rows(a.output))
+        truth, label = "ate_rmse", "the ATE RMSE"
+    else:  # real
+        df = score_runs(real_rows(a.output))
+        truth, label = "rel_trans_abs_mean", "the mean abs translational relations error"
+    df.to_csv(a.output / "scans-rows.csv", index=False)
+    sys.stdout.write(tables(df, truth, label))
+    if a.no_verdict:
+        return 0
+    from slamq.verdict import rule as r
+
+    rules = (None, *GRID) if a.grid else (None, (r.SCAN_FLOOR, r.SCAN_SHARE))
+    import pickle
+
+    store = a.output / "scans-evidence.pkl"
+    cache = pickle.loads(store.read_bytes()) if store.exists() and a.cached else {}
+    if a.max_scans is not None:
+        # the scans' part of the cached evidence again, at most N scans a map: the rest of
+        # the evidence (agreement, defects) does not depend on it
+        from slamq.sources import load_map
+        from slamq.verdict.scans import record_consistency
+
+        recs = {str(r["map"]): r for r in df.to_dict("records")}
+        figures = {m: record_consistency(r, load_map(m), max_scans=a.max_scans).to_dict()
+                   for m, r in recs.items()}
+        for ev in cache.values():
+            ev["scans"] = {m: figures[m] for m in ev.get("scans", {})}
+            for alg, e in ev["algorithms"].items():
+                mine = [figures[m] for m, r in recs.items()
+                        if str(r["algorithm"]) == alg and m in ev["scans"]]
+                if mine:
+                    e["scan_violation"] = float(np.median([f["violation_share"]
+                                                           for f in mine]))
+        if not a.cached:
+            raise SystemExit("--max-scans needs --cached")
+        store = a.output / f"scans-evidence-{a.max_scans}.pkl"
+    for pair in (False, True):
+        v = verdicts(df, truth, rules=rules, pair=pair, cache=cache)
+        store.write_bytes(pickle.dumps(cache))
+        suffix = f"-{a.max_scans}" if a.max_scans else ""
+        v.to_csv(a.output / f"scans-verdicts{'-pairs' if pair else ''}{suffix}.csv",
+                 index=False)
+        sys.stdout.write(("\nTwo-map cases (every pair of programs of a sequence):\n\n"
+                          if pair else "\nThe verdict, the truth hidden:\n\n")
+                         + verdict_table(v, rules, pair=pair))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,315 @@
+"""The verdict and a map's own scans (docs/spec.md sections 7b and 9; issue 41, items 2 and
+5): a simulated drive written as an MRPT rawlog, maps drawn from its scans at the poses of
+a run, each record naming the recording (``scans``) and its trajectory, judged end to end
+by ``sequence_evidence`` and ``sequence_verdict``; then the rule's branches on evidence
+written out."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+
+from slamq.models import OccupancyMap, Trajectory
+from slamq.synth import LaserSpec, simulate, world
+from slamq.synth.recording import EPOCH
+from slamq.synth.truth import visible_map
+from slamq.synth.worldgen import save_world
+from slamq.synth.writers import write_groundtruth
+from slamq.synth.writers.rawlog import write_rawlog
+from slamq.verdict.evidence import sequence_evidence
+from slamq.verdict.ranking import summarize
+from slamq.verdict.rule import SCAN_FLOOR, SCAN_SHARE, scan_limit, sequence_verdict
+
+
+def _drawn(seq, poses: np.ndarray) -> OccupancyMap:
+    """The map a SLAM run at ``poses`` draws from the drive's scans, on the world's grid:
+    each scan's swept polygon free, then every return occupied (a wall drawn once stays)."""
+    w = seq.world
+    res, (h, wd), (ox, oy, _) = float(w.resolution), w.shape, w.origin
+    a = poses[:, 2:3] + seq.laser.angles()[None, :]
+    hit = np.isfinite(seq.ranges) & (seq.ranges < seq.laser.max_range)
+    r = np.where(hit, seq.ranges, 0.0)
+    gx = (poses[:, 0:1] + r * np.cos(a) - ox) / res
+    gy = h - (poses[:, 1:2] + r * np.sin(a) - oy) / res
+    lx, ly = (poses[:, 0] - ox) / res, h - (poses[:, 1] - oy) / res
+    free = np.zeros((h, wd), np.uint8)
+    for k in range(len(poses)):
+        poly = np.concatenate([[[lx[k], ly[k]]], np.column_stack([gx[k], gy[k]])])
+        cv2.fillPoly(free, [np.round((poly - 0.5) * 8).astype(np.int32)], 1,
+                     lineType=cv2.LINE_8, shift=3)
+    values = np.where(free > 0, 254, 205).astype(np.uint8)
+    col, row = np.floor(gx[hit]).astype(int), np.floor(gy[hit]).astype(int)
+    inside = (row >= 0) & (row < h) & (col >= 0) & (col < wd)
+    values[row[inside], col[inside]] = 0
+    return OccupancyMap(values, values == 205, res, w.origin)
+
+
+@pytest.fixture(scope="module")
+def drive(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """A drive through an office world with drifting odometry, its rawlog, its exact path
+    and its odometry as trajectory files, and maps: the walls the laser saw (twice), the
+    same with a ghost wall across the middle, and the map a run at the odometry's poses
+    draws from the scans."""
+    d = tmp_path_factory.mktemp("drive")
+    w = world(3, kind="office", size=(10.0, 8.0))
+    seq = simulate(w, seed=1, noise="high", laser=LaserSpec(beams=181), length=30.0)
+    odom = Trajectory.from_xy_yaw(EPOCH + seq.stamps, seq.odom[:, 0], seq.odom[:, 1],
+                                  seq.odom[:, 2])
+    files = {"scans": str(write_rawlog(seq, d / "drive.rawlog")),
+             "gt": str(write_groundtruth(seq, d / "gt.tum")),
+             "odom": str(odom.write_tum(d / "odom.tum"))}
+    good = visible_map(seq)  # the walls the laser saw, where they are
+    ghost = good.values.copy()
+    mid = ghost.shape[0] // 2
+    ghost[mid, :] = np.where(ghost[mid, :] == 254, 0, ghost[mid, :])  # a wall across free
+    maps = {"a": good, "b": good,
+            "ghost": OccupancyMap(ghost, good.unknown, good.resolution, good.origin),
+            "drifted": _drawn(seq, seq.odom)}
+    paths = {k: str(save_world(m, d / f"{k}.yaml")) for k, m in maps.items()}
+    return {"dir": d, "files": files, "paths": paths}
+
+
+def _records(drive: dict, corners: dict[str, int], *, scans: bool = True) -> pd.DataFrame:
+    rows = []
+    for alg, c in corners.items():
+        traj = drive["files"]["odom" if alg == "drifted" else "gt"]
+        row = {"map": drive["paths"][alg if alg in drive["paths"] else "a"],
+               "algorithm": alg, "sequence": "s", "run": 1, "trajectory": traj,
+               "corners": c, "known": 10000, "resolution": 0.05, "wall_angle": 0.0}
+        if scans:
+            row["scans"] = drive["files"]["scans"]
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _judge(df: pd.DataFrame) -> tuple[dict, dict]:
+    ev = sequence_evidence(df, "s", align="origin", defects=False)
+    return sequence_verdict(summarize(df), "s", ev), ev
+
+
+def test_a_ghost_wall_its_scans_see_through_is_never_named(drive: dict) -> None:
+    # by corners alone the map with the ghost wall would be named (fewest corners)
+    corners = {"a": 100, "b": 110, "ghost": 50}
+    before, _ = _judge(_records(drive, corners, scans=False))
+    assert before["best"] == "ghost"
+    v, ev = _judge(_records(drive, corners))
+    scans = {a: e["scan_violation"] for a, e in ev["algorithms"].items()}
+    # the exact map agrees with its scans; the ghost wall is crossed by the beams that saw
+    # the room behind it
+    assert scans["a"] < 0.01 and scans["ghost"] > scan_limit(scans), scans
+    assert v["best"] == "a" and v["ranking"][-1] == "ghost"
+    assert "scan_violation" in v["basis"]
+    assert any(w.startswith("ghost is never named best: inconsistent with its own scans")
+               for w in v["warnings"]), v["warnings"]
+    # the evidence keeps each map's figures, by path
+    assert set(ev["scans"]) == {drive["paths"][k] for k in ("a", "b", "ghost")}
+
+
+def test_a_map_drawn_at_drifting_poses_is_inconsistent_with_its_scans(drive: dict) -> None:
+    v, ev = _judge(_records(drive, {"a": 100, "b": 110, "drifted": 40}))
+    scans = {a: e["scan_violation"] for a, e in ev["algorithms"].items()}
+    assert scans["drifted"] > scan_limit(scans) and scans["b"] < scan_limit(scans)
+    assert v["best"] in ("a", "b")
+    assert any(w.startswith("drifted is never named best") for w in v["warnings"])
+
+
+def test_of_two_maps_the_one_its_scans_contradict_is_not_named(drive: dict) -> None:
+    pair = {"a": 100, "ghost": 50}
+    v, _ = _judge(_records(drive, pair))
+    assert v["best"] == "a" and v["ranking"] == ["a", "ghost"]
+    assert v["confidence"].startswith("low: two maps; ghost is wrong on its own "
+                                      "(inconsistent with its own scans")
+    # without the scans nothing separates them: it abstains, as before
+    without, _ = _judge(_records(drive, pair, scans=False))
+    assert without["best"] is None and "fewer than three maps" in without["confidence"]
+    # two maps both consistent with their scans: it abstains and says why
+    both, _ = _judge(_records(drive, {"a": 100, "b": 50}))
+    assert both["best"] is None
+    assert "neither is wrong on its own" in both["confidence"]
+
+
+def test_maps_consistent_with_their_scans_are_judged_as_without_them(drive: dict) -> None:
+    corners = {"a": 100, "b": 60, "c": 80}
+    with_scans, _ = _judge(_records(drive, corners))
+    without, _ = _judge(_records(drive, corners, scans=False))
+    assert (with_scans["best"], with_scans["ranking"]) == (without["best"],
+                                                           without["ranking"]) == (
+        "b", ["b", "c", "a"])
+
+
+def test_a_record_whose_scans_cannot_be_read_is_a_note(drive: dict, tmp_path: Path) -> None:
+    df = _records(drive, {"a": 100, "ghost": 50})
+    df.loc[df["algorithm"] == "ghost", "scans"] = str(tmp_path / "missing.rawlog")
+    v, ev = _judge(df)
+    assert math.isnan(ev["algorithms"]["ghost"]["scan_violation"])
+    assert any("not scored against its scans" in n and "missing.rawlog" in n
+               for n in ev["notes"])
+    assert v["best"] is None  # nothing separates the two maps now
+
+
+# --------------------------------------------------------------------------------------
+# The rule's branches, on evidence written out
+
+
+def _ev(support: dict[str, float], scans: dict[str, float], *, majority: bool = True,
+        defects: tuple[str, ...] = (), completeness: dict[str, float] | None = None,
+        placed: bool = True) -> dict:
+    return {"majority": majority, "notes": [], "group": [], "algorithms": {
+        a: {"support": s, "completeness": (completeness or {}).get(a, 1.0), "placed": placed,
+            "runs": 1, "flagged_runs": int(a in defects),
+            "defects": {a: [{"kind": "doubled_walls"}]} if a in defects else {},
+            "in_group": 0.0, "group_support": math.nan,
+            "scan_violation": scans.get(a, math.nan), "scan_runs": int(a in scans)}
+        for a, s in support.items()}}
+
+
+def _summary(algs: list[str], corners: list[int]) -> pd.DataFrame:
+    return summarize(pd.DataFrame({"sequence": "s", "algorithm": algs, "corners": corners,
+                                   "known": 1000}))
+
+
+def test_the_veto_limit() -> None:
+    assert scan_limit({"a": 0.01, "b": 0.3}) == SCAN_FLOOR
+    assert scan_limit({"a": 0.2, "b": 0.3}) == pytest.approx(SCAN_SHARE * 0.2)
+    assert math.isnan(scan_limit({})) and math.isnan(scan_limit({"a": math.nan}))
+    # with a majority, the veto removes the map its scans contradict, nothing else
+    v = sequence_verdict(_summary(list("abc"), [10, 20, 30]), "s",
+                         _ev({"a": 0.9, "b": 0.9, "c": 0.9}, {"a": 0.4, "b": 0.03, "c": 0.04}))
+    assert v["best"] == "b" and v["ranking"] == ["b", "c", "a"]
+
+
+def test_maps_that_disagree_are_ordered_by_their_own_scans() -> None:
+    support = {"a": 0.3, "b": 0.35, "c": 0.2}
+    s = _summary(list("abc"), [10, 20, 30])
+    v = sequence_verdict(s, "s", _ev(support, {"a": 0.05, "b": 0.3, "c": 0.2},
+                                     majority=False))
+    assert v["best"] == "a" and v["ranking"] == ["a", "c", "b"]
+    assert v["basis"] == ["scan_violation"] and v["confidence"].startswith("low: ")
+    # no map is inconsistent with its scans: they do not separate the maps
+    v = sequence_verdict(s, "s", _ev(support, {"a": 0.05, "b": 0.06, "c": 0.07},
+                                     majority=False))
+    assert v["best"] is None and "do not separate them" in v["confidence"]
+    # the most consistent map has a defect flag: the next one is not named in its place
+    v = sequence_verdict(s, "s", _ev(support, {"a": 0.02, "b": 0.3, "c": 0.04},
+                                     majority=False, defects=("a",)))
+    assert v["best"] == "c"
+    # the most consistent map is not consistent enough to be named on its scans alone
+    v = sequence_verdict(s, "s", _ev(support, {"a": 0.15, "b": 0.5, "c": 0.2},
+                                     majority=False))
+    assert v["best"] is None and "more than 10%" in v["confidence"]
+    # a map without scans: the scans cannot order them all; it abstains as before
+    v = sequence_verdict(s, "s", _ev(support, {"a": 0.05, "b": 0.3}, majority=False))
+    assert v["best"] is None and "disagree among themselves" in v["confidence"]
+
+
+def test_of_two_maps_with_their_scans_a_partial_one_separates_them() -> None:
+    s = _summary(["a", "b"], [10, 20])
+    partial = {"a": 0.5, "b": 1.0}
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.03, "b": 0.02},
+                                     completeness=partial))
+    assert v["best"] == "b" and "a is wrong on its own (a partial map)" in v["confidence"]
+    # without scans the rule is as it was: partial does not separate two maps
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {}, completeness=partial))
+    assert v["best"] is None and "fewer than three maps" in v["confidence"]
+    # both wrong on their own: it abstains and names both reasons
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.02, "b": 0.4},
+                                     completeness=partial))
+    assert v["best"] is None and "both are wrong on their own" in v["confidence"]
+    # maps the agreement could not place: their scans still separate them
+    v = sequence_verdict(s, "s", _ev({"a": math.nan, "b": math.nan}, {"a": 0.02, "b": 0.4},
+                                     placed=False))
+    assert v["best"] == "a"
+    # a defect flag decides as without scans, whatever the other's scans say (not vetoed)
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.15, "b": 0.16},
+                                     defects=("b",)))
+    assert v["best"] == "a"
+    # the other is inconsistent with its scans, but this one's scans do not confirm it
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.15, "b": 0.5}))
+    assert v["best"] is None and "a's own scans do not confirm it" in v["confidence"]
+
+
+# --------------------------------------------------------------------------------------
+# The report: the verdict and the heat map of a map's own scans
+
+
+def test_the_report_draws_where_a_map_contradicts_its_scans(drive: dict, tmp_path: Path
+                                                            ) -> None:
+    import json
+    import re
+
+    from PIL import Image
+
+    import slamq
+    from slamq.report import build_report
+
+    recs = []
+    for alg in ("a", "b", "ghost"):
+        rec = {k: v for k, v in slamq.evaluate(drive["paths"][alg]).to_dict().items()
+               if k != "curve"}
+        rec.update(map=drive["paths"][alg], algorithm=alg, sequence="s", run=0, error=None,
+                   scans=drive["files"]["scans"], trajectory=drive["files"]["gt"])
+        recs.append(rec)
+    site = build_report(recs, tmp_path / "site", gifs=False, trajectories=False).parent
+    (v,) = json.loads((site / "verdict.json").read_text())
+    assert v["best"] in ("a", "b") and "ghost" not in v["best"]
+    pages = {p.name.split("-")[2]: p.read_text(encoding="utf-8")
+             for p in (site / "maps").glob("*.html")}
+    page = pages["ghost"]
+    # the layer is off at first, and says what it shows
+    assert '<input type="checkbox" id="show-scans" data-layer="scans">' in page
+    label = re.search(r'<label for="show-scans">(.*?)</label>', page).group(1)
+    assert re.search(r"against its own scans: \d+\.\d% of its beams pass through its walls",
+                     label)
+    assert "drive.rawlog" in page and "docs/spec.md 7b" in page
+    # the red cells lie on the ghost wall (the middle row of the map)
+    (png,) = re.findall(r'<img class="layer layer-scans" src="\.\./([^"]+)"', page)
+    alpha = np.asarray(Image.open(site / png).convert("RGBA"))[..., 3]
+    base = Image.open(site / re.search(r'<img class="base" src="\.\./([^"]+)"', page).group(1))
+    assert alpha.shape == (base.height, base.width)
+    c0, r0, cols, rows = map(float, re.search(
+        r'<svg class="layer layer-corners" viewBox="([^"]+)"', page).group(1).split())
+    ghost = slamq.load_map(drive["paths"]["ghost"])
+    scale = base.height / rows                      # pixels a cell
+    middle = (ghost.shape[0] // 2 - r0 + 0.5) * scale
+    weight = alpha.astype(float).sum(axis=1)
+    near = np.abs(np.arange(len(weight)) - middle) <= 2 * scale
+    assert abs(int(np.argmax(weight)) - middle) <= 2 * scale
+    assert weight[near].sum() > 0.3 * weight.sum()
+    # the exact maps have the layer too, with fewer red cells
+    assert (np.asarray(Image.open(site / re.findall(
+        r'<img class="layer layer-scans" src="\.\./([^"]+)"', pages["a"])[0]).convert(
+            "RGBA"))[..., 3] > 0).sum() < (alpha > 0).sum()
+
+
+def test_slamq_verdict_with_the_recording_and_the_trajectories(drive: dict) -> None:
+    import json
+    import os
+    import subprocess
+    import sys
+
+    def slamq(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "slamq", *args], capture_output=True,
+                              text=True, timeout=300, env={**os.environ})
+
+    a, ghost = drive["paths"]["a"], drive["paths"]["ghost"]
+    gt, rawlog = drive["files"]["gt"], drive["files"]["scans"]
+    r = slamq("verdict", a, ghost, "--scans", rawlog, "--trajectory", gt, "--trajectory", gt,
+              "--json", "-", "--no-defects")
+    assert r.returncode == 0, r.stderr
+    data = json.loads(r.stdout)
+    assert data["verdict"]["best"] == "a.yaml"
+    assert data["evidence"]["algorithms"]["ghost.yaml"]["scan_violation"] > 0.1
+    assert "violation" in r.stderr.splitlines()[0]   # the table's column
+    # without them: two maps that differ, nothing separates them
+    r = slamq("verdict", a, ghost, "--json", "-", "--no-defects")
+    assert json.loads(r.stdout)["verdict"]["best"] is None
+    # one trajectory per map, and both options together
+    r = slamq("verdict", a, ghost, "--scans", rawlog, "--trajectory", gt)
+    assert r.returncode == 2 and "1 --trajectory for 2 maps" in r.stderr
+    r = slamq("verdict", a, ghost, "--scans", rawlog)
+    assert r.returncode == 2 and "--scans and --trajectory go together" in r.stderr
