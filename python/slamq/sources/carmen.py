@@ -186,15 +186,22 @@ def is_carmen(path: str | os.PathLike[str]) -> bool:
     return str(path).lower().endswith(SUFFIXES)
 
 
-def _open(path: Path) -> IO[str]:
+def stat_recording(path: Path, what: str) -> os.stat_result:
+    """``os.stat`` of a recording (a log, a rawlog) that must be a regular file, or a
+    SequenceError naming it and why (missing, a directory, a FIFO or device)."""
     try:
         st = os.stat(path)
     except OSError as exc:
         raise SequenceError(f"{path}: cannot read ({exc.strerror or exc})") from None
     if stat.S_ISDIR(st.st_mode):
-        raise SequenceError(f"{path}: is a directory, not a CARMEN log")
+        raise SequenceError(f"{path}: is a directory, not {what}")
     if not stat.S_ISREG(st.st_mode):
         raise SequenceError(f"{path}: not a regular file (a FIFO, device or socket)")
+    return st
+
+
+def _open(path: Path) -> IO[str]:
+    stat_recording(path, "a CARMEN log")
     try:
         with open(path, "rb") as head:
             gz = head.read(2) == b"\x1f\x8b"

@@ -34,8 +34,6 @@ from __future__ import annotations
 
 import gzip
 import math
-import os
-import stat
 import struct
 from collections.abc import Iterator
 from pathlib import Path
@@ -45,7 +43,7 @@ import numpy as np
 
 from slamq.errors import BagError, SequenceError
 from slamq.models.scans import Scans
-from slamq.sources.carmen import CarmenLog, is_carmen
+from slamq.sources.carmen import CarmenLog, is_carmen, stat_recording
 from slamq.sources.files import PathLike, is_bag
 
 __all__ = ["RAWLOG_SUFFIXES", "load_scans", "read_rawlog_scans"]
@@ -236,14 +234,7 @@ def _rawlog_bytes(path: Path) -> Any:
     """The bytes of a rawlog: a read-only memory map, or a gzip file inflated."""
     import mmap
 
-    try:
-        st = os.stat(path)
-    except OSError as exc:
-        raise SequenceError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    if stat.S_ISDIR(st.st_mode):
-        raise SequenceError(f"{path}: is a directory, not an MRPT rawlog")
-    if not stat.S_ISREG(st.st_mode):
-        raise SequenceError(f"{path}: not a regular file (a FIFO, device or socket)")
+    st = stat_recording(path, "an MRPT rawlog")
     if st.st_size == 0:
         return b""
     try:
