@@ -179,3 +179,36 @@ def test_other_settings_or_another_slamq_version_redo_everything(tmp_path: Path)
         ("no stored record (or it failed)",)}
     assert len(read_results(out / "results.jsonl")) == 2
     assert np.isfinite(read_results(out / "results.jsonl")["occupied_fraction"]).all()
+
+
+def test_changed_outputs_are_collected_again_without_running(tmp_path: Path) -> None:
+    """An algorithm whose ``outputs.trajectory`` now names another file the program wrote
+    (rbpf-slam's mean path -> its most likely path) is collected again and rescored; the
+    program is not run again (it counts its starts in a file)."""
+    (tmp_path / "in.txt").write_text("input\n")
+    (tmp_path / "slam.py").write_text(SLAM + """\
+with open(out.parent.parent / "starts.txt", "a") as f:
+    f.write("1\\n")
+(out / "a.tum").write_text("0 0 0 0 0 0 0 1\\n1 1 0 0 0 0 0 1\\n2 2 0 0 0 0 0 1\\n")
+(out / "b.tum").write_text("0 0 0 0 0 0 0 1\\n1 5 0 0 0 0 0 1\\n2 9 0 0 0 0 0 1\\n")
+""")
+    cfg = {"base_dir": str(tmp_path), "output": "out", "sequences": {"seq": "in.txt"},
+           "iterations": 1, "parallel": 1,
+           "algorithms": {"fake": {
+               "command": [sys.executable, str(tmp_path / "slam.py"), "{out}", "{seed}"],
+               "outputs": {"map": {"path": "final.png", "format": "mrpt"},
+                           "trajectory": {"path": "a.tum", "format": "tum"}}}}}
+    out = tmp_path / "out"
+    runner.run(cfg)
+    folder = next(out.glob("fake/*/seq/1"))
+    starts = folder.parent / "starts.txt"
+    assert starts.read_text() == "1\n"
+    assert float((folder / "trajectory.tum").read_text().splitlines()[-1].split()[1]) == 2.0
+    cfg["algorithms"]["fake"]["outputs"]["trajectory"]["path"] = "b.tum"
+    runner.run(cfg)
+    assert starts.read_text() == "1\n"  # not run again
+    last = (folder / "trajectory.tum").read_text().splitlines()[-1].split()
+    assert float(last[1]) == 9.0
+    rec = json.loads((folder / "run.json").read_text())
+    assert rec["outcome"] == "ok" and rec["trajectory"].endswith("trajectory.tum")
+    assert "trajectory changed" in json.dumps(_stages(out)["score"])

@@ -108,3 +108,41 @@ def test_step_times_put_an_index_log_on_a_clock(tmp_path: Path) -> None:
         apply_step_times(read_mrpt_path(tmp_path / "log.txt"), tmp_path / "steps.txt")
     with pytest.raises(TrajectoryError, match="cannot read step times"):
         apply_step_times(read_mrpt_path(tmp_path / "log.txt"), tmp_path / "none.txt")
+
+
+def _rbpf_out(d: Path, *, poses: int = 3) -> Path:
+    """An rbpf-slam output folder: 4 steps, steps 0 and 2 inserted, the mean path timed."""
+    rows = ["0 0 0", "0 0 0", "1.0 0.5 0.1", "2.0 1.0 0.2"][:poses]
+    (d / "most_likely_path.txt").write_text("\n".join(rows) + "\n")
+    (d / "log_times.txt").write_text("% step ms frames inserted\n"
+                                     "0 5.0 1 1\n1 0.1 1 0\n2 4.0 2 1\n3 0.1 2 0\n")
+    (d / "log_estimated_path.txt").write_text(
+        "0 0 0 0 0 0 0 70.0\n1 0.4 0 0 0 0 0 70.1\n2 0.9 0.4 0 0.1 0 0 70.2\n"
+        "3 1.2 0.5 0 0.1 0 0 70.3\n3 0 0 0 0 0 0 0\n")
+    return d / "most_likely_path.txt"
+
+
+def test_rbpf_most_likely_path_is_timed_by_its_inserted_steps(tmp_path: Path) -> None:
+    from slamq.sources import load_trajectory
+
+    p = _rbpf_out(tmp_path)
+    t = load_trajectory(p, format="mrpt")
+    assert t.timestamps.tolist() == [70.0, 70.2]
+    assert t.positions[:, 0].tolist() == [0.0, 1.0]
+    assert np.degrees(2 * np.arctan2(t.orientations[1, 3], t.orientations[1, 0])) == \
+        pytest.approx(np.degrees(0.1))
+    # without the mean path, the step index stands for the time
+    (tmp_path / "log_estimated_path.txt").unlink()
+    assert load_trajectory(p, format="mrpt").timestamps.tolist() == [0.0, 2.0]
+
+
+def test_rbpf_most_likely_path_that_does_not_fit_its_steps_is_refused(tmp_path: Path) -> None:
+    from slamq.sources.mrpt import read_mrpt_most_likely
+
+    p = _rbpf_out(tmp_path, poses=4)
+    with pytest.raises(TrajectoryError, match=r"4 poses do not fit the 2 inserted steps"):
+        read_mrpt_most_likely(p)
+    p = _rbpf_out(tmp_path)
+    (tmp_path / "log_times.txt").unlink()
+    with pytest.raises(TrajectoryError, match=r"log_times.txt: cannot read"):
+        read_mrpt_most_likely(p)

@@ -24,7 +24,7 @@ from slamq.errors import SlamqError
 from slamq.runner.config import Output, RunConfig, render
 from slamq.runner.planning import RunSpec, run_values
 
-__all__ = ["collect", "output_files"]
+__all__ = ["collect", "output_files", "outputs_stamp"]
 
 
 def output_files(out: Path, pattern: str) -> list[Path]:
@@ -42,6 +42,36 @@ def output_files(out: Path, pattern: str) -> list[Path]:
     """
     return sorted(Path(p) for p in glob.glob(str(out / pattern), recursive=True)
                   if Path(p).is_file() and not p.endswith("_limits.txt"))
+
+
+def outputs_stamp(spec: RunSpec) -> str:
+    """A digest of what the algorithm's ``outputs`` say (paths, formats, topics, times):
+    a finished run whose outputs changed since it was collected is collected again from
+    the files its program left, without running it again.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from slamq.runner.config import load_config
+    >>> from slamq.runner.planning import plan
+    >>> d = pathlib.Path(tempfile.mkdtemp()); _ = (d / "in.txt").write_text("x")
+    >>> def first(traj):
+    ...     return plan(load_config({"base_dir": str(d), "output": "o",
+    ...         "sequences": {"s": "in.txt"}, "algorithms": {"echo": {
+    ...         "command": ["echo"], "outputs": {"trajectory": traj}}}}))[0]
+    >>> outputs_stamp(first("a.txt")) == outputs_stamp(first("b.txt"))
+    False
+    """
+    import dataclasses
+    import hashlib
+    import json
+
+    algo = spec.algorithm
+    parts = {name: (dataclasses.asdict(o) if o is not None else None)
+             for name, o in (("map", algo.map), ("trajectory", algo.trajectory),
+                             ("snapshots", algo.snapshots))}
+    blob = json.dumps(parts, sort_keys=True, default=str).encode()
+    return hashlib.sha1(blob, usedforsecurity=False).hexdigest()[:16]
 
 
 def _collect_map(o: Output, src: Path, dest_yaml: Path) -> Path:

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from slamq.runner import process
-from slamq.runner.collection import collect, output_files
+from slamq.runner.collection import collect, output_files, outputs_stamp
 from slamq.runner.config import Algorithm, RunConfig
 from slamq.runner.planning import RunSpec, run_values, slug
 from slamq.runner.rendering import render_command, render_config_file, run_env
@@ -198,11 +198,32 @@ def execute_one(spec: RunSpec, key: str, slot: int, config: RunConfig,
             outcome, reason = "crash", f"exit status {exit_.returncode}"
     if outcome == "ok":
         outcome, reason, files = collect(spec, config)
-        record.update(files)
+        record.update(files, outputs=outputs_stamp(spec))
     elif outcome in ("timeout", "crash"):
         _, _, files = collect(spec, config)  # keep what a failed run left, for a look
         record.update({k: v for k, v in files.items() if k == "snapshots"})
     return {**record, "outcome": outcome, "reason": reason}
+
+
+#: Outcomes whose program ended well, so that its files can be collected again.
+RECOLLECTABLE = ("ok", "no_output", "degenerate")
+
+
+def recollect(spec: RunSpec, row: dict[str, Any], config: RunConfig) -> dict[str, Any]:
+    """``row`` (a finished run's ``run.json``) collected again when its algorithm's
+    ``outputs`` changed since (:func:`~slamq.runner.collection.outputs_stamp`; a row from
+    before the stamp existed is collected once more): the program is not run again, its
+    ``out/`` is read with the new outputs; the new row is written to ``run.json``. Other
+    rows are returned as they are."""
+    stamp = outputs_stamp(spec)
+    if row.get("outcome") not in RECOLLECTABLE or row.get("outputs") == stamp:
+        return row
+    outcome, reason, files = collect(spec, config)
+    new = {k: v for k, v in row.items() if k not in ("map", "trajectory", "snapshots",
+                                                     "skipped")}
+    new.update(files, outcome=outcome, reason=reason, outputs=stamp)
+    write_atomic(spec.folder / "run.json", json.dumps(new, indent=1, default=str))
+    return {**new, "skipped": True}
 
 
 def run_row(spec: RunSpec, key: str, result: dict[str, Any], attempts: int) -> dict[str, Any]:

@@ -41,7 +41,7 @@ from __future__ import annotations
 from typing import Any
 
 from slamq.runner.config import load_config
-from slamq.runner.execution import OUTCOMES, run_local, run_row
+from slamq.runner.execution import OUTCOMES, recollect, run_local, run_row
 from slamq.runner.planning import RunSpec, input_hash, pending, plan, prepare_inputs, run_key
 from slamq.runner.rendering import render_config_file
 from slamq.runner.scoring import need_report_extra, score
@@ -73,6 +73,9 @@ def execute(config: Any, *, retry_failed: bool = False, dry_run: bool = False,
         return [{**run_row(s, k, {"outcome": "planned"}, 0), "command": p["command"]}
                 if rows[i] is None else rows[i]
                 for i, (s, k, p) in enumerate(keyed)]
+    for i, (spec, _key, _pieces) in enumerate(keyed):
+        if rows[i] is not None:  # finished before: collected again if its outputs changed
+            rows[i] = recollect(spec, rows[i], config)
     (backend or run_local)(config, keyed, rows, todo, progress)
     return [r for r in rows if r is not None]
 

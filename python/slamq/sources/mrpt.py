@@ -36,7 +36,7 @@ from slamq.sources.formats.mrpt_grid import read as read_grid
 from slamq.sources.formats.raw import interpret
 
 __all__ = ["limits_path", "read_limits", "load_mrpt_grid", "write_mrpt_yaml", "read_mrpt_path",
-           "read_mrpt_graph", "apply_step_times"]
+           "read_mrpt_most_likely", "read_mrpt_graph", "apply_step_times"]
 
 
 def write_mrpt_yaml(png: PathLike, yaml_path: PathLike, limits: PathLike | None = None) -> Path:
@@ -89,9 +89,10 @@ def read_mrpt_path(path: PathLike, *, unsorted: str = "error") -> Trajectory:
     Rows are ``index x y z yaw pitch roll t`` (``rbpf-slam``) or ``index x y yaw``
     (``icp-slam``, which logs no time: the step index is used as the time in seconds, so
     such a log has no common clock with a ground truth; :func:`apply_step_times` gives it
-    one). Comment lines (``%``, ``#``) are skipped, and so are 8-column rows whose time is
-    0: MRPT prints its invalid timestamp as 0 (``rbpf-slam`` ends its log with such a
-    row). A ``graphslam-engine`` graph file (``VERTEX_SE2`` lines) is read by
+    one); rows ``x y yaw`` with a ``log_times.txt`` beside them are ``rbpf-slam``'s
+    ``most_likely_path.txt``, read by :func:`read_mrpt_most_likely`. Comment lines
+    (``%``, ``#``) are skipped, and so are 8-column rows whose time is 0: MRPT prints its
+    invalid timestamp as 0 (``rbpf-slam`` ends its log with such a row). A ``graphslam-engine`` graph file (``VERTEX_SE2`` lines) is read by
     :func:`read_mrpt_graph`.
 
     Examples
@@ -114,6 +115,10 @@ def read_mrpt_path(path: PathLike, *, unsorted: str = "error") -> Trajectory:
         raise TrajectoryError(f"{p}: cannot read MRPT pose log ({exc.strerror or exc})") from exc
     if any(line.lstrip().startswith(("VERTEX_SE2", "VERTEX2")) for line in lines[:50]):
         return _graph(lines, p)
+    first = next((line.split() for line in lines if line.strip()
+                  and line.strip()[0] not in "%#"), [])
+    if len(first) == 3 and p.with_name("log_times.txt").is_file():
+        return read_mrpt_most_likely(p, unsorted=unsorted)
     width = 0
     for n, line in enumerate(lines, 1):
         s = line.strip()
@@ -137,6 +142,85 @@ def read_mrpt_path(path: PathLike, *, unsorted: str = "error") -> Trajectory:
     if width == 8:
         a = a[a[:, 7] != 0.0]  # MRPT's invalid timestamp
     return _traj(a, p, unsorted)
+
+
+def read_mrpt_most_likely(path: PathLike, *, unsorted: str = "error") -> Trajectory:
+    """Read ``rbpf-slam``'s ``most_likely_path.txt``: the path of its most likely particle,
+    the one whose map ``rbpf-slam`` saves (its ``log_estimated_path.txt`` is the particles'
+    weighted mean at every step, a filter estimate the map was not drawn from).
+
+    The file holds ``x y yaw`` per step the filter ran, the first pose repeated; those
+    steps are the rows of ``log_times.txt`` beside it whose last column
+    (``frame_inserted?``) is 1, so pose ``k + 1`` is the pose at the ``k``-th of them. A
+    step's time is the one ``log_estimated_path.txt`` beside it gives that step; without
+    that file, the step index stands for the time in seconds (:func:`apply_step_times`
+    gives it clock times).
+
+    Raises
+    ------
+    slamq.TrajectoryError
+        A file is missing or unreadable, a row is not three numbers, or the poses do not
+        fit the inserted steps (both files named with their counts).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "most_likely_path.txt").write_text("0 0 0\\n0 0 0\\n1.0 0.5 0.1\\n")
+    >>> _ = (d / "log_times.txt").write_text("% step ms frames inserted\\n"
+    ...                                       "0 5.0 1 1\\n1 0.1 1 0\\n2 4.0 2 1\\n")
+    >>> _ = (d / "log_estimated_path.txt").write_text(
+    ...     "0 0 0 0 0 0 0 70.0\\n1 0.4 0 0 0 0 0 70.1\\n2 0.9 0.4 0 0.1 0 0 70.2\\n")
+    >>> t = read_mrpt_most_likely(d / "most_likely_path.txt")
+    >>> t.timestamps.tolist(), t.positions[:, 0].tolist()
+    ([70.0, 70.2], [0.0, 1.0])
+    """
+    p = Path(path)
+    rows = _numbers(p, "rbpf-slam most likely path", 3)
+    steps_file = p.with_name("log_times.txt")
+    flags = _numbers(steps_file, "rbpf-slam step log", 4)
+    inserted = flags[flags[:, 3] == 1.0, 0]
+    if rows.shape[0] != inserted.shape[0] + 1:
+        raise TrajectoryError(f"{p}: {rows.shape[0]} poses do not fit the "
+                              f"{inserted.shape[0]} inserted steps of {steps_file} "
+                              f"(expected one more pose than steps)")
+    poses = rows[1:]
+    t = inserted.astype(np.float64)
+    mean_file = p.with_name("log_estimated_path.txt")
+    if mean_file.is_file():
+        est = _numbers(mean_file, "MRPT pose log", 8)
+        est = est[est[:, 7] != 0.0]  # MRPT's invalid timestamp
+        clock = dict(zip(est[:, 0].tolist(), est[:, 7].tolist(), strict=True))
+        missing = [int(k) for k in inserted if clock.get(float(k), 0.0) == 0.0]
+        if missing:
+            raise TrajectoryError(f"{p}: step {missing[0]} has no time in {mean_file}")
+        t = np.asarray([clock[float(k)] for k in inserted], np.float64)
+    a = np.zeros((poses.shape[0], 8))
+    a[:, 0], a[:, 1], a[:, 2], a[:, 4], a[:, 7] = inserted, poses[:, 0], poses[:, 1], \
+        poses[:, 2], t
+    return _traj(a, p, unsorted)
+
+
+def _numbers(p: Path, what: str, width: int) -> np.ndarray:
+    """The rows of a whitespace table of ``width`` numbers (``%``/``#`` comments skipped)."""
+    try:
+        lines = p.read_text(errors="replace").splitlines()
+    except OSError as exc:
+        raise TrajectoryError(f"{p}: cannot read {what} ({exc.strerror or exc})") from exc
+    rows: list[list[float]] = []
+    for n, line in enumerate(lines, 1):
+        s = line.strip()
+        if not s or s[0] in "%#":
+            continue
+        parts = s.split()
+        if len(parts) != width:
+            raise TrajectoryError(f"{p}:{n}: {what} rows need {width} columns, "
+                                  f"found {len(parts)}")
+        try:
+            rows.append([float(x) for x in parts])
+        except ValueError:
+            raise TrajectoryError(f"{p}:{n}: not a number in {s[:80]!r}") from None
+    return np.asarray(rows, np.float64).reshape(-1, width)
 
 
 def _traj(a: np.ndarray, p: Path, unsorted: str = "error") -> Trajectory:
