@@ -92,7 +92,8 @@ def read_mrpt_path(path: PathLike, *, unsorted: str = "error") -> Trajectory:
     one); rows ``x y yaw`` with a ``log_times.txt`` beside them are ``rbpf-slam``'s
     ``most_likely_path.txt``, read by :func:`read_mrpt_most_likely`. Comment lines
     (``%``, ``#``) are skipped, and so are 8-column rows whose time is 0: MRPT prints its
-    invalid timestamp as 0 (``rbpf-slam`` ends its log with such a row). A ``graphslam-engine`` graph file (``VERTEX_SE2`` lines) is read by
+    invalid timestamp as 0 (``rbpf-slam`` ends its log with such a row). A
+    ``graphslam-engine`` graph file (``VERTEX_SE2`` lines) is read by
     :func:`read_mrpt_graph`.
 
     Examples
