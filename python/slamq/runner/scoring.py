@@ -101,6 +101,7 @@ _INPUT_NAMES = {"new": "not done before", "record": "no stored record (or it fai
                 "groundtruth": "ground truth changed", "gt_map": "ground-truth map changed",
                 "relations": "relations file changed",
                 "settings": "evaluate settings changed", "version": "slamq version changed",
+                "columns": "slamq computes other columns", "scans": "scans recording changed",
                 "place": "other paths or names", "snapshots": "snapshots changed",
                 "gif": "GIF missing", "size": "other frame size"}
 
@@ -111,6 +112,7 @@ def _score_changed(config: RunConfig, runs: list[Any], results_path: Path, stamp
     the results file (a re-scored run's old record is replaced). Returns the number scored,
     each run's stamp and the stage's log line."""
     from slamq.batch import evaluate_many
+    from slamq.columns import record_columns
     from slamq.results.store import ResultsFile
     from slamq.runner.cache import changes, file_digest, log_stage, map_digest, stamp
     from slamq.version import __version__
@@ -118,6 +120,8 @@ def _score_changed(config: RunConfig, runs: list[Any], results_path: Path, stamp
     # what changes a record (not where or how fast it is computed)
     settings = stamp({k: v for k, v in config.evaluate.items()
                       if k not in ("threads", "executor", "chunk_size")})
+    # a record lacking a column this slamq computes (a new one) is scored again
+    columns = stamp(list(record_columns()))
     digests: dict[str, str | None] = {}
 
     def once(kind: str, path: Any) -> str | None:
@@ -140,12 +144,14 @@ def _score_changed(config: RunConfig, runs: list[Any], results_path: Path, stamp
         new = {"map": once("map", run.map), "trajectory": once("file", run.trajectory),
                "groundtruth": once("file", run.groundtruth),
                "gt_map": once("map", run.gt_map), "settings": settings,
-               "version": __version__,
+               "version": __version__, "columns": columns,
                "place": stamp([str(x) for x in (*run.key, run.trajectory, run.groundtruth,
                                                  run.gt_map)])}
         if run.relations is not None:  # absent before relations existed: no rescoring
             new["relations"] = once("file", run.relations)
             new["place"] = stamp([new["place"], str(run.relations)])
+        if run.scans is not None:  # a record scored before it named its scans gets them
+            new["scans"] = str(run.scans)
         run_stamps[item] = new
         why = changes(stamps.get("score", item), new)
         if not why and item not in stored:
