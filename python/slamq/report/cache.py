@@ -77,8 +77,8 @@ def write_page_cache(out: Path, pages: dict[str, dict[str, Any]],
 def page_digest(mp: MapPage, *, gifs: bool, trajectories: bool) -> str:
     """Stamp of everything a detail page is drawn from (see ``reuse`` of
     :func:`slamq.report.build_report`): the record, the page's name, the options, slamq's
-    version, the missing walls, the map's standing and agreeing group and the content of the files it draws
-    (:func:`slamq.verdict.exhibits.source_digests`).
+    version, the missing walls, the map's standing and agreeing group and the content of
+    the files it draws (:func:`slamq.verdict.exhibits.source_digests`).
 
     Examples
     --------
