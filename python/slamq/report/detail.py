@@ -94,9 +94,8 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
     notes = "".join(f"<p class=\"warn\">{_e(n)}</p>" for n in mp.notes)
     head = (f"<p><a href=\"../index.html\">&larr; back to the report</a></p>"
             f"<h1>{_e(rec['algorithm'])} on {_e(rec['sequence'])}, run {_e(rec['run'])}</h1>"
-            + _standing_block(mp.standing) + _group_block(mp.group)
-            + _run_block(run_info(rec))
-            + f"<ul class=\"sub files\">{files}</ul>{notes}")
+            + _standing_block(mp.standing) + _run_block(run_info(rec))
+            + f"<ul class=\"sub files\">{files}</ul>{notes}" + _group_block(mp.group))
     numbers = (f"<div><h2>Numbers</h2><div class=\"scroll\"><table class=\"numbers\">{rows}"
                "</table></div></div>")
     first = sections[0] if sections else ""
