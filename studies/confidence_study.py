@@ -3,7 +3,9 @@
 
 ``python studies/confidence_study.py --benchmark studies/benchmark-holdout-runs ...
 --real ../shared/data/maps studies/by_eye.csv --real2d examples/real2d-runs/verdicts.csv
---markdown docs/validity.md`` regenerates the table.
+--markdown docs/validity.md`` regenerates the table. The verdict quotes its "all" rows
+(``slamq.verdict.calibration.CONFIDENCE_CALIBRATION``): copy changed counts there, or
+``tests/report/test_verdict_calibration.py`` fails.
 
 A verdict's level is the first word of its ``confidence`` ("high", "medium", "low";
 "none" when it abstains). It is *right* when:
