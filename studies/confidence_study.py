@@ -3,7 +3,9 @@
 
 ``python studies/confidence_study.py --benchmark studies/benchmark-holdout-runs ...
 --real ../shared/data/maps studies/by_eye.csv --real2d examples/real2d-runs/verdicts.csv
---markdown docs/validity.md`` regenerates the table.
+--markdown docs/validity.md`` regenerates the table. The verdict quotes its "all" rows
+(``slamq.verdict.calibration.CONFIDENCE_CALIBRATION``): copy changed counts there, or
+``tests/report/test_verdict_calibration.py`` fails.
 
 A verdict's level is the first word of its ``confidence`` ("high", "medium", "low";
 "none" when it abstains). It is *right* when:
@@ -32,6 +34,8 @@ import pandas as pd
 from _common import print_or_write_section
 from verdict_study import benchmark_verdicts, folder_verdicts
 
+from slamq.verdict.calibration import wilson_lower  # one definition: the verdict's own
+
 __all__ = ["level", "wilson_lower", "calibration", "markdown", "main"]
 
 BEGIN, END = "<!-- confidence-study:begin -->", "<!-- confidence-study:end -->"
@@ -50,22 +54,6 @@ def level(confidence: object) -> str:
         return "none"
     word = confidence.split(":", 1)[0].strip().lower()
     return word if word in LEVELS else "none"
-
-
-def wilson_lower(right: int, n: int, z: float = 1.96) -> float:
-    """Lower end of the Wilson score interval of ``right`` successes in ``n`` trials.
-
-    Examples
-    --------
-    >>> round(wilson_lower(19, 20), 3), round(wilson_lower(100, 100), 3)
-    (0.764, 0.963)
-    """
-    if n <= 0:
-        return math.nan
-    p = right / n
-    centre = p + z * z / (2 * n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    return (centre - half) / (1 + z * z / n)
 
 
 def benchmark_rows(outputs: Sequence[Path]) -> list[dict]:

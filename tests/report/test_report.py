@@ -365,9 +365,10 @@ def test_site_has_tables_gallery_plots_and_details(site):
                          'other maps', html)
         assert verdicts[seq]["best"] == "good"
         assert verdicts[seq]["basis"] == ["agreement", "corners"]
-        assert verdicts[seq]["confidence"].startswith("medium")
+        assert verdicts[seq]["confidence"].startswith("medium: right in ")
         assert set(verdicts[seq]) == {"sequence", "best", "ranking", "basis", "confidence",
-                                      "warnings"}
+                                      "warnings", "confidence_calibration"}
+        assert verdicts[seq]["confidence_calibration"]["of"] >= 100
     # the first-listed table cell equals the results file
     m = re.search(r'data-sequence="lab".*?data-metric="corners" data-mean="([^"]+)"', html)
     lab_good = [r["corners"] for r in ok if r["sequence"] == "lab" and r["algorithm"] == "good"]

@@ -122,8 +122,10 @@ def test_of_two_maps_the_one_its_scans_contradict_is_not_named(drive: dict) -> N
     pair = {"a": 100, "ghost": 50}
     v, _ = _judge(_records(drive, pair))
     assert v["best"] == "a" and v["ranking"] == ["a", "ghost"]
-    assert v["confidence"].startswith("low: two maps; ghost is wrong on its own "
-                                      "(inconsistent with its own scans")
+    # the level, its measured record (docs/validity.md), then why
+    assert v["confidence"].startswith("low: right in ")
+    assert ("docs/validity.md); two maps; ghost is wrong on its own (inconsistent with its "
+            "own scans") in v["confidence"]
     # without the scans nothing separates them: it abstains, as before
     without, _ = _judge(_records(drive, pair, scans=False))
     assert without["best"] is None and "fewer than three maps" in without["confidence"]

@@ -77,8 +77,8 @@ def write_page_cache(out: Path, pages: dict[str, dict[str, Any]],
 def page_digest(mp: MapPage, *, gifs: bool, trajectories: bool) -> str:
     """Stamp of everything a detail page is drawn from (see ``reuse`` of
     :func:`slamq.report.build_report`): the record, the page's name, the options, slamq's
-    version, the missing walls and the content of the files it draws
-    (:func:`slamq.verdict.exhibits.source_digests`).
+    version, the missing walls, the map's standing and agreeing group and the content of
+    the files it draws (:func:`slamq.verdict.exhibits.source_digests`).
 
     Examples
     --------
@@ -92,7 +92,7 @@ def page_digest(mp: MapPage, *, gifs: bool, trajectories: bool) -> str:
     blob = json.dumps(
         {"record": rec, "slug": mp.slug, "page": mp.page, "gifs": gifs,
          "trajectories": trajectories, "version": __version__, "missing": mp.missing,
-         "standing": mp.standing,
+         "standing": mp.standing, "group": mp.group,
          **source_digests(rec, gifs=gifs)},
         sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]

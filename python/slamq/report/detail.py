@@ -30,8 +30,8 @@ from slamq.verdict.exhibits import MapExhibit, ScanExhibit
 from slamq.verdict.records import usable
 from slamq.verdict.trajectory import TrajectoryEvidence
 
-__all__ = ["SCAN_LAYER_COLOURS", "detail_page", "run_info", "scan_layer", "standing",
-           "with_unit"]
+__all__ = ["SCAN_LAYER_COLOURS", "agreeing_group", "detail_page", "run_info", "scan_layer",
+           "standing", "with_unit"]
 
 
 def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajectories: bool
@@ -95,7 +95,7 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
     head = (f"<p><a href=\"../index.html\">&larr; back to the report</a></p>"
             f"<h1>{_e(rec['algorithm'])} on {_e(rec['sequence'])}, run {_e(rec['run'])}</h1>"
             + _standing_block(mp.standing) + _run_block(run_info(rec))
-            + f"<ul class=\"sub files\">{files}</ul>{notes}")
+            + f"<ul class=\"sub files\">{files}</ul>{notes}" + _group_block(mp.group))
     numbers = (f"<div><h2>Numbers</h2><div class=\"scroll\"><table class=\"numbers\">{rows}"
                "</table></div></div>")
     first = sections[0] if sections else ""
@@ -267,6 +267,129 @@ def _standing_block(st: dict[str, str] | None) -> str:
         f"<p class=\"standing-{k}\">{_e(st[k])}</p>" for k in ("rank", "verdict", "support",
                                                                "reason")
         if st.get(k)) + "</section>")
+
+
+def agreeing_group(rec: dict, evidence: dict[str, Any] | None,
+                   pages: dict[str, str] | None = None) -> dict[str, Any] | None:
+    """A map's place in the agreeing group of its sequence (docs/spec.md section 9: the
+    largest set of maps whose every pair has a consistency of at least ``min_support``),
+    as its detail page says it: whether the map is in the group, the group's members with
+    this map's consistency against each, and what that means.
+
+    Parameters
+    ----------
+    rec : dict
+        The map's record (``map``, ``algorithm``, ``sequence``, ``run``).
+    evidence : dict or None
+        Its sequence's :func:`slamq.verdict.evidence.sequence_evidence` (None when the
+        sequence was not judged by the maps' agreement: then None).
+    pages : dict, optional
+        The detail page (path from the site root) of each map that has one, by map path:
+        the members link to theirs.
+
+    Returns
+    -------
+    dict or None
+        ``{"status", "sentence", "members"}``: ``status`` is ``"member"``, ``"outside"``
+        (agrees with some map, not with the whole group), ``"alone"`` (agrees with no
+        other map), ``"none"`` (the sequence has no agreeing group) or ``"absent"`` (the
+        map took no part in the comparison); ``members`` one dict per map of the group
+        (``label``, ``page`` or None, ``consistency`` with this map, NaN for itself,
+        ``self``).
+
+    Examples
+    --------
+    >>> ev = {"min_support": 0.6, "majority": False,
+    ...       "group_maps": [{"map": "a.pgm", "algorithm": "a", "run": 1},
+    ...                      {"map": "b.pgm", "algorithm": "b", "run": 1}],
+    ...       "consistency": {"a.pgm": {"b.pgm": 0.99, "c.pgm": 0.1},
+    ...                       "b.pgm": {"a.pgm": 0.99, "c.pgm": 0.2},
+    ...                       "c.pgm": {"a.pgm": 0.1, "b.pgm": 0.2}}}
+    >>> rec = {"map": "a.pgm", "algorithm": "a", "sequence": "s", "run": 1}
+    >>> g = agreeing_group(rec, ev, {"b.pgm": "maps/b.html"})
+    >>> g["status"], g["sentence"].split(":")[0]
+    ('member', 'a (run 1) is in the agreeing group of s')
+    >>> [(m["label"], m["page"], m["consistency"]) for m in g["members"]][1]
+    ('b, run 1', 'maps/b.html', 0.99)
+    >>> print(agreeing_group(dict(rec, map="c.pgm", algorithm="c"), ev)["sentence"])
+    ... # doctest: +NORMALIZE_WHITESPACE
+    c (run 1) is not in the agreeing group of s: it agrees with no other map (no
+    consistency reaches 0.6): evidence of nothing.
+    """
+    if evidence is None:
+        return None
+    alg, seq, run = str(rec["algorithm"]), str(rec["sequence"]), rec.get("run")
+    me = str(rec.get("map", ""))
+    who = f"{alg} (run {run})"
+    least = float(evidence.get("min_support", 0.6))
+    mine = evidence.get("consistency", {}).get(me)
+    group = list(evidence.get("group_maps", []))
+    pages = pages or {}
+    members = [{"label": f"{m['algorithm']}, run {m['run']}", "map": str(m["map"]),
+                "page": pages.get(str(m["map"])) if str(m["map"]) != me else None,
+                "consistency": math.nan if str(m["map"]) == me
+                else _num((mine or {}).get(str(m["map"]))),
+                "self": str(m["map"]) == me} for m in group]
+    if mine is None:
+        return {"status": "absent", "members": members, "sentence": (
+            f"{who} took no part in the comparison of the maps of {seq} (at most the first "
+            "three runs of each program are compared, and a map that cannot be read is left "
+            "out): the agreeing group says nothing of it.")}
+    if not group:
+        return {"status": "none", "members": [], "sentence": (
+            f"There is no agreeing group in {seq}: no two of its maps agree (consistency at "
+            f"least {least:g}), so no map confirms another.")}
+    role = (f" Most maps of {seq} confirm each other: the verdict weighs each map's support, "
+            "and the group changes nothing." if evidence.get("majority") else
+            f" No majority of the maps of {seq} confirm each other: the verdict names its "
+            "best from this group.")
+    if any(m["self"] for m in members):
+        others = [m for m in group if str(m["map"]) != me and str(m["algorithm"]) != alg]
+        own = sum(1 for m in group if str(m["map"]) != me and str(m["algorithm"]) == alg)
+        names = sorted({str(m["algorithm"]) for m in others})
+        what = (f"confirmed by {len(others)} map{'s' if len(others) != 1 else ''} from "
+                f"{'other programs' if len(names) > 1 else 'another program'} "
+                f"({', '.join(names)})" if others else
+                "confirmed by no map from another program")
+        if own:
+            what += f" and {own} other run{'s' if own != 1 else ''} of {alg}"
+        return {"status": "member", "members": members, "sentence": (
+            f"{who} is in the agreeing group of {seq}: {what}, every pair's consistency at "
+            f"least {least:g}." + role)}
+    agrees = sorted(((v, o) for o, v in mine.items() if math.isfinite(v) and v >= least),
+                    reverse=True)
+    if not agrees:
+        return {"status": "alone", "members": members, "sentence": (
+            f"{who} is not in the agreeing group of {seq}: it agrees with no other map (no "
+            f"consistency reaches {least:g}): evidence of nothing.")}
+    label = {str(m["map"]): m["label"] for m in members}
+    shown = ", ".join(f"{label.get(o, Path(o).name)} ({v:.2f})" for v, o in agrees)
+    return {"status": "outside", "members": members, "sentence": (
+        f"{who} is not in the agreeing group of {seq}: it agrees with {shown} but not with "
+        f"every map of the group, so the group does not confirm it.")}
+
+
+def _group_block(g: dict[str, Any] | None) -> str:
+    """The agreeing-group section of a detail page (:func:`agreeing_group`)."""
+    if not g:
+        return ""
+    rows = []
+    for m in g["members"]:
+        name = (f"<a href=\"../{_e(m['page'])}\">{_e(m['label'])}</a>" if m["page"]
+                else _e(m["label"]))
+        if m["self"]:
+            name, value = f"<b>{name}</b> (this map)", "&ndash;"
+        elif math.isfinite(m["consistency"]):
+            value = f"{m['consistency']:.3f}"
+        else:
+            value = "no overlap"
+        rows.append(f"<tr><td>{name}</td><td class=\"num\">{value}</td></tr>")
+    table = ("<div class=\"scroll\"><table class=\"group-members\"><tr><th>map of the "
+             "group</th><th>consistency with this map</th></tr>" + "".join(rows)
+             + "</table></div>") if rows else ""
+    return (f"<section class=\"group\" id=\"group\" data-status=\"{_e(g['status'])}\">"
+            f"<h2>Agreeing group</h2><p class=\"group-status\">{_e(g['sentence'])}</p>"
+            + table + "</section>")
 
 
 def run_info(rec: dict) -> dict[str, Any] | None:

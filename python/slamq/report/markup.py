@@ -102,4 +102,7 @@ class MapPage:
     #: Where the map stands in its sequence's verdict (:func:`slamq.report.detail.standing`):
     #: sentences the detail page prints under its title (None: not known).
     standing: dict[str, str] | None = None
+    #: The map's place in its sequence's agreeing group (:func:`slamq.report.detail.
+    #: agreeing_group`; None: the sequence was not judged by the maps' agreement).
+    group: dict[str, Any] | None = None
 

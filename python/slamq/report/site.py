@@ -32,7 +32,7 @@ from slamq.report.cache import (
     read_page_cache,
     write_page_cache,
 )
-from slamq.report.detail import detail_page, standing
+from slamq.report.detail import agreeing_group, detail_page, standing
 from slamq.report.export import write_tables
 from slamq.report.index import best_worst, index_body, mixed_settings, plots
 from slamq.report.markup import MapPage, page
@@ -155,6 +155,10 @@ def build_report(
         pages[i].standing = standing(rec, rankings[rec["sequence"]], summary, ev)
         if ev is not None and usable(rec.get("map")):
             pages[i].missing = ev.get("missing_walls", {}).get(str(rec["map"]))
+    page_of = {str(mp.record["map"]): mp.page for mp in pages.values()
+               if usable(mp.record.get("map"))}
+    for mp in pages.values():
+        mp.group = agreeing_group(mp.record, evidence.get(mp.record["sequence"]), page_of)
     kept = read_page_cache(out) if reuse else {}
     fresh: dict[str, dict[str, Any]] = {}
     for done, mp in enumerate(pages.values(), 1):

@@ -65,8 +65,14 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     dict
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
         "defects", "in_group", "group_support", "scan_violation", "scan_hit",
-        "scan_runs"}}, "majority": bool, "group": [alg], "maps": int, "notes": [str],
-        "missing_walls": {path: [dict]}, "scans": {path: dict}}``. ``defects`` maps a
+        "scan_runs"}}, "majority": bool, "group": [alg], "group_maps": [dict],
+        "consistency": {path: {path: float}}, "maps": int, "notes": [str],
+        "missing_walls": {path: [dict]}, "scans": {path: dict}, "min_support": float}``.
+        ``group_maps`` is the agreeing group of docs/spec.md section 9, map by map
+        (``{"map": path, "algorithm", "run"}``, empty when no two maps agree);
+        ``consistency`` maps the path of each map that took part to its consistency with
+        each other one (NaN where they do not overlap; empty with a single map): what a
+        map's detail page says of its place in the group. ``defects`` maps a
         run's map path to its defects (dicts of
         :meth:`Defect.to_dict`); an algorithm's support and completeness are the medians
         over its runs. ``missing_walls`` maps the path of each map placed with the others
@@ -91,6 +97,9 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     >>> e = sequence_evidence(ok, "s", align="origin", defects=False)
     >>> e["majority"], e["algorithms"]["a"]["support"], e["missing_walls"][str(d / "a.pgm")]
     (True, 1.0, [])
+    >>> a, b = str(d / "a.pgm"), str(d / "b.pgm")
+    >>> [m["algorithm"] for m in e["group_maps"]], e["consistency"][a][b]
+    (['a', 'b', 'c'], 1.0)
     """
     sub = ok[(ok["sequence"] == sequence)
              & ~ok["algorithm"].astype(str).str.lower().isin(GROUND_TRUTH_ALGORITHMS)]
@@ -99,6 +108,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     maps: dict[str, Any] = {}
     owner: dict[str, str] = {}
     paths: dict[str, str] = {}
+    runs: dict[str, Any] = {}
     gaps: dict[str, list[dict[str, Any]]] = {}
     notes: list[str] = []
     for rec in picked.itertuples():
@@ -110,6 +120,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             continue
         owner[key] = str(rec.algorithm)
         paths[key] = str(rec.map)
+        runs[key] = rec.run.item() if hasattr(rec.run, "item") else rec.run
     checked: dict[str, dict[str, Any]] = {}
     if scans:
         from slamq.verdict.scans import has_scans, record_consistency
@@ -142,12 +153,18 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         notes.extend(agree.notes)
         missing = missing_walls(agree, maps)
         gaps = {paths[k]: [d.to_dict() for d in missing[k]] for k in maps if placed[k]}
+        group_maps = [{"map": paths[k], "algorithm": owner[k], "run": runs[k]}
+                      for k in agree.group]
+        pairs = {paths[k]: {paths[o]: float(agree.consistency[index[k], index[o]])
+                            for o in maps if o != k} for k in maps}
     else:
         support = complete = dict.fromkeys(maps, math.nan)
         placed = dict.fromkeys(maps, False)
         majority = False
         in_group = set()
         group_support = dict.fromkeys(maps, math.nan)
+        group_maps = []
+        pairs = {paths[k]: {} for k in maps}
     algorithms: dict[str, dict[str, Any]] = {}
     for alg in sorted(set(owner.values())):
         keys = [k for k in maps if owner[k] == alg]
@@ -170,5 +187,6 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     group = sorted(a for a, e in algorithms.items() if e["in_group"] > 0.5)
     return {"algorithms": algorithms, "majority": bool(majority), "maps": len(maps),
             "notes": notes, "missing_walls": gaps, "group": group,
+            "group_maps": group_maps, "consistency": pairs,
             "scans": {paths[k]: v for k, v in checked.items()},
             "min_support": SETTINGS.min_support.default}

@@ -17,6 +17,7 @@ import pandas as pd
 from slamq.models.quality import WALL_PERIODS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import Orientation, distinct_resolutions, orientation
+from slamq.verdict.calibration import with_calibration
 
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "SCAN_FLOOR", "SCAN_SHARE",
@@ -368,9 +369,13 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
     Returns
     -------
     dict
-        ``{"sequence", "best", "ranking", "basis", "confidence", "warnings"}``: ``best``
-        is an algorithm or None, ``ranking`` the ranked algorithms best first, ``basis``
-        the columns used, ``warnings`` plain sentences.
+        ``{"sequence", "best", "ranking", "basis", "confidence", "warnings",
+        "confidence_calibration"}``: ``best`` is an algorithm or None, ``ranking`` the
+        ranked algorithms best first, ``basis`` the columns used, ``warnings`` plain
+        sentences. A map named without ground truth (with ``evidence``) at a level whose
+        record was measured ("medium", "low") has that record right after the level in
+        ``confidence`` and in ``confidence_calibration``
+        (:func:`slamq.verdict.calibration.calibration`); else that is None.
 
     Examples
     --------
@@ -390,11 +395,15 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
     >>> v = sequence_verdict(summarize(df.drop(columns="ate_rmse")), "s", ev)
     >>> v["best"], v["ranking"], v["basis"]
     ('c', ['c', 'a', 'b'], ['agreement', 'corners'])
+    >>> v["confidence"].startswith("medium: right in 121 of 127 labelled verdicts (95%")
+    True
+    >>> v["confidence_calibration"]
+    {'right': 121, 'of': 127, 'share': 0.95, 'lower_bound': 0.9}
     """
     block = _algorithms(summary, sequence)
     warnings: list[str] = []
     if evidence is not None and not _ground_truth_decides(block):
-        return _agreement_verdict(block, sequence, evidence, warnings)
+        return with_calibration(_agreement_verdict(block, sequence, evidence, warnings))
     share = known_share(block)  # by area: comparable across resolutions; else cells
     partial = {a for a, s in share.items() if s < COMPLETE_SHARE}
     for a in sorted(partial):
@@ -445,9 +454,11 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
                 best, confidence = None, "none: the maps are not comparable"
         return {"sequence": str(sequence), "best": best, "ranking": ranking,
                 "basis": [key] + ([tie] if tie and len(ties) else []),
-                "confidence": confidence, "warnings": warnings}
+                "confidence": confidence, "warnings": warnings,
+                "confidence_calibration": None}
     return {"sequence": str(sequence), "best": None, "ranking": [], "basis": [],
-            "confidence": "none: nothing to rank", "warnings": warnings}
+            "confidence": "none: nothing to rank", "warnings": warnings,
+            "confidence_calibration": None}
 
 
 _BASIS_NAMES = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
