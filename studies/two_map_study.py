@@ -73,6 +73,21 @@ def cause(evidence: dict[str, Any] | None, names: Sequence[str]) -> str:
     return "-"
 
 
+def _flags(evidence: dict[str, Any] | None, name: str) -> str:
+    """What the evidence holds against one map of a pair: its defect kinds, "not placed",
+    "partial" (completeness below ``COMPLETE_SHARE`` of the other's); "" when nothing."""
+    if evidence is None or name not in evidence["algorithms"]:
+        return "not read"
+    info = evidence["algorithms"]
+    e = info[name]
+    out = sorted({d["kind"] for ds in e["defects"].values() for d in ds})
+    out += [] if e["placed"] else ["not placed"]
+    most = max((float(x["completeness"]) for x in info.values()
+                if math.isfinite(float(x["completeness"]))), default=math.nan)
+    out += ["partial"] if float(e["completeness"]) < COMPLETE_SHARE * most else []
+    return ", ".join(out)
+
+
 def pair_verdicts(root: Path, by_eye: Sequence[Path], *, threads: int | None = None
                   ) -> pd.DataFrame:
     """The verdict on every pair of two maps of one folder of the by-eye CSVs.
@@ -92,8 +107,8 @@ def pair_verdicts(root: Path, by_eye: Sequence[Path], *, threads: int | None = N
         One row per pair: ``folder, map_a, map_b, class_a, class_b, maps`` (how many maps
         the folder has), ``kind`` ("different" or "tie"), ``best`` (None: abstained),
         ``outcome`` ("right", "wrong", "abstained"; for ties "decided" or "abstained"),
-        ``broken_named``, ``reason`` (the verdict's confidence) and ``cause``
-        (:func:`cause`).
+        ``broken_named``, ``reason`` (the verdict's confidence), ``cause`` (:func:`cause`) and
+        ``flags_a``, ``flags_b`` (each map's defect kinds, "not placed", "partial").
     """
     rows = []
     for csv in by_eye:
@@ -120,6 +135,8 @@ def pair_verdicts(root: Path, by_eye: Sequence[Path], *, threads: int | None = N
                              "broken_named": bool(best is not None and broken[best]),
                              "reason": str(v["confidence"]),
                              "cause": cause(res["evidence"], [a, b]) if best is None else "-",
+                             "flags_a": _flags(res["evidence"], a),
+                             "flags_b": _flags(res["evidence"], b),
                              "errors": "; ".join(e for _, e in res["errors"])})
     return pd.DataFrame(rows)
 
@@ -185,11 +202,12 @@ def markdown(pairs: pd.DataFrame, command: str) -> str:
                        + "; from the evidence: "
                        + "; ".join(f"{c}: {n}" for c, n in t[kind]["causes"].most_common())
                        + ".\n")
-    out.append("\n| folder | map A (class) | map B (class) | named | outcome | why not "
-               "decided |\n|---|---|---|---|---|---|\n")
+    out.append("\n| folder | map A (class): held against it | map B (class): held against "
+               "it | named | outcome | why not decided |\n|---|---|---|---|---|---|\n")
     for r in pairs.itertuples():
-        out.append(f"| {r.folder} | {r.map_a} ({r.class_a}) | {r.map_b} ({r.class_b}) | "
-                   f"{r.best or '-'} | {r.outcome}"
+        best = r.best if isinstance(r.best, str) else "-"
+        out.append(f"| {r.folder} | {r.map_a} ({r.class_a}): {r.flags_a or '-'} | "
+                   f"{r.map_b} ({r.class_b}): {r.flags_b or '-'} | {best} | {r.outcome}"
                    f"{' (**broken**)' if r.broken_named else ''} | {r.cause} |\n")
     return "".join(out)
 
@@ -210,8 +228,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     pairs = pair_verdicts(a.real[0], a.real[1:], threads=a.threads)
     if a.csv:
         pairs.to_csv(a.csv, index=False)
-    command = "python studies/two_map_study.py " + " ".join(
-        sys.argv[1:] if argv is None else list(argv))
+    args = list(sys.argv[1:] if argv is None else argv)
+    if "--csv" in args:  # a side output, not part of the table's command
+        i = args.index("--csv")
+        del args[i:i + 2]
+    command = "python studies/two_map_study.py " + " ".join(args)
     return print_or_write_section(markdown(pairs, command), a.markdown, BEGIN, END)
 
 

@@ -36,6 +36,7 @@ def test_two_map_study_names_the_clean_map_and_counts_the_pairs(folder, tmp_path
     diff = pairs[pairs["kind"] == "different"]
     assert list(diff["outcome"]) == ["right", "right"], diff[["best", "reason", "cause"]]
     assert set(diff["best"]) == {"clean.yaml", "copy.yaml"}
+    assert all("doubled_walls" in f for f in diff["flags_b"]) and not any(diff["flags_a"])
     assert not pairs["broken_named"].any()
     tie = pairs[pairs["kind"] == "tie"].iloc[0]
     assert tie["outcome"] == "abstained" and tie["cause"] == "no defect flag on either map"
