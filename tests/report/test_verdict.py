@@ -262,6 +262,10 @@ def test_of_two_maps_one_flagged_on_its_own_the_other_is_named() -> None:
     ev = _evidence({"a": 0.7, "b": 0.7}, defects=("a",))
     v = agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])
     assert v["best"] == "b"
+    # two maps are weaker evidence than a majority: low, saying which map is flagged
+    assert v["confidence"].startswith("low: ")
+    assert "two maps; a is wrong on its own (defects: superposed)" in v["confidence"]
+    assert v["ranking"] == ["b", "a"]
 
 
 def test_ground_truth_still_decides_when_evidence_is_given() -> None:

@@ -286,6 +286,10 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     if why is not None:
         return {"sequence": str(sequence), "best": None, "ranking": ranking,
                 "basis": basis, "confidence": f"none: {why}", "warnings": warnings}
+    if defect_decides:  # two maps, one flagged by a defect detector: low, as spec 9 says
+        other = next(a for a in support if a != candidates[0])
+        v = _two_maps(sequence, candidates[0], other, flagged[other], scans, basis, warnings)
+        return {**v, "ranking": ranking}
     confidence = ("medium: no ground truth; the maps confirm each other, and the named map "
                   "is confirmed by them and has no defect flag")
     if by_group:
