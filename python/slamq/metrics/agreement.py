@@ -226,39 +226,76 @@ class _Laid:
     ``support`` and ``recall`` at once; ``covers`` and ``missing`` (the cells of ``ref``'s
     grid where ``est`` has a wall that no wall of ``ref`` matches and ``ref`` sees free
     space) when asked (:meth:`rest`): of two placements of a pair only the better one's
-    are needed."""
+    are needed. Everything is read within ``box``, the box of ``ref``'s known cells grown
+    by the tolerance: outside it no cell counts."""
 
-    def __init__(self, f: np.ndarray, support: float, recall: float, est_known: np.ndarray,
-                 ref: tuple[np.ndarray, np.ndarray, int]) -> None:
-        self.f, self.support, self.recall = f, support, recall
-        self._est_known, self._ref = est_known, ref
+    def __init__(self, f: np.ndarray, shape: tuple[int, ...], box: tuple[slice, slice],
+                 support: float, recall: float, est_known: np.ndarray, ref_cells: np.ndarray,
+                 ref_count: int) -> None:
+        self.f, self.shape, self.box = f, shape, box
+        self.support, self.recall = support, recall
+        self._est_known, self._ref_cells, self._ref_count = est_known, ref_cells, ref_count
 
-    def rest(self) -> tuple[float, float, float, np.ndarray]:
-        """``(support, recall, covers, missing)``."""
-        f = self.f
-        ref_cells, _, ref_count = self._ref
-        covers = _share(int(np.count_nonzero(ref_cells & self._est_known)), ref_count)
-        missing = (f & (_E | _EM | _GF)) == (_E | _GF)
-        return self.support, self.recall, covers, missing
+    def rest(self) -> _Figures:
+        """The pair's figures, with the missing walls within :attr:`box`."""
+        covers = _share(int(np.count_nonzero(self._ref_cells & self._est_known)),
+                        self._ref_count)
+        missing = (self.f & (_E | _EM | _GF)) == (_E | _GF)
+        return _Figures(self.support, self.recall, covers, self.shape, self.box, missing)
+
+
+@dataclass(frozen=True)
+class _Figures:
+    """What the agreement keeps of one ordered pair: ``missing`` is the part within
+    ``box`` of a mask of the ``shape`` of the grid the pair was laid on."""
+
+    support: float
+    recall: float
+    covers: float
+    shape: tuple[int, ...]
+    box: tuple[slice, slice]
+    missing: np.ndarray
+
+    def vote(self, votes: np.ndarray | None) -> np.ndarray:
+        """``votes`` (int16 counts on that grid; zeros when None) with ``missing`` added."""
+        if votes is None:
+            votes = np.zeros(self.shape, np.int16)
+        votes[self.box] += self.missing
+        return votes
 
 
 def _lay(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | None,
          threads: int | None, known: dict[Any, Any] | None = None) -> _Laid:
     """``est`` laid on ``ref``'s grid (:func:`slamq.compare` with its cells). ``known``
-    keeps ``ref``'s known cells (grown by the tolerance) between the pairs laid on one
-    grid: they are ``ref``'s alone (flags ``_G | _GF``: its occupied and free cells)."""
-    c = compare(est, ref, align=align, tolerance=tolerance, cells=True, threads=threads)
-    f = c.cells
-    assert f is not None
+    keeps ``ref``'s known cells (the box around them, grown by the tolerance, and within
+    it the cells and the cells grown) between the pairs laid on one grid: they are
+    ``ref``'s alone (flags ``_G | _GF``: its occupied and free cells)."""
+    # min_fit_precision 0: a poor fit is kept as it is (compare would also run the global
+    # registration, only to say in its note whether it fits better)
+    c = compare(est, ref, align=align, tolerance=tolerance, cells=True, threads=threads,
+                min_fit_precision=0.0)
+    full = c.cells
+    assert full is not None
     grow = max(1, int(math.ceil(c.tolerance / c.resolution)))
-    key = (id(ref.values), id(ref.unknown), f.shape, grow)
+    key = (id(ref.values), id(ref.unknown), full.shape, grow)
     cached = None if known is None else known.get(key)
     if cached is None or cached[0] is not ref:
-        ref_cells = (f & (_G | _GF)) != 0
-        cached = (ref, (ref_cells, _grow(ref_cells, grow), int(np.count_nonzero(ref_cells))))
+        cells = (full & (_G | _GF)) != 0
+        rows = np.flatnonzero(cells.any(axis=1))
+        cols = np.flatnonzero(cells.any(axis=0))
+        if len(rows):
+            box = (slice(max(0, int(rows[0]) - grow), int(rows[-1]) + grow + 1),
+                   slice(max(0, int(cols[0]) - grow), int(cols[-1]) + grow + 1))
+        else:
+            box = (slice(0, 0), slice(0, 0))
+        ref_cells = np.ascontiguousarray(cells[box])
+        cached = (ref, box, ref_cells, _grow(ref_cells, grow), int(np.count_nonzero(cells)))
         if known is not None:
             known[key] = cached
-    ref_known = cached[1][1]
+    _, box, ref_cells, ref_known, ref_count = cached
+    # walls of ``est`` outside the box are away from ``ref``'s known cells, ``ref``'s walls
+    # and free cells inside it with their tolerance: no count reads past it
+    f = full[box]
     e = (f & _E) != 0
     est_known = (f & (_EK | _E)) != 0
     e_in = e & ref_known
@@ -267,15 +304,14 @@ def _lay(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | No
                      int(np.count_nonzero(e_in)))
     recall = _share(int(np.count_nonzero(g_in & ((f & _GM) != 0))),
                     int(np.count_nonzero(g_in)))
-    return _Laid(f, support, recall, est_known, cached[1])
+    return _Laid(f, full.shape, box, support, recall, est_known, ref_cells, ref_count)
 
 
 def _pair(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | None,
-          threads: int | None, known: dict[Any, Any] | None = None
-          ) -> tuple[float, float, float, np.ndarray]:
-    """(support, recall, covers, missing) of ``est`` laid on ``ref``'s grid; ``missing``:
-    the cells of ``ref``'s grid where ``est`` has a wall that no wall of ``ref`` matches
-    and ``ref`` sees free space."""
+          threads: int | None, known: dict[Any, Any] | None = None) -> _Figures:
+    """The figures of ``est`` laid on ``ref``'s grid; ``missing``: the cells of ``ref``'s
+    grid where ``est`` has a wall that no wall of ``ref`` matches and ``ref`` sees free
+    space."""
     return _lay(est, ref, align, tolerance, threads, known).rest()
 
 
@@ -402,7 +438,7 @@ def _auto(maps: dict[str, OccupancyMap], names: list[str], sup: np.ndarray, rec:
     known: dict[Any, Any] = {}
     one = 1 if _workers(threads) > 1 or pool is not None else threads
 
-    def lay(a: str, b: str) -> tuple[bool, tuple[float, float, float, np.ndarray]]:
+    def lay(a: str, b: str) -> tuple[bool, _Figures]:
         best = _lay(maps[a], maps[b], "icp", tolerance, one, known)
         fits = min(best.support, best.recall) >= bar
         r = regs.get((a, b))
@@ -420,21 +456,13 @@ def _auto(maps: dict[str, OccupancyMap], names: list[str], sup: np.ndarray, rec:
     for (i, j), (fit, best) in zip(pairs, done):
         a, b = names[i], names[j]
         fits[a] |= fit
-        sup[i, j], rec[i, j], cov[i, j] = best[:3]
-        votes[b] = _vote(votes.get(b), best[3])
+        sup[i, j], rec[i, j], cov[i, j] = best.support, best.recall, best.covers
+        votes[b] = best.vote(votes.get(b))
     for a in names:
         if not fits[a]:
             placed[a] = False
             notes.append(f"{a} could not be placed with the other maps (neither its frame nor "
                          "a trusted registration fits any of them)")
-
-
-def _vote(votes: np.ndarray | None, missing: np.ndarray) -> np.ndarray:
-    """``votes`` (int16 counts) with ``missing`` added."""
-    if votes is None:
-        return missing.astype(np.int16)
-    votes += missing
-    return votes
 
 
 def _f(p: float, r: float) -> float:
@@ -523,9 +551,9 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
         done = _in_order(pool, threads, [
             lambda a=names[i], b=names[j]: _pair(loaded[a], loaded[b], pair_align, tolerance,
                                                  one, known) for i, j in pairs])
-        for (i, j), (*figs, miss) in zip(pairs, done):
-            sup[i, j], rec[i, j], cov[i, j] = figs
-            votes[names[j]] = _vote(votes.get(names[j]), miss)
+        for (i, j), figs in zip(pairs, done):
+            sup[i, j], rec[i, j], cov[i, j] = figs.support, figs.recall, figs.covers
+            votes[names[j]] = figs.vote(votes.get(names[j]))
     voters = max(1, sum(placed.values()) - 1)
     missing = {b: v * 2 > voters for b, v in votes.items() if placed[b]}
     cons = np.full((n, n), math.nan)
