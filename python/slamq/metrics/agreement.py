@@ -264,38 +264,51 @@ class _Figures:
         return votes
 
 
+def _known_box(ref: OccupancyMap, grow: int) -> tuple[slice, slice]:
+    """The box of ``ref``'s known cells (on its grid: the flags ``_G | _GF`` of every map
+    laid on it), grown by ``grow`` cells."""
+    known = ~ref.unknown
+    rows = np.flatnonzero(known.any(axis=1))
+    cols = np.flatnonzero(known.any(axis=0))
+    if not len(rows):
+        return (slice(0, 0), slice(0, 0))
+    return (slice(max(0, int(rows[0]) - grow), int(rows[-1]) + grow + 1),
+            slice(max(0, int(cols[0]) - grow), int(cols[-1]) + grow + 1))
+
+
 def _lay(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | None,
          threads: int | None, known: dict[Any, Any] | None = None) -> _Laid:
-    """``est`` laid on ``ref``'s grid (:func:`slamq.compare` with its cells). ``known``
-    keeps ``ref``'s known cells (the box around them, grown by the tolerance, and within
-    it the cells and the cells grown) between the pairs laid on one grid: they are
-    ``ref``'s alone (flags ``_G | _GF``: its occupied and free cells)."""
+    """``est`` laid on ``ref``'s grid (:func:`slamq.compare` with its cells), read within the
+    box of ``ref``'s known cells grown by the tolerance: walls of ``est`` outside it are
+    away from ``ref``'s known cells, and ``ref``'s walls and free cells lie inside it with
+    their tolerance, so no count reads past it. ``known`` keeps the box, and ``ref``'s
+    known cells in it and those grown, between the pairs laid on one grid."""
+    from slamq.metrics.compare import DEFAULT_TOLERANCE_CELLS, _number
+
+    res = ref.resolution or est.resolution or 1.0  # as compare: the ground truth's cells
+    tol = DEFAULT_TOLERANCE_CELLS * res if tolerance is None else _number("tolerance",
+                                                                          tolerance)
+    grow = max(1, int(math.ceil(tol / res)))
+    key = (id(ref.values), id(ref.unknown), grow)
+    cached = None if known is None else known.get(key)
+    box = cached[1] if cached is not None and cached[0] is ref else _known_box(ref, grow)
     # min_fit_precision 0: a poor fit is kept as it is (compare would also run the global
     # registration, only to say in its note whether it fits better)
     c = compare(est, ref, align=align, tolerance=tolerance, cells=True, threads=threads,
-                min_fit_precision=0.0)
-    full = c.cells
-    assert full is not None
-    grow = max(1, int(math.ceil(c.tolerance / c.resolution)))
-    key = (id(ref.values), id(ref.unknown), full.shape, grow)
-    cached = None if known is None else known.get(key)
+                min_fit_precision=0.0, cells_box=(box[0].start, box[0].stop, box[1].start,
+                                                  box[1].stop))
+    f = c.cells
+    assert f is not None
+    if grow != max(1, int(math.ceil(c.tolerance / c.resolution))):
+        raise AssertionError(f"agreement: tolerance {c.tolerance} m at {c.resolution} m, "
+                             f"not the {grow} cells its box was grown by")
     if cached is None or cached[0] is not ref:
-        cells = (full & (_G | _GF)) != 0
-        rows = np.flatnonzero(cells.any(axis=1))
-        cols = np.flatnonzero(cells.any(axis=0))
-        if len(rows):
-            box = (slice(max(0, int(rows[0]) - grow), int(rows[-1]) + grow + 1),
-                   slice(max(0, int(cols[0]) - grow), int(cols[-1]) + grow + 1))
-        else:
-            box = (slice(0, 0), slice(0, 0))
-        ref_cells = np.ascontiguousarray(cells[box])
-        cached = (ref, box, ref_cells, _grow(ref_cells, grow), int(np.count_nonzero(cells)))
+        ref_cells = (f & (_G | _GF)) != 0
+        cached = (ref, box, ref_cells, _grow(ref_cells, grow),
+                  int(np.count_nonzero(ref_cells)))
         if known is not None:
             known[key] = cached
     _, box, ref_cells, ref_known, ref_count = cached
-    # walls of ``est`` outside the box are away from ``ref``'s known cells, ``ref``'s walls
-    # and free cells inside it with their tolerance: no count reads past it
-    f = full[box]
     e = (f & _E) != 0
     est_known = (f & (_EK | _E)) != 0
     e_in = e & ref_known
@@ -304,7 +317,7 @@ def _lay(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | No
                      int(np.count_nonzero(e_in)))
     recall = _share(int(np.count_nonzero(g_in & ((f & _GM) != 0))),
                     int(np.count_nonzero(g_in)))
-    return _Laid(f, full.shape, box, support, recall, est_known, ref_cells, ref_count)
+    return _Laid(f, ref.shape, box, support, recall, est_known, ref_cells, ref_count)
 
 
 def _pair(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | None,
