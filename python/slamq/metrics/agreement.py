@@ -41,7 +41,7 @@ from slamq.errors import ParamError
 from slamq.metrics.compare import compare
 from slamq.metrics.several import named_maps
 from slamq.models import OccupancyMap
-from slamq.params import SETTINGS
+from slamq.params import SETTINGS, check_threads
 
 __all__ = ["MISSING_MIN_LENGTH", "Agreement", "agreeing_group", "agreement", "missing_walls",
            "place_all"]
@@ -414,9 +414,19 @@ def place_all(maps: Mapping[str, OccupancyMap], *, threads: int | None = None
     return moved, placed, notes
 
 
+#: Pairs laid at once when ``threads`` is not given: every core, up to this many (each pair
+#: holds a few bytes per cell of its grid while it is laid).
+MAX_DEFAULT_WORKERS = 8
+
+
 def _workers(threads: int | None) -> int:
-    """How many pairs are laid at once: ``threads``, or every core."""
-    return threads if threads else (os.cpu_count() or 1)
+    """How many pairs are laid at once: ``threads``, or every core up to
+    :data:`MAX_DEFAULT_WORKERS`."""
+    n = check_threads(threads)  # a ParamError for a bad count, as the core gives
+    if n:
+        return n
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(MAX_DEFAULT_WORKERS, cores or 1))
 
 
 def _in_order(pool: Executor | None, threads: int | None, tasks: Sequence[Any]) -> list[Any]:
@@ -508,8 +518,8 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     tolerance : float, optional
         Matching distance, metres (default: :func:`slamq.compare`'s, 2 cells).
     threads : int, optional
-        Cap on the worker threads (default: every core): that many pairs are laid over
-        each other at once, each on one thread. The figures do not depend on it.
+        Cap on the worker threads (default: every core, up to 8): that many pairs are laid
+        over each other at once, each on one thread. The figures do not depend on it.
     pool : concurrent.futures.Executor, optional
         Lay the pairs on this executor's workers instead (one Rust thread each), e.g. one
         shared with other work.

@@ -63,9 +63,9 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         Score each map against its own scans, where its record names them (``scans``) and
         its ``trajectory``.
     threads : int, optional
-        Cap on the worker threads (default: every core): that many of the maps' scans and
-        defect detectors and of the agreement's pairs run at once, each on one thread. No
-        figure depends on it.
+        Cap on the worker threads (default: every core, up to 8): that many of the maps'
+        scans and defect detectors and of the agreement's pairs run at once, each on one
+        thread. No figure depends on it.
     loaded : mapping, optional
         Maps already in memory, by the ``map`` value of their row (read again otherwise).
 
