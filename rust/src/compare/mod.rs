@@ -257,14 +257,7 @@ pub fn compare_within(
     let (mut cells, at, res) = match sparse {
         Some(r) => match cut {
             Some(b) => (
-                resample_box(
-                    estimate,
-                    ground_truth,
-                    b,
-                    |r, c| g_near.get(r, c),
-                    &transform,
-                    &occ,
-                )?,
+                resample_box(estimate, ground_truth, b, g_list, &transform, &occ)?,
                 b,
                 r,
             ),

@@ -482,13 +482,13 @@ impl CellBox {
 /// estimate cell holding a cell's centre is occupied: the caller marks the cells only the
 /// estimate's points mark). Each cell's estimate position is [`resample`]'s own: row
 /// start plus `c` column steps in 32.32 fixed point, which [`resample_sparse`] has checked
-/// cannot saturate (call it only when that one gave its counts). `g_at(r, c)`: whether
-/// the ground truth has a wall there.
+/// cannot saturate (call it only when that one gave its counts). `g_list`: the ground
+/// truth's walls (row-major indices).
 pub(super) fn resample_box(
     est: &Placed,
     ground_truth: &Placed,
     b: CellBox,
-    g_at: impl Fn(usize, usize) -> bool + Sync,
+    g_list: &[u32],
     t: &Se2,
     occ: &[bool; 256],
 ) -> Result<Vec<u8>, Error> {
@@ -500,24 +500,32 @@ pub(super) fn resample_box(
     if bw == 0 {
         return Ok(cells);
     }
+    // the walls in the box, row-major as the cells are visited
+    let mut g_box = filled(bh * bw, false)?;
+    for &i in g_list {
+        if let Some(k) = b.index(i as usize, w) {
+            g_box[k] = true;
+        }
+    }
     let m = gt_to_estimate(gt, &est.frame, t);
     let (eh, ew) = (est.grid.height as i64, est.grid.width as i64);
     let eg = &est.grid;
     let (sr, sc) = (fixed(m.m[0][1]), fixed(m.m[1][1]));
     cells
         .par_chunks_mut(BAND_ROWS * bw)
+        .zip(g_box.par_chunks(BAND_ROWS * bw))
         .enumerate()
-        .for_each(|(k, chunk)| {
-            for (j, row) in chunk.chunks_mut(bw).enumerate() {
+        .for_each(|(k, (chunk, g_band))| {
+            for (j, (row, g_row)) in chunk.chunks_mut(bw).zip(g_band.chunks(bw)).enumerate() {
                 let r = b.r0 + k * BAND_ROWS + j;
                 let (er0, ec0) = m.apply(r as f64, 0.0);
                 // checked by resample_sparse: no step saturates, so c steps are one product
                 let (mut er, mut ec) =
                     (fixed(er0) + b.c0 as i64 * sr, fixed(ec0) + b.c0 as i64 * sc);
-                for (dc, cell) in row.iter_mut().enumerate() {
-                    let c = b.c0 + dc;
+                let un = &gu[r * w + b.c0..r * w + b.c1];
+                for ((cell, &g), &u) in row.iter_mut().zip(g_row).zip(un) {
                     let (ir, ic) = (er >> 32, ec >> 32);
-                    let is_free = !gu[r * w + c] && !g_at(r, c);
+                    let is_free = !u && !g;
                     let mut f = (is_free as u8) * flag::GROUND_TRUTH_FREE;
                     if ir >= 0 && ic >= 0 && ir < eh && ic < ew {
                         let i = ir as usize * eg.width + ic as usize;
