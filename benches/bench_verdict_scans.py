@@ -14,21 +14,113 @@ one run (best of ``--repeat``, 2 threads unless ``--threads``):
   agreement, defect detectors and scans) with the scans and without them (the records
   without ``scans``), and their difference.
 
+Then the stages of the verdict, each on its own with 1 thread (CPU seconds: what they cost,
+whatever else runs on the machine), and the whole verdict with ``--threads``, in a fresh
+process per round; with ``--base DIR`` (the ``python/`` folder of another checkout, its
+extension built in it) the same child runs that build too, alternating with this one, and
+each figure is printed with the ratio base / this measured in the same run, and whether
+both builds gave the same verdict and evidence:
+
+- scans: the six maps against their scans (``record_consistency``, the recording cached);
+- defects: ``detect_defects`` of the six maps;
+- registration: ``register_many`` of the six maps;
+- pairs: ``agreement`` (``align="auto"``) minus that registration (the 30 ordered pairs);
+- missing walls: ``missing_walls`` of that agreement;
+- verdict: ``sequence_evidence`` + ``sequence_verdict`` with the scans, 1 thread and
+  ``--threads`` threads (wall and CPU seconds).
+
 Usage::
 
     PYTHONPATH=python python benches/bench_verdict_scans.py [--scans 2500] [--beams 360]
-        [--repeat 3] [--threads 2]
+        [--repeat 3] [--threads 2] [--rounds 2] [--base ../base/python]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import platform
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
+
+#: One round of the stages in a fresh process: argv = rows.pkl, threads, repeat.
+STAGES_CHILD = r"""
+import hashlib, json, os, sys, time
+import pandas as pd
+import slamq
+from slamq.metrics.agreement import agreement, missing_walls
+from slamq.metrics.defects import detect_defects
+from slamq.metrics.register import register_many
+from slamq.sources.maps import load_map
+from slamq.verdict import scans as vs
+from slamq.verdict.evidence import sequence_evidence
+from slamq.verdict.ranking import summarize
+from slamq.verdict.rule import sequence_verdict
+
+ok = pd.read_pickle(sys.argv[1])
+threads, repeat = int(sys.argv[2]), int(sys.argv[3])
+loaded = {r: load_map(r) for r in ok["map"]}
+maps = {r["algorithm"]: loaded[r["map"]] for r in ok.to_dict("records")}
+vs.recording(ok["scans"].iloc[0])
+out = {"slamq": os.path.dirname(slamq.__file__)}
+
+def best(name, f):
+    w, c, r = [], [], None
+    for _ in range(repeat):
+        t0, c0 = time.perf_counter(), time.process_time()
+        r = f()
+        w.append(time.perf_counter() - t0)
+        c.append(time.process_time() - c0)
+    out[name] = [min(w), min(c)]
+    return r
+
+best("scans", lambda: [vs.record_consistency(r, loaded[r["map"]], threads=1)
+                       for r in ok.to_dict("records")])
+best("defects", lambda: [detect_defects(m) for m in maps.values()])
+best("registration", lambda: register_many(maps, threads=1))
+a = best("agreement", lambda: agreement(maps, align="auto", threads=1))
+out["pairs"] = [out["agreement"][0] - out["registration"][0],
+                out["agreement"][1] - out["registration"][1]]
+best("missing walls", lambda: missing_walls(a, maps))
+
+def verdict(th, frame):
+    vs._CACHE.clear()
+    ev = sequence_evidence(frame, "s", threads=th, loaded=loaded)
+    return ev, sequence_verdict(summarize(frame), "s", ev)
+
+best("verdict, 1 thread", lambda: verdict(1, ok))
+best(f"verdict, {threads} threads, no scans", lambda: verdict(threads, ok.drop(columns="scans")))
+ev, v = best(f"verdict, {threads} threads", lambda: verdict(threads, ok))
+out["best"] = v["best"]
+out["same"] = hashlib.sha1(json.dumps([ev, v], sort_keys=True, default=repr)
+                           .encode()).hexdigest()[:12]
+print(json.dumps(out))
+"""
+
+
+def stages(python_dir: str | None, rows: Path, threads: int, repeat: int) -> dict:
+    """One round of :data:`STAGES_CHILD` in a fresh process, importing slamq from
+    ``python_dir`` (None: as this process does)."""
+    env = dict(os.environ)
+    if python_dir:
+        env["PYTHONPATH"] = str(Path(python_dir).resolve())
+    p = subprocess.run([sys.executable, "-c", STAGES_CHILD, str(rows), str(threads),
+                        str(repeat)], capture_output=True, text=True, env=env, check=False)
+    if p.returncode != 0:
+        raise SystemExit(f"stages child failed ({python_dir or 'this build'}):\n{p.stderr}")
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def load_average() -> str:
+    try:
+        return ", ".join(f"{v:.1f}" for v in os.getloadavg())
+    except OSError:
+        return "?"
 
 
 def best(f, repeat: int) -> tuple[float, object]:
@@ -65,6 +157,10 @@ def main() -> None:
     ap.add_argument("--beams", type=int, default=360)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--rounds", type=int, default=2,
+                    help="fresh processes per build for the stages table")
+    ap.add_argument("--base", default=None,
+                    help="the python/ folder of another checkout to measure against")
     args = ap.parse_args()
 
     t = time.perf_counter()
@@ -128,6 +224,33 @@ def main() -> None:
           f"{with_cpu * 1e3:8.1f} ms CPU (best {v['best']})")
     print(f"  the scans' share:                    {(with_s - without_s) * 1e3:8.1f} ms wall, "
           f"{(with_cpu - without_cpu) * 1e3:8.1f} ms CPU ({with_s / without_s:.2f}x wall)")
+
+    ok.to_pickle(d / "rows.pkl")
+    builds = {"this": None} if args.base is None else {"base": args.base, "this": None}
+    runs: dict[str, list[dict]] = {k: [] for k in builds}
+    loads = [load_average()]
+    for _ in range(args.rounds):
+        for name, where in builds.items():
+            runs[name].append(stages(where, d / "rows.pkl", args.threads, args.repeat))
+            loads.append(load_average())
+    keys = [k for k in runs["this"][0] if isinstance(runs["this"][0][k], list)]
+    low = {b: {k: [min(r[k][i] for r in rs) for i in (0, 1)] for k in keys}
+           for b, rs in runs.items()}
+    print(f"\n# stages, best of {args.rounds} processes x {args.repeat} calls; load "
+          f"(1, 5, 15 min) {loads[0]} before, {loads[-1]} after")
+    head = f"{'stage':36s} {'this CPU s':>10s} {'wall s':>8s}"
+    if "base" in low:
+        head += f" {'base CPU s':>10s} {'wall s':>8s} {'CPU ratio':>9s} {'wall ratio':>10s}"
+    print(head)
+    for k in keys:
+        (tw, tc), line = low["this"][k], ""
+        if "base" in low:
+            bw, bc = low["base"][k]
+            line = f" {bc:10.3f} {bw:8.3f} {bc / tc:8.2f}x {bw / tw:9.2f}x"
+        print(f"{k:36s} {tc:10.3f} {tw:8.3f}{line}")
+    same = {r["same"] for rs in runs.values() for r in rs}
+    print(f"verdict: best {runs['this'][0]['best']}; the same verdict and evidence in every "
+          f"process{' of both builds' if 'base' in low else ''}: {len(same) == 1}")
 
 
 if __name__ == "__main__":

@@ -148,6 +148,7 @@ def compare(
     max_distance: float | None = None,
     cells: bool = False,
     threads: int = 0,
+    cells_box: tuple[int, int, int, int] | None = None,
 ) -> tuple[RawComparison, npt.NDArray[np.uint8] | None]: ...
 
 class RawRegistration:

@@ -138,7 +138,8 @@ def compare(estimate: MapSource, ground_truth: MapSource, *, unknown_value: int 
         Passed to :func:`slamq.load_map` for both maps.
     **options
         Every keyword of :func:`slamq.metrics.compare.compare` (``tolerance``,
-        ``occupied_threshold``, ``align``, ``max_distance``, ``cells``, ``threads``).
+        ``occupied_threshold``, ``align``, ``max_distance``, ``cells``, ``threads``,
+        ``min_fit_precision``, ``cells_box``).
 
     Returns
     -------

@@ -153,3 +153,74 @@ def test_two_good_maps_among_broken_ones_form_the_group() -> None:
     a = slamq.agreement(maps, align="origin")
     assert a.group == ["good1", "good2"]
     assert not a.majority
+
+
+def _pair_on_the_whole_grid(est: OccupancyMap, ref: OccupancyMap, align: str
+                            ) -> tuple[float, float, float, np.ndarray]:
+    """A pair's figures as docs/spec.md section 9 defines them, on the whole grid (what
+    slamq.metrics.agreement counts within the box of the fixed map's known cells)."""
+    import cv2
+
+    from slamq.metrics.compare import compare
+
+    c = compare(est, ref, align=align, cells=True, min_fit_precision=0.0)
+    f = c.cells
+    grow = max(1, math.ceil(c.tolerance / c.resolution))
+    k = np.ones((2 * grow + 1, 2 * grow + 1), np.uint8)
+
+    def grown(m: np.ndarray) -> np.ndarray:
+        return cv2.dilate(m.astype(np.uint8), k) != 0
+
+    e, g = (f & 1) != 0, (f & 2) != 0
+    ref_cells, est_known = (f & 34) != 0, (f & 17) != 0
+    e_in, g_in = e & grown(ref_cells), g & grown(est_known)
+
+    def share(n: np.ndarray, d: np.ndarray) -> float:
+        return np.count_nonzero(n) / np.count_nonzero(d) if d.any() else math.nan
+
+    return (share(e_in & ((f & 4) != 0), e_in), share(g_in & ((f & 8) != 0), g_in),
+            share(ref_cells & est_known, ref_cells), e & ((f & 4) == 0) & ((f & 32) != 0))
+
+
+def test_a_pair_read_within_the_known_box_equals_the_whole_grid(plan: OccupancyMap) -> None:
+    from slamq.metrics.agreement import _pair
+
+    # a part of the map in a corner of a larger grid, and maps with walls where the other
+    # map knows nothing
+    h, w = plan.shape
+    big = np.full((h + 60, w + 90), 205, np.uint8)
+    unknown = np.ones(big.shape, bool)
+    big[40:40 + h // 2, 70:70 + w // 2] = plan.values[:h // 2, :w // 2]
+    unknown[40:40 + h // 2, 70:70 + w // 2] = plan.unknown[:h // 2, :w // 2]
+    res = plan.resolution
+    corner = OccupancyMap(big, unknown, res, (plan.origin[0] - 70 * res,
+                                              plan.origin[1] - (60 - 40) * res, 0.0))
+    maps = [plan, corner, degrade(plan, "doubling", 0.8, seed=2),
+            degrade(plan, "rotation", 10.0)]
+    for est in maps:
+        for ref in maps:
+            for align in ("icp", "origin"):
+                got = _pair(est, ref, align, None, 1)
+                want = _pair_on_the_whole_grid(est, ref, align)
+                assert all(x == y or (math.isnan(x) and math.isnan(y)) for x, y in
+                           zip((got.support, got.recall, got.covers), want[:3]))
+                assert np.array_equal(got.vote(None) != 0, want[3])
+
+
+def test_the_figures_do_not_depend_on_threads_or_a_pool(plan: OccupancyMap) -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    none = np.zeros(plan.shape, bool)
+    moved = OccupancyMap(plan.values, none, plan.resolution, (3.0, -1.0, 0.7))
+    maps = {"a": plan, "b": degrade(plan, "specks", 0.01, seed=3),
+            "c": degrade(plan, "doubling", 0.8, seed=1), "m": moved}
+    one = slamq.agreement(maps, threads=1)
+    with ThreadPoolExecutor(3) as pool:
+        others = [slamq.agreement(maps, threads=2), slamq.agreement(maps, pool=pool)]
+    for a in others:
+        assert np.array_equal(a.consistency, one.consistency, equal_nan=True)
+        assert (a.support, a.completeness, a.placed, a.notes, a.group) == (
+            one.support, one.completeness, one.placed, one.notes, one.group)
+        assert a.missing.keys() == one.missing.keys()
+        assert all(np.array_equal(a.missing[k], one.missing[k]) for k in one.missing)
+    assert one.placed["m"] and one.support["m"] > 0.9  # placed by the registration

@@ -253,6 +253,27 @@ def test_same_result_for_any_thread_count() -> None:
     assert all(np.array_equal(runs[0].cells, r.cells) for r in runs)
 
 
+@pytest.mark.parametrize("origin", [(0.1, 0.05, math.radians(1.0)), (0.0, 0.0, 0.0),
+                                    (1e8, 0.0, 0.0)])
+def test_the_flags_of_a_box_are_the_whole_grids_cut(origin) -> None:
+    est = placed(building(thickness=2))
+    gt = placed(building(), origin=origin)
+    whole = slamq.compare(est, gt, cells=True, align="origin")
+    for box in [(7, 95, 13, 150), (0, 160, 0, 40), (50, 500, 100, 900), (30, 30, 0, 200),
+                (0, 160, 0, 200), (200, 300, 0, 10)]:
+        c = slamq.compare(est, gt, cells=True, align="origin", cells_box=box)
+        r0, r1, c0, c1 = box
+        assert np.array_equal(c.cells, whole.cells[r0:r1, c0:c1]), box
+        got, want = c.to_dict(), whole.to_dict()
+        assert got.keys() == want.keys()
+        assert all(got[k] == want[k] or (isinstance(want[k], float) and math.isnan(want[k])
+                                         and math.isnan(got[k])) for k in want), box
+    with pytest.raises(slamq.ParamError, match="cells_box"):
+        slamq.compare(est, gt, cells=True, cells_box=(0, 1, 2))
+    with pytest.raises(slamq.ParamError, match="cells_box"):
+        slamq.compare(est, gt, cells=True, cells_box=(0, -1, 2, 3))
+
+
 # --------------------------------------------------------------------------- errors
 
 

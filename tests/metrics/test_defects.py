@@ -192,3 +192,13 @@ def test_doubled_walls_with_holes_are_found_alike_on_any_grid() -> None:
         found[res] = d.score
         assert " m apart (" in d.note
     assert max(found.values()) <= 1.15 * min(found.values()), found
+
+
+def test_detect_defects_equals_each_detector_on_its_own(plan: OccupancyMap) -> None:
+    """detect_defects computes the masks, the period and the wall directions once for all
+    its detectors: the flags are those of each detector run alone."""
+    for m in (plan, degrade(plan, "superposed", 10.0, seed=41),
+              degrade(plan, "doubling", 0.3, seed=42), degrade(plan, "smear", 10.0, seed=43),
+              degrade(plan, "rotation", 7.0), world(44, kind="hexagonal")):
+        alone = [d for fn in DETECTORS.values() for d in fn(m)]
+        assert detect_defects(m) == alone

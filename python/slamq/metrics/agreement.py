@@ -29,7 +29,9 @@ do not say which map is right.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,7 +41,7 @@ from slamq.errors import ParamError
 from slamq.metrics.compare import compare
 from slamq.metrics.several import named_maps
 from slamq.models import OccupancyMap
-from slamq.params import SETTINGS
+from slamq.params import SETTINGS, check_threads
 
 __all__ = ["MISSING_MIN_LENGTH", "Agreement", "agreeing_group", "agreement", "missing_walls",
            "place_all"]
@@ -218,28 +220,112 @@ def _share(num: int, den: int) -> float:
     return num / den if den else math.nan
 
 
-def _pair(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | None,
-          threads: int | None) -> tuple[float, float, float, np.ndarray]:
-    """(support, recall, covers, missing) of ``est`` laid on ``ref``'s grid; ``missing``:
-    the cells of ``ref``'s grid where ``est`` has a wall that no wall of ``ref`` matches
-    and ``ref`` sees free space."""
-    c = compare(est, ref, align=align, tolerance=tolerance, cells=True, threads=threads)
+class _Laid:
+    """One ordered pair laid over each other: ``est`` on ``ref``'s grid (:func:`_lay`).
+
+    ``support`` and ``recall`` at once; ``covers`` and ``missing`` (the cells of ``ref``'s
+    grid where ``est`` has a wall that no wall of ``ref`` matches and ``ref`` sees free
+    space) when asked (:meth:`rest`): of two placements of a pair only the better one's
+    are needed. Everything is read within ``box``, the box of ``ref``'s known cells grown
+    by the tolerance: outside it no cell counts."""
+
+    def __init__(self, f: np.ndarray, shape: tuple[int, ...], box: tuple[slice, slice],
+                 support: float, recall: float, est_known: np.ndarray, ref_cells: np.ndarray,
+                 ref_count: int) -> None:
+        self.f, self.shape, self.box = f, shape, box
+        self.support, self.recall = support, recall
+        self._est_known, self._ref_cells, self._ref_count = est_known, ref_cells, ref_count
+
+    def rest(self) -> _Figures:
+        """The pair's figures, with the missing walls within :attr:`box`."""
+        covers = _share(int(np.count_nonzero(self._ref_cells & self._est_known)),
+                        self._ref_count)
+        missing = (self.f & (_E | _EM | _GF)) == (_E | _GF)
+        return _Figures(self.support, self.recall, covers, self.shape, self.box, missing)
+
+
+@dataclass(frozen=True)
+class _Figures:
+    """What the agreement keeps of one ordered pair: ``missing`` is the part within
+    ``box`` of a mask of the ``shape`` of the grid the pair was laid on."""
+
+    support: float
+    recall: float
+    covers: float
+    shape: tuple[int, ...]
+    box: tuple[slice, slice]
+    missing: np.ndarray
+
+    def vote(self, votes: np.ndarray | None) -> np.ndarray:
+        """``votes`` (int16 counts on that grid; zeros when None) with ``missing`` added."""
+        if votes is None:
+            votes = np.zeros(self.shape, np.int16)
+        votes[self.box] += self.missing
+        return votes
+
+
+def _known_box(ref: OccupancyMap, grow: int) -> tuple[slice, slice]:
+    """The box of ``ref``'s known cells (on its grid: the flags ``_G | _GF`` of every map
+    laid on it), grown by ``grow`` cells."""
+    known = ~ref.unknown
+    rows = np.flatnonzero(known.any(axis=1))
+    cols = np.flatnonzero(known.any(axis=0))
+    if not len(rows):
+        return (slice(0, 0), slice(0, 0))
+    return (slice(max(0, int(rows[0]) - grow), int(rows[-1]) + grow + 1),
+            slice(max(0, int(cols[0]) - grow), int(cols[-1]) + grow + 1))
+
+
+def _lay(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | None,
+         threads: int | None, known: dict[Any, Any] | None = None) -> _Laid:
+    """``est`` laid on ``ref``'s grid (:func:`slamq.compare` with its cells), read within the
+    box of ``ref``'s known cells grown by the tolerance: walls of ``est`` outside it are
+    away from ``ref``'s known cells, and ``ref``'s walls and free cells lie inside it with
+    their tolerance, so no count reads past it. ``known`` keeps the box, and ``ref``'s
+    known cells in it and those grown, between the pairs laid on one grid."""
+    from slamq.metrics.compare import DEFAULT_TOLERANCE_CELLS, _number
+
+    res = ref.resolution or est.resolution or 1.0  # as compare: the ground truth's cells
+    tol = DEFAULT_TOLERANCE_CELLS * res if tolerance is None else _number("tolerance",
+                                                                          tolerance)
+    grow = max(1, int(math.ceil(tol / res)))
+    key = (id(ref.values), id(ref.unknown), grow)
+    cached = None if known is None else known.get(key)
+    box = cached[1] if cached is not None and cached[0] is ref else _known_box(ref, grow)
+    # min_fit_precision 0: a poor fit is kept as it is (compare would also run the global
+    # registration, only to say in its note whether it fits better)
+    c = compare(est, ref, align=align, tolerance=tolerance, cells=True, threads=threads,
+                min_fit_precision=0.0, cells_box=(box[0].start, box[0].stop, box[1].start,
+                                                  box[1].stop))
     f = c.cells
     assert f is not None
-    grow = max(1, int(math.ceil(c.tolerance / c.resolution)))
-    e, g = (f & _E) != 0, (f & _G) != 0
-    ref_known = _grow((f & (_G | _GF)) != 0, grow)
-    est_known = _grow((f & (_EK | _E)) != 0, grow)
-    e_in, g_in = e & ref_known, g & est_known
+    if grow != max(1, int(math.ceil(c.tolerance / c.resolution))):
+        raise AssertionError(f"agreement: tolerance {c.tolerance} m at {c.resolution} m, "
+                             f"not the {grow} cells its box was grown by")
+    if cached is None or cached[0] is not ref:
+        ref_cells = (f & (_G | _GF)) != 0
+        cached = (ref, box, ref_cells, _grow(ref_cells, grow),
+                  int(np.count_nonzero(ref_cells)))
+        if known is not None:
+            known[key] = cached
+    _, box, ref_cells, ref_known, ref_count = cached
+    e = (f & _E) != 0
+    est_known = (f & (_EK | _E)) != 0
+    e_in = e & ref_known
+    g_in = ((f & _G) != 0) & _grow(est_known, grow)
     support = _share(int(np.count_nonzero(e_in & ((f & _EM) != 0))),
                      int(np.count_nonzero(e_in)))
     recall = _share(int(np.count_nonzero(g_in & ((f & _GM) != 0))),
                     int(np.count_nonzero(g_in)))
-    ref_cells = (f & (_G | _GF)) != 0
-    covers = _share(int(np.count_nonzero(ref_cells & ((f & (_EK | _E)) != 0))),
-                    int(np.count_nonzero(ref_cells)))
-    missing = e & ((f & _EM) == 0) & ((f & _GF) != 0)
-    return support, recall, covers, missing
+    return _Laid(f, ref.shape, box, support, recall, est_known, ref_cells, ref_count)
+
+
+def _pair(est: OccupancyMap, ref: OccupancyMap, align: str, tolerance: float | None,
+          threads: int | None, known: dict[Any, Any] | None = None) -> _Figures:
+    """The figures of ``est`` laid on ``ref``'s grid; ``missing``: the cells of ``ref``'s
+    grid where ``est`` has a wall that no wall of ``ref`` matches and ``ref`` sees free
+    space."""
+    return _lay(est, ref, align, tolerance, threads, known).rest()
 
 
 def _resolved(maps: Mapping[str, OccupancyMap]) -> dict[str, OccupancyMap]:
@@ -328,11 +414,40 @@ def place_all(maps: Mapping[str, OccupancyMap], *, threads: int | None = None
     return moved, placed, notes
 
 
+#: Pairs laid at once when ``threads`` is not given: every core, up to this many (each pair
+#: holds a few bytes per cell of its grid while it is laid).
+MAX_DEFAULT_WORKERS = 8
+
+
+def _workers(threads: int | None) -> int:
+    """How many pairs are laid at once: ``threads``, or every core up to
+    :data:`MAX_DEFAULT_WORKERS`."""
+    n = check_threads(threads)  # a ParamError for a bad count, as the core gives
+    if n:
+        return n
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(MAX_DEFAULT_WORKERS, cores or 1))
+
+
+def _in_order(pool: Executor | None, threads: int | None, tasks: Sequence[Any]) -> list[Any]:
+    """The results of ``tasks`` (callables of no argument), in their order: on ``pool``,
+    else on a pool of :func:`_workers` threads (in this thread when that is one)."""
+    if pool is None and _workers(threads) > 1 and len(tasks) > 1:
+        with ThreadPoolExecutor(max_workers=_workers(threads),
+                                thread_name_prefix="slamq-agreement") as own:
+            return [f.result() for f in [own.submit(t) for t in tasks]]
+    if pool is None:
+        return [t() for t in tasks]
+    return [f.result() for f in [pool.submit(t) for t in tasks]]
+
+
 def _auto(maps: dict[str, OccupancyMap], names: list[str], sup: np.ndarray, rec: np.ndarray,
           cov: np.ndarray, placed: dict[str, bool], notes: list[str], votes: dict,
-          tolerance: float | None, threads: int | None) -> None:
+          tolerance: float | None, threads: int | None, pool: Executor | None) -> None:
     """``align="auto"``: each ordered pair placed by the files' frames refined by ICP or by
-    the pair's global registration, whichever fits better (fills the arrays in place)."""
+    the pair's global registration, whichever fits better (fills the arrays in place).
+    The pairs are laid side by side, each on one Rust thread (their figures do not depend
+    on it)."""
     from slamq.errors import MapError
     from slamq.metrics.register import register_many
 
@@ -343,22 +458,29 @@ def _auto(maps: dict[str, OccupancyMap], names: list[str], sup: np.ndarray, rec:
         regs = {}
         notes.append(f"no global registration ({exc}): the files' frames only")
     bar = SETTINGS.min_inliers.default
+    known: dict[Any, Any] = {}
+    one = 1 if _workers(threads) > 1 or pool is not None else threads
+
+    def lay(a: str, b: str) -> tuple[bool, _Figures]:
+        best = _lay(maps[a], maps[b], "icp", tolerance, one, known)
+        fits = min(best.support, best.recall) >= bar
+        r = regs.get((a, b))
+        if r is not None and r.ok:
+            fits = True
+            moved = _lay(_moved(maps[a], r), maps[b], "icp", tolerance, one, known)
+            if _f(moved.support, moved.recall) > _f(best.support, best.recall):
+                best = moved
+        return fits, best.rest()
+
+    pairs = [(i, j) for i in range(len(names)) for j in range(len(names)) if i != j]
+    done = _in_order(pool, threads, [lambda a=names[i], b=names[j]: lay(a, b)
+                                     for i, j in pairs])
     fits = dict.fromkeys(names, False)
-    for i, a in enumerate(names):
-        for j, b in enumerate(names):
-            if i == j:
-                continue
-            best = _pair(maps[a], maps[b], "icp", tolerance, threads)
-            fits[a] |= min(best[0], best[1]) >= bar
-            r = regs.get((a, b))
-            if r is not None and r.ok:
-                fits[a] = True
-                moved = _pair(_moved(maps[a], r), maps[b], "icp",
-                              tolerance, threads)
-                if _f(moved[0], moved[1]) > _f(best[0], best[1]):
-                    best = moved
-            sup[i, j], rec[i, j], cov[i, j] = best[:3]
-            votes[b] = votes.get(b, 0) + best[3].astype(np.int16)
+    for (i, j), (fit, best) in zip(pairs, done):
+        a, b = names[i], names[j]
+        fits[a] |= fit
+        sup[i, j], rec[i, j], cov[i, j] = best.support, best.recall, best.covers
+        votes[b] = best.vote(votes.get(b))
     for a in names:
         if not fits[a]:
             placed[a] = False
@@ -375,7 +497,8 @@ def _f(p: float, r: float) -> float:
 def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
               align: str = SETTINGS.agreement_align.default,
               min_support: float = SETTINGS.min_support.default,
-              tolerance: float | None = None, threads: int | None = None) -> Agreement:
+              tolerance: float | None = None, threads: int | None = None,
+              pool: Executor | None = None) -> Agreement:
     """Score each of several maps of one place by how far the others confirm it.
 
     Parameters
@@ -395,7 +518,11 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     tolerance : float, optional
         Matching distance, metres (default: :func:`slamq.compare`'s, 2 cells).
     threads : int, optional
-        Cap on the Rust worker threads.
+        Cap on the worker threads (default: every core, up to 8): that many pairs are laid
+        over each other at once, each on one thread. The figures do not depend on it.
+    pool : concurrent.futures.Executor, optional
+        Lay the pairs on this executor's workers instead (one Rust thread each), e.g. one
+        shared with other work.
 
     Returns
     -------
@@ -438,15 +565,18 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     cov = np.full((n, n), math.nan)
     votes: dict[str, np.ndarray] = {}
     if align == "auto":
-        _auto(loaded, names, sup, rec, cov, placed, notes, votes, tolerance, threads)
+        _auto(loaded, names, sup, rec, cov, placed, notes, votes, tolerance, threads, pool)
     else:
-        for i, a in enumerate(names):
-            for j, b in enumerate(names):
-                if i == j or not (placed[a] and placed[b]):
-                    continue
-                *figs, miss = _pair(loaded[a], loaded[b], pair_align, tolerance, threads)
-                sup[i, j], rec[i, j], cov[i, j] = figs
-                votes[b] = votes.get(b, 0) + miss.astype(np.int16)
+        known: dict[Any, Any] = {}
+        one = 1 if _workers(threads) > 1 or pool is not None else threads
+        pairs = [(i, j) for i, a in enumerate(names) for j, b in enumerate(names)
+                 if i != j and placed[a] and placed[b]]
+        done = _in_order(pool, threads, [
+            lambda a=names[i], b=names[j]: _pair(loaded[a], loaded[b], pair_align, tolerance,
+                                                 one, known) for i, j in pairs])
+        for (i, j), figs in zip(pairs, done):
+            sup[i, j], rec[i, j], cov[i, j] = figs.support, figs.recall, figs.covers
+            votes[names[j]] = figs.vote(votes.get(names[j]))
     voters = max(1, sum(placed.values()) - 1)
     missing = {b: v * 2 > voters for b, v in votes.items() if placed[b]}
     cons = np.full((n, n), math.nan)

@@ -36,7 +36,8 @@ cells (a gap of one cell, a wall a few cells thick, is the grid's own noise on a
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from contextvars import ContextVar
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -107,6 +108,22 @@ class Defect:
 
 # ---------------------------------------------------------------------------- helpers
 
+#: While :func:`detect_defects` runs on one map: what its detectors share (the masks, the
+#: period, the wall directions), computed once for all of them. None outside it.
+_SHARED: ContextVar[dict[Any, Any] | None] = ContextVar("slamq_defects_shared", default=None)
+
+
+def _shared(key: tuple[Any, ...], make: Callable[[], Any]) -> Any:
+    """``make()``, once per ``key`` while :func:`detect_defects` runs (every call
+    otherwise). A key names its inputs by ``id``: the arrays live as long as that run."""
+    memo = _SHARED.get()
+    if memo is None:
+        return make()
+    if key not in memo:
+        memo[key] = make()
+    return memo[key]
+
+
 
 def _res(m: OccupancyMap) -> float:
     return float(m.resolution) if m.resolution else DEFAULT_RESOLUTION
@@ -127,9 +144,12 @@ def wall_period(m: OccupancyMap) -> float:
     >>> wall_period(floor_plan(1))
     90.0
     """
-    harmonics = native.wall_harmonics(np.ascontiguousarray(m.values, np.uint8),
-                                      np.ascontiguousarray(m.unknown, bool))
-    return WALL_PERIODS.get(wall_symmetry(harmonics)[0], 90.0)
+    def make() -> float:
+        harmonics = native.wall_harmonics(np.ascontiguousarray(m.values, np.uint8),
+                                          np.ascontiguousarray(m.unknown, bool))
+        return WALL_PERIODS.get(wall_symmetry(harmonics)[0], 90.0)
+
+    return float(_shared(("period", id(m)), make))
 
 
 def _check(name: str, value: Any) -> float:
@@ -151,11 +171,16 @@ def _masks(m: OccupancyMap, occupied_threshold: float
     a 2-cell margin) and where it starts. A known cell is occupied when (255 - v) / 255 is
     above ``occupied_threshold`` (as :func:`slamq.compare`)."""
     thr = _check("occupied_threshold", occupied_threshold)
-    known = ~m.unknown
-    r0, c0, r1, c1 = _known_box(known)
-    known = known[r0:r1, c0:c1]
-    occ = known & (m.values[r0:r1, c0:c1] < 255.0 * (1.0 - thr))
-    return occ, known & ~occ, (r0, c0)
+
+    def make() -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+        known = ~m.unknown
+        r0, c0, r1, c1 = _known_box(known)
+        known = known[r0:r1, c0:c1]
+        occ = known & (m.values[r0:r1, c0:c1] < 255.0 * (1.0 - thr))
+        return occ, known & ~occ, (r0, c0)
+
+    occ, free, off = _shared(("masks", id(m), thr), make)
+    return occ, free, off
 
 
 def _known_box(known: np.ndarray) -> tuple[int, int, int, int]:
@@ -290,11 +315,25 @@ def dominant_direction(m: OccupancyMap, *,
 
 def _dominant(occ: np.ndarray, res: float, period: float = 90.0) -> float:
     """The main wall direction as measured in the image (rows down), ``[0, period)``."""
-    c, cres, _ = _coarse(occ, res)
-    angle, weight = _orientation(c, cres)
-    angle = _along(angle, period)
-    return float((np.argmax(_histogram(angle, weight, period)) + 0.5) * period
-                 / _bins(period))
+    def make() -> float:
+        angle, weight = _coarse_orientation(occ, res)[3:]
+        angle = _along(angle, period)
+        return float((np.argmax(_histogram(angle, weight, period)) + 0.5) * period
+                     / _bins(period))
+
+    return float(_shared(("dominant", id(occ), res, period), make))
+
+
+def _coarse_orientation(occ: np.ndarray, res: float
+                        ) -> tuple[np.ndarray, float, int, np.ndarray, np.ndarray]:
+    """``occ`` pooled by :func:`_coarse` (the mask, its resolution, the pooling factor),
+    and its :func:`_orientation` (angle, weight)."""
+    def make() -> tuple[np.ndarray, float, int, np.ndarray, np.ndarray]:
+        c, cres, f = _coarse(occ, res)
+        return (c, cres, f, *_orientation(c, cres))
+
+    c, cres, f, angle, weight = _shared(("orientation", id(occ), res), make)
+    return c, cres, f, angle, weight
 
 
 # ---------------------------------------------------------------------------- superposed
@@ -370,8 +409,7 @@ def superposed(m: OccupancyMap, *,
 def _superposed_evidence(occ: np.ndarray, res: float, sep: float, period: float = 90.0
                          ) -> dict[str, Any]:
     """The numbers :func:`superposed` decides on (empty when there is no second peak)."""
-    occ, res, f = _coarse(occ, res)
-    angle2d, weight2d = _orientation(occ, res)
+    occ, res, f, angle2d, weight2d = _coarse_orientation(occ, res)
     angle2d = _along(angle2d, period)
     h, w = occ.shape
     # from here on only the cells near walls (weight above a floor), as flat arrays
@@ -796,8 +834,12 @@ def detect_defects(m: OccupancyMap, detectors: Iterable[str] | None = None,
     if extra:
         raise ParamError(f"unknown setting(s) {', '.join(extra)} for the defect detectors")
     out: list[Defect] = []
-    for name in names:
-        fn = DETECTORS[name]
-        params = inspect.signature(fn).parameters
-        out.extend(fn(m, **{k: v for k, v in settings.items() if k in params}))
+    token = _SHARED.set({})  # the masks, period and directions, once for every detector
+    try:
+        for name in names:
+            fn = DETECTORS[name]
+            params = inspect.signature(fn).parameters
+            out.extend(fn(m, **{k: v for k, v in settings.items() if k in params}))
+    finally:
+        _SHARED.reset(token)
     return out

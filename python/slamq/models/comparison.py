@@ -64,7 +64,8 @@ class MapComparison:
         The ground truth's metres per cell (the unit of the comparison grid).
     cells : numpy.ndarray or None
         Per ground-truth cell, bit flags (1 E, 2 G, 4 E matched, 8 G matched, 16 estimate
-        known, 32 ground truth free), when asked for. Not part of :meth:`to_dict`.
+        known, 32 ground truth free), when asked for (of the cells of ``cells_box`` only,
+        when :func:`slamq.compare` was given one). Not part of :meth:`to_dict`.
     note : str
         Empty, or one sentence when the alignment fitted poorly (docs/spec.md section 7,
         "Fit"): which alignment was tried and used, with its precision.

@@ -18,12 +18,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 import pandas as pd
 
 from slamq.errors import SlamqError
-from slamq.metrics.agreement import MISSING_MIN_LENGTH, agreement, finite_median, missing_walls
+from slamq.metrics.agreement import (
+    MISSING_MIN_LENGTH,
+    _workers,
+    agreement,
+    finite_median,
+    missing_walls,
+)
 from slamq.params import SETTINGS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
@@ -56,7 +63,9 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         Score each map against its own scans, where its record names them (``scans``) and
         its ``trajectory``.
     threads : int, optional
-        Cap on the Rust worker threads.
+        Cap on the worker threads (default: every core, up to 8): that many of the maps'
+        scans and defect detectors and of the agreement's pairs run at once, each on one
+        thread. No figure depends on it.
     loaded : mapping, optional
         Maps already in memory, by the ``map`` value of their row (read again otherwise).
 
@@ -121,28 +130,40 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         owner[key] = str(rec.algorithm)
         paths[key] = str(rec.map)
         runs[key] = rec.run.item() if hasattr(rec.run, "item") else rec.run
-    checked: dict[str, dict[str, Any]] = {}
-    if scans:
-        from slamq.verdict.scans import has_scans, record_consistency
+    with ThreadPoolExecutor(max_workers=_workers(threads),
+                            thread_name_prefix="slamq-evidence") as pool:
+        # the scans and the detectors of every map, and the pairs of the agreement, side by
+        # side on the pool's workers (one Rust thread each: no figure depends on it)
+        one = 1 if _workers(threads) > 1 else threads
+        scored: list[tuple[str, str, Future[Any]]] = []
+        if scans:
+            from slamq.verdict.scans import has_scans, record_consistency, recording
 
-        for rec in picked.itertuples():
-            key = f"{rec.algorithm}#{rec.run}"
-            if key not in maps or not has_scans(rec._asdict()):
-                continue
+            for rec in picked.itertuples():
+                key = f"{rec.algorithm}#{rec.run}"
+                if key not in maps or not has_scans(rec._asdict()):
+                    continue
+                try:
+                    recording(rec.scans)  # read once, here, for all the maps that share it
+                except SlamqError:
+                    pass  # record_consistency says why, in its turn
+                scored.append((key, str(rec.map), pool.submit(
+                    record_consistency, rec._asdict(), maps[key], threads=one)))
+        flagged: dict[str, Future[Any]] = {}
+        if defects:
+            from slamq.metrics.defects import detect_defects  # on first use
+
+            flagged = {key: pool.submit(detect_defects, m) for key, m in maps.items()}
+        agree = agreement(maps, align=align, threads=threads, pool=pool) \
+            if len(maps) >= 2 else None
+        checked: dict[str, dict[str, Any]] = {}
+        for key, path, job in scored:
             try:
-                c = record_consistency(rec._asdict(), maps[key], threads=threads)
+                checked[key] = job.result().to_dict()
             except SlamqError as exc:
-                notes.append(f"{rec.map}: not scored against its scans ({exc})")
-                continue
-            checked[key] = c.to_dict()
-    found: dict[str, list[dict[str, Any]]] = {}
-    if defects:
-        from slamq.metrics.defects import detect_defects  # on first use
-
-        for key, m in maps.items():
-            found[key] = [d.to_dict() for d in detect_defects(m)]
-    if len(maps) >= 2:
-        agree = agreement(maps, align=align, threads=threads)
+                notes.append(f"{path}: not scored against its scans ({exc})")
+        found = {key: [d.to_dict() for d in job.result()] for key, job in flagged.items()}
+    if agree is not None:
         support, complete, placed = agree.support, agree.completeness, agree.placed
         majority = agree.majority
         in_group = set(agree.group)

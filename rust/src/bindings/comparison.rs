@@ -3,7 +3,7 @@
 
 use super::grid;
 use super::runtime::compute;
-use crate::compare::{compare as compare_maps, Comparison};
+use crate::compare::{compare_within, CellBox, Comparison};
 use crate::edt::EdtError;
 use crate::error::Error;
 use crate::params::{Align, CompareParams};
@@ -114,15 +114,16 @@ pub(super) fn frame(
 
 /// compare(est_values, est_unknown, est_frame, gt_values, gt_unknown, gt_frame,
 /// tolerance=2.0, occupied_threshold=0.5, align="icp", max_distance=None, cells=False,
-/// threads=0) -> (RawComparison, numpy.ndarray | None)
+/// threads=0, cells_box=None) -> (RawComparison, numpy.ndarray | None)
 ///
 /// An estimate against a ground truth (SPEC section 7). Frames are `(resolution, x, y,
 /// yaw)`; `tolerance` and `max_distance` are in cells of the ground truth's grid; `cells`
-/// also returns the per-cell flags (uint8, the ground truth's shape).
+/// also returns the per-cell flags (uint8, the ground truth's shape), of the box
+/// `cells_box = (row0, row1, col0, col1)` of its grid only when given (clipped to it).
 #[pyfunction]
 #[pyo3(signature = (est_values, est_unknown, est_frame, gt_values, gt_unknown, gt_frame,
                     tolerance=2.0, occupied_threshold=0.5, align="icp", max_distance=None,
-                    cells=false, threads=0))]
+                    cells=false, threads=0, cells_box=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn compare<'py>(
     py: Python<'py>,
@@ -138,6 +139,7 @@ pub(crate) fn compare<'py>(
     max_distance: Option<f64>,
     cells: bool,
     threads: usize,
+    cells_box: Option<(usize, usize, usize, usize)>,
 ) -> PyResult<(RawComparison, Option<Bound<'py, PyArray2<u8>>>)> {
     let align = Align::from_name(align).ok_or_else(|| {
         PyValueError::new_err(format!(
@@ -162,14 +164,17 @@ pub(crate) fn compare<'py>(
         max_distance,
         ..CompareParams::default()
     };
+    let whole = (0, gg.height, 0, gg.width);
+    let (r0, r1, c0, c1) = cells_box.unwrap_or(whole);
+    let within = cells.then(|| CellBox { r0, r1, c0, c1 }.clip(gg.height, gg.width));
     let c = compute(py, threads, || {
-        compare_maps(&estimate, &ground_truth, &params, cells)
+        compare_within(&estimate, &ground_truth, &params, within)
     })?
     .map_err(error)?;
     let raw = RawComparison::from(&c);
-    let flags = match c.cells {
-        Some(v) => Some(PyArray1::from_vec(py, v).reshape([gg.height, gg.width])?),
-        None => None,
+    let flags = match (c.cells, within) {
+        (Some(v), Some(b)) => Some(PyArray1::from_vec(py, v).reshape([b.height(), b.width()])?),
+        _ => None,
     };
     Ok((raw, flags))
 }

@@ -15,7 +15,8 @@ use crate::params::{Align, CompareParams};
 use crate::register::{register, RegisterParams};
 use crate::se2::{Placed, Se2};
 use distances::{plan, side, Other};
-use resample::{resample, resample_sparse, Sampled};
+pub use resample::CellBox;
+use resample::{resample, resample_box, resample_sparse, Sampled};
 use scan::{scan, RowCol};
 
 mod distances;
@@ -105,6 +106,19 @@ fn check_params(p: &CompareParams) -> Result<(), Error> {
     }
 }
 
+/// The cells of `b` of a row-major grid of `w` columns.
+fn crop(cells: &[u8], w: usize, b: CellBox) -> Result<Vec<u8>, Error> {
+    let mut out: Vec<u8> = Vec::new();
+    out.try_reserve_exact(b.height() * b.width())
+        .map_err(|_| EdtError::Alloc {
+            bytes: b.height() * b.width(),
+        })?;
+    for r in b.r0..b.r1 {
+        out.extend_from_slice(&cells[r * w + b.c0..r * w + b.c1]);
+    }
+    Ok(out)
+}
+
 /// World centres of the cells `cells` (row-major indices) of `p`.
 fn occupied_points(p: &Placed, cells: &[u32]) -> Result<Vec<(f64, f64)>, Error> {
     let w = p.grid.width;
@@ -167,6 +181,25 @@ pub fn compare(
     params: &CompareParams,
     want_cells: bool,
 ) -> Result<Comparison, Error> {
+    let all = CellBox {
+        r0: 0,
+        r1: ground_truth.grid.height,
+        c0: 0,
+        c1: ground_truth.grid.width,
+    };
+    compare_within(estimate, ground_truth, params, want_cells.then_some(all))
+}
+
+/// [`compare`], keeping the per-cell [`flag`] bits of the cells of `cells` only (clipped to
+/// the ground truth's grid; row-major in the box): the same counts, and the flags of the
+/// whole grid's cut to the box, without resampling the estimate cell by cell outside it.
+pub fn compare_within(
+    estimate: &Placed,
+    ground_truth: &Placed,
+    params: &CompareParams,
+    cells: Option<CellBox>,
+) -> Result<Comparison, Error> {
+    let want_cells = cells.is_some();
     check(estimate, "estimate")?;
     check(ground_truth, "ground truth")?;
     check_params(params)?;
@@ -199,7 +232,15 @@ pub fn compare(
         )?,
         None => (Se2::IDENTITY, f64::NAN, 0, 0),
     };
-    let sparse = if want_cells {
+    let (h0, w0) = (ground_truth.grid.height, ground_truth.grid.width);
+    let cut = cells.map(|b| b.clip(h0, w0));
+    let whole = CellBox {
+        r0: 0,
+        r1: h0,
+        c0: 0,
+        c1: w0,
+    };
+    let sparse = if cut == Some(whole) {
         None
     } else {
         resample_sparse(
@@ -212,8 +253,16 @@ pub fn compare(
             &points,
         )?
     };
-    let (mut cells, res) = match sparse {
-        Some(r) => (Vec::new(), r),
+    // the flags and the box they are of (the whole grid after the literal resampling)
+    let (mut cells, at, res) = match sparse {
+        Some(r) => match cut {
+            Some(b) => (
+                resample_box(estimate, ground_truth, b, g_list, &transform, &occ)?,
+                b,
+                r,
+            ),
+            None => (Vec::new(), whole, r),
+        },
         None => {
             // the literal resampling: with the cells, or when the sparse one cannot place
             // the frames in its fixed point (frames far apart); it reads G as a mask
@@ -224,6 +273,7 @@ pub fn compare(
             let r = resample(estimate, ground_truth, &g_mask, &transform, &occ, &points)?;
             (
                 r.cells,
+                whole,
                 Sampled {
                     e_list: r.e_list,
                     outside: r.outside,
@@ -261,11 +311,27 @@ pub fn compare(
         want_cells,
     );
     if want_cells {
+        if at != whole {
+            // the cells only the estimate's points mark (resample_box left them out)
+            for &i in &e_list {
+                if let Some(k) = at.index(i as usize, w) {
+                    cells[k] |= flag::ESTIMATE | flag::ESTIMATE_KNOWN;
+                }
+            }
+        }
         for (&i, &m) in g_list.iter().zip(&g_matched) {
-            cells[i as usize] |= flag::GROUND_TRUTH | ((m as u8) * flag::GROUND_TRUTH_MATCHED);
+            if let Some(k) = at.index(i as usize, w) {
+                cells[k] |= flag::GROUND_TRUTH | ((m as u8) * flag::GROUND_TRUTH_MATCHED);
+            }
         }
         for (&i, &m) in e_list.iter().zip(&e_matched) {
-            cells[i as usize] |= (m as u8) * flag::ESTIMATE_MATCHED;
+            if let Some(k) = at.index(i as usize, w) {
+                cells[k] |= (m as u8) * flag::ESTIMATE_MATCHED;
+            }
+        }
+        if let Some(b) = cut.filter(|&b| b != at) {
+            // the literal resampling (frames far apart): its flags cut to the box
+            cells = crop(&cells, w, b)?;
         }
     }
     let (e, g) = (e_list.len() as u64, g_list.len() as u64);

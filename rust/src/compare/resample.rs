@@ -439,3 +439,106 @@ pub(super) fn resample(
         covered,
     })
 }
+
+/// The rows `r0..r1` and columns `c0..c1` of ground-truth cells, a box of its grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CellBox {
+    pub r0: usize,
+    pub r1: usize,
+    pub c0: usize,
+    pub c1: usize,
+}
+
+impl CellBox {
+    /// The box clipped to a `h x w` grid (empty when it lies outside).
+    pub fn clip(self, h: usize, w: usize) -> CellBox {
+        let (r1, c1) = (self.r1.min(h), self.c1.min(w));
+        CellBox {
+            r0: self.r0.min(r1),
+            r1,
+            c0: self.c0.min(c1),
+            c1,
+        }
+    }
+
+    pub fn height(&self) -> usize {
+        self.r1 - self.r0
+    }
+
+    pub fn width(&self) -> usize {
+        self.c1 - self.c0
+    }
+
+    /// The index in the box of the grid cell `i` (row-major, `w` columns), when it is in.
+    #[inline]
+    pub fn index(&self, i: usize, w: usize) -> Option<usize> {
+        let (r, c) = (i / w, i % w);
+        (r >= self.r0 && r < self.r1 && c >= self.c0 && c < self.c1)
+            .then(|| (r - self.r0) * self.width() + (c - self.c0))
+    }
+}
+
+/// [`resample`]'s flags of the cells of `b` alone ([`flag::ESTIMATE`] only where the
+/// estimate cell holding a cell's centre is occupied: the caller marks the cells only the
+/// estimate's points mark). Each cell's estimate position is [`resample`]'s own: row
+/// start plus `c` column steps in 32.32 fixed point, which [`resample_sparse`] has checked
+/// cannot saturate (call it only when that one gave its counts). `g_list`: the ground
+/// truth's walls (row-major indices).
+pub(super) fn resample_box(
+    est: &Placed,
+    ground_truth: &Placed,
+    b: CellBox,
+    g_list: &[u32],
+    t: &Se2,
+    occ: &[bool; 256],
+) -> Result<Vec<u8>, Error> {
+    let gt = &ground_truth.frame;
+    let gu = ground_truth.grid.unknown;
+    let w = gt.width;
+    let (bh, bw) = (b.height(), b.width());
+    let mut cells = filled(bh * bw, 0u8)?;
+    if bw == 0 {
+        return Ok(cells);
+    }
+    // the walls in the box, row-major as the cells are visited
+    let mut g_box = filled(bh * bw, false)?;
+    for &i in g_list {
+        if let Some(k) = b.index(i as usize, w) {
+            g_box[k] = true;
+        }
+    }
+    let m = gt_to_estimate(gt, &est.frame, t);
+    let (eh, ew) = (est.grid.height as i64, est.grid.width as i64);
+    let eg = &est.grid;
+    let (sr, sc) = (fixed(m.m[0][1]), fixed(m.m[1][1]));
+    cells
+        .par_chunks_mut(BAND_ROWS * bw)
+        .zip(g_box.par_chunks(BAND_ROWS * bw))
+        .enumerate()
+        .for_each(|(k, (chunk, g_band))| {
+            for (j, (row, g_row)) in chunk.chunks_mut(bw).zip(g_band.chunks(bw)).enumerate() {
+                let r = b.r0 + k * BAND_ROWS + j;
+                let (er0, ec0) = m.apply(r as f64, 0.0);
+                // checked by resample_sparse: no step saturates, so c steps are one product
+                let (mut er, mut ec) =
+                    (fixed(er0) + b.c0 as i64 * sr, fixed(ec0) + b.c0 as i64 * sc);
+                let un = &gu[r * w + b.c0..r * w + b.c1];
+                for ((cell, &g), &u) in row.iter_mut().zip(g_row).zip(un) {
+                    let (ir, ic) = (er >> 32, ec >> 32);
+                    let is_free = !u && !g;
+                    let mut f = (is_free as u8) * flag::GROUND_TRUTH_FREE;
+                    if ir >= 0 && ic >= 0 && ir < eh && ic < ew {
+                        let i = ir as usize * eg.width + ic as usize;
+                        if !eg.unknown[i] {
+                            let occupied = occ[eg.values[i] as usize];
+                            f |= flag::ESTIMATE_KNOWN | ((occupied as u8) * flag::ESTIMATE);
+                        }
+                    }
+                    *cell = f;
+                    er += sr;
+                    ec += sc;
+                }
+            }
+        });
+    Ok(cells)
+}

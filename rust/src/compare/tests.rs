@@ -442,3 +442,83 @@ fn same_result_for_any_thread_count() {
         with
     );
 }
+
+#[test]
+fn flags_within_a_box_are_the_whole_grids_cut() {
+    let (h, w) = (120, 160);
+    let (v, u) = map(h, w, building, |r, c| r < 90 && c > 10);
+    let g = Grid::new(&v, &u, h, w).unwrap();
+    let est = Placed {
+        grid: g,
+        frame: frame(h, w, 0.05, Se2::IDENTITY),
+    };
+    let moved = Se2 {
+        theta: 0.03,
+        tx: 0.1,
+        ty: 0.2,
+    };
+    // the last: frames far apart (the literal resampling, cut)
+    let far = Se2 {
+        theta: 0.0,
+        tx: 1e8,
+        ty: 0.0,
+    };
+    for (res, origin) in [
+        (0.04, moved),
+        (0.05, Se2::IDENTITY),
+        (0.06, moved),
+        (0.05, far),
+    ] {
+        let gt = Placed {
+            grid: g,
+            frame: frame(h, w, res, origin),
+        };
+        let p = CompareParams::default();
+        let all = compare(&est, &gt, &p, true).unwrap();
+        let flags = all.cells.clone().unwrap();
+        for b in [
+            CellBox {
+                r0: 7,
+                r1: 95,
+                c0: 13,
+                c1: 150,
+            },
+            CellBox {
+                r0: 0,
+                r1: h,
+                c0: 0,
+                c1: 40,
+            },
+            CellBox {
+                r0: 50,
+                r1: 500,
+                c0: 100,
+                c1: 900,
+            },
+            CellBox {
+                r0: 30,
+                r1: 30,
+                c0: 0,
+                c1: w,
+            },
+            CellBox {
+                r0: 0,
+                r1: h,
+                c0: 0,
+                c1: w,
+            },
+        ] {
+            let got = compare_within(&est, &gt, &p, Some(b)).unwrap();
+            let c = b.clip(h, w);
+            let mut want = Vec::new();
+            for r in c.r0..c.r1 {
+                want.extend_from_slice(&flags[r * w + c.c0..r * w + c.c1]);
+            }
+            assert_eq!(got.cells.as_ref().unwrap(), &want, "{b:?} at {res}");
+            let (mut x, mut y) = (got, all.clone());
+            x.cells = None;
+            y.cells = None;
+            assert_eq!(x, y, "the counts, {b:?} at {res}");
+        }
+    }
+}
