@@ -122,32 +122,39 @@ def test_a_bag_sequence_of_slamq_run_is_written_as_a_rawlog_on_its_clock(tmp_pat
         prepare_inputs(load_config(doc))
 
 
-def _flip_laser_tf(src: Path, dst: Path) -> Path:
-    """A copy of a ROS 1 bag whose ``base_link -> laser`` transforms are written the other
-    way round (``laser -> base_link``, the inverse transform)."""
+def _rewrite(src: Path, dst: Path, edit) -> Path:
+    """A copy of a ROS 1 bag, ``edit(topic, index, message)`` changing the messages of
+    ``/tf`` and ``/scan`` in place (``index`` counts a topic's messages from 1)."""
     from rosbags.rosbag1 import Reader, Writer
 
     from slamq.synth.writers.ros import _typestore
 
     store = _typestore(True)
+    seen: dict[str, int] = {}
     with Reader(src) as reader, Writer(dst) as writer:
         conns = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=store)
                  for c in reader.connections}
         for conn, t, raw in reader.messages():
-            if conn.topic == "/tf":
+            if conn.topic in ("/tf", "/scan"):
+                seen[conn.topic] = seen.get(conn.topic, 0) + 1
                 msg = store.deserialize_ros1(raw, conn.msgtype)
-                for tf in msg.transforms:
-                    if tf.child_frame_id != "laser":
-                        continue
-                    tr, q = tf.transform.translation, tf.transform.rotation
-                    yaw = 2 * math.atan2(q.z, q.w)
-                    c, s = math.cos(yaw), math.sin(yaw)
-                    tr.x, tr.y = -(c * tr.x + s * tr.y), s * tr.x - c * tr.y
-                    q.z = -q.z
-                    tf.header.frame_id, tf.child_frame_id = "laser", "base_link"
+                edit(conn.topic, seen[conn.topic], msg)
                 raw = store.serialize_ros1(msg, conn.msgtype)
             writer.write(conns[conn.id], t, raw)
     return dst
+
+
+def _flip_laser_tf(topic: str, _index: int, msg) -> None:
+    """``base_link -> laser`` written the other way round (the inverse transform)."""
+    for tf in msg.transforms if topic == "/tf" else ():
+        if tf.child_frame_id != "laser":
+            continue
+        tr, q = tf.transform.translation, tf.transform.rotation
+        yaw = 2 * math.atan2(q.z, q.w)
+        c, s = math.cos(yaw), math.sin(yaw)
+        tr.x, tr.y = -(c * tr.x + s * tr.y), s * tr.x - c * tr.y
+        q.z = -q.z
+        tf.header.frame_id, tf.child_frame_id = "laser", "base_link"
 
 
 def test_both_bag_readers_take_the_laser_offset_given_either_way_round(bags, seq, tmp_path):
@@ -156,7 +163,7 @@ def test_both_bag_readers_take_the_laser_offset_given_either_way_round(bags, seq
     used to ignore it and take a zero offset)."""
     from slamq.sources.scans import load_scans
 
-    flipped = _flip_laser_tf(bags["rosbag1"], tmp_path / "flipped.bag")
+    flipped = _rewrite(bags["rosbag1"], tmp_path / "flipped.bag", _flip_laser_tf)
     assert next(read_bag_scans(flipped)).offset == pytest.approx(seq.laser.offset, abs=1e-9)
     assert load_scans(flipped).offset == pytest.approx(seq.laser.offset, abs=1e-9)
 
@@ -182,26 +189,14 @@ def test_a_reading_at_range_min_is_no_return_in_both_readers(seq, tmp_path):
 def test_load_scans_refuses_a_bag_whose_scans_change_frame(bags, tmp_path):
     """Scans from two frames (two lasers on one topic) have two offsets: refused, naming
     the message, as a CARMEN log's would be (load_scans used to take the first frame's)."""
-    from rosbags.rosbag1 import Reader, Writer
-
     from slamq.errors import SequenceError
     from slamq.sources.scans import load_scans
-    from slamq.synth.writers.ros import _typestore
 
-    store = _typestore(True)
-    out = tmp_path / "two-frames.bag"
-    with Reader(bags["rosbag1"]) as reader, Writer(out) as writer:
-        conns = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=store)
-                 for c in reader.connections}
-        seen = 0
-        for conn, t, raw in reader.messages():
-            if conn.topic == "/scan":
-                seen += 1
-                if seen == 5:
-                    msg = store.deserialize_ros1(raw, conn.msgtype)
-                    msg.header.frame_id = "base_link"  # no offset in the robot's frame
-                    raw = store.serialize_ros1(msg, conn.msgtype)
-            writer.write(conns[conn.id], t, raw)
+    def fifth_in_base_link(topic: str, index: int, msg) -> None:
+        if topic == "/scan" and index == 5:
+            msg.header.frame_id = "base_link"  # no offset in the robot's frame
+
+    out = _rewrite(bags["rosbag1"], tmp_path / "two-frames.bag", fifth_in_base_link)
     with pytest.raises(SequenceError, match=r"two-frames.bag \(/scan, message 5\): the scans "
                                             "change their laser offset on the robot"):
         load_scans(out)
