@@ -120,3 +120,84 @@ def test_a_bag_sequence_of_slamq_run_is_written_as_a_rawlog_on_its_clock(tmp_pat
     doc["sequences"]["drive"]["scan_topic"] = "/odom"
     with pytest.raises(BagError, match="carries nav_msgs/msg/Odometry"):
         prepare_inputs(load_config(doc))
+
+
+def _rewrite(src: Path, dst: Path, edit) -> Path:
+    """A copy of a ROS 1 bag, ``edit(topic, index, message)`` changing the messages of
+    ``/tf`` and ``/scan`` in place (``index`` counts a topic's messages from 1)."""
+    from rosbags.rosbag1 import Reader, Writer
+
+    from slamq.synth.writers.ros import _typestore
+
+    store = _typestore(True)
+    seen: dict[str, int] = {}
+    with Reader(src) as reader, Writer(dst) as writer:
+        conns = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=store)
+                 for c in reader.connections}
+        for conn, t, raw in reader.messages():
+            if conn.topic in ("/tf", "/scan"):
+                seen[conn.topic] = seen.get(conn.topic, 0) + 1
+                msg = store.deserialize_ros1(raw, conn.msgtype)
+                edit(conn.topic, seen[conn.topic], msg)
+                raw = store.serialize_ros1(msg, conn.msgtype)
+            writer.write(conns[conn.id], t, raw)
+    return dst
+
+
+def _flip_laser_tf(topic: str, _index: int, msg) -> None:
+    """``base_link -> laser`` written the other way round (the inverse transform)."""
+    for tf in msg.transforms if topic == "/tf" else ():
+        if tf.child_frame_id != "laser":
+            continue
+        tr, q = tf.transform.translation, tf.transform.rotation
+        yaw = 2 * math.atan2(q.z, q.w)
+        c, s = math.cos(yaw), math.sin(yaw)
+        tr.x, tr.y = -(c * tr.x + s * tr.y), s * tr.x - c * tr.y
+        q.z = -q.z
+        tf.header.frame_id, tf.child_frame_id = "laser", "base_link"
+
+
+def test_both_bag_readers_take_the_laser_offset_given_either_way_round(bags, seq, tmp_path):
+    """``slamq.load_scans`` and ``bag:`` sequences read a bag's scans through one walk: a
+    ``laser -> base_link`` transform is the inverse of the offset for both (load_scans
+    used to ignore it and take a zero offset)."""
+    from slamq.sources.scans import load_scans
+
+    flipped = _rewrite(bags["rosbag1"], tmp_path / "flipped.bag", _flip_laser_tf)
+    assert next(read_bag_scans(flipped)).offset == pytest.approx(seq.laser.offset, abs=1e-9)
+    assert load_scans(flipped).offset == pytest.approx(seq.laser.offset, abs=1e-9)
+
+
+def test_a_reading_at_range_min_is_no_return_in_both_readers(seq, tmp_path):
+    """docs/spec.md 7b: a beam is valid when range_min < r < range_max (read_bag_scans
+    used to keep r == range_min)."""
+    import dataclasses
+
+    from slamq.sources.scans import load_scans
+
+    lo = np.float32(seq.laser.min_range)
+    ranges = seq.ranges.copy()
+    ranges[:, 2] = lo
+    ranges[:, 3] = np.nextafter(lo, np.float32(1))
+    bag = write(dataclasses.replace(seq, ranges=ranges), tmp_path, ("rosbag1",))["rosbag1"]
+    for got in (np.array([s.ranges for s in read_bag_scans(bag)]), load_scans(bag).ranges):
+        assert np.isinf(got[:, 2]).all()
+        assert (got[:, 3] == ranges[:, 3]).all()
+        np.testing.assert_array_equal(got[:, 4:], ranges[:, 4:])
+
+
+def test_load_scans_refuses_a_bag_whose_scans_change_frame(bags, tmp_path):
+    """Scans from two frames (two lasers on one topic) have two offsets: refused, naming
+    the message, as a CARMEN log's would be (load_scans used to take the first frame's)."""
+    from slamq.errors import SequenceError
+    from slamq.sources.scans import load_scans
+
+    def fifth_in_base_link(topic: str, index: int, msg) -> None:
+        if topic == "/scan" and index == 5:
+            msg.header.frame_id = "base_link"  # no offset in the robot's frame
+
+    out = _rewrite(bags["rosbag1"], tmp_path / "two-frames.bag", fifth_in_base_link)
+    with pytest.raises(SequenceError, match=r"two-frames.bag \(/scan, message 5\): the scans "
+                                            "change their laser offset on the robot"):
+        load_scans(out)
+    assert [s.offset == (0.0, 0.0, 0.0) for s in read_bag_scans(out)].count(True) == 1

@@ -5,8 +5,10 @@ pose at its stamp, as :class:`slamq.sources.carmen.Scan`: the stream that
 
 **Scans** are taken in the bag's order (as a CARMEN log's in file order); each keeps its
 header stamp (the bag time when the stamp is zero), its beam geometry (``angle_min``,
-``angle_increment``, ``range_max``) and its ranges, a reading outside
-``[range_min, range_max)`` or not finite written as no return (``inf``).
+``angle_increment``, ``range_max``) and its ranges, a reading not strictly between
+``range_min`` and ``range_max`` (docs/spec.md 7b) or not finite written as no return
+(``inf``). :func:`slamq.load_scans` reads bags through the same walk
+(:func:`laser_scans`).
 
 **Odometry.** The odometry topic (``nav_msgs/Odometry`` or another pose type that
 :func:`slamq.sources.bag_poses.read_bag_trajectory` reads) is read whole first and sorted
@@ -15,15 +17,18 @@ scan's pose is interpolated at its stamp (positions linear in time, the heading 
 shorter arc; the nearest pose before the first and after the last).
 
 **Laser offset.** The pose of the scan's frame in the odometry's child frame
-(``base_link``), from one ``/tf_static`` (or ``/tf``) transform between the two; none is
-needed when the frames are the same. Planar: the offset's x, y and yaw.
+(``base_link``), from the first ``/tf_static`` (else ``/tf``) transform between the two,
+in either direction; none is needed when the frames are the same. Planar: the offset's x,
+y and yaw. (:func:`slamq.load_scans`, which has no odometry topic, takes the robot's frame
+from the bag's only ``nav_msgs/Odometry`` topic; without it, or without a transform to
+it, from the first transform whose child is the scans' frame, else a zero offset.)
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -34,6 +39,7 @@ from slamq.sources.bagfile import (
     bag_connections,
     bag_deserialize,
     bag_messages,
+    describe_topics,
     header_stamp,
     open_bag,
     quat_yaw,
@@ -45,6 +51,7 @@ from slamq.sources.files import PathLike
 __all__ = ["SCAN_TYPE", "read_bag_scans"]
 
 SCAN_TYPE = "sensor_msgs/msg/LaserScan"
+ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
 #: The range noise written with each scan (a LaserScan carries none), metres: CARMEN's.
 RANGE_NOISE = 0.01
 
@@ -99,40 +106,132 @@ def _pose_at(t: np.ndarray, pose: np.ndarray, stamp: float) -> tuple[float, floa
             math.atan2(math.sin(th), math.cos(th)))
 
 
-def _offset(reader: Any, bag: PathLike, base: str, laser: str
-            ) -> tuple[float, float, float] | None:
-    """``(x, y, yaw)`` of frame ``laser`` in frame ``base`` from the first transform
-    between them on ``/tf_static`` or ``/tf`` (either direction), or None."""
+def _transforms(reader: Any, bag: PathLike) -> Iterator[tuple[str, str, Any]]:
+    """``(parent, child, transform)`` of every transform on ``/tf_static``, then ``/tf``
+    (a ROS 1 bag repeats its static transforms on ``/tf``), frames without a leading /."""
     types = topic_types(reader)
     for topic in ("/tf_static", "/tf"):
         if types.get(topic) != TF_TYPE:
             continue
         for conn, _ns, raw in bag_messages(reader, bag, bag_connections(
                 reader, bag, topic, (TF_TYPE,))):
-            msg = bag_deserialize(reader, bag, conn, raw)
-            for tf in msg.transforms:
-                parent, child = _frame(tf.header.frame_id), _frame(tf.child_frame_id)
-                if {parent, child} != {base, laser}:
-                    continue
-                tr, q = tf.transform.translation, tf.transform.rotation
-                x, y, yaw = float(tr.x), float(tr.y), quat_yaw(q)
-                if parent == base:
-                    return x, y, yaw
-                c, s = math.cos(yaw), math.sin(yaw)  # the inverse transform
-                return -(c * x + s * y), s * x - c * y, -yaw
+            for tf in bag_deserialize(reader, bag, conn, raw).transforms:
+                yield _frame(tf.header.frame_id), _frame(tf.child_frame_id), tf.transform
+
+
+def laser_offset(reader: Any, bag: PathLike, robot: str | None, laser: str
+                 ) -> tuple[float, float, float] | None:
+    """``(x, y, yaw)`` of frame ``laser`` in frame ``robot`` from the first transform
+    between the two on ``/tf_static``, else ``/tf``, in either direction (inverted when
+    ``laser`` is its parent); with ``robot`` None (not known), from the first transform
+    whose child is ``laser`` (its parent taken as the robot). None when there is none."""
+    for parent, child, tr in _transforms(reader, bag):
+        if robot is None:
+            if child != laser:
+                continue
+        elif {parent, child} != {robot, laser}:
+            continue
+        x, y, yaw = float(tr.translation.x), float(tr.translation.y), quat_yaw(tr.rotation)
+        if robot is None or parent == robot:
+            return x, y, yaw
+        c, s = math.cos(yaw), math.sin(yaw)  # the inverse transform
+        return -(c * x + s * y), s * x - c * y, -yaw
     return None
 
 
-def read_bag_scans(bag: PathLike, scan_topic: str = "/scan", odom_topic: str = "/odom", *,
-                   max_scans: int | None = None) -> Iterator[Scan]:
+def choose_scan_topic(reader: Any, bag: PathLike, topic: str | None) -> str:
+    """``topic``, or when None the bag's only ``LaserScan`` topic, else ``/scan``."""
+    if topic is not None:
+        return topic
+    types = topic_types(reader)
+    found = sorted(t for t, m in types.items() if m == SCAN_TYPE)
+    if len(found) != 1 and "/scan" not in found:
+        raise BagError(f"{bag}: {'no' if not found else 'more than one'} "
+                       f"{SCAN_TYPE} topic (name one); {describe_topics(types)}")
+    return found[0] if len(found) == 1 else "/scan"
+
+
+def odometry_frame(reader: Any, bag: PathLike) -> str | None:
+    """The child frame (the robot's) of the bag's only ``nav_msgs/Odometry`` topic, from
+    its first message; None without one such topic or frame."""
+    topics = [t for t, m in topic_types(reader).items() if m == ODOMETRY_TYPE]
+    if len(topics) != 1:
+        return None
+    conns = bag_connections(reader, bag, topics[0], (ODOMETRY_TYPE,))
+    for conn, _ns, raw in bag_messages(reader, bag, conns):
+        return _frame(bag_deserialize(reader, bag, conn, raw).child_frame_id) or None
+    return None
+
+
+class BagScan(NamedTuple):
+    """One ``LaserScan`` message as read: the fields of :class:`~slamq.sources.carmen.Scan`
+    but the odometry."""
+
+    stamp: float
+    ranges: np.ndarray
+    angle_min: float
+    angle_increment: float
+    max_range: float
+    offset: tuple[float, float, float]
+    line: int
+
+
+def laser_scans(reader: Any, bag: PathLike, topic: str, robot: str | None, *,
+                max_scans: int | None = None, strict: bool = True) -> Iterator[BagScan]:
+    """The ``LaserScan`` messages of ``topic`` in bag order (see the module's notes).
+
+    ``robot`` is the robot's frame (the odometry's child frame) the laser offset is taken
+    in, None when not known. ``strict`` (:func:`read_bag_scans`): a scan frame other than
+    the robot's needs a transform between the two (:func:`laser_offset`), else
+    :class:`~slamq.BagError`; with ``robot`` None the offset is zero. Not ``strict``
+    (:func:`slamq.load_scans`): without such a transform, the first transform whose child
+    is the scan's frame (its parent taken as the robot), else zero. Each frame's offset is
+    looked up once.
+    """
+    conns = bag_connections(reader, bag, topic, (SCAN_TYPE,))
+    if max_scans == 0:
+        return
+    offsets: dict[str, tuple[float, float, float]] = {}
+    done = 0
+    for conn, ns, raw in bag_messages(reader, bag, conns):
+        msg = bag_deserialize(reader, bag, conn, raw)
+        frame = _frame(msg.header.frame_id)
+        if frame not in offsets:
+            found = (0.0, 0.0, 0.0) if frame in ("", robot) or (strict and robot is None) \
+                else laser_offset(reader, bag, robot, frame)
+            if found is None and strict:
+                raise BagError(f"{bag}: no /tf_static or /tf transform between the "
+                               f"odometry's frame {robot} and the scan's frame {frame} "
+                               f"({topic})")
+            if found is None and robot is not None:
+                found = laser_offset(reader, bag, None, frame)
+            offsets[frame] = found or (0.0, 0.0, 0.0)
+        r = np.asarray(msg.ranges, np.float32)
+        if r.size == 0:
+            raise BagError(f"{bag}: {topic}: scan {done + 1} has no beams")
+        lo, hi = float(msg.range_min), float(msg.range_max)
+        if not (math.isfinite(hi) and hi > 0):
+            raise BagError(f"{bag}: {topic}: scan {done + 1} has range_max {hi}")
+        # valid: range_min < r < range_max (docs/spec.md 7b); else no return
+        ranges = np.where(np.isfinite(r) & (r > lo) & (r < hi), r,
+                          np.float32(np.inf)).astype(np.float32)
+        yield BagScan(header_stamp(msg.header, ns), ranges, float(msg.angle_min),
+                        float(msg.angle_increment), hi, offsets[frame], done + 1)
+        done += 1
+        if max_scans is not None and done >= max_scans:
+            return
+
+
+def read_bag_scans(bag: PathLike, scan_topic: str | None = "/scan", odom_topic: str = "/odom",
+                   *, max_scans: int | None = None) -> Iterator[Scan]:
     """The laser scans of a bag in bag order, each with the odometry pose at its stamp.
 
     Parameters
     ----------
     bag : path
         A ROS 1 ``.bag``, a ROS 2 ``.db3`` / ``.mcap`` file or ROS 2 bag folder.
-    scan_topic : str, default "/scan"
-        A ``sensor_msgs/LaserScan`` topic.
+    scan_topic : str or None, default "/scan"
+        A ``sensor_msgs/LaserScan`` topic; None: the bag's only one, else ``/scan``.
     odom_topic : str, default "/odom"
         ``nav_msgs/Odometry`` (or ``PoseStamped``, ``PoseWithCovarianceStamped``,
         ``TransformStamped``): the robot's odometry.
@@ -149,7 +248,8 @@ def read_bag_scans(bag: PathLike, scan_topic: str = "/scan", odom_topic: str = "
     slamq.BagError
         A missing or unreadable bag, a missing topic or one of another type (the message
         lists the bag's topics), no odometry, a scan frame with no transform to the
-        odometry's child frame, a scan with no beams.
+        odometry's child frame, a scan with no beams or a ``range_max`` that is not finite
+        and positive.
 
     Examples
     --------
@@ -162,35 +262,10 @@ def read_bag_scans(bag: PathLike, scan_topic: str = "/scan", odom_topic: str = "
     if max_scans is not None and max_scans < 0:
         raise BagError(f"{bag}: max_scans must be >= 0, got {max_scans}")
     with open_bag(bag) as reader:
-        scan_conns = bag_connections(reader, bag, scan_topic, (SCAN_TYPE,))
+        topic = choose_scan_topic(reader, bag, scan_topic)
+        bag_connections(reader, bag, topic, (SCAN_TYPE,))  # the scans' topic first
         odom_t, odom, base = _odometry(reader, bag, odom_topic)
-        offsets: dict[str, tuple[float, float, float]] = {}
-        done = 0
-        if max_scans == 0:
-            return
-        for conn, ns, raw in bag_messages(reader, bag, scan_conns):
-            msg = bag_deserialize(reader, bag, conn, raw)
-            frame = _frame(msg.header.frame_id)
-            if frame not in offsets:
-                found = (0.0, 0.0, 0.0) if base is None or frame in ("", base) else \
-                    _offset(reader, bag, base, frame)
-                if found is None:
-                    raise BagError(f"{bag}: no /tf_static or /tf transform between the "
-                                   f"odometry's frame {base} and the scan's frame {frame} "
-                                   f"({scan_topic})")
-                offsets[frame] = found
-            r = np.asarray(msg.ranges, np.float32)
-            if r.size == 0:
-                raise BagError(f"{bag}: {scan_topic}: scan {done + 1} has no beams")
-            lo, hi = float(msg.range_min), float(msg.range_max)
-            if not (math.isfinite(hi) and hi > 0):
-                raise BagError(f"{bag}: {scan_topic}: scan {done + 1} has range_max {hi}")
-            ranges = np.where(np.isfinite(r) & (r >= lo) & (r < hi), r,
-                              np.float32(np.inf)).astype(np.float32)
-            stamp = header_stamp(msg.header, ns)
-            yield Scan(stamp, _pose_at(odom_t, odom, stamp), ranges, float(msg.angle_min),
-                       float(msg.angle_increment), hi, RANGE_NOISE, offsets[frame],
-                       "LaserScan", done + 1)
-            done += 1
-            if max_scans is not None and done >= max_scans:
-                return
+        for s in laser_scans(reader, bag, topic, base, max_scans=max_scans):
+            yield Scan(s.stamp, _pose_at(odom_t, odom, s.stamp), s.ranges, s.angle_min,
+                       s.angle_increment, s.max_range, RANGE_NOISE, s.offset, "LaserScan",
+                       s.line)

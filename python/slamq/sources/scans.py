@@ -18,10 +18,14 @@ is scored against in docs/spec.md section 7b).
   other way round otherwise); an invalid beam has no return. Timestamps are MRPT's 100 ns
   ticks since 1601 turned into Unix seconds.
 * **ROS bags** (``.bag``, ``.db3``, ``.mcap`` or a ROS 2 bag folder; the ``bags`` extra)
-  with ``sensor_msgs/LaserScan`` messages: the header stamps (the bag time when zero), the
-  beams ``angle_min + i * angle_increment``; the laser's offset on the robot from the
-  first transform on ``/tf_static`` (else ``/tf``) whose child is the scans' frame (one
-  hop: its parent is taken as the robot), else zero.
+  with ``sensor_msgs/LaserScan`` messages, read by the walk of
+  :mod:`slamq.sources.bag_scans` (``slamq run``'s ``bag:`` sequences read the same): the
+  header stamps (the bag time when zero), the beams ``angle_min + i * angle_increment``,
+  a range valid when ``range_min < r < range_max``; the laser's offset on the robot from
+  the first transform on ``/tf_static`` (else ``/tf``) between the robot's frame (the
+  child frame of the bag's only ``nav_msgs/Odometry`` topic) and the scans' frame, in
+  either direction; else from the first one whose child is the scans' frame (one hop: its
+  parent is taken as the robot); else zero.
 
 One beam layout for all scans (:class:`~slamq.models.Scans` holds one): a log whose scans
 change their number of beams, field of view or laser offset (by more than
@@ -35,13 +39,13 @@ from __future__ import annotations
 import gzip
 import math
 import struct
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from slamq.errors import BagError, SequenceError
+from slamq.errors import SequenceError
 from slamq.models.scans import Scans
 from slamq.sources.carmen import CarmenLog, is_carmen, stat_recording
 from slamq.sources.files import PathLike, is_bag
@@ -89,7 +93,8 @@ def load_scans(path: PathLike, *, laser: str = "front", topic: str | None = None
         Not a recording slamq reads, a malformed record (the file, and the line or byte
         offset, are named), no scans, or scans of more than one beam layout.
     slamq.BagError
-        A bag that cannot be read or holds no ``LaserScan`` topic.
+        A bag that cannot be read or holds no ``LaserScan`` topic, a scan with no beams or
+        whose ``range_max`` is not finite and > 0 (the bag, topic and scan are named).
 
     Examples
     --------
@@ -140,30 +145,39 @@ def _layout_error(source: Path, where: str, what: str) -> SequenceError:
 
 
 def _carmen_scans(path: Path, laser: str, max_scans: int | None) -> Scans:
-    log = CarmenLog(path)
+    scans = CarmenLog(path).scans(laser=laser, max_scans=max_scans)
+    return _one_layout(path, scans, lambda s: f":{s.line}", "carmen",
+                       f"{path}: no {laser} laser scans")
+
+
+def _one_layout(path: Path, scans: Iterable[Any], where: Callable[[Any], str], fmt: str,
+                empty: str) -> Scans:
+    """Scans of one beam layout from per-scan records (a CARMEN log's, a bag's: stamp,
+    ranges, angle_min, angle_increment, max_range, offset); ``where`` names a scan in an
+    error, ``empty`` is the error when there is none."""
     stamps: list[float] = []
     ranges: list[np.ndarray] = []
     first = None
     max_range = 0.0
-    for s in log.scans(laser=laser, max_scans=max_scans):
+    for s in scans:
         layout = (len(s.ranges), s.angle_min, s.angle_increment, s.offset)
         if first is None:
             first = layout
         elif layout[0] != first[0]:
-            raise _layout_error(path, f":{s.line}", "number of beams")
+            raise _layout_error(path, where(s), "number of beams")
         elif not (math.isclose(layout[1], first[1], abs_tol=1e-6)
                   and math.isclose(layout[2], first[2], abs_tol=1e-9)):
-            raise _layout_error(path, f":{s.line}", "beam angles")
+            raise _layout_error(path, where(s), "beam angles")
         elif max(abs(a - b) for a, b in zip(layout[3], first[3])) > OFFSET_TOL:
-            raise _layout_error(path, f":{s.line}", "laser offset on the robot")
+            raise _layout_error(path, where(s), "laser offset on the robot")
         stamps.append(s.stamp)
         ranges.append(s.ranges)
         max_range = max(max_range, float(s.max_range))
     if first is None:
-        raise SequenceError(f"{path}: no {laser} laser scans")
+        raise SequenceError(empty)
     n, a0, step, offset = first
     angles = a0 + step * np.arange(n, dtype=np.float64)
-    return _assemble(path, stamps, ranges, angles, max_range, offset, "carmen")
+    return _assemble(path, stamps, ranges, angles, max_range, offset, fmt)
 
 
 # --------------------------------------------------------------------------------------
@@ -487,75 +501,16 @@ def read_rawlog_scans(path: PathLike, *, label: str | None = None,
 # --------------------------------------------------------------------------------------
 # ROS bags
 
-_SCAN_TYPE = "sensor_msgs/msg/LaserScan"
-_TF_TYPE = "tf2_msgs/msg/TFMessage"
-
 
 def _bag_scans(path: Path, topic: str | None, max_scans: int | None) -> Scans:
-    from slamq.sources.bagfile import (
-        bag_connections,
-        bag_deserialize,
-        bag_messages,
-        describe_topics,
-        header_stamp,
-        open_bag,
-        quat_yaw,
-        topic_types,
-    )
+    """A bag's scans through :func:`slamq.sources.bag_scans.laser_scans` (the walk
+    ``slamq run``'s ``bag:`` sequences read too), in one beam layout."""
+    from slamq.sources.bag_scans import choose_scan_topic, laser_scans, odometry_frame
+    from slamq.sources.bagfile import open_bag
 
     with open_bag(path) as reader:
-        types = topic_types(reader)
-        if topic is None:
-            found = sorted(t for t, m in types.items() if m == _SCAN_TYPE)
-            if len(found) != 1 and "/scan" not in found:
-                raise BagError(f"{path}: {'no' if not found else 'more than one'} "
-                               f"{_SCAN_TYPE} topic (name one); {describe_topics(types)}")
-            topic = found[0] if len(found) == 1 else "/scan"
-        conns = bag_connections(reader, path, topic, (_SCAN_TYPE,))
-        stamps: list[float] = []
-        ranges: list[np.ndarray] = []
-        first: Any = None
-        max_range = 0.0
-        frame = ""
-        for conn, t_ns, raw in bag_messages(reader, path, conns):
-            msg = bag_deserialize(reader, path, conn, raw)
-            r = np.asarray(msg.ranges, np.float64)
-            layout = (r.shape[0], float(msg.angle_min), float(msg.angle_increment))
-            if first is None:
-                first, frame = layout, str(msg.header.frame_id)
-            elif layout[0] != first[0]:
-                raise _layout_error(path, f" ({topic}, message {len(stamps) + 1})",
-                                    "number of beams")
-            elif not (math.isclose(layout[1], first[1], abs_tol=1e-6)
-                      and math.isclose(layout[2], first[2], abs_tol=1e-9)):
-                raise _layout_error(path, f" ({topic}, message {len(stamps) + 1})",
-                                    "beam angles")
-            lo, hi = float(msg.range_min), float(msg.range_max)
-            ranges.append(np.where(np.isfinite(r) & (r > lo) & (r < hi), r, np.inf))
-            stamps.append(header_stamp(msg.header, t_ns))
-            max_range = max(max_range, hi)
-            if max_scans is not None and len(stamps) >= max_scans:
-                break
-        offset = (0.0, 0.0, 0.0)
-        found = False
-        for tf_topic in ("/tf_static", "/tf"):  # a ROS 1 bag repeats it on /tf
-            if found or not frame or types.get(tf_topic) != _TF_TYPE:
-                continue
-            conns = [c for c in reader.connections if c.topic == tf_topic]
-            for conn, _, raw in bag_messages(reader, path, conns):
-                for tf in bag_deserialize(reader, path, conn, raw).transforms:
-                    if str(tf.child_frame_id).lstrip("/") == frame.lstrip("/"):
-                        tr = tf.transform
-                        offset = (float(tr.translation.x), float(tr.translation.y),
-                                  quat_yaw(tr.rotation))
-                        found = True
-                        break
-                if found:
-                    break
-    if first is None:
-        raise SequenceError(f"{path}: no messages on {topic}")
-    n, a0, step = first
-    if not max_range > 0:
-        raise SequenceError(f"{path}: the scans' range_max must be > 0, got {max_range}")
-    angles = a0 + step * np.arange(n, dtype=np.float64)
-    return _assemble(path, stamps, ranges, angles, max_range, offset, "bag")
+        topic = choose_scan_topic(reader, path, topic)
+        robot = odometry_frame(reader, path)
+        scans = laser_scans(reader, path, topic, robot, max_scans=max_scans, strict=False)
+        return _one_layout(path, scans, lambda s: f" ({topic}, message {s.line})", "bag",
+                           f"{path}: no messages on {topic}")
