@@ -7,7 +7,8 @@ Every run's map is scored (:func:`slamq.evaluate`, ``canonical_resolution=0.07``
 metric's concordance with the relations error is measured pooled and per dataset
 (:func:`slamq.results.validity.validate`); and ``slamq verdict``'s rule
 (:func:`slamq.verdict.maps.maps_verdict`) is run on each dataset's six maps of one
-iteration, its choice ranked by the relations error.
+iteration, each map weighed against its own scans when the records name them (``scans``,
+``trajectory``: ``slamq run`` fills both), its choice ranked by the relations error.
 """
 
 from __future__ import annotations
@@ -38,7 +39,8 @@ def main(argv: list[str] | None = None) -> int:
         if m.exists() and pd.notna(r.get("rel_trans_abs_mean")):
             e = evaluate(str(m), canonical_resolution=0.07)
             rows.append({"sequence": r["sequence"], "algorithm": r["algorithm"],
-                         "run": r["run"], "map": str(m),
+                         "run": r["run"], "map": str(m), "scans": r.get("scans"),
+                         "trajectory": r.get("trajectory"),
                          "rel_trans_abs_mean": r["rel_trans_abs_mean"],
                          "rel_rot_abs_mean": r["rel_rot_abs_mean"],
                          **{k: getattr(e, k) for k in METRICS}})
@@ -50,10 +52,15 @@ def main(argv: list[str] | None = None) -> int:
     print(t.round(3).to_string())
     out = []
     for (seq, it), b in df.groupby(["sequence", "run"]):
-        v = maps_verdict(list(b["map"]), names=list(b["algorithm"]))["verdict"] or {}
+        recordings = set(b["scans"].dropna().astype(str))
+        with_scans = len(recordings) == 1 and b["trajectory"].notna().all()
+        v = maps_verdict(list(b["map"]), names=list(b["algorithm"]),
+                         scans=recordings.pop() if with_scans else None,
+                         trajectories=list(b["trajectory"]) if with_scans else None
+                         )["verdict"] or {}
         err = b.set_index("algorithm")["rel_trans_abs_mean"]
         best = v.get("best")
-        out.append({"sequence": seq, "iteration": it, "best": best,
+        out.append({"sequence": seq, "iteration": it, "scans": with_scans, "best": best,
                     "confidence": v.get("confidence"),
                     "rank": float(err.rank()[best]) if best in err.index else None,
                     "ratio": float(err[best] / err.min()) if best in err.index else None})
