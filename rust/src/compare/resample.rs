@@ -342,6 +342,32 @@ fn tile_covered<const INSIDE: bool>(
     covered
 }
 
+/// The estimate cell holding the 32.32 fixed-point position `(er, ec)` of a cell's centre:
+/// None when it is off the estimate's `eh` x `ew` grid or unknown, else whether it is
+/// occupied (`occ` of its value).
+#[inline(always)]
+fn estimate_cell(eg: &Grid, occ: &[bool; 256], eh: i64, ew: i64, er: i64, ec: i64) -> Option<bool> {
+    let (ir, ic) = (er >> 32, ec >> 32);
+    if ir >= 0 && ic >= 0 && ir < eh && ic < ew {
+        let i = ir as usize * eg.width + ic as usize;
+        if !eg.unknown[i] {
+            return Some(occ[eg.values[i] as usize]);
+        }
+    }
+    None
+}
+
+/// A cell's flags: [`flag::GROUND_TRUTH_FREE`] when the ground truth knows it free, and
+/// what the estimate cell at its centre says ([`estimate_cell`]).
+#[inline(always)]
+fn cell_flags(is_free: bool, seen: Option<bool>) -> u8 {
+    let mut f = (is_free as u8) * flag::GROUND_TRUTH_FREE;
+    if let Some(occupied) = seen {
+        f |= flag::ESTIMATE_KNOWN | ((occupied as u8) * flag::ESTIMATE);
+    }
+    f
+}
+
 pub(super) fn resample(
     est: &Placed,
     ground_truth: &Placed,
@@ -375,22 +401,16 @@ pub(super) fn resample(
                 let (sr, sc) = (fixed(m.m[0][1]), fixed(m.m[1][1]));
                 let (gm, un) = (&gm[k * w..(k + 1) * w], &un[k * w..(k + 1) * w]);
                 for (c, ((cell, &g), &u)) in row.iter_mut().zip(gm).zip(un).enumerate() {
-                    let (ir, ic) = (er >> 32, ec >> 32);
                     let is_free = !u && !g;
-                    let mut f = (is_free as u8) * flag::GROUND_TRUTH_FREE;
-                    if ir >= 0 && ic >= 0 && ir < eh && ic < ew {
-                        let i = ir as usize * eg.width + ic as usize;
-                        if !eg.unknown[i] {
-                            let occupied = occ[eg.values[i] as usize];
-                            f |= flag::ESTIMATE_KNOWN | ((occupied as u8) * flag::ESTIMATE);
-                            covered += is_free as u64;
-                            if occupied {
-                                list.push((r * w + c) as u32);
-                            }
+                    let seen = estimate_cell(eg, occ, eh, ew, er, ec);
+                    if let Some(occupied) = seen {
+                        covered += is_free as u64;
+                        if occupied {
+                            list.push((r * w + c) as u32);
                         }
                     }
                     free += is_free as u64;
-                    *cell = f;
+                    *cell = cell_flags(is_free, seen);
                     er = er.saturating_add(sr);
                     ec = ec.saturating_add(sc);
                 }
@@ -524,17 +544,7 @@ pub(super) fn resample_box(
                     (fixed(er0) + b.c0 as i64 * sr, fixed(ec0) + b.c0 as i64 * sc);
                 let un = &gu[r * w + b.c0..r * w + b.c1];
                 for ((cell, &g), &u) in row.iter_mut().zip(g_row).zip(un) {
-                    let (ir, ic) = (er >> 32, ec >> 32);
-                    let is_free = !u && !g;
-                    let mut f = (is_free as u8) * flag::GROUND_TRUTH_FREE;
-                    if ir >= 0 && ic >= 0 && ir < eh && ic < ew {
-                        let i = ir as usize * eg.width + ic as usize;
-                        if !eg.unknown[i] {
-                            let occupied = occ[eg.values[i] as usize];
-                            f |= flag::ESTIMATE_KNOWN | ((occupied as u8) * flag::ESTIMATE);
-                        }
-                    }
-                    *cell = f;
+                    *cell = cell_flags(!u && !g, estimate_cell(eg, occ, eh, ew, er, ec));
                     er += sr;
                     ec += sc;
                 }
