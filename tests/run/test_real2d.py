@@ -51,13 +51,23 @@ def test_real_log_cut_scored_by_relations(tmp_path: Path) -> None:
     assert len(recs) == 2
     for rec in recs:
         assert rec["error"] is None and rec["rel_error"] is None, rec
-        # only the relations inside the cut are placed, each on a pose at its stamp
-        assert (rec["rel_n"], rec["rel_n_relations"]) == (154, 1172)
-        assert rec["rel_n_unplaced"] == 1172 - 154 and rec["rel_n_interpolated"] == 0
+        assert rec["rel_n_relations"] == 1172
+        assert rec["rel_n"] + rec["rel_n_unplaced"] == 1172
+        if rec["algorithm"].startswith("icp-slam"):
+            # only the relations inside the cut are placed, each on a pose at its stamp
+            assert rec["rel_n"] == 154 and rec["rel_n_interpolated"] == 0
+        else:
+            # rbpf-slam's most likely path has a pose per step its filter ran (every 1 m
+            # or 40 deg): the relations inside the cut are placed between them
+            assert 140 <= rec["rel_n"] <= 154 and rec["rel_n_interpolated"] > 100, rec
         assert all(math.isfinite(rec[f"rel_{s}"]) for s in
                    ("trans_abs_mean", "trans_abs_std", "rot_abs_mean", "trans_max"))
         # 300 scans of a log whose odometry alone is 0.053 m / 4.3 deg off here: a scan
         # matcher or filter that works stays within decimetres and a few degrees
-        assert rec["rel_trans_abs_mean"] < 0.5 and rec["rel_rot_abs_mean"] < 6.0
+        # (rbpf-slam's rotation placed between poses up to 40 deg apart: interpolation
+        # adds a few degrees, docs/real-datasets.md)
+        rot = 6.0 if rec["algorithm"].startswith("icp-slam") else 10.0
+        assert rec["rel_trans_abs_mean"] < 0.5 and rec["rel_rot_abs_mean"] < rot, rec
     summary = result["summary"]
-    assert (summary["rel_n_mean"] == 154).all()
+    icp = summary["algorithm"].astype(str).str.startswith("icp-slam")
+    assert (summary.loc[icp, "rel_n_mean"] == 154).all() and icp.sum() == 1
