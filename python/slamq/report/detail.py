@@ -228,7 +228,8 @@ def standing(rec: dict, ranking: Any, summary: Any = None,
     if alg in ranking.ground_truths:
         out["reason"] = "A reference map is never named best."
     elif best == alg:
-        out["reason"] = f"Named best of {seq} (confidence {confidence})."
+        # the level and its record; the verdict's sentence just above gives the reasons
+        out["reason"] = f"Named best of {seq} (confidence {confidence.split('; ')[0]})."
     elif named:
         out["reason"] = f"Not named best: {named[0]}."
     elif best is None:
