@@ -162,5 +162,6 @@ def test_bad_input_names_the_file_and_the_place(drive, tmp_path: Path) -> None:
     none.write_text("ODOM 0 0 0 0 0 0 1.0 h 1.0\n")
     with pytest.raises(SequenceError, match="none.clf: no front laser scans"):
         load_scans(none)
-    with pytest.raises(SequenceError, match="max_scans must be an integer >= 0"):
-        load_scans(two, max_scans=-1)
+    for bad in (-1, 0):  # 0 would read nothing: a clear refusal, not "no scans"
+        with pytest.raises(SequenceError, match="max_scans must be an integer >= 1"):
+            load_scans(two, max_scans=bad)

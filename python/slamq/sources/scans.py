@@ -79,7 +79,7 @@ def load_scans(path: PathLike, *, laser: str = "front", topic: str | None = None
     topic : str, optional
         A bag's ``LaserScan`` topic (default: the only one, else ``/scan``).
     max_scans : int, optional
-        Stop after this many scans (a cut of the recording's head).
+        Stop after this many scans (a cut of the recording's head), at least 1.
 
     Returns
     -------
@@ -109,8 +109,9 @@ def load_scans(path: PathLike, *, laser: str = "front", topic: str | None = None
     ([-1.5708, 0.0, 1.5708], [1.0, 1.0, inf])
     """
     p = Path(path)
-    if max_scans is not None and (isinstance(max_scans, bool) or int(max_scans) < 0):
-        raise SequenceError(f"{p}: max_scans must be an integer >= 0, got {max_scans!r}")
+    if max_scans is not None and (isinstance(max_scans, bool) or int(max_scans) < 1):
+        raise SequenceError(f"{p}: max_scans must be an integer >= 1 (a Scans holds at "
+                            f"least one scan), got {max_scans!r}")
     if is_carmen(p):
         return _carmen_scans(p, laser, max_scans)
     if str(p).lower().endswith(RAWLOG_SUFFIXES):
