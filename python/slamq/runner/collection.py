@@ -16,7 +16,10 @@ scores the collected maps and trajectories.
 
 from __future__ import annotations
 
+import dataclasses
 import glob
+import hashlib
+import json
 from pathlib import Path
 from typing import Any
 
@@ -62,10 +65,6 @@ def outputs_stamp(spec: RunSpec) -> str:
     >>> outputs_stamp(first("a.txt")) == outputs_stamp(first("b.txt"))
     False
     """
-    import dataclasses
-    import hashlib
-    import json
-
     algo = spec.algorithm
     parts = {name: (dataclasses.asdict(o) if o is not None else None)
              for name, o in (("map", algo.map), ("trajectory", algo.trajectory),

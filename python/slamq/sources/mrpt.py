@@ -109,7 +109,6 @@ def read_mrpt_path(path: PathLike, *, unsorted: str = "error") -> Trajectory:
     [0.0, 1.0]
     """
     p = Path(path)
-    rows: list[list[float]] = []
     try:
         lines = p.read_text(errors="replace").splitlines()
     except OSError as exc:
@@ -120,28 +119,13 @@ def read_mrpt_path(path: PathLike, *, unsorted: str = "error") -> Trajectory:
                   and line.strip()[0] not in "%#"), [])
     if len(first) == 3 and p.with_name("log_times.txt").is_file():
         return read_mrpt_most_likely(p, unsorted=unsorted)
-    width = 0
-    for n, line in enumerate(lines, 1):
-        s = line.strip()
-        if not s or s[0] in "%#":
-            continue
-        parts = s.split()
-        if len(parts) not in (4, 8) or (width and len(parts) != width):
-            raise TrajectoryError(f"{p}:{n}: MRPT pose log rows need 8 columns "
-                                  f"(index x y z yaw pitch roll t) or 4 (index x y yaw), "
-                                  f"found {len(parts)}")
-        width = len(parts)
-        try:
-            values = [float(x) for x in parts]
-        except ValueError:
-            raise TrajectoryError(f"{p}:{n}: not a number in {s!r}") from None
-        if width == 4:  # icp-slam: index x y yaw; the step index stands for the time
-            i, x, y, yaw = values
-            values = [i, x, y, 0.0, yaw, 0.0, 0.0, i]
-        rows.append(values)
-    a = np.asarray(rows).reshape(-1, 8)
-    if width == 8:
-        a = a[a[:, 7] != 0.0]  # MRPT's invalid timestamp
+    t = _table(lines, p, (4, 8), "MRPT pose log rows need 8 columns (index x y z yaw pitch "
+               "roll t) or 4 (index x y yaw)")
+    if t.shape[1] == 4:  # icp-slam: index x y yaw; the step index stands for the time
+        z = np.zeros(len(t))
+        a = np.column_stack([t[:, 0], t[:, 1], t[:, 2], z, t[:, 3], z, z, t[:, 0]])
+    else:
+        a = t[t[:, 7] != 0.0]  # MRPT's invalid timestamp
     return _traj(a, p, unsorted)
 
 
@@ -208,20 +192,27 @@ def _numbers(p: Path, what: str, width: int) -> np.ndarray:
         lines = p.read_text(errors="replace").splitlines()
     except OSError as exc:
         raise TrajectoryError(f"{p}: cannot read {what} ({exc.strerror or exc})") from exc
+    return _table(lines, p, (width,), f"{what} rows need {width} columns")
+
+
+def _table(lines: list[str], p: Path, widths: tuple[int, ...], need: str) -> np.ndarray:
+    """``lines`` as a float table (``%``/``#`` comments and blank lines skipped) whose rows
+    all have one of ``widths`` columns, the first row's; ``need`` says so in the error."""
     rows: list[list[float]] = []
+    width = 0
     for n, line in enumerate(lines, 1):
         s = line.strip()
         if not s or s[0] in "%#":
             continue
         parts = s.split()
-        if len(parts) != width:
-            raise TrajectoryError(f"{p}:{n}: {what} rows need {width} columns, "
-                                  f"found {len(parts)}")
+        if len(parts) not in widths or (width and len(parts) != width):
+            raise TrajectoryError(f"{p}:{n}: {need}, found {len(parts)}")
+        width = len(parts)
         try:
             rows.append([float(x) for x in parts])
         except ValueError:
             raise TrajectoryError(f"{p}:{n}: not a number in {s[:80]!r}") from None
-    return np.asarray(rows, np.float64).reshape(-1, width)
+    return np.asarray(rows, np.float64).reshape(-1, width or widths[-1])
 
 
 def _traj(a: np.ndarray, p: Path, unsorted: str = "error") -> Trajectory:
