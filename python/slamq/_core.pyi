@@ -239,7 +239,7 @@ def raycast(
 
 # A map against its own laser scans (rust/src/scans.rs, SPEC section 7b);
 # slamq.metrics.scans.scan_consistency is the Python entry, scan_consistency_reference its
-# reference. Returns per-scan counts (n, 6) and the violation grid (H, W).
+# reference. Returns per-scan counts (n, 7) and the violation grid (H, W).
 def scan_consistency(
     values: npt.NDArray[np.uint8],
     unknown: npt.NDArray[np.bool_],

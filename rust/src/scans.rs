@@ -1,7 +1,11 @@
 //! A map against its own laser scans (SPEC section 7b): every beam of every scan, placed at
 //! the map's estimated pose, either ends on a wall of the map (a hit), ends away from one
 //! (a miss), ends on an unknown cell or off the grid, and may pass through a wall the map
-//! has before its end (a free-space violation: the laser saw through it).
+//! has before its end (a free-space violation: the laser saw through it). A violation is a
+//! *crossing* when the beam, after the wall, comes out into known free space clear of every
+//! wall (farther than the tolerance from any occupied cell) before its end: the laser saw
+//! through the wall, not along it (a beam grazing a wall drawn a cell too thick stays near
+//! it).
 //!
 //! Frames are [`crate::raycast`]'s (and SPEC section 7's): the grid is held image-style
 //! (row 0 at the top), `origin` is the pose `(x, y, yaw)` of the lower-left corner of the
@@ -34,13 +38,14 @@ pub const MAX_TOLERANCE_CELLS: f64 = 256.0;
 const CHUNK: usize = 8;
 
 /// The counts of one scan, in this order (the columns of [`consistency`]'s output).
-pub const COLUMNS: [&str; 6] = [
+pub const COLUMNS: [&str; 7] = [
     "valid",
     "hits",
     "misses",
     "unknown",
     "outside",
     "violations",
+    "crossings",
 ];
 
 /// Why a score could not be made.
@@ -212,8 +217,8 @@ impl ScanGrid {
         min_range: f64,
         max_range: f64,
         violated: &mut Vec<u32>,
-    ) -> [i64; 6] {
-        let mut out = [0i64; 6];
+    ) -> [i64; 7] {
+        let mut out = [0i64; 7];
         let [c, s] = self.rot;
         let res = self.resolution;
         let (wx, wy) = (pose[0] - self.origin[0], pose[1] - self.origin[1]);
@@ -245,16 +250,17 @@ impl ScanGrid {
                     2
                 }] += 1;
             }
-            if self.walk(ox, oy, dx, dy, len - self.tol, violated) {
-                out[5] += 1;
-            }
+            let (violation, crossing) = self.walk(ox, oy, dx, dy, len - self.tol, violated);
+            out[5] += i64::from(violation);
+            out[6] += i64::from(crossing);
         }
         out
     }
 
     /// Walk the beam from `(ox, oy)` along `(dx, dy)` (grid units) through every cell it
-    /// enters at a parameter `t < t_end`; push the occupied ones onto `violated`. True
-    /// when there was one.
+    /// enters at a parameter `t < t_end`; push the occupied ones onto `violated`. Returns
+    /// whether there was one (a violation), and whether a known free cell clear of every
+    /// wall followed one (a crossing).
     #[inline]
     fn walk(
         &self,
@@ -264,9 +270,9 @@ impl ScanGrid {
         dy: f64,
         t_end: f64,
         violated: &mut Vec<u32>,
-    ) -> bool {
+    ) -> (bool, bool) {
         if t_end.is_nan() || t_end <= 0.0 {
-            return false;
+            return (false, false);
         }
         let (w, h) = (self.width as f64, self.height as f64);
         // where the beam is inside the grid's box [0, w] x [0, h] (slabs)
@@ -274,7 +280,7 @@ impl ScanGrid {
         for (o, d, size) in [(ox, dx, w), (oy, dy, h)] {
             if d == 0.0 {
                 if !(0.0..size).contains(&o) {
-                    return false;
+                    return (false, false);
                 }
             } else {
                 let (ta, tb) = ((0.0 - o) / d, (size - o) / d);
@@ -283,7 +289,7 @@ impl ScanGrid {
             }
         }
         if t0.is_nan() || t1.is_nan() || t0 > t1 || t0 >= t_end {
-            return false;
+            return (false, false);
         }
         let ix = ((ox + t0 * dx).floor()).clamp(0.0, w - 1.0);
         let iy = ((oy + t0 * dy).floor()).clamp(0.0, h - 1.0);
@@ -303,24 +309,27 @@ impl ScanGrid {
         } else {
             (f64::INFINITY, 0.0, 0isize)
         };
-        let mut any = false;
+        let (mut any, mut crossed) = (false, false);
         loop {
             // idx stays inside the padded grid: it starts inside the grid, moves one cell
             // at a time, and the walk ends on the ring of OUTSIDE cells
             let v = self.cells[idx as usize];
             if v & (OUTSIDE | OCCUPIED) != 0 {
                 if v & OUTSIDE != 0 {
-                    return any;
+                    return (any, crossed);
                 }
                 any = true;
                 let (row, col) = (idx / pw - 1, idx % pw - 1);
                 violated.push((row * self.width as isize + col) as u32);
+            } else if v == 0 {
+                // known, free and clear of every wall: after a wall, the beam crossed it
+                crossed |= any;
             }
             // branch-free step to the nearer boundary (the row's on a tie)
             let step_x = tx < ty;
             let t = if step_x { tx } else { ty };
             if t >= t_end {
-                return any;
+                return (any, crossed);
             }
             tx += if step_x { tdx } else { 0.0 };
             ty += if step_x { 0.0 } else { tdy };
@@ -334,7 +343,7 @@ impl ScanGrid {
     }
 }
 
-/// What [`consistency`] returns: the counts of every scan (`n x 6`, row-major, columns
+/// What [`consistency`] returns: the counts of every scan (`n x 7`, row-major, columns
 /// [`COLUMNS`]) and the number of beams that passed through each cell while it was
 /// occupied (`height x width`, row 0 at the top).
 #[derive(Clone, Debug, PartialEq)]
@@ -389,15 +398,19 @@ pub fn consistency(
         )));
     }
     let (h, w) = grid.shape();
-    let mut counts = filled(n * 6, 0i64)?;
+    let mut counts = filled(n * COLUMNS.len(), 0i64)?;
     let mut violations = filled(h * w, 0u32)?;
     let lists: Vec<Vec<u32>> = counts
-        .par_chunks_mut(6 * CHUNK)
+        .par_chunks_mut(COLUMNS.len() * CHUNK)
         .zip(poses.par_chunks(3 * CHUNK))
         .enumerate()
         .map(|(k, (out, ps))| {
             let mut violated = Vec::new();
-            for (i, (o, p)) in out.chunks_exact_mut(6).zip(ps.chunks_exact(3)).enumerate() {
+            for (i, (o, p)) in out
+                .chunks_exact_mut(COLUMNS.len())
+                .zip(ps.chunks_exact(3))
+                .enumerate()
+            {
                 let row = (k * CHUNK + i) * b;
                 let got = grid.scan(
                     [p[0], p[1], p[2]],
@@ -435,7 +448,7 @@ mod tests {
         ScanGrid::new(&v, &[false; 100], 10, 10, 0.1, [0.0; 3], 0.5, 0.1).unwrap()
     }
 
-    fn one(g: &ScanGrid, pose: [f64; 3], angle: f64, r: f64) -> ([i64; 6], Vec<u32>) {
+    fn one(g: &ScanGrid, pose: [f64; 3], angle: f64, r: f64) -> ([i64; 7], Vec<u32>) {
         let mut v = Vec::new();
         let c = g.scan(pose, &[angle], &[r], 0.0, 20.0, &mut v);
         (c, v)
@@ -445,21 +458,65 @@ mod tests {
     fn hits_misses_and_violations() {
         let g = wall();
         // ends on the wall's face: a hit, no violation
-        assert_eq!(one(&g, [0.25, 0.55, 0.0], 0.0, 0.46).0, [1, 1, 0, 0, 0, 0]);
+        assert_eq!(
+            one(&g, [0.25, 0.55, 0.0], 0.0, 0.46).0,
+            [1, 1, 0, 0, 0, 0, 0]
+        );
         // ends one cell short of it: still within the tolerance
-        assert_eq!(one(&g, [0.25, 0.55, 0.0], 0.0, 0.37).0, [1, 1, 0, 0, 0, 0]);
+        assert_eq!(
+            one(&g, [0.25, 0.55, 0.0], 0.0, 0.37).0,
+            [1, 1, 0, 0, 0, 0, 0]
+        );
         // ends far short: a miss
-        assert_eq!(one(&g, [0.25, 0.55, 0.0], 0.0, 0.2).0, [1, 0, 1, 0, 0, 0]);
-        // passes through the wall and ends beyond it: a violation in row 4, column 7
+        assert_eq!(
+            one(&g, [0.25, 0.55, 0.0], 0.0, 0.2).0,
+            [1, 0, 1, 0, 0, 0, 0]
+        );
+        // passes through the wall and ends beyond it: a violation in row 4, column 7, not
+        // a crossing (column 8 is within the tolerance of the wall, column 9 is its end)
         let (c, v) = one(&g, [0.25, 0.55, 0.0], 0.0, 0.7);
-        assert_eq!(c, [1, 0, 1, 0, 0, 1]);
+        assert_eq!(c, [1, 0, 1, 0, 0, 1, 0]);
         assert_eq!(v, vec![4 * 10 + 7]);
-        // off the grid, still through the wall
-        assert_eq!(one(&g, [0.25, 0.55, 0.0], 0.0, 5.0).0, [1, 0, 0, 0, 1, 1]);
+        // off the grid, through the wall and out into column 9, clear of it: a crossing
+        assert_eq!(
+            one(&g, [0.25, 0.55, 0.0], 0.0, 5.0).0,
+            [1, 0, 0, 0, 1, 1, 1]
+        );
         // invalid beams count nowhere
-        assert_eq!(one(&g, [0.25, 0.55, 0.0], 0.0, f64::INFINITY).0, [0; 6]);
-        assert_eq!(one(&g, [0.25, 0.55, 0.0], 0.0, 20.0).0, [0; 6]);
-        assert_eq!(one(&g, [0.25, 0.55, 0.0], 0.0, f64::NAN).0, [0; 6]);
+        assert_eq!(one(&g, [0.25, 0.55, 0.0], 0.0, f64::INFINITY).0, [0; 7]);
+        assert_eq!(one(&g, [0.25, 0.55, 0.0], 0.0, 20.0).0, [0; 7]);
+        assert_eq!(one(&g, [0.25, 0.55, 0.0], 0.0, f64::NAN).0, [0; 7]);
+    }
+
+    #[test]
+    fn a_graze_is_no_crossing() {
+        // a 20 x 11 map at 0.1 m with a wall in row 1 (y in [0.9, 1.0]) and one cell
+        // jutting out below it in row 2, column 10 (x in [1.0, 1.1], y in [0.8, 0.9])
+        let (h, w) = (11, 20);
+        let mut v = vec![254u8; h * w];
+        for c in 0..w {
+            v[w + c] = 0;
+        }
+        v[2 * w + 10] = 0;
+        let g = ScanGrid::new(&v, &vec![false; h * w], h, w, 0.1, [0.0; 3], 0.5, 0.1).unwrap();
+        // a beam rising at 0.05 clips the jutting cell, runs along the wall and ends by it
+        let angle = 0.05f64.atan();
+        let r = 1.85 / angle.cos();
+        let (c, cells) = one(&g, [0.05, 0.801, 0.0], angle, r);
+        assert_eq!(c, [1, 1, 0, 0, 0, 1, 0]);
+        assert_eq!(cells, vec![2 * w as u32 + 10]);
+        // the same beam lower down passes under the jutting cell: no violation
+        assert_eq!(one(&g, [0.05, 0.70, 0.0], angle, r).0[5], 0);
+        // a beam up through the wall into the free cells beyond the tolerance: a crossing
+        let v2: Vec<u8> = (0..h * w)
+            .map(|i| if i / w == 5 { 0 } else { 254 })
+            .collect();
+        let g2 = ScanGrid::new(&v2, &vec![false; h * w], h, w, 0.1, [0.0; 3], 0.5, 0.1).unwrap();
+        let up = std::f64::consts::FRAC_PI_2;
+        assert_eq!(
+            one(&g2, [0.55, 0.15, 0.0], up, 0.9).0,
+            [1, 0, 1, 0, 0, 1, 1]
+        );
     }
 
     #[test]
@@ -468,7 +525,10 @@ mod tests {
         let mut u = vec![false; 100];
         u[4 * 10 + 2] = true;
         let g = ScanGrid::new(&v, &u, 10, 10, 0.1, [0.0; 3], 0.5, 0.1).unwrap();
-        assert_eq!(one(&g, [0.05, 0.55, 0.0], 0.0, 0.2).0, [1, 0, 0, 1, 0, 0]);
+        assert_eq!(
+            one(&g, [0.05, 0.55, 0.0], 0.0, 0.2).0,
+            [1, 0, 0, 1, 0, 0, 0]
+        );
     }
 
     #[test]
@@ -516,6 +576,7 @@ mod tests {
         let a = run(1);
         assert_eq!(a, run(3));
         assert!(a.violations.iter().any(|&v| v > 0));
-        assert!(a.counts.chunks(6).any(|c| c[1] > 0));
+        assert!(a.counts.chunks(7).any(|c| c[1] > 0));
+        assert!(a.counts.chunks(7).all(|c| c[6] <= c[5]));
     }
 }

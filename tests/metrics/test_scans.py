@@ -109,7 +109,47 @@ def test_the_violation_grid_marks_the_ghost_wall() -> None:
     c = scan_consistency(m, Scans([0.0], angles, ranges, 10.0), [[0.5, 1.0, 0.0]])
     assert c.counts[0, 0] == 31 and c.counts[0, 1] == 31
     assert 0 < c.counts[0, 5] < 31
+    # the beams through the ghost wall come out into the free room behind it: crossings
+    assert c.counts[0, 6] == c.counts[0, 5]
     assert set(np.flatnonzero(c.violation_grid.sum(axis=0))) == {15}
+
+
+def _thickened(m: OccupancyMap, cells: int) -> OccupancyMap:
+    """Every wall drawn ``cells`` cells thicker on each side (as a coarse or blurred map
+    draws it): beams running along a wall clip it."""
+    import cv2
+
+    wall = ((m.values < 128) & ~m.unknown).astype(np.uint8)
+    thick = cv2.dilate(wall, np.ones((2 * cells + 1, 2 * cells + 1), np.uint8)) > 0
+    return OccupancyMap(np.where(thick, 0, m.values).astype(np.uint8), m.unknown,
+                        m.resolution, m.origin, source="thick")
+
+
+def test_a_wall_drawn_thick_is_grazed_not_crossed(drive) -> None:
+    w, seq, scans = drive
+    clean = scan_consistency(w, scans, seq.gt)
+    thick = scan_consistency(_thickened(w, 2), scans, seq.gt)
+    # beams running along a wall drawn 0.1 m too thick clip it: most of them violate, but
+    # few come out into free space beyond a wall (those passing a door's jamb do)
+    assert clean.violation_share < 0.005 and clean.crossing_share < 0.005
+    assert thick.violation_share > 0.5
+    assert thick.crossing_share < 0.15 * thick.violation_share
+    assert (thick.counts[:, 6] <= thick.counts[:, 5]).all()
+
+
+@pytest.mark.parametrize("how", ["odometry", "shifted", "turned"])
+def test_a_misplaced_map_is_crossed(drive, how: str) -> None:
+    w, seq, scans = drive
+    clean = scan_consistency(w, scans, seq.gt)
+    poses, m = seq.gt, w
+    if how == "odometry":
+        poses = seq.odom
+    elif how == "shifted":
+        m = _moved(w, 0.3, -0.2)
+    else:
+        m = _moved(w, dyaw=math.radians(3.0))
+    c = scan_consistency(m, scans, poses)
+    assert c.crossing_share > clean.crossing_share + 0.02
 
 
 def test_the_laser_offset_is_applied() -> None:
@@ -172,6 +212,7 @@ def test_the_twin_agrees_on_a_simulated_drive(drive) -> None:
     assert np.array_equal(rust.counts, ref.counts)
     assert np.array_equal(rust.violation_grid, ref.violation_grid)
     assert rust.counts[:, 5].sum() > 0
+    assert rust.counts[:, 6].sum() > 0
 
 
 def test_thread_counts_give_the_same_result(drive) -> None:

@@ -2,8 +2,11 @@
 
 Each scan, placed at the map's estimated pose, is cast into the map: a beam that ends on or
 near a wall of the map is a *hit*; a beam that passes through a wall of the map before its
-end is a *free-space violation* (the laser saw through a wall the map has). A map built
-from drifted poses, or with a missing, doubled or ghost wall, disagrees with its own data.
+end is a *free-space violation* (the laser saw through a wall the map has); a violation is a
+*crossing* when the beam then comes out into known free space clear of every wall before its
+end (it saw through the wall, not along it: a beam grazing a wall drawn a cell too thick is
+a violation, not a crossing). A map built from drifted poses, or with a missing, doubled or
+ghost wall, disagrees with its own data.
 This needs one map and its scans only, no ground truth and no other map.
 
 - :func:`scan_consistency`: the Rust core (``rust/src/scans.rs``), scans in parallel.
@@ -22,7 +25,7 @@ from slamq import native
 from slamq.errors import SlamqError
 from slamq.metrics.sync import MAX_GAP, STAMP_TOL, interpolate_poses
 from slamq.models import OccupancyMap, Trajectory
-from slamq.models.scans import ScanConsistency, Scans
+from slamq.models.scans import COUNTS, ScanConsistency, Scans
 from slamq.params import check_threads
 from slamq.synth.sensors import walk_start
 
@@ -34,7 +37,7 @@ __all__ = ["SCAN_TOLERANCE", "scan_consistency", "scan_consistency_reference"]
 SCAN_TOLERANCE = 0.1
 
 #: Bits of a cell's state in the reference walk (as in rust/src/scans.rs).
-_OCCUPIED, _UNKNOWN, _OUTSIDE = 1, 2, 8
+_OCCUPIED, _UNKNOWN, _NEAR, _OUTSIDE = 1, 2, 4, 8
 
 
 def _prepare(map: OccupancyMap, scans: Scans, poses: Any, scan_tolerance: float,
@@ -71,7 +74,7 @@ def _prepare(map: OccupancyMap, scans: Scans, poses: Any, scan_tolerance: float,
 
 def _result(map: OccupancyMap, placed: np.ndarray, counts: np.ndarray, grid: np.ndarray,
             scan_tolerance: float, occupied_threshold: float) -> ScanConsistency:
-    full = np.zeros((placed.shape[0], 6), np.int64)
+    full = np.zeros((placed.shape[0], len(COUNTS)), np.int64)
     full[placed] = counts
     return ScanConsistency(full, placed, grid, float(scan_tolerance),
                            float(occupied_threshold), source=map.source)
@@ -149,7 +152,7 @@ def scan_consistency_reference(map: OccupancyMap, scans: Scans, poses: Trajector
     >>> m = OccupancyMap(v, np.zeros_like(v, bool), 0.1)
     >>> s = Scans([0.0], [0.0, 0.1, np.pi], [[0.46, 0.9, 0.2]], 20.0)
     >>> scan_consistency_reference(m, s, [[0.25, 0.55, 0.0]]).counts.tolist()
-    [[3, 1, 1, 0, 1, 1]]
+    [[3, 1, 1, 0, 1, 1, 1]]
     """
     placed, laser, ranges = _prepare(map, scans, poses, scan_tolerance, occupied_threshold,
                                      max_gap, stamp_tol)
@@ -160,9 +163,6 @@ def scan_consistency_reference(map: OccupancyMap, scans: Scans, poses: Trajector
     p = (255.0 - np.arange(256, dtype=np.float64)) / 255.0 > float(occupied_threshold)
     occupied = p[map.values] & ~map.unknown
     # the state of every cell, with a ring of OUTSIDE around the grid
-    state = np.full((h + 2, w + 2), _OUTSIDE, np.uint8)
-    state[1:-1, 1:-1] = np.where(map.unknown, _UNKNOWN, np.where(occupied, _OCCUPIED, 0))
-    flat = state.ravel()
     # the disc of the tolerance: offsets with di^2 + dj^2 <= tol^2
     reach = math.floor(tol)
     di, dj = np.mgrid[-reach:reach + 1, -reach:reach + 1]
@@ -170,8 +170,15 @@ def scan_consistency_reference(map: OccupancyMap, scans: Scans, poses: Trajector
     di, dj = di[inside], dj[inside]
     padded = np.zeros((h + 2 * reach, w + 2 * reach), bool)
     padded[reach:reach + h, reach:reach + w] = occupied
+    near_wall = np.zeros((h, w), bool)
+    for a_, b_ in zip(di, dj):
+        near_wall |= padded[reach + a_:reach + a_ + h, reach + b_:reach + b_ + w]
+    state = np.full((h + 2, w + 2), _OUTSIDE, np.uint8)
+    state[1:-1, 1:-1] = (np.where(map.unknown, _UNKNOWN, np.where(occupied, _OCCUPIED, 0))
+                         | np.where(near_wall, _NEAR, 0)).astype(np.uint8)
+    flat = state.ravel()
     c, s = math.cos(oyaw), math.sin(oyaw)
-    counts = np.zeros((len(laser), 6), np.int64)
+    counts = np.zeros((len(laser), len(COUNTS)), np.int64)
     grid = np.zeros((h, w), np.uint32)
     for k, (x, y, yaw) in enumerate(laser):
         r = ranges[k]
@@ -201,28 +208,35 @@ def scan_consistency_reference(map: OccupancyMap, scans: Scans, poses: Trajector
         counts[k, 3] = np.count_nonzero(unknown)
         counts[k, 2] = np.count_nonzero(on & ~near & ~unknown)
         counts[k, 4] = np.count_nonzero(~on)
-        cells, beams = _walk(flat, h, w, ox, oy, dx, dy, length - tol)
+        cells, beams, crossed = _walk(flat, h, w, ox, oy, dx, dy, length - tol)
         counts[k, 5] = np.unique(beams).shape[0]
+        counts[k, 6] = np.count_nonzero(crossed)
         np.add.at(grid.ravel(), cells, 1)
     return _result(map, placed, counts, grid, scan_tolerance, occupied_threshold)
 
 
 def _walk(flat: np.ndarray, h: int, w: int, ox: float, oy: float, dx: np.ndarray,
-          dy: np.ndarray, t_end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+          dy: np.ndarray, t_end: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The occupied cells (row-major index on the unpadded grid) each beam from ``(ox, oy)``
-    (grid units) enters at a parameter ``t < t_end``, and the beam of each."""
+    (grid units) enters at a parameter ``t < t_end``, the beam of each, and per beam whether
+    it entered a known free cell clear of every wall after an occupied one (a crossing)."""
     t0, alive, idx, tx, tdx, sx, ty, tdy, sy = walk_start(h, w, ox, oy, dx, dy, t_end,
                                                           t_end > 0.0)
     alive &= t0 < t_end
     pw = w + 2
     cells: list[np.ndarray] = []
     beams: list[np.ndarray] = []
+    seen = np.zeros(dx.shape[0], bool)
+    crossed = np.zeros(dx.shape[0], bool)
     live = np.flatnonzero(alive)
     while live.size:
         v = flat[idx[live]]
         live = live[(v & _OUTSIDE) == 0]
         v = flat[idx[live]]
+        clear = live[v == 0]
+        crossed[clear] |= seen[clear]
         hit = live[(v & _OCCUPIED) != 0]
+        seen[hit] = True
         if hit.size:
             row, col = idx[hit] // pw - 1, idx[hit] % pw - 1
             cells.append(row * w + col)
@@ -235,5 +249,5 @@ def _walk(flat: np.ndarray, h: int, w: int, ox: float, oy: float, dx: np.ndarray
         ty[live] += np.where(step_x, 0.0, tdy[live])
         idx[live] += np.where(step_x, sx[live], sy[live])
     if not cells:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    return np.concatenate(cells), np.concatenate(beams)
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), crossed
+    return np.concatenate(cells), np.concatenate(beams), crossed

@@ -132,7 +132,7 @@ class Scans:
 
 
 #: The per-scan counts, in the order of :attr:`ScanConsistency.counts`' columns.
-COUNTS = ("valid", "hits", "misses", "unknown", "outside", "violations")
+COUNTS = ("valid", "hits", "misses", "unknown", "outside", "violations", "crossings")
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,8 +142,10 @@ class ScanConsistency:
     Attributes
     ----------
     counts : numpy.ndarray
-        ``(N, 6)`` int64 per scan: valid beams, hits, misses, unknown, outside, violations
-        (:data:`COUNTS`); zeros for a scan without a pose.
+        ``(N, 7)`` int64 per scan: valid beams, hits, misses, unknown, outside, violations,
+        crossings (:data:`COUNTS`); zeros for a scan without a pose. A crossing is a
+        violation after which the beam came out into known free space clear of every wall
+        (it saw through the wall, not along it).
     placed : numpy.ndarray
         ``(N,)`` bool: the scan had a pose.
     violation_grid : numpy.ndarray
@@ -157,10 +159,10 @@ class ScanConsistency:
 
     Examples
     --------
-    >>> c = ScanConsistency(np.array([[4, 3, 1, 0, 0, 1], [0, 0, 0, 0, 0, 0]]),
+    >>> c = ScanConsistency(np.array([[4, 3, 1, 0, 0, 2, 1], [0, 0, 0, 0, 0, 0, 0]]),
     ...                     np.array([True, False]), np.zeros((2, 2), np.uint32), 0.1, 0.5)
-    >>> c.hit_share, c.violation_share, c.scans
-    (0.75, 0.25, 1)
+    >>> c.hit_share, c.violation_share, c.crossing_share, c.scans
+    (0.75, 0.5, 0.25, 1)
     """
 
     counts: np.ndarray
@@ -189,6 +191,11 @@ class ScanConsistency:
         return self._share("violations")
 
     @property
+    def crossing_shares(self) -> np.ndarray:
+        """``(N,)`` per scan: beams that cross a wall / valid beams (NaN without any)."""
+        return self._share("crossings")
+
+    @property
     def scans(self) -> int:
         """Scans with a pose and at least one valid beam (those the means are over)."""
         return int(np.count_nonzero(self.placed & (self._column("valid") > 0)))
@@ -201,6 +208,12 @@ class ScanConsistency:
     def _mean(self, shares: np.ndarray) -> float:
         keep = self.placed & (self._column("valid") > 0)
         return float(shares[keep].mean()) if keep.any() else math.nan
+
+    @property
+    def crossing_share(self) -> float:
+        """Mean over scans of the crossing share: beams that pass through a wall and come
+        out into free space clear of it (0 = the laser never saw through a wall)."""
+        return self._mean(self.crossing_shares)
 
     @property
     def hit_share(self) -> float:
@@ -228,7 +241,8 @@ class ScanConsistency:
     def to_dict(self) -> dict[str, float | int]:
         """The map-level figures (no arrays)."""
         return {"scans": self.scans, "beams": self.beams, "hit_share": self.hit_share,
-                "violation_share": self.violation_share, "unknown_share": self.unknown_share,
+                "violation_share": self.violation_share,
+                "crossing_share": self.crossing_share, "unknown_share": self.unknown_share,
                 "outside_share": self.outside_share, "tolerance": self.tolerance}
 
     def __repr__(self) -> str:

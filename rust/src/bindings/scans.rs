@@ -21,7 +21,8 @@ type Scored<'py> = (Bound<'py, PyArray2<i64>>, Bound<'py, PyArray2<u32>>);
 /// `(255 - v) / 255`; `tolerance` metres (> 0); `poses` `(n, 3)` float64 laser poses in the
 /// world frame; `angles` `(b,)` float64 beam angles relative to the yaw; `ranges` `(n, b)`
 /// float64 metres (valid when finite and `min_range < r < max_range`). Returns `counts`
-/// `(n, 6)` int64 (valid, hits, misses, unknown, outside, violations per scan) and
+/// `(n, 7)` int64 (valid, hits, misses, unknown, outside, violations, crossings per
+/// scan) and
 /// `violations` `(H, W)` uint32 (beams that passed through each occupied cell); scans in
 /// parallel without the GIL, the same numbers for any `threads` (0 = every core).
 #[pyfunction]
@@ -78,7 +79,7 @@ pub(crate) fn scan_consistency<'py>(
         consistency(&g, flat, a, r, min_range, max_range)
     })?
     .map_err(err)?;
-    let counts = PyArray1::from_vec(py, out.counts).reshape([n, 6])?;
+    let counts = PyArray1::from_vec(py, out.counts).reshape([n, crate::scans::COLUMNS.len()])?;
     let grid = PyArray1::from_vec(py, out.violations).reshape([h, w])?;
     Ok((counts, grid))
 }
