@@ -32,7 +32,7 @@ from slamq.results.validity import validate
 from slamq.sources import load_map, load_scans, load_trajectory
 
 #: The figures of a map against its scans, lower is better (miss_share = 1 - hit_share).
-FIGURES = ("violation_share", "miss_share", "unknown_share")
+FIGURES = ("violation_share", "crossing_share", "miss_share", "unknown_share")
 
 
 def score_runs(runs: pd.DataFrame, *, trajectory_of: Any = None) -> pd.DataFrame:
@@ -116,28 +116,34 @@ def tables(df: pd.DataFrame, truth: str, label: str) -> str:
                    "how often the highest violation share is a broken map's and how often "
                    "the lowest is:\n")
         b, g = ok[ok["broken"]], ok[~ok["broken"]]
-        seen = failures_seen(ok, "violation_share")
-        out.append("| maps | n | violation share: median | min | max |\n|---|---|---|---|---|")
-        for name, part in (("broken", b), ("unbroken", g)):
-            v = part["violation_share"]
-            out.append(f"| {name} | {len(part)} | {_fmt(v.median())} | {_fmt(v.min())} | "
-                       f"{_fmt(v.max())} |")
-        out.append(f"\nSequences with both: {seen['sequences']}; highest violation share "
-                   f"broken in {seen['worst_is_broken']}, lowest broken in "
-                   f"{seen['best_is_broken']}.\n")
+        for fig in ("violation_share", "crossing_share"):
+            if fig not in ok:
+                continue
+            seen = failures_seen(ok, fig)
+            out.append(f"| maps | n | {fig}: median | min | max |\n|---|---|---|---|---|")
+            for name, part in (("broken", b), ("unbroken", g)):
+                v = part[fig]
+                out.append(f"| {name} | {len(part)} | {_fmt(v.median())} | {_fmt(v.min())} "
+                           f"| {_fmt(v.max())} |")
+            out.append(f"\nSequences with both: {seen['sequences']}; highest {fig} "
+                       f"broken in {seen['worst_is_broken']}, lowest broken in "
+                       f"{seen['best_is_broken']}.\n")
     out.append("Per program (medians over its maps):\n")
-    out.append("| program | maps | truth | violation share | hit share | scans scored |\n"
-               "|---|---|---|---|---|---|")
+    out.append("| program | maps | truth | violation share | crossing share | hit share | "
+               "scans scored |\n|---|---|---|---|---|---|---|")
     for alg, b in ok.groupby(ok["algorithm"].astype(str).str.split("[").str[0]):
         out.append(f"| {alg} | {len(b)} | {_fmt(b[truth].median())} | "
-                   f"{_fmt(b['violation_share'].median())} | {_fmt(b['hit_share'].median())} "
+                   f"{_fmt(b['violation_share'].median())} | "
+                   f"{_fmt(b.get('crossing_share', pd.Series(dtype=float)).median())} | "
+                   f"{_fmt(b['hit_share'].median())} "
                    f"| {_fmt(b['scans_scored'].median(), '.0f')} |")
     out.append("")
-    out.append("| sequence | algorithm | truth | violation | hit | unknown | outside | scans "
-               "| CPU s |\n|---|---|---|---|---|---|---|---|---|")
+    out.append("| sequence | algorithm | truth | violation | crossing | hit | unknown | outside "
+               "| scans | CPU s |\n|---|---|---|---|---|---|---|---|---|---|")
     for r in df.sort_values(["sequence", "algorithm"]).to_dict("records"):
         out.append(f"| {r['sequence']} | {r['algorithm']} | {_fmt(r.get(truth))} | "
-                   f"{_fmt(r.get('violation_share'))} | {_fmt(r.get('hit_share'))} | "
+                   f"{_fmt(r.get('violation_share'))} | {_fmt(r.get('crossing_share'))} | "
+                   f"{_fmt(r.get('hit_share'))} | "
                    f"{_fmt(r.get('unknown_share'))} | {_fmt(r.get('outside_share'))} | "
                    f"{r.get('scans_scored', '-')} | {_fmt(r.get('scan_cpu_s'), '.2f')} |"
                    + (f" {r['scan_error']}" if isinstance(r.get("scan_error"), str) else ""))
@@ -250,12 +256,40 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
             "reason": v["confidence"]}
 
 
+def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str) -> dict[str, Any]:
+    """The evidence with each program's ``scan_violation`` replaced by the median of its
+    maps' ``figure`` (e.g. ``crossing_share``): the verdict then weighs that figure in the
+    veto and the confirmation, nothing else changed.
+
+    Examples
+    --------
+    >>> ev = {"algorithms": {"a": {"scan_violation": 0.3}},
+    ...       "scans": {"m1": {"violation_share": 0.3, "crossing_share": 0.05}}}
+    >>> block = pd.DataFrame({"map": ["m1"], "algorithm": ["a"]})
+    >>> weigh(ev, block, "crossing_share")["algorithms"]["a"]["scan_violation"]
+    0.05
+    """
+    if figure == "violation_share":
+        return ev
+    out = dict(ev)
+    out["algorithms"] = {}
+    for alg, e in ev["algorithms"].items():
+        vals = [ev["scans"][str(m)][figure] for m in block.loc[
+                block["algorithm"].astype(str) == alg, "map"]
+                if str(m) in ev.get("scans", {})]
+        vals = [v for v in vals if isinstance(v, float) and math.isfinite(v)]
+        out["algorithms"][alg] = {**e, "scan_violation": float(np.median(vals))
+                                  if vals else math.nan}
+    return out
+
+
 def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool = False,
-             cache: dict | None = None) -> pd.DataFrame:
+             cache: dict | None = None, figure: str = "violation_share") -> pd.DataFrame:
     """The verdict of each sequence (or, with ``pair``, each pair of programs of each
     sequence) with the truth hidden, for each rule of ``rules`` ((floor, share) of the
-    scan veto; None: without the scans); ``cache`` keeps each case's evidence (the costly
-    part) between calls."""
+    scan veto; None: without the scans), the scans weighed by ``figure``
+    (:func:`weigh`); ``cache`` keeps each case's evidence (the costly part) between
+    calls."""
     from slamq.verdict.evidence import sequence_evidence
     from slamq.verdict.ranking import summarize
 
@@ -273,6 +307,7 @@ def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool
             ev = sequence_evidence(sub, seq)
             if cache is not None:
                 cache[key] = ev
+        ev = weigh(ev, block, figure)
         summary = summarize(sub)
         t = block.groupby("algorithm")[truth].mean()
         best = t.min()
@@ -321,6 +356,10 @@ def main(argv: list[str] | None = None) -> int:
                     "only the rule is applied again")
     ap.add_argument("--max-scans", type=int, default=None,
                     help="with --cached: the scans' figures again with at most N scans a map")
+    ap.add_argument("--figure", choices=("violation_share", "crossing_share"),
+                    default="violation_share",
+                    help="the scan figure the verdict weighs (docs/validity.md, 'Walls "
+                    "crossed, not grazed')")
     ap.add_argument("--rows", action="store_true",
                     help="reuse the scored rows of an earlier call (OUTPUT/scans-rows.csv)")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -368,9 +407,10 @@ def main(argv: list[str] | None = None) -> int:
             raise SystemExit("--max-scans needs --cached")
         store = a.output / f"scans-evidence-{a.max_scans}.pkl"
     for pair in (False, True):
-        v = verdicts(df, truth, rules=rules, pair=pair, cache=cache)
+        v = verdicts(df, truth, rules=rules, pair=pair, cache=cache, figure=a.figure)
         store.write_bytes(pickle.dumps(cache))
-        suffix = f"-{a.max_scans}" if a.max_scans else ""
+        suffix = (f"-{a.max_scans}" if a.max_scans else "") + (
+            "" if a.figure == "violation_share" else f"-{a.figure}")
         v.to_csv(a.output / f"scans-verdicts{'-pairs' if pair else ''}{suffix}.csv",
                  index=False)
         sys.stdout.write(("\nTwo-map cases (every pair of programs of a sequence):\n\n"
