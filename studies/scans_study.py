@@ -284,18 +284,25 @@ def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str) -> dict[str, Any
 
 
 def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool = False,
-             cache: dict | None = None, figure: str = "violation_share") -> pd.DataFrame:
+             cache: dict | None = None, figure: str = "violation_share",
+             by_run: bool = False) -> pd.DataFrame:
     """The verdict of each sequence (or, with ``pair``, each pair of programs of each
     sequence) with the truth hidden, for each rule of ``rules`` ((floor, share) of the
     scan veto; None: without the scans), the scans weighed by ``figure``
     (:func:`weigh`); ``cache`` keeps each case's evidence (the costly part) between
-    calls."""
+    calls; ``by_run``: one case per sequence and run (iteration) instead of per
+    sequence."""
     from slamq.verdict.evidence import sequence_evidence
     from slamq.verdict.ranking import summarize
 
     ok = df[df["map"].notna()].copy()
     hidden = _hidden(ok)
-    cases = pairs(ok) if pair else [(str(s), b) for s, b in ok.groupby("sequence")]
+    if pair:
+        cases = pairs(ok)
+    elif by_run:
+        cases = [(f"{s}#{r}", b) for (s, r), b in ok.groupby(["sequence", "run"])]
+    else:
+        cases = [(str(s), b) for s, b in ok.groupby("sequence")]
     rows = []
     for label, block in cases:
         seq = str(block["sequence"].iloc[0])
@@ -360,6 +367,10 @@ def main(argv: list[str] | None = None) -> int:
                     default="violation_share",
                     help="the scan figure the verdict weighs (docs/validity.md, 'Walls "
                     "crossed, not grazed')")
+    ap.add_argument("--rule", type=float, nargs=2, metavar=("V", "K"), default=None,
+                    help="the veto's floor and share (default: slamq's)")
+    ap.add_argument("--by-run", action="store_true",
+                    help="one verdict per sequence and iteration (the real logs' 3 runs)")
     ap.add_argument("--rows", action="store_true",
                     help="reuse the scored rows of an earlier call (OUTPUT/scans-rows.csv)")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -381,7 +392,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     from slamq.verdict import rule as r
 
-    rules = (None, *GRID) if a.grid else (None, (r.SCAN_FLOOR, r.SCAN_SHARE))
+    rules = (None, *GRID) if a.grid else (None, tuple(a.rule) if a.rule else
+                                          (r.SCAN_FLOOR, r.SCAN_SHARE))
     import pickle
 
     store = a.output / "scans-evidence.pkl"
@@ -407,7 +419,8 @@ def main(argv: list[str] | None = None) -> int:
             raise SystemExit("--max-scans needs --cached")
         store = a.output / f"scans-evidence-{a.max_scans}.pkl"
     for pair in (False, True):
-        v = verdicts(df, truth, rules=rules, pair=pair, cache=cache, figure=a.figure)
+        v = verdicts(df, truth, rules=rules, pair=pair, cache=cache, figure=a.figure,
+                     by_run=a.by_run)
         store.write_bytes(pickle.dumps(cache))
         suffix = (f"-{a.max_scans}" if a.max_scans else "") + (
             "" if a.figure == "violation_share" else f"-{a.figure}")
