@@ -229,7 +229,8 @@ def _hidden(df: pd.DataFrame) -> pd.DataFrame:
 def _without_scans(ev: dict[str, Any]) -> dict[str, Any]:
     """The evidence as it would be without scans (every scan figure removed)."""
     out = dict(ev)
-    out["algorithms"] = {a: {**e, "scan_violation": math.nan, "scan_hit": math.nan,
+    out["algorithms"] = {a: {**e, "scan_violation": math.nan, "scan_crossing": math.nan,
+                             "scan_hit": math.nan,
                              "scan_runs": 0} for a, e in ev["algorithms"].items()}
     return out
 
@@ -257,20 +258,21 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
 
 
 def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str) -> dict[str, Any]:
-    """The evidence with each program's ``scan_violation`` replaced by the median of its
-    maps' ``figure`` (e.g. ``crossing_share``): the verdict then weighs that figure in the
-    veto and the confirmation, nothing else changed.
+    """The evidence with the field the verdict's scan rule reads
+    (:data:`slamq.verdict.rule.SCAN_KEY`) set, for each program, to the median of its maps'
+    ``figure`` (``crossing_share`` or ``violation_share``): the verdict then weighs that
+    figure in the veto and the confirmation, nothing else changed.
 
     Examples
     --------
-    >>> ev = {"algorithms": {"a": {"scan_violation": 0.3}},
+    >>> ev = {"algorithms": {"a": {"scan_crossing": 0.05}},
     ...       "scans": {"m1": {"violation_share": 0.3, "crossing_share": 0.05}}}
     >>> block = pd.DataFrame({"map": ["m1"], "algorithm": ["a"]})
-    >>> weigh(ev, block, "crossing_share")["algorithms"]["a"]["scan_violation"]
-    0.05
+    >>> weigh(ev, block, "violation_share")["algorithms"]["a"]["scan_crossing"]
+    0.3
     """
-    if figure == "violation_share":
-        return ev
+    from slamq.verdict.rule import SCAN_KEY
+
     out = dict(ev)
     out["algorithms"] = {}
     for alg, e in ev["algorithms"].items():
@@ -278,8 +280,8 @@ def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str) -> dict[str, Any
                 block["algorithm"].astype(str) == alg, "map"]
                 if str(m) in ev.get("scans", {})]
         vals = [v for v in vals if isinstance(v, float) and math.isfinite(v)]
-        out["algorithms"][alg] = {**e, "scan_violation": float(np.median(vals))
-                                  if vals else math.nan}
+        out["algorithms"][alg] = {**e, SCAN_KEY: float(np.median(vals)) if vals
+                                  else math.nan}
     return out
 
 
@@ -294,6 +296,7 @@ def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool
     sequence."""
     from slamq.verdict.evidence import sequence_evidence
     from slamq.verdict.ranking import summarize
+    from slamq.verdict.rule import SCAN_KEY
 
     ok = df[df["map"].notna()].copy()
     hidden = _hidden(ok)
@@ -322,7 +325,7 @@ def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool
         row: dict[str, Any] = {"case": label, "sequence": seq,
                                "algorithms": ", ".join(sorted(t.index)),
                                "truth_best": str(t.idxmin()),
-                               "scans": {a: e["scan_violation"]
+                               "scans": {a: e.get(SCAN_KEY)
                                          for a, e in ev["algorithms"].items()},
                                "majority": ev["majority"], "group": ev.get("group")}
         for rule in rules:
@@ -364,7 +367,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-scans", type=int, default=None,
                     help="with --cached: the scans' figures again with at most N scans a map")
     ap.add_argument("--figure", choices=("violation_share", "crossing_share"),
-                    default="violation_share",
+                    default="crossing_share",
                     help="the scan figure the verdict weighs (docs/validity.md, 'Walls "
                     "crossed, not grazed')")
     ap.add_argument("--rule", type=float, nargs=2, metavar=("V", "K"), default=None,
@@ -413,7 +416,7 @@ def main(argv: list[str] | None = None) -> int:
                 mine = [figures[m] for m, r in recs.items()
                         if str(r["algorithm"]) == alg and m in ev["scans"]]
                 if mine:
-                    e["scan_violation"] = float(np.median([f["violation_share"]
+                    e["scan_crossing"] = float(np.median([f["crossing_share"]
                                                            for f in mine]))
         if not a.cached:
             raise SystemExit("--max-scans needs --cached")

@@ -339,10 +339,15 @@ _VERDICT = (
            "maps of the sequence, once laid over each other (no ground truth needed); a map "
            "under 0.9 of the best, or flagged by a defect detector, is never named best"),
     _c("scan_violation", "float", "verdict", label="violation share", better="lower",
+       why="docs/spec.md section 7b: the share of the map's own laser beams, placed at its "
+           "own trajectory, that pass through a wall of the map (no ground truth needed); "
+           "grazes along a wall drawn thick count too, so the verdict weighs the crossing "
+           "share"),
+    _c("scan_crossing", "float", "verdict", label="crossing share", better="lower",
        why="docs/spec.md sections 7b and 9: the share of the map's own laser beams, placed "
-           "at its own trajectory, that pass through a wall of the map (no ground truth "
-           "needed); a map above max(0.05, 2x the lowest of the sequence) is inconsistent "
-           "with its own data and never named best"),
+           "at its own trajectory, that pass through a wall of the map and come out into "
+           "free space beyond it (no ground truth needed); a map above max(0.02, 1.5x the "
+           "lowest of the sequence) is inconsistent with its own data and never named best"),
 )
 
 

@@ -98,12 +98,12 @@ def test_a_ghost_wall_its_scans_see_through_is_never_named(drive: dict) -> None:
     before, _ = _judge(_records(drive, corners, scans=False))
     assert before["best"] == "ghost"
     v, ev = _judge(_records(drive, corners))
-    scans = {a: e["scan_violation"] for a, e in ev["algorithms"].items()}
+    scans = {a: e["scan_crossing"] for a, e in ev["algorithms"].items()}
     # the exact map agrees with its scans; the ghost wall is crossed by the beams that saw
     # the room behind it
     assert scans["a"] < 0.01 and scans["ghost"] > scan_limit(scans), scans
     assert v["best"] == "a" and v["ranking"][-1] == "ghost"
-    assert "scan_violation" in v["basis"]
+    assert "scan_crossing" in v["basis"]
     assert any(w.startswith("ghost is never named best: inconsistent with its own scans")
                for w in v["warnings"]), v["warnings"]
     # the evidence keeps each map's figures, by path
@@ -112,7 +112,7 @@ def test_a_ghost_wall_its_scans_see_through_is_never_named(drive: dict) -> None:
 
 def test_a_map_drawn_at_drifting_poses_is_inconsistent_with_its_scans(drive: dict) -> None:
     v, ev = _judge(_records(drive, {"a": 100, "b": 110, "drifted": 40}))
-    scans = {a: e["scan_violation"] for a, e in ev["algorithms"].items()}
+    scans = {a: e["scan_crossing"] for a, e in ev["algorithms"].items()}
     assert scans["drifted"] > scan_limit(scans) and scans["b"] < scan_limit(scans)
     assert v["best"] in ("a", "b")
     assert any(w.startswith("drifted is never named best") for w in v["warnings"])
@@ -148,7 +148,7 @@ def test_a_record_whose_scans_cannot_be_read_is_a_note(drive: dict, tmp_path: Pa
     df = _records(drive, {"a": 100, "ghost": 50})
     df.loc[df["algorithm"] == "ghost", "scans"] = str(tmp_path / "missing.rawlog")
     v, ev = _judge(df)
-    assert math.isnan(ev["algorithms"]["ghost"]["scan_violation"])
+    assert math.isnan(ev["algorithms"]["ghost"]["scan_crossing"])
     assert any("not scored against its scans" in n and "missing.rawlog" in n
                for n in ev["notes"])
     assert v["best"] is None  # nothing separates the two maps now
@@ -166,7 +166,7 @@ def _ev(support: dict[str, float], scans: dict[str, float], *, majority: bool = 
             "runs": 1, "flagged_runs": int(a in defects),
             "defects": {a: [{"kind": "doubled_walls"}]} if a in defects else {},
             "in_group": 0.0, "group_support": math.nan,
-            "scan_violation": scans.get(a, math.nan), "scan_runs": int(a in scans)}
+            "scan_crossing": scans.get(a, math.nan), "scan_runs": int(a in scans)}
         for a, s in support.items()}}
 
 
@@ -188,22 +188,22 @@ def test_the_veto_limit() -> None:
 def test_maps_that_disagree_are_ordered_by_their_own_scans() -> None:
     support = {"a": 0.3, "b": 0.35, "c": 0.2}
     s = _summary(list("abc"), [10, 20, 30])
-    v = sequence_verdict(s, "s", _ev(support, {"a": 0.05, "b": 0.3, "c": 0.2},
+    v = sequence_verdict(s, "s", _ev(support, {"a": 0.015, "b": 0.3, "c": 0.2},
                                      majority=False))
     assert v["best"] == "a" and v["ranking"] == ["a", "c", "b"]
-    assert v["basis"] == ["scan_violation"] and v["confidence"].startswith("low: ")
+    assert v["basis"] == ["scan_crossing"] and v["confidence"].startswith("low: ")
     # no map is inconsistent with its scans: they do not separate the maps
     v = sequence_verdict(s, "s", _ev(support, {"a": 0.05, "b": 0.06, "c": 0.07},
                                      majority=False))
     assert v["best"] is None and "do not separate them" in v["confidence"]
     # the most consistent map has a defect flag: the next one is not named in its place
-    v = sequence_verdict(s, "s", _ev(support, {"a": 0.02, "b": 0.3, "c": 0.04},
+    v = sequence_verdict(s, "s", _ev(support, {"a": 0.01, "b": 0.3, "c": 0.014},
                                      majority=False, defects=("a",)))
     assert v["best"] == "c"
     # the most consistent map is not consistent enough to be named on its scans alone
     v = sequence_verdict(s, "s", _ev(support, {"a": 0.15, "b": 0.5, "c": 0.2},
                                      majority=False))
-    assert v["best"] is None and "more than 10%" in v["confidence"]
+    assert v["best"] is None and "more than 2.0%" in v["confidence"]
     # a map without scans: the scans cannot order them all; it abstains as before
     v = sequence_verdict(s, "s", _ev(support, {"a": 0.05, "b": 0.3}, majority=False))
     assert v["best"] is None and "disagree among themselves" in v["confidence"]
@@ -305,8 +305,8 @@ def test_slamq_verdict_with_the_recording_and_the_trajectories(drive: dict) -> N
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
     assert data["verdict"]["best"] == "a.yaml"
-    assert data["evidence"]["algorithms"]["ghost.yaml"]["scan_violation"] > 0.1
-    assert "violation" in r.stderr.splitlines()[0]   # the table's column
+    assert data["evidence"]["algorithms"]["ghost.yaml"]["scan_crossing"] > 0.05
+    assert "crossing" in r.stderr.splitlines()[0]   # the table's column
     # without them: two maps that differ, nothing separates them
     r = slamq("verdict", a, ghost, "--json", "-", "--no-defects")
     assert json.loads(r.stdout)["verdict"]["best"] is None

@@ -108,7 +108,7 @@ def _print(result: dict[str, Any], out: Any) -> None:
     """The maps in the verdict's order: rank, support, completeness, flags, corners."""
     v, ev = result["verdict"], result["evidence"]
     info = ev["algorithms"] if ev else {}
-    rows = [("rank", "map", "support", "complete", "violation", "corners", "canonical",
+    rows = [("rank", "map", "support", "complete", "crossing", "corners", "canonical",
              "flags")]
     order = list(v["ranking"]) + sorted(set(result["maps"]) - set(v["ranking"]))
     for i, name in enumerate(order, 1):
@@ -118,7 +118,7 @@ def _print(result: dict[str, Any], out: Any) -> None:
             kinds.insert(0, "not placed")
         rank = str(i) if name in v["ranking"] else "-"
         rows.append((rank, name, _fmt(e.get("support")), _fmt(e.get("completeness")),
-                     _fmt(e.get("scan_violation"), 3),
+                     _fmt(e.get("scan_crossing"), 3),
                      _fmt(result["maps"][name].get("corners"), 0),
                      _fmt(result["maps"][name].get("corners_canonical"), 0),
                      ", ".join(kinds) or "-"))

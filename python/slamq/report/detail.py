@@ -34,6 +34,24 @@ __all__ = ["SCAN_LAYER_COLOURS", "agreeing_group", "detail_page", "run_info", "s
            "standing", "with_unit"]
 
 
+def _crossing_clause(figures: dict) -> str:
+    """The clause on the beams that came out beyond a wall, when the figures hold the
+    crossing share (records scored before it existed do not).
+
+    Examples
+    --------
+    >>> _crossing_clause({"crossing_share": 0.021})
+    ' (2.1% come out into free space beyond the wall: the laser saw through it, not along it)'
+    >>> _crossing_clause({})
+    ''
+    """
+    v = figures.get("crossing_share")
+    if not isinstance(v, (int, float)) or v != v:
+        return ""
+    return (f" ({100 * v:.1f}% come out into free space beyond the wall: the laser saw "
+            "through it, not along it)")
+
+
 def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajectories: bool
                 ) -> None:
     """Write ``mp``'s page from what the verdict layer computed of its map (``ex``:
@@ -568,8 +586,9 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
             f"{f['scans']} scans of {_e(scans.recording)} ({f['beams']} beams) placed at the "
             "run's trajectory; red where its beams pass through walls of the map (the "
             f"darker, the more): {100 * f['violation_share']:.1f}% of the beams per scan "
-            f"do, {100 * f['hit_share']:.1f}% end on a wall of the map (docs/spec.md 7b; "
-            "the verdict never names a map much less consistent with its scans than the "
+            f"do{_crossing_clause(f)}, {100 * f['hit_share']:.1f}% end on a wall of the map "
+            "(docs/spec.md 7b; the verdict weighs the beams that come out beyond a wall, "
+            "and never names a map much less consistent with its scans than the "
             "sequence's most consistent one).</p>")
     elif isinstance(scans, Exception):
         mp.notes.append(f"not scored against its own scans: {scans}")

@@ -73,7 +73,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     -------
     dict
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
-        "defects", "in_group", "group_support", "scan_violation", "scan_hit",
+        "defects", "in_group", "group_support", "scan_violation", "scan_crossing", "scan_hit",
         "scan_runs"}}, "majority": bool, "group": [alg], "group_maps": [dict],
         "consistency": {path: {path: float}}, "maps": int, "notes": [str],
         "missing_walls": {path: [dict]}, "scans": {path: dict}, "min_support": float}``.
@@ -88,9 +88,10 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         (none when fewer than two maps) to its
         :func:`~slamq.metrics.agreement.missing_walls` flags (``kind="missing_walls"``,
         ``bbox`` in the map's own cells), for the report's pages: the verdict does not
-        read them. ``scan_violation`` and ``scan_hit`` are the medians over an algorithm's
-        runs of their maps' violation and hit shares against their own scans (NaN, and
-        ``scan_runs`` 0, when none has them); ``scans`` maps the path of each map scored so
+        read them. ``scan_violation``, ``scan_crossing`` and ``scan_hit`` are the medians
+        over an algorithm's runs of their maps' violation, crossing and hit shares against
+        their own scans (NaN, and ``scan_runs`` 0, when none has them; the verdict weighs
+        the crossing share); ``scans`` maps the path of each map scored so
         to its :meth:`~slamq.models.ScanConsistency.to_dict`.
 
     Examples
@@ -200,6 +201,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "group_support": finite_median([group_support[k] for k in keys]),
             "scan_violation": finite_median([checked[k]["violation_share"] for k in keys
                                              if k in checked]),
+            "scan_crossing": finite_median([checked[k].get("crossing_share", math.nan)
+                                            for k in keys if k in checked]),
             "scan_hit": finite_median([checked[k]["hit_share"] for k in keys
                                        if k in checked]),
             "scan_runs": sum(1 for k in keys if k in checked),

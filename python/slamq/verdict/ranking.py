@@ -69,8 +69,9 @@ CANONICAL = COLUMNS["corners_canonical"]
 #: the sequence (slamq.agreement); a column of the table when the verdict rests on it.
 AGREEMENT = COLUMNS["agreement"]
 #: Without ground truth, where the maps' own scans are known: the share of a map's beams
-#: that pass through its walls (docs/spec.md 7b); a column when the verdict weighs it.
-SCANS = COLUMNS["scan_violation"]
+#: that cross its walls into free space beyond (docs/spec.md 7b); a column when the
+#: verdict weighs it.
+SCANS = COLUMNS["scan_crossing"]
 
 
 def summarize(ok: pd.DataFrame) -> pd.DataFrame:
