@@ -206,8 +206,8 @@ def main() -> None:
 
     s, out = best(six, args.repeat)
     print(f"6 maps against their scans:            {s * 1e3:8.1f} ms wall, "
-          f"{best.cpu * 1e3:8.1f} ms CPU (violation shares "
-          f"{', '.join(f'{c.violation_share:.3f}' for c in out)})")
+          f"{best.cpu * 1e3:8.1f} ms CPU (violation / crossing shares "
+          f"{', '.join(f'{c.violation_share:.3f}/{c.crossing_share:.3f}' for c in out)})")
 
     def verdict(frame: pd.DataFrame) -> dict:
         vs._CACHE.clear()
