@@ -239,7 +239,8 @@ def raycast(
 
 # A map against its own laser scans (rust/src/scans.rs, SPEC section 7b);
 # slamq.metrics.scans.scan_consistency is the Python entry, scan_consistency_reference its
-# reference. Returns per-scan counts (n, 7) and the violation grid (H, W).
+# reference. Returns per-scan counts (n, 7), the violation grid and the crossing grid
+# (H, W).
 def scan_consistency(
     values: npt.NDArray[np.uint8],
     unknown: npt.NDArray[np.bool_],
@@ -253,7 +254,7 @@ def scan_consistency(
     min_range: float,
     max_range: float,
     threads: int = 0,
-) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint32]]: ...
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint32], npt.NDArray[np.uint32]]: ...
 
 #: Peak working memory of one evaluation, bytes per cell (reserved before it starts;
 #: ``MemoryError`` when it cannot be).

@@ -207,7 +207,7 @@ impl ScanGrid {
     /// The counts ([`COLUMNS`]) of one scan taken by a laser at `pose` (`(x, y, yaw)` in
     /// the world frame) with beams at `angles` (relative to the yaw) reading `ranges`;
     /// the (unpadded, row-major) index of every occupied cell a beam passed through is
-    /// pushed onto `violated`.
+    /// pushed onto `violated`, and onto `crossed` too when that beam crossed a wall.
     #[allow(clippy::too_many_arguments)]
     pub fn scan(
         &self,
@@ -217,6 +217,7 @@ impl ScanGrid {
         min_range: f64,
         max_range: f64,
         violated: &mut Vec<u32>,
+        crossed: &mut Vec<u32>,
     ) -> [i64; 7] {
         let mut out = [0i64; 7];
         let [c, s] = self.rot;
@@ -250,9 +251,13 @@ impl ScanGrid {
                     2
                 }] += 1;
             }
+            let start = violated.len();
             let (violation, crossing) = self.walk(ox, oy, dx, dy, len - self.tol, violated);
             out[5] += i64::from(violation);
             out[6] += i64::from(crossing);
+            if crossing {
+                crossed.extend_from_slice(&violated[start..]);
+            }
         }
         out
     }
@@ -344,12 +349,13 @@ impl ScanGrid {
 }
 
 /// What [`consistency`] returns: the counts of every scan (`n x 7`, row-major, columns
-/// [`COLUMNS`]) and the number of beams that passed through each cell while it was
-/// occupied (`height x width`, row 0 at the top).
+/// [`COLUMNS`]), the number of beams that passed through each cell while it was occupied,
+/// and of those, the beams that crossed a wall (both `height x width`, row 0 at the top).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Consistency {
     pub counts: Vec<i64>,
     pub violations: Vec<u32>,
+    pub crossings: Vec<u32>,
 }
 
 /// Score every scan: laser `poses` (`(x, y, yaw)` triples in the world frame, flat),
@@ -400,12 +406,13 @@ pub fn consistency(
     let (h, w) = grid.shape();
     let mut counts = filled(n * COLUMNS.len(), 0i64)?;
     let mut violations = filled(h * w, 0u32)?;
-    let lists: Vec<Vec<u32>> = counts
+    let mut crossings = filled(h * w, 0u32)?;
+    let lists: Vec<(Vec<u32>, Vec<u32>)> = counts
         .par_chunks_mut(COLUMNS.len() * CHUNK)
         .zip(poses.par_chunks(3 * CHUNK))
         .enumerate()
         .map(|(k, (out, ps))| {
-            let mut violated = Vec::new();
+            let (mut violated, mut crossed) = (Vec::new(), Vec::new());
             for (i, (o, p)) in out
                 .chunks_exact_mut(COLUMNS.len())
                 .zip(ps.chunks_exact(3))
@@ -419,19 +426,26 @@ pub fn consistency(
                     min_range,
                     max_range,
                     &mut violated,
+                    &mut crossed,
                 );
                 o.copy_from_slice(&got);
             }
-            violated
+            (violated, crossed)
         })
         .collect();
-    for list in &lists {
-        for &i in list {
-            let v = &mut violations[i as usize];
-            *v = v.saturating_add(1);
+    for (violated, crossed) in &lists {
+        for (list, grid) in [(violated, &mut violations), (crossed, &mut crossings)] {
+            for &i in list {
+                let v = &mut grid[i as usize];
+                *v = v.saturating_add(1);
+            }
         }
     }
-    Ok(Consistency { counts, violations })
+    Ok(Consistency {
+        counts,
+        violations,
+        crossings,
+    })
 }
 
 #[cfg(test)]
@@ -449,9 +463,16 @@ mod tests {
     }
 
     fn one(g: &ScanGrid, pose: [f64; 3], angle: f64, r: f64) -> ([i64; 7], Vec<u32>) {
-        let mut v = Vec::new();
-        let c = g.scan(pose, &[angle], &[r], 0.0, 20.0, &mut v);
+        let (c, v, x) = both(g, pose, angle, r);
+        // a crossing beam's cells are its violated cells, else it has none
+        assert_eq!(x, if c[6] == 1 { v.clone() } else { vec![] });
         (c, v)
+    }
+
+    fn both(g: &ScanGrid, pose: [f64; 3], angle: f64, r: f64) -> ([i64; 7], Vec<u32>, Vec<u32>) {
+        let (mut v, mut x) = (Vec::new(), Vec::new());
+        let c = g.scan(pose, &[angle], &[r], 0.0, 20.0, &mut v, &mut x);
+        (c, v, x)
     }
 
     #[test]
@@ -576,6 +597,8 @@ mod tests {
         let a = run(1);
         assert_eq!(a, run(3));
         assert!(a.violations.iter().any(|&v| v > 0));
+        assert!(a.crossings.iter().any(|&v| v > 0));
+        assert!(a.crossings.iter().zip(&a.violations).all(|(c, v)| c <= v));
         assert!(a.counts.chunks(7).any(|c| c[1] > 0));
         assert!(a.counts.chunks(7).all(|c| c[6] <= c[5]));
     }

@@ -134,6 +134,9 @@ def test_a_wall_drawn_thick_is_grazed_not_crossed(drive) -> None:
     assert clean.violation_share < 0.005 and clean.crossing_share < 0.005
     assert thick.violation_share > 0.5
     assert thick.crossing_share < 0.15 * thick.violation_share
+    # the heat map's grid holds the crossing beams only
+    assert (thick.crossing_grid <= thick.violation_grid).all()
+    assert thick.crossing_grid.sum() < 0.5 * thick.violation_grid.sum()
     assert (thick.counts[:, 6] <= thick.counts[:, 5]).all()
 
 
@@ -201,6 +204,7 @@ def test_rust_equals_the_numpy_twin(case) -> None:
     ref = scan_consistency_reference(m, scans, poses, scan_tolerance=tol)
     assert np.array_equal(rust.counts, ref.counts)
     assert np.array_equal(rust.violation_grid, ref.violation_grid)
+    assert np.array_equal(rust.crossing_grid, ref.crossing_grid)
     assert np.array_equal(rust.placed, ref.placed)
 
 
@@ -211,8 +215,10 @@ def test_the_twin_agrees_on_a_simulated_drive(drive) -> None:
     ref = scan_consistency_reference(w, short, seq.odom[:25])
     assert np.array_equal(rust.counts, ref.counts)
     assert np.array_equal(rust.violation_grid, ref.violation_grid)
+    assert np.array_equal(rust.crossing_grid, ref.crossing_grid)
     assert rust.counts[:, 5].sum() > 0
     assert rust.counts[:, 6].sum() > 0
+    assert 0 < rust.crossing_grid.sum() and (rust.crossing_grid <= rust.violation_grid).all()
 
 
 def test_thread_counts_give_the_same_result(drive) -> None:
@@ -221,6 +227,7 @@ def test_thread_counts_give_the_same_result(drive) -> None:
     two = scan_consistency(w, scans, seq.odom, threads=2)
     assert np.array_equal(one.counts, two.counts)
     assert np.array_equal(one.violation_grid, two.violation_grid)
+    assert np.array_equal(one.crossing_grid, two.crossing_grid)
     assert one.violation_grid.sum() > 0
 
 

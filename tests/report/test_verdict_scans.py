@@ -265,8 +265,7 @@ def test_the_report_draws_where_a_map_contradicts_its_scans(drive: dict, tmp_pat
     # the layer is off at first, and says what it shows
     assert '<input type="checkbox" id="show-scans" data-layer="scans">' in page
     label = re.search(r'<label for="show-scans">(.*?)</label>', page).group(1)
-    assert re.search(r"against its own scans: \d+\.\d% of its beams pass through its walls",
-                     label)
+    assert re.search(r"against its own scans: \d+\.\d% of its beams cross its walls", label)
     assert "drive.rawlog" in page and "docs/spec.md 7b" in page
     # the red cells lie on the ghost wall (the middle row of the map)
     (png,) = re.findall(r'<img class="layer layer-scans" src="\.\./([^"]+)"', page)

@@ -73,11 +73,12 @@ def _prepare(map: OccupancyMap, scans: Scans, poses: Any, scan_tolerance: float,
 
 
 def _result(map: OccupancyMap, placed: np.ndarray, counts: np.ndarray, grid: np.ndarray,
-            scan_tolerance: float, occupied_threshold: float) -> ScanConsistency:
+            crossed: np.ndarray, scan_tolerance: float, occupied_threshold: float
+            ) -> ScanConsistency:
     full = np.zeros((placed.shape[0], len(COUNTS)), np.int64)
     full[placed] = counts
     return ScanConsistency(full, placed, grid, float(scan_tolerance),
-                           float(occupied_threshold), source=map.source)
+                           float(occupied_threshold), source=map.source, crossing_grid=crossed)
 
 
 def scan_consistency(map: OccupancyMap, scans: Scans, poses: Trajectory | Any, *,
@@ -126,13 +127,13 @@ def scan_consistency(map: OccupancyMap, scans: Scans, poses: Trajectory | Any, *
                                      max_gap, stamp_tol)
     n_threads = 0 if threads is None else check_threads(threads)
     try:
-        counts, grid = native.scan_consistency(
+        counts, grid, crossed = native.scan_consistency(
             map.values, map.unknown, float(map.resolution), tuple(map.origin),
             float(occupied_threshold), float(scan_tolerance), laser, scans.angles, ranges,
             scans.min_range, scans.max_range, n_threads)
     except ValueError as exc:
         raise SlamqError(f"{map.source} with {scans.source}: {exc}") from None
-    return _result(map, placed, counts, grid, scan_tolerance, occupied_threshold)
+    return _result(map, placed, counts, grid, crossed, scan_tolerance, occupied_threshold)
 
 
 def scan_consistency_reference(map: OccupancyMap, scans: Scans, poses: Trajectory | Any, *,
@@ -180,6 +181,7 @@ def scan_consistency_reference(map: OccupancyMap, scans: Scans, poses: Trajector
     c, s = math.cos(oyaw), math.sin(oyaw)
     counts = np.zeros((len(laser), len(COUNTS)), np.int64)
     grid = np.zeros((h, w), np.uint32)
+    crossing_grid = np.zeros((h, w), np.uint32)
     for k, (x, y, yaw) in enumerate(laser):
         r = ranges[k]
         valid = np.isfinite(r) & (r > scans.min_range) & (r < scans.max_range)
@@ -212,7 +214,9 @@ def scan_consistency_reference(map: OccupancyMap, scans: Scans, poses: Trajector
         counts[k, 5] = np.unique(beams).shape[0]
         counts[k, 6] = np.count_nonzero(crossed)
         np.add.at(grid.ravel(), cells, 1)
-    return _result(map, placed, counts, grid, scan_tolerance, occupied_threshold)
+        np.add.at(crossing_grid.ravel(), cells[crossed[beams]], 1)
+    return _result(map, placed, counts, grid, crossing_grid, scan_tolerance,
+                   occupied_threshold)
 
 
 def _walk(flat: np.ndarray, h: int, w: int, ox: float, oy: float, dx: np.ndarray,

@@ -150,12 +150,15 @@ class ScanConsistency:
         ``(N,)`` bool: the scan had a pose.
     violation_grid : numpy.ndarray
         ``(H, W)`` uint32 on the map's grid: how many beams passed through each occupied
-        cell before their end (where the map contradicts its data).
+        cell before their end (grazes included).
     tolerance : float
         Metres.
     occupied_threshold : float
     source : str
         The map's source.
+    crossing_grid : numpy.ndarray, optional
+        ``(H, W)`` uint32: of those beams, the ones that crossed a wall (where the map
+        contradicts its data); None when not computed.
 
     Examples
     --------
@@ -171,6 +174,7 @@ class ScanConsistency:
     tolerance: float
     occupied_threshold: float
     source: str = "<array>"
+    crossing_grid: np.ndarray | None = None
 
     def _column(self, name: str) -> np.ndarray:
         return self.counts[:, COUNTS.index(name)]

@@ -578,15 +578,20 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
                                  scale=ov.scale), SCAN_LAYER_COLOURS).save(out / png)
         layers.append(f"<img class=\"layer layer-scans\" src=\"../{png}\" alt=\"\">")
         f = scans.figures
-        toggle("scans", f"<i class=\"heat\"></i> against its own scans: "
-               f"{100 * f['violation_share']:.1f}% of its beams pass through its walls",
+        crossing = f.get("crossing_share")
+        toggle("scans", "<i class=\"heat\"></i> against its own scans: " + (
+               f"{100 * crossing:.1f}% of its beams cross its walls"
+               if isinstance(crossing, (int, float)) and crossing == crossing else
+               f"{100 * f['violation_share']:.1f}% of its beams pass through its walls"),
                False, bool(scans.density.max() > 0))
         legend += (
             "<p class=\"legend scans-legend\"><i class=\"heat\"></i> <b>Its own scans</b>: "
             f"{f['scans']} scans of {_e(scans.recording)} ({f['beams']} beams) placed at the "
-            "run's trajectory; red where its beams pass through walls of the map (the "
-            f"darker, the more): {100 * f['violation_share']:.1f}% of the beams per scan "
-            f"do{_crossing_clause(f)}, {100 * f['hit_share']:.1f}% end on a wall of the map "
+            "run's trajectory; red where its beams pass through walls of the map and come "
+            "out into free space beyond them (the darker, the more; a beam that only grazes "
+            f"a wall is not drawn): {100 * f['violation_share']:.1f}% of the beams per scan "
+            f"touch a wall before their end{_crossing_clause(f)}, "
+            f"{100 * f['hit_share']:.1f}% end on a wall of the map "
             "(docs/spec.md 7b; the verdict weighs the beams that come out beyond a wall, "
             "and never names a map much less consistent with its scans than the "
             "sequence's most consistent one).</p>")

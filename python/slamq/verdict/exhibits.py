@@ -1,7 +1,7 @@
 """What one map's detail page shows, computed for the report to draw: the map loaded and
 scored with the parameters of its record, the corners and enclosed areas that were counted,
 its defects, its comparison with the sequence's ground-truth map, where it contradicts its
-own scans (docs/spec.md section 7b: a density of the beams that pass through its walls),
+own scans (docs/spec.md section 7b: a density of the beams that cross its walls),
 its trajectory errors and the stages of its building. Anything that cannot be computed
 becomes a note (the page says why a part is missing), never an exception.
 
@@ -101,7 +101,8 @@ class ScanExhibit:
         ``scans``, ``beams``...).
     density : numpy.ndarray
         ``(H, W)`` float32 on the map's cells, in [0, 1]: :func:`violation_density` of the
-        beams that passed through each occupied cell (0: none).
+        beams that crossed a wall through each occupied cell (0: none; a beam that only
+        grazes a wall is not drawn).
     recording : str
         The recording's file name.
     """
@@ -120,7 +121,8 @@ def violation_density(counts: np.ndarray, *, block: int | None = None) -> np.nda
     Parameters
     ----------
     counts : numpy.ndarray
-        ``(H, W)``: :attr:`slamq.models.ScanConsistency.violation_grid`.
+        ``(H, W)``: :attr:`slamq.models.ScanConsistency.crossing_grid` (or its
+        ``violation_grid``).
     block : int, optional
         Cells per side of a block (default: about 1/300 of the map's longer side, at least
         1, so that the spots stay visible in a picture of the whole map).
@@ -288,7 +290,8 @@ def _scans(rec: dict, grid: Any) -> ScanExhibit | Exception | None:
         c = record_consistency(rec, grid)
     except (SlamqError, OSError, ValueError) as exc:
         return exc
-    return ScanExhibit(c.to_dict(), violation_density(c.violation_grid),
+    cells = c.crossing_grid if c.crossing_grid is not None else c.violation_grid
+    return ScanExhibit(c.to_dict(), violation_density(cells),
                        Path(str(rec["scans"])).name)
 
 

@@ -9,11 +9,16 @@ use numpy::{
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-/// The counts of every scan and the violation grid.
-type Scored<'py> = (Bound<'py, PyArray2<i64>>, Bound<'py, PyArray2<u32>>);
+/// The counts of every scan, the violation grid and the crossing grid.
+type Scored<'py> = (
+    Bound<'py, PyArray2<i64>>,
+    Bound<'py, PyArray2<u32>>,
+    Bound<'py, PyArray2<u32>>,
+);
 
 /// scan_consistency(values, unknown, resolution, origin, occupied_threshold, tolerance,
-/// poses, angles, ranges, min_range, max_range, threads=0) -> (counts, violations)
+/// poses, angles, ranges, min_range, max_range, threads=0) -> (counts, violations,
+/// crossings)
 ///
 /// A map against its own scans (SPEC section 7b): `values` and `unknown` the map's
 /// C-contiguous `(H, W)` uint8 and bool arrays (row 0 at the top); `resolution` metres per
@@ -22,8 +27,8 @@ type Scored<'py> = (Bound<'py, PyArray2<i64>>, Bound<'py, PyArray2<u32>>);
 /// world frame; `angles` `(b,)` float64 beam angles relative to the yaw; `ranges` `(n, b)`
 /// float64 metres (valid when finite and `min_range < r < max_range`). Returns `counts`
 /// `(n, 7)` int64 (valid, hits, misses, unknown, outside, violations, crossings per
-/// scan) and
-/// `violations` `(H, W)` uint32 (beams that passed through each occupied cell); scans in
+/// scan), `violations` `(H, W)` uint32 (beams that passed through each occupied cell)
+/// and `crossings` `(H, W)` uint32 (of those, the beams that crossed a wall); scans in
 /// parallel without the GIL, the same numbers for any `threads` (0 = every core).
 #[pyfunction]
 #[pyo3(signature = (values, unknown, resolution, origin, occupied_threshold, tolerance, poses,
@@ -81,5 +86,6 @@ pub(crate) fn scan_consistency<'py>(
     .map_err(err)?;
     let counts = PyArray1::from_vec(py, out.counts).reshape([n, crate::scans::COLUMNS.len()])?;
     let grid = PyArray1::from_vec(py, out.violations).reshape([h, w])?;
-    Ok((counts, grid))
+    let crossed = PyArray1::from_vec(py, out.crossings).reshape([h, w])?;
+    Ok((counts, grid, crossed))
 }
