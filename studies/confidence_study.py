@@ -56,11 +56,12 @@ def level(confidence: object) -> str:
     return word if word in LEVELS else "none"
 
 
-def benchmark_rows(outputs: Sequence[Path]) -> list[dict]:
-    """One row per generated sequence: set, level, named, right."""
+def benchmark_rows(outputs: Sequence[Path], *, fill_scans: bool = False) -> list[dict]:
+    """One row per generated sequence: set, level, named, right (``fill_scans``: records
+    without scans get their sequence's recording, ``verdict_study.with_scans``)."""
     rows = []
     for out in outputs:
-        for r in benchmark_verdicts(Path(out)).itertuples():
+        for r in benchmark_verdicts(Path(out), fill_scans=fill_scans).itertuples():
             named = isinstance(r.best, str)
             rows.append({"data": f"generated: {Path(out).name}", "item": r.sequence,
                          "level": level(r.reason) if named else "none", "named": named,
@@ -142,9 +143,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--real", nargs=2, metavar=("MAPS", "BY_EYE_CSV"), type=Path,
                     help="the real maps' root folder and the by-eye classes")
     ap.add_argument("--real2d", type=Path, help="verdicts.csv of studies/real2d_validity.py")
+    ap.add_argument("--fill-scans", action="store_true",
+                    help="records without scans get their sequence's rawlog, as slamq run "
+                    "records it now")
     ap.add_argument("--markdown", type=Path, help="write into this file's section")
     args = ap.parse_args(argv)
-    rows: list[dict] = benchmark_rows(args.benchmark)
+    rows: list[dict] = benchmark_rows(args.benchmark, fill_scans=args.fill_scans)
     if args.real:
         rows += folder_rows(*args.real)
     if args.real2d:

@@ -65,9 +65,35 @@ def _hidden(df: pd.DataFrame) -> pd.DataFrame:
                             if c.startswith(("ate_", "gt_", "groundtruth"))])
 
 
+def with_scans(df: pd.DataFrame, output: Path) -> pd.DataFrame:
+    """``df`` with ``scans`` filled where a record has none and its sequence's recording is
+    in the run folder (``sequences/NAME/NAME.rawlog``, which ``slamq run`` records as
+    ``scans`` since 2026-11-28; sets run before then have no such column).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp()); (d / "sequences" / "s").mkdir(parents=True)
+    >>> _ = (d / "sequences" / "s" / "s.rawlog").write_bytes(b"")
+    >>> df = pd.DataFrame({"sequence": ["s", "t"], "scans": [None, None]})
+    >>> [Path(p).name if isinstance(p, str) else "-" for p in with_scans(df, d)["scans"]]
+    ['s.rawlog', '-']
+    """
+    out = df.copy()
+    if "scans" not in out:
+        out["scans"] = None
+    out["scans"] = out["scans"].astype(object)
+    for i, r in out.iterrows():
+        if isinstance(r["scans"], str) and r["scans"]:
+            continue
+        rawlog = Path(output) / "sequences" / str(r["sequence"]) / f"{r['sequence']}.rawlog"
+        out.at[i, "scans"] = str(rawlog) if rawlog.exists() else None
+    return out
+
+
 def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
                        align: str = SETTINGS.agreement_align.default,
-                       defects: bool = True) -> pd.DataFrame:
+                       defects: bool = True, fill_scans: bool = False) -> pd.DataFrame:
     """The verdict of each benchmark sequence with the ground truth hidden.
 
     Parameters
@@ -94,6 +120,8 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
 
     df = load_benchmark(Path(output))
     df = df[df["outcome"] == "ok"]
+    if fill_scans:
+        df = with_scans(df, Path(output))
     if sequences is not None:
         df = df[df["sequence"].isin(set(sequences))]
     df = _with_wall_symmetry(_with_canonical_corners(df))
@@ -405,9 +433,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="the real maps' root folder and the by-eye classes")
     ap.add_argument("--no-defects", action="store_true",
                     help="agreement alone, without the defect detectors")
+    ap.add_argument("--fill-scans", action="store_true",
+                    help="records without scans get their sequence's rawlog (with_scans)")
     ap.add_argument("--markdown", type=Path, help="write into this file's section")
     a = ap.parse_args(argv)
-    bench = (pd.concat([benchmark_verdicts(b, align=a.align, defects=not a.no_defects)
+    bench = (pd.concat([benchmark_verdicts(b, align=a.align, defects=not a.no_defects,
+                                           fill_scans=a.fill_scans)
                         for b in a.benchmark], ignore_index=True) if a.benchmark else None)
     eye, verdicts = (folder_verdicts(*a.real, defects=not a.no_defects) if a.real
                      else (None, None))

@@ -83,3 +83,15 @@ def test_on_real_folders_ranked_by_eye_no_broken_map_is_named(shared_data, folde
                for b in broken for a in cls if cls[a] == 1), v["ranking"]
     good, total = verdict_study.by_eye_agreement(eye, folder, v["ranking"])
     assert good == total > 0
+
+
+def test_with_scans_fills_only_missing_recordings(tmp_path: Path) -> None:
+    (tmp_path / "sequences" / "s").mkdir(parents=True)
+    (tmp_path / "sequences" / "s" / "s.rawlog").write_bytes(b"")
+    df = pd.DataFrame({"sequence": ["s", "s", "t"],
+                       "scans": [None, "/elsewhere/own.rawlog", None]})
+    out = verdict_study.with_scans(df, tmp_path)
+    assert out["scans"].tolist()[:2] == [str(tmp_path / "sequences" / "s" / "s.rawlog"),
+                                         "/elsewhere/own.rawlog"]
+    assert pd.isna(out["scans"].iloc[2])  # no recording of t in the folder
+    assert pd.isna(df["scans"].iloc[0])   # the records themselves are not changed
