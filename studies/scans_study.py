@@ -411,13 +411,8 @@ def main(argv: list[str] | None = None) -> int:
         figures = {m: record_consistency(r, load_map(m), max_scans=a.max_scans).to_dict()
                    for m, r in recs.items()}
         for ev in cache.values():
+            # each program's scan figure is taken from these by weigh() in verdicts()
             ev["scans"] = {m: figures[m] for m in ev.get("scans", {})}
-            for alg, e in ev["algorithms"].items():
-                mine = [figures[m] for m, r in recs.items()
-                        if str(r["algorithm"]) == alg and m in ev["scans"]]
-                if mine:
-                    e["scan_crossing"] = float(np.median([f["crossing_share"]
-                                                           for f in mine]))
         if not a.cached:
             raise SystemExit("--max-scans needs --cached")
         store = a.output / f"scans-evidence-{a.max_scans}.pkl"

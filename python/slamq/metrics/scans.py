@@ -201,10 +201,7 @@ def scan_consistency_reference(map: OccupancyMap, scans: Scans, poses: Trajector
         on = (fx >= 0) & (fx < w) & (fy >= 0) & (fy < h)
         col = np.where(on, fx, 0).astype(np.int64)
         row = h - 1 - np.where(on, fy, 0).astype(np.int64)
-        near = np.zeros(r.shape[0], bool)
-        for a_, b_ in zip(di, dj):
-            near |= padded[row + a_ + reach, col + b_ + reach]
-        near &= on
+        near = on & near_wall[row, col]
         unknown = on & ~near & map.unknown[row, col]
         counts[k, 1] = np.count_nonzero(near)
         counts[k, 3] = np.count_nonzero(unknown)

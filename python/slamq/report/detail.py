@@ -34,9 +34,21 @@ __all__ = ["SCAN_LAYER_COLOURS", "agreeing_group", "detail_page", "run_info", "s
            "standing", "with_unit"]
 
 
+def _crossing(figures: dict) -> float | None:
+    """The crossing share of a map's scan figures, or None when they lack it (records
+    scored before it existed).
+
+    Examples
+    --------
+    >>> _crossing({"crossing_share": 0.021}), _crossing({}), _crossing({"crossing_share": None})
+    (0.021, None, None)
+    """
+    v = figures.get("crossing_share")
+    return float(v) if isinstance(v, (int, float)) and v == v else None
+
+
 def _crossing_clause(figures: dict) -> str:
-    """The clause on the beams that came out beyond a wall, when the figures hold the
-    crossing share (records scored before it existed do not).
+    """The clause on the beams that came out beyond a wall ('' without the crossing share).
 
     Examples
     --------
@@ -45,8 +57,8 @@ def _crossing_clause(figures: dict) -> str:
     >>> _crossing_clause({})
     ''
     """
-    v = figures.get("crossing_share")
-    if not isinstance(v, (int, float)) or v != v:
+    v = _crossing(figures)
+    if v is None:
         return ""
     return (f" ({100 * v:.1f}% come out into free space beyond the wall: the laser saw "
             "through it, not along it)")
@@ -578,10 +590,9 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
                                  scale=ov.scale), SCAN_LAYER_COLOURS).save(out / png)
         layers.append(f"<img class=\"layer layer-scans\" src=\"../{png}\" alt=\"\">")
         f = scans.figures
-        crossing = f.get("crossing_share")
+        crossing = _crossing(f)
         toggle("scans", "<i class=\"heat\"></i> against its own scans: " + (
-               f"{100 * crossing:.1f}% of its beams cross its walls"
-               if isinstance(crossing, (int, float)) and crossing == crossing else
+               f"{100 * crossing:.1f}% of its beams cross its walls" if crossing is not None else
                f"{100 * f['violation_share']:.1f}% of its beams pass through its walls"),
                False, bool(scans.density.max() > 0))
         legend += (
