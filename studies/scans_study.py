@@ -154,11 +154,13 @@ def benchmark_rows(output: Path) -> pd.DataFrame:
     """The ok runs of a generated benchmark with their scans file and ATE."""
     sys.path.insert(0, str(Path(__file__).parent))
     from benchmark_study import load_benchmark
+    from verdict_study import _with_wall_symmetry
 
     df = load_benchmark(output)
     df = df[(df["outcome"] == "ok") & df["map"].notna()].copy()
     df["scans"] = [str(output / "sequences" / s / f"{s}.rawlog") for s in df["sequence"]]
-    return df
+    # sets scored before the symmetry classes existed: measured as a scoring today gives
+    return _with_wall_symmetry(df)
 
 
 def real_rows(output: Path) -> pd.DataFrame:
@@ -218,6 +220,37 @@ def pairs(df: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
 
 #: The (SCAN_FLOOR, SCAN_SHARE) grid the rule's veto was chosen from on set A.
 GRID = tuple((v, k) for v in (0.02, 0.05, 0.10) for k in (1.5, 2.0, 3.0))
+#: The margins (absolute, crossing share) the veto's third term was chosen from
+#: (docs/validity.md, "A veto with a margin"): a map is vetoed only when its crossing share
+#: is also more than the margin above the sequence's lowest.
+MARGINS = (0.0, 0.005, 0.01, 0.02, 0.03, 0.05)
+
+
+#: The rules' last element when the crossing share orders the maps the agreement confirms
+#: equally (F2 of docs/validity.md, "A veto with a margin"), instead of corners.
+ORDER = "order"
+
+
+def rule_name(rule: tuple | None) -> str:
+    """The column suffix of a rule: ``none``, ``V/K``, ``V/K/G`` (G the margin), with
+    ``/order`` when the crossing share orders the confirmed maps (:data:`ORDER`).
+
+    Examples
+    --------
+    >>> rule_name(None), rule_name((0.02, 1.5)), rule_name((0.02, 1.5, 0.01, ORDER))
+    ('none', '0.02/1.5', '0.02/1.5/0.01/order')
+    """
+    return "none" if rule is None else "/".join(
+        x if isinstance(x, str) else f"{x:g}" for x in rule)
+
+
+def _limit_with_margin(floor: float, share: float, margin: float) -> Any:
+    """:func:`slamq.verdict.rule.scan_limit` with a third term: the lowest plus ``margin``."""
+    def limit(crossings: dict[str, float]) -> float:
+        finite = [v for v in crossings.values() if math.isfinite(v)]
+        return (max(floor, share * min(finite), min(finite) + margin) if finite
+                else math.nan)
+    return limit
 
 
 def _hidden(df: pd.DataFrame) -> pd.DataFrame:
@@ -235,20 +268,38 @@ def _without_scans(ev: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series,
-           broken: pd.Series, rule: tuple[float, float] | None) -> dict[str, Any]:
-    """One verdict (``rule`` = (floor, share), None: the evidence without scans) and how its
-    choice ranks by the truth."""
-    from slamq.verdict import rule as r
-    from slamq.verdict.rule import sequence_verdict
+def _scan_order(corner_key: Any, scans: dict[str, float]) -> Any:
+    """``_corner_key`` of the rule with the crossing share ordering the confirmed maps
+    when each of them has one (F2), else corners as before."""
+    def key(block: pd.DataFrame, names: list[str]) -> tuple[str | None, pd.Series]:
+        vals = {a: scans.get(a, math.nan) for a in names}
+        if names and all(math.isfinite(v) for v in vals.values()):
+            return "scan_crossing", pd.Series(vals, dtype=float)
+        return corner_key(block, names)
+    return key
 
-    saved = (r.SCAN_FLOOR, r.SCAN_SHARE)
+
+def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series,
+           broken: pd.Series, rule: tuple | None) -> dict[str, Any]:
+    """One verdict (``rule`` = (floor, share[, margin][, ORDER]), None: the evidence
+    without scans) and how its choice ranks by the truth."""
+    from slamq.verdict import rule as r
+    from slamq.verdict.rule import SCAN_KEY, sequence_verdict
+
+    saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key)
     try:
         if rule is not None:
-            r.SCAN_FLOOR, r.SCAN_SHARE = rule
+            nums = [x for x in rule if not isinstance(x, str)]
+            r.SCAN_FLOOR, r.SCAN_SHARE = nums[0], nums[1]
+            if len(nums) > 2:
+                r.scan_limit = _limit_with_margin(*nums)
+            if ORDER in rule:
+                scans = {a: float(e.get(SCAN_KEY, math.nan))
+                         for a, e in ev["algorithms"].items()}
+                r._corner_key = _scan_order(saved[3], scans)
         v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
     finally:
-        r.SCAN_FLOOR, r.SCAN_SHARE = saved
+        r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -329,7 +380,7 @@ def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool
                                          for a, e in ev["algorithms"].items()},
                                "majority": ev["majority"], "group": ev.get("group")}
         for rule in rules:
-            name = "none" if rule is None else f"{rule[0]:g}/{rule[1]:g}"
+            name = rule_name(rule)
             for k, v in _judge(summary, seq, ev, t, broken, rule).items():
                 row[f"{k}@{name}"] = v
         rows.append(row)
@@ -343,11 +394,13 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
                                         "named in the truth's top two")
            + " | named a run > 3x the best (broken) | abstained |", "|---|---|---|---|---|---|"]
     for rule in rules:
-        name = "none" if rule is None else f"{rule[0]:g}/{rule[1]:g}"
+        name = rule_name(rule)
         best = v[f"best@{name}"]
         named = best.notna()
         good = (v[f"rank@{name}"] <= (1 if pair else 2)) & named
-        label = "without scans" if rule is None else f"floor {rule[0]:g}, share {rule[1]:g}"
+        label = ("without scans" if rule is None else f"floor {rule[0]:g}, share {rule[1]:g}"
+                 + (f", margin {rule[2]:g}" if len(rule) > 2 else "")
+                 + (", scans order" if ORDER in rule else ""))
         out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
                    f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
                    f" | {int((~named).sum())} |")
@@ -372,6 +425,8 @@ def main(argv: list[str] | None = None) -> int:
                     "crossed, not grazed')")
     ap.add_argument("--rule", type=float, nargs=2, metavar=("V", "K"), default=None,
                     help="the veto's floor and share (default: slamq's)")
+    ap.add_argument("--margins", action="store_true",
+                    help="also the rule with each margin of MARGINS (the veto's third term)")
     ap.add_argument("--by-run", action="store_true",
                     help="one verdict per sequence and iteration (the real logs' 3 runs)")
     ap.add_argument("--rows", action="store_true",
@@ -397,6 +452,10 @@ def main(argv: list[str] | None = None) -> int:
 
     rules = (None, *GRID) if a.grid else (None, tuple(a.rule) if a.rule else
                                           (r.SCAN_FLOOR, r.SCAN_SHARE))
+    if a.margins:  # F1 and F2 of docs/validity.md, "A veto with a margin"
+        vk = rules[-1][:2]
+        rules = (*rules, *((*vk, g) for g in MARGINS),
+                 *((*vk, g, ORDER) for g in MARGINS))
     import pickle
 
     store = a.output / "scans-evidence.pkl"
