@@ -226,6 +226,11 @@ GRID = tuple((v, k) for v in (0.02, 0.05, 0.10) for k in (1.5, 2.0, 3.0))
 MARGINS = (0.0, 0.005, 0.01, 0.02, 0.03, 0.05)
 
 
+#: Veto anchors tried as F3 (docs/validity.md, "A veto anchored on the middle map"): with
+#: three or more maps the limit is max(floor, K x the median crossing share).
+MEDIAN_SHARES = (1.5, 2.0, 3.0)
+#: A rule's element when the veto is anchored on the median (F3).
+MEDIAN = "median"
 #: The rules' last element when the crossing share orders the maps the agreement confirms
 #: equally (F2 of docs/validity.md, "A veto with a margin"), instead of corners.
 ORDER = "order"
@@ -244,12 +249,17 @@ def rule_name(rule: tuple | None) -> str:
         x if isinstance(x, str) else f"{x:g}" for x in rule)
 
 
-def _limit_with_margin(floor: float, share: float, margin: float) -> Any:
-    """:func:`slamq.verdict.rule.scan_limit` with a third term: the lowest plus ``margin``."""
+def _limit_with_margin(floor: float, share: float, margin: float = 0.0,
+                       median: bool = False) -> Any:
+    """:func:`slamq.verdict.rule.scan_limit` with a third term, the lowest plus ``margin``
+    (F1); with ``median``, three or more maps anchored on their median, not the lowest
+    (F3)."""
     def limit(crossings: dict[str, float]) -> float:
         finite = [v for v in crossings.values() if math.isfinite(v)]
-        return (max(floor, share * min(finite), min(finite) + margin) if finite
-                else math.nan)
+        if not finite:
+            return math.nan
+        anchor = float(np.median(finite)) if median and len(finite) >= 3 else min(finite)
+        return max(floor, share * anchor, min(finite) + margin)
     return limit
 
 
@@ -291,8 +301,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
         if rule is not None:
             nums = [x for x in rule if not isinstance(x, str)]
             r.SCAN_FLOOR, r.SCAN_SHARE = nums[0], nums[1]
-            if len(nums) > 2:
-                r.scan_limit = _limit_with_margin(*nums)
+            if len(nums) > 2 or MEDIAN in rule:
+                r.scan_limit = _limit_with_margin(*nums, median=MEDIAN in rule)
             if ORDER in rule:
                 scans = {a: float(e.get(SCAN_KEY, math.nan))
                          for a, e in ev["algorithms"].items()}
@@ -398,9 +408,11 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
         best = v[f"best@{name}"]
         named = best.notna()
         good = (v[f"rank@{name}"] <= (1 if pair else 2)) & named
+        margin = rule[2] if rule is not None and len(rule) > 2 else None
         label = ("without scans" if rule is None else f"floor {rule[0]:g}, share {rule[1]:g}"
-                 + (f", margin {rule[2]:g}" if len(rule) > 2 else "")
-                 + (", scans order" if ORDER in rule else ""))
+                 + (f", margin {margin:g}" if isinstance(margin, float) else "")
+                 + (", scans order" if ORDER in rule else "")
+                 + (", anchored on the median" if MEDIAN in rule else ""))
         out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
                    f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
                    f" | {int((~named).sum())} |")
@@ -427,6 +439,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="the veto's floor and share (default: slamq's)")
     ap.add_argument("--margins", action="store_true",
                     help="also the rule with each margin of MARGINS (the veto's third term)")
+    ap.add_argument("--median", action="store_true",
+                    help="also the veto anchored on the median, for each of MEDIAN_SHARES")
     ap.add_argument("--by-run", action="store_true",
                     help="one verdict per sequence and iteration (the real logs' 3 runs)")
     ap.add_argument("--rows", action="store_true",
@@ -456,6 +470,8 @@ def main(argv: list[str] | None = None) -> int:
         vk = rules[-1][:2]
         rules = (*rules, *((*vk, g) for g in MARGINS),
                  *((*vk, g, ORDER) for g in MARGINS))
+    if a.median:  # F3 of docs/validity.md, "A veto anchored on the middle map"
+        rules = (*rules, *((rules[1][0], k, MEDIAN) for k in MEDIAN_SHARES))
     import pickle
 
     store = a.output / "scans-evidence.pkl"
