@@ -50,6 +50,7 @@ if TYPE_CHECKING:  # what the names below are, for type checkers (imported on fi
     from slamq.batch.engine import evaluate_many
     from slamq.batch.runs import discover_runs
     from slamq.metrics import reference  # noqa: F401
+    from slamq.metrics.degeneracy import scan_degeneracy
     from slamq.metrics.scans import scan_consistency
     from slamq.models import MapComparison, MapQuality, OccupancyMap, Registration, Trajectory
     from slamq.models.scans import Scans
@@ -82,6 +83,7 @@ _LAZY = {
     "ate_runs": "slamq.api",
     "relations": "slamq.metrics.relations", "load_relations": "slamq.sources.relations",
     "load_scans": "slamq.sources.scans", "scan_consistency": "slamq.metrics.scans",
+    "scan_degeneracy": "slamq.metrics.degeneracy",
     "Scans": "slamq.models.scans",
     "MapComparison": "slamq.models.comparison",
     "MapQuality": "slamq.models.quality",
@@ -141,7 +143,7 @@ __all__ = [
     "read_pbstream_trajectory",
     "read_results",
     "relations", "load_relations",
-    "load_scans", "scan_consistency", "Scans",
+    "load_scans", "scan_consistency", "scan_degeneracy", "Scans",
     "rpe",
     "summarize",
     "synth",

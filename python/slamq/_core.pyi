@@ -256,6 +256,17 @@ def scan_consistency(
     threads: int = 0,
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.uint32], npt.NDArray[np.uint32]]: ...
 
+# Scans that see walls in one direction only (rust/src/degeneracy.rs, SPEC section 7c);
+# slamq.metrics.degeneracy.scan_ratios is the Python entry, scan_ratios_reference its
+# reference. Returns per scan the smaller over the larger eigenvalue (NaN: too few).
+def scan_ratios(
+    angles: npt.NDArray[np.float64],
+    ranges: npt.NDArray[np.float64],
+    min_range: float,
+    max_range: float,
+    threads: int = 0,
+) -> npt.NDArray[np.float64]: ...
+
 #: Peak working memory of one evaluation, bytes per cell (reserved before it starts;
 #: ``MemoryError`` when it cannot be).
 WORK_BYTES_PER_CELL: int

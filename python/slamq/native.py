@@ -15,7 +15,8 @@ Python asks of Rust (the typed signatures are in ``_core.pyi``):
 * the registration of maps of one place (bindings/registration.rs): :func:`register`,
   :func:`register_many`, :class:`RawRegistration`;
 * the simulator's laser (bindings/synth.rs): :func:`raycast`;
-* a map against its own scans (bindings/scans.rs): :func:`scan_consistency`;
+* a map against its own scans, and scans that see walls in one direction only
+  (bindings/scans.rs): :func:`scan_consistency`, :func:`scan_ratios`;
 * the runtime (bindings/runtime.rs): :func:`adopt_thread`.
 
 It sits just above :mod:`slamq.errors` and :mod:`slamq.params`: importing it loads the
@@ -49,6 +50,7 @@ from slamq._core import (
     register,
     register_many,
     scan_consistency,
+    scan_ratios,
     wall_harmonics,
 )
 
@@ -73,5 +75,6 @@ __all__ = [
     "register",
     "register_many",
     "scan_consistency",
+    "scan_ratios",
     "wall_harmonics",
 ]

@@ -48,6 +48,7 @@ pub mod border;
 pub mod canonical;
 pub mod compare;
 pub mod corners;
+pub mod degeneracy;
 pub mod edt;
 pub mod enclosed;
 pub mod error;

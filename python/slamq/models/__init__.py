@@ -7,8 +7,8 @@
 - :class:`Registration`: one map registered onto another of the same place (SPEC 7a).
 - :class:`Relations`, :class:`RelationsResult`: ground-truth relations and the relations
   error of a trajectory (SPEC 6a).
-- :class:`Scans`, :class:`ScanConsistency`: laser scans, and a map scored against them
-  (SPEC 7b).
+- :class:`Scans`, :class:`ScanConsistency`, :class:`ScanDegeneracy`: laser scans, a map
+  scored against them (SPEC 7b), and how many see walls in one direction only (7c).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from slamq.models.quality import MapQuality
     from slamq.models.registration import Registration
     from slamq.models.relations import Relations, RelationsResult
-    from slamq.models.scans import ScanConsistency, Scans
+    from slamq.models.scans import ScanConsistency, ScanDegeneracy, Scans
     from slamq.models.trajectory import Trajectory
 
 #: Public names, imported on first use: name -> module.
@@ -35,6 +35,7 @@ _WHERE = {
     "Relations": "slamq.models.relations",
     "RelationsResult": "slamq.models.relations",
     "ScanConsistency": "slamq.models.scans",
+    "ScanDegeneracy": "slamq.models.scans",
     "Scans": "slamq.models.scans",
     "Trajectory": "slamq.models.trajectory",
 }
@@ -42,4 +43,5 @@ _WHERE = {
 __getattr__, __dir__ = exports(globals(), _WHERE)
 
 __all__ = ["MapComparison", "MapQuality", "OccupancyMap", "Registration", "Relations",
-           "RelationsResult", "ScanConsistency", "Scans", "Trajectory"]
+           "RelationsResult", "ScanConsistency", "ScanDegeneracy", "Scans",
+           "Trajectory"]

@@ -1,6 +1,7 @@
-"""``Scans``: a planar laser's scans (what a map's own data is), and ``ScanConsistency``: a
-map scored against them (SPEC section 7b). Plain data: the metric lives in
-:mod:`slamq.metrics.scans`."""
+"""``Scans``: a planar laser's scans (what a map's own data is), ``ScanConsistency``: a
+map scored against them (SPEC section 7b), and ``ScanDegeneracy``: how many of them see
+walls in one direction only (section 7c). Plain data: the metrics live in
+:mod:`slamq.metrics.scans` and :mod:`slamq.metrics.degeneracy`."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import numpy as np
 
 from slamq.errors import SequenceError
 
-__all__ = ["ScanConsistency", "Scans"]
+__all__ = ["ScanConsistency", "ScanDegeneracy", "Scans"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -252,3 +253,36 @@ class ScanConsistency:
     def __repr__(self) -> str:
         return (f"ScanConsistency({self.source!r}, {self.scans} scans, hit_share="
                 f"{self.hit_share:.3f}, violation_share={self.violation_share:.3f})")
+
+
+@dataclass(frozen=True, eq=False)
+class ScanDegeneracy:
+    """How many of a recording's scans see walls in one direction only (SPEC section 7c).
+
+    Attributes
+    ----------
+    ratios : numpy.ndarray
+        ``(scored,)`` float64 per scored scan: the smaller over the larger eigenvalue of its
+        straight wall stretches' normals' sum n n^T (0: one direction; NaN: too few).
+    share : float
+        Of the scored scans with a ratio, those under
+        :data:`slamq.metrics.degeneracy.DEGENERATE_RATIO` (NaN when none has a ratio).
+    scored : int
+        Scans scored (evenly spread over the recording).
+    source : str
+        The recording.
+    """
+
+    ratios: np.ndarray
+    share: float
+    scored: int
+    source: str = "<array>"
+
+    def to_dict(self) -> dict[str, float | int]:
+        """The recording-level figures (no arrays)."""
+        return {"degenerate_share": self.share, "scored": self.scored,
+                "with_ratio": int(np.isfinite(self.ratios).sum())}
+
+    def __repr__(self) -> str:
+        return (f"ScanDegeneracy({self.source!r}, {self.scored} scans, "
+                f"share={self.share:.3f})")

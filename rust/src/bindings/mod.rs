@@ -10,7 +10,8 @@
 //! - [`registration`]: `register`, `register_many` (maps of one place onto each other;
 //!   `RawRegistration`).
 //! - [`synth`]: `raycast` (the simulator's laser, ground truth on demand).
-//! - [`scans`]: `scan_consistency` (a map against its own laser scans).
+//! - [`scans`]: `scan_consistency` (a map against its own laser scans), `scan_ratios`
+//!   (scans that see walls in one direction only).
 //! - [`runtime`]: the thread pools, fork handling, `adopt_thread`.
 
 mod comparison;
@@ -81,6 +82,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<registration::RawRegistration>()?;
     m.add_function(wrap_pyfunction!(synth::raycast, m)?)?;
     m.add_function(wrap_pyfunction!(scans::scan_consistency, m)?)?;
+    m.add_function(wrap_pyfunction!(scans::scan_ratios, m)?)?;
     m.add_function(wrap_pyfunction!(runtime::adopt_thread, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -1,4 +1,5 @@
-//! A map against its own laser scans (`rust/src/scans.rs`, SPEC section 7b).
+//! A map against its own laser scans (`rust/src/scans.rs`, SPEC section 7b), and scans that
+//! see walls in one direction only (`rust/src/degeneracy.rs`, section 7c).
 
 use super::runtime::compute;
 use super::{contiguous, grid};
@@ -88,4 +89,37 @@ pub(crate) fn scan_consistency<'py>(
     let grid = PyArray1::from_vec(py, out.violations).reshape([h, w])?;
     let crossed = PyArray1::from_vec(py, out.crossings).reshape([h, w])?;
     Ok((counts, grid, crossed))
+}
+
+/// scan_ratios(angles, ranges, min_range, max_range, threads=0) -> ratios
+///
+/// Scans that see walls in one direction only (SPEC section 7c): `angles` `(b,)` float64
+/// beam angles (any order), `ranges` `(n, b)` float64 metres. Returns `(n,)` float64: per
+/// scan the smaller over the larger eigenvalue of its straight wall stretches' normals'
+/// sum `n n^T` (NaN: too few such endpoints); scans in parallel without the GIL, the same
+/// numbers for any `threads` (0 = every core).
+#[pyfunction]
+#[pyo3(signature = (angles, ranges, min_range, max_range, threads=0))]
+pub(crate) fn scan_ratios<'py>(
+    py: Python<'py>,
+    angles: PyReadonlyArray1<'py, f64>,
+    ranges: PyReadonlyArray2<'py, f64>,
+    min_range: f64,
+    max_range: f64,
+    threads: usize,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let b = angles.shape()[0];
+    if ranges.shape()[1] != b {
+        return Err(PyValueError::new_err(format!(
+            "ranges must have shape (n, {b}) for {b} angles, got {:?}",
+            ranges.shape()
+        )));
+    }
+    let a = contiguous(&angles, "angles")?;
+    let r = contiguous(&ranges, "ranges")?;
+    let out = compute(py, threads, || {
+        crate::degeneracy::scan_ratios(a, r, min_range, max_range)
+    })?
+    .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(PyArray1::from_vec(py, out))
 }
