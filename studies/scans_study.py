@@ -346,6 +346,25 @@ def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str) -> dict[str, Any
     return out
 
 
+_DEGENERATE: dict[str, float] = {}
+
+
+def _degenerate_share(block: pd.DataFrame) -> float:
+    """The highest degenerate share (docs/spec.md 7c) of the recordings of ``block``'s rows
+    (each measured once per process), as :func:`slamq.verdict.evidence.sequence_evidence`
+    gives it."""
+    from slamq.metrics.degeneracy import scan_degeneracy
+    from slamq.verdict.scans import recording
+
+    shares = []
+    for path in sorted({str(p) for p in block["scans"].dropna()}):
+        if path not in _DEGENERATE:
+            _DEGENERATE[path] = scan_degeneracy(recording(path)).share
+        shares.append(_DEGENERATE[path])
+    finite = [v for v in shares if math.isfinite(v)]
+    return max(finite) if finite else math.nan
+
+
 def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool = False,
              cache: dict | None = None, figure: str = "violation_share",
              by_run: bool = False) -> pd.DataFrame:
@@ -378,6 +397,8 @@ def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool
             ev = sequence_evidence(sub, seq)
             if cache is not None:
                 cache[key] = ev
+        if "degenerate_share" not in ev:  # evidence cached before docs/spec.md 7c
+            ev["degenerate_share"] = _degenerate_share(block)
         ev = weigh(ev, block, figure)
         summary = summarize(sub)
         t = block.groupby("algorithm")[truth].mean()

@@ -21,9 +21,16 @@ from slamq.synth.truth import visible_map
 from slamq.synth.worldgen import save_world
 from slamq.synth.writers import write_groundtruth
 from slamq.synth.writers.rawlog import write_rawlog
+from slamq.verdict.calibration import CONFIDENCE_CALIBRATION
 from slamq.verdict.evidence import sequence_evidence
 from slamq.verdict.ranking import summarize
-from slamq.verdict.rule import SCAN_FLOOR, SCAN_SHARE, scan_limit, sequence_verdict
+from slamq.verdict.rule import (
+    DEGENERATE_SHARE,
+    SCAN_FLOOR,
+    SCAN_SHARE,
+    scan_limit,
+    sequence_verdict,
+)
 
 
 def _drawn(seq, poses: np.ndarray) -> OccupancyMap:
@@ -106,8 +113,11 @@ def test_a_ghost_wall_its_scans_see_through_is_never_named(drive: dict) -> None:
     assert "scan_crossing" in v["basis"]
     assert any(w.startswith("ghost is never named best: inconsistent with its own scans")
                for w in v["warnings"]), v["warnings"]
-    # the evidence keeps each map's figures, by path
+    # the evidence keeps each map's figures, by path, and the recording's directions
     assert set(ev["scans"]) == {drive["paths"][k] for k in ("a", "b", "ghost")}
+    rec = ev["degeneracy"][drive["files"]["scans"]]
+    assert rec["scored"] > 0 and ev["degenerate_share"] == rec["degenerate_share"]
+    assert 0.0 <= ev["degenerate_share"] <= 1.0
 
 
 def test_a_map_drawn_at_drifting_poses_is_inconsistent_with_its_scans(drive: dict) -> None:
@@ -183,6 +193,29 @@ def test_the_veto_limit() -> None:
     v = sequence_verdict(_summary(list("abc"), [10, 20, 30]), "s",
                          _ev({"a": 0.9, "b": 0.9, "c": 0.9}, {"a": 0.4, "b": 0.03, "c": 0.04}))
     assert v["best"] == "b" and v["ranking"] == ["b", "c", "a"]
+
+
+def test_scans_that_see_one_direction_cap_the_confidence_at_low() -> None:
+    summary = _summary(list("abc"), [10, 20, 30])
+    ev = _ev({"a": 0.9, "b": 0.9, "c": 0.9}, {"a": 0.01, "b": 0.012, "c": 0.011})
+    plain = sequence_verdict(summary, "s", ev)
+    assert plain["confidence"].startswith("medium:")
+    for share, capped in ((0.01, False), (DEGENERATE_SHARE, True), (0.3, True)):
+        v = sequence_verdict(summary, "s", {**ev, "degenerate_share": share})
+        assert v["best"] == plain["best"] and v["ranking"] == plain["ranking"]
+        assert v["confidence"].startswith("low:") is capped
+        said = [w for w in v["warnings"] if "one direction only" in w]
+        assert bool(said) is capped
+        if capped:
+            assert "one direction only" in v["confidence"]
+            assert v["confidence_calibration"]["of"] == CONFIDENCE_CALIBRATION["low"][1]
+    # an abstention stays one, with the warning
+    v = sequence_verdict(_summary(list("ab"), [10, 20]), "s",
+                         {**_ev({"a": 0.5, "b": 0.5}, {}), "degenerate_share": 0.3})
+    assert v["best"] is None and any("one direction only" in w for w in v["warnings"])
+    # no recording measured: no cap
+    v = sequence_verdict(summary, "s", {**ev, "degenerate_share": math.nan})
+    assert v["confidence"].startswith("medium:")
 
 
 def test_maps_that_disagree_are_ordered_by_their_own_scans() -> None:

@@ -8,7 +8,9 @@ square of the maps), scores them against each other and runs the defect detector
 sums that up per algorithm for :func:`slamq.verdict.rule.sequence_verdict`. A record that
 names the recording its map was built from (``scans``) and its ``trajectory`` is also
 scored against its own scans (:func:`slamq.verdict.scans.record_consistency`, docs/spec.md
-section 7b), which the rule weighs too (section 9). Beside it,
+section 7b), which the rule weighs too (section 9), and its recording by how many of its
+scans see walls in one direction only (:func:`slamq.scan_degeneracy`, section 7c), which
+caps the verdict's confidence. Beside it,
 for the detail pages only, the missing walls of each map against the others
 (:func:`slamq.metrics.agreement.missing_walls`, read off the same agreement): the verdict does
 not read them (docs/validity.md, "Missing walls against the other maps").
@@ -76,7 +78,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         "defects", "in_group", "group_support", "scan_violation", "scan_crossing", "scan_hit",
         "scan_runs"}}, "majority": bool, "group": [alg], "group_maps": [dict],
         "consistency": {path: {path: float}}, "maps": int, "notes": [str],
-        "missing_walls": {path: [dict]}, "scans": {path: dict}, "min_support": float}``.
+        "missing_walls": {path: [dict]}, "scans": {path: dict}, "degeneracy": {path: dict},
+        "degenerate_share": float, "min_support": float}``.
         ``group_maps`` is the agreeing group of docs/spec.md section 9, map by map
         (``{"map": path, "algorithm", "run"}``, empty when no two maps agree);
         ``consistency`` maps the path of each map that took part to its consistency with
@@ -92,7 +95,10 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         over an algorithm's runs of their maps' violation, crossing and hit shares against
         their own scans (NaN, and ``scan_runs`` 0, when none has them; the verdict weighs
         the crossing share); ``scans`` maps the path of each map scored so
-        to its :meth:`~slamq.models.ScanConsistency.to_dict`.
+        to its :meth:`~slamq.models.ScanConsistency.to_dict`. ``degeneracy`` maps each
+        recording named by a record with scans to its
+        :meth:`~slamq.models.ScanDegeneracy.to_dict` (docs/spec.md 7c), and
+        ``degenerate_share`` is the highest of their shares (NaN: none).
 
     Examples
     --------
@@ -150,6 +156,22 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
                     pass  # record_consistency says why, in its turn
                 scored.append((key, str(rec.map), pool.submit(
                     record_consistency, rec._asdict(), maps[key], threads=one)))
+        # the recordings themselves: how many of their scans see walls in one direction
+        # only (docs/spec.md 7c), which caps the verdict's confidence (section 9)
+        degenerate: dict[str, Future[Any]] = {}
+        if scans:
+            from slamq.metrics.degeneracy import scan_degeneracy
+            from slamq.verdict.scans import has_scans, recording
+
+            for rec in picked.itertuples():
+                path = str(rec.scans) if has_scans(rec._asdict()) else None
+                if path is None or path in degenerate:
+                    continue
+                try:
+                    degenerate[path] = pool.submit(scan_degeneracy, recording(path),
+                                                   threads=one)
+                except SlamqError:
+                    pass  # the scans' score of each map says why it cannot be read
         flagged: dict[str, Future[Any]] = {}
         if defects:
             from slamq.metrics.defects import detect_defects  # on first use
@@ -164,6 +186,12 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             except SlamqError as exc:
                 notes.append(f"{path}: not scored against its scans ({exc})")
         found = {key: [d.to_dict() for d in job.result()] for key, job in flagged.items()}
+        seen: dict[str, dict[str, Any]] = {}
+        for path, job in degenerate.items():
+            try:
+                seen[path] = job.result().to_dict()
+            except SlamqError as exc:
+                notes.append(f"{path}: its scans' directions not measured ({exc})")
     if agree is not None:
         support, complete, placed = agree.support, agree.completeness, agree.placed
         majority = agree.majority
@@ -213,4 +241,18 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "notes": notes, "missing_walls": gaps, "group": group,
             "group_maps": group_maps, "consistency": pairs,
             "scans": {paths[k]: v for k, v in checked.items()},
+            "degeneracy": seen, "degenerate_share": _highest(
+                [d["degenerate_share"] for d in seen.values()]),
             "min_support": SETTINGS.min_support.default}
+
+
+def _highest(values: list[float]) -> float:
+    """The largest finite value (NaN when there is none).
+
+    Examples
+    --------
+    >>> _highest([0.01, float("nan"), 0.03]), _highest([])
+    (0.03, nan)
+    """
+    finite = [v for v in values if math.isfinite(v)]
+    return max(finite) if finite else math.nan

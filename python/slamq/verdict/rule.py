@@ -20,7 +20,8 @@ from slamq.results.summary import Orientation, distinct_resolutions, orientation
 from slamq.verdict.calibration import with_calibration
 
 __all__ = [
-    "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "SCAN_FLOOR", "SCAN_SHARE",
+    "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "SCAN_FLOOR",
+    "SCAN_SHARE",
     "basis_name", "known_share", "needs_evidence", "rule_summary", "scan_limit",
     "sequence_verdict", "verdict_sentence",
 ]
@@ -47,6 +48,12 @@ SCAN_FLOOR = 0.02
 SCAN_SHARE = 1.5
 #: The evidence's field the scan rule reads (each algorithm's median crossing share).
 SCAN_KEY = "scan_crossing"
+#: A sequence whose recording has at least this share of scans that see walls in one
+#: direction only (docs/spec.md 7c: a corridor) gets a verdict of at most "low" without
+#: ground truth: an error along those walls is invisible to the maps' agreement and to
+#: their own scans. Read off the generated sets of docs/validity.md ("Scans that see one
+#: direction only") and tested on a set generated after it was frozen.
+DEGENERATE_SHARE = 0.02
 
 _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
@@ -323,6 +330,22 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
             "basis": basis, "confidence": confidence, "warnings": warnings}
 
 
+def _one_direction(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
+    """``v`` with its confidence at most "low", and a warning, when the sequence's
+    recording has at least :data:`DEGENERATE_SHARE` of its scans seeing walls in one
+    direction only (``evidence["degenerate_share"]``)."""
+    share = float(evidence.get("degenerate_share", math.nan))
+    if not (math.isfinite(share) and share >= DEGENERATE_SHARE):
+        return v
+    why = (f"{_pct(share)} of the recording's scans see walls in one direction only (a "
+           "corridor): an error along them is invisible to the maps' agreement and to "
+           "their own scans")
+    v["warnings"].append(why)
+    if v["best"] is not None and v["confidence"].startswith("medium:"):
+        v["confidence"] = "low:" + v["confidence"].removeprefix("medium:") + f"; {why}"
+    return v
+
+
 def _two_maps(sequence: str, named: str, other: str, why: str, scans: dict[str, float],
               basis: list[str], warnings: list[str]) -> dict[str, Any]:
     """The verdict on two maps when one of them is wrong on its own and the other is not."""
@@ -415,7 +438,8 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
     block = _algorithms(summary, sequence)
     warnings: list[str] = []
     if evidence is not None and not _ground_truth_decides(block):
-        return with_calibration(_agreement_verdict(block, sequence, evidence, warnings))
+        return with_calibration(_one_direction(
+            _agreement_verdict(block, sequence, evidence, warnings), evidence))
     share = known_share(block)  # by area: comparable across resolutions; else cells
     partial = {a for a, s in share.items() if s < COMPLETE_SHARE}
     for a in sorted(partial):
@@ -544,7 +568,8 @@ def rule_summary() -> str:
     walls more than max(2%, 1.5x the most consistent map's) is never named best;
     corners order the maps confirmed equally on one grid; of two maps, or of maps that
     disagree, one is named only when another is wrong on its own and its own scans confirm
-    it); with figures alone, by corners (no clear winner within 25%)
+    it; at most low confidence when 2% or more of the recording's scans see walls in one
+    direction only); with figures alone, by corners (no clear winner within 25%)
     """
     return (
         f"by {basis_name(_BASES[0][0])} when the sequence has ground truth, else by "
@@ -556,5 +581,7 @@ def rule_summary() -> str:
         f"cross its walls more than max({SCAN_FLOOR:.0%}, {SCAN_SHARE:g}x the most "
         "consistent map's) is never named best; corners order the maps confirmed equally on "
         "one grid; of two maps, or of maps that disagree, one is named only when another is "
-        "wrong on its own and its own scans confirm it); with figures alone, by corners (no "
+        "wrong on its own and its own scans confirm it; at most low confidence when "
+        f"{DEGENERATE_SHARE:.0%} or more of the recording's scans see walls in one direction "
+        "only); with figures alone, by corners (no "
         f"clear winner within {CLEAR_MARGIN:.0%})")
