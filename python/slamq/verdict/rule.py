@@ -331,18 +331,20 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
 
 
 def _one_direction(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
-    """``v`` with its confidence at most "low", and a warning, when the sequence's
-    recording has at least :data:`DEGENERATE_SHARE` of its scans seeing walls in one
-    direction only (``evidence["degenerate_share"]``)."""
+    """``v`` with its confidence at most "low" when the sequence's recording has at least
+    :data:`DEGENERATE_SHARE` of its scans seeing walls in one direction only
+    (``evidence["degenerate_share"]``): a "medium" becomes "low" with the reason; any
+    other verdict gets the reason as a warning."""
     share = float(evidence.get("degenerate_share", math.nan))
     if not (math.isfinite(share) and share >= DEGENERATE_SHARE):
         return v
     why = (f"{_pct(share)} of the recording's scans see walls in one direction only (a "
            "corridor): an error along them is invisible to the maps' agreement and to "
            "their own scans")
-    v["warnings"].append(why)
     if v["best"] is not None and v["confidence"].startswith("medium:"):
         v["confidence"] = "low:" + v["confidence"].removeprefix("medium:") + f"; {why}"
+    else:
+        v["warnings"].append(why)
     return v
 
 
