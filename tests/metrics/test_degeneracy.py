@@ -138,3 +138,8 @@ def test_bad_input_is_refused_with_its_name() -> None:
         scan_degeneracy(s, max_scans=0)
     with pytest.raises(slamq.ParamError):
         scan_ratios(s, threads=-1)
+    # a layout without beams: no scan has a ratio, in the core as in the twin
+    empty = Scans(np.arange(2.0), np.zeros(0), np.zeros((2, 0)), 10.0, source="empty.log")
+    assert np.isnan(scan_ratios(empty)).all() and len(scan_ratios(empty)) == 2
+    assert np.isnan(scan_ratios_reference(empty)).all()
+    assert math.isnan(scan_degeneracy(empty).share)

@@ -112,6 +112,8 @@ def scan_ratios_reference(scans: Scans, index: np.ndarray | None = None) -> np.n
     ang = scans.angles[order]
     idx = np.arange(len(scans)) if index is None else np.asarray(index, dtype=np.int64)
     out = np.full(idx.size, np.nan)
+    if ang.size == 0:
+        return out  # no beam, no endpoint
     w = 2 * NEIGHBOURS + 1
     cos, sin = np.cos(ang), np.sin(ang)
     for start in range(0, idx.size, _CHUNK):

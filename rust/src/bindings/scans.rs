@@ -115,6 +115,10 @@ pub(crate) fn scan_ratios<'py>(
             ranges.shape()
         )));
     }
+    if b == 0 {
+        // no beam, no endpoint: no scan has a ratio
+        return Ok(PyArray1::from_vec(py, vec![f64::NAN; ranges.shape()[0]]));
+    }
     let a = contiguous(&angles, "angles")?;
     let r = contiguous(&ranges, "ranges")?;
     let out = compute(py, threads, || {
