@@ -354,15 +354,12 @@ def _degenerate_share(block: pd.DataFrame) -> float:
     (each measured once per process), as :func:`slamq.verdict.evidence.sequence_evidence`
     gives it."""
     from slamq.metrics.degeneracy import scan_degeneracy
+    from slamq.verdict.evidence import _highest
     from slamq.verdict.scans import recording
 
-    shares = []
-    for path in sorted({str(p) for p in block["scans"].dropna()}):
-        if path not in _DEGENERATE:
-            _DEGENERATE[path] = scan_degeneracy(recording(path)).share
-        shares.append(_DEGENERATE[path])
-    finite = [v for v in shares if math.isfinite(v)]
-    return max(finite) if finite else math.nan
+    for path in {str(p) for p in block["scans"].dropna()} - set(_DEGENERATE):
+        _DEGENERATE[path] = scan_degeneracy(recording(path)).share
+    return _highest([_DEGENERATE[str(p)] for p in block["scans"].dropna()])
 
 
 def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool = False,

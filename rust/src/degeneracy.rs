@@ -62,30 +62,30 @@ fn ratio(x: &[f64], y: &[f64]) -> f64 {
         if x[i].is_nan() {
             continue;
         }
-        // the window i - NEIGHBOURS ..= i + NEIGHBOURS, beams off either end absent
-        let near = |j: usize| -> bool {
-            let (dx, dy) = (x[j] - x[i], y[j] - y[i]);
-            dx.hypot(dy) < NEAR_M
-        };
-        let window = (0..w).filter_map(|k| (i + k).checked_sub(NEIGHBOURS).filter(|&j| j < b));
-        let (mut count, mut sx, mut sy) = (0usize, 0.0f64, 0.0f64);
-        for j in window.clone() {
-            if near(j) {
+        // the near endpoints of the window i - NEIGHBOURS ..= i + NEIGHBOURS (beams off
+        // either end absent), in beam order
+        let mut near = [(0.0f64, 0.0f64); 2 * NEIGHBOURS + 1];
+        let mut count = 0usize;
+        for j in i.saturating_sub(NEIGHBOURS)..(i + NEIGHBOURS + 1).min(b) {
+            if (x[j] - x[i]).hypot(y[j] - y[i]) < NEAR_M {
+                near[count] = (x[j], y[j]);
                 count += 1;
-                sx += x[j];
-                sy += y[j];
             }
+        }
+        let near = &near[..count];
+        let (mut sx, mut sy) = (0.0f64, 0.0f64);
+        for &(px, py) in near {
+            sx += px;
+            sy += py;
         }
         let c = count.max(1) as f64;
         let (mx, my) = (sx / c, sy / c);
         let (mut sxx, mut syy, mut sxy) = (0.0f64, 0.0f64, 0.0f64);
-        for j in window {
-            if near(j) {
-                let (dx, dy) = (x[j] - mx, y[j] - my);
-                sxx += dx * dx;
-                syy += dy * dy;
-                sxy += dx * dy;
-            }
+        for &(px, py) in near {
+            let (dx, dy) = (px - mx, py - my);
+            sxx += dx * dx;
+            syy += dy * dy;
+            sxy += dx * dy;
         }
         let (along, across) = eig(sxx, syy, sxy);
         if count + 1 < w || across >= LINE_SPREAD * along.max(1e-12) {

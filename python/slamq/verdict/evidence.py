@@ -143,35 +143,28 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         # side on the pool's workers (one Rust thread each: no figure depends on it)
         one = 1 if _workers(threads) > 1 else threads
         scored: list[tuple[str, str, Future[Any]]] = []
-        if scans:
-            from slamq.verdict.scans import has_scans, record_consistency, recording
-
-            for rec in picked.itertuples():
-                key = f"{rec.algorithm}#{rec.run}"
-                if key not in maps or not has_scans(rec._asdict()):
-                    continue
-                try:
-                    recording(rec.scans)  # read once, here, for all the maps that share it
-                except SlamqError:
-                    pass  # record_consistency says why, in its turn
-                scored.append((key, str(rec.map), pool.submit(
-                    record_consistency, rec._asdict(), maps[key], threads=one)))
-        # the recordings themselves: how many of their scans see walls in one direction
-        # only (docs/spec.md 7c), which caps the verdict's confidence (section 9)
+        # and each recording itself: how many of its scans see walls in one direction only
+        # (docs/spec.md 7c), which caps the verdict's confidence (section 9)
         degenerate: dict[str, Future[Any]] = {}
         if scans:
             from slamq.metrics.degeneracy import scan_degeneracy
-            from slamq.verdict.scans import has_scans, recording
+            from slamq.verdict.scans import has_scans, record_consistency, recording
 
             for rec in picked.itertuples():
-                path = str(rec.scans) if has_scans(rec._asdict()) else None
-                if path is None or path in degenerate:
+                if not has_scans(rec._asdict()):
                     continue
+                path = str(rec.scans)
                 try:
-                    degenerate[path] = pool.submit(scan_degeneracy, recording(path),
-                                                   threads=one)
+                    # read once, here, for all the maps that share it
+                    recorded = recording(rec.scans)
                 except SlamqError:
-                    pass  # the scans' score of each map says why it cannot be read
+                    recorded = None  # record_consistency says why, in its turn
+                if recorded is not None and path not in degenerate:
+                    degenerate[path] = pool.submit(scan_degeneracy, recorded, threads=one)
+                key = f"{rec.algorithm}#{rec.run}"
+                if key in maps:
+                    scored.append((key, str(rec.map), pool.submit(
+                        record_consistency, rec._asdict(), maps[key], threads=one)))
         flagged: dict[str, Future[Any]] = {}
         if defects:
             from slamq.metrics.defects import detect_defects  # on first use
