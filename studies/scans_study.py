@@ -234,6 +234,9 @@ MEDIAN = "median"
 #: The rules' last element when the crossing share orders the maps the agreement confirms
 #: equally (F2 of docs/validity.md, "A veto with a margin"), instead of corners.
 ORDER = "order"
+#: The thresholds of the travel veto tried on the pool (docs/validity.md, "Paths shortened
+#: along a corridor"); inf: no travel veto (the rule before it).
+SHORTFALLS = (math.inf, 0.02, 0.03, 0.04, 0.05)
 
 
 def rule_name(rule: tuple | None) -> str:
@@ -270,11 +273,12 @@ def _hidden(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def _without_scans(ev: dict[str, Any]) -> dict[str, Any]:
-    """The evidence as it would be without scans (every scan figure removed)."""
+    """The evidence as it would be without scans (every scan figure removed, and the paths'
+    shortfalls, which are weighed only where the scans say so)."""
     out = dict(ev)
     out["algorithms"] = {a: {**e, "scan_violation": math.nan, "scan_crossing": math.nan,
-                             "scan_hit": math.nan,
-                             "scan_runs": 0} for a, e in ev["algorithms"].items()}
+                             "scan_hit": math.nan, "scan_runs": 0,
+                             "shortfall": math.nan} for a, e in ev["algorithms"].items()}
     return out
 
 
@@ -296,9 +300,12 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     from slamq.verdict import rule as r
     from slamq.verdict.rule import SCAN_KEY, sequence_verdict
 
-    saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key)
+    saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL)
     try:
         if rule is not None:
+            for x in rule:
+                if isinstance(x, str) and x.startswith("shortfall="):
+                    r.SHORTFALL = float(x.removeprefix("shortfall="))
             nums = [x for x in rule if not isinstance(x, str)]
             r.SCAN_FLOOR, r.SCAN_SHARE = nums[0], nums[1]
             if len(nums) > 2 or MEDIAN in rule:
@@ -309,7 +316,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                 r._corner_key = _scan_order(saved[3], scans)
         v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
     finally:
-        r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key = saved
+        r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -362,6 +369,16 @@ def _degenerate_share(block: pd.DataFrame) -> float:
     return _highest([_DEGENERATE[str(p)] for p in block["scans"].dropna()])
 
 
+def _fill_shortfalls(ev: dict[str, Any], block: pd.DataFrame) -> None:
+    """Each program's ``shortfall`` (docs/spec.md 7d) set in ``ev`` from ``block``'s
+    trajectories, as :func:`slamq.verdict.evidence.sequence_evidence` sets it."""
+    from slamq.verdict.travel import shortfalls
+
+    short = shortfalls(block.to_dict("records"))
+    for alg, e in ev["algorithms"].items():
+        e["shortfall"], e["shortfall_against"] = short.get(alg, (math.nan, None))
+
+
 def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool = False,
              cache: dict | None = None, figure: str = "violation_share",
              by_run: bool = False) -> pd.DataFrame:
@@ -396,6 +413,8 @@ def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool
                 cache[key] = ev
         if "degenerate_share" not in ev:  # evidence cached before docs/spec.md 7c
             ev["degenerate_share"] = _degenerate_share(block)
+        if cache is not None:  # cheap: measured again, as the figure is now
+            _fill_shortfalls(ev, block)
         ev = weigh(ev, block, figure)
         summary = summarize(sub)
         t = block.groupby("algorithm")[truth].mean()
@@ -430,7 +449,9 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
         label = ("without scans" if rule is None else f"floor {rule[0]:g}, share {rule[1]:g}"
                  + (f", margin {margin:g}" if isinstance(margin, float) else "")
                  + (", scans order" if ORDER in rule else "")
-                 + (", anchored on the median" if MEDIAN in rule else ""))
+                 + (", anchored on the median" if MEDIAN in rule else "")
+                 + "".join(f", travel veto {x.removeprefix('shortfall=')}" for x in rule
+                           if isinstance(x, str) and x.startswith("shortfall=")))
         out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
                    f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
                    f" | {int((~named).sum())} |")
@@ -457,6 +478,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="the veto's floor and share (default: slamq's)")
     ap.add_argument("--margins", action="store_true",
                     help="also the rule with each margin of MARGINS (the veto's third term)")
+    ap.add_argument("--shortfalls", action="store_true",
+                    help="the rule with each travel veto of SHORTFALLS (inf: none)")
     ap.add_argument("--median", action="store_true",
                     help="also the veto anchored on the median, for each of MEDIAN_SHARES")
     ap.add_argument("--by-run", action="store_true",
@@ -488,6 +511,9 @@ def main(argv: list[str] | None = None) -> int:
         vk = rules[-1][:2]
         rules = (*rules, *((*vk, g) for g in MARGINS),
                  *((*vk, g, ORDER) for g in MARGINS))
+    if a.shortfalls:  # docs/validity.md, "Paths shortened along a corridor"
+        vk = rules[-1][:2]
+        rules = (None, *((*vk, f"shortfall={t:g}") for t in SHORTFALLS))
     if a.median:  # F3 of docs/validity.md, "A veto anchored on the middle map"
         rules = (*rules, *((rules[1][0], k, MEDIAN) for k in MEDIAN_SHARES))
     import pickle

@@ -36,6 +36,7 @@ from slamq.metrics.agreement import (
 from slamq.params import SETTINGS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
+from slamq.verdict.travel import shortfalls
 
 __all__ = ["MISSING_MIN_LENGTH", "RUNS_PER_ALGORITHM", "sequence_evidence"]
 
@@ -76,8 +77,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     dict
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
         "defects", "in_group", "group_support", "scan_violation", "scan_crossing", "scan_hit",
-        "scan_runs"}}, "majority": bool, "group": [alg], "group_maps": [dict],
-        "consistency": {path: {path: float}}, "maps": int, "notes": [str],
+        "scan_runs", "shortfall", "shortfall_against"}}, "majority": bool, "group": [alg],
+        "group_maps": [dict], "consistency": {path: {path: float}}, "maps": int, "notes": [str],
         "missing_walls": {path: [dict]}, "scans": {path: dict}, "degeneracy": {path: dict},
         "degenerate_share": float, "min_support": float}``.
         ``group_maps`` is the agreeing group of docs/spec.md section 9, map by map
@@ -98,7 +99,10 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         to its :meth:`~slamq.models.ScanConsistency.to_dict`. ``degeneracy`` maps each
         recording named by a record with scans to its
         :meth:`~slamq.models.ScanDegeneracy.to_dict` (docs/spec.md 7c), and
-        ``degenerate_share`` is the highest of their shares (NaN: none).
+        ``degenerate_share`` is the highest of their shares (NaN: none). ``shortfall`` is
+        how much shorter the program's path is than another program's at most, and
+        ``shortfall_against`` that program (:func:`slamq.verdict.travel.shortfalls`; NaN
+        and None without trajectories).
 
     Examples
     --------
@@ -208,6 +212,10 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         group_support = dict.fromkeys(maps, math.nan)
         group_maps = []
         pairs = {paths[k]: {} for k in maps}
+    # each program's path against the others' (docs/spec.md 7d): weighed only where the
+    # recording's scans see walls in one direction (section 9)
+    short = shortfalls([r._asdict() for r in picked.itertuples()
+                        if f"{r.algorithm}#{r.run}" in maps], notes)
     algorithms: dict[str, dict[str, Any]] = {}
     for alg in sorted(set(owner.values())):
         keys = [k for k in maps if owner[k] == alg]
@@ -227,6 +235,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "scan_hit": finite_median([checked[k]["hit_share"] for k in keys
                                        if k in checked]),
             "scan_runs": sum(1 for k in keys if k in checked),
+            "shortfall": short.get(alg, (math.nan, None))[0],
+            "shortfall_against": short.get(alg, (math.nan, None))[1],
         }
     # the agreeing group, by program: those whose runs are mostly in it
     group = sorted(a for a, e in algorithms.items() if e["in_group"] > 0.5)

@@ -21,7 +21,7 @@ from slamq.verdict.calibration import with_calibration
 
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "SCAN_FLOOR",
-    "SCAN_SHARE",
+    "SCAN_SHARE", "SHORTFALL",
     "basis_name", "known_share", "needs_evidence", "rule_summary", "scan_limit",
     "sequence_verdict", "verdict_sentence",
 ]
@@ -54,6 +54,13 @@ SCAN_KEY = "scan_crossing"
 #: their own scans. Read off the generated sets of docs/validity.md ("Scans that see one
 #: direction only") and tested on a set generated after it was frozen.
 DEGENERATE_SHARE = 0.02
+#: In a sequence whose recording has at least :data:`DEGENERATE_SHARE` of its scans seeing
+#: walls in one direction, a program whose path is this much shorter than another
+#: program's (``evidence["algorithms"][a]["shortfall"]``, docs/spec.md 7d) is never named:
+#: a scan matcher that cannot see the motion along a corridor reports too little of it,
+#: and its map still agrees with its own scans. Chosen on the pool of docs/validity.md
+#: ("Paths shortened along a corridor").
+SHORTFALL = 0.03
 
 _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
@@ -189,6 +196,23 @@ def _scan_flags(info: dict[str, Any]) -> tuple[dict[str, float], dict[str, str]]
                    for a, v in scans.items() if v > limit}
 
 
+def _shortened(info: dict[str, Any], evidence: dict[str, Any]) -> dict[str, str]:
+    """The programs whose path is at least :data:`SHORTFALL` shorter than another's, with
+    the reason, when the recording's scans see walls in one direction (a degenerate share
+    of at least :data:`DEGENERATE_SHARE`); none otherwise."""
+    share = float(evidence.get("degenerate_share", math.nan))
+    if not (math.isfinite(share) and share >= DEGENERATE_SHARE):
+        return {}
+    out = {}
+    for a, e in info.items():
+        short = float(e.get("shortfall", math.nan))
+        if math.isfinite(short) and short >= SHORTFALL:
+            out[a] = (f"its path is {_pct(short)} shorter than {e.get('shortfall_against')}'s "
+                      f"where {_pct(share)} of the scans see walls in one direction only: a "
+                      "corridor shortened by a scan matcher that could not see along it")
+    return out
+
+
 def _separating(a: str, flagged: dict[str, str], scan_flags: dict[str, str],
                 partial: set[str]) -> str | None:
     """What is wrong with map ``a`` on its own (a defect flag, its own scans, partial), which
@@ -214,6 +238,8 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
             flagged[a] = f"defects: {', '.join(kinds)}"
     scans, scan_flags = _scan_flags(info)
     for a, why in scan_flags.items():
+        flagged.setdefault(a, why)
+    for a, why in _shortened(info, evidence).items():
         flagged.setdefault(a, why)
     support = {a: e["support"] for a, e in info.items() if math.isfinite(e["support"])}
     complete = {a: e["completeness"] for a, e in info.items()
