@@ -28,6 +28,7 @@ from slamq.verdict.rule import (
     DEGENERATE_SHARE,
     SCAN_FLOOR,
     SCAN_SHARE,
+    SHORTFALL,
     scan_limit,
     sequence_verdict,
 )
@@ -347,3 +348,55 @@ def test_slamq_verdict_with_the_recording_and_the_trajectories(drive: dict) -> N
     assert r.returncode == 2 and "1 --trajectory for 2 maps" in r.stderr
     r = slamq("verdict", a, ghost, "--scans", rawlog)
     assert r.returncode == 2 and "--scans and --trajectory go together" in r.stderr
+
+
+def test_a_path_shortened_along_a_corridor_is_never_named() -> None:
+    """docs/spec.md section 9: where the recording's scans see one direction, a program
+    whose path is SHORTFALL or more shorter than another's is flagged, nothing else."""
+    summary = _summary(list("abc"), [10, 20, 30])
+    ev = _ev({"a": 0.9, "b": 0.9, "c": 0.9}, {"a": 0.01, "b": 0.012, "c": 0.011})
+    for a, short in (("a", SHORTFALL), ("b", -0.01), ("c", 0.0)):
+        ev["algorithms"][a]["shortfall"] = short
+        ev["algorithms"][a]["shortfall_against"] = "b"
+    # corners would name a; in a corridor its short path rules it out
+    v = sequence_verdict(summary, "s", {**ev, "degenerate_share": 0.1})
+    assert v["best"] == "b" and v["ranking"][-1] == "a"
+    assert any("a is never named best: its path is 3.0% shorter than b's" in w
+               for w in v["warnings"])
+    # the scans see every direction, or were not measured: the path is not weighed
+    for share in (0.01, math.nan):
+        assert sequence_verdict(summary, "s", {**ev, "degenerate_share": share})["best"] == "a"
+    # just under the threshold, or no figure: not flagged
+    for short in (SHORTFALL - 0.001, math.nan):
+        ev["algorithms"]["a"]["shortfall"] = short
+        assert sequence_verdict(summary, "s", {**ev, "degenerate_share": 0.1})["best"] == "a"
+    # every program vetoed (by its scans or its path): the verdict abstains
+    ev = _ev({"a": 0.9, "b": 0.9}, {"a": 0.01, "b": 0.3}, defects=("b",))
+    ev["algorithms"]["a"].update(shortfall=0.2, shortfall_against="b")
+    v = sequence_verdict(_summary(list("ab"), [10, 20]), "s", {**ev, "degenerate_share": 0.1})
+    assert v["best"] is None and "a is never named: its path is 20.0% shorter" in v["confidence"]
+    # of two maps, the path alone makes the other neither right nor wrong
+    ev = _ev({"a": 0.9, "b": 0.9}, {"a": 0.01, "b": 0.015})
+    ev["algorithms"]["a"].update(shortfall=0.2, shortfall_against="b")
+    v = sequence_verdict(_summary(list("ab"), [10, 20]), "s", {**ev, "degenerate_share": 0.1})
+    assert v["best"] is None and "neither is wrong on its own" in v["confidence"]
+
+
+def test_the_evidence_measures_each_programs_path(drive: dict, tmp_path: Path) -> None:
+    """sequence_evidence gives each program the shortfall of its path against the others'
+    (docs/spec.md 7d): a run that reports 8% less of the motion is 8% short."""
+    from slamq.sources.trajectories import load_trajectory
+
+    gt = load_trajectory(drive["files"]["gt"])
+    short = Trajectory.from_xy_yaw(gt.timestamps, *(0.92 * gt.positions[:, :2].T), gt.yaw)
+    df = _records(drive, {"a": 10, "b": 20, "c": 30}, scans=False)
+    df.loc[df["algorithm"] == "c", "trajectory"] = str(short.write_tum(tmp_path / "c.tum"))
+    ev = sequence_evidence(df, "s", align="origin", defects=False)
+    c = ev["algorithms"]["c"]
+    assert c["shortfall"] == pytest.approx(0.08, abs=1e-9) and c["shortfall_against"] in "ab"
+    assert ev["algorithms"]["a"]["shortfall"] == pytest.approx(0.0, abs=1e-9)
+    # a trajectory that cannot be read: no figure for its program, and a note that says so
+    df.loc[df["algorithm"] == "c", "trajectory"] = str(tmp_path / "missing.tum")
+    ev = sequence_evidence(df, "s", align="origin", defects=False)
+    assert math.isnan(ev["algorithms"]["c"]["shortfall"])
+    assert any("missing.tum" in n and "path not compared" in n for n in ev["notes"])

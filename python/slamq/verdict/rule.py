@@ -239,7 +239,8 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     scans, scan_flags = _scan_flags(info)
     for a, why in scan_flags.items():
         flagged.setdefault(a, why)
-    for a, why in _shortened(info, evidence).items():
+    shortened = _shortened(info, evidence)
+    for a, why in shortened.items():
         flagged.setdefault(a, why)
     support = {a: e["support"] for a, e in info.items() if math.isfinite(e["support"])}
     complete = {a: e["completeness"] for a, e in info.items()
@@ -295,7 +296,13 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
         # when the other is wrong on its own (vetoed by its scans, or partial) and it is
         # not, and its own scans confirm it; a defect flag decides as without scans (below)
         named = [a for a in info if alone[a] is None]
-        if len(named) == 1:
+        if len(named) == 1 and named[0] in shortened:
+            # a path shortened along a corridor is never named; it says nothing of the other
+            x = named[0]
+            y = next(a for a in info if a != x)
+            why = (f"fewer than three maps take part: {y} is wrong on its own ({alone[y]}), "
+                   f"and {x} is never named: {shortened[x]}")
+        elif len(named) == 1:
             x = named[0]
             y = next(a for a in info if a != x)
             if scans[x] <= SCAN_FLOOR and scans[x] < scans[y]:
