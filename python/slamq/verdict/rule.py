@@ -603,8 +603,9 @@ def rule_summary() -> str:
     walls more than max(2%, 1.5x the most consistent map's) is never named best;
     corners order the maps confirmed equally on one grid; of two maps, or of maps that
     disagree, one is named only when another is wrong on its own and its own scans confirm
-    it; at most low confidence when 2% or more of the recording's scans see walls in one
-    direction only); with figures alone, by corners (no clear winner within 25%)
+    it; where 2% or more of the recording's scans see walls in one direction only, at
+    most low confidence, and a map whose path is 3% or more shorter than another's is never
+    named); with figures alone, by corners (no clear winner within 25%)
     """
     return (
         f"by {basis_name(_BASES[0][0])} when the sequence has ground truth, else by "
@@ -616,7 +617,8 @@ def rule_summary() -> str:
         f"cross its walls more than max({SCAN_FLOOR:.0%}, {SCAN_SHARE:g}x the most "
         "consistent map's) is never named best; corners order the maps confirmed equally on "
         "one grid; of two maps, or of maps that disagree, one is named only when another is "
-        "wrong on its own and its own scans confirm it; at most low confidence when "
-        f"{DEGENERATE_SHARE:.0%} or more of the recording's scans see walls in one direction "
-        "only); with figures alone, by corners (no "
+        f"wrong on its own and its own scans confirm it; where {DEGENERATE_SHARE:.0%} or "
+        "more of the recording's scans see walls in one direction only, at most low "
+        f"confidence, and a map whose path is {SHORTFALL:.0%} or more shorter than another's "
+        "is never named); with figures alone, by corners (no "
         f"clear winner within {CLEAR_MARGIN:.0%})")
