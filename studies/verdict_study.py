@@ -267,16 +267,15 @@ def _first_rule_corner_key(part: pd.DataFrame) -> tuple[str | None, pd.Series]:
 def _confirmed(evidence: dict[str, Any], names: Iterable[str]) -> set[str]:
     """Of the algorithms ``names`` (a sequence's, reference maps left out), those the
     agreement confirms equally: placed, not flagged by the defect detectors on at least
-    half of their runs, not vetoed by their own scans or their path (the shipped rule's
-    ``_scan_flags`` and ``_shortened``, which the first rule is measured with too), with a
-    support of at least
+    half of their runs, not vetoed by their own scans (the shipped rule's
+    ``_scan_flags``, which the first rule is measured with too), with a support of at least
     ``AGREEMENT_SHARE`` of the best and a completeness of at least ``COMPLETE_SHARE`` of
     the highest (the flags both rules share)."""
-    from slamq.verdict.rule import _scan_flags, _shortened
+    from slamq.verdict.rule import _scan_flags
 
     names = set(names)
     info = {str(a): e for a, e in evidence["algorithms"].items() if a in names}
-    vetoed = set(_scan_flags(info)[1]) | set(_shortened(info, evidence))
+    vetoed = set(_scan_flags(info)[1])
     support = {a: e["support"] for a, e in info.items() if math.isfinite(e["support"])}
     complete = {a: e["completeness"] for a, e in info.items()
                 if math.isfinite(e["completeness"])}

@@ -353,35 +353,39 @@ def test_slamq_verdict_with_the_recording_and_the_trajectories(drive: dict) -> N
 
 
 def test_a_path_shortened_along_a_corridor_is_never_named() -> None:
-    """docs/spec.md section 9: where the recording's scans see one direction, a program
-    whose path is SHORTFALL or more shorter than another's is flagged, nothing else."""
+    """docs/spec.md section 9: where the recording's scans see one direction, the verdict
+    abstains rather than name a program whose path is SHORTFALL or more shorter than
+    another's; nothing is named in its place, and nothing else changes."""
     summary = _summary(list("abc"), [10, 20, 30])
     ev = _ev({"a": 0.9, "b": 0.9, "c": 0.9}, {"a": 0.01, "b": 0.012, "c": 0.011})
     for a, short in (("a", SHORTFALL), ("b", -0.01), ("c", 0.0)):
         ev["algorithms"][a]["shortfall"] = short
         ev["algorithms"][a]["shortfall_against"] = "b"
-    # corners would name a; in a corridor its short path rules it out
+    plain = sequence_verdict(summary, "s", ev)
+    assert plain["best"] == "a"  # corners name a
     v = sequence_verdict(summary, "s", {**ev, "degenerate_share": 0.1})
-    assert v["best"] == "b" and v["ranking"][-1] == "a"
-    assert any("a is never named best: its path is 3.0% shorter than b's" in w
-               for w in v["warnings"])
+    assert v["best"] is None and v["ranking"] == plain["ranking"]
+    assert v["confidence"].startswith("none: a would be named, but its path is 3.0% shorter "
+                                      "than b's")
+    assert v["confidence_calibration"] is None
     # the scans see every direction, or were not measured: the path is not weighed
     for share in (0.01, math.nan):
         assert sequence_verdict(summary, "s", {**ev, "degenerate_share": share})["best"] == "a"
-    # just under the threshold, or no figure: not flagged
+    # just under the threshold, or no figure: named
     for short in (SHORTFALL - 0.001, math.nan):
         ev["algorithms"]["a"]["shortfall"] = short
         assert sequence_verdict(summary, "s", {**ev, "degenerate_share": 0.1})["best"] == "a"
-    # every program vetoed (by its scans or its path): the verdict abstains
+    # another map's short path changes nothing
+    ev["algorithms"]["c"]["shortfall"] = 0.2
+    assert sequence_verdict(summary, "s", {**ev, "degenerate_share": 0.1})["best"] == "a"
+    # of two maps: the one the two-map rule would name is short, so none is named
     ev = _ev({"a": 0.9, "b": 0.9}, {"a": 0.01, "b": 0.3}, defects=("b",))
     ev["algorithms"]["a"].update(shortfall=0.2, shortfall_against="b")
-    v = sequence_verdict(_summary(list("ab"), [10, 20]), "s", {**ev, "degenerate_share": 0.1})
-    assert v["best"] is None and "a is never named: its path is 20.0% shorter" in v["confidence"]
-    # of two maps, the path alone makes the other neither right nor wrong
-    ev = _ev({"a": 0.9, "b": 0.9}, {"a": 0.01, "b": 0.015})
-    ev["algorithms"]["a"].update(shortfall=0.2, shortfall_against="b")
-    v = sequence_verdict(_summary(list("ab"), [10, 20]), "s", {**ev, "degenerate_share": 0.1})
-    assert v["best"] is None and "neither is wrong on its own" in v["confidence"]
+    pair = _summary(list("ab"), [10, 20])
+    assert sequence_verdict(pair, "s", ev)["best"] == "a"
+    v = sequence_verdict(pair, "s", {**ev, "degenerate_share": 0.1})
+    assert v["best"] is None and "a would be named, but its path is 20.0% shorter" in \
+        v["confidence"]
 
 
 def test_the_evidence_measures_each_programs_path(drive: dict, tmp_path: Path) -> None:

@@ -55,11 +55,11 @@ SCAN_KEY = "scan_crossing"
 #: direction only") and tested on a set generated after it was frozen.
 DEGENERATE_SHARE = 0.02
 #: In a sequence whose recording has at least :data:`DEGENERATE_SHARE` of its scans seeing
-#: walls in one direction, a program whose path is this much shorter than another
-#: program's (``evidence["algorithms"][a]["shortfall"]``, docs/spec.md 7d) is never named:
-#: a scan matcher that cannot see the motion along a corridor reports too little of it,
-#: and its map still agrees with its own scans. Chosen on the pool of docs/validity.md
-#: ("Paths shortened along a corridor").
+#: walls in one direction, the verdict abstains rather than name a program whose path is
+#: this much shorter than another program's (``evidence["algorithms"][a]["shortfall"]``,
+#: docs/spec.md 7d): a scan matcher that cannot see the motion along a corridor reports too
+#: little of it, and its map still agrees with its own scans. Chosen on the pool of
+#: docs/validity.md ("Paths shortened along a corridor").
 SHORTFALL = 0.03
 
 _BASES = (
@@ -239,9 +239,6 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     scans, scan_flags = _scan_flags(info)
     for a, why in scan_flags.items():
         flagged.setdefault(a, why)
-    shortened = _shortened(info, evidence)
-    for a, why in shortened.items():
-        flagged.setdefault(a, why)
     support = {a: e["support"] for a, e in info.items() if math.isfinite(e["support"])}
     complete = {a: e["completeness"] for a, e in info.items()
                 if math.isfinite(e["completeness"])}
@@ -296,13 +293,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
         # when the other is wrong on its own (vetoed by its scans, or partial) and it is
         # not, and its own scans confirm it; a defect flag decides as without scans (below)
         named = [a for a in info if alone[a] is None]
-        if len(named) == 1 and named[0] in shortened:
-            # a path shortened along a corridor is never named; it says nothing of the other
-            x = named[0]
-            y = next(a for a in info if a != x)
-            why = (f"fewer than three maps take part: {y} is wrong on its own ({alone[y]}), "
-                   f"and {x} is never named: {shortened[x]}")
-        elif len(named) == 1:
+        if len(named) == 1:
             x = named[0]
             y = next(a for a in info if a != x)
             if scans[x] <= SCAN_FLOOR and scans[x] < scans[y]:
@@ -361,6 +352,19 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                            f"within {int(CLEAR_MARGIN * 100)}% ({first:g} and {second:g})")
     return {"sequence": str(sequence), "best": candidates[0], "ranking": ranking,
             "basis": basis, "confidence": confidence, "warnings": warnings}
+
+
+def _short_path(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
+    """``v`` as an abstention when the map it names has a path at least :data:`SHORTFALL`
+    shorter than another program's in a recording whose scans see walls in one direction
+    (:func:`_shortened`): which of the two paths is right, the scans cannot tell. Nothing
+    else is named in its place."""
+    best = v["best"]
+    info = {str(a): e for a, e in evidence["algorithms"].items() if str(a) == best}
+    why = _shortened(info, evidence).get(str(best)) if best is not None else None
+    if why is None:
+        return v
+    return {**v, "best": None, "confidence": f"none: {best} would be named, but {why}"}
 
 
 def _one_direction(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
@@ -473,8 +477,8 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
     block = _algorithms(summary, sequence)
     warnings: list[str] = []
     if evidence is not None and not _ground_truth_decides(block):
-        return with_calibration(_one_direction(
-            _agreement_verdict(block, sequence, evidence, warnings), evidence))
+        return with_calibration(_one_direction(_short_path(
+            _agreement_verdict(block, sequence, evidence, warnings), evidence), evidence))
     share = known_share(block)  # by area: comparable across resolutions; else cells
     partial = {a for a, s in share.items() if s < COMPLETE_SHARE}
     for a in sorted(partial):
@@ -604,8 +608,8 @@ def rule_summary() -> str:
     corners order the maps confirmed equally on one grid; of two maps, or of maps that
     disagree, one is named only when another is wrong on its own and its own scans confirm
     it; where 2% or more of the recording's scans see walls in one direction only, at
-    most low confidence, and a map whose path is 3% or more shorter than another's is never
-    named); with figures alone, by corners (no clear winner within 25%)
+    most low confidence, and no verdict when the map it would name has a path 3% or more
+    shorter than another's); with figures alone, by corners (no clear winner within 25%)
     """
     return (
         f"by {basis_name(_BASES[0][0])} when the sequence has ground truth, else by "
@@ -619,6 +623,6 @@ def rule_summary() -> str:
         "one grid; of two maps, or of maps that disagree, one is named only when another is "
         f"wrong on its own and its own scans confirm it; where {DEGENERATE_SHARE:.0%} or "
         "more of the recording's scans see walls in one direction only, at most low "
-        f"confidence, and a map whose path is {SHORTFALL:.0%} or more shorter than another's "
-        "is never named); with figures alone, by corners (no "
+        f"confidence, and no verdict when the map it would name has a path {SHORTFALL:.0%} or "
+        "more shorter than another's); with figures alone, by corners (no "
         f"clear winner within {CLEAR_MARGIN:.0%})")
