@@ -22,7 +22,7 @@ __all__ = ["CONFIDENCE_CALIBRATION", "calibration", "calibration_note", "wilson_
 #: by studies/confidence_study.py). Regenerate the table there, then copy its counts here.
 CONFIDENCE_CALIBRATION: dict[str, tuple[int, int]] = {
     "medium": (217, 226),
-    "low": (40, 43),
+    "low": (63, 63),
 }
 
 
@@ -92,10 +92,10 @@ def with_calibration(verdict: dict[str, Any]) -> dict[str, Any]:
     --------
     >>> v = with_calibration({"best": "a", "confidence": "low: two maps; b is wrong"})
     >>> print(v["confidence"])  # doctest: +NORMALIZE_WHITESPACE
-    low: right in 40 of 43 labelled verdicts (93%, lower bound 81% at 95% confidence,
+    low: right in 63 of 63 labelled verdicts (100%, lower bound 94% at 95% confidence,
     docs/validity.md); two maps; b is wrong
     >>> v["confidence_calibration"]["lower_bound"]
-    0.81
+    0.94
     """
     level, _, rest = str(verdict.get("confidence", "")).partition(":")
     c = calibration(level.strip()) if verdict.get("best") is not None else None
