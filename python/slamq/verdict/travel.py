@@ -8,6 +8,7 @@ different programs with :func:`slamq.metrics.travel.travel_ratio`.
 from __future__ import annotations
 
 import math
+import os
 from typing import Any
 
 import numpy as np
@@ -29,7 +30,8 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
     Parameters
     ----------
     records : list of dict
-        Result rows with ``algorithm`` and ``trajectory`` (a path; missing or empty: none).
+        Result rows with ``algorithm`` and ``trajectory`` (a path, str or path-like;
+        missing, NaN or empty: none).
     notes : list of str, optional
         A trajectory that cannot be read is left out and said here.
 
@@ -48,7 +50,7 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
     >>> for name, scale in (("a", 1.0), ("b", 0.9)):
     ...     _ = Trajectory.from_xy_yaw(t, 0.5 * t * scale, 0 * t, 0 * t).write_tum(
     ...         d / f"{name}.tum")
-    >>> s = shortfalls([{"algorithm": n, "trajectory": str(d / f"{n}.tum")} for n in "ab"])
+    >>> s = shortfalls([{"algorithm": n, "trajectory": d / f"{n}.tum"} for n in "ab"])
     >>> round(s["b"][0], 3), s["b"][1], round(s["a"][0], 3)
     (0.1, 'a', -0.111)
     """
@@ -58,6 +60,7 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
     paths: dict[str, list[Any]] = {}
     for rec in records:
         path = rec.get("trajectory")
+        path = os.fspath(path) if isinstance(path, os.PathLike) else path
         alg = str(rec.get("algorithm"))
         if not isinstance(path, str) or not path.strip():
             paths.setdefault(alg, [])
