@@ -319,6 +319,13 @@ def test_the_report_draws_where_a_map_contradicts_its_scans(drive: dict, tmp_pat
     assert (np.asarray(Image.open(site / re.findall(
         r'<img class="layer layer-scans" src="\.\./([^"]+)"', pages["a"])[0]).convert(
             "RGBA"))[..., 3] > 0).sum() < (alpha > 0).sum()
+    # each page says how far its program's path travels against the others' (all the
+    # exact path here), and that an office's scans do not make the verdict weigh it
+    import html
+
+    path = html.unescape(re.search(r'<section class="path" id="path">(.*?)</section>',
+                                   page).group(1))
+    assert "ghost's path travels as far as" in path and "does not weigh it" in path
 
 
 def test_slamq_verdict_with_the_recording_and_the_trajectories(drive: dict) -> None:

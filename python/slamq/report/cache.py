@@ -92,7 +92,7 @@ def page_digest(mp: MapPage, *, gifs: bool, trajectories: bool) -> str:
     blob = json.dumps(
         {"record": rec, "slug": mp.slug, "page": mp.page, "gifs": gifs,
          "trajectories": trajectories, "version": __version__, "missing": mp.missing,
-         "standing": mp.standing, "group": mp.group,
+         "standing": mp.standing, "group": mp.group, "path": mp.path,
          **source_digests(rec, gifs=gifs)},
         sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]

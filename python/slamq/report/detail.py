@@ -30,8 +30,8 @@ from slamq.verdict.exhibits import MapExhibit, ScanExhibit
 from slamq.verdict.records import usable
 from slamq.verdict.trajectory import TrajectoryEvidence
 
-__all__ = ["SCAN_LAYER_COLOURS", "agreeing_group", "detail_page", "run_info", "scan_layer",
-           "standing", "with_unit"]
+__all__ = ["SCAN_LAYER_COLOURS", "agreeing_group", "detail_page", "path_sentence", "run_info",
+           "scan_layer", "standing", "with_unit"]
 
 
 def _crossing(figures: dict) -> float | None:
@@ -125,7 +125,8 @@ def detail_page(mp: MapPage, ex: MapExhibit, out: Path, *, gifs: bool, trajector
     head = (f"<p><a href=\"../index.html\">&larr; back to the report</a></p>"
             f"<h1>{_e(rec['algorithm'])} on {_e(rec['sequence'])}, run {_e(rec['run'])}</h1>"
             + _standing_block(mp.standing) + _run_block(run_info(rec))
-            + f"<ul class=\"sub files\">{files}</ul>{notes}" + _group_block(mp.group))
+            + f"<ul class=\"sub files\">{files}</ul>{notes}" + _group_block(mp.group)
+            + _path_block(mp.path))
     numbers = (f"<div><h2>Numbers</h2><div class=\"scroll\"><table class=\"numbers\">{rows}"
                "</table></div></div>")
     first = sections[0] if sections else ""
@@ -398,6 +399,66 @@ def agreeing_group(rec: dict, evidence: dict[str, Any] | None,
     return {"status": "outside", "members": members, "sentence": (
         f"{who} is not in the agreeing group of {seq}: it agrees with {shown} but not with "
         f"every map of the group, so the group does not confirm it.")}
+
+
+def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
+    """How far the path of the map's program travels against the other programs' paths
+    (docs/spec.md 7d: its shortfall, the median over pairs of runs), and whether the
+    verdict weighs it (only where the recording's scans see walls in one direction,
+    section 9), as the map's detail page says it; None without a figure.
+
+    Examples
+    --------
+    >>> ev = {"degenerate_share": 0.058, "algorithms": {
+    ...     "icp": {"shortfall": 0.036, "shortfall_against": "rbpf"},
+    ...     "rbpf": {"shortfall": -0.02, "shortfall_against": "icp"}}}
+    >>> print(path_sentence({"algorithm": "icp"}, ev))  # doctest: +NORMALIZE_WHITESPACE
+    icp's path travels 3.6% less than rbpf's over the same windows of 10 s (docs/spec.md
+    7d). 5.8% of the recording's scans see walls in one direction only, so the verdict
+    weighs it: it names no map whose path is 3% or more shorter than another program's.
+    >>> print(path_sentence({"algorithm": "rbpf"}, {**ev, "degenerate_share": 0.0}))
+    ... # doctest: +NORMALIZE_WHITESPACE
+    rbpf's path travels at least 2.0% more than every other program's (the nearest: icp's)
+    over the same windows of 10 s (docs/spec.md 7d). The recording's scans see walls in
+    more than one direction (0.0% see one only), so the verdict does not weigh it.
+    >>> path_sentence({"algorithm": "x"}, ev), path_sentence({"algorithm": "icp"}, None)
+    (None, None)
+    """
+    from slamq.metrics.travel import WINDOW_S
+    from slamq.verdict.rule import DEGENERATE_SHARE, SHORTFALL
+
+    if evidence is None:
+        return None
+    alg = str(rec.get("algorithm"))
+    e = evidence.get("algorithms", {}).get(alg, {})
+    short, other = _num(e.get("shortfall")), e.get("shortfall_against")
+    if not math.isfinite(short) or other is None:
+        return None
+    windows = f"over the same windows of {WINDOW_S:g} s (docs/spec.md 7d)"
+    if abs(short) < 0.0005:
+        said = f"{alg}'s path travels as far as {other}'s (within 0.1%) {windows}."
+    elif short > 0:
+        said = f"{alg}'s path travels {100 * short:.1f}% less than {other}'s {windows}."
+    else:
+        said = (f"{alg}'s path travels at least {100 * abs(short):.1f}% more than every "
+                f"other program's (the nearest: {other}'s) {windows}.")
+    share = _num(evidence.get("degenerate_share"))
+    if not math.isfinite(share):
+        return said + " No recording was measured, so the verdict does not weigh it."
+    if share < DEGENERATE_SHARE:
+        return (said + " The recording's scans see walls in more than one direction "
+                f"({100 * share:.1f}% see one only), so the verdict does not weigh it.")
+    return (said + f" {100 * share:.1f}% of the recording's scans see walls in one "
+            "direction only, so the verdict weighs it: it names no map whose path is "
+            f"{SHORTFALL:.0%} or more shorter than another program's.")
+
+
+def _path_block(sentence: str | None) -> str:
+    """The path section of a detail page (:func:`path_sentence`)."""
+    if not sentence:
+        return ""
+    return ("<section class=\"path\" id=\"path\"><h2>Its path against the other "
+            f"programs'</h2><p>{_e(sentence)}</p></section>")
 
 
 def _group_block(g: dict[str, Any] | None) -> str:

@@ -105,4 +105,7 @@ class MapPage:
     #: The map's place in its sequence's agreeing group (:func:`slamq.report.detail.
     #: agreeing_group`; None: the sequence was not judged by the maps' agreement).
     group: dict[str, Any] | None = None
+    #: How far the map's program's path travels against the other programs' (:func:`slamq.
+    #: report.detail.path_sentence`; None: no figure).
+    path: str | None = None
 
