@@ -424,8 +424,8 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     >>> path_sentence({"algorithm": "x"}, ev), path_sentence({"algorithm": "icp"}, None)
     (None, None)
     """
-    from slamq.metrics.travel import WINDOW_S
     from slamq.verdict.rule import DEGENERATE_SHARE, SHORTFALL
+    from slamq.verdict.travel import WINDOW_S
 
     if evidence is None:
         return None

@@ -14,8 +14,9 @@ from typing import Any
 import numpy as np
 
 from slamq.errors import SlamqError
+from slamq.metrics.travel import WINDOW_S, travel_ratio
 
-__all__ = ["shortfalls"]
+__all__ = ["WINDOW_S", "shortfalls"]
 
 
 def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
@@ -54,7 +55,6 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
     >>> round(s["b"][0], 3), s["b"][1], round(s["a"][0], 3)
     (0.1, 'a', -0.111)
     """
-    from slamq.metrics.travel import travel_ratio
     from slamq.sources.trajectories import load_trajectory
 
     paths: dict[str, list[Any]] = {}
