@@ -424,7 +424,7 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     >>> path_sentence({"algorithm": "x"}, ev), path_sentence({"algorithm": "icp"}, None)
     (None, None)
     """
-    from slamq.verdict.rule import DEGENERATE_SHARE, SHORTFALL
+    from slamq.verdict.rule import SHORTFALL, one_direction_share
     from slamq.verdict.travel import WINDOW_S
 
     if evidence is None:
@@ -445,7 +445,7 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     share = _num(evidence.get("degenerate_share"))
     if not math.isfinite(share):
         return said + " No recording was measured, so the verdict does not weigh it."
-    if share < DEGENERATE_SHARE:
+    if one_direction_share(evidence) is None:
         return (said + " The recording's scans see walls in more than one direction "
                 f"({100 * share:.1f}% see one only), so the verdict does not weigh it.")
     return (said + f" {100 * share:.1f}% of the recording's scans see walls in one "

@@ -219,6 +219,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     algorithms: dict[str, dict[str, Any]] = {}
     for alg in sorted(set(owner.values())):
         keys = [k for k in maps if owner[k] == alg]
+        shortfall, against = short.get(alg, (math.nan, None))
         algorithms[alg] = {
             "support": finite_median([support[k] for k in keys]),
             "completeness": finite_median([complete[k] for k in keys]),
@@ -235,8 +236,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "scan_hit": finite_median([checked[k]["hit_share"] for k in keys
                                        if k in checked]),
             "scan_runs": sum(1 for k in keys if k in checked),
-            "shortfall": short.get(alg, (math.nan, None))[0],
-            "shortfall_against": short.get(alg, (math.nan, None))[1],
+            "shortfall": shortfall,
+            "shortfall_against": against,
         }
     # the agreeing group, by program: those whose runs are mostly in it
     group = sorted(a for a, e in algorithms.items() if e["in_group"] > 0.5)

@@ -22,7 +22,8 @@ from slamq.verdict.calibration import with_calibration
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "SCAN_FLOOR",
     "SCAN_SHARE", "SHORTFALL",
-    "basis_name", "known_share", "needs_evidence", "rule_summary", "scan_limit",
+    "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
+    "scan_limit",
     "sequence_verdict", "verdict_sentence",
 ]
 
@@ -196,12 +197,26 @@ def _scan_flags(info: dict[str, Any]) -> tuple[dict[str, float], dict[str, str]]
                    for a, v in scans.items() if v > limit}
 
 
+def one_direction_share(evidence: dict[str, Any]) -> float | None:
+    """The sequence's degenerate share (``evidence["degenerate_share"]``, docs/spec.md 7c)
+    when it is at least :data:`DEGENERATE_SHARE`, the condition under which the verdict
+    caps its confidence and weighs the paths' shortfalls; None otherwise.
+
+    Examples
+    --------
+    >>> one_direction_share({"degenerate_share": 0.05}), one_direction_share({})
+    (0.05, None)
+    """
+    share = float(evidence.get("degenerate_share", math.nan))
+    return share if math.isfinite(share) and share >= DEGENERATE_SHARE else None
+
+
 def _shortened(info: dict[str, Any], evidence: dict[str, Any]) -> dict[str, str]:
     """The programs whose path is at least :data:`SHORTFALL` shorter than another's, with
-    the reason, when the recording's scans see walls in one direction (a degenerate share
-    of at least :data:`DEGENERATE_SHARE`); none otherwise."""
-    share = float(evidence.get("degenerate_share", math.nan))
-    if not (math.isfinite(share) and share >= DEGENERATE_SHARE):
+    the reason, when the recording's scans see walls in one direction
+    (:func:`one_direction_share`); none otherwise."""
+    share = one_direction_share(evidence)
+    if share is None:
         return {}
     out = {}
     for a, e in info.items():
@@ -360,9 +375,8 @@ def _short_path(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
     (:func:`_shortened`): which of the two paths is right, the scans cannot tell. Nothing
     else is named in its place."""
     best = v["best"]
-    info = {str(a): e for a, e in evidence["algorithms"].items() if str(a) == best}
-    why = _shortened(info, evidence).get(str(best)) if best is not None else None
-    if why is None:
+    why = _shortened(evidence["algorithms"], evidence).get(str(best))
+    if best is None or why is None:
         return v
     return {**v, "best": None, "confidence": f"none: {best} would be named, but {why}"}
 
@@ -372,8 +386,8 @@ def _one_direction(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any
     :data:`DEGENERATE_SHARE` of its scans seeing walls in one direction only
     (``evidence["degenerate_share"]``): a "medium" becomes "low" with the reason; any
     other verdict gets the reason as a warning."""
-    share = float(evidence.get("degenerate_share", math.nan))
-    if not (math.isfinite(share) and share >= DEGENERATE_SHARE):
+    share = one_direction_share(evidence)
+    if share is None:
         return v
     why = (f"{_pct(share)} of the recording's scans see walls in one direction only (a "
            "corridor): an error along them is invisible to the maps' agreement and to "
