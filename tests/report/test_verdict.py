@@ -186,13 +186,15 @@ def test_turned_maps_are_ranked_by_canonical_corners_or_not_at_all() -> None:
 
 
 def _evidence(support: dict, *, completeness: dict | None = None, defects: tuple = (),
-              unplaced: tuple = (), majority: bool = True) -> dict:
+              unplaced: tuple = (), majority: bool = True, kind: str = "superposed",
+              kinds: dict | None = None) -> dict:
+    kinds = {a: kind for a in defects} | (kinds or {})
     return {"majority": majority, "notes": [], "maps": len(support), "algorithms": {
         a: {"support": s, "completeness": (completeness or {}).get(a, 1.0),
-            "placed": a not in unplaced, "runs": 1, "flagged_runs": int(a in defects),
-            "defects": {f"{a}.pgm": [{"kind": "superposed", "score": 1.0,
+            "placed": a not in unplaced, "runs": 1, "flagged_runs": int(a in kinds),
+            "defects": {f"{a}.pgm": [{"kind": kinds[a], "score": 1.0,
                                       "bbox": [0, 0, 1, 1], "note": ""}]
-                        if a in defects else []}}
+                        if a in kinds else []}}
         for a, s in support.items()}}
 
 
@@ -259,13 +261,44 @@ def test_without_ground_truth_the_verdict_abstains_and_says_why(case: str) -> No
 
 
 def test_of_two_maps_one_flagged_on_its_own_the_other_is_named() -> None:
-    ev = _evidence({"a": 0.7, "b": 0.7}, defects=("a",))
+    ev = _evidence({"a": 0.7, "b": 0.7}, defects=("a",), kind="doubled_walls")
     v = agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])
     assert v["best"] == "b"
     # two maps are weaker evidence than a majority: low, saying which map is flagged
     assert v["confidence"].startswith("low: ")
-    assert "two maps; a is wrong on its own (defects: superposed)" in v["confidence"]
+    assert "two maps; a is wrong on its own (defects: doubled_walls)" in v["confidence"]
     assert v["ranking"] == ["b", "a"]
+    # a flag that sound maps can carry decides only two placed maps, the other not partial
+    for ev in (_evidence({"a": math.nan, "b": math.nan}, defects=("a",),
+                         kind="doubled_walls", unplaced=("a", "b")),
+               _evidence({"a": 0.7, "b": 0.7}, defects=("a",), kind="doubled_walls",
+                         completeness={"b": 0.5})):
+        assert agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])["best"] is None
+
+
+@pytest.mark.parametrize("kind", ["superposed", "smeared", "fragmented"])
+def test_of_two_maps_one_broken_beyond_doubt_the_other_is_named_placed_or_not(
+        kind: str) -> None:
+    # spec 9, "two maps, one broken beyond doubt": a severe defect on one map names the
+    # other even when the two do not register and the broken map's copies outgrow its area
+    ev = _evidence({"a": math.nan, "b": math.nan}, defects=("a",), kind=kind,
+                   unplaced=("a", "b"), completeness={"a": 1.0, "b": 0.6})
+    v = agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])
+    assert v["best"] == "b" and v["ranking"] == ["b", "a"], v
+    assert v["confidence"].startswith("low: ")
+    assert f"a is broken on its own (defects: {kind}" in v["confidence"]
+    assert "and b carries no defect flag" in v["confidence"]
+    assert "could not be laid over each other" in v["confidence"]
+    assert any(w.startswith("a is never named best: defects:") for w in v["warnings"])
+    assert not any(w.startswith("b is never named best") for w in v["warnings"])
+    # the other map flagged too (by any detector), both broken, or three maps: as before
+    for other in ({"b": "doubled_walls"}, {"b": "smeared"}):
+        ev = _evidence({"a": math.nan, "b": math.nan}, unplaced=("a", "b"),
+                       kinds={"a": kind, **other})
+        assert agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])["best"] is None
+    three = _evidence({"a": math.nan, "b": math.nan, "c": math.nan}, defects=("a",),
+                      kind=kind, unplaced=("a", "b", "c"))
+    assert agreement_verdict(three, algorithm=list("abc"), corners=[5, 50, 9])["best"] is None
 
 
 def test_ground_truth_still_decides_when_evidence_is_given() -> None:

@@ -21,7 +21,7 @@ from slamq.verdict.calibration import with_calibration
 
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "SCAN_FLOOR",
-    "SCAN_SHARE", "SHORTFALL",
+    "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit",
     "sequence_verdict", "verdict_sentence",
@@ -62,6 +62,12 @@ DEGENERATE_SHARE = 0.02
 #: little of it, and its map still agrees with its own scans. Chosen on the pool of
 #: docs/validity.md ("Paths shortened along a corridor").
 SHORTFALL = 0.03
+
+#: The defect kinds that the verdict of two maps takes as proof of a broken map (docs/spec.md
+#: section 9, "Two maps, one broken beyond doubt"): none of them flagged a clean real map or
+#: an unbroken benchmark map in docs/validity.md's defect study. ``doubled_walls`` is not
+#: one: it fires on some sound maps (walls drawn as outlines, doubled graph-SLAM walls).
+SEVERE_DEFECTS = ("superposed", "smeared", "fragmented")
 
 _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
@@ -238,6 +244,46 @@ def _separating(a: str, flagged: dict[str, str], scan_flags: dict[str, str],
     return "; ".join(reasons) or None
 
 
+def _defect_kinds(e: dict[str, Any], kinds: tuple[str, ...] | None = None) -> list[str]:
+    """The defect kinds (of ``kinds``, or any) found on at least half of an algorithm's runs
+    (``e``: its evidence entry), sorted."""
+    runs = max(int(e.get("runs", 1)), 1)
+    per_run = [{d["kind"] for d in ds} for ds in e.get("defects", {}).values()]
+    found = {k for ks in per_run for k in ks if kinds is None or k in kinds}
+    return sorted(k for k in found if 2 * sum(k in ks for ks in per_run) >= runs)
+
+
+def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
+                scan_flags: dict[str, str], warnings: list[str]) -> dict[str, Any] | None:
+    """Of two maps, the verdict naming X when the other, Y, carries a severe defect
+    (:data:`SEVERE_DEFECTS`) and X no defect at all and no veto of its own scans; placed or
+    not, and whatever X's area against Y's (Y's copies count as area). None otherwise."""
+    if len(info) != 2:
+        return None
+    severe = {a: _defect_kinds(e, SEVERE_DEFECTS) for a, e in info.items()}
+    broken = [a for a, k in severe.items() if k]
+    if len(broken) != 1:
+        return None
+    y = broken[0]
+    x = next(a for a in info if a != y)
+    e = info[x]
+    flagged_x = e["flagged_runs"] and 2 * e["flagged_runs"] >= e["runs"]
+    if flagged_x or _defect_kinds(e) or x in scan_flags:
+        return None
+    why = ", ".join(severe[y])
+    placed = info[x]["placed"] and info[y]["placed"]
+    confidence = (f"low: two maps; {y} is broken on its own (defects: {why}, a kind the "
+                  f"defect study found on no sound map) and {x} carries no defect flag"
+                  + (", consistent with its own scans" if x in scans else "")
+                  + ("" if placed else "; the two could not be laid over each other, "
+                     "as a broken map does not register with a sound one"))
+    out = list(warnings)
+    out.append(f"{y} is never named best: defects: {', '.join(_defect_kinds(info[y]))}")
+    return {"sequence": str(sequence), "best": x, "ranking": [x, y],
+            "basis": ["defects"] + ([SCAN_KEY] if scans else []),
+            "confidence": confidence, "warnings": out}
+
+
 def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, Any],
                        warnings: list[str]) -> dict[str, Any]:
     """The verdict without ground truth, from the maps' agreement, defect flags and their
@@ -254,6 +300,9 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     scans, scan_flags = _scan_flags(info)
     for a, why in scan_flags.items():
         flagged.setdefault(a, why)
+    one_broken = _one_broken(sequence, info, scans, scan_flags, warnings)
+    if one_broken is not None:  # two maps, one broken beyond doubt (spec section 9)
+        return one_broken
     support = {a: e["support"] for a, e in info.items() if math.isfinite(e["support"])}
     complete = {a: e["completeness"] for a, e in info.items()
                 if math.isfinite(e["completeness"])}
@@ -342,7 +391,8 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                 "basis": basis, "confidence": f"none: {why}", "warnings": warnings}
     if defect_decides:  # two maps, one flagged by a defect detector: low, as spec 9 says
         other = next(a for a in support if a != candidates[0])
-        v = _two_maps(sequence, candidates[0], other, flagged[other], scans, basis, warnings)
+        v = _two_maps(sequence, candidates[0], other, flagged[other], scans,
+                      ["defects"] + ([SCAN_KEY] if scans else []), warnings)
         return {**v, "ranking": ranking}
     confidence = ("medium: no ground truth; the maps confirm each other, and the named map "
                   "is confirmed by them and has no defect flag")
@@ -553,6 +603,7 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
 _BASIS_NAMES = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
                 "rel_trans_abs_mean": "relations error",
                 "agreement": "agreement with the other maps",
+                "defects": "the other map's defect flags",
                 "scan_violation": "consistency with its own scans",
                 "scan_crossing": "consistency with its own scans",
                 "corners_canonical": "canonical corners"}
@@ -619,9 +670,10 @@ def rule_summary() -> str:
     they cannot place, whose support is under 90% of the best, that a defect detector
     flags, whose completeness is under 80% of the highest, or whose own scans cross its
     walls more than max(2%, 1.5x the most consistent map's) is never named best;
-    corners order the maps confirmed equally on one grid; of two maps, or of maps that
-    disagree, one is named only when another is wrong on its own and its own scans confirm
-    it; where 2% or more of the recording's scans see walls in one direction only, at
+    corners order the maps confirmed equally on one grid; of two maps, one is named when
+    the other is superposed, smeared or fragmented and it carries no flag; of two maps, or
+    of maps that disagree, one is also named when another is wrong on its own and its own
+    scans confirm it; where 2% or more of the recording's scans see walls in one direction only, at
     most low confidence, and no verdict when the map it would name has a path 3% or more
     shorter than another's); with figures alone, by corners (no clear winner within 25%)
     """
@@ -634,7 +686,9 @@ def rule_summary() -> str:
         f"completeness is under {COMPLETE_SHARE:.0%} of the highest, or whose own scans "
         f"cross its walls more than max({SCAN_FLOOR:.0%}, {SCAN_SHARE:g}x the most "
         "consistent map's) is never named best; corners order the maps confirmed equally on "
-        "one grid; of two maps, or of maps that disagree, one is named only when another is "
+        "one grid; of two maps, one is named when the other is "
+        f"{', '.join(SEVERE_DEFECTS[:-1])} or {SEVERE_DEFECTS[-1]} and it carries no flag; "
+        "of two maps, or of maps that disagree, one is also named when another is "
         f"wrong on its own and its own scans confirm it; where {DEGENERATE_SHARE:.0%} or "
         "more of the recording's scans see walls in one direction only, at most low "
         f"confidence, and no verdict when the map it would name has a path {SHORTFALL:.0%} or "
