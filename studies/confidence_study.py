@@ -15,7 +15,12 @@ A verdict's level is the first word of its ``confidence`` ("high", "medium", "lo
 - real folders ranked by eye (studies/by_eye.csv): the named map is in the folder's best
   by-eye class and not marked broken;
 - real logs with relations (``studies/real2d_validity.py``'s ``verdicts.csv``): the named
-  program is in the top two by the relations error and at most 3x the best.
+  program is in the top two by the relations error and at most 3x the best;
+- pairs of two maps (``--pairs``: the pair verdicts ``studies/scans_study.py`` wrote into a
+  run folder, generated or real logs; ``--pairs-real``: ``studies/two_map_study.py``'s pairs
+  of real maps with by-eye or ATE classes): the named map is the better of the two by the
+  truth (or as good) and not broken. A verdict of two maps says "low: two maps; ..." and is
+  counted apart, as level "low (two maps)": the verdict quotes that record for it.
 
 Each level gets its count, the share right and the lower end of its 95% Wilson interval:
 a level may call itself "high" only when that lower end is at least 0.95 (the issue's bar
@@ -34,25 +39,33 @@ import pandas as pd
 from _common import print_or_write_section
 from verdict_study import benchmark_verdicts, folder_verdicts
 
-from slamq.verdict.calibration import wilson_lower  # one definition: the verdict's own
+from slamq.verdict.calibration import (  # one definition: the verdict's own
+    TWO_MAPS,
+    level_of,
+    wilson_lower,
+)
+from slamq.verdict.rule import SCAN_FLOOR, SCAN_SHARE
 
 __all__ = ["level", "wilson_lower", "calibration", "markdown", "main"]
 
 BEGIN, END = "<!-- confidence-study:begin -->", "<!-- confidence-study:end -->"
-LEVELS = ("high", "medium", "low", "none")
+LEVELS = ("high", "medium", "low", TWO_MAPS, "none")
 
 
 def level(confidence: object) -> str:
-    """The level of a verdict's ``confidence`` text.
+    """The level of a verdict's ``confidence`` text (a verdict of two maps: its own,
+    ``"low (two maps)"``, as :func:`slamq.verdict.calibration.level_of` reads it).
 
     Examples
     --------
     >>> level("medium: no ground truth; the maps confirm each other"), level(None)
     ('medium', 'none')
+    >>> level("low: two maps; b is wrong on its own")
+    'low (two maps)'
     """
     if not isinstance(confidence, str) or not confidence:
         return "none"
-    word = confidence.split(":", 1)[0].strip().lower()
+    word = level_of(confidence)
     return word if word in LEVELS else "none"
 
 
@@ -95,6 +108,45 @@ def real2d_rows(verdicts_csv: Path) -> list[dict]:
         rows.append({"data": "real logs, relations error", "item": f"{r.sequence}/{r.iteration}",
                      "level": level(r.confidence) if named else "none", "named": named,
                      "right": right})
+    return rows
+
+
+def pair_rows(outputs: Sequence[Path]) -> list[dict]:
+    """One row per pair of programs in the pair verdicts ``studies/scans_study.py`` wrote
+    into each run folder (``scans-verdicts-pairs-crossing_share.csv``, the rule as
+    shipped, each map with its own scans): right when the named program's truth (ATE, or
+    the relations error on the real logs) is the lower of the two (or equal) and it is
+    not broken."""
+    rule = f"{SCAN_FLOOR:g}/{SCAN_SHARE:g}"
+    rows = []
+    for out in outputs:
+        df = pd.read_csv(Path(out) / "scans-verdicts-pairs-crossing_share.csv")
+        for r in df.to_dict("records"):
+            best = r[f"best@{rule}"]
+            named = isinstance(best, str) and best != ""
+            right = bool(named and float(r[f"ratio@{rule}"]) <= 1.0 + 1e-9
+                         and not bool(r[f"broken_named@{rule}"]))
+            rows.append({"data": f"pairs: {Path(out).name}", "item": r["case"],
+                         "level": level(r[f"reason@{rule}"]) if named else "none",
+                         "named": named, "right": right})
+    return rows
+
+
+def real_pair_rows(root: Path, csvs: Sequence[Path]) -> list[dict]:
+    """One row per pair of maps of one folder of each classes CSV
+    (:func:`two_map_study.pair_verdicts`): right when the named map is of the better
+    class (either, of one class) and not broken."""
+    from two_map_study import pair_verdicts
+
+    rows = []
+    for csv in csvs:
+        for r in pair_verdicts(Path(root), [Path(csv)]).itertuples():
+            named = isinstance(r.best, str)
+            rows.append({"data": f"pairs: {Path(csv).stem}",
+                         "item": f"{r.folder}: {r.map_a} | {r.map_b}",
+                         "level": level(r.reason) if named else "none", "named": named,
+                         "right": bool(named and r.outcome in ("right", "decided")
+                                       and not r.broken_named)})
     return rows
 
 
@@ -146,6 +198,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--fill-scans", action="store_true",
                     help="records without scans get their sequence's rawlog, as slamq run "
                     "records it now")
+    ap.add_argument("--pairs", nargs="+", default=[], type=Path, metavar="DIR",
+                    help="run folders holding studies/scans_study.py's pair verdicts")
+    ap.add_argument("--pairs-real", nargs="+", default=[], type=Path,
+                    metavar="MAPS CLASSES_CSV",
+                    help="the real maps' root folder, then CSVs of classes "
+                    "(studies/two_map_study.py judges every pair of each folder)")
     ap.add_argument("--markdown", type=Path, help="write into this file's section")
     args = ap.parse_args(argv)
     rows: list[dict] = benchmark_rows(args.benchmark, fill_scans=args.fill_scans)
@@ -153,15 +211,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         rows += folder_rows(*args.real)
     if args.real2d:
         rows += real2d_rows(args.real2d)
+    rows += pair_rows(args.pairs)
+    if args.pairs_real:
+        if len(args.pairs_real) < 2:
+            ap.error("--pairs-real needs the maps folder and at least one classes CSV")
+        rows += real_pair_rows(args.pairs_real[0], args.pairs_real[1:])
     if not rows:
-        ap.error("give at least one of --benchmark, --real, --real2d")
+        ap.error("give at least one of --benchmark, --real, --real2d, --pairs, --pairs-real")
     frame = pd.DataFrame(rows)
     wrong = frame[frame["named"] & ~frame["right"]]
+    generated_pairs = wrong["data"].str.startswith("pairs: ") & wrong["item"].str.startswith(
+        "gen-")
+    wrong = wrong[~generated_pairs]  # counted in the table; too many to list
     command = "python studies/confidence_study.py " + " ".join(
         sys.argv[1:] if argv is None else argv)
     text = markdown(calibration(frame), command)
     if len(wrong):
-        text += "\nWrong picks: " + ", ".join(
+        text += "\nWrong picks (generated pairs: counted above, not listed): " + ", ".join(
             f"{r.item} ({r.level})" for r in wrong.itertuples()) + ".\n"
     return print_or_write_section(text, args.markdown, BEGIN, END)
 

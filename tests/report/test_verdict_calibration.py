@@ -97,3 +97,21 @@ def test_only_verdicts_without_ground_truth_carry_the_record() -> None:
 def test_levels_without_a_record_are_left_as_they_are(confidence: str) -> None:
     v = with_calibration({"best": "a", "confidence": confidence})
     assert v["confidence"] == confidence and v["confidence_calibration"] is None
+
+
+def test_a_verdict_of_two_maps_quotes_the_record_of_two_maps() -> None:
+    """Measured apart (docs/validity.md, "Two maps counted apart"): a choice between two
+    maps does not quote the record of verdicts of three and more."""
+    df = pd.DataFrame({"sequence": "s", "algorithm": ["a", "b"], "corners": [300, 40]})
+    ev = {"majority": False, "notes": [], "algorithms": {
+        a: {"support": 0.7, "completeness": 1.0, "placed": True, "runs": 1,
+            "flagged_runs": int(a == "a"),
+            "defects": {f"{a}.pgm": [{"kind": "superposed"}] if a == "a" else []}}
+        for a in "ab"}}
+    v = sequence_verdict(summarize(df), "s", ev)
+    assert v["best"] == "b" and v["confidence"].startswith("low: ")
+    right, n = CONFIDENCE_CALIBRATION["low (two maps)"]
+    assert (right, n) != CONFIDENCE_CALIBRATION["low"]
+    assert v["confidence"].startswith(f"low: right in {right} of {n} labelled verdicts")
+    assert "; two maps; a is broken on its own" in v["confidence"]
+    assert v["confidence_calibration"]["of"] == n

@@ -14,8 +14,13 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["CONFIDENCE_CALIBRATION", "calibration", "calibration_note", "wilson_lower",
-           "with_calibration"]
+__all__ = ["CONFIDENCE_CALIBRATION", "TWO_MAPS", "calibration", "calibration_note",
+           "level_of", "wilson_lower", "with_calibration"]
+
+#: The record a verdict of two maps quotes ("low: two maps; ..."): measured apart, on
+#: every labelled pair, as a choice between two maps is another question than a choice
+#: among three or more.
+TWO_MAPS = "low (two maps)"
 
 #: Level -> (verdicts right, labelled verdicts) of the verdict without ground truth, over
 #: every labelled set (the "all" rows of docs/validity.md, "Calibrated confidence", written
@@ -23,7 +28,26 @@ __all__ = ["CONFIDENCE_CALIBRATION", "calibration", "calibration_note", "wilson_
 CONFIDENCE_CALIBRATION: dict[str, tuple[int, int]] = {
     "medium": (217, 226),
     "low": (63, 63),
+    TWO_MAPS: (507, 575),
 }
+
+
+def level_of(confidence: str) -> str:
+    """The level whose record a verdict's ``confidence`` quotes: its first word, or
+    :data:`TWO_MAPS` for a verdict of two maps ("low: two maps; ...").
+
+    Examples
+    --------
+    >>> level_of("medium: no ground truth"), level_of("low: two maps; b is wrong")
+    ('medium', 'low (two maps)')
+    >>> level_of("low: right in 3 of 4 labelled verdicts (...); two maps; b is wrong")
+    'low (two maps)'
+    """
+    word, _, rest = str(confidence).partition(":")
+    word = word.strip().lower()
+    # "low: two maps; ...", or with the record quoted first: "low: right in ...; two maps;"
+    two = rest.lstrip().startswith("two maps;") or "; two maps;" in rest
+    return TWO_MAPS if word == "low" and two else word
 
 
 def wilson_lower(right: int, n: int, z: float = 1.96) -> float:
@@ -92,14 +116,16 @@ def with_calibration(verdict: dict[str, Any]) -> dict[str, Any]:
     --------
     >>> v = with_calibration({"best": "a", "confidence": "low: two maps; b is wrong"})
     >>> print(v["confidence"])  # doctest: +NORMALIZE_WHITESPACE
-    low: right in 63 of 63 labelled verdicts (100%, lower bound 94% at 95% confidence,
+    low: right in 507 of 575 labelled verdicts (88%, lower bound 85% at 95% confidence,
     docs/validity.md); two maps; b is wrong
     >>> v["confidence_calibration"]["lower_bound"]
-    0.94
+    0.85
     """
-    level, _, rest = str(verdict.get("confidence", "")).partition(":")
-    c = calibration(level.strip()) if verdict.get("best") is not None else None
+    text = str(verdict.get("confidence", ""))
+    level, _, rest = text.partition(":")
+    key = level_of(text)
+    c = calibration(key) if verdict.get("best") is not None else None
     if c is not None:
-        verdict["confidence"] = f"{level}: {calibration_note(level.strip())};{rest}"
+        verdict["confidence"] = f"{level}: {calibration_note(key)};{rest}"
     verdict["confidence_calibration"] = c
     return verdict
