@@ -269,11 +269,19 @@ def test_of_two_maps_one_flagged_on_its_own_the_other_is_named() -> None:
     assert "two maps; a is wrong on its own (defects: doubled_walls)" in v["confidence"]
     assert v["ranking"] == ["b", "a"]
     # a flag that sound maps can carry decides only two placed maps, the other not partial
-    for ev in (_evidence({"a": math.nan, "b": math.nan}, defects=("a",),
-                         kind="doubled_walls", unplaced=("a", "b")),
-               _evidence({"a": 0.7, "b": 0.7}, defects=("a",), kind="doubled_walls",
-                         completeness={"b": 0.5})):
-        assert agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])["best"] is None
+    for ev, held in ((_evidence({"a": 0.2, "b": 0.2}, defects=("a",), kind="doubled_walls",
+                                unplaced=("a", "b")), "the two are not placed"),
+                     (_evidence({"a": 0.7, "b": 0.7}, defects=("a",), kind="doubled_walls",
+                                completeness={"b": 0.5}), "b is partial")):
+        v = agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])
+        # the reason says what held the flag back, and what would tell the maps apart
+        assert v["best"] is None and "a carries doubled_walls, which decides" in \
+            v["confidence"] and v["confidence"].endswith(
+                f"and {held}; each map's own scans (its recording and trajectory) could tell "
+                "them apart"), v["confidence"]
+    plain = agreement_verdict(_evidence({"a": 0.7, "b": 0.7}), algorithm=["a", "b"],
+                              corners=[5, 50])
+    assert "right; neither carries a defect flag; each map's own scans" in plain["confidence"]
 
 
 @pytest.mark.parametrize("kind", ["superposed", "smeared", "fragmented"])

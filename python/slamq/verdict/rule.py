@@ -284,6 +284,29 @@ def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
             "confidence": confidence, "warnings": out}
 
 
+def _undecided_pair(info: dict[str, Any], partial: set[str], scans: bool) -> str:
+    """Why two maps without their scans were not told apart, and what would tell them
+    apart ("; ..." to append to the verdict's reason)."""
+    kinds = {a: _defect_kinds(e) for a, e in info.items()}
+    flagged = sorted(a for a, k in kinds.items() if k)
+    if len(flagged) == 2:
+        out = "; both carry a defect flag (" + "; ".join(
+            f"{a}: {', '.join(kinds[a])}" for a in flagged) + ")"
+    elif flagged:
+        a = flagged[0]
+        b = next(x for x in info if x != a)
+        held = ([] if info[a]["placed"] and info[b]["placed"] else ["the two are not placed"]
+                ) + ([f"{b} is partial"] if b in partial else [])
+        out = (f"; {a} carries {', '.join(kinds[a])}, which decides two maps only when "
+               "both are placed and the other is not partial"
+               + (f", and {' and '.join(held)}" if held else ""))
+    else:
+        out = "; neither carries a defect flag"
+    if not scans:
+        out += "; each map's own scans (its recording and trajectory) could tell them apart"
+    return out
+
+
 def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, Any],
                        warnings: list[str]) -> dict[str, Any]:
     """The verdict without ground truth, from the maps' agreement, defect flags and their
@@ -375,7 +398,8 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                    + "; ".join(f"{a}: {alone[a]}" for a in sorted(info)))
     elif len(support) < 3:
         why = ("fewer than three maps take part: two maps that differ cannot tell which "
-               "of them is right")
+               "of them is right") + (_undecided_pair(info, partial, bool(scans))
+                                       if len(info) == 2 else "")
         if defect_decides:
             why = None  # one map is flagged on its own: the other is named
     elif not evidence["majority"] and not by_group:
