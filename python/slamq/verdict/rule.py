@@ -697,8 +697,8 @@ def rule_summary() -> str:
     corners order the maps confirmed equally on one grid; of two maps, one is named when
     the other is superposed, smeared or fragmented and it carries no flag; of two maps, or
     of maps that disagree, one is also named when another is wrong on its own and its own
-    scans confirm it; where 2% or more of the recording's scans see walls in one direction only, at
-    most low confidence, and no verdict when the map it would name has a path 3% or more
+    scans confirm it; where 2% or more of the recording's scans see walls in one direction
+    only, at most low confidence, and no verdict when the map it would name has a path 3% or more
     shorter than another's); with figures alone, by corners (no clear winner within 25%)
     """
     return (
