@@ -379,6 +379,30 @@ def _fill_shortfalls(ev: dict[str, Any], block: pd.DataFrame) -> None:
         e["shortfall"], e["shortfall_against"] = short.get(alg, (math.nan, None))
 
 
+def refresh_defects(cache: dict) -> int:
+    """Every cached evidence's defect flags again, with today's detectors (each map read
+    once): ``defects`` and ``flagged_runs`` of each program; the rest of the evidence does
+    not depend on them. Returns how many maps were read.
+
+    Examples
+    --------
+    >>> refresh_defects({("s", ()): {"algorithms": {"a": {"defects": {}, "flagged_runs": 0}}}})
+    0
+    """
+    from slamq.metrics.defects import detect_defects
+    from slamq.sources import load_map
+
+    memo: dict[str, list[dict[str, Any]]] = {}
+    for ev in cache.values():
+        for e in ev["algorithms"].values():
+            for path in e.get("defects", {}):
+                if path not in memo:
+                    memo[path] = [d.to_dict() for d in detect_defects(load_map(path))]
+            e["defects"] = {p: memo[p] for p in e.get("defects", {})}
+            e["flagged_runs"] = sum(1 for found in e["defects"].values() if found)
+    return len(memo)
+
+
 def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool = False,
              cache: dict | None = None, figure: str = "violation_share",
              by_run: bool = False) -> pd.DataFrame:
@@ -465,6 +489,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--grid", action="store_true",
                     help="the verdicts for every (floor, share) of the veto's grid (set A)")
     ap.add_argument("--no-verdict", action="store_true", help="the figures only")
+    ap.add_argument("--refresh-defects", action="store_true",
+                    help="with --cached: every map's defect flags again with today's "
+                    "detectors (the rest of the cached evidence does not depend on them)")
     ap.add_argument("--cached", action="store_true",
                     help="reuse the evidence of an earlier call (OUTPUT/scans-evidence.pkl): "
                     "only the rule is applied again")
@@ -535,6 +562,10 @@ def main(argv: list[str] | None = None) -> int:
         if not a.cached:
             raise SystemExit("--max-scans needs --cached")
         store = a.output / f"scans-evidence-{a.max_scans}.pkl"
+    if a.refresh_defects:
+        if not a.cached:
+            raise SystemExit("--refresh-defects needs --cached")
+        refresh_defects(cache)
     for pair in (False, True):
         v = verdicts(df, truth, rules=rules, pair=pair, cache=cache, figure=a.figure,
                      by_run=a.by_run)

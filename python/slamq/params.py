@@ -364,10 +364,13 @@ SETTINGS = _Rows((s.name, s) for s in (
             "superposed: the second direction has walls both ways (the lesser of it and its "
             "perpendicular at least this share of the greater; a lone diagonal wall has "
             "one way)", "", float, 0.0, 1.0),
-    Setting("defects", "superposed_split_share", 0.5,
+    Setting("defects", "superposed_split_share", 0.2,
             "superposed: a second direction this strong (share of the first peak) flags the "
             "map wherever its walls lie (parts turned against each other)", "", float, 0.0,
             1.0),
+    Setting("defects", "superposed_split_length", 4.0,
+            "superposed: a second direction strong enough to flag the map wherever it lies "
+            "holds at least this much wall", "m", float, 0.0, None),
     Setting("defects", "doubled_min_gap", 0.1,
             "doubled_walls: smallest free gap between two parallel walls", "m", float,
             0.0, None),

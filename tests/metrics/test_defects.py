@@ -202,3 +202,45 @@ def test_detect_defects_equals_each_detector_on_its_own(plan: OccupancyMap) -> N
               degrade(plan, "rotation", 7.0), world(44, kind="hexagonal")):
         alone = [d for fn in DETECTORS.values() for d in fn(m)]
         assert detect_defects(m) == alone
+
+
+def _room_with_a_turned_wing(turn: float) -> OccupancyMap:
+    """A 12 x 9 m room and, apart from it, a 4 x 3 m room turned by ``turn`` degrees: walls
+    drawn 0.1 m thick on a 0.05 m grid, free inside, unknown outside. At ``turn`` 0 a sound
+    building of two rooms; turned, the small room's walls hold about a third of the main
+    direction's (a part of the map turned against the rest, as a scan matcher that jumped
+    leaves it)."""
+    res = 0.05
+    h, w = 300, 500
+    ys, xs = (np.mgrid[0:h, 0:w] + 0.5) * res
+    occ = np.zeros((h, w), bool)
+    free = np.zeros((h, w), bool)
+
+    def room(cx: float, cy: float, a: float, b: float, deg: float) -> None:
+        t = math.radians(deg)
+        u = (xs - cx) * math.cos(t) + (ys - cy) * math.sin(t)
+        v = -(xs - cx) * math.sin(t) + (ys - cy) * math.cos(t)
+        inside = (np.abs(u) <= a / 2) & (np.abs(v) <= b / 2)
+        ring = inside & ((np.abs(u) >= a / 2 - 0.1) | (np.abs(v) >= b / 2 - 0.1))
+        occ[ring] = True
+        free[inside & ~ring] = True
+
+    room(7.5, 7.0, 12.0, 9.0, 0.0)
+    room(19.0, 7.0, 4.0, 3.0, turn)
+    values = np.full((h, w), 205, np.uint8)
+    values[free] = 254
+    values[occ] = 0
+    return OccupancyMap(values, ~(occ | free), resolution=res)
+
+
+def test_a_turned_part_holding_a_fifth_of_the_walls_is_superposed() -> None:
+    """The split rule (spec 3b, rule (b)): a second wall direction holding at least 0.2 of
+    the main one over at least 4 m flags the map wherever it lies; until 2026-11-29 it
+    took 0.5 of it, and a turned room this size went unflagged."""
+    assert superposed(_room_with_a_turned_wing(0.0)) == []
+    (d,) = superposed(_room_with_a_turned_wing(35.0))
+    assert d.kind == "superposed" and 0.2 <= d.score < 0.5, d
+    assert "turned against each other" in d.note
+    # the old threshold did not see it; a shorter turned part than 4 m does not count
+    assert superposed(_room_with_a_turned_wing(35.0), superposed_split_share=0.5) == []
+    assert superposed(_room_with_a_turned_wing(35.0), superposed_split_length=20.0) == []

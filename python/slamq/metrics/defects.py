@@ -346,6 +346,7 @@ def superposed(m: OccupancyMap, *,
                superposed_min_mixed: float = _S.superposed_min_mixed.default,
                superposed_min_square: float = _S.superposed_min_square.default,
                superposed_split_share: float = _S.superposed_split_share.default,
+               superposed_split_length: float = _S.superposed_split_length.default,
                occupied_threshold: float = _S.occupied_threshold.default) -> list[Defect]:
     """Rotated copies laid over each other: a second wall direction in the same places.
 
@@ -360,8 +361,9 @@ def superposed(m: OccupancyMap, *,
     ``superposed_min_square`` of the greater: a lone
     diagonal wall runs one way) with at least ``superposed_min_mixed`` of its walls in 2 m
     tiles that also hold walls of the first direction (a rotated copy laid over the
-    original), or hold at least ``superposed_split_share`` of it wherever it lies (parts of
-    the map turned against each other: scan matching that jumped). The second rule also
+    original), or hold at least ``superposed_split_share`` of it over at least
+    ``superposed_split_length`` metres wherever it lies (parts of the map turned against
+    each other: scan matching that jumped). The second rule also
     flags a real building with a strong second direction (a wing at an angle, as strong as
     the rest). Walls turned by less than about 5 degrees are not told apart (a local
     direction is measured over about ten cells); :func:`doubled_walls` sees such copies as
@@ -388,13 +390,14 @@ def superposed(m: OccupancyMap, *,
     square_min = _check("superposed_min_square", superposed_min_square)
     occ, _, off = _masks(m, occupied_threshold)
     split_min = _check("superposed_split_share", superposed_split_share)
+    split_length = _check("superposed_split_length", superposed_split_length)
     period = wall_period(m)
     ev = _superposed_evidence(occ, _res(m), sep, period)
-    if not ev or ev["length"] < length_min:
+    if not ev:
         return []
     laid_over = ev["share"] >= share_min and ev["mixed"] >= mixed_min \
-        and ev["square"] >= square_min
-    split = ev["share"] >= split_min
+        and ev["square"] >= square_min and ev["length"] >= length_min
+    split = ev["share"] >= split_min and ev["length"] >= split_length
     if not (laid_over or split):
         return []
     bbox = _shift(ev["bbox"], off)
