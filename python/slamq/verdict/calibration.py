@@ -28,7 +28,7 @@ TWO_MAPS = "low (two maps)"
 CONFIDENCE_CALIBRATION: dict[str, tuple[int, int]] = {
     "medium": (217, 226),
     "low": (63, 63),
-    TWO_MAPS: (507, 575),
+    TWO_MAPS: (521, 590),
 }
 
 
@@ -116,7 +116,7 @@ def with_calibration(verdict: dict[str, Any]) -> dict[str, Any]:
     --------
     >>> v = with_calibration({"best": "a", "confidence": "low: two maps; b is wrong"})
     >>> print(v["confidence"])  # doctest: +NORMALIZE_WHITESPACE
-    low: right in 507 of 575 labelled verdicts (88%, lower bound 85% at 95% confidence,
+    low: right in 521 of 590 labelled verdicts (88%, lower bound 85% at 95% confidence,
     docs/validity.md); two maps; b is wrong
     >>> v["confidence_calibration"]["lower_bound"]
     0.85
