@@ -355,7 +355,8 @@ SETTINGS = _Rows((s.name, s) for s in (
             "superposed: the second direction's peak holds at least this share of the "
             "first's (above the histogram's median)", "", float, 0.0, 1.0),
     Setting("defects", "superposed_min_length", 8.0,
-            "superposed: at least this much wall runs in the second direction", "m",
+            "superposed: a copy laid over the original holds at least this much wall in "
+            "the second direction", "m",
             float, 0.0, None),
     Setting("defects", "superposed_min_mixed", 0.15,
             "superposed: at least this share of the second direction's walls lies in 2 m "

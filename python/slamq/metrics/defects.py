@@ -353,9 +353,9 @@ def superposed(m: OccupancyMap, *,
     The wall-orientation histogram (structure tensor of the occupied mask, modulo the
     map's period, :func:`wall_period`: 90 degrees, 60 for a hexagonal map; weighted by wall
     length) must have a second peak at least
-    ``superposed_min_separation`` degrees from the first, holding at least
+    ``superposed_min_separation`` degrees from the first, and either hold at least
     ``superposed_min_length`` metres of wall (occupied cells of that direction times the
-    cell size), and either hold at least ``superposed_min_share`` of the first peak's height
+    cell size) and at least ``superposed_min_share`` of the first peak's height
     (above the histogram's median), running both ways (the second direction and its
     perpendicular, or its copies 60 degrees on for a hexagonal map, the lesser at least
     ``superposed_min_square`` of the greater: a lone
@@ -363,11 +363,11 @@ def superposed(m: OccupancyMap, *,
     tiles that also hold walls of the first direction (a rotated copy laid over the
     original), or hold at least ``superposed_split_share`` of it over at least
     ``superposed_split_length`` metres wherever it lies (parts of the map turned against
-    each other: scan matching that jumped). The second rule also
-    flags a real building with a strong second direction (a wing at an angle, as strong as
-    the rest). Walls turned by less than about 5 degrees are not told apart (a local
-    direction is measured over about ten cells); :func:`doubled_walls` sees such copies as
-    wedge-shaped wall pairs.
+    each other: scan matching that jumped). The second rule also flags a real building
+    with a strong second direction (a wing at an angle holding a fifth of the main
+    direction's walls). Walls turned by less than about 5 degrees are not told apart (a
+    local direction is measured over about ten cells); :func:`doubled_walls` sees such
+    copies as wedge-shaped wall pairs.
 
     Returns
     -------
