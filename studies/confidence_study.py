@@ -37,6 +37,7 @@ from pathlib import Path
 
 import pandas as pd
 from _common import print_or_write_section
+from scans_study import rule_name
 from verdict_study import benchmark_verdicts, folder_verdicts
 
 from slamq.verdict.calibration import (  # one definition: the verdict's own
@@ -117,7 +118,7 @@ def pair_rows(outputs: Sequence[Path]) -> list[dict]:
     shipped, each map with its own scans): right when the named program's truth (ATE, or
     the relations error on the real logs) is the lower of the two (or equal) and it is
     not broken."""
-    rule = f"{SCAN_FLOOR:g}/{SCAN_SHARE:g}"
+    rule = rule_name((SCAN_FLOOR, SCAN_SHARE))
     rows = []
     for out in outputs:
         df = pd.read_csv(Path(out) / "scans-verdicts-pairs-crossing_share.csv")

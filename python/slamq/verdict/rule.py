@@ -244,13 +244,19 @@ def _separating(a: str, flagged: dict[str, str], scan_flags: dict[str, str],
     return "; ".join(reasons) or None
 
 
-def _defect_kinds(e: dict[str, Any], kinds: tuple[str, ...] | None = None) -> list[str]:
-    """The defect kinds (of ``kinds``, or any) found on at least half of an algorithm's runs
-    (``e``: its evidence entry), sorted."""
+def _defects_held(e: dict[str, Any]) -> list[str]:
+    """The defect kinds held against an algorithm (``e``: its evidence entry): every kind
+    found on its runs when at least half of them carry a flag; none otherwise."""
+    if not (e["flagged_runs"] and 2 * e["flagged_runs"] >= e["runs"]):
+        return []
+    return sorted({d["kind"] for ds in e["defects"].values() for d in ds})
+
+
+def _severe_kinds(e: dict[str, Any]) -> list[str]:
+    """The :data:`SEVERE_DEFECTS` found on at least half of an algorithm's runs, sorted."""
     runs = max(int(e.get("runs", 1)), 1)
     per_run = [{d["kind"] for d in ds} for ds in e.get("defects", {}).values()]
-    found = {k for ks in per_run for k in ks if kinds is None or k in kinds}
-    return sorted(k for k in found if 2 * sum(k in ks for ks in per_run) >= runs)
+    return sorted(k for k in SEVERE_DEFECTS if 2 * sum(k in ks for ks in per_run) >= runs)
 
 
 def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
@@ -260,15 +266,13 @@ def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
     not, and whatever X's area against Y's (Y's copies count as area). None otherwise."""
     if len(info) != 2:
         return None
-    severe = {a: _defect_kinds(e, SEVERE_DEFECTS) for a, e in info.items()}
+    severe = {a: _severe_kinds(e) for a, e in info.items()}
     broken = [a for a, k in severe.items() if k]
     if len(broken) != 1:
         return None
     y = broken[0]
     x = next(a for a in info if a != y)
-    e = info[x]
-    flagged_x = e["flagged_runs"] and 2 * e["flagged_runs"] >= e["runs"]
-    if flagged_x or _defect_kinds(e) or x in scan_flags:
+    if _defects_held(info[x]) or x in scan_flags:
         return None
     why = ", ".join(severe[y])
     placed = info[x]["placed"] and info[y]["placed"]
@@ -278,7 +282,7 @@ def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
                   + ("" if placed else "; the two could not be laid over each other, "
                      "as a broken map does not register with a sound one"))
     out = list(warnings)
-    out.append(f"{y} is never named best: defects: {', '.join(_defect_kinds(info[y]))}")
+    out.append(f"{y} is never named best: defects: {', '.join(_defects_held(info[y]))}")
     return {"sequence": str(sequence), "best": x, "ranking": [x, y],
             "basis": ["defects"] + ([SCAN_KEY] if scans else []),
             "confidence": confidence, "warnings": out}
@@ -287,7 +291,7 @@ def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
 def _undecided_pair(info: dict[str, Any], partial: set[str], scans: bool) -> str:
     """Why two maps without their scans were not told apart, and what would tell them
     apart ("; ..." to append to the verdict's reason)."""
-    kinds = {a: _defect_kinds(e) for a, e in info.items()}
+    kinds = {a: _defects_held(e) for a, e in info.items()}
     flagged = sorted(a for a, k in kinds.items() if k)
     if len(flagged) == 2:
         out = "; both carry a defect flag (" + "; ".join(
@@ -317,8 +321,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     for a, e in info.items():
         if not e["placed"]:
             flagged[a] = "could not be registered with the other maps"
-        elif e["flagged_runs"] and 2 * e["flagged_runs"] >= e["runs"]:
-            kinds = sorted({d["kind"] for ds in e["defects"].values() for d in ds})
+        elif kinds := _defects_held(e):
             flagged[a] = f"defects: {', '.join(kinds)}"
     scans, scan_flags = _scan_flags(info)
     for a, why in scan_flags.items():
