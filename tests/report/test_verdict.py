@@ -307,6 +307,16 @@ def test_of_two_maps_one_broken_beyond_doubt_the_other_is_named_placed_or_not(
     three = _evidence({"a": math.nan, "b": math.nan, "c": math.nan}, defects=("a",),
                       kind=kind, unplaced=("a", "b", "c"))
     assert agreement_verdict(three, algorithm=list("abc"), corners=[5, 50, 9])["best"] is None
+    # with their scans, b's map is called consistent with them only when they confirm it
+    for crossing, said in ((0.01, ", consistent with its own scans (1.0% of its beams"),
+                           (0.12, "; its own scans do not confirm it: 12.0% of b's beams "
+                                  "cross its walls (a's 20.0%)")):
+        ev = _evidence({"a": math.nan, "b": math.nan}, defects=("a",), kind=kind,
+                       unplaced=("a", "b"))
+        for a, c in (("a", 0.2), ("b", crossing)):
+            ev["algorithms"][a] |= {"scan_crossing": c, "scan_runs": 1}
+        v = agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])
+        assert v["best"] == "b" and said in v["confidence"], v["confidence"]
 
 
 def test_ground_truth_still_decides_when_evidence_is_given() -> None:

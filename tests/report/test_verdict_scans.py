@@ -264,6 +264,14 @@ def test_of_two_maps_with_their_scans_a_partial_one_separates_them() -> None:
     v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.15, "b": 0.16},
                                      defects=("b",)))
     assert v["best"] == "a"
+    # ... and the sentence does not call a's map consistent with scans that cross its walls
+    assert "consistent with its own scans" not in v["confidence"], v["confidence"]
+    assert ("its own scans do not confirm it: 15.0% of a's beams cross its walls (b's "
+            "16.0%)") in v["confidence"]
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.01, "b": 0.16},
+                                     defects=("b",)))
+    assert v["best"] == "a" and v["confidence"].endswith(
+        "consistent with its own scans (1.0% of its beams cross its walls)"), v["confidence"]
     # the other is inconsistent with its scans, but this one's scans do not confirm it
     v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.15, "b": 0.5}))
     assert v["best"] is None and "a's own scans do not confirm it" in v["confidence"]

@@ -278,7 +278,7 @@ def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
     placed = info[x]["placed"] and info[y]["placed"]
     confidence = (f"low: two maps; {y} is broken on its own (defects: {why}, a kind the "
                   f"defect study found on no sound map) and {x} carries no defect flag"
-                  + (", consistent with its own scans" if x in scans else "")
+                  + _own_scans(x, y, scans)
                   + ("" if placed else "; the two could not be laid over each other, "
                      "as a broken map does not register with a sound one"))
     out = list(warnings)
@@ -286,6 +286,30 @@ def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
     return {"sequence": str(sequence), "best": x, "ranking": [x, y],
             "basis": ["defects"] + ([SCAN_KEY] if scans else []),
             "confidence": confidence, "warnings": out}
+
+
+def _own_scans(x: str, y: str, scans: dict[str, float]) -> str:
+    """What ``x``'s own scans say of the map named of two (``y`` the other), to append to
+    the confidence: "consistent" only when its crossing share is at most
+    :data:`SCAN_FLOOR`; above that, the two shares (not vetoed: ``y``'s is as high or
+    higher); "" without scans.
+
+    Examples
+    --------
+    >>> _own_scans("a", "b", {"a": 0.01, "b": 0.3})
+    ', consistent with its own scans (1.0% of its beams cross its walls)'
+    >>> _own_scans("a", "b", {"a": 0.15, "b": 0.2})[:60]
+    "; its own scans do not confirm it: 15.0% of a's beams cross "
+    >>> _own_scans("a", "b", {})
+    ''
+    """
+    if x not in scans:
+        return ""
+    if scans[x] <= SCAN_FLOOR:
+        return f", consistent with its own scans ({_pct(scans[x])} of its beams cross its walls)"
+    theirs = f" ({y}'s {_pct(scans[y])})" if y in scans else ""
+    return (f"; its own scans do not confirm it: {_pct(scans[x])} of {x}'s beams cross its "
+            f"walls{theirs}, more than the {_pct(SCAN_FLOOR)} that would")
 
 
 def _undecided_pair(info: dict[str, Any], partial: set[str], scans: bool) -> str:
@@ -480,8 +504,7 @@ def _two_maps(sequence: str, named: str, other: str, why: str, scans: dict[str, 
               basis: list[str], warnings: list[str]) -> dict[str, Any]:
     """The verdict on two maps when one of them is wrong on its own and the other is not."""
     confidence = (f"low: two maps; {other} is wrong on its own ({why}) and {named} is not "
-                  "(no defect flag, not partial")
-    confidence += (", consistent with its own scans)" if named in scans else ")")
+                  "(no defect flag, not partial)" + _own_scans(named, other, scans))
     return {"sequence": str(sequence), "best": named, "ranking": [named, other],
             "basis": basis, "confidence": confidence, "warnings": warnings}
 
