@@ -291,8 +291,8 @@ def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
 def _own_scans(x: str, y: str, scans: dict[str, float]) -> str:
     """What ``x``'s own scans say of the map named of two (``y`` the other), to append to
     the confidence: "consistent" only when its crossing share is at most
-    :data:`SCAN_FLOOR`; above that, the two shares (not vetoed: ``y``'s is as high or
-    higher); "" without scans.
+    :data:`SCAN_FLOOR`; above that, the two shares (``x`` is within the veto's limit,
+    :func:`scan_limit`, but its scans do not confirm it); "" without scans.
 
     Examples
     --------
