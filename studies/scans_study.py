@@ -9,7 +9,9 @@ two-map case).
 
 ``python studies/scans_study.py real OUTPUT``: the same for the runs of
 ``examples/real2d.yaml`` beside the relations error (:func:`real_rows`: the ``rel_*``
-columns of ``slamq run``'s results, or an earlier pipeline's ``relations.csv``).
+columns of ``slamq run``'s results, or an earlier pipeline's ``relations.csv``);
+``real OUTPUT OTHER...`` takes the runs of several outputs as one set (the GMapping study:
+``examples/real2d-runs studies/real2d-gmapping-runs``) and writes into the last.
 
 Both write ``OUTPUT/scans-rows.csv`` (one row per run) and print Markdown.
 """
@@ -197,9 +199,22 @@ def real_rows(output: Path) -> pd.DataFrame:
                          "rel_trans_abs_mean": r["trans_abs_mean"],
                          "rel_rot_abs_mean": r["rot_abs_mean"]})
         df = pd.DataFrame(rows)
+    return with_broken(df)
+
+
+def with_broken(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with ``broken``: a run with more than 3x the best relations error of its
+    sequence and iteration, and more than 0.2 m.
+
+    Examples
+    --------
+    >>> df = pd.DataFrame({"sequence": "s", "run": 1, "rel_trans_abs_mean": [0.1, 0.25, 0.4]})
+    >>> with_broken(df)["broken"].tolist()
+    [False, False, True]
+    """
     best = df.groupby(["sequence", "run"])["rel_trans_abs_mean"].transform("min")
-    df["broken"] = (df["rel_trans_abs_mean"] > 3 * best) & (df["rel_trans_abs_mean"] > 0.2)
-    return df
+    return df.assign(broken=(df["rel_trans_abs_mean"] > 3 * best)
+                     & (df["rel_trans_abs_mean"] > 0.2))
 
 
 def pairs(df: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
@@ -485,7 +500,10 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("kind", choices=("benchmark", "real"))
-    ap.add_argument("output", type=Path)
+    ap.add_argument("output", type=Path, nargs="+",
+                    help="real: several outputs are one set of runs (e.g. examples/"
+                    "real2d-runs and studies/real2d-gmapping-runs); the files are written "
+                    "into the last")
     ap.add_argument("--grid", action="store_true",
                     help="the verdicts for every (floor, share) of the veto's grid (set A)")
     ap.add_argument("--no-verdict", action="store_true", help="the figures only")
@@ -514,6 +532,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rows", action="store_true",
                     help="reuse the scored rows of an earlier call (OUTPUT/scans-rows.csv)")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
+    outputs = a.output
+    if len(outputs) > 1 and a.kind == "benchmark":
+        raise SystemExit("benchmark: one output")
+    a.output = outputs[-1]
     if a.rows and a.kind == "benchmark":
         df = pd.read_csv(a.output / "scans-rows.csv")
         truth, label = "ate_rmse", "the ATE RMSE"
@@ -524,7 +546,8 @@ def main(argv: list[str] | None = None) -> int:
         df = score_runs(benchmark_rows(a.output))
         truth, label = "ate_rmse", "the ATE RMSE"
     else:  # real
-        df = score_runs(real_rows(a.output))
+        df = score_runs(with_broken(pd.concat([real_rows(o) for o in outputs],
+                                              ignore_index=True)))
         truth, label = "rel_trans_abs_mean", "the mean abs translational relations error"
     df.to_csv(a.output / "scans-rows.csv", index=False)
     sys.stdout.write(tables(df, truth, label))
