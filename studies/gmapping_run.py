@@ -58,35 +58,29 @@ def carmen_source(rawlog: Path) -> Path:
 
 def read_robotlaser(path: Path) -> tuple[np.ndarray, list[np.ndarray], np.ndarray,
                                          tuple[float, float, float]]:
-    """The ``ROBOTLASER1`` lines of a CARMEN log: their stamps (s), each scan's ranges (m),
-    the laser's poses ``(N, 3)`` and ``(first beam's angle, angle step, max range)``.
+    """The ``ROBOTLASER1`` lines of a CARMEN log (read by :class:`slamq.sources.carmen.
+    CarmenLog`): their stamps (s), each scan's ranges (m), the laser's poses ``(N, 3)`` and
+    ``(first beam's angle, angle step, max range)``.
     """
-    stamps, ranges, poses = [], [], []
-    geometry = None
-    for line in path.read_text().splitlines():
-        f = line.split()
-        if not f or f[0] != "ROBOTLASER1":
-            continue
-        start, step, max_range = float(f[2]), float(f[4]), float(f[5])
-        n = int(f[8])
-        r = np.array(f[9:9 + n], float)
-        k = 9 + n
-        k += 1 + int(f[k])  # remissions
-        poses.append((float(f[k]), float(f[k + 1]), float(f[k + 2])))
-        stamps.append(float(f[k + 11]))
-        ranges.append(r)
-        geometry = (start, step, max_range)
-    if geometry is None:
+    from slamq.sources.carmen import CarmenLog, Laser
+
+    lasers = [r for r in CarmenLog(path).records()
+              if isinstance(r, Laser) and r.kind == "ROBOTLASER1" and r.laser_pose]
+    if not lasers:
         raise SystemExit(f"{path}: no ROBOTLASER1 line (GMapping processed no scan)")
-    return np.array(stamps), ranges, np.array(poses), geometry
+    last = lasers[-1]
+    return (np.array([r.stamp for r in lasers]), [r.ranges for r in lasers],
+            np.array([r.laser_pose for r in lasers]),
+            (last.start_angle, last.angular_resolution, last.max_range))
 
 
 def write_tum(path: Path, stamps: np.ndarray, poses: np.ndarray) -> None:
-    """Poses ``(x, y, yaw)`` at ``stamps`` as a TUM file (z = 0, yaw about z)."""
-    with path.open("w") as f:
-        for t, (x, y, a) in zip(stamps, poses):
-            f.write(f"{t:.6f} {x:.6f} {y:.6f} 0 0 0 {math.sin(a / 2):.9f} "
-                    f"{math.cos(a / 2):.9f}\n")
+    """Poses ``(x, y, yaw)`` at ``stamps`` as a TUM file, in time order (the log's own
+    order where stamps tie or run backwards: slamq's ``unsorted: sort``)."""
+    from slamq.models.trajectory import Trajectory, order_rows
+
+    o = order_rows(stamps, "sort")
+    Trajectory.from_xy_yaw(stamps[o], poses[o, 0], poses[o, 1], poses[o, 2]).write_tum(path)
 
 
 def draw_map(ranges: list[np.ndarray], poses: np.ndarray, geometry: tuple[float, float, float],
