@@ -385,10 +385,9 @@ SETTINGS = _Rows((s.name, s) for s in (
             "doubled_walls: the map is flagged when the stretches add up to this", "m",
             float, 0.0, None),
     Setting("defects", "doubled_min_share", 0.0,
-            "doubled_walls: ... and to at least this share of the map's wall length "
-            "(occupied cells times the cell size; clutter beside walls grows with the "
-            "building; 0.01 measured, not the default: docs/validity.md)", "", float, 0.0,
-            1.0),
+            "doubled_walls: the stretches must also add up to this share of the map's "
+            "wall length (occupied cells times the cell size; 0: no share; 0.01 measured, "
+            "not the default: docs/validity.md)", "", float, 0.0, 1.0),
     Setting("defects", "smeared_min_thickness", 0.4,
             "smeared: occupied blobs thicker than this (distance transform) are smears "
             "unless solid rectangles or discs", "m", float, 0.0, None),
