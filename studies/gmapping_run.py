@@ -7,10 +7,13 @@ slamq's CI; ``studies/real2d-gmapping.yaml`` runs it through this file when it i
 
 Building it (its licence is CC BY-NC-SA 2.0; nothing of it is in this repository): clone
 https://github.com/OpenSLAM-org/openslam_gmapping and compile, without its Qt viewer, the
-sources of ``utils sensor/* log configfile scanmatcher gridfastslam`` that are not tests,
-with ``gui/gsp_thread.cpp`` and ``gui/gfs_nogui.cpp`` into ``gfs_nogui``, and with
-``gridfastslam/gfs2log.cpp`` into ``gfs2log`` (``g++ -O2 -DLINUX -I. -Isensor
--fpermissive ... -lpthread``). Put both on ``PATH`` or in ``$GMAPPING_BIN``.
+sources of ``utils sensor/* log configfile scanmatcher gridfastslam`` that have no
+``main`` (``log/scanstudio2carmen.cpp`` has one the grep misses) and are not
+``scanmatcher/scanmatcher.new.cpp``, with ``gui/gsp_thread.cpp`` and ``gui/gfs_nogui.cpp``
+into ``gfs_nogui``, and with ``gridfastslam/gfs2log.cpp`` into ``gfs2log`` (``g++ -O2
+-DLINUX -I. -Isensor -fpermissive -w ... -lpthread``). g++ 12 refuses one line of
+``gui/gsp_thread.cpp`` (``<< cout <<`` inside a stream expression, about line 329): drop
+that ``<< cout``. Put both on ``PATH`` or in ``$GMAPPING_BIN``.
 
 What a run does, in the run's ``{out}`` folder:
 
