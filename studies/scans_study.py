@@ -340,11 +340,14 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
             "reason": v["confidence"]}
 
 
-def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str) -> dict[str, Any]:
+def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str,
+          values: dict[str, float] | None = None) -> dict[str, Any]:
     """The evidence with the field the verdict's scan rule reads
     (:data:`slamq.verdict.rule.SCAN_KEY`) set, for each program, to the median of its maps'
     ``figure`` (``crossing_share`` or ``violation_share``): the verdict then weighs that
-    figure in the veto and the confirmation, nothing else changed.
+    figure in the veto and the confirmation, nothing else changed. ``values`` (map path ->
+    figure) replaces the evidence's figures of the maps scored against their scans
+    (``split_crossing``: studies/split_scans.py).
 
     Examples
     --------
@@ -359,7 +362,8 @@ def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str) -> dict[str, Any
     out = dict(ev)
     out["algorithms"] = {}
     for alg, e in ev["algorithms"].items():
-        vals = [ev["scans"][str(m)][figure] for m in block.loc[
+        vals = [ev["scans"][str(m)][figure] if values is None
+                else values.get(str(m), math.nan) for m in block.loc[
                 block["algorithm"].astype(str) == alg, "map"]
                 if str(m) in ev.get("scans", {})]
         vals = [v for v in vals if isinstance(v, float) and math.isfinite(v)]
@@ -420,13 +424,13 @@ def refresh_defects(cache: dict) -> int:
 
 def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool = False,
              cache: dict | None = None, figure: str = "violation_share",
-             by_run: bool = False) -> pd.DataFrame:
+             by_run: bool = False, values: dict[str, float] | None = None) -> pd.DataFrame:
     """The verdict of each sequence (or, with ``pair``, each pair of programs of each
     sequence) with the truth hidden, for each rule of ``rules`` ((floor, share) of the
     scan veto; None: without the scans), the scans weighed by ``figure``
     (:func:`weigh`); ``cache`` keeps each case's evidence (the costly part) between
     calls; ``by_run``: one case per sequence and run (iteration) instead of per
-    sequence."""
+    sequence; ``values``: as :func:`weigh`'s."""
     from slamq.verdict.evidence import sequence_evidence
     from slamq.verdict.ranking import summarize
     from slamq.verdict.rule import SCAN_KEY
@@ -454,7 +458,7 @@ def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool
             ev["degenerate_share"] = _degenerate_share(block)
         if cache is not None:  # cheap: measured again, as the figure is now
             _fill_shortfalls(ev, block)
-        ev = weigh(ev, block, figure)
+        ev = weigh(ev, block, figure, values)
         summary = summarize(sub)
         t = block.groupby("algorithm")[truth].mean()
         best = t.min()
@@ -497,6 +501,17 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
     return "\n".join(out) + "\n"
 
 
+def split_values(df: pd.DataFrame, output: Path) -> dict[str, float]:
+    """Each map of ``df`` (by its ``map`` value) with its split crossing share from
+    ``OUTPUT/split-rows.csv`` (studies/split_scans.py), matched by algorithm, sequence and
+    run; NaN where it has none."""
+    split = pd.read_csv(output / "split-rows.csv")
+    key = {(str(r.algorithm), str(r.sequence), str(r.run)): float(r.split_crossing)
+           for r in split.itertuples()}
+    return {str(m): key.get((str(a), str(s), str(r)), math.nan)
+            for m, a, s, r in zip(df["map"], df["algorithm"], df["sequence"], df["run"])}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("kind", choices=("benchmark", "real"))
@@ -515,10 +530,13 @@ def main(argv: list[str] | None = None) -> int:
                     "only the rule is applied again")
     ap.add_argument("--max-scans", type=int, default=None,
                     help="with --cached: the scans' figures again with at most N scans a map")
-    ap.add_argument("--figure", choices=("violation_share", "crossing_share"),
+    ap.add_argument("--figure", choices=("violation_share", "crossing_share",
+                                         "split_crossing"),
                     default="crossing_share",
                     help="the scan figure the verdict weighs (docs/validity.md, 'Walls "
-                    "crossed, not grazed')")
+                    "crossed, not grazed'; split_crossing: OUTPUT/split-rows.csv of "
+                    "studies/split_scans.py, 'A trajectory against its own scans, split "
+                    "in time')")
     ap.add_argument("--rule", type=float, nargs=2, metavar=("V", "K"), default=None,
                     help="the veto's floor and share (default: slamq's)")
     ap.add_argument("--margins", action="store_true",
@@ -589,9 +607,10 @@ def main(argv: list[str] | None = None) -> int:
         if not a.cached:
             raise SystemExit("--refresh-defects needs --cached")
         refresh_defects(cache)
+    values = split_values(df, a.output) if a.figure == "split_crossing" else None
     for pair in (False, True):
         v = verdicts(df, truth, rules=rules, pair=pair, cache=cache, figure=a.figure,
-                     by_run=a.by_run)
+                     by_run=a.by_run, values=values)
         store.write_bytes(pickle.dumps(cache))
         suffix = (f"-{a.max_scans}" if a.max_scans else "") + (
             "" if a.figure == "violation_share" else f"-{a.figure}")
