@@ -292,7 +292,7 @@ def _without_scans(ev: dict[str, Any]) -> dict[str, Any]:
     shortfalls, which are weighed only where the scans say so)."""
     out = dict(ev)
     out["algorithms"] = {a: {**e, "scan_violation": math.nan, "scan_crossing": math.nan,
-                             "scan_hit": math.nan, "scan_runs": 0,
+                             "scan_hit": math.nan, "scan_runs": 0, "scan_split": math.nan,
                              "shortfall": math.nan} for a, e in ev["algorithms"].items()}
     return out
 
@@ -347,7 +347,9 @@ def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str,
     ``figure`` (``crossing_share`` or ``violation_share``): the verdict then weighs that
     figure in the veto and the confirmation, nothing else changed. ``values`` (map path ->
     figure) replaces the evidence's figures of the maps scored against their scans
-    (``split_crossing``: studies/split_scans.py).
+    (``split_crossing``: studies/split_scans.py). ``c2``: the crossing share as the
+    verdict reads it, and the split share beside it (``scan_split``, which only a rule
+    patched as docs/validity.md's candidate C2 reads).
 
     Examples
     --------
@@ -359,6 +361,12 @@ def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str,
     """
     from slamq.verdict.rule import SCAN_KEY
 
+    if figure == "c2":  # the maps' crossing share and the split one beside it
+        out = weigh(ev, block, "crossing_share")
+        split = weigh(ev, block, "split_crossing", values)
+        for alg, e in out["algorithms"].items():
+            e["scan_split"] = split["algorithms"][alg][SCAN_KEY]
+        return out
     out = dict(ev)
     out["algorithms"] = {}
     for alg, e in ev["algorithms"].items():
@@ -531,7 +539,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-scans", type=int, default=None,
                     help="with --cached: the scans' figures again with at most N scans a map")
     ap.add_argument("--figure", choices=("violation_share", "crossing_share",
-                                         "split_crossing"),
+                                         "split_crossing", "c2"),
                     default="crossing_share",
                     help="the scan figure the verdict weighs (docs/validity.md, 'Walls "
                     "crossed, not grazed'; split_crossing: OUTPUT/split-rows.csv of "
@@ -607,7 +615,8 @@ def main(argv: list[str] | None = None) -> int:
         if not a.cached:
             raise SystemExit("--refresh-defects needs --cached")
         refresh_defects(cache)
-    values = split_values(df, a.output) if a.figure == "split_crossing" else None
+    values = (split_values(df, a.output) if a.figure in ("split_crossing", "c2")
+              else None)
     for pair in (False, True):
         v = verdicts(df, truth, rules=rules, pair=pair, cache=cache, figure=a.figure,
                      by_run=a.by_run, values=values)
