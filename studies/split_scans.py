@@ -11,8 +11,9 @@ enter.
 ``python studies/split_scans.py OUTPUT [OTHER...]``: every ok record of the ``slamq run``
 outputs with scans and a trajectory -> ``LAST/split-rows.csv`` (``map``, ``algorithm``,
 ``sequence``, ``run``, ``split_crossing``, the two halves' crossing and hit shares,
-seconds; resumable: rows already there are kept). ``studies/scans_study.py ...
---figure split_crossing`` weighs it in the verdict.
+seconds; resumable: rows already there are kept; ``--walk``: drawn by :func:`draw_walk`
+into ``split-walk-rows.csv``). ``studies/scans_study.py ... --figure split_crossing``
+(candidate C1) or ``--figure c2`` (C2) weighs it in the verdict.
 """
 
 from __future__ import annotations
