@@ -19,6 +19,7 @@ Both write ``OUTPUT/scans-rows.csv`` (one row per run) and print Markdown.
 from __future__ import annotations
 
 import argparse
+import functools
 import itertools
 import math
 import sys
@@ -308,31 +309,24 @@ def _scan_order(corner_key: Any, scans: dict[str, float]) -> Any:
     return key
 
 
-def _c2_scan_flags(info: dict[str, Any]) -> tuple[dict[str, float], dict[str, str]]:
-    """The rule's ``_scan_flags`` as candidate C2 of docs/validity.md ("A trajectory against
-    its own scans, split in time"): today's veto on the maps' crossing share, a second veto
-    above ``scan_limit`` of the programs' split shares (``scan_split``), and the split share
-    (today's figure without one) as the figure the confirmation reads."""
+def _c2_scan_flags(today: Any, info: dict[str, Any]
+                   ) -> tuple[dict[str, float], dict[str, str]]:
+    """The rule's ``_scan_flags`` (``today``) as candidate C2 of docs/validity.md ("A
+    trajectory against its own scans, split in time"): today's veto on the maps' crossing
+    share, a second veto above ``scan_limit`` of the programs' split shares
+    (``scan_split``), and the split share (today's figure without one) as the figure the
+    confirmation reads."""
     from slamq.verdict import rule as r
 
-    scans, flags = _SCAN_FLAGS(info)
+    scans, flags = today(info)
     split = {a: float(e.get("scan_split", math.nan)) for a, e in info.items()}
     split = {a: v for a, v in split.items() if math.isfinite(v)}
     limit = r.scan_limit(split)
     for a, v in split.items():
         if v > limit:
             flags.setdefault(a, f"its path is inconsistent with its own scans split in time "
-                                f"({100 * v:.1f}%, the lowest {100 * min(split.values()):.1f}%)")
+                                f"({r._pct(v)}, the lowest {r._pct(min(split.values()))})")
     return {a: split.get(a, v) for a, v in scans.items()}, flags
-
-
-def _rule_scan_flags() -> Any:
-    from slamq.verdict import rule as r
-
-    return r._scan_flags
-
-
-_SCAN_FLAGS = _rule_scan_flags()
 
 
 def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series,
@@ -342,10 +336,11 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     from slamq.verdict import rule as r
     from slamq.verdict.rule import SCAN_KEY, sequence_verdict
 
-    saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL)
+    saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
+             r._scan_flags)
     try:
         if rule is not None and any("scan_split" in e for e in ev["algorithms"].values()):
-            r._scan_flags = _c2_scan_flags  # --figure c2
+            r._scan_flags = functools.partial(_c2_scan_flags, saved[5])  # --figure c2
         if rule is not None:
             for x in rule:
                 if isinstance(x, str) and x.startswith("shortfall="):
@@ -360,8 +355,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                 r._corner_key = _scan_order(saved[3], scans)
         v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
     finally:
-        r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL = saved
-        r._scan_flags = _SCAN_FLAGS
+        (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
+         r._scan_flags) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,

@@ -40,12 +40,11 @@ MAX_TEST = 500
 def robot_poses(scans: Any, traj: Any) -> tuple[np.ndarray, np.ndarray]:
     """Which scans ``traj`` places (docs/spec.md 6b, its defaults) and the robot's
     (x, y, yaw) at each (rows of the others are zeros)."""
+    from slamq.metrics.relations import _yaw
     from slamq.metrics.sync import interpolate_poses
 
     placed, _, pos, quat = interpolate_poses(traj, scans.stamps)
-    w, x, y, z = quat.T
-    yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return placed, np.column_stack([pos[:, 0], pos[:, 1], yaw])
+    return placed, np.column_stack([pos[:, 0], pos[:, 1], _yaw(quat)])
 
 
 def draw(gx: np.ndarray, gy: np.ndarray, lx: np.ndarray, ly: np.ndarray, valid: np.ndarray,
