@@ -52,6 +52,7 @@ if TYPE_CHECKING:  # what the names below are, for type checkers (imported on fi
     from slamq.metrics import reference  # noqa: F401
     from slamq.metrics.degeneracy import scan_degeneracy
     from slamq.metrics.scans import scan_consistency
+    from slamq.metrics.split import scan_split
     from slamq.metrics.travel import travel_ratio
     from slamq.models import MapComparison, MapQuality, OccupancyMap, Registration, Trajectory
     from slamq.models.scans import Scans
@@ -84,7 +85,7 @@ _LAZY = {
     "ate_runs": "slamq.api",
     "relations": "slamq.metrics.relations", "load_relations": "slamq.sources.relations",
     "load_scans": "slamq.sources.scans", "scan_consistency": "slamq.metrics.scans",
-    "scan_degeneracy": "slamq.metrics.degeneracy",
+    "scan_degeneracy": "slamq.metrics.degeneracy", "scan_split": "slamq.metrics.split",
     "travel_ratio": "slamq.metrics.travel",
     "Scans": "slamq.models.scans",
     "MapComparison": "slamq.models.comparison",
@@ -145,7 +146,7 @@ __all__ = [
     "read_pbstream_trajectory",
     "read_results",
     "relations", "load_relations",
-    "load_scans", "scan_consistency", "scan_degeneracy", "Scans",
+    "load_scans", "scan_consistency", "scan_degeneracy", "scan_split", "Scans",
     "rpe",
     "travel_ratio",
     "summarize",

@@ -267,6 +267,32 @@ def scan_ratios(
     threads: int = 0,
 ) -> npt.NDArray[np.float64]: ...
 
+# A trajectory against its own scans, split in time (rust/src/split.rs, SPEC section 7e);
+# slamq.metrics.split.scan_split is the Python entry, scan_split_reference its reference.
+# Returns the tested scans' counts per half ((k, 7) each), each half's drawn map (values,
+# unknown; (H, W)) and the maps' lower-left corner (x0, y0).
+def scan_split(
+    poses: npt.NDArray[np.float64],
+    angles: npt.NDArray[np.float64],
+    ranges: npt.NDArray[np.float64],
+    min_range: float,
+    max_range: float,
+    drawn_1: npt.NDArray[np.int64],
+    tested_1: npt.NDArray[np.int64],
+    drawn_2: npt.NDArray[np.int64],
+    tested_2: npt.NDArray[np.int64],
+    resolution: float,
+    margin: float,
+    occupied_share: float,
+    tolerance: float,
+    threads: int = 0,
+) -> tuple[
+    tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]],
+    tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_]],
+    tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_]],
+    tuple[float, float],
+]: ...
+
 #: Peak working memory of one evaluation, bytes per cell (reserved before it starts;
 #: ``MemoryError`` when it cannot be).
 WORK_BYTES_PER_CELL: int

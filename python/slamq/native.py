@@ -16,7 +16,8 @@ Python asks of Rust (the typed signatures are in ``_core.pyi``):
   :func:`register_many`, :class:`RawRegistration`;
 * the simulator's laser (bindings/synth.rs): :func:`raycast`;
 * a map against its own scans, and scans that see walls in one direction only
-  (bindings/scans.rs): :func:`scan_consistency`, :func:`scan_ratios`;
+  (bindings/scans.rs): :func:`scan_consistency`, :func:`scan_ratios`, and a trajectory
+  against its own scans split in time: :func:`scan_split`;
 * the runtime (bindings/runtime.rs): :func:`adopt_thread`.
 
 It sits just above :mod:`slamq.errors` and :mod:`slamq.params`: importing it loads the
@@ -51,6 +52,7 @@ from slamq._core import (
     register_many,
     scan_consistency,
     scan_ratios,
+    scan_split,
     wall_harmonics,
 )
 
@@ -76,5 +78,6 @@ __all__ = [
     "register_many",
     "scan_consistency",
     "scan_ratios",
+    "scan_split",
     "wall_harmonics",
 ]

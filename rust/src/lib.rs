@@ -36,6 +36,8 @@
 //!   sensor for ground truth on demand.
 //! - [`scans`]: a map against its own laser scans (hits, free-space violations), SPEC
 //!   section 7b.
+//! - [`split`]: a trajectory against its own scans, split in time (two halves drawn as
+//!   maps, each scored by the other), SPEC section 7e.
 //! - `bindings` (feature `python`): the pyo3 bindings, one file per domain, and their
 //!   runtime (thread pools, fork handling); nothing else.
 
@@ -66,6 +68,7 @@ pub mod raycast;
 pub mod register;
 pub mod scans;
 pub mod se2;
+pub mod split;
 pub mod table;
 
 #[cfg(feature = "python")]

@@ -18,6 +18,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from slamq import native
 from slamq.errors import SequenceError
+from slamq.metrics.sync import evenly_spread
 from slamq.models.scans import ScanDegeneracy, Scans
 from slamq.params import check_threads
 
@@ -186,10 +187,7 @@ def scan_degeneracy(scans: Scans, *, max_scans: int = MAX_SCANS,
     """
     if max_scans < 1:
         raise SequenceError(f"{scans.source}: max_scans must be at least 1, got {max_scans}")
-    n = len(scans)
-    index = np.arange(n)
-    if n > max_scans:
-        index = np.unique(np.linspace(0, n - 1, max_scans).round().astype(np.int64))
+    index = evenly_spread(len(scans), max_scans)
     ratios = scan_ratios(scans, index, threads=threads)
     has = np.isfinite(ratios)
     share = float((ratios[has] < DEGENERATE_RATIO).mean()) if has.any() else float("nan")

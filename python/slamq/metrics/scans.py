@@ -55,6 +55,15 @@ def _prepare(map: OccupancyMap, scans: Scans, poses: Any, scan_tolerance: float,
         raise SlamqError(f"scan_tolerance must be a positive number of metres, got {tol}")
     if not (0.0 <= float(occupied_threshold) < 1.0):
         raise SlamqError(f"occupied_threshold must be in [0, 1), got {occupied_threshold}")
+    return place(scans, poses, max_gap, stamp_tol)
+
+
+def place(scans: Scans, poses: Any, max_gap: float = MAX_GAP, stamp_tol: float = STAMP_TOL
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which of ``scans`` ``poses`` places (SPEC 7b: a :class:`Trajectory` by
+    :func:`~slamq.metrics.sync.interpolate_poses`, or one ``(x, y, yaw)`` per scan, rows
+    with a NaN left out), the laser's ``(K, 3)`` world poses at the placed ones, and their
+    ``(K, B)`` ranges."""
     n = len(scans)
     if isinstance(poses, Trajectory):
         placed, _, pos, quat = interpolate_poses(poses, scans.stamps, max_gap=max_gap,

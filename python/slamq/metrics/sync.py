@@ -25,7 +25,7 @@ from slamq.models.trajectory import Trajectory
 from slamq.params import SETTINGS
 
 __all__ = ["matching_indices", "matching_indices_numpy", "associate", "interpolate_poses",
-           "associate_interpolated", "slerp", "MAX_GAP", "STAMP_TOL"]
+           "associate_interpolated", "slerp", "evenly_spread", "MAX_GAP", "STAMP_TOL"]
 
 #: Default largest time between the two poses a pose is interpolated between, seconds: the
 #: scans of the classic 2D laser logs are 0.1-0.25 s apart, so one or two dropped scans
@@ -306,3 +306,18 @@ def associate_interpolated(
         np.ascontiguousarray(query[gi]), np.ascontiguousarray(pos[gi]),
         np.ascontiguousarray(quat[gi]), source=est.source, meta=dict(est.meta))
     return gi, est_at
+
+
+def evenly_spread(n: int, most: int) -> np.ndarray:
+    """At most ``most`` of the indices ``0 .. n - 1``, evenly spread: all of them when
+    ``n <= most``, else ``round(linspace(0, n - 1, most))`` (half to even) without
+    duplicates (docs/spec.md 7c, 7e).
+
+    Examples
+    --------
+    >>> evenly_spread(10, 4).tolist(), evenly_spread(3, 4).tolist()
+    ([0, 3, 6, 9], [0, 1, 2])
+    """
+    if n <= most:
+        return np.arange(n, dtype=np.int64)
+    return np.unique(np.linspace(0, n - 1, most).round().astype(np.int64))

@@ -7,8 +7,9 @@
 - :class:`Registration`: one map registered onto another of the same place (SPEC 7a).
 - :class:`Relations`, :class:`RelationsResult`: ground-truth relations and the relations
   error of a trajectory (SPEC 6a).
-- :class:`Scans`, :class:`ScanConsistency`, :class:`ScanDegeneracy`: laser scans, a map
-  scored against them (SPEC 7b), and how many see walls in one direction only (7c).
+- :class:`Scans`, :class:`ScanConsistency`, :class:`ScanDegeneracy`, :class:`ScanSplit`:
+  laser scans, a map scored against them (SPEC 7b), how many see walls in one direction
+  only (7c), and a trajectory scored against them split in time (7e).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ if TYPE_CHECKING:
     from slamq.models.quality import MapQuality
     from slamq.models.registration import Registration
     from slamq.models.relations import Relations, RelationsResult
-    from slamq.models.scans import ScanConsistency, ScanDegeneracy, Scans
+    from slamq.models.scans import ScanConsistency, ScanDegeneracy, Scans, ScanSplit
     from slamq.models.trajectory import Trajectory
 
 #: Public names, imported on first use: name -> module.
@@ -36,6 +37,7 @@ _WHERE = {
     "RelationsResult": "slamq.models.relations",
     "ScanConsistency": "slamq.models.scans",
     "ScanDegeneracy": "slamq.models.scans",
+    "ScanSplit": "slamq.models.scans",
     "Scans": "slamq.models.scans",
     "Trajectory": "slamq.models.trajectory",
 }
@@ -43,5 +45,6 @@ _WHERE = {
 __getattr__, __dir__ = exports(globals(), _WHERE)
 
 __all__ = ["MapComparison", "MapQuality", "OccupancyMap", "Registration", "Relations",
-           "RelationsResult", "ScanConsistency", "ScanDegeneracy", "Scans",
+           "RelationsResult", "ScanConsistency", "ScanDegeneracy", "ScanSplit",
+           "Scans",
            "Trajectory"]

@@ -1,7 +1,8 @@
 """``Scans``: a planar laser's scans (what a map's own data is), ``ScanConsistency``: a
-map scored against them (SPEC section 7b), and ``ScanDegeneracy``: how many of them see
-walls in one direction only (section 7c). Plain data: the metrics live in
-:mod:`slamq.metrics.scans` and :mod:`slamq.metrics.degeneracy`."""
+map scored against them (SPEC section 7b), ``ScanDegeneracy``: how many of them see
+walls in one direction only (section 7c), and ``ScanSplit``: a trajectory scored against
+its own scans split in time (section 7e). Plain data: the metrics live in
+:mod:`slamq.metrics.scans`, :mod:`slamq.metrics.degeneracy` and :mod:`slamq.metrics.split`."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import numpy as np
 
 from slamq.errors import SequenceError
 
-__all__ = ["ScanConsistency", "ScanDegeneracy", "Scans"]
+__all__ = ["ScanConsistency", "ScanDegeneracy", "ScanSplit", "Scans"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -286,3 +287,89 @@ class ScanDegeneracy:
     def __repr__(self) -> str:
         return (f"ScanDegeneracy({self.source!r}, {self.scored} scans, "
                 f"share={self.share:.3f})")
+
+
+@dataclass(frozen=True, eq=False)
+class ScanSplit:
+    """A trajectory scored against its own scans, split in time (SPEC section 7e).
+
+    Half 1 is the earlier half of the placed scans, half 2 the later; map ``i`` is drawn
+    from half ``i``'s scans at the trajectory's poses and scored with the other half's.
+
+    Attributes
+    ----------
+    counts : tuple of numpy.ndarray
+        ``counts[i]``: ``(len(tested[i]), 7)`` int64, the SPEC 7b counts (:data:`COUNTS`)
+        of the scans ``tested[i]`` against map ``i``.
+    drawn, tested : tuple of numpy.ndarray
+        int64 indices into the scans: those drawn as map ``i``, those scored against it.
+    maps : tuple
+        The two drawn maps (:class:`slamq.OccupancyMap`: 0 occupied, 254 free, 205
+        unknown), on one grid aligned with the world.
+    placed : numpy.ndarray
+        ``(N,)`` bool: the trajectory placed the scan.
+    resolution, occupied_share, tolerance : float
+        The drawn maps' metres per cell, the share of visits a cell's hits must reach to be
+        occupied, and the SPEC 7b tolerance (metres) the halves are scored with.
+    source : str
+        The scans' source.
+
+    Examples
+    --------
+    >>> one = np.array([[10, 9, 0, 0, 0, 1, 1], [10, 10, 0, 0, 0, 0, 0]])
+    >>> two = np.array([[10, 7, 0, 0, 0, 3, 3]])
+    >>> s = ScanSplit((one, two), (np.array([0]), np.array([2])),
+    ...               (np.array([2, 3]), np.array([0])), (None, None),
+    ...               np.ones(4, bool), 0.05, 0.5, 0.1)
+    >>> s.crossing_shares.tolist(), round(s.crossing_share, 3)
+    ([0.05, 0.3], 0.175)
+    """
+
+    counts: tuple[np.ndarray, np.ndarray]
+    drawn: tuple[np.ndarray, np.ndarray]
+    tested: tuple[np.ndarray, np.ndarray]
+    maps: tuple[Any, Any]
+    placed: np.ndarray
+    resolution: float
+    occupied_share: float
+    tolerance: float
+    source: str = "<array>"
+
+    def _means(self, name: str) -> np.ndarray:
+        out = np.full(2, np.nan)
+        for i, c in enumerate(self.counts):
+            valid = c[:, COUNTS.index("valid")]
+            keep = valid > 0
+            if keep.any():
+                out[i] = float((c[keep, COUNTS.index(name)] / valid[keep]).mean())
+        return out
+
+    @property
+    def crossing_shares(self) -> np.ndarray:
+        """``(2,)``: per half, the mean over its tested scans (with valid beams) of the
+        share of beams that cross a wall of the other half's map."""
+        return self._means("crossings")
+
+    @property
+    def hit_shares(self) -> np.ndarray:
+        """``(2,)``: per half, the mean share of beams ending on the other half's walls."""
+        return self._means("hits")
+
+    @property
+    def crossing_share(self) -> float:
+        """The figure: the mean of the two halves' crossing shares (0: the two halves of
+        the recording, each placed by the trajectory, never see through each other's
+        walls; NaN when a half has no valid beam)."""
+        return float(self.crossing_shares.mean())
+
+    def to_dict(self) -> dict[str, float | int]:
+        """The figures (no arrays)."""
+        c, h = self.crossing_shares, self.hit_shares
+        return {"split_crossing": self.crossing_share, "crossing_1": float(c[0]),
+                "crossing_2": float(c[1]), "hit_1": float(h[0]), "hit_2": float(h[1]),
+                "drawn": int(sum(len(d) for d in self.drawn)),
+                "tested": int(sum(len(t) for t in self.tested))}
+
+    def __repr__(self) -> str:
+        return (f"ScanSplit({self.source!r}, crossing_share={self.crossing_share:.4f}, "
+                f"{len(self.tested[0]) + len(self.tested[1])} scans scored)")

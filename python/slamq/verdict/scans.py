@@ -19,7 +19,7 @@ import numpy as np
 
 from slamq.errors import SlamqError
 from slamq.metrics.scans import scan_consistency
-from slamq.metrics.sync import interpolate_poses
+from slamq.metrics.sync import evenly_spread, interpolate_poses
 from slamq.models import OccupancyMap
 from slamq.models.scans import ScanConsistency, Scans
 
@@ -125,9 +125,7 @@ def record_consistency(record: dict[str, Any], grid: OccupancyMap, *,
     if index.size == 0:
         raise SlamqError(f"{record['trajectory']}: places none of the {len(scans)} scans of "
                          f"{scans.source} (another clock, or another recording?)")
-    if index.size > max_scans:
-        index = index[np.unique(np.linspace(0, index.size - 1, max_scans).round()
-                                .astype(np.int64))]
+    index = index[evenly_spread(index.size, max_scans)]
     part = Scans(scans.stamps[index], scans.angles, scans.ranges[index], scans.max_range,
                  min_range=scans.min_range, offset=scans.offset, source=scans.source,
                  meta=dict(scans.meta))

@@ -11,7 +11,8 @@
 //!   `RawRegistration`).
 //! - [`synth`]: `raycast` (the simulator's laser, ground truth on demand).
 //! - [`scans`]: `scan_consistency` (a map against its own laser scans), `scan_ratios`
-//!   (scans that see walls in one direction only).
+//!   (scans that see walls in one direction only), `scan_split` (a trajectory against its
+//!   own scans, split in time).
 //! - [`runtime`]: the thread pools, fork handling, `adopt_thread`.
 
 mod comparison;
@@ -83,6 +84,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(synth::raycast, m)?)?;
     m.add_function(wrap_pyfunction!(scans::scan_consistency, m)?)?;
     m.add_function(wrap_pyfunction!(scans::scan_ratios, m)?)?;
+    m.add_function(wrap_pyfunction!(scans::scan_split, m)?)?;
     m.add_function(wrap_pyfunction!(runtime::adopt_thread, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
