@@ -1,18 +1,19 @@
 """A trajectory against its own scans, split in time (docs/validity.md, "A trajectory
-against its own scans, split in time"): study code, not part of slamq.
+against its own scans, split in time"; docs/spec.md 7e).
 
 The scans a trajectory places are cut into two halves in time; each half is drawn as a map
-at its poses (:func:`draw`) and the other half's scans are scored against it by
-docs/spec.md 7b (:func:`slamq.metrics.scans.scan_consistency`). A wall that wrong poses
-draw in one half is crossed by the other half's beams, while a map rebuilt from all the
-scans outvotes it. The program's own map is not read, so its drawing convention does not
-enter.
+at its poses and the other half's scans are scored against it by docs/spec.md 7b. A wall
+that wrong poses draw in one half is crossed by the other half's beams, while a map rebuilt
+from all the scans outvotes it. The program's own map is not read, so its drawing
+convention does not enter. slamq computes it (:func:`slamq.scan_split`, the beam-walk
+drawing of spec 7e); :func:`split_crossing` here is the first prototype, which drew each
+scan's swept polygon with OpenCV, kept to reproduce the first tables.
 
 ``python studies/split_scans.py OUTPUT [OTHER...]``: every ok record of the ``slamq run``
 outputs with scans and a trajectory -> ``LAST/split-rows.csv`` (``map``, ``algorithm``,
 ``sequence``, ``run``, ``split_crossing``, the two halves' crossing and hit shares,
-seconds; resumable: rows already there are kept; ``--walk``: drawn by :func:`draw_walk`
-into ``split-walk-rows.csv``). ``studies/scans_study.py ... --figure split_crossing``
+seconds; resumable: rows already there are kept; ``--polygon``: the prototype, into
+``split-polygon-rows.csv``). ``studies/scans_study.py ... --figure split_crossing``
 (candidate C1) or ``--figure c2`` (C2) weighs it in the verdict.
 """
 
@@ -91,77 +92,13 @@ def draw(gx: np.ndarray, gy: np.ndarray, lx: np.ndarray, ly: np.ndarray, valid: 
     return values, ~(occ | free)
 
 
-def draw_walk(gx: np.ndarray, gy: np.ndarray, lx: np.ndarray, ly: np.ndarray,
-              valid: np.ndarray, shape: tuple[int, int], occupied: float = OCCUPIED
-              ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`draw` with beams instead of polygons: a scan visits each cell one of its valid
-    beams passes through on the way to its end (Amanatides and Woo's walk from the laser's
-    cell, the end cell left out) or ends in, and hits each cell a beam ends in; each scan
-    counts a cell once. Occupied: hit, and hits >= ``occupied`` x visits."""
-    h, w = shape
-    hits = np.zeros(h * w, np.int64)
-    visits = np.zeros(h * w, np.int64)
-    # grid units with y up (row = h - 1 - floor(y)), as docs/spec.md 7b
-    n = h * w
-    for k0 in range(0, len(lx), 512):
-        sl = slice(k0, k0 + 512)
-        v = valid[sl]
-        base = np.broadcast_to(np.arange(v.shape[0], dtype=np.int64)[:, None] * n, v.shape)[v]
-        ox = np.broadcast_to(lx[sl][:, None], v.shape)[v]
-        oy = h - np.broadcast_to(ly[sl][:, None], v.shape)[v]
-        ex, ey = gx[sl][v], h - gy[sl][v]
-        length = np.hypot(ex - ox, ey - oy)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dx = (ex - ox) / np.where(length > 0, length, 1.0)
-            dy = (ey - oy) / np.where(length > 0, length, 1.0)
-            fx, fy = np.floor(ox), np.floor(oy)
-            tx = np.where(dx > 0, (fx + 1 - ox) / dx, np.where(dx < 0, (fx - ox) / dx, np.inf))
-            ty = np.where(dy > 0, (fy + 1 - oy) / dy, np.where(dy < 0, (fy - oy) / dy, np.inf))
-            tdx = np.where(dx != 0, 1.0 / np.abs(dx), np.inf)
-            tdy = np.where(dy != 0, 1.0 / np.abs(dy), np.inf)
-        # the cell as a row-major index on the grid (rows counted from the top)
-        cell = (h - 1 - fy.astype(np.int64)) * w + fx.astype(np.int64)
-        end = (h - 1 - np.floor(ey).astype(np.int64)) * w + np.floor(ex).astype(np.int64)
-        step_c = np.sign(dx).astype(np.int64)
-        step_r = -np.sign(dy).astype(np.int64) * w
-        keys = [base + end]
-        ends = keys[0]
-        live = np.flatnonzero(cell != end)
-        while live.size:
-            keys.append(base[live] + cell[live])
-            step_x = tx[live] < ty[live]
-            keep = np.where(step_x, tx[live], ty[live]) < length[live]
-            live, step_x = live[keep], step_x[keep]
-            tx[live] += np.where(step_x, tdx[live], 0.0)
-            ty[live] += np.where(step_x, 0.0, tdy[live])
-            cell[live] += np.where(step_x, step_c[live], step_r[live])
-            live = live[cell[live] != end[live]]
-        for arr, into in ((np.concatenate(keys), visits), (ends, hits)):
-            key = np.unique(arr)
-            into += np.bincount(key % n, minlength=n)
-    occ = (hits > 0) & (hits >= occupied * np.maximum(visits, 1))
-    free = (visits > 0) & ~occ
-    values = np.full(h * w, 205, np.uint8)
-    values[free] = 254
-    values[occ] = 0
-    return values.reshape(h, w), ~(occ | free).reshape(h, w)
-
-
-def _spread(index: np.ndarray, most: int) -> np.ndarray:
-    if len(index) <= most:
-        return index
-    return index[np.unique(np.linspace(0, len(index) - 1, most).round().astype(np.int64))]
-
-
 def split_crossing(scans: Any, traj: Any, *, max_draw: int = MAX_DRAW,
-                   max_test: int = MAX_TEST, occupied: float = OCCUPIED,
-                   drawer: Any = None) -> dict[str, float]:
-    """The split crossing share of a trajectory against its scans.
+                   max_test: int = MAX_TEST, occupied: float = OCCUPIED) -> dict[str, float]:
+    """The split crossing share of a trajectory against its scans, drawn by :func:`draw`.
 
     Returns ``{"split_crossing", "crossing_1", "crossing_2", "hit_1", "hit_2"}``: the
     second half's scans against the first half's map (``_1``), the first half's against
-    the second's (``_2``), and their mean crossing share. ``drawer``: :func:`draw`
-    (default) or :func:`draw_walk`.
+    the second's (``_2``), and their mean crossing share.
 
     Examples
     --------
@@ -175,10 +112,12 @@ def split_crossing(scans: Any, traj: Any, *, max_draw: int = MAX_DRAW,
     >>> gt = Trajectory.from_xy_yaw(seq.stamps, *seq.gt.T)
     >>> split_crossing(s, gt)["split_crossing"] < 0.01
     True
-    >>> split_crossing(s, gt, drawer=draw_walk)["split_crossing"] < 0.01
+    >>> from slamq import scan_split
+    >>> scan_split(s, gt).crossing_share < 0.01
     True
     """
     from slamq.metrics.scans import scan_consistency
+    from slamq.metrics.sync import evenly_spread
     from slamq.models import OccupancyMap
     from slamq.models.scans import Scans
 
@@ -201,11 +140,10 @@ def split_crossing(scans: Any, traj: Any, *, max_draw: int = MAX_DRAW,
     halves = np.array_split(np.arange(len(idx)), 2)
     out: dict[str, float] = {}
     for i, (drawn, tested) in enumerate(((halves[0], halves[1]), (halves[1], halves[0]))):
-        d = _spread(drawn, max_draw)
-        values, unknown = (drawer or draw)(gx[d], gy[d], lx[d], ly[d], valid[d], (h, w),
-                                           occupied)
+        d = drawn[evenly_spread(drawn.size, max_draw)]
+        values, unknown = draw(gx[d], gy[d], lx[d], ly[d], valid[d], (h, w), occupied)
         grid = OccupancyMap(values, unknown, RESOLUTION, (x0, y0, 0.0))
-        t = _spread(tested, max_test)
+        t = tested[evenly_spread(tested.size, max_test)]
         part = Scans(scans.stamps[idx[t]], scans.angles, scans.ranges[idx[t]],
                      scans.max_range, min_range=scans.min_range, offset=scans.offset)
         c = scan_consistency(grid, part, robot[idx[t]])
@@ -227,10 +165,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("output", type=Path, nargs="+", help="slamq run outputs")
     ap.add_argument("--max-draw", type=int, default=MAX_DRAW)
-    ap.add_argument("--walk", action="store_true",
-                    help="draw with beams (draw_walk), into split-walk-rows.csv")
+    ap.add_argument("--polygon", action="store_true",
+                    help="the prototype (swept polygons), into split-polygon-rows.csv")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
-    store = a.output[-1] / ("split-walk-rows.csv" if a.walk else "split-rows.csv")
+    store = a.output[-1] / ("split-polygon-rows.csv" if a.polygon else "split-rows.csv")
     done = set()
     if store.exists():
         with store.open() as f:
@@ -250,10 +188,15 @@ def main(argv: list[str] | None = None) -> int:
                     continue
                 t0 = time.time()
                 try:
-                    fig = split_crossing(recording(r["scans"]),
-                                         load_trajectory(r["trajectory"], unsorted="sort"),
-                                         max_draw=a.max_draw,
-                                         drawer=draw_walk if a.walk else draw)
+                    scans = recording(r["scans"])
+                    traj = load_trajectory(r["trajectory"], unsorted="sort")
+                    if a.polygon:
+                        fig = split_crossing(scans, traj, max_draw=a.max_draw)
+                    else:
+                        from slamq import scan_split
+
+                        fig = scan_split(scans, traj, max_draw=a.max_draw).to_dict()
+                        del fig["drawn"], fig["tested"]
                 except Exception as exc:  # noqa: BLE001 - a study row says why it failed
                     print(f"{r['map']}: {type(exc).__name__}: {exc}", file=sys.stderr)
                     continue
