@@ -7,10 +7,12 @@
 //!
 //! Drawing: every valid beam of a scan walks from the laser's cell to its end cell
 //! (Amanatides and Woo, as [`crate::scans`]; on a tie at a cell corner the walk steps to the
-//! row neighbour first); a scan *visits* each cell one of its beams passes through or ends
-//! in, and *hits* each cell a beam ends in, each cell at most once per scan. A cell is
-//! occupied when hit and its hits are at least `occupied_share` of its visits, free when
-//! visited and not occupied, unknown when never visited.
+//! row neighbour first), and the scan's polygon (the laser, then its beams' ends) is
+//! filled; a scan *visits* each cell one of its beams passes through or ends in and each
+//! cell whose centre its polygon covers, and *hits* each cell a beam ends in, each cell at
+//! most once per scan. A cell is occupied when hit and its hits are at least
+//! `occupied_share` of its visits, free when visited and not occupied, unknown when never
+//! visited.
 //!
 //! The two halves are drawn in parallel, each scan after scan (integer counts), and scored
 //! by [`crate::scans::consistency`]: the result is the same for any number of threads.
@@ -178,6 +180,48 @@ impl Counts {
     }
 }
 
+/// Every cell of an `h x w` grid whose centre lies inside the closed polygon `verts` (grid
+/// units, y up), by the even-odd rule: an edge from p to q crosses the centre line
+/// y + 0.5 of the rows with min(p.y, q.y) <= y + 0.5 < max(p.y, q.y) at
+/// x = p.x + (y + 0.5 - p.y) (q.x - p.x) / (q.y - p.y); a row's crossings, sorted, pair
+/// up, and the cells with ceil(x0 - 0.5) <= col <= floor(x1 - 0.5) of each pair are
+/// visited. `crossings` is scratch space.
+fn fill(
+    verts: &[(f64, f64)],
+    h: isize,
+    w: isize,
+    crossings: &mut Vec<(isize, f64)>,
+    visit: &mut impl FnMut(isize, isize),
+) {
+    crossings.clear();
+    for (i, &p) in verts.iter().enumerate() {
+        let q = verts[(i + 1) % verts.len()];
+        if p.1 == q.1 {
+            continue;
+        }
+        let (lo, hi) = if p.1 < q.1 { (p.1, q.1) } else { (q.1, p.1) };
+        // the beams' ends are on the grid (the frame covers them), so these are small
+        let r0 = ((lo - 0.5).ceil() as isize).max(0);
+        let r1 = ((hi - 0.5).ceil() as isize).min(h);
+        for y in r0..r1 {
+            let py = y as f64 + 0.5;
+            crossings.push((y, p.0 + (py - p.1) * (q.0 - p.0) / (q.1 - p.1)));
+        }
+    }
+    crossings.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    for pair in crossings.chunks_exact(2) {
+        let ((y, x0), (y1, x1)) = (pair[0], pair[1]);
+        if y != y1 {
+            continue; // cannot happen: every row has an even number of crossings
+        }
+        let c0 = ((x0 - 0.5).ceil() as isize).max(0);
+        let c1 = ((x1 - 0.5).floor() as isize).min(w - 1);
+        for col in c0..=c1 {
+            visit(col, y);
+        }
+    }
+}
+
 /// The scans in `drawn` drawn on `f` (see the module's docs).
 fn draw(rec: &Recording, f: &Frame, drawn: &[usize], share: f64) -> Result<Drawn, ScanError> {
     let (h, w) = (f.height, f.width);
@@ -193,20 +237,28 @@ fn draw(rec: &Recording, f: &Frame, drawn: &[usize], share: f64) -> Result<Drawn
     let at = |col: isize, y: isize| -> Option<usize> {
         ((0..wi).contains(&col) && (0..hi).contains(&y)).then(|| ((hi - 1 - y) * wi + col) as usize)
     };
+    let mut verts: Vec<(f64, f64)> = Vec::with_capacity(rec.angles.len() + 1);
+    let mut crossings: Vec<(isize, f64)> = Vec::new();
     for (i, &k) in drawn.iter().enumerate() {
         let scan = (i + 1) as u16;
         let (pose, ranges) = rec.scan(k);
         let ox = (pose[0] - f.origin[0]) / f.resolution;
         let oy = (pose[1] - f.origin[1]) / f.resolution;
         let (fx, fy) = (ox.floor(), oy.floor());
+        verts.clear();
+        verts.push((ox, oy));
+        let mut any_valid = false;
         for (&alpha, &r) in rec.angles.iter().zip(ranges) {
             if !rec.valid(r) {
+                verts.push((ox, oy));
                 continue;
             }
             let a = pose[2] + alpha;
             let (dx, dy) = (a.cos(), a.sin());
             let len = r / f.resolution;
             let (ex, ey) = (ox + len * dx, oy + len * dy);
+            verts.push((ex, ey));
+            any_valid = true;
             let end = (ex.floor() as isize, ey.floor() as isize);
             let (mut col, mut y) = (fx as isize, fy as isize);
             let (mut tx, tdx, sx) = if dx > 0.0 {
@@ -245,6 +297,15 @@ fn draw(rec: &Recording, f: &Frame, drawn: &[usize], share: f64) -> Result<Drawn
                 c.visit(cell, scan);
                 c.hit(cell, scan);
             }
+        }
+        // a scan without a valid beam draws nothing; one beam makes no polygon
+        if verts.len() > 2 && any_valid {
+            let mut visit = |col, y| {
+                if let Some(cell) = at(col, y) {
+                    c.visit(cell, scan);
+                }
+            };
+            fill(&verts, hi, wi, &mut crossings, &mut visit);
         }
     }
     let mut values = filled(n, UNKNOWN_VALUE)?;

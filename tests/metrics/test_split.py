@@ -44,9 +44,9 @@ def test_the_true_path_agrees_with_itself_and_odometry_does_not(drive) -> None:
     gt = scan_split(scans, seq.gt)
     odom = scan_split(scans, seq.odom)
     assert isinstance(gt, ScanSplit)
-    assert gt.crossing_share < 0.01
-    assert odom.crossing_share > 2 * gt.crossing_share
-    assert (gt.hit_shares > 0.75).all() and (odom.hit_shares < 0.5 * gt.hit_shares).all()
+    assert gt.crossing_share < 0.005
+    assert odom.crossing_share > 3 * gt.crossing_share
+    assert (gt.hit_shares > 0.35).all() and (odom.hit_shares < 0.5 * gt.hit_shares).all()
     # the maps cover the drive: walls, free space, unknown beyond
     for m in gt.maps:
         assert isinstance(m, OccupancyMap) and m.resolution == 0.05 and m.origin[2] == 0.0

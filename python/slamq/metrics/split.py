@@ -176,10 +176,38 @@ def _frame(laser: np.ndarray, angles: np.ndarray, ranges: np.ndarray, valid: np.
     return height, width, x0, y0
 
 
+def _fill(vx: np.ndarray, vy: np.ndarray, h: int, w: int) -> np.ndarray:
+    """The cells (row-major, row 0 at the top) of an ``h x w`` grid whose centre lies in
+    the closed polygon ``(vx, vy)`` (grid units, y up) by the even-odd rule, as
+    ``rust/src/split.rs``'s ``fill``."""
+    px, py = vx, vy
+    qx, qy = np.roll(vx, -1), np.roll(vy, -1)
+    e = np.flatnonzero(py != qy)
+    px, py, qx, qy = px[e], py[e], qx[e], qy[e]
+    lo, hi = np.minimum(py, qy), np.maximum(py, qy)
+    r0 = np.maximum(np.ceil(lo - 0.5).astype(np.int64), 0)
+    r1 = np.minimum(np.ceil(hi - 0.5).astype(np.int64), h)
+    count = np.maximum(r1 - r0, 0)
+    edge = np.repeat(np.arange(e.size), count)
+    row = r0[edge] + (np.arange(edge.size) - np.repeat(np.cumsum(count) - count, count))
+    yc = row.astype(np.float64) + 0.5
+    x = px[edge] + (yc - py[edge]) * (qx[edge] - px[edge]) / (qy[edge] - py[edge])
+    order = np.lexsort((x, row))
+    row, x = row[order], x[order]
+    y0, x0, x1 = row[0::2], x[0::2], x[1::2]
+    c0 = np.maximum(np.ceil(x0 - 0.5).astype(np.int64), 0)
+    c1 = np.minimum(np.floor(x1 - 0.5).astype(np.int64), w - 1)
+    n = np.maximum(c1 - c0 + 1, 0)
+    at = np.repeat(np.arange(n.size), n)
+    col = c0[at] + (np.arange(at.size) - np.repeat(np.cumsum(n) - n, n))
+    return (h - 1 - y0[at]) * w + col
+
+
 def _draw(laser: np.ndarray, angles: np.ndarray, ranges: np.ndarray, valid: np.ndarray,
           drawn: np.ndarray, frame: tuple[int, int, float, float], resolution: float,
           occupied_share: float) -> tuple[np.ndarray, np.ndarray]:
-    """The scans ``drawn`` drawn as a map (SPEC 7e), the beams of one scan at a time."""
+    """The scans ``drawn`` drawn as a map (SPEC 7e): per scan, its beams walked and its
+    polygon filled (:func:`_fill`), each cell counted once."""
     h, w, x0, y0 = frame
     hits = np.zeros(h * w, np.int64)
     visits = np.zeros(h * w, np.int64)
@@ -223,6 +251,12 @@ def _draw(laser: np.ndarray, angles: np.ndarray, ranges: np.ndarray, valid: np.n
             live = live[(col[live] != ecol[live]) | (row[live] != ey_[live])]
         on = (ecol >= 0) & (ecol < w) & (ey_ >= 0) & (ey_ < h)
         ends = (h - 1 - ey_[on]) * w + ecol[on]
+        # the scan's polygon: the laser, then each beam's end (the laser for invalid ones)
+        vx = np.full(valid[k].size + 1, ox)
+        vy = np.full(valid[k].size + 1, oy)
+        vx[1:][valid[k]], vy[1:][valid[k]] = ex, ey
+        if vx.size > 2:
+            seen.append(_fill(vx, vy, h, w))
         visits[np.unique(np.concatenate([*seen, ends]))] += 1
         hits[np.unique(ends)] += 1
     occupied = (hits > 0) & (hits.astype(np.float64) >= occupied_share
