@@ -400,10 +400,7 @@ def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str,
                 block["algorithm"].astype(str) == alg, "map"]
                 if str(m) in ev.get("scans", {})]
         vals = [v for v in vals if isinstance(v, float) and math.isfinite(v)]
-        # slamq's evidence carries each program's split share (docs/spec.md 7e) without
-        # weighing it: only --figure c2 hands it to the rule (see _judge)
-        kept = {k: x for k, x in e.items() if k != "scan_split"}
-        out["algorithms"][alg] = {**kept, SCAN_KEY: float(np.median(vals)) if vals
+        out["algorithms"][alg] = {**e, SCAN_KEY: float(np.median(vals)) if vals
                                   else math.nan}
     return out
 

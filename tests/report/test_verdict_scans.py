@@ -129,22 +129,6 @@ def test_a_map_drawn_at_drifting_poses_is_inconsistent_with_its_scans(drive: dic
     assert any(w.startswith("drifted is never named best") for w in v["warnings"])
 
 
-def test_the_evidence_carries_each_path_against_its_scans_split_in_time(drive: dict
-                                                                       ) -> None:
-    """docs/spec.md 7e: the exact path agrees with its scans split in time, the drifting
-    odometry does not; the figure is evidence, not weighed (the verdict is the same with
-    it removed)."""
-    df = _records(drive, {"a": 100, "b": 110, "drifted": 40})
-    v, ev = _judge(df)
-    split = {a: e["scan_split"] for a, e in ev["algorithms"].items()}
-    assert split["a"] < 0.01 and split["drifted"] > 3 * split["a"], split
-    assert set(ev["split"]) == {drive["paths"][k] for k in ("a", "b", "drifted")}
-    assert ev["split"][drive["paths"]["a"]]["split_crossing"] == split["a"]
-    without = {**ev, "algorithms": {a: {k: x for k, x in e.items() if k != "scan_split"}
-                                    for a, e in ev["algorithms"].items()}}
-    assert sequence_verdict(summarize(df), "s", without) == v
-
-
 def test_of_two_maps_the_one_its_scans_contradict_is_not_named(drive: dict) -> None:
     pair = {"a": 100, "ghost": 50}
     v, _ = _judge(_records(drive, pair))

@@ -1,7 +1,6 @@
 """A record's map against its own scans (docs/spec.md section 7b), as the verdict weighs it
 (section 9) and the detail page draws it: the record's ``scans`` (the recording the map
-was built from, :func:`slamq.load_scans`) placed at its ``trajectory``; and the record's
-trajectory against those scans split in time (section 7e, :func:`record_split`).
+was built from, :func:`slamq.load_scans`) placed at its ``trajectory``.
 
 At most :data:`MAX_SCANS` of the scans the trajectory places are scored per map, evenly
 spread over them (every scan of a short recording): the figures are means over scans, and
@@ -22,10 +21,9 @@ from slamq.errors import SlamqError
 from slamq.metrics.scans import scan_consistency
 from slamq.metrics.sync import evenly_spread, interpolate_poses
 from slamq.models import OccupancyMap
-from slamq.models.scans import ScanConsistency, Scans, ScanSplit
+from slamq.models.scans import ScanConsistency, Scans
 
-__all__ = ["CACHED", "MAX_SCANS", "has_scans", "record_consistency", "record_split",
-           "recording"]
+__all__ = ["CACHED", "MAX_SCANS", "has_scans", "record_consistency", "recording"]
 
 #: Scans scored per map at most (evenly spread over those the trajectory places). 2000 and
 #: 500 gave the same decision in all 304 cases of docs/validity.md's sets; 500 costs a
@@ -132,35 +130,3 @@ def record_consistency(record: dict[str, Any], grid: OccupancyMap, *,
                  min_range=scans.min_range, offset=scans.offset, source=scans.source,
                  meta=dict(scans.meta))
     return scan_consistency(grid, part, traj, threads=threads)
-
-
-def record_split(record: dict[str, Any], *, threads: int | None = None) -> ScanSplit:
-    """The record's trajectory against its own scans, split in time (docs/spec.md 7e, its
-    defaults): the program's map is not read.
-
-    Raises
-    ------
-    slamq.SlamqError
-        The recording or the trajectory cannot be read, or it places fewer than 2 scans.
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> from slamq.synth import LaserSpec, simulate, world
-    >>> from slamq.synth.writers import write_groundtruth
-    >>> from slamq.synth.writers.rawlog import write_rawlog
-    >>> d = pathlib.Path(tempfile.mkdtemp())
-    >>> seq = simulate(world(2, kind="office", size=(8.0, 6.0)), seed=1, noise="none",
-    ...                laser=LaserSpec(beams=91), length=5.0)
-    >>> rec = {"scans": str(write_rawlog(seq, d / "s.rawlog")),
-    ...        "trajectory": str(write_groundtruth(seq, d / "gt.tum"))}
-    >>> s = record_split(rec)
-    >>> s.crossing_share < 0.02, bool(s.hit_shares.min() > 0.85)
-    (True, True)
-    """
-    from slamq.metrics.split import scan_split
-    from slamq.sources.trajectories import load_trajectory
-
-    scans = recording(record["scans"])
-    traj = load_trajectory(record["trajectory"], unsorted="sort")
-    return scan_split(scans, traj, threads=threads)
