@@ -9,7 +9,8 @@ one run (best of ``--repeat``, 2 threads unless ``--threads``):
 
 - the recording read (``slamq.load_scans``, cold);
 - the six maps scored against their scans (:func:`slamq.verdict.scans.record_consistency`,
-  the recording cached);
+  the recording cached), and their paths split in time (:func:`slamq.scan_split`, which the
+  verdict does not compute);
 - the whole verdict without ground truth (``sequence_evidence`` + ``sequence_verdict``:
   agreement, defect detectors and scans) with the scans and without them (the records
   without ``scans``), and their difference.
@@ -22,6 +23,9 @@ each figure is printed with the ratio base / this measured in the same run, and 
 both builds gave the same verdict and evidence:
 
 - scans: the six maps against their scans (``record_consistency``, the recording cached);
+- split: the six records' paths against their scans split in time
+  (:func:`slamq.scan_split`, docs/spec.md 7e; not part of the verdict, measured for a rule
+  that would weigh it);
 - defects: ``detect_defects`` of the six maps;
 - registration: ``register_many`` of the six maps;
 - pairs: ``agreement`` (``align="auto"``) minus that registration (the 30 ordered pairs);
@@ -69,6 +73,10 @@ maps = {r["algorithm"]: loaded[r["map"]] for r in ok.to_dict("records")}
 vs.recording(ok["scans"].iloc[0])
 out = {"slamq": os.path.dirname(slamq.__file__)}
 
+def split(r, th):
+    from slamq import load_trajectory, scan_split
+    return scan_split(vs.recording(r["scans"]), load_trajectory(r["trajectory"]), threads=th)
+
 def best(name, f):
     w, c, r = [], [], None
     for _ in range(repeat):
@@ -81,6 +89,7 @@ def best(name, f):
 
 best("scans", lambda: [vs.record_consistency(r, loaded[r["map"]], threads=1)
                        for r in ok.to_dict("records")])
+best("split", lambda: [split(r, 1) for r in ok.to_dict("records")])
 best("defects", lambda: [detect_defects(m) for m in maps.values()])
 best("registration", lambda: register_many(maps, threads=1))
 a = best("agreement", lambda: agreement(maps, align="auto", threads=1))
@@ -208,6 +217,17 @@ def main() -> None:
     print(f"6 maps against their scans:            {s * 1e3:8.1f} ms wall, "
           f"{best.cpu * 1e3:8.1f} ms CPU (violation / crossing shares "
           f"{', '.join(f'{c.violation_share:.3f}/{c.crossing_share:.3f}' for c in out)})")
+
+    def split() -> list:
+        from slamq import load_trajectory, scan_split
+
+        return [scan_split(vs.recording(r["scans"]), load_trajectory(r["trajectory"]),
+                           threads=args.threads) for r in rows]
+
+    s, out = best(split, args.repeat)
+    print(f"6 paths against their scans, split:    {s * 1e3:8.1f} ms wall, "
+          f"{best.cpu * 1e3:8.1f} ms CPU (split crossing shares "
+          f"{', '.join(f'{c.crossing_share:.4f}' for c in out)})")
 
     def verdict(frame: pd.DataFrame) -> dict:
         vs._CACHE.clear()

@@ -180,18 +180,19 @@ impl Counts {
     }
 }
 
-/// Every cell of an `h x w` grid whose centre lies inside the closed polygon `verts` (grid
-/// units, y up), by the even-odd rule: an edge from p to q crosses the centre line
+/// The cells of an `h x w` grid whose centre lies inside the closed polygon `verts` (grid
+/// units, y up), by the even-odd rule, as disjoint runs `span(y, c0, c1)` (columns `c0..=c1`
+/// of row `y`, counted up from the bottom): an edge from p to q crosses the centre line
 /// y + 0.5 of the rows with min(p.y, q.y) <= y + 0.5 < max(p.y, q.y) at
 /// x = p.x + (y + 0.5 - p.y) (q.x - p.x) / (q.y - p.y); a row's crossings, sorted, pair
-/// up, and the cells with ceil(x0 - 0.5) <= col <= floor(x1 - 0.5) of each pair are
-/// visited. `crossings` is scratch space.
+/// up, and each pair covers the columns ceil(x0 - 0.5) to floor(x1 - 0.5) (a column two
+/// pairs share counted once). `crossings` is scratch space.
 fn fill(
     verts: &[(f64, f64)],
     h: isize,
     w: isize,
     crossings: &mut Vec<(isize, f64)>,
-    visit: &mut impl FnMut(isize, isize),
+    span: &mut impl FnMut(isize, isize, isize),
 ) {
     crossings.clear();
     for (i, &p) in verts.iter().enumerate() {
@@ -209,15 +210,21 @@ fn fill(
         }
     }
     crossings.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    // every row has an even number of crossings (a closed polygon, half-open rows)
+    let mut last = (isize::MIN, isize::MIN); // the row and last column covered
     for pair in crossings.chunks_exact(2) {
         let ((y, x0), (y1, x1)) = (pair[0], pair[1]);
         if y != y1 {
-            continue; // cannot happen: every row has an even number of crossings
+            continue; // cannot happen (see above)
         }
-        let c0 = ((x0 - 0.5).ceil() as isize).max(0);
+        let mut c0 = ((x0 - 0.5).ceil() as isize).max(0);
+        if last.0 == y {
+            c0 = c0.max(last.1 + 1);
+        }
         let c1 = ((x1 - 0.5).floor() as isize).min(w - 1);
-        for col in c0..=c1 {
-            visit(col, y);
+        if c0 <= c1 {
+            span(y, c0, c1);
+            last = (y, c1);
         }
     }
 }
@@ -239,6 +246,7 @@ fn draw(rec: &Recording, f: &Frame, drawn: &[usize], share: f64) -> Result<Drawn
     };
     let mut verts: Vec<(f64, f64)> = Vec::with_capacity(rec.angles.len() + 1);
     let mut crossings: Vec<(isize, f64)> = Vec::new();
+    let mut beams: Vec<(f64, f64, f64, f64, f64)> = Vec::with_capacity(rec.angles.len());
     for (i, &k) in drawn.iter().enumerate() {
         let scan = (i + 1) as u16;
         let (pose, ranges) = rec.scan(k);
@@ -247,7 +255,7 @@ fn draw(rec: &Recording, f: &Frame, drawn: &[usize], share: f64) -> Result<Drawn
         let (fx, fy) = (ox.floor(), oy.floor());
         verts.clear();
         verts.push((ox, oy));
-        let mut any_valid = false;
+        beams.clear();
         for (&alpha, &r) in rec.angles.iter().zip(ranges) {
             if !rec.valid(r) {
                 verts.push((ox, oy));
@@ -258,7 +266,24 @@ fn draw(rec: &Recording, f: &Frame, drawn: &[usize], share: f64) -> Result<Drawn
             let len = r / f.resolution;
             let (ex, ey) = (ox + len * dx, oy + len * dy);
             verts.push((ex, ey));
-            any_valid = true;
+            beams.push((dx, dy, len, ex, ey));
+        }
+        if beams.is_empty() {
+            continue; // a scan without a valid beam draws nothing
+        }
+        // the polygon first: its runs are disjoint, so they need no check (one beam makes
+        // no polygon)
+        if verts.len() > 2 {
+            fill(&verts, hi, wi, &mut crossings, &mut |y, c0, c1| {
+                let base = ((hi - 1 - y) * wi) as usize;
+                let (a, b) = (base + c0 as usize, base + c1 as usize);
+                c.visited_by[a..=b].fill(scan);
+                for v in &mut c.visits[a..=b] {
+                    *v += 1;
+                }
+            });
+        }
+        for &(dx, dy, len, ex, ey) in &beams {
             let end = (ex.floor() as isize, ey.floor() as isize);
             let (mut col, mut y) = (fx as isize, fy as isize);
             let (mut tx, tdx, sx) = if dx > 0.0 {
@@ -297,15 +322,6 @@ fn draw(rec: &Recording, f: &Frame, drawn: &[usize], share: f64) -> Result<Drawn
                 c.visit(cell, scan);
                 c.hit(cell, scan);
             }
-        }
-        // a scan without a valid beam draws nothing; one beam makes no polygon
-        if verts.len() > 2 && any_valid {
-            let mut visit = |col, y| {
-                if let Some(cell) = at(col, y) {
-                    c.visit(cell, scan);
-                }
-            };
-            fill(&verts, hi, wi, &mut crossings, &mut visit);
         }
     }
     let mut values = filled(n, UNKNOWN_VALUE)?;
