@@ -165,10 +165,17 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("output", type=Path, nargs="+", help="slamq run outputs")
     ap.add_argument("--max-draw", type=int, default=MAX_DRAW)
+    ap.add_argument("--max-test", type=int, default=MAX_TEST)
+    ap.add_argument("--resolution", type=float, default=RESOLUTION,
+                    help="the drawn maps' cell size, metres")
+    ap.add_argument("--rows", default=None,
+                    help="the rows file's name in the last OUTPUT (default split-rows.csv, "
+                    "split-polygon-rows.csv with --polygon): a variant of the figure")
     ap.add_argument("--polygon", action="store_true",
                     help="the prototype (swept polygons), into split-polygon-rows.csv")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
-    store = a.output[-1] / ("split-polygon-rows.csv" if a.polygon else "split-rows.csv")
+    store = a.output[-1] / (a.rows or ("split-polygon-rows.csv" if a.polygon
+                                       else "split-rows.csv"))
     done = set()
     if store.exists():
         with store.open() as f:
@@ -191,11 +198,14 @@ def main(argv: list[str] | None = None) -> int:
                     scans = recording(r["scans"])
                     traj = load_trajectory(r["trajectory"], unsorted="sort")
                     if a.polygon:
-                        fig = split_crossing(scans, traj, max_draw=a.max_draw)
+                        fig = split_crossing(scans, traj, max_draw=a.max_draw,
+                                             max_test=a.max_test)
                     else:
                         from slamq import scan_split
 
-                        fig = scan_split(scans, traj, max_draw=a.max_draw).to_dict()
+                        fig = scan_split(scans, traj, max_draw=a.max_draw,
+                                         max_test=a.max_test,
+                                         resolution=a.resolution).to_dict()
                         del fig["drawn"], fig["tested"]
                 except Exception as exc:  # noqa: BLE001 - a study row says why it failed
                     print(f"{r['map']}: {type(exc).__name__}: {exc}", file=sys.stderr)
