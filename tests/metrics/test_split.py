@@ -178,8 +178,11 @@ def test_bad_input_is_refused_with_its_name() -> None:
                      (dict(max_draw=70000), "max_draw")):
         with pytest.raises(SlamqError, match=what):
             scan_split(s, ok, **kw)
+    far = np.array([[0.0, 0.0, 0.0], [1e5, 0.0, 0.0]])
     with pytest.raises(SlamqError, match="laser.log: .* more than 16777216 cells"):
-        scan_split(s, np.array([[0.0, 0.0, 0.0], [1e5, 0.0, 0.0]]))
+        scan_split(s, far)
+    with pytest.raises(SlamqError, match="laser.log: .* more than 16777216 cells"):
+        scan_split_reference(s, far)
     # no valid beam: nothing drawn and nothing scored, so no figure
     blind = Scans([0.0, 1.0], [0.0], [[np.inf], [np.inf]], 5.0, source="laser.log")
     assert math.isnan(scan_split(blind, ok).crossing_share)

@@ -158,7 +158,8 @@ def scan_split(scans: Scans, poses: Trajectory | Any, *, resolution: float = RES
 
 
 def _frame(laser: np.ndarray, angles: np.ndarray, ranges: np.ndarray, valid: np.ndarray,
-           drawn: np.ndarray, resolution: float) -> tuple[int, int, float, float]:
+           drawn: np.ndarray, resolution: float, source: str
+           ) -> tuple[int, int, float, float]:
     """``(height, width, x0, y0)``: the grid around the drawn scans' lasers and ends."""
     xs, ys = [laser[drawn, 0]], [laser[drawn, 1]]
     for k in drawn:
@@ -172,7 +173,8 @@ def _frame(laser: np.ndarray, angles: np.ndarray, ranges: np.ndarray, valid: np.
     width = max(math.ceil((float(x.max()) + MARGIN - x0) / resolution), 1)
     height = max(math.ceil((float(y.max()) + MARGIN - y0) / resolution), 1)
     if width * height > MAX_CELLS:
-        raise SlamqError(f"the scans span more than {MAX_CELLS} cells at {resolution} m")
+        raise SlamqError(f"{source}: the scans span more than {MAX_CELLS} cells at "
+                         f"{resolution} m")
     return height, width, x0, y0
 
 
@@ -291,7 +293,7 @@ def scan_split_reference(scans: Scans, poses: Trajectory | Any, *,
     res = float(resolution)
     valid = np.isfinite(ranges) & (ranges > scans.min_range) & (ranges < scans.max_range)
     frame = _frame(laser, scans.angles, ranges, valid,
-                   np.concatenate([halves[0][0], halves[1][0]]), res)
+                   np.concatenate([halves[0][0], halves[1][0]]), res, scans.source)
     maps, counts = [], []
     for i, (drawn, tested) in enumerate(halves):
         values, unknown = _draw(laser, scans.angles, ranges, valid, drawn, frame, res,
