@@ -534,11 +534,12 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
     return "\n".join(out) + "\n"
 
 
-def split_values(df: pd.DataFrame, output: Path) -> dict[str, float]:
+def split_values(df: pd.DataFrame, output: Path, name: str = "split-rows.csv"
+                 ) -> dict[str, float]:
     """Each map of ``df`` (by its ``map`` value) with its split crossing share from
-    ``OUTPUT/split-rows.csv`` (studies/split_scans.py), matched by algorithm, sequence and
-    run; NaN where it has none."""
-    split = pd.read_csv(output / "split-rows.csv")
+    ``OUTPUT/split-rows.csv`` (studies/split_scans.py; ``name``: a variant's rows), matched
+    by algorithm, sequence and run; NaN where it has none."""
+    split = pd.read_csv(output / name)
     key = {(str(r.algorithm), str(r.sequence), str(r.run)): float(r.split_crossing)
            for r in split.itertuples()}
     return {str(m): key.get((str(a), str(s), str(r)), math.nan)
@@ -570,6 +571,9 @@ def main(argv: list[str] | None = None) -> int:
                     "crossed, not grazed'; split_crossing: OUTPUT/split-rows.csv of "
                     "studies/split_scans.py, 'A trajectory against its own scans, split "
                     "in time')")
+    ap.add_argument("--split-rows", default="split-rows.csv",
+                    help="with --figure split_crossing or c2: the rows file of "
+                    "studies/split_scans.py in OUTPUT (a variant's, --rows there)")
     ap.add_argument("--rule", type=float, nargs=2, metavar=("V", "K"), default=None,
                     help="the veto's floor and share (default: slamq's)")
     ap.add_argument("--margins", action="store_true",
@@ -640,14 +644,16 @@ def main(argv: list[str] | None = None) -> int:
         if not a.cached:
             raise SystemExit("--refresh-defects needs --cached")
         refresh_defects(cache)
-    values = (split_values(df, a.output) if a.figure in ("split_crossing", "c2")
-              else None)
+    values = (split_values(df, a.output, a.split_rows)
+              if a.figure in ("split_crossing", "c2") else None)
     for pair in (False, True):
         v = verdicts(df, truth, rules=rules, pair=pair, cache=cache, figure=a.figure,
                      by_run=a.by_run, values=values)
         store.write_bytes(pickle.dumps(cache))
         suffix = (f"-{a.max_scans}" if a.max_scans else "") + (
-            "" if a.figure == "violation_share" else f"-{a.figure}")
+            "" if a.figure == "violation_share" else f"-{a.figure}") + (
+            "" if a.split_rows == "split-rows.csv" or a.figure not in (
+                "split_crossing", "c2") else f"-{Path(a.split_rows).stem}")
         v.to_csv(a.output / f"scans-verdicts{'-pairs' if pair else ''}{suffix}.csv",
                  index=False)
         sys.stdout.write(("\nTwo-map cases (every pair of programs of a sequence):\n\n"
