@@ -41,20 +41,13 @@ def intel() -> tuple[Any, Any] | None:
     import numpy as np
 
     from slamq import Trajectory, load_scans
+    from slamq.sources.carmen import CarmenLog
 
     log = ROOT.parent / "shared" / "data" / "datasets2d" / "intel" / "intel.from-rosbag.clf"
     if not log.is_file():
         return None
-    t, xyt = [], []
-    for line in log.read_text().splitlines():
-        if line.startswith("FLASER "):
-            v = line.split()
-            k = int(v[1])
-            xyt.append([float(v[k + 5]), float(v[k + 6]), float(v[k + 7])])
-            t.append(float(v[k + 8]))
-    order = np.argsort(t, kind="stable")
-    odom = Trajectory.from_xy_yaw(np.asarray(t)[order], *np.asarray(xyt)[order].T)
-    return load_scans(log), odom
+    t, x, y, yaw = np.array(sorted((s.stamp, *s.odom) for s in CarmenLog(log).scans())).T
+    return load_scans(log), Trajectory.from_xy_yaw(t, x, y, yaw)
 
 
 def simulated(length: float) -> tuple[Any, Any]:

@@ -358,18 +358,15 @@ pub struct Consistency {
     pub crossings: Vec<u32>,
 }
 
-/// Score every scan: laser `poses` (`(x, y, yaw)` triples in the world frame, flat),
-/// beams at `angles`, `ranges` (`n x angles.len()`, row-major, metres; a beam is valid when
-/// finite and `min_range < r < max_range`), in parallel on the current rayon pool (the
-/// same numbers for any number of threads).
-pub fn consistency(
-    grid: &ScanGrid,
+/// Check laser `poses` (flat `(x, y, yaw)` triples, finite), beam `angles` (finite),
+/// `ranges` (`n x angles.len()`) and `0 <= min_range < max_range`; returns `(n, beams)`.
+pub fn check_recording(
     poses: &[f64],
     angles: &[f64],
     ranges: &[f64],
     min_range: f64,
     max_range: f64,
-) -> Result<Consistency, ScanError> {
+) -> Result<(usize, usize), ScanError> {
     if !(min_range.is_finite() && min_range >= 0.0) {
         return Err(ScanError(format!(
             "min_range must be a finite number >= 0, got {min_range}"
@@ -403,6 +400,22 @@ pub fn consistency(
             ranges.len()
         )));
     }
+    Ok((n, b))
+}
+
+/// Score every scan: laser `poses` (`(x, y, yaw)` triples in the world frame, flat),
+/// beams at `angles`, `ranges` (`n x angles.len()`, row-major, metres; a beam is valid when
+/// finite and `min_range < r < max_range`), in parallel on the current rayon pool (the
+/// same numbers for any number of threads).
+pub fn consistency(
+    grid: &ScanGrid,
+    poses: &[f64],
+    angles: &[f64],
+    ranges: &[f64],
+    min_range: f64,
+    max_range: f64,
+) -> Result<Consistency, ScanError> {
+    let (n, b) = check_recording(poses, angles, ranges, min_range, max_range)?;
     let (h, w) = grid.shape();
     let mut counts = filled(n * COLUMNS.len(), 0i64)?;
     let mut violations = filled(h * w, 0u32)?;

@@ -19,7 +19,7 @@
 //! `python/slamq/metrics/split.py`'s `scan_split_reference` is this module's numpy twin
 //! (the same floating-point operations in the same order).
 
-use crate::scans::{consistency, ScanError, ScanGrid};
+use crate::scans::{check_recording, consistency, ScanError, ScanGrid};
 
 /// The most cells a drawn map may have (a 200 m x 200 m box at 0.05 m per cell).
 pub const MAX_CELLS: usize = 1 << 24;
@@ -408,36 +408,7 @@ pub fn split(
             p.occupied_share
         )));
     }
-    if !(min_range.is_finite() && min_range >= 0.0) || max_range.is_nan() || max_range <= min_range
-    {
-        return Err(ScanError(format!(
-            "need 0 <= min_range < max_range, got {min_range} and {max_range}"
-        )));
-    }
-    if poses.len() % 3 != 0 {
-        return Err(ScanError(format!(
-            "poses must be (x, y, yaw) triples, got {} numbers",
-            poses.len()
-        )));
-    }
-    if let Some((i, q)) = poses
-        .chunks_exact(3)
-        .enumerate()
-        .find(|(_, q)| !q.iter().all(|v| v.is_finite()))
-    {
-        return Err(ScanError(format!("pose {i} must be finite, got {q:?}")));
-    }
-    if let Some(a) = angles.iter().find(|a| !a.is_finite()) {
-        return Err(ScanError(format!("angles must be finite, got {a}")));
-    }
-    let n = poses.len() / 3;
-    if n.checked_mul(angles.len()) != Some(ranges.len()) {
-        return Err(ScanError(format!(
-            "ranges hold {} values for {n} scans of {} beams",
-            ranges.len(),
-            angles.len()
-        )));
-    }
+    let (n, _) = check_recording(poses, angles, ranges, min_range, max_range)?;
     for (drawn, tested) in halves {
         if let Some(k) = drawn.iter().chain(tested).find(|&&k| k >= n) {
             return Err(ScanError(format!(

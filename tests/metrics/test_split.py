@@ -135,21 +135,15 @@ def test_rust_equals_the_numpy_twin(case) -> None:
 
 
 def _carmen(path, most: int) -> tuple[Scans, Trajectory]:
-    """The first ``most`` scans of a CARMEN log and the odometry of its FLASER lines."""
-    stamps, odom = [], []
-    with open(path) as f:
-        for line in f:
-            if line.startswith("FLASER "):
-                v = line.split()
-                k = int(v[1])
-                odom.append([float(v[k + 5]), float(v[k + 6]), float(v[k + 7])])
-                stamps.append(float(v[k + 8]))
-    order = np.argsort(stamps, kind="stable")
-    t, xyt = np.asarray(stamps)[order], np.asarray(odom)[order]
+    """The first ``most`` scans of a CARMEN log and the odometry its laser lines carry."""
+    from slamq.sources.carmen import CarmenLog
+
+    odom = [(x.stamp, *x.odom) for x in CarmenLog(path).scans()]
+    t, x, y, yaw = np.array(sorted(odom)).T
     s = load_scans(path)
     part = Scans(s.stamps[:most], s.angles, s.ranges[:most], s.max_range,
                  min_range=s.min_range, source=s.source)
-    return part, Trajectory.from_xy_yaw(t, *xyt.T)
+    return part, Trajectory.from_xy_yaw(t, x, y, yaw)
 
 
 def test_the_core_equals_the_twin_on_a_real_log() -> None:

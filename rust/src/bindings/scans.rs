@@ -18,6 +18,38 @@ type Scored<'py> = (
     Bound<'py, PyArray2<u32>>,
 );
 
+/// A recording's scan count and its poses, angles and ranges as flat slices.
+type Flat<'a> = (usize, &'a [f64], &'a [f64], &'a [f64]);
+
+/// The laser poses `(n, 3)`, beam angles `(b,)` and ranges `(n, b)` of a recording, checked
+/// for shape and contiguity.
+fn recording<'a>(
+    poses: &'a PyReadonlyArray2<'_, f64>,
+    angles: &'a PyReadonlyArray1<'_, f64>,
+    ranges: &'a PyReadonlyArray2<'_, f64>,
+) -> PyResult<Flat<'a>> {
+    if poses.shape()[1] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "poses must have shape (n, 3), got {:?}",
+            poses.shape()
+        )));
+    }
+    let n = poses.shape()[0];
+    let b = angles.shape()[0];
+    if ranges.shape() != [n, b] {
+        return Err(PyValueError::new_err(format!(
+            "ranges must have shape ({n}, {b}) for {n} poses and {b} angles, got {:?}",
+            ranges.shape()
+        )));
+    }
+    Ok((
+        n,
+        contiguous(poses, "poses")?,
+        contiguous(angles, "angles")?,
+        contiguous(ranges, "ranges")?,
+    ))
+}
+
 /// scan_consistency(values, unknown, resolution, origin, occupied_threshold, tolerance,
 /// poses, angles, ranges, min_range, max_range, threads=0) -> (counts, violations,
 /// crossings)
@@ -53,23 +85,7 @@ pub(crate) fn scan_consistency<'py>(
 ) -> PyResult<Scored<'py>> {
     let map = grid(&values, &unknown)?;
     let (h, w) = (map.height, map.width);
-    if poses.shape()[1] != 3 {
-        return Err(PyValueError::new_err(format!(
-            "poses must have shape (n, 3), got {:?}",
-            poses.shape()
-        )));
-    }
-    let n = poses.shape()[0];
-    let b = angles.shape()[0];
-    if ranges.shape() != [n, b] {
-        return Err(PyValueError::new_err(format!(
-            "ranges must have shape ({n}, {b}) for {n} poses and {b} angles, got {:?}",
-            ranges.shape()
-        )));
-    }
-    let flat = contiguous(&poses, "poses")?;
-    let a = contiguous(&angles, "angles")?;
-    let r = contiguous(&ranges, "ranges")?;
+    let (n, flat, a, r) = recording(&poses, &angles, &ranges)?;
     let (v, u) = (map.values, map.unknown);
     let err = |e: ScanError| PyValueError::new_err(e.to_string());
     let out = compute(py, threads, || {
@@ -185,23 +201,7 @@ pub(crate) fn scan_split<'py>(
     tolerance: f64,
     threads: usize,
 ) -> PyResult<Halves<'py>> {
-    if poses.shape()[1] != 3 {
-        return Err(PyValueError::new_err(format!(
-            "poses must have shape (n, 3), got {:?}",
-            poses.shape()
-        )));
-    }
-    let n = poses.shape()[0];
-    let b = angles.shape()[0];
-    if ranges.shape() != [n, b] {
-        return Err(PyValueError::new_err(format!(
-            "ranges must have shape ({n}, {b}) for {n} poses and {b} angles, got {:?}",
-            ranges.shape()
-        )));
-    }
-    let flat = contiguous(&poses, "poses")?;
-    let a = contiguous(&angles, "angles")?;
-    let r = contiguous(&ranges, "ranges")?;
+    let (n, flat, a, r) = recording(&poses, &angles, &ranges)?;
     let d1 = indices(&drawn_1, "drawn_1", n)?;
     let t1 = indices(&tested_1, "tested_1", n)?;
     let d2 = indices(&drawn_2, "drawn_2", n)?;
