@@ -61,7 +61,7 @@ impl fmt::Display for ScanError {
 impl std::error::Error for ScanError {}
 
 /// `n` copies of `v`, or an error when the memory cannot be had.
-fn filled<T: Clone>(n: usize, v: T) -> Result<Vec<T>, ScanError> {
+pub(crate) fn filled<T: Clone>(n: usize, v: T) -> Result<Vec<T>, ScanError> {
     let mut out = Vec::new();
     out.try_reserve_exact(n).map_err(|_| {
         ScanError(format!(
@@ -104,6 +104,20 @@ fn disc(tol: f64) -> (isize, Vec<isize>) {
         })
         .collect();
     (reach, rows)
+}
+
+/// The walk's start along one axis, for a ray at `o + t d` in cell `cell` (`floor` of
+/// where it starts): the `t` of the first cell boundary it meets, the `t` between two
+/// boundaries, and the step (+1, -1; 0 and an infinite `t` when `d` is 0).
+#[inline]
+pub(crate) fn first_boundary(o: f64, d: f64, cell: f64) -> (f64, f64, isize) {
+    if d > 0.0 {
+        ((cell + 1.0 - o) / d, 1.0 / d, 1)
+    } else if d < 0.0 {
+        ((cell - o) / d, -1.0 / d, -1)
+    } else {
+        (f64::INFINITY, 0.0, 0)
+    }
 }
 
 impl ScanGrid {
@@ -300,20 +314,9 @@ impl ScanGrid {
         let iy = ((oy + t0 * dy).floor()).clamp(0.0, h - 1.0);
         let pw = (self.width + 2) as isize;
         let mut idx = (self.height as isize - iy as isize) * pw + ix as isize + 1;
-        let (mut tx, tdx, sx) = if dx > 0.0 {
-            ((ix + 1.0 - ox) / dx, 1.0 / dx, 1isize)
-        } else if dx < 0.0 {
-            ((ix - ox) / dx, -1.0 / dx, -1isize)
-        } else {
-            (f64::INFINITY, 0.0, 0isize)
-        };
-        let (mut ty, tdy, sy) = if dy > 0.0 {
-            ((iy + 1.0 - oy) / dy, 1.0 / dy, -pw)
-        } else if dy < 0.0 {
-            ((iy - oy) / dy, -1.0 / dy, pw)
-        } else {
-            (f64::INFINITY, 0.0, 0isize)
-        };
+        let (mut tx, tdx, sx) = first_boundary(ox, dx, ix);
+        let (mut ty, tdy, sy) = first_boundary(oy, dy, iy);
+        let sy = -sy * pw; // up one row is back one padded row
         let (mut any, mut crossed) = (false, false);
         loop {
             // idx stays inside the padded grid: it starts inside the grid, moves one cell

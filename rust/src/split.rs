@@ -19,7 +19,7 @@
 //! `python/slamq/metrics/split.py`'s `scan_split_reference` is this module's numpy twin
 //! (the same floating-point operations in the same order).
 
-use crate::scans::{check_recording, consistency, ScanError, ScanGrid};
+use crate::scans::{check_recording, consistency, filled, first_boundary, ScanError, ScanGrid};
 
 /// The most cells a drawn map may have (a 200 m x 200 m box at 0.05 m per cell).
 pub const MAX_CELLS: usize = 1 << 24;
@@ -93,19 +93,6 @@ impl Recording<'_> {
     fn valid(&self, r: f64) -> bool {
         r.is_finite() && r > self.min_range && r < self.max_range
     }
-}
-
-/// `n` copies of `v`, or an error when the memory cannot be had.
-fn filled<T: Clone>(n: usize, v: T) -> Result<Vec<T>, ScanError> {
-    let mut out = Vec::new();
-    out.try_reserve_exact(n).map_err(|_| {
-        ScanError(format!(
-            "cannot allocate {n} values of {} bytes",
-            std::mem::size_of::<T>()
-        ))
-    })?;
-    out.resize(n, v);
-    Ok(out)
 }
 
 /// The frame around the laser positions and valid beams' ends of the scans in `drawn`
@@ -286,20 +273,8 @@ fn draw(rec: &Recording, f: &Frame, drawn: &[usize], share: f64) -> Result<Drawn
         for &(dx, dy, len, ex, ey) in &beams {
             let end = (ex.floor() as isize, ey.floor() as isize);
             let (mut col, mut y) = (fx as isize, fy as isize);
-            let (mut tx, tdx, sx) = if dx > 0.0 {
-                ((fx + 1.0 - ox) / dx, 1.0 / dx, 1isize)
-            } else if dx < 0.0 {
-                ((fx - ox) / dx, -1.0 / dx, -1isize)
-            } else {
-                (f64::INFINITY, 0.0, 0isize)
-            };
-            let (mut ty, tdy, sy) = if dy > 0.0 {
-                ((fy + 1.0 - oy) / dy, 1.0 / dy, 1isize)
-            } else if dy < 0.0 {
-                ((fy - oy) / dy, -1.0 / dy, -1isize)
-            } else {
-                (f64::INFINITY, 0.0, 0isize)
-            };
+            let (mut tx, tdx, sx) = first_boundary(ox, dx, fx);
+            let (mut ty, tdy, sy) = first_boundary(oy, dy, fy);
             // every cell entered at t < len up to the end cell; the walk takes at most
             // one step per boundary crossed, and every step moves t past one boundary
             while (col, y) != end {
