@@ -8,8 +8,8 @@ the right poses outvote the wrong ones, and the SLAM program's own map carries i
 convention. This figure reads neither: only the scans and the trajectory.
 
 - :func:`scan_split`: the Rust core (``rust/src/split.rs``), the two halves in parallel.
-- :func:`scan_split_reference`: its plain numpy twin, the same walk written out (slow; for
-  tests and benchmarks); both give the same maps and the same integers.
+- :func:`scan_split_reference`: its plain numpy twin, the same walks and fills written out
+  (slow; for tests and benchmarks); both give the same maps and the same integers.
 """
 
 from __future__ import annotations
