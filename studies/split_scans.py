@@ -38,16 +38,6 @@ MAX_DRAW = 3000
 MAX_TEST = 500
 
 
-def robot_poses(scans: Any, traj: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Which scans ``traj`` places (docs/spec.md 6b, its defaults) and the robot's
-    (x, y, yaw) at each (rows of the others are zeros)."""
-    from slamq.metrics.relations import _yaw
-    from slamq.metrics.sync import interpolate_poses
-
-    placed, _, pos, quat = interpolate_poses(traj, scans.stamps)
-    return placed, np.column_stack([pos[:, 0], pos[:, 1], _yaw(quat)])
-
-
 def draw(gx: np.ndarray, gy: np.ndarray, lx: np.ndarray, ly: np.ndarray, valid: np.ndarray,
          shape: tuple[int, int], occupied: float = OCCUPIED) -> tuple[np.ndarray, np.ndarray]:
     """Scans drawn as a map: ``(values, unknown)`` (0 occupied, 254 free, 205 unknown).
@@ -116,17 +106,14 @@ def split_crossing(scans: Any, traj: Any, *, max_draw: int = MAX_DRAW,
     >>> scan_split(s, gt).crossing_share < 0.01
     True
     """
-    from slamq.metrics.scans import scan_consistency
+    from slamq.metrics.scans import place, scan_consistency
     from slamq.metrics.sync import evenly_spread
     from slamq.models import OccupancyMap
     from slamq.models.scans import Scans
 
-    placed, robot = robot_poses(scans, traj)
-    idx = np.flatnonzero(placed)
-    if len(idx) < 4:
-        raise ValueError(f"{scans.source}: the trajectory places {len(idx)} scans")
-    laser = scans.laser_poses(robot[idx])
-    r = scans.ranges[idx]
+    _, laser, r = place(scans, traj)  # the placed scans' laser poses and ranges
+    if len(laser) < 4:
+        raise ValueError(f"{scans.source}: the trajectory places {len(laser)} scans")
     valid = np.isfinite(r) & (r > scans.min_range) & (r < scans.max_range)
     a = laser[:, 2:3] + scans.angles[None, :]
     ex = laser[:, 0:1] + np.where(valid, r, 0.0) * np.cos(a)
@@ -137,16 +124,16 @@ def split_crossing(scans: Any, traj: Any, *, max_draw: int = MAX_DRAW,
     h = int(math.ceil((max(ey.max(), laser[:, 1].max()) + 1.0 - y0) / RESOLUTION))
     gx, gy = (ex - x0) / RESOLUTION, h - (ey - y0) / RESOLUTION
     lx, ly = (laser[:, 0] - x0) / RESOLUTION, h - (laser[:, 1] - y0) / RESOLUTION
-    halves = np.array_split(np.arange(len(idx)), 2)
+    halves = np.array_split(np.arange(len(laser)), 2)
     out: dict[str, float] = {}
     for i, (drawn, tested) in enumerate(((halves[0], halves[1]), (halves[1], halves[0]))):
         d = drawn[evenly_spread(drawn.size, max_draw)]
         values, unknown = draw(gx[d], gy[d], lx[d], ly[d], valid[d], (h, w), occupied)
         grid = OccupancyMap(values, unknown, RESOLUTION, (x0, y0, 0.0))
         t = tested[evenly_spread(tested.size, max_test)]
-        part = Scans(scans.stamps[idx[t]], scans.angles, scans.ranges[idx[t]],
-                     scans.max_range, min_range=scans.min_range, offset=scans.offset)
-        c = scan_consistency(grid, part, robot[idx[t]])
+        part = Scans(np.arange(t.size, dtype=np.float64), scans.angles, r[t],
+                     scans.max_range, min_range=scans.min_range)
+        c = scan_consistency(grid, part, laser[t])
         out[f"crossing_{i + 1}"] = float(c.crossing_share)
         out[f"hit_{i + 1}"] = float(c.hit_share)
     out["split_crossing"] = (out["crossing_1"] + out["crossing_2"]) / 2.0

@@ -445,25 +445,21 @@ mod tests {
         (poses, angles, ranges)
     }
 
-    fn halves() -> ([usize; 5], [usize; 5]) {
-        ([0, 1, 2, 3, 4], [5, 6, 7, 8, 9])
+    /// [`corridor`]'s two halves of five scans.
+    const FIRST: [usize; 5] = [0, 1, 2, 3, 4];
+    const SECOND: [usize; 5] = [5, 6, 7, 8, 9];
+
+    /// [`corridor`] split into its two halves.
+    fn corridor_split(shift: f64, p: &SplitParams) -> Split {
+        let (a, b) = (FIRST, SECOND);
+        let (poses, angles, ranges) = corridor(shift);
+        split(&poses, &angles, &ranges, 0.0, 10.0, [(&a, &b), (&b, &a)], p).unwrap()
     }
 
     #[test]
     fn right_poses_agree_and_wrong_ones_cross() {
-        let (a, b) = halves();
         for (shift, crossings, hits) in [(0.0, 0, 10), (1.5, 5, 0)] {
-            let (poses, angles, ranges) = corridor(shift);
-            let s = split(
-                &poses,
-                &angles,
-                &ranges,
-                0.0,
-                10.0,
-                [(&a, &b), (&b, &a)],
-                &P,
-            )
-            .unwrap();
+            let s = corridor_split(shift, &P);
             // shifted, each scan's -x beam passes the first half's wall at x = 1.03 and
             // comes out into the free space the first half saw (ends at 0.47): a crossing;
             // the first half's +x beams cross the shifted half's wall at 0.47 alike
@@ -478,19 +474,7 @@ mod tests {
 
     #[test]
     fn a_drawn_map_has_walls_free_space_and_unknown() {
-        let (a, b) = halves();
-        let (poses, angles, ranges) = corridor(0.0);
-        let p = SplitParams { margin: 0.55, ..P };
-        let s = split(
-            &poses,
-            &angles,
-            &ranges,
-            0.0,
-            10.0,
-            [(&a, &b), (&b, &a)],
-            &p,
-        )
-        .unwrap();
+        let s = corridor_split(0.0, &SplitParams { margin: 0.55, ..P });
         let f = &s.frame;
         // x from -1.58 to 1.58: 32 cells; the laser at x = 1.58 / 0.1 = 15.8 cells, its
         // beams end at 5.5 and 26.1; y at 0.55 / 0.1 = 5.5 cells from the bottom
@@ -545,7 +529,7 @@ mod tests {
     #[test]
     fn bad_input_is_an_error() {
         let (poses, angles, ranges) = corridor(0.0);
-        let (a, b) = halves();
+        let (a, b) = (FIRST, SECOND);
         let h: [(&[usize], &[usize]); 2] = [(&a, &b), (&b, &a)];
         let bad = |p: SplitParams| split(&poses, &angles, &ranges, 0.0, 10.0, h, &p).is_err();
         assert!(bad(SplitParams {

@@ -23,6 +23,7 @@ import numpy as np
 
 from slamq import native
 from slamq.errors import SlamqError
+from slamq.metrics.relations import _yaw
 from slamq.metrics.sync import MAX_GAP, STAMP_TOL, interpolate_poses
 from slamq.models import OccupancyMap, Trajectory
 from slamq.models.scans import COUNTS, ScanConsistency, Scans
@@ -68,9 +69,7 @@ def place(scans: Scans, poses: Any, max_gap: float = MAX_GAP, stamp_tol: float =
     if isinstance(poses, Trajectory):
         placed, _, pos, quat = interpolate_poses(poses, scans.stamps, max_gap=max_gap,
                                                  stamp_tol=stamp_tol)
-        w, x, y, z = quat[placed].T
-        yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-        robot = np.column_stack([pos[placed, 0], pos[placed, 1], yaw])
+        robot = np.column_stack([pos[placed, 0], pos[placed, 1], _yaw(quat[placed])])
     else:
         robot = np.asarray(poses, dtype=np.float64)
         if robot.shape != (n, 3):

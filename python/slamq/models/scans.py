@@ -137,6 +137,19 @@ class Scans:
 COUNTS = ("valid", "hits", "misses", "unknown", "outside", "violations", "crossings")
 
 
+def _per_scan(counts: np.ndarray, name: str) -> np.ndarray:
+    """Per scan (row of :data:`COUNTS` counts): ``name`` / valid beams (NaN without any)."""
+    valid = counts[:, COUNTS.index("valid")]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(valid > 0, counts[:, COUNTS.index(name)] / np.maximum(valid, 1),
+                        np.nan)
+
+
+def _mean_over(shares: np.ndarray, keep: np.ndarray) -> float:
+    """The mean of ``shares`` where ``keep`` (NaN where nothing is kept)."""
+    return float(shares[keep].mean()) if keep.any() else math.nan
+
+
 @dataclass(frozen=True, eq=False)
 class ScanConsistency:
     """A map scored against its own scans (SPEC section 7b).
@@ -182,9 +195,7 @@ class ScanConsistency:
         return self.counts[:, COUNTS.index(name)]
 
     def _share(self, name: str) -> np.ndarray:
-        valid = self._column("valid")
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.where(valid > 0, self._column(name) / np.maximum(valid, 1), np.nan)
+        return _per_scan(self.counts, name)
 
     @property
     def hit_shares(self) -> np.ndarray:
@@ -212,8 +223,7 @@ class ScanConsistency:
         return int(self._column("valid").sum())
 
     def _mean(self, shares: np.ndarray) -> float:
-        keep = self.placed & (self._column("valid") > 0)
-        return float(shares[keep].mean()) if keep.any() else math.nan
+        return _mean_over(shares, self.placed & (self._column("valid") > 0))
 
     @property
     def crossing_share(self) -> float:
@@ -336,13 +346,8 @@ class ScanSplit:
     source: str = "<array>"
 
     def _means(self, name: str) -> np.ndarray:
-        out = np.full(2, np.nan)
-        for i, c in enumerate(self.counts):
-            valid = c[:, COUNTS.index("valid")]
-            keep = valid > 0
-            if keep.any():
-                out[i] = float((c[keep, COUNTS.index(name)] / valid[keep]).mean())
-        return out
+        return np.array([_mean_over(_per_scan(c, name), c[:, COUNTS.index("valid")] > 0)
+                         for c in self.counts])
 
     @property
     def crossing_shares(self) -> np.ndarray:
