@@ -19,7 +19,6 @@ Both write ``OUTPUT/scans-rows.csv`` (one row per run) and print Markdown.
 from __future__ import annotations
 
 import argparse
-import functools
 import itertools
 import math
 import sys
@@ -309,26 +308,6 @@ def _scan_order(corner_key: Any, scans: dict[str, float]) -> Any:
     return key
 
 
-def _c2_scan_flags(today: Any, info: dict[str, Any]
-                   ) -> tuple[dict[str, float], dict[str, str]]:
-    """The rule's ``_scan_flags`` (``today``) as candidate C2 of docs/validity.md ("A
-    trajectory against its own scans, split in time"): today's veto on the maps' crossing
-    share, a second veto above ``scan_limit`` of the programs' split shares
-    (``scan_split``), and the split share (today's figure without one) as the figure the
-    confirmation reads."""
-    from slamq.verdict import rule as r
-
-    scans, flags = today(info)
-    split = {a: float(e.get("scan_split", math.nan)) for a, e in info.items()}
-    split = {a: v for a, v in split.items() if math.isfinite(v)}
-    limit = r.scan_limit(split)
-    for a, v in split.items():
-        if v > limit:
-            flags.setdefault(a, f"its path is inconsistent with its own scans split in time "
-                                f"({r._pct(v)}, the lowest {r._pct(min(split.values()))})")
-    return {a: split.get(a, v) for a, v in scans.items()}, flags
-
-
 def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series,
            broken: pd.Series, rule: tuple | None) -> dict[str, Any]:
     """One verdict (``rule`` = (floor, share[, margin][, ORDER]), None: the evidence
@@ -336,11 +315,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     from slamq.verdict import rule as r
     from slamq.verdict.rule import SCAN_KEY, sequence_verdict
 
-    saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
-             r._scan_flags)
+    saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL)
     try:
-        if rule is not None and any("scan_split" in e for e in ev["algorithms"].values()):
-            r._scan_flags = functools.partial(_c2_scan_flags, saved[5])  # --figure c2
         if rule is not None:
             for x in rule:
                 if isinstance(x, str) and x.startswith("shortfall="):
@@ -355,8 +331,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                 r._corner_key = _scan_order(saved[3], scans)
         v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
     finally:
-        (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
-         r._scan_flags) = saved
+        (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -373,8 +348,8 @@ def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str,
     figure in the veto and the confirmation, nothing else changed. ``values`` (map path ->
     figure) replaces the evidence's figures of the maps scored against their scans
     (``split_crossing``: studies/split_scans.py). ``c2``: the crossing share as the
-    verdict reads it, and the split share beside it (``scan_split``, which
-    :func:`_judge` then weighs as docs/validity.md's candidate C2, :func:`_c2_scan_flags`).
+    verdict reads it, and the split share of ``values`` beside it (``scan_split``, which
+    the rule weighs since docs/validity.md's candidate C2 became it).
 
     Examples
     --------

@@ -348,6 +348,11 @@ _VERDICT = (
            "at its own trajectory, that pass through a wall of the map and come out into "
            "free space beyond it (no ground truth needed); a map above max(0.02, 1.5x the "
            "lowest of the sequence) is inconsistent with its own data and never named best"),
+    _c("scan_split", "float", "verdict", label="split crossing share", better="lower",
+       why="docs/spec.md sections 7e and 9: the path against its own scans split in time - "
+           "each half of the scans drawn as a map at the path's poses, the share of the other "
+           "half's beams that cross its walls (the program's map is not read); a path above "
+           "max(0.02, 1.5x the lowest of the sequence) is never named best"),
 )
 
 

@@ -127,6 +127,59 @@ def test_a_map_drawn_at_drifting_poses_is_inconsistent_with_its_scans(drive: dic
     assert scans["drifted"] > scan_limit(scans) and scans["b"] < scan_limit(scans)
     assert v["best"] in ("a", "b")
     assert any(w.startswith("drifted is never named best") for w in v["warnings"])
+    # each path against its own scans split in time (docs/spec.md 7e): the exact path's
+    # halves agree, the drifting odometry's see through each other's walls
+    split = {a: e["scan_split"] for a, e in ev["algorithms"].items()}
+    assert split["a"] < 0.01 and split["drifted"] > scan_limit(split), split
+    assert all(e["split_runs"] == 1 for e in ev["algorithms"].values())
+    assert set(ev["splits"]) == set(ev["scans"])
+    assert ev["splits"][drive["paths"]["drifted"]]["split_crossing"] == split["drifted"]
+    assert "scan_split" in v["basis"]
+
+
+def test_a_path_its_scans_split_in_time_contradict_is_never_named() -> None:
+    """docs/spec.md section 9: the paths' split shares are vetoed as the maps' crossing
+    shares are, and where a program has one, it is the figure that confirms it."""
+    summary = _summary(list("abc"), [10, 20, 30])
+    support = {"a": 0.9, "b": 0.9, "c": 0.9}
+    crossing = {"a": 0.01, "b": 0.012, "c": 0.011}
+    assert sequence_verdict(summary, "s", _ev(support, crossing))["best"] == "a"
+    # a's map agrees with its scans, but its path's two halves see through each other
+    v = sequence_verdict(summary, "s", _ev(support, crossing,
+                                           split={"a": 0.2, "b": 0.01, "c": 0.012}))
+    assert v["best"] == "b" and v["ranking"][-1] == "a"
+    assert v["basis"] == ["agreement", "scan_crossing", "scan_split", "corners"]
+    assert any(w.startswith("a is never named best: its path is inconsistent with its own "
+                            "scans split in time (20.0% of its beams") for w in v["warnings"])
+    # within max(SCAN_FLOOR, SCAN_SHARE x the lowest): not vetoed
+    v = sequence_verdict(summary, "s", _ev(support, crossing,
+                                           split={"a": 0.014, "b": 0.01, "c": 0.012}))
+    assert v["best"] == "a"
+    # of two maps, one partial: the split share confirms the other, or does not
+    s = _summary(["a", "b"], [10, 20])
+    partial = {"a": 1.0, "b": 0.5}
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.15, "b": 0.16},
+                                     completeness=partial, split={"a": 0.01, "b": 0.012}))
+    assert v["best"] == "a" and v["confidence"].endswith(
+        "its path consistent with its own scans split in time (1.0% of its beams cross the "
+        "walls its scans draw in the other half of the run)"), v["confidence"]
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.01, "b": 0.012},
+                                     completeness=partial, split={"a": 0.025, "b": 0.03}))
+    assert v["best"] is None
+    assert ("a's own scans do not confirm it (2.5% of its beams cross the walls its scans "
+            "draw in the other half of the run") in v["confidence"], v["confidence"]
+    # two runs on one path share their split share: the one whose map its scans flag is
+    # not named, the other is
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.01, "b": 0.3},
+                                     split={"a": 0.005, "b": 0.005}))
+    assert v["best"] == "a" and "b is wrong on its own (inconsistent with its own scans" in \
+        v["confidence"]
+    # maps that disagree: ordered by their split share
+    v = sequence_verdict(summary, "s", _ev({"a": 0.3, "b": 0.35, "c": 0.2},
+                                           {"a": 0.012, "b": 0.01, "c": 0.011}, majority=False,
+                                           split={"a": 0.004, "b": 0.3, "c": 0.01}))
+    assert v["best"] == "a" and v["ranking"] == ["a", "c", "b"]
+    assert v["basis"] == ["scan_crossing", "scan_split"]
 
 
 def test_of_two_maps_the_one_its_scans_contradict_is_not_named(drive: dict) -> None:
@@ -171,13 +224,15 @@ def test_a_record_whose_scans_cannot_be_read_is_a_note(drive: dict, tmp_path: Pa
 
 def _ev(support: dict[str, float], scans: dict[str, float], *, majority: bool = True,
         defects: tuple[str, ...] = (), completeness: dict[str, float] | None = None,
-        placed: bool = True) -> dict:
+        placed: bool = True, split: dict[str, float] | None = None) -> dict:
+    split = split or {}
     return {"majority": majority, "notes": [], "group": [], "algorithms": {
         a: {"support": s, "completeness": (completeness or {}).get(a, 1.0), "placed": placed,
             "runs": 1, "flagged_runs": int(a in defects),
             "defects": {a: [{"kind": "doubled_walls"}]} if a in defects else {},
             "in_group": 0.0, "group_support": math.nan,
-            "scan_crossing": scans.get(a, math.nan), "scan_runs": int(a in scans)}
+            "scan_crossing": scans.get(a, math.nan), "scan_runs": int(a in scans),
+            "scan_split": split.get(a, math.nan), "split_runs": int(a in split)}
         for a, s in support.items()}}
 
 
@@ -355,7 +410,7 @@ def test_slamq_verdict_with_the_recording_and_the_trajectories(drive: dict) -> N
     assert data["verdict"]["best"] == "a.yaml"
     assert data["evidence"]["algorithms"]["ghost.yaml"]["scan_crossing"] > 0.05
     header = r.stderr.splitlines()[0].split()  # the table's columns
-    assert "crossing" in header and "short" in header
+    assert "crossing" in header and "split" in header and "short" in header
     assert data["evidence"]["algorithms"]["a.yaml"]["shortfall"] == pytest.approx(0, abs=1e-9)
     # without them: two maps that differ, nothing separates them
     r = slamq("verdict", a, ghost, "--json", "-", "--no-defects")

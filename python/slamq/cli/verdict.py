@@ -105,12 +105,12 @@ def _fmt(x: Any, digits: int = 2) -> str:
 
 
 def _print(result: dict[str, Any], out: Any) -> None:
-    """The maps in the verdict's order: rank, support, completeness, crossing share, how
-    much shorter the map's path is than another's at most (docs/spec.md 7d), corners,
-    flags."""
+    """The maps in the verdict's order: rank, support, completeness, crossing share, the
+    path's split crossing share (docs/spec.md 7e), how much shorter the map's path is than
+    another's at most (7d), corners, flags."""
     v, ev = result["verdict"], result["evidence"]
     info = ev["algorithms"] if ev else {}
-    rows = [("rank", "map", "support", "complete", "crossing", "short", "corners",
+    rows = [("rank", "map", "support", "complete", "crossing", "split", "short", "corners",
              "canonical", "flags")]
     order = list(v["ranking"]) + sorted(set(result["maps"]) - set(v["ranking"]))
     for i, name in enumerate(order, 1):
@@ -120,7 +120,8 @@ def _print(result: dict[str, Any], out: Any) -> None:
             kinds.insert(0, "not placed")
         rank = str(i) if name in v["ranking"] else "-"
         rows.append((rank, name, _fmt(e.get("support")), _fmt(e.get("completeness")),
-                     _fmt(e.get("scan_crossing"), 3), _fmt(e.get("shortfall"), 3),
+                     _fmt(e.get("scan_crossing"), 3), _fmt(e.get("scan_split"), 3),
+                     _fmt(e.get("shortfall"), 3),
                      _fmt(result["maps"][name].get("corners"), 0),
                      _fmt(result["maps"][name].get("corners_canonical"), 0),
                      ", ".join(kinds) or "-"))

@@ -8,7 +8,9 @@ square of the maps), scores them against each other and runs the defect detector
 sums that up per algorithm for :func:`slamq.verdict.rule.sequence_verdict`. A record that
 names the recording its map was built from (``scans``) and its ``trajectory`` is also
 scored against its own scans (:func:`slamq.verdict.scans.record_consistency`, docs/spec.md
-section 7b), which the rule weighs too (section 9), and its recording by how many of its
+section 7b), its path against its own scans split in time
+(:func:`slamq.verdict.scans.record_split`, section 7e), both of which the rule weighs
+(section 9), and its recording by how many of its
 scans see walls in one direction only (:func:`slamq.scan_degeneracy`, section 7c), which
 caps the verdict's confidence. Beside it,
 for the detail pages only, the missing walls of each map against the others
@@ -77,10 +79,11 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     dict
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
         "defects", "in_group", "group_support", "scan_violation", "scan_crossing", "scan_hit",
-        "scan_runs", "shortfall", "shortfall_against"}}, "majority": bool, "group": [alg],
-        "group_maps": [dict], "consistency": {path: {path: float}}, "maps": int, "notes": [str],
-        "missing_walls": {path: [dict]}, "scans": {path: dict}, "degeneracy": {path: dict},
-        "degenerate_share": float, "min_support": float}``.
+        "scan_runs", "scan_split", "split_runs", "shortfall", "shortfall_against"}},
+        "majority": bool, "group": [alg], "group_maps": [dict],
+        "consistency": {path: {path: float}}, "maps": int, "notes": [str],
+        "missing_walls": {path: [dict]}, "scans": {path: dict}, "splits": {path: dict},
+        "degeneracy": {path: dict}, "degenerate_share": float, "min_support": float}``.
         ``group_maps`` is the agreeing group of docs/spec.md section 9, map by map
         (``{"map": path, "algorithm", "run"}``, empty when no two maps agree);
         ``consistency`` maps the path of each map that took part to its consistency with
@@ -96,7 +99,11 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         over an algorithm's runs of their maps' violation, crossing and hit shares against
         their own scans (NaN, and ``scan_runs`` 0, when none has them; the verdict weighs
         the crossing share); ``scans`` maps the path of each map scored so
-        to its :meth:`~slamq.models.ScanConsistency.to_dict`. ``degeneracy`` maps each
+        to its :meth:`~slamq.models.ScanConsistency.to_dict`. ``scan_split`` is the median
+        over an algorithm's runs of their paths' split crossing share (docs/spec.md 7e; NaN,
+        and ``split_runs`` 0, when none has scans), and ``splits`` maps the path of each
+        map whose record was scored so to its :meth:`~slamq.models.ScanSplit.to_dict`.
+        ``degeneracy`` maps each
         recording named by a record with scans to its
         :meth:`~slamq.models.ScanDegeneracy.to_dict` (docs/spec.md 7c), and
         ``degenerate_share`` is the highest of their shares (NaN: none). ``shortfall`` is
@@ -147,12 +154,18 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         # side on the pool's workers (one Rust thread each: no figure depends on it)
         one = 1 if _workers(threads) > 1 else threads
         scored: list[tuple[str, str, Future[Any]]] = []
+        split: list[tuple[str, str, Future[Any]]] = []
         # and each recording itself: how many of its scans see walls in one direction only
         # (docs/spec.md 7c), which caps the verdict's confidence (section 9)
         degenerate: dict[str, Future[Any]] = {}
         if scans:
             from slamq.metrics.degeneracy import scan_degeneracy
-            from slamq.verdict.scans import has_scans, record_consistency, recording
+            from slamq.verdict.scans import (
+                has_scans,
+                record_consistency,
+                record_split,
+                recording,
+            )
 
             for rec in picked.itertuples():
                 if not has_scans(rec._asdict()):
@@ -169,6 +182,9 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
                 if key in maps:
                     scored.append((key, str(rec.map), pool.submit(
                         record_consistency, rec._asdict(), maps[key], threads=one)))
+                    # the path against its own scans split in time (7e): the map not read
+                    split.append((key, str(rec.map), pool.submit(
+                        record_split, rec._asdict(), threads=one)))
         flagged: dict[str, Future[Any]] = {}
         if defects:
             from slamq.metrics.defects import detect_defects  # on first use
@@ -182,6 +198,13 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
                 checked[key] = job.result().to_dict()
             except SlamqError as exc:
                 notes.append(f"{path}: not scored against its scans ({exc})")
+        halves: dict[str, dict[str, Any]] = {}
+        for key, path, job in split:
+            try:
+                halves[key] = job.result().to_dict()
+            except SlamqError as exc:
+                notes.append(f"{path}: its path not scored against its scans split in time "
+                             f"({exc})")
         found = {key: [d.to_dict() for d in job.result()] for key, job in flagged.items()}
         seen: dict[str, dict[str, Any]] = {}
         for path, job in degenerate.items():
@@ -236,6 +259,9 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "scan_hit": finite_median([checked[k]["hit_share"] for k in keys
                                        if k in checked]),
             "scan_runs": sum(1 for k in keys if k in checked),
+            "scan_split": finite_median([halves[k]["split_crossing"] for k in keys
+                                         if k in halves]),
+            "split_runs": sum(1 for k in keys if k in halves),
             "shortfall": shortfall,
             "shortfall_against": against,
         }
@@ -245,6 +271,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "notes": notes, "missing_walls": gaps, "group": group,
             "group_maps": group_maps, "consistency": pairs,
             "scans": {paths[k]: v for k, v in checked.items()},
+            "splits": {paths[k]: v for k, v in halves.items()},
             "degeneracy": seen, "degenerate_share": _highest(
                 [d["degenerate_share"] for d in seen.values()]),
             "min_support": SETTINGS.min_support.default}

@@ -28,7 +28,7 @@ class Judgement:
         :func:`slamq.verdict.ranking.summarize` of the records, with ``agreement_mean``,
         ``_std`` and ``_n`` where a sequence was judged by the maps' agreement, and
         ``scan_crossing_mean``, ``_std``, ``_n`` where maps were scored against their own
-        scans.
+        scans, and ``scan_split_*`` where their paths were (split in time).
     sequences : list of str
         The sequences, sorted.
     evidence : dict
@@ -89,11 +89,13 @@ def judge(ok: pd.DataFrame) -> Judgement:
 def _add_agreement(summary: pd.DataFrame, evidence: dict[str, dict[str, Any]]) -> None:
     """The agreement figure of each algorithm as a summary column (``agreement_mean``,
     ``_std``, ``_n``), and its crossing share against its own scans
-    (``scan_crossing_*``), so that the table shows what the verdict rested on."""
+    (``scan_crossing_*``) and its path's split share (``scan_split_*``), so that the table
+    shows what the verdict rested on."""
     if not evidence or not len(summary):
         return
     for key, field, runs in (("agreement", "support", "runs"),
-                             ("scan_crossing", "scan_crossing", "scan_runs")):
+                             ("scan_crossing", "scan_crossing", "scan_runs"),
+                             ("scan_split", "scan_split", "split_runs")):
         values = [(seq, alg, e.get(field, math.nan), e.get(runs, 0))
                   for seq, ev in evidence.items() for alg, e in ev["algorithms"].items()]
         values = [v for v in values if (v[0], v[1]) in summary.index and math.isfinite(v[2])]

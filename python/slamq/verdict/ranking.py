@@ -50,6 +50,7 @@ __all__ = [
     "METRICS",
     "Metric",
     "SCANS",
+    "SPLIT",
     "SequenceRanking",
     "rank_sequence",
     "summarize",
@@ -72,6 +73,9 @@ AGREEMENT = COLUMNS["agreement"]
 #: that cross its walls into free space beyond (docs/spec.md 7b); a column when the
 #: verdict weighs it.
 SCANS = COLUMNS["scan_crossing"]
+#: Where the paths were scored against their own scans split in time (docs/spec.md 7e):
+#: the split crossing share; a column when the verdict weighs it.
+SPLIT = COLUMNS["scan_split"]
 
 
 def summarize(ok: pd.DataFrame) -> pd.DataFrame:
@@ -254,7 +258,7 @@ def rank_sequence(summary: pd.DataFrame, sequence: str, verdict: dict | None = N
     ranks: dict[str, dict[str, float]] = {}
     best: dict[str, list[str]] = {}
     used: list[Metric] = []
-    shown = METRICS + tuple(m for m in (AGREEMENT, SCANS, CANONICAL)
+    shown = METRICS + tuple(m for m in (AGREEMENT, SCANS, SPLIT, CANONICAL)
                             if m.key in verdict["basis"])
     for m in shown:
         col = f"{m.key}_mean"

@@ -21,7 +21,7 @@ from slamq.verdict.calibration import with_calibration
 
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "SCAN_FLOOR",
-    "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL",
+    "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL", "SPLIT_KEY",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit",
     "sequence_verdict", "verdict_sentence",
@@ -49,6 +49,14 @@ SCAN_FLOOR = 0.02
 SCAN_SHARE = 1.5
 #: The evidence's field the scan rule reads (each algorithm's median crossing share).
 SCAN_KEY = "scan_crossing"
+#: Its path against its own scans split in time (docs/spec.md 7e): the evidence's field of
+#: each algorithm's median split crossing share. A program whose split share is above
+#: ``max(SCAN_FLOOR, SCAN_SHARE x`` the lowest of the sequence's``)`` is never named best,
+#: as with the crossing share, and where its path was so scored, its split share is the
+#: figure that confirms a map named on its scans (at most ``SCAN_FLOOR``). Frozen on the
+#: sets of docs/validity.md ("C2 with 300 scans a half, on two more sets") before two new
+#: sets were made, and met its criterion on them.
+SPLIT_KEY = "scan_split"
 #: A sequence whose recording has at least this share of scans that see walls in one
 #: direction only (docs/spec.md 7c: a corridor) gets a verdict of at most "low" without
 #: ground truth: an error along those walls is invisible to the maps' agreement and to
@@ -191,16 +199,58 @@ def _pct(v: float) -> str:
     return f"{100 * v:.1f}%"
 
 
-def _scan_flags(info: dict[str, Any]) -> tuple[dict[str, float], dict[str, str]]:
-    """Each algorithm's crossing share against its own scans, and the reason of those
-    above :func:`scan_limit`."""
-    scans = {a: float(e.get(SCAN_KEY, math.nan)) for a, e in info.items()}
-    scans = {a: v for a, v in scans.items() if math.isfinite(v)}
-    limit = scan_limit(scans)
-    lowest = min(scans.values()) if scans else math.nan
-    return scans, {a: (f"inconsistent with its own scans ({_pct(v)} of its beams cross its "
-                       f"walls, the most consistent map's {_pct(lowest)})")
-                   for a, v in scans.items() if v > limit}
+class _Shares(dict[str, float]):
+    """Each algorithm's figure against its own scans that confirms a map named on them: its
+    split share (docs/spec.md 7e) for those in ``split``, else its map's crossing share
+    (7b)."""
+
+    def __init__(self, values: dict[str, float], split: set[str]) -> None:
+        super().__init__(values)
+        self.split = frozenset(split) & set(values)
+
+    def said(self, a: str, whose: str = "its") -> str:
+        """The figure of ``a`` as a sentence says it, naming which figure it is.
+
+        Examples
+        --------
+        >>> s = _Shares({"a": 0.01, "b": 0.3}, {"b"})
+        >>> s.said("a")
+        '1.0% of its beams cross its walls'
+        >>> s.said("b", "b's")
+        "30.0% of b's beams cross the walls its scans draw in the other half of the run"
+        """
+        if a in self.split:
+            return (f"{_pct(self[a])} of {whose} beams cross the walls its scans draw in "
+                    "the other half of the run")
+        return f"{_pct(self[a])} of {whose} beams cross its walls"
+
+    def basis(self) -> list[str]:
+        """The evidence fields the figures come from (none without scans)."""
+        return ([SCAN_KEY] if self else []) + ([SPLIT_KEY] if self.split else [])
+
+
+def _scan_flags(info: dict[str, Any]) -> tuple[_Shares, dict[str, str]]:
+    """Each algorithm's figure against its own scans (:class:`_Shares`), and the reason of
+    those above :func:`scan_limit` of the maps' crossing shares or of the paths' split
+    shares (the first one found)."""
+    crossing = {a: float(e.get(SCAN_KEY, math.nan)) for a, e in info.items()}
+    crossing = {a: v for a, v in crossing.items() if math.isfinite(v)}
+    limit = scan_limit(crossing)
+    lowest = min(crossing.values()) if crossing else math.nan
+    flags = {a: (f"inconsistent with its own scans ({_pct(v)} of its beams cross its "
+                 f"walls, the most consistent map's {_pct(lowest)})")
+             for a, v in crossing.items() if v > limit}
+    split = {a: float(e.get(SPLIT_KEY, math.nan)) for a, e in info.items()}
+    split = {a: v for a, v in split.items() if math.isfinite(v)}
+    limit = scan_limit(split)
+    for a, v in split.items():
+        if v > limit:
+            flags.setdefault(a, f"its path is inconsistent with its own scans split in time "
+                                f"({_pct(v)} of its beams cross the walls its scans draw in "
+                                f"the other half of the run, the lowest "
+                                f"{_pct(min(split.values()))})")
+    return _Shares({a: split.get(a, v) for a, v in crossing.items()},
+                   {a for a in crossing if a in split}), flags
 
 
 def one_direction_share(evidence: dict[str, Any]) -> float | None:
@@ -259,7 +309,7 @@ def _severe_kinds(e: dict[str, Any]) -> list[str]:
     return sorted(k for k in SEVERE_DEFECTS if 2 * sum(k in ks for ks in per_run) >= runs)
 
 
-def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
+def _one_broken(sequence: str, info: dict[str, Any], scans: _Shares,
                 scan_flags: dict[str, str], warnings: list[str]) -> dict[str, Any] | None:
     """Of two maps, the verdict naming X when the other, Y, carries a severe defect
     (:data:`SEVERE_DEFECTS`) and X no defect at all and no veto of its own scans; placed or
@@ -284,32 +334,40 @@ def _one_broken(sequence: str, info: dict[str, Any], scans: dict[str, float],
     out = list(warnings)
     out.append(f"{y} is never named best: defects: {', '.join(_defects_held(info[y]))}")
     return {"sequence": str(sequence), "best": x, "ranking": [x, y],
-            "basis": ["defects"] + ([SCAN_KEY] if scans else []),
+            "basis": ["defects"] + scans.basis(),
             "confidence": confidence, "warnings": out}
 
 
-def _own_scans(x: str, y: str, scans: dict[str, float]) -> str:
+def _own_scans(x: str, y: str, scans: _Shares) -> str:
     """What ``x``'s own scans say of the map named of two (``y`` the other), to append to
-    the confidence: "consistent" only when its crossing share is at most
-    :data:`SCAN_FLOOR`; above that, the two shares (``x`` is within the veto's limit,
+    the confidence: "consistent" only when its figure (:class:`_Shares`) is at most
+    :data:`SCAN_FLOOR`; above that, the two figures (``x`` is within the veto's limit,
     :func:`scan_limit`, but its scans do not confirm it); "" without scans.
 
     Examples
     --------
-    >>> _own_scans("a", "b", {"a": 0.01, "b": 0.3})
+    >>> _own_scans("a", "b", _Shares({"a": 0.01, "b": 0.3}, set()))
     ', consistent with its own scans (1.0% of its beams cross its walls)'
-    >>> _own_scans("a", "b", {"a": 0.15, "b": 0.2})[:60]
+    >>> print(_own_scans("a", "b", _Shares({"a": 0.01, "b": 0.3}, {"a", "b"})))
+    ... # doctest: +NORMALIZE_WHITESPACE
+    , its path consistent with its own scans split in time (1.0% of its beams cross the
+    walls its scans draw in the other half of the run)
+    >>> _own_scans("a", "b", _Shares({"a": 0.15, "b": 0.2}, set()))[:60]
     "; its own scans do not confirm it: 15.0% of a's beams cross "
-    >>> _own_scans("a", "b", {})
+    >>> _own_scans("a", "b", _Shares({}, set()))
     ''
     """
     if x not in scans:
         return ""
     if scans[x] <= SCAN_FLOOR:
-        return f", consistent with its own scans ({_pct(scans[x])} of its beams cross its walls)"
+        if x in scans.split:
+            return (", its path consistent with its own scans split in time "
+                    f"({scans.said(x)})")
+        return f", consistent with its own scans ({scans.said(x)})"
     theirs = f" ({y}'s {_pct(scans[y])})" if y in scans else ""
-    return (f"; its own scans do not confirm it: {_pct(scans[x])} of {x}'s beams cross its "
-            f"walls{theirs}, more than the {_pct(SCAN_FLOOR)} that would")
+    whose = f"{x}'s"
+    return (f"; its own scans do not confirm it: {scans.said(x, whose)}{theirs}, more than "
+            f"the {_pct(SCAN_FLOOR)} that would")
 
 
 def _undecided_pair(info: dict[str, Any], partial: set[str], scans: bool) -> str:
@@ -396,7 +454,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                       if str(a) not in support and str(a) not in unplaced)
     if unranked:
         warnings.append(f"not ranked, no agreement figure: {', '.join(unranked)}")
-    basis = ["agreement"] + ([SCAN_KEY] if scans else []) + (
+    basis = ["agreement"] + scans.basis() + (
         [key] if key and len(candidates) > 1 else [])
     alone = {a: _separating(a, flagged, scan_flags, partial) for a in info}
     why = None
@@ -410,12 +468,12 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
         if len(named) == 1:
             x = named[0]
             y = next(a for a in info if a != x)
-            if scans[x] <= SCAN_FLOOR and scans[x] < scans[y]:
+            # (at most the other's: two runs on one path have the same split share)
+            if scans[x] <= SCAN_FLOOR and scans[x] <= scans[y]:
                 return _two_maps(sequence, x, y, alone[y] or "", scans, basis, warnings)
             why = (f"fewer than three maps take part: {y} is wrong on its own ({alone[y]}), "
-                   f"but {x}'s own scans do not confirm it ({_pct(scans[x])} of its "
-                   f"beams cross its walls; a map named of two needs at most "
-                   f"{_pct(SCAN_FLOOR)} and fewer than the other's)")
+                   f"but {x}'s own scans do not confirm it ({scans.said(x)}; a map named "
+                   f"of two needs at most {_pct(SCAN_FLOOR)} and no more than the other's)")
         elif named:
             why = ("fewer than three maps take part: two maps that differ cannot tell which "
                    "of them is right, and neither is wrong on its own (a defect flag, a "
@@ -443,7 +501,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     if defect_decides:  # two maps, one flagged by a defect detector: low, as spec 9 says
         other = next(a for a in support if a != candidates[0])
         v = _two_maps(sequence, candidates[0], other, flagged[other], scans,
-                      ["defects"] + ([SCAN_KEY] if scans else []), warnings)
+                      ["defects"] + scans.basis(), warnings)
         return {**v, "ranking": ranking}
     confidence = ("medium: no ground truth; the maps confirm each other, and the named map "
                   "is confirmed by them and has no defect flag")
@@ -500,7 +558,7 @@ def _one_direction(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any
     return v
 
 
-def _two_maps(sequence: str, named: str, other: str, why: str, scans: dict[str, float],
+def _two_maps(sequence: str, named: str, other: str, why: str, scans: _Shares,
               basis: list[str], warnings: list[str]) -> dict[str, Any]:
     """The verdict on two maps when one of them is wrong on its own and the other is not."""
     confidence = (f"low: two maps; {other} is wrong on its own ({why}) and {named} is not "
@@ -509,31 +567,30 @@ def _two_maps(sequence: str, named: str, other: str, why: str, scans: dict[str, 
             "basis": basis, "confidence": confidence, "warnings": warnings}
 
 
-def _by_scans(sequence: str, info: dict[str, Any], scans: dict[str, float],
+def _by_scans(sequence: str, info: dict[str, Any], scans: _Shares,
               scan_flags: dict[str, str], alone: dict[str, str | None],
               warnings: list[str]) -> dict[str, Any]:
     """Maps that disagree among themselves, each with its own scans: ordered by their
-    crossing share; the first named when another map is inconsistent with its own scans,
-    the first is not wrong on its own and its own scans confirm it (a crossing share of
+    figure (:class:`_Shares`); the first named when another map is inconsistent with its
+    own scans, the first is not wrong on its own and its own scans confirm it (a figure of
     at most :data:`SCAN_FLOOR`)."""
     order = sorted(info, key=lambda a: (alone[a] is not None, scans[a], a))
     first = order[0]
     best = first if (scan_flags and alone[first] is None
                      and scans[first] <= SCAN_FLOOR) else None
-    basis = [SCAN_KEY]
+    basis = scans.basis()
     if best is None:
         why = ("the maps disagree among themselves and their own scans do not separate them "
                + ("(no map is inconsistent with its scans)" if not scan_flags else
                   "(every map is wrong on its own)" if alone[first] is not None else
-                  f"(the most consistent of the maps not wrong on their own, {first}, has "
-                  f"{_pct(scans[first])} of its beams cross its walls: more than "
-                  f"{_pct(SCAN_FLOOR)})"))
+                  f"(the most consistent of the maps not wrong on their own, {first}: "
+                  f"{scans.said(first)}, more than {_pct(SCAN_FLOOR)})"))
         return {"sequence": str(sequence), "best": None, "ranking": order, "basis": basis,
                 "confidence": f"none: {why}", "warnings": warnings}
     bad = sorted(scan_flags)
     confidence = (f"low: no ground truth and the maps disagree among themselves; {best} is "
-                  f"the most consistent with its own scans ({_pct(scans[best])} of its "
-                  f"beams cross its walls) and has no defect flag, while "
+                  f"the most consistent with its own scans ({scans.said(best)}) and has "
+                  f"no defect flag, while "
                   f"{', '.join(bad)} {'is' if len(bad) == 1 else 'are'} inconsistent with "
                   "their own")
     return {"sequence": str(sequence), "best": best, "ranking": order, "basis": basis,
@@ -656,6 +713,7 @@ _BASIS_NAMES = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
                 "defects": "the other map's defect flags",
                 "scan_violation": "consistency with its own scans",
                 "scan_crossing": "consistency with its own scans",
+                "scan_split": "its path against its own scans split in time",
                 "corners_canonical": "canonical corners"}
 
 
@@ -718,8 +776,9 @@ def rule_summary() -> str:
     by ATE RMSE when the sequence has ground truth, else by relations error, else by GT F1
     against its ground-truth map; else by how far the other maps confirm each map (a map
     they cannot place, whose support is under 90% of the best, that a defect detector
-    flags, whose completeness is under 80% of the highest, or whose own scans cross its
-    walls more than max(2%, 1.5x the most consistent map's) is never named best;
+    flags, whose completeness is under 80% of the highest, whose own scans cross its walls
+    more than max(2%, 1.5x the most consistent map's), or whose path's scans split in time
+    cross each other's walls more than max(2%, 1.5x the lowest) is never named best;
     corners order the maps confirmed equally on one grid; of two maps, one is named when
     the other is superposed, smeared or fragmented and it carries no flag; of two maps, or
     of maps that disagree, one is also named when another is wrong on its own and its own
@@ -733,9 +792,11 @@ def rule_summary() -> str:
         "ground-truth map; else by how far the other "
         "maps confirm each map (a map they cannot place, whose support is under "
         f"{AGREEMENT_SHARE:.0%} of the best, that a defect detector flags, whose "
-        f"completeness is under {COMPLETE_SHARE:.0%} of the highest, or whose own scans "
+        f"completeness is under {COMPLETE_SHARE:.0%} of the highest, whose own scans "
         f"cross its walls more than max({SCAN_FLOOR:.0%}, {SCAN_SHARE:g}x the most "
-        "consistent map's) is never named best; corners order the maps confirmed equally on "
+        "consistent map's), or whose path's scans split in time cross each other's walls "
+        f"more than max({SCAN_FLOOR:.0%}, {SCAN_SHARE:g}x the lowest) is never named best; "
+        "corners order the maps confirmed equally on "
         "one grid; of two maps, one is named when the other is "
         f"{', '.join(SEVERE_DEFECTS[:-1])} or {SEVERE_DEFECTS[-1]} and it carries no flag; "
         "of two maps, or of maps that disagree, one is also named when another is "
