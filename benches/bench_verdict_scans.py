@@ -9,8 +9,9 @@ one run (best of ``--repeat``, 2 threads unless ``--threads``):
 
 - the recording read (``slamq.load_scans``, cold);
 - the six maps scored against their scans (:func:`slamq.verdict.scans.record_consistency`,
-  the recording cached), and their paths split in time (:func:`slamq.scan_split`, which the
-  verdict does not compute yet; at its defaults and with 300 scans drawn and tested a half);
+  the recording cached), and their paths split in time (:func:`slamq.scan_split` at its
+  defaults, and as the verdict computes it, :func:`slamq.verdict.scans.record_split`: 300
+  scans drawn and tested a half);
 - the whole verdict without ground truth (``sequence_evidence`` + ``sequence_verdict``:
   agreement, defect detectors and scans) with the scans and without them (the records
   without ``scans``), and their difference.
@@ -23,9 +24,9 @@ each figure is printed with the ratio base / this measured in the same run, and 
 both builds gave the same verdict and evidence:
 
 - scans: the six maps against their scans (``record_consistency``, the recording cached);
-- split: the six records' paths against their scans split in time
-  (:func:`slamq.scan_split`, docs/spec.md 7e; not part of the verdict, measured for a rule
-  that would weigh it);
+- split: the six records' paths against their scans split in time as the verdict scores
+  them (:func:`slamq.verdict.scans.record_split`, docs/spec.md 7e with 300 scans a half;
+  a base without it: :func:`slamq.scan_split` with the same arguments);
 - defects: ``detect_defects`` of the six maps;
 - registration: ``register_many`` of the six maps;
 - pairs: ``agreement`` (``align="auto"``) minus that registration (the 30 ordered pairs);
@@ -74,8 +75,11 @@ vs.recording(ok["scans"].iloc[0])
 out = {"slamq": os.path.dirname(slamq.__file__)}
 
 def split(r, th):
+    if hasattr(vs, "record_split"):
+        return vs.record_split(r, threads=th)
     from slamq import load_trajectory, scan_split
-    return scan_split(vs.recording(r["scans"]), load_trajectory(r["trajectory"]), threads=th)
+    return scan_split(vs.recording(r["scans"]), load_trajectory(r["trajectory"]),
+                      max_draw=300, max_test=300, threads=th)
 
 def best(name, f):
     w, c, r = [], [], None
@@ -224,7 +228,7 @@ def main() -> None:
         return [scan_split(vs.recording(r["scans"]), load_trajectory(r["trajectory"]),
                            threads=args.threads, **most) for r in rows]
 
-    for label, most in (("split:   ", {}),
+    for label, most in (("defaults:", {}),
                         ("300 a half:", {"max_draw": 300, "max_test": 300})):
         s, out = best(lambda most=most: split(**most), args.repeat)
         print(f"6 paths, {label:11s}                {s * 1e3:8.1f} ms wall, "

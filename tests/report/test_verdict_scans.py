@@ -364,6 +364,10 @@ def test_the_report_draws_where_a_map_contradicts_its_scans(drive: dict, tmp_pat
     label = re.search(r'<label for="show-scans">(.*?)</label>', page).group(1)
     assert re.search(r"against its own scans: \d+\.\d% of its beams cross its walls", label)
     assert "drive.rawlog" in page and "docs/spec.md 7b" in page
+    # and its path against the same scans split in time: the exact path, under 1%
+    split = re.search(r"<b>Its path, its scans split in time</b>: (\d+\.\d)% of the beams",
+                      page)
+    assert split is not None and float(split.group(1)) < 1.0, page[-3000:]
     # the red cells lie on the ghost wall (the middle row of the map)
     (png,) = re.findall(r'<img class="layer layer-scans" src="\.\./([^"]+)"', page)
     alpha = np.asarray(Image.open(site / png).convert("RGBA"))[..., 3]

@@ -666,7 +666,7 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
             f"{100 * f['hit_share']:.1f}% end on a wall of the map "
             "(docs/spec.md 7b; the verdict weighs the beams that come out beyond a wall, "
             "and never names a map much less consistent with its scans than the "
-            "sequence's most consistent one).</p>")
+            "sequence's most consistent one).</p>" + _split_legend(scans.split))
     elif isinstance(scans, Exception):
         mp.notes.append(f"not scored against its own scans: {scans}")
     table = ""
@@ -685,6 +685,32 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
         f"<a href=\"../{mp.full}\"><img class=\"base\" src=\"../{mp.full}\" width=\"{w}\" "
         f"height=\"{h}\" alt=\"the map\"></a>"
         f"{''.join(layers)}</div></div>{legend}{table}</div>")
+
+
+def _split_legend(split: dict[str, Any] | None) -> str:
+    """What the page says of the run's path against its own scans split in time
+    (docs/spec.md 7e), which the verdict weighs beside the map's own figure.
+
+    Examples
+    --------
+    >>> _split_legend({"split_crossing": 0.012, "crossing_1": 0.01, "crossing_2": 0.014,
+    ...                "tested": 600})[:80]
+    '<p class="legend split-legend"><b>Its path, its scans split in time</b>: 1.2% of'
+    >>> _split_legend(None)[-63:]
+    'not be scored (fewer than two scans placed, or unreadable).</p>'
+    """
+    if split is None or not math.isfinite(float(split.get("split_crossing", math.nan))):
+        return ("<p class=\"legend split-legend\"><b>Its path, its scans split in time</b>: "
+                "could not be scored (fewer than two scans placed, or unreadable).</p>")
+    return (
+        "<p class=\"legend split-legend\"><b>Its path, its scans split in time</b>: "
+        f"{100 * split['split_crossing']:.1f}% of the beams cross the walls the other half "
+        "of the run draws at the run's trajectory (earlier half against the later "
+        f"{100 * split['crossing_1']:.1f}%, later against the earlier "
+        f"{100 * split['crossing_2']:.1f}%; {split['tested']} scans scored; the map above "
+        "is not read). A wrong path draws walls in one half that the other half's beams "
+        "see through; the verdict never names a program whose path is much less "
+        "consistent than the sequence's most consistent one (docs/spec.md 7e and 9).</p>")
 
 
 _MISSING_COLOUR = "#e00000"

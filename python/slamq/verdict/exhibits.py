@@ -105,11 +105,16 @@ class ScanExhibit:
         grazes a wall is not drawn).
     recording : str
         The recording's file name.
+    split : dict or None
+        The record's path against the same scans split in time, as the verdict weighs it
+        (:func:`slamq.verdict.scans.record_split`, docs/spec.md 7e:
+        :meth:`slamq.models.ScanSplit.to_dict`); None when it could not be scored.
     """
 
     figures: dict[str, Any]
     density: np.ndarray
     recording: str
+    split: dict[str, Any] | None = None
 
 
 def violation_density(counts: np.ndarray, *, block: int | None = None) -> np.ndarray:
@@ -282,7 +287,7 @@ def map_exhibit(record: dict, *, gifs: bool = True, trajectories: bool = True,
 
 def _scans(rec: dict, grid: Any) -> ScanExhibit | Exception | None:
     """Where the record's map contradicts its own scans, or why that is not known."""
-    from slamq.verdict.scans import has_scans, record_consistency
+    from slamq.verdict.scans import has_scans, record_consistency, record_split
 
     if not has_scans(rec):
         return None
@@ -290,9 +295,13 @@ def _scans(rec: dict, grid: Any) -> ScanExhibit | Exception | None:
         c = record_consistency(rec, grid)
     except (SlamqError, OSError, ValueError) as exc:
         return exc
+    try:
+        split: dict[str, Any] | None = record_split(rec).to_dict()
+    except (SlamqError, OSError, ValueError):
+        split = None  # the map's figures stand; the page says the split is not known
     cells = c.crossing_grid if c.crossing_grid is not None else c.violation_grid
     return ScanExhibit(c.to_dict(), violation_density(cells),
-                       Path(str(rec["scans"])).name)
+                       Path(str(rec["scans"])).name, split)
 
 
 def _compare_gt(rec: dict, grid: Any, notes: list[str]
