@@ -115,13 +115,17 @@ def real2d_rows(verdicts_csv: Path) -> list[dict]:
 def pair_rows(outputs: Sequence[Path]) -> list[dict]:
     """One row per pair of programs in the pair verdicts ``studies/scans_study.py`` wrote
     into each run folder (``scans-verdicts-pairs-crossing_share.csv``, the rule as
-    shipped, each map with its own scans): right when the named program's truth (ATE, or
-    the relations error on the real logs) is the lower of the two (or equal) and it is
-    not broken."""
+    shipped, each map with its own scans; or the file named, as the rule applied to the
+    folder's cached evidence with the split rows beside it, ``--cached --figure c2``):
+    right when the named program's truth (ATE, or the relations error on the real logs)
+    is the lower of the two (or equal) and it is not broken."""
     rule = rule_name((SCAN_FLOOR, SCAN_SHARE))
     rows = []
     for out in outputs:
-        df = pd.read_csv(Path(out) / "scans-verdicts-pairs-crossing_share.csv")
+        out = Path(out)
+        csv = out if out.suffix == ".csv" else out / "scans-verdicts-pairs-crossing_share.csv"
+        out = csv.parent
+        df = pd.read_csv(csv)
         for r in df.to_dict("records"):
             best = r[f"best@{rule}"]
             named = isinstance(best, str) and best != ""
@@ -200,7 +204,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="records without scans get their sequence's rawlog, as slamq run "
                     "records it now")
     ap.add_argument("--pairs", nargs="+", default=[], type=Path, metavar="DIR",
-                    help="run folders holding studies/scans_study.py's pair verdicts")
+                    help="run folders holding studies/scans_study.py's pair verdicts "
+                    "(or a pair verdicts file in one)")
     ap.add_argument("--pairs-real", nargs="+", default=[], type=Path,
                     metavar="MAPS CLASSES_CSV",
                     help="the real maps' root folder, then CSVs of classes "
