@@ -364,7 +364,9 @@ def _own_scans(x: str, y: str, scans: _Shares) -> str:
             return (", its path consistent with its own scans split in time "
                     f"({scans.said(x)})")
         return f", consistent with its own scans ({scans.said(x)})"
-    theirs = f" ({y}'s {_pct(scans[y])})" if y in scans else ""
+    # the other's figure only when it is the same figure
+    same = y in scans and (y in scans.split) == (x in scans.split)
+    theirs = f" ({y}'s {_pct(scans[y])})" if same else ""
     whose = f"{x}'s"
     return (f"; its own scans do not confirm it: {scans.said(x, whose)}{theirs}, more than "
             f"the {_pct(SCAN_FLOOR)} that would")
