@@ -192,26 +192,11 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             flagged = {key: pool.submit(detect_defects, m) for key, m in maps.items()}
         agree = agreement(maps, align=align, threads=threads, pool=pool) \
             if len(maps) >= 2 else None
-        checked: dict[str, dict[str, Any]] = {}
-        for key, path, job in scored:
-            try:
-                checked[key] = job.result().to_dict()
-            except SlamqError as exc:
-                notes.append(f"{path}: not scored against its scans ({exc})")
-        halves: dict[str, dict[str, Any]] = {}
-        for key, path, job in split:
-            try:
-                halves[key] = job.result().to_dict()
-            except SlamqError as exc:
-                notes.append(f"{path}: its path not scored against its scans split in time "
-                             f"({exc})")
+        checked = _figures(scored, "not scored against its scans", notes)
+        halves = _figures(split, "its path not scored against its scans split in time", notes)
         found = {key: [d.to_dict() for d in job.result()] for key, job in flagged.items()}
-        seen: dict[str, dict[str, Any]] = {}
-        for path, job in degenerate.items():
-            try:
-                seen[path] = job.result().to_dict()
-            except SlamqError as exc:
-                notes.append(f"{path}: its scans' directions not measured ({exc})")
+        seen = _figures([(path, path, job) for path, job in degenerate.items()],
+                        "its scans' directions not measured", notes)
     if agree is not None:
         support, complete, placed = agree.support, agree.completeness, agree.placed
         majority = agree.majority
@@ -275,6 +260,19 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "degeneracy": seen, "degenerate_share": _highest(
                 [d["degenerate_share"] for d in seen.values()]),
             "min_support": SETTINGS.min_support.default}
+
+
+def _figures(jobs: list[tuple[str, str, Future[Any]]], failed: str, notes: list[str]
+             ) -> dict[str, dict[str, Any]]:
+    """``{key: job.result().to_dict()}`` of ``jobs`` (``(key, path, job)``); a job that
+    raises :class:`SlamqError` is left out and noted as ``"{path}: {failed} ({error})"``."""
+    out: dict[str, dict[str, Any]] = {}
+    for key, path, job in jobs:
+        try:
+            out[key] = job.result().to_dict()
+        except SlamqError as exc:
+            notes.append(f"{path}: {failed} ({exc})")
+    return out
 
 
 def _highest(values: list[float]) -> float:

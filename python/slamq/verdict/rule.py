@@ -229,19 +229,23 @@ class _Shares(dict[str, float]):
         return ([SCAN_KEY] if self else []) + ([SPLIT_KEY] if self.split else [])
 
 
+def _finite(info: dict[str, Any], key: str) -> dict[str, float]:
+    """Each algorithm's evidence field ``key``, where it is a finite number."""
+    values = {a: float(e.get(key, math.nan)) for a, e in info.items()}
+    return {a: v for a, v in values.items() if math.isfinite(v)}
+
+
 def _scan_flags(info: dict[str, Any]) -> tuple[_Shares, dict[str, str]]:
     """Each algorithm's figure against its own scans (:class:`_Shares`), and the reason of
     those above :func:`scan_limit` of the maps' crossing shares or of the paths' split
     shares (the first one found)."""
-    crossing = {a: float(e.get(SCAN_KEY, math.nan)) for a, e in info.items()}
-    crossing = {a: v for a, v in crossing.items() if math.isfinite(v)}
+    crossing = _finite(info, SCAN_KEY)
     limit = scan_limit(crossing)
     lowest = min(crossing.values()) if crossing else math.nan
     flags = {a: (f"inconsistent with its own scans ({_pct(v)} of its beams cross its "
                  f"walls, the most consistent map's {_pct(lowest)})")
              for a, v in crossing.items() if v > limit}
-    split = {a: float(e.get(SPLIT_KEY, math.nan)) for a, e in info.items()}
-    split = {a: v for a, v in split.items() if math.isfinite(v)}
+    split = _finite(info, SPLIT_KEY)
     limit = scan_limit(split)
     for a, v in split.items():
         if v > limit:
