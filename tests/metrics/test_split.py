@@ -15,7 +15,13 @@ from hypothesis import strategies as st
 
 from slamq import load_scans, native, scan_split
 from slamq.errors import SlamqError
-from slamq.metrics.split import scan_split_reference
+from slamq.metrics.split import (
+    LOCAL_WINDOWS,
+    local_split,
+    local_split_reference,
+    local_windows,
+    scan_split_reference,
+)
 from slamq.models import OccupancyMap, Scans, ScanSplit, Trajectory
 from slamq.synth import LaserSpec, simulate, world
 
@@ -193,3 +199,38 @@ def test_bad_input_is_refused_with_its_name() -> None:
     with pytest.raises(ValueError, match=r"tested_1: scan -1"):
         native.scan_split(ok, np.zeros(1), np.ones((2, 1)), 0.0, 5.0, i, i - 1, i, i, 0.05,
                           1.0, 0.5, 0.1)
+
+
+def test_the_local_share_sees_the_place_not_the_drift(drive) -> None:
+    """docs/spec.md 7f: a path laid 1 m off from its middle on (a failed closure) is wrong
+    between its halves, not within short stretches: its local share stays near the true
+    path's while its split share does not; the core and the numpy twin give the same
+    windows and shares, for any thread count."""
+    seq, scans = drive
+    jump = seq.gt.copy()
+    jump[len(jump) // 2:, 0] += 1.0
+    gt, off = local_split(scans, seq.gt), local_split(scans, jump)
+    assert 1 <= len(gt) <= LOCAL_WINDOWS and len(gt) == len(off)
+    assert np.nanmean(gt) < 0.01
+    # only the window that holds the jump sees it
+    assert (np.abs(off - gt) > 0.005).sum() == 1
+    assert scan_split(scans, jump).crossing_share > 3 * scan_split(scans, seq.gt).crossing_share
+    small = {"window": 4.0, "max_scans": 20, "max_windows": 3}
+    ref = local_split_reference(scans, seq.odom, **small)
+    assert np.array_equal(local_split(scans, seq.odom, threads=1, **small), ref)
+    assert np.array_equal(local_split(scans, seq.odom, threads=2, **small), ref)
+    # a trajectory that places none of the scans has no window
+    far = Trajectory.from_xy_yaw(seq.stamps + 1e6, *seq.gt.T)
+    assert local_split(scans, far).size == 0
+
+
+def test_the_windows_follow_the_travel() -> None:
+    xy = np.column_stack([np.r_[np.zeros(30), np.arange(1.0, 31.0)], np.zeros(60)])
+    w = local_windows(xy, window=10.0, max_scans=15, min_scans=8, max_windows=12)
+    # standing still, then 1 m a scan: the first window holds the 30 scans standing and
+    # the first 10 m, thinned to 15; then 11-scan windows of 10 m; the last (9 m) kept
+    assert [len(x) for x in w] == [15, 11, 9] and w[0][0] == 0 and w[0][-1] == 39
+    assert [len(x) for x in local_windows(xy, window=10.0, max_windows=2)] == [40, 9]
+    assert local_windows(xy[:5], window=10.0) == []
+    with pytest.raises(SlamqError, match="window > 0"):
+        local_windows(xy, window=0.0)

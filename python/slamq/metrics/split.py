@@ -27,8 +27,9 @@ from slamq.models import OccupancyMap, Trajectory
 from slamq.models.scans import Scans, ScanSplit
 from slamq.params import check_threads
 
-__all__ = ["MAX_DRAW", "MAX_TEST", "RESOLUTION", "OCCUPIED_SHARE", "MARGIN", "scan_split",
-           "scan_split_reference"]
+__all__ = ["LOCAL_MIN_SCANS", "LOCAL_SCANS", "LOCAL_WINDOW", "LOCAL_WINDOWS", "MARGIN",
+           "MAX_DRAW", "MAX_TEST", "OCCUPIED_SHARE", "RESOLUTION", "local_split",
+           "local_split_reference", "local_windows", "scan_split", "scan_split_reference"]
 
 #: The drawn maps' cell size, metres.
 RESOLUTION = 0.05
@@ -308,3 +309,144 @@ def scan_split_reference(scans: Scans, poses: Trajectory | Any, *,
         counts.append(c.counts)
     return _result(scans, placed, halves, (counts[0], counts[1]), (maps[0], maps[1]),
                    resolution, occupied_share, scan_tolerance)
+
+
+#: Local share (SPEC 7f): a window's travel at most, metres; its scans at most (evenly
+#: thinned); the fewest scans a window scored has; the most windows scored (evenly spread).
+LOCAL_WINDOW = 10.0
+LOCAL_SCANS = 60
+LOCAL_MIN_SCANS = 8
+LOCAL_WINDOWS = 12
+
+
+def _robot_poses(scans: Scans, poses: Trajectory | Any, max_gap: float, stamp_tol: float
+                 ) -> np.ndarray:
+    """``(N, 3)`` robot poses, one per scan, NaN where ``poses`` does not place it."""
+    from slamq.metrics.scans import _yaw
+    from slamq.metrics.sync import interpolate_poses
+
+    n = len(scans)
+    if isinstance(poses, Trajectory):
+        placed, _, pos, quat = interpolate_poses(poses, scans.stamps, max_gap=max_gap,
+                                                 stamp_tol=stamp_tol)
+        out = np.full((n, 3), np.nan)
+        out[placed] = np.column_stack([pos[placed, 0], pos[placed, 1], _yaw(quat[placed])])
+        return out
+    out = np.asarray(poses, dtype=np.float64)
+    if out.shape != (n, 3):
+        raise SlamqError(f"{scans.source}: poses must be a Trajectory or an ({n}, 3) array "
+                         f"of (x, y, yaw), one per scan; got shape {out.shape}")
+    return out
+
+
+def local_windows(xy: np.ndarray, *, window: float = LOCAL_WINDOW,
+                  max_scans: int = LOCAL_SCANS, min_scans: int = LOCAL_MIN_SCANS,
+                  max_windows: int = LOCAL_WINDOWS) -> list[np.ndarray]:
+    """The windows of SPEC 7f: indices into ``xy`` (``(K, 2)`` positions in time order),
+    consecutive runs of at most ``window`` metres of travel, each thinned to at most
+    ``max_scans``; those of fewer than ``min_scans`` left out; at most ``max_windows``,
+    evenly spread.
+
+    Examples
+    --------
+    >>> xy = np.column_stack([np.arange(0.0, 30.0, 0.5), np.zeros(60)])
+    >>> [int(w[0]) for w in local_windows(xy)], [len(w) for w in local_windows(xy)]
+    ([0, 21, 42], [21, 21, 18])
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    if xy.ndim != 2 or xy.shape[1] != 2:
+        raise SlamqError(f"positions must be (K, 2), got shape {xy.shape}")
+    if not (math.isfinite(window) and window > 0 and max_scans >= 2 and min_scans >= 2
+            and max_windows >= 1):
+        raise SlamqError("need window > 0 m, max_scans >= 2, min_scans >= 2 and "
+                         f"max_windows >= 1; got {window}, {max_scans}, {min_scans}, "
+                         f"{max_windows}")
+    travel = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    out, start = [], 0
+    while start < len(xy):
+        end = int(np.searchsorted(travel, travel[start] + window, side="right"))
+        if end - start >= min_scans:
+            out.append(np.arange(start, end)[evenly_spread(end - start, max_scans)])
+        start = end
+    return [out[i] for i in evenly_spread(len(out), max_windows)]
+
+
+def _local(split: Any, scans: Scans, poses: Trajectory | Any, window: float, max_scans: int,
+           min_scans: int, max_windows: int, max_gap: float, stamp_tol: float,
+           **kw: Any) -> np.ndarray:
+    robot = _robot_poses(scans, poses, max_gap, stamp_tol)
+    where = np.flatnonzero(np.isfinite(robot).all(axis=1))
+    shares = []
+    for w in local_windows(robot[where, :2], window=window, max_scans=max_scans,
+                           min_scans=min_scans, max_windows=max_windows):
+        k = where[w]
+        part = Scans(scans.stamps[k], scans.angles, scans.ranges[k], scans.max_range,
+                     min_range=scans.min_range, offset=scans.offset, source=scans.source)
+        shares.append(split(part, robot[k], **kw).crossing_share)
+    return np.array(shares, dtype=np.float64)
+
+
+def local_split(scans: Scans, poses: Trajectory | Any, *, window: float = LOCAL_WINDOW,
+                max_scans: int = LOCAL_SCANS, min_scans: int = LOCAL_MIN_SCANS,
+                max_windows: int = LOCAL_WINDOWS, max_gap: float = MAX_GAP,
+                stamp_tol: float = STAMP_TOL, threads: int | None = None) -> np.ndarray:
+    """A trajectory's local share (SPEC 7f): the split of section 7e within short stretches
+    of the path, where it cannot have drifted much; what their halves cross is what the
+    place (people, doors, glass) and the laser cross.
+
+    Parameters
+    ----------
+    scans : Scans
+        The laser scans, in time order.
+    poses : Trajectory or array_like
+        As :func:`scan_split`'s.
+    window : float
+        Metres of travel a window spans at most.
+    max_scans, min_scans : int
+        Scans a window scores at most (evenly thinned), and at least (else it is left out).
+    max_windows : int
+        Windows scored at most (evenly spread over the path).
+    max_gap, stamp_tol : float
+        Seconds, for a :class:`Trajectory`.
+    threads : int, optional
+        Worker threads per window (None: every core); the result does not depend on it.
+
+    Returns
+    -------
+    numpy.ndarray
+        Each window's crossing share (:attr:`ScanSplit.crossing_share`); the local share is
+        their mean (``numpy.nanmean``; empty when no window has ``min_scans`` scans).
+
+    Examples
+    --------
+    >>> a = np.array([0.0, np.pi])                   # a laser looking both ways
+    >>> s = Scans(np.arange(40.0), a, np.full((40, 2), 1.03), 10.0)
+    >>> poses = np.zeros((40, 3)); poses[:, 1] = 0.05
+    >>> poses[20:, 0] = 1.5                           # a jump between the two windows
+    >>> local_split(s, poses, window=0.1).tolist()    # each window is consistent
+    [0.0, 0.0]
+    >>> scan_split(s, poses).crossing_share           # the whole path is not
+    0.5
+    """
+    n_threads = None if threads is None else check_threads(threads)
+    return _local(scan_split, scans, poses, window, max_scans, min_scans, max_windows,
+                  max_gap, stamp_tol, threads=n_threads)
+
+
+def local_split_reference(scans: Scans, poses: Trajectory | Any, *,
+                          window: float = LOCAL_WINDOW, max_scans: int = LOCAL_SCANS,
+                          min_scans: int = LOCAL_MIN_SCANS,
+                          max_windows: int = LOCAL_WINDOWS, max_gap: float = MAX_GAP,
+                          stamp_tol: float = STAMP_TOL) -> np.ndarray:
+    """:func:`local_split` with :func:`scan_split_reference`: the same windows and shares.
+
+    Examples
+    --------
+    >>> a = np.array([0.0, np.pi])
+    >>> s = Scans(np.arange(40.0), a, np.full((40, 2), 1.03), 10.0)
+    >>> poses = np.zeros((40, 3)); poses[:, 1] = 0.05; poses[20:, 0] = 1.5
+    >>> local_split_reference(s, poses, window=0.1).tolist()
+    [0.0, 0.0]
+    """
+    return _local(scan_split_reference, scans, poses, window, max_scans, min_scans,
+                  max_windows, max_gap, stamp_tol)
