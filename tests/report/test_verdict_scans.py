@@ -21,6 +21,7 @@ from slamq.synth.truth import visible_map
 from slamq.synth.worldgen import save_world
 from slamq.synth.writers import write_groundtruth
 from slamq.synth.writers.rawlog import write_rawlog
+from slamq.verdict import rule
 from slamq.verdict.calibration import CONFIDENCE_CALIBRATION
 from slamq.verdict.evidence import sequence_evidence
 from slamq.verdict.ranking import summarize
@@ -182,6 +183,66 @@ def test_a_path_its_scans_split_in_time_contradict_is_never_named() -> None:
     assert v["basis"] == ["scan_crossing", "scan_split"]
 
 
+@pytest.fixture()
+def local_floor():
+    """The confirmation floor of the local shares on (candidate C3' of docs/validity.md;
+    off by default)."""
+    saved = rule.LOCAL_RATIO, rule.LOCAL_ANCHOR
+    rule.LOCAL_RATIO, rule.LOCAL_ANCHOR = rule.SCAN_SHARE, "lowest"
+    yield
+    rule.LOCAL_RATIO, rule.LOCAL_ANCHOR = saved
+
+
+def test_the_local_floor_is_off_by_default() -> None:
+    s = _summary(list("abc"), [10, 20, 30])
+    v = sequence_verdict(s, "s", _ev({"a": 0.3, "b": 0.35, "c": 0.2},
+                                     {"a": 0.05, "b": 0.3, "c": 0.2}, majority=False,
+                                     split={"a": 0.03, "b": 0.3, "c": 0.2},
+                                     local={"a": 0.025, "b": 0.06, "c": 0.04}))
+    assert rule.LOCAL_RATIO is None
+    assert v["best"] is None and "more than 2.0%" in v["confidence"]
+
+
+def test_a_noisy_recording_confirms_at_its_lowest_local_share(local_floor: None) -> None:
+    """docs/spec.md 9 (7f): with the local floor on, a split share confirms a map named on
+    its scans at most at max(SCAN_FLOOR, LOCAL_RATIO x the lowest local share of the
+    sequence's paths)."""
+    s = _summary(list("abc"), [10, 20, 30])
+    support = {"a": 0.3, "b": 0.35, "c": 0.2}
+    crossing = {"a": 0.05, "b": 0.3, "c": 0.2}
+    split = {"a": 0.03, "b": 0.3, "c": 0.2}
+    # a's split share (3%) is above SCAN_FLOOR: without local shares it is not confirmed
+    v = sequence_verdict(s, "s", _ev(support, crossing, majority=False, split=split))
+    assert v["best"] is None and "more than 2.0%" in v["confidence"]
+    # the recording crosses itself 2.5% within short stretches: 3% is within 1.5x of it
+    local = {"a": 0.025, "b": 0.06, "c": 0.04}
+    v = sequence_verdict(s, "s", _ev(support, crossing, majority=False, split=split,
+                                     local=local))
+    assert v["best"] == "a" and v["ranking"] == ["a", "c", "b"]
+    # the floor is the lowest path's: a broken path cannot raise its own
+    v = sequence_verdict(s, "s", _ev(support, crossing, majority=False,
+                                     split={**split, "a": 0.07},
+                                     local={**local, "a": 0.2}))
+    assert v["best"] is None
+    assert ("more than 6.0% (1.5x what the scans cross within short stretches of the most "
+            "consistent path, 4.0%)") in v["confidence"], v["confidence"]
+    # the same with the program's own local share (C3 of docs/validity.md)
+    rule.LOCAL_ANCHOR = "path"
+    v = sequence_verdict(s, "s", _ev(support, crossing, majority=False,
+                                     split={**split, "a": 0.07}, local={**local, "a": 0.2}))
+    assert v["best"] == "a"
+    rule.LOCAL_ANCHOR = "lowest"
+    # of two maps, one partial: the local floor confirms the other
+    two = _summary(["a", "b"], [10, 20])
+    ev = _ev({"a": 0.7, "b": 0.7}, {"a": 0.01, "b": 0.012}, completeness={"a": 1.0, "b": 0.5},
+             split={"a": 0.025, "b": 0.03})
+    assert sequence_verdict(two, "s", ev)["best"] is None
+    ev["algorithms"]["a"]["scan_local"] = ev["algorithms"]["b"]["scan_local"] = 0.02
+    v = sequence_verdict(two, "s", ev)
+    assert v["best"] == "a" and "its path consistent with its own scans split in time" in \
+        v["confidence"]
+
+
 def test_of_two_maps_the_one_its_scans_contradict_is_not_named(drive: dict) -> None:
     pair = {"a": 100, "ghost": 50}
     v, _ = _judge(_records(drive, pair))
@@ -224,15 +285,17 @@ def test_a_record_whose_scans_cannot_be_read_is_a_note(drive: dict, tmp_path: Pa
 
 def _ev(support: dict[str, float], scans: dict[str, float], *, majority: bool = True,
         defects: tuple[str, ...] = (), completeness: dict[str, float] | None = None,
-        placed: bool = True, split: dict[str, float] | None = None) -> dict:
-    split = split or {}
+        placed: bool = True, split: dict[str, float] | None = None,
+        local: dict[str, float] | None = None) -> dict:
+    split, local = split or {}, local or {}
     return {"majority": majority, "notes": [], "group": [], "algorithms": {
         a: {"support": s, "completeness": (completeness or {}).get(a, 1.0), "placed": placed,
             "runs": 1, "flagged_runs": int(a in defects),
             "defects": {a: [{"kind": "doubled_walls"}]} if a in defects else {},
             "in_group": 0.0, "group_support": math.nan,
             "scan_crossing": scans.get(a, math.nan), "scan_runs": int(a in scans),
-            "scan_split": split.get(a, math.nan), "split_runs": int(a in split)}
+            "scan_split": split.get(a, math.nan), "split_runs": int(a in split),
+            "scan_local": local.get(a, math.nan)}
         for a, s in support.items()}}
 
 

@@ -79,7 +79,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     dict
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
         "defects", "in_group", "group_support", "scan_violation", "scan_crossing", "scan_hit",
-        "scan_runs", "scan_split", "split_runs", "shortfall", "shortfall_against"}},
+        "scan_runs", "scan_split", "split_runs", "scan_local", "shortfall",
+        "shortfall_against"}},
         "majority": bool, "group": [alg], "group_maps": [dict],
         "consistency": {path: {path: float}}, "maps": int, "notes": [str],
         "missing_walls": {path: [dict]}, "scans": {path: dict}, "splits": {path: dict},
@@ -102,7 +103,11 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         to its :meth:`~slamq.models.ScanConsistency.to_dict`. ``scan_split`` is the median
         over an algorithm's runs of their paths' split crossing share (docs/spec.md 7e; NaN,
         and ``split_runs`` 0, when none has scans), and ``splits`` maps the path of each
-        map whose record was scored so to its :meth:`~slamq.models.ScanSplit.to_dict`.
+        map whose record was scored so to its :meth:`~slamq.models.ScanSplit.to_dict`, with
+        ``local_crossing`` and ``windows`` (:func:`slamq.verdict.scans.record_local`,
+        section 7f) when the rule reads them (``slamq.verdict.rule.LOCAL_RATIO`` set; off
+        by default) and any path's split share is above its ``SCAN_FLOOR``;
+        ``scan_local`` is their median over the runs (NaN where none).
         ``degeneracy`` maps each
         recording named by a record with scans to its
         :meth:`~slamq.models.ScanDegeneracy.to_dict` (docs/spec.md 7c), and
@@ -155,6 +160,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         one = 1 if _workers(threads) > 1 else threads
         scored: list[tuple[str, str, Future[Any]]] = []
         split: list[tuple[str, str, Future[Any]]] = []
+        records: dict[str, dict[str, Any]] = {}
         # and each recording itself: how many of its scans see walls in one direction only
         # (docs/spec.md 7c), which caps the verdict's confidence (section 9)
         degenerate: dict[str, Future[Any]] = {}
@@ -185,6 +191,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
                     # the path against its own scans split in time (7e): the map not read
                     split.append((key, str(rec.map), pool.submit(
                         record_split, rec._asdict(), threads=one)))
+                    records[key] = rec._asdict()
         flagged: dict[str, Future[Any]] = {}
         if defects:
             from slamq.metrics.defects import detect_defects  # on first use
@@ -194,6 +201,22 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             if len(maps) >= 2 else None
         checked = _figures(scored, "not scored against its scans", notes)
         halves = _figures(split, "its path not scored against its scans split in time", notes)
+        # and within short stretches of itself (7f), where the rule reads it (its
+        # LOCAL_RATIO set) and it can change the confirmation: a split share at most
+        # SCAN_FLOOR is confirmed whatever the local shares, so they are computed (for
+        # every path: the rule may read the lowest) only when one is above
+        from slamq.verdict import rule
+        from slamq.verdict.scans import record_local
+
+        wanted = rule.LOCAL_RATIO is not None and any(
+            h["split_crossing"] > rule.SCAN_FLOOR for h in halves.values())
+        stretches = _figures(
+            [(key, str(records[key]["map"]), pool.submit(record_local, records[key],
+                                                          threads=one))
+             for key in (halves if wanted else ())],
+            "its path not scored against its scans within short stretches", notes)
+        for key, local in stretches.items():
+            halves[key] = {**halves[key], **local}
         found = {key: [d.to_dict() for d in job.result()] for key, job in flagged.items()}
         seen = _figures([(path, path, job) for path, job in degenerate.items()],
                         "its scans' directions not measured", notes)
@@ -247,6 +270,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "scan_split": finite_median([halves[k]["split_crossing"] for k in keys
                                          if k in halves]),
             "split_runs": sum(1 for k in keys if k in halves),
+            "scan_local": finite_median([halves[k].get("local_crossing", math.nan)
+                                         for k in keys if k in halves]),
             "shortfall": shortfall,
             "shortfall_against": against,
         }
@@ -264,12 +289,14 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
 
 def _figures(jobs: list[tuple[str, str, Future[Any]]], failed: str, notes: list[str]
              ) -> dict[str, dict[str, Any]]:
-    """``{key: job.result().to_dict()}`` of ``jobs`` (``(key, path, job)``); a job that
-    raises :class:`SlamqError` is left out and noted as ``"{path}: {failed} ({error})"``."""
+    """``{key: job.result().to_dict()}`` of ``jobs`` (``(key, path, job)``; a result that
+    is a dict as it is); a job that raises :class:`SlamqError` is left out and noted as
+    ``"{path}: {failed} ({error})"``."""
     out: dict[str, dict[str, Any]] = {}
     for key, path, job in jobs:
         try:
-            out[key] = job.result().to_dict()
+            result = job.result()
+            out[key] = result if isinstance(result, dict) else result.to_dict()
         except SlamqError as exc:
             notes.append(f"{path}: {failed} ({exc})")
     return out

@@ -20,7 +20,8 @@ from slamq.results.summary import Orientation, distinct_resolutions, orientation
 from slamq.verdict.calibration import with_calibration
 
 __all__ = [
-    "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "SCAN_FLOOR",
+    "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "LOCAL_KEY",
+    "LOCAL_RATIO", "SCAN_FLOOR",
     "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL", "SPLIT_KEY",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit",
@@ -57,6 +58,18 @@ SCAN_KEY = "scan_crossing"
 #: sets of docs/validity.md ("C2 with 300 scans a half, on two more sets") before two new
 #: sets were made, and met its criterion on them.
 SPLIT_KEY = "scan_split"
+#: Its path split within short stretches of itself (docs/spec.md 7f): the evidence's field
+#: of each algorithm's median local share. With ``LOCAL_RATIO`` set, a split share confirms
+#: a map named on its scans at most at ``max(SCAN_FLOOR, LOCAL_RATIO x`` the anchor's local
+#: share``)``, for recordings of places that move (people, doors, glass) more than the
+#: generated worlds ``SCAN_FLOOR`` was set on. **Off (None)**: measured as candidates C3
+#: (``LOCAL_ANCHOR = "path"``, the program's own) and C3' (``"lowest"``, the lowest of the
+#: sequence's programs) in docs/validity.md ("A fifth real log ..."), C3 named a broken
+#: real map and C3' named no more sequences on five real logs; ``sequence_evidence``
+#: measures the local shares only when it is set.
+LOCAL_KEY = "scan_local"
+LOCAL_RATIO: float | None = None
+LOCAL_ANCHOR = "lowest"
 #: A sequence whose recording has at least this share of scans that see walls in one
 #: direction only (docs/spec.md 7c: a corridor) gets a verdict of at most "low" without
 #: ground truth: an error along those walls is invisible to the maps' agreement and to
@@ -202,11 +215,50 @@ def _pct(v: float) -> str:
 class _Shares(dict[str, float]):
     """Each algorithm's figure against its own scans that confirms a map named on them: its
     split share (docs/spec.md 7e) for those in ``split``, else its map's crossing share
-    (7b)."""
+    (7b); ``local``: the local shares (7f) of those in ``split`` that have one."""
 
-    def __init__(self, values: dict[str, float], split: set[str]) -> None:
+    def __init__(self, values: dict[str, float], split: set[str],
+                 local: dict[str, float] | None = None) -> None:
         super().__init__(values)
         self.split = frozenset(split) & set(values)
+        self.local = {a: v for a, v in (local or {}).items() if a in self.split}
+
+    def floor(self, a: str) -> float:
+        """The figure at most which ``a``'s scans confirm it: :data:`SCAN_FLOOR`, or for a
+        split share with a local share, ``max(SCAN_FLOOR, LOCAL_RATIO x`` local``)``.
+
+        Examples
+        --------
+        >>> s = _Shares({"a": 0.01, "b": 0.03}, {"b"}, {"b": 0.025})
+        >>> s.floor("b"), s.confirms("b"), s.confirms("a")  # LOCAL_RATIO off (None)
+        (0.02, False, True)
+        """
+        if LOCAL_RATIO is None or a not in self.local:
+            return SCAN_FLOOR
+        return max(SCAN_FLOOR, LOCAL_RATIO * self._anchor(a))
+
+    def _anchor(self, a: str) -> float:
+        return self.local[a] if LOCAL_ANCHOR == "path" else min(self.local.values())
+
+    def confirms(self, a: str) -> bool:
+        """Whether ``a``'s own scans confirm it (its figure at most :meth:`floor`)."""
+        return self[a] <= self.floor(a)
+
+    def limit_said(self, a: str) -> str:
+        """:meth:`floor` as a sentence says it.
+
+        Examples
+        --------
+        >>> _Shares({"b": 0.05}, {"b"}, {"b": 0.025}).limit_said("b")  # LOCAL_RATIO off
+        '2.0%'
+        """
+        floor = self.floor(a)
+        if floor > SCAN_FLOOR:
+            where = ("its path" if LOCAL_ANCHOR == "path" or self._anchor(a) == self.local[a]
+                     else "the most consistent path")
+            return (f"{_pct(floor)} ({LOCAL_RATIO:g}x what the scans cross within short "
+                    f"stretches of {where}, {_pct(self._anchor(a))})")
+        return _pct(SCAN_FLOOR)
 
     def said(self, a: str, whose: str = "its") -> str:
         """The figure of ``a`` as a sentence says it, naming which figure it is.
@@ -254,7 +306,7 @@ def _scan_flags(info: dict[str, Any]) -> tuple[_Shares, dict[str, str]]:
                                 f"the other half of the run, the lowest "
                                 f"{_pct(min(split.values()))})")
     return _Shares({a: split.get(a, v) for a, v in crossing.items()},
-                   {a for a in crossing if a in split}), flags
+                   {a for a in crossing if a in split}, _finite(info, LOCAL_KEY)), flags
 
 
 def one_direction_share(evidence: dict[str, Any]) -> float | None:
@@ -363,7 +415,7 @@ def _own_scans(x: str, y: str, scans: _Shares) -> str:
     """
     if x not in scans:
         return ""
-    if scans[x] <= SCAN_FLOOR:
+    if scans.confirms(x):
         if x in scans.split:
             return (", its path consistent with its own scans split in time "
                     f"({scans.said(x)})")
@@ -373,7 +425,7 @@ def _own_scans(x: str, y: str, scans: _Shares) -> str:
     theirs = f" ({y}'s {_pct(scans[y])})" if same else ""
     whose = f"{x}'s"
     return (f"; its own scans do not confirm it: {scans.said(x, whose)}{theirs}, more than "
-            f"the {_pct(SCAN_FLOOR)} that would")
+            f"the {scans.limit_said(x)} that would")
 
 
 def _undecided_pair(info: dict[str, Any], partial: set[str], scans: bool) -> str:
@@ -475,11 +527,12 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
             x = named[0]
             y = next(a for a in info if a != x)
             # (at most the other's: two runs on one path have the same split share)
-            if scans[x] <= SCAN_FLOOR and scans[x] <= scans[y]:
+            if scans.confirms(x) and scans[x] <= scans[y]:
                 return _two_maps(sequence, x, y, alone[y] or "", scans, basis, warnings)
             why = (f"fewer than three maps take part: {y} is wrong on its own ({alone[y]}), "
                    f"but {x}'s own scans do not confirm it ({scans.said(x)}; a map named "
-                   f"of two needs at most {_pct(SCAN_FLOOR)} and no more than the other's)")
+                   f"of two needs at most {scans.limit_said(x)} and no more than the "
+                   "other's)")
         elif named:
             why = ("fewer than three maps take part: two maps that differ cannot tell which "
                    "of them is right, and neither is wrong on its own (a defect flag, a "
@@ -583,14 +636,14 @@ def _by_scans(sequence: str, info: dict[str, Any], scans: _Shares,
     order = sorted(info, key=lambda a: (alone[a] is not None, scans[a], a))
     first = order[0]
     best = first if (scan_flags and alone[first] is None
-                     and scans[first] <= SCAN_FLOOR) else None
+                     and scans.confirms(first)) else None
     basis = scans.basis()
     if best is None:
         why = ("the maps disagree among themselves and their own scans do not separate them "
                + ("(no map is inconsistent with its scans)" if not scan_flags else
                   "(every map is wrong on its own)" if alone[first] is not None else
                   f"(the most consistent of the maps not wrong on their own, {first}: "
-                  f"{scans.said(first)}, more than {_pct(SCAN_FLOOR)})"))
+                  f"{scans.said(first)}, more than {scans.limit_said(first)})"))
         return {"sequence": str(sequence), "best": None, "ranking": order, "basis": basis,
                 "confidence": f"none: {why}", "warnings": warnings}
     bad = sorted(scan_flags)

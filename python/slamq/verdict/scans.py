@@ -8,8 +8,9 @@ the verdict of 6 maps with their scans must stay within a few seconds (issue 41)
 :data:`CACHED` recordings read are kept in memory: the maps of one sequence share one.
 
 The record's path is also scored against its own scans split in time (section 7e,
-:func:`record_split`), with at most :data:`SPLIT_SCANS` scans drawn and tested a half: the
-program's map is not read.
+:func:`record_split`), with at most :data:`SPLIT_SCANS` scans drawn and tested a half, and
+split within short stretches of itself (section 7f, :func:`record_local`): the program's map
+is not read.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from slamq.models import OccupancyMap
 from slamq.models.scans import ScanConsistency, Scans, ScanSplit
 
 __all__ = ["CACHED", "MAX_SCANS", "SPLIT_SCANS", "has_scans", "record_consistency",
-           "record_split", "recording"]
+           "record_local", "record_split", "recording"]
 
 #: Scans scored per map at most (evenly spread over those the trajectory places). 2000 and
 #: 500 gave the same decision in all 304 cases of docs/validity.md's sets; 500 costs a
@@ -185,3 +186,50 @@ def record_split(record: dict[str, Any], *, max_scans: int = SPLIT_SCANS,
     scans = recording(record["scans"])
     traj = load_trajectory(record["trajectory"], unsorted="sort")
     return scan_split(scans, traj, max_draw=max_scans, max_test=max_scans, threads=threads)
+
+
+def record_local(record: dict[str, Any], *, threads: int | None = None) -> dict[str, float]:
+    """The record's path against its own scans split within short stretches of it
+    (docs/spec.md 7f, :func:`slamq.metrics.split.local_split`).
+
+    Parameters
+    ----------
+    record : dict
+        With ``scans`` and ``trajectory``, as :func:`record_split`'s.
+    threads : int, optional
+
+    Returns
+    -------
+    dict
+        ``local_crossing`` (the mean of the windows' crossing shares; NaN without a window)
+        and ``windows`` (how many were scored).
+
+    Raises
+    ------
+    slamq.SlamqError
+        The recording or the trajectory cannot be read.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from slamq.synth import LaserSpec, simulate, world
+    >>> from slamq.synth.writers import write_groundtruth
+    >>> from slamq.synth.writers.rawlog import write_rawlog
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> seq = simulate(world(2, kind="office", size=(8.0, 6.0)), seed=1, noise="none",
+    ...                laser=LaserSpec(beams=91), length=5.0)
+    >>> rec = {"scans": str(write_rawlog(seq, d / "s.rawlog")),
+    ...        "trajectory": str(write_groundtruth(seq, d / "gt.tum"))}
+    >>> out = record_local(rec)
+    >>> out["windows"] >= 1, out["local_crossing"] < 0.02
+    (True, True)
+    """
+    from slamq.metrics.split import local_split
+    from slamq.sources.trajectories import load_trajectory
+
+    scans = recording(record["scans"])
+    traj = load_trajectory(record["trajectory"], unsorted="sort")
+    shares = local_split(scans, traj, threads=threads)
+    finite = shares[np.isfinite(shares)]
+    return {"local_crossing": float(finite.mean()) if finite.size else float("nan"),
+            "windows": int(finite.size)}
