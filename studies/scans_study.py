@@ -315,12 +315,19 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     from slamq.verdict import rule as r
     from slamq.verdict.rule import SCAN_KEY, sequence_verdict
 
-    saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL)
+    saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
+             r.LOCAL_RATIO, r.LOCAL_ANCHOR)
     try:
         if rule is not None:
             for x in rule:
                 if isinstance(x, str) and x.startswith("shortfall="):
                     r.SHORTFALL = float(x.removeprefix("shortfall="))
+                if isinstance(x, str) and x.startswith("local="):
+                    # docs/validity.md, "A fifth real log ...": none (SCAN_FLOOR alone),
+                    # path (C3) or lowest (C3')
+                    anchor = x.removeprefix("local=")
+                    r.LOCAL_RATIO = None if anchor == "none" else r.SCAN_SHARE
+                    r.LOCAL_ANCHOR = anchor if anchor != "none" else r.LOCAL_ANCHOR
             nums = [x for x in rule if not isinstance(x, str)]
             r.SCAN_FLOOR, r.SCAN_SHARE = nums[0], nums[1]
             if len(nums) > 2 or MEDIAN in rule:
@@ -331,7 +338,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                 r._corner_key = _scan_order(saved[3], scans)
         v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
     finally:
-        (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL) = saved
+        (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
+         r.LOCAL_RATIO, r.LOCAL_ANCHOR) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -432,13 +440,15 @@ def refresh_defects(cache: dict) -> int:
 
 def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool = False,
              cache: dict | None = None, figure: str = "violation_share",
-             by_run: bool = False, values: dict[str, float] | None = None) -> pd.DataFrame:
+             by_run: bool = False, values: dict[str, float] | None = None,
+             local: dict[str, float] | None = None) -> pd.DataFrame:
     """The verdict of each sequence (or, with ``pair``, each pair of programs of each
     sequence) with the truth hidden, for each rule of ``rules`` ((floor, share) of the
     scan veto; None: without the scans), the scans weighed by ``figure``
     (:func:`weigh`); ``cache`` keeps each case's evidence (the costly part) between
     calls; ``by_run``: one case per sequence and run (iteration) instead of per
-    sequence; ``values``: as :func:`weigh`'s."""
+    sequence; ``values``: as :func:`weigh`'s; ``local``: each map's path's local share
+    (``local-rows.csv``), each program's median set as the evidence's ``scan_local``."""
     from slamq.verdict.evidence import sequence_evidence
     from slamq.verdict.ranking import summarize
     from slamq.verdict.rule import SCAN_KEY
@@ -467,6 +477,11 @@ def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool
         if cache is not None:  # cheap: measured again, as the figure is now
             _fill_shortfalls(ev, block)
         ev = weigh(ev, block, figure, values)
+        if local is not None:
+            ev = {**ev, "algorithms": {a: {**e, "scan_local": _median_of(
+                [local.get(str(m), math.nan) for m in block.loc[
+                    block["algorithm"].astype(str) == a, "map"]])}
+                for a, e in ev["algorithms"].items()}}
         summary = summarize(sub)
         t = block.groupby("algorithm")[truth].mean()
         best = t.min()
@@ -483,6 +498,11 @@ def verdicts(df: pd.DataFrame, truth: str, *, rules: tuple = (None,), pair: bool
                 row[f"{k}@{name}"] = v
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def _median_of(values: list[float]) -> float:
+    finite = [v for v in values if math.isfinite(v)]
+    return float(np.median(finite)) if finite else math.nan
 
 
 def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
@@ -502,7 +522,9 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
                  + (", scans order" if ORDER in rule else "")
                  + (", anchored on the median" if MEDIAN in rule else "")
                  + "".join(f", travel veto {x.removeprefix('shortfall=')}" for x in rule
-                           if isinstance(x, str) and x.startswith("shortfall=")))
+                           if isinstance(x, str) and x.startswith("shortfall="))
+                 + "".join(f", local floor {x.removeprefix('local=')}" for x in rule
+                           if isinstance(x, str) and x.startswith("local=")))
         out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
                    f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
                    f" | {int((~named).sum())} |")
@@ -549,6 +571,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--split-rows", default="split-rows.csv",
                     help="with --figure split_crossing or c2: the rows file of "
                     "studies/split_scans.py in OUTPUT (a variant's, --rows there)")
+    ap.add_argument("--locals", action="store_true",
+                    help="the rule with the confirmation floor of SCAN_FLOOR alone, C3 and "
+                    "C3' (docs/validity.md, 'A fifth real log ...'), each path's local "
+                    "share read from OUTPUT/local-rows.csv (studies/split_scans.py --local)")
     ap.add_argument("--rule", type=float, nargs=2, metavar=("V", "K"), default=None,
                     help="the veto's floor and share (default: slamq's)")
     ap.add_argument("--margins", action="store_true",
@@ -594,6 +620,9 @@ def main(argv: list[str] | None = None) -> int:
     if a.shortfalls:  # docs/validity.md, "Paths shortened along a corridor"
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"shortfall={t:g}") for t in SHORTFALLS))
+    if a.locals:
+        vk = rules[-1][:2]
+        rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))
     if a.median:  # F3 of docs/validity.md, "A veto anchored on the middle map"
         rules = (*rules, *((rules[1][0], k, MEDIAN) for k in MEDIAN_SHARES))
     import pickle
@@ -621,11 +650,15 @@ def main(argv: list[str] | None = None) -> int:
         refresh_defects(cache)
     values = (split_values(df, a.output, a.split_rows)
               if a.figure in ("split_crossing", "c2") else None)
+    local = None
+    if a.locals:
+        rows = pd.read_csv(a.output / "local-rows.csv")
+        local = dict(zip(rows["map"].astype(str), rows["local_crossing"].astype(float)))
     for pair in (False, True):
         v = verdicts(df, truth, rules=rules, pair=pair, cache=cache, figure=a.figure,
-                     by_run=a.by_run, values=values)
+                     by_run=a.by_run, values=values, local=local)
         store.write_bytes(pickle.dumps(cache))
-        suffix = (f"-{a.max_scans}" if a.max_scans else "") + (
+        suffix = ("-locals" if a.locals else "") + (f"-{a.max_scans}" if a.max_scans else "") + (
             "" if a.figure == "violation_share" else f"-{a.figure}") + (
             "" if a.split_rows == "split-rows.csv" or a.figure not in (
                 "split_crossing", "c2") else f"-{Path(a.split_rows).stem}")

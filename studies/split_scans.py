@@ -142,6 +142,8 @@ def split_crossing(scans: Any, traj: Any, *, max_draw: int = MAX_DRAW,
 
 FIELDS = ("map", "algorithm", "sequence", "run", "split_crossing", "crossing_1",
           "crossing_2", "hit_1", "hit_2", "seconds")
+#: ``--local``'s rows (docs/spec.md 7f, :func:`slamq.verdict.scans.record_local`).
+LOCAL_FIELDS = ("map", "algorithm", "sequence", "run", "local_crossing", "windows", "seconds")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -158,10 +160,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rows", default=None,
                     help="the rows file's name in the last OUTPUT (default split-rows.csv, "
                     "split-polygon-rows.csv with --polygon): a variant of the figure")
+    ap.add_argument("--local", action="store_true",
+                    help="the local share of docs/spec.md 7f instead, into local-rows.csv "
+                    "(docs/validity.md, 'A fifth real log ... a floor from the recording')")
     ap.add_argument("--polygon", action="store_true",
                     help="the prototype (swept polygons), into split-polygon-rows.csv")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
     store = a.output[-1] / (a.rows or ("split-polygon-rows.csv" if a.polygon
+                                       else "local-rows.csv" if a.local
                                        else "split-rows.csv"))
     done = set()
     if store.exists():
@@ -169,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
             done = {r["map"] for r in csv.DictReader(f)}
     new = not store.exists()
     with store.open("a", newline="") as f:
-        out = csv.DictWriter(f, FIELDS)
+        out = csv.DictWriter(f, LOCAL_FIELDS if a.local else FIELDS)
         if new:
             out.writeheader()
         for folder in a.output:
@@ -184,7 +190,11 @@ def main(argv: list[str] | None = None) -> int:
                 try:
                     scans = recording(r["scans"])
                     traj = load_trajectory(r["trajectory"], unsorted="sort")
-                    if a.polygon:
+                    if a.local:
+                        from slamq.verdict.scans import record_local
+
+                        fig = record_local(r)
+                    elif a.polygon:
                         fig = split_crossing(scans, traj, max_draw=a.max_draw,
                                              max_test=a.max_test)
                     else:
@@ -203,7 +213,8 @@ def main(argv: list[str] | None = None) -> int:
                 out.writerow(row)
                 f.flush()
                 print(r["algorithm"], r["sequence"], r["run"],
-                      f"{100 * fig['split_crossing']:.2f}%", row["seconds"], flush=True)
+                      f"{100 * fig.get('split_crossing', fig.get('local_crossing')):.2f}%",
+                      row["seconds"], flush=True)
     return 0
 
 
