@@ -12,9 +12,13 @@ one run (best of ``--repeat``, 2 threads unless ``--threads``):
   the recording cached), and their paths split in time (:func:`slamq.scan_split` at its
   defaults, and as the verdict computes it, :func:`slamq.verdict.scans.record_split`: 300
   scans drawn and tested a half);
+- the six paths' local shares (:func:`slamq.verdict.scans.record_local`, docs/spec.md 7f);
 - the whole verdict without ground truth (``sequence_evidence`` + ``sequence_verdict``:
   agreement, defect detectors and scans) with the scans and without them (the records
-  without ``scans``), and their difference.
+  without ``scans``), and their difference; and with the scans when every record's path
+  is the drive's odometry (its split share above 2%), with the local floor off (the
+  default) and on (``slamq.verdict.rule.LOCAL_RATIO`` set: the evidence computes the six
+  local shares too, the verdict's worst case).
 
 Then the stages of the verdict, each on its own with 1 thread (CPU seconds: what they cost,
 whatever else runs on the machine), and the whole verdict with ``--threads``, in a fresh
@@ -151,13 +155,14 @@ def best(f, repeat: int) -> tuple[float, object]:
 def main() -> None:
     import pandas as pd
 
+    from slamq import Trajectory
     from slamq.api import evaluate
     from slamq.sources.maps import load_map
     from slamq.sources.scans import load_scans
     from slamq.synth import LaserSpec, degrade, simulate, world
     from slamq.synth.truth import visible_map
     from slamq.synth.worldgen import save_world
-    from slamq.synth.writers import write_groundtruth
+    from slamq.synth.writers import EPOCH, write_groundtruth
     from slamq.synth.writers.rawlog import write_rawlog
     from slamq.verdict import scans as vs
     from slamq.verdict.evidence import sequence_evidence
@@ -235,6 +240,12 @@ def main() -> None:
               f"{best.cpu * 1e3:8.1f} ms CPU (split crossing shares "
               f"{', '.join(f'{c.crossing_share:.4f}' for c in out)})")
 
+    s, out = best(lambda: [vs.record_local(r, threads=args.threads) for r in rows],
+                  args.repeat)
+    print(f"6 paths, local shares (7f):            {s * 1e3:8.1f} ms wall, "
+          f"{best.cpu * 1e3:8.1f} ms CPU (local shares "
+          f"{', '.join(format(c['local_crossing'], '.4f') for c in out)})")
+
     def verdict(frame: pd.DataFrame) -> dict:
         vs._CACHE.clear()
         ev = sequence_evidence(frame, "s", threads=args.threads, loaded=loaded)
@@ -250,6 +261,26 @@ def main() -> None:
           f"{with_cpu * 1e3:8.1f} ms CPU (best {v['best']})")
     print(f"  the scans' share:                    {(with_s - without_s) * 1e3:8.1f} ms wall, "
           f"{(with_cpu - without_cpu) * 1e3:8.1f} ms CPU ({with_s / without_s:.2f}x wall)")
+    odom = d / "odom.tum"
+    Trajectory.from_xy_yaw(EPOCH + seq.stamps, *seq.odom.T).write_tum(odom)
+    drifting = ok.assign(trajectory=str(odom))
+    odom_s, vo = best(lambda: verdict(drifting), args.repeat)
+    ev = sequence_evidence(drifting, "s", threads=args.threads, loaded=loaded)
+    splits = [f"{e['split_crossing']:.3f}" for e in ev["splits"].values()]
+    print(f"verdict with scans, odometry paths:    {odom_s * 1e3:8.1f} ms wall, "
+          f"{best.cpu * 1e3:8.1f} ms CPU (best {vo['best']}; split shares "
+          f"{', '.join(splits)}; local shares computed: "
+          f"{sum('local_crossing' in e for e in ev['splits'].values())})")
+    from slamq.verdict import rule
+
+    rule.LOCAL_RATIO = rule.SCAN_SHARE  # the local floor on (off by default)
+    try:
+        local_s, vl = best(lambda: verdict(drifting), args.repeat)
+    finally:
+        rule.LOCAL_RATIO = None
+    print(f"  the same, local floor on:            {local_s * 1e3:8.1f} ms wall, "
+          f"{best.cpu * 1e3:8.1f} ms CPU (best {vl['best']}; "
+          f"{local_s / odom_s:.2f}x the floor off)")
 
     ok.to_pickle(d / "rows.pkl")
     builds = {"this": None} if args.base is None else {"base": args.base, "this": None}
