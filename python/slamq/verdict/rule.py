@@ -20,8 +20,8 @@ from slamq.results.summary import Orientation, distinct_resolutions, orientation
 from slamq.verdict.calibration import with_calibration
 
 __all__ = [
-    "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "LOCAL_KEY",
-    "LOCAL_RATIO", "SCAN_FLOOR",
+    "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "LOCAL_ANCHOR",
+    "LOCAL_KEY", "LOCAL_RATIO", "SCAN_FLOOR",
     "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL", "SPLIT_KEY",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit",
@@ -224,8 +224,10 @@ class _Shares(dict[str, float]):
         self.local = {a: v for a, v in (local or {}).items() if a in self.split}
 
     def floor(self, a: str) -> float:
-        """The figure at most which ``a``'s scans confirm it: :data:`SCAN_FLOOR`, or for a
-        split share with a local share, ``max(SCAN_FLOOR, LOCAL_RATIO x`` local``)``.
+        """The figure at most which ``a``'s scans confirm it: :data:`SCAN_FLOOR`, or, with
+        :data:`LOCAL_RATIO` set, for a split share with a local share, ``max(SCAN_FLOOR,
+        LOCAL_RATIO x`` the lowest local share (:data:`LOCAL_ANCHOR` ``"lowest"``) or its
+        own (``"path"``)``)``.
 
         Examples
         --------
@@ -397,8 +399,9 @@ def _one_broken(sequence: str, info: dict[str, Any], scans: _Shares,
 def _own_scans(x: str, y: str, scans: _Shares) -> str:
     """What ``x``'s own scans say of the map named of two (``y`` the other), to append to
     the confidence: "consistent" only when its figure (:class:`_Shares`) is at most
-    :data:`SCAN_FLOOR`; above that, the two figures (``x`` is within the veto's limit,
-    :func:`scan_limit`, but its scans do not confirm it); "" without scans.
+    :data:`SCAN_FLOOR` (:meth:`_Shares.floor`); above that, the two figures (``x`` is
+    within the veto's limit, :func:`scan_limit`, but its scans do not confirm it); ""
+    without scans.
 
     Examples
     --------
