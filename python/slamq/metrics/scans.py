@@ -59,24 +59,42 @@ def _prepare(map: OccupancyMap, scans: Scans, poses: Any, scan_tolerance: float,
     return place(scans, poses, max_gap, stamp_tol)
 
 
-def place(scans: Scans, poses: Any, max_gap: float = MAX_GAP, stamp_tol: float = STAMP_TOL
-          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Which of ``scans`` ``poses`` places (SPEC 7b: a :class:`Trajectory` by
+def robot_poses(scans: Scans, poses: Any, max_gap: float = MAX_GAP,
+                stamp_tol: float = STAMP_TOL) -> np.ndarray:
+    """The robot's ``(N, 3)`` ``(x, y, yaw)`` at each of ``scans``, NaN where ``poses`` does
+    not place it (SPEC 7b: a :class:`Trajectory` by
     :func:`~slamq.metrics.sync.interpolate_poses`, or one ``(x, y, yaw)`` per scan, rows
-    with a NaN left out), the laser's ``(K, 3)`` world poses at the placed ones, and their
-    ``(K, B)`` ranges."""
+    with a NaN left out).
+
+    Examples
+    --------
+    >>> s = Scans(np.arange(3.0), [0.0], np.ones((3, 1)), 10.0)
+    >>> robot_poses(s, [[0, 0, 0], [1, np.nan, 0], [2, 0, 0]])[:, 0].tolist()
+    [0.0, nan, 2.0]
+    """
     n = len(scans)
     if isinstance(poses, Trajectory):
         placed, _, pos, quat = interpolate_poses(poses, scans.stamps, max_gap=max_gap,
                                                  stamp_tol=stamp_tol)
-        robot = np.column_stack([pos[placed, 0], pos[placed, 1], _yaw(quat[placed])])
-    else:
-        robot = np.asarray(poses, dtype=np.float64)
-        if robot.shape != (n, 3):
-            raise SlamqError(f"{scans.source}: poses must be a Trajectory or an ({n}, 3) "
-                             f"array of (x, y, yaw), one per scan; got shape {robot.shape}")
-        placed = np.isfinite(robot).all(axis=1)
-        robot = robot[placed]
+        robot = np.full((n, 3), np.nan)
+        robot[placed] = np.column_stack([pos[placed, 0], pos[placed, 1],
+                                         _yaw(quat[placed])])
+        return robot
+    robot = np.array(poses, dtype=np.float64)
+    if robot.shape != (n, 3):
+        raise SlamqError(f"{scans.source}: poses must be a Trajectory or an ({n}, 3) "
+                         f"array of (x, y, yaw), one per scan; got shape {robot.shape}")
+    robot[~np.isfinite(robot).all(axis=1)] = np.nan
+    return robot
+
+
+def place(scans: Scans, poses: Any, max_gap: float = MAX_GAP, stamp_tol: float = STAMP_TOL
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which of ``scans`` ``poses`` places (:func:`robot_poses`), the laser's ``(K, 3)``
+    world poses at the placed ones, and their ``(K, B)`` ranges."""
+    robot = robot_poses(scans, poses, max_gap, stamp_tol)
+    placed = np.isfinite(robot).all(axis=1)
+    robot = robot[placed]
     return placed, scans.laser_poses(robot), np.ascontiguousarray(scans.ranges[placed])
 
 

@@ -21,7 +21,12 @@ import numpy as np
 
 from slamq import native
 from slamq.errors import SlamqError
-from slamq.metrics.scans import SCAN_TOLERANCE, place, scan_consistency_reference
+from slamq.metrics.scans import (
+    SCAN_TOLERANCE,
+    place,
+    robot_poses,
+    scan_consistency_reference,
+)
 from slamq.metrics.sync import MAX_GAP, STAMP_TOL, evenly_spread
 from slamq.models import OccupancyMap, Trajectory
 from slamq.models.scans import Scans, ScanSplit
@@ -319,26 +324,6 @@ LOCAL_MIN_SCANS = 8
 LOCAL_WINDOWS = 12
 
 
-def _robot_poses(scans: Scans, poses: Trajectory | Any, max_gap: float, stamp_tol: float
-                 ) -> np.ndarray:
-    """``(N, 3)`` robot poses, one per scan, NaN where ``poses`` does not place it."""
-    from slamq.metrics.scans import _yaw
-    from slamq.metrics.sync import interpolate_poses
-
-    n = len(scans)
-    if isinstance(poses, Trajectory):
-        placed, _, pos, quat = interpolate_poses(poses, scans.stamps, max_gap=max_gap,
-                                                 stamp_tol=stamp_tol)
-        out = np.full((n, 3), np.nan)
-        out[placed] = np.column_stack([pos[placed, 0], pos[placed, 1], _yaw(quat[placed])])
-        return out
-    out = np.asarray(poses, dtype=np.float64)
-    if out.shape != (n, 3):
-        raise SlamqError(f"{scans.source}: poses must be a Trajectory or an ({n}, 3) array "
-                         f"of (x, y, yaw), one per scan; got shape {out.shape}")
-    return out
-
-
 def local_windows(xy: np.ndarray, *, window: float = LOCAL_WINDOW,
                   max_scans: int = LOCAL_SCANS, min_scans: int = LOCAL_MIN_SCANS,
                   max_windows: int = LOCAL_WINDOWS) -> list[np.ndarray]:
@@ -374,7 +359,7 @@ def local_windows(xy: np.ndarray, *, window: float = LOCAL_WINDOW,
 def _local(split: Any, scans: Scans, poses: Trajectory | Any, window: float, max_scans: int,
            min_scans: int, max_windows: int, max_gap: float, stamp_tol: float,
            **kw: Any) -> np.ndarray:
-    robot = _robot_poses(scans, poses, max_gap, stamp_tol)
+    robot = robot_poses(scans, poses, max_gap, stamp_tol)
     where = np.flatnonzero(np.isfinite(robot).all(axis=1))
     shares = []
     for w in local_windows(robot[where, :2], window=window, max_scans=max_scans,

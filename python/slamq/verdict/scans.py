@@ -25,7 +25,7 @@ import numpy as np
 from slamq.errors import SlamqError
 from slamq.metrics.scans import scan_consistency
 from slamq.metrics.sync import evenly_spread, interpolate_poses
-from slamq.models import OccupancyMap
+from slamq.models import OccupancyMap, Trajectory
 from slamq.models.scans import ScanConsistency, Scans, ScanSplit
 
 __all__ = ["CACHED", "MAX_SCANS", "SPLIT_SCANS", "has_scans", "record_consistency",
@@ -86,6 +86,14 @@ def recording(path: str | os.PathLike[str]) -> Scans:
     return scans
 
 
+def _recorded(record: dict[str, Any]) -> tuple[Scans, Trajectory]:
+    """The record's recording (:func:`recording`) and its ``trajectory``, read sorted by
+    time."""
+    from slamq.sources.trajectories import load_trajectory
+
+    return recording(record["scans"]), load_trajectory(record["trajectory"], unsorted="sort")
+
+
 def record_consistency(record: dict[str, Any], grid: OccupancyMap, *,
                        max_scans: int = MAX_SCANS, threads: int | None = None
                        ) -> ScanConsistency:
@@ -127,10 +135,7 @@ def record_consistency(record: dict[str, Any], grid: OccupancyMap, *,
     >>> c.scans == len(seq), c.hit_share > 0.99, c.violation_share < 0.01
     (True, True, True)
     """
-    from slamq.sources.trajectories import load_trajectory
-
-    scans = recording(record["scans"])
-    traj = load_trajectory(record["trajectory"], unsorted="sort")
+    scans, traj = _recorded(record)
     placed = interpolate_poses(traj, scans.stamps)[0]
     index = np.flatnonzero(placed)
     if index.size == 0:
@@ -181,10 +186,7 @@ def record_split(record: dict[str, Any], *, max_scans: int = SPLIT_SCANS,
     True
     """
     from slamq.metrics.split import scan_split
-    from slamq.sources.trajectories import load_trajectory
-
-    scans = recording(record["scans"])
-    traj = load_trajectory(record["trajectory"], unsorted="sort")
+    scans, traj = _recorded(record)
     return scan_split(scans, traj, max_draw=max_scans, max_test=max_scans, threads=threads)
 
 
@@ -225,10 +227,7 @@ def record_local(record: dict[str, Any], *, threads: int | None = None) -> dict[
     (True, True)
     """
     from slamq.metrics.split import local_split
-    from slamq.sources.trajectories import load_trajectory
-
-    scans = recording(record["scans"])
-    traj = load_trajectory(record["trajectory"], unsorted="sort")
+    scans, traj = _recorded(record)
     shares = local_split(scans, traj, threads=threads)
     finite = shares[np.isfinite(shares)]
     return {"local_crossing": float(finite.mean()) if finite.size else float("nan"),
