@@ -21,8 +21,12 @@
 
 use crate::scans::{check_recording, consistency, filled, first_boundary, ScanError, ScanGrid};
 
-/// The most cells a drawn map may have (a 200 m x 200 m box at 0.05 m per cell).
-pub const MAX_CELLS: usize = 1 << 24;
+/// The most cells a drawn map may have (a 410 m x 410 m box at 0.05 m per cell; a half
+/// being drawn holds 10 bytes a cell, and the result 2 bytes a cell a map).
+pub const MAX_CELLS: usize = 1 << 26;
+/// Above this many cells the two halves are drawn one after the other, so that one half's
+/// counts are held at a time (the result does not change).
+pub const PARALLEL_CELLS: usize = 1 << 24;
 /// The most scans one half may draw (the per-cell counts are 16-bit).
 pub const MAX_DRAWN: usize = u16::MAX as usize - 1;
 
@@ -405,11 +409,14 @@ pub fn split(
         max_range,
     };
     let f = frame(&rec, &[halves[0].0, halves[1].0], p)?;
-    let (a, b) = rayon::join(
-        || draw(&rec, &f, halves[0].0, p.occupied_share),
-        || draw(&rec, &f, halves[1].0, p.occupied_share),
-    );
-    let maps = [a?, b?];
+    let one = || draw(&rec, &f, halves[0].0, p.occupied_share);
+    let two = || draw(&rec, &f, halves[1].0, p.occupied_share);
+    let maps = if f.height * f.width > PARALLEL_CELLS {
+        [one()?, two()?]
+    } else {
+        let (a, b) = rayon::join(one, two);
+        [a?, b?]
+    };
     let counts = [
         score(&rec, &f, &maps[0], halves[0].1, p.tolerance)?,
         score(&rec, &f, &maps[1], halves[1].1, p.tolerance)?,

@@ -164,6 +164,25 @@ def test_the_core_equals_the_twin_on_a_real_log() -> None:
     assert rust.counts[0][:, 0].sum() > 1000 and rust.crossing_share > 0
 
 
+def test_a_building_over_two_hundred_metres_is_split_as_a_small_one() -> None:
+    """Two rooms 210 m apart (18 Mcells at 0.05 m, over the 2^24 cells above which the
+    halves are drawn one after the other): right poses cross nothing, a scan placed 1.5 m
+    off is crossed, and the core equals the twin."""
+    a = np.linspace(0.0, 2.0 * np.pi, 8, endpoint=False)   # a laser looking all round
+    n = 8
+    s = Scans(np.arange(float(n)), a, np.full((n, a.size), 1.03), 10.0, source="big.log")
+    right = np.zeros((n, 3))
+    right[1::2, :2] = 210.0                                  # every other scan far away
+    good = scan_split(s, right)
+    assert good.maps[0].values.size > 1 << 24
+    assert good.crossing_share == 0.0
+    wrong = right.copy()
+    wrong[5, 0] += 1.5                                       # one scan of half 2 off
+    off = scan_split(s, wrong)
+    assert off.crossing_share > 0.0
+    _same(off, scan_split_reference(s, wrong))
+
+
 def test_bad_input_is_refused_with_its_name() -> None:
     s = Scans([0.0, 1.0], [0.0], [[1.0], [1.0]], 5.0, source="laser.log")
     ok = np.zeros((2, 3))
@@ -178,10 +197,10 @@ def test_bad_input_is_refused_with_its_name() -> None:
                      (dict(max_draw=70000), "max_draw")):
         with pytest.raises(SlamqError, match=what):
             scan_split(s, ok, **kw)
-    far = np.array([[0.0, 0.0, 0.0], [1e5, 0.0, 0.0]])
-    with pytest.raises(SlamqError, match="laser.log: .* more than 16777216 cells"):
+    far = np.array([[0.0, 0.0, 0.0], [1e6, 0.0, 0.0]])
+    with pytest.raises(SlamqError, match="laser.log: .* more than 67108864 cells"):
         scan_split(s, far)
-    with pytest.raises(SlamqError, match="laser.log: .* more than 16777216 cells"):
+    with pytest.raises(SlamqError, match="laser.log: .* more than 67108864 cells"):
         scan_split_reference(s, far)
     # no valid beam: nothing drawn and nothing scored, so no figure
     blind = Scans([0.0, 1.0], [0.0], [[np.inf], [np.inf]], 5.0, source="laser.log")

@@ -46,7 +46,7 @@ MARGIN = 1.0
 MAX_DRAW = 3000
 MAX_TEST = 500
 #: The most cells a drawn map may have (``rust/src/split.rs``'s ``MAX_CELLS``).
-MAX_CELLS = 1 << 24
+MAX_CELLS = 1 << 26
 
 _FREE, _OCCUPIED, _UNKNOWN = 254, 0, 205
 

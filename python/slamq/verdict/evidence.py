@@ -169,7 +169,6 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             from slamq.verdict.scans import (
                 has_scans,
                 record_consistency,
-                record_split,
                 recording,
             )
 
@@ -190,7 +189,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
                         record_consistency, rec._asdict(), maps[key], threads=one)))
                     # the path against its own scans split in time (7e): the map not read
                     split.append((key, str(rec.map), pool.submit(
-                        record_split, rec._asdict(), threads=one)))
+                        _split_figures, rec._asdict(), one)))
                     records[key] = rec._asdict()
         flagged: dict[str, Future[Any]] = {}
         if defects:
@@ -285,6 +284,14 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "degeneracy": seen, "degenerate_share": _highest(
                 [d["degenerate_share"] for d in seen.values()]),
             "min_support": SETTINGS.min_support.default}
+
+
+def _split_figures(record: dict[str, Any], threads: int | None) -> dict[str, Any]:
+    """:func:`slamq.verdict.scans.record_split`'s figures, without its drawn maps (two of
+    up to 2^26 cells a path: a job's result is held until every job is read)."""
+    from slamq.verdict.scans import record_split
+
+    return record_split(record, threads=threads).to_dict()
 
 
 def _figures(jobs: list[tuple[str, str, Future[Any]]], failed: str, notes: list[str]
