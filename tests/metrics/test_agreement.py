@@ -155,6 +155,27 @@ def test_two_good_maps_among_broken_ones_form_the_group() -> None:
     assert not a.majority
 
 
+def test_a_map_of_one_room_confirms_no_broken_map() -> None:
+    """A map that knows one room (under 2% of the building) agrees with any map there; it
+    forms no group with a broken map (docs/validity.md, "A minimum overlap")."""
+    from slamq.metrics.agreement import GROUP_MIN_OVERLAP, agreeing_group
+
+    plan = floor_plan(3)
+    h, w = plan.values.shape
+    room = np.zeros((h, w), bool)
+    room[:h // 6, :w // 6] = True
+    tiny = OccupancyMap(np.where(room, plan.values, 205).astype(np.uint8),
+                        plan.unknown | ~room, plan.resolution, plan.origin)
+    maps = {"tiny": tiny, "kinked": degrade(plan, "kinks", 30.0, seed=0),
+            "drifted": degrade(plan, "drift", 8.0, seed=5)}
+    a = slamq.agreement(maps, align="origin")
+    assert a.completeness["tiny"] < GROUP_MIN_OVERLAP
+    assert a.consistency[0, 1] >= 0.6 and a.consistency[0, 2] >= 0.6  # it agrees there
+    assert a.consistency[1, 2] < 0.6                                  # the others do not
+    assert "tiny" in [a.names[i] for i in agreeing_group(a.consistency, 0.6)]
+    assert a.group == []
+
+
 def _pair_on_the_whole_grid(est: OccupancyMap, ref: OccupancyMap, align: str
                             ) -> tuple[float, float, float, np.ndarray]:
     """A pair's figures as docs/spec.md section 9 defines them, on the whole grid (what

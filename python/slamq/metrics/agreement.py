@@ -43,8 +43,8 @@ from slamq.metrics.several import named_maps
 from slamq.models import OccupancyMap
 from slamq.params import SETTINGS, check_threads
 
-__all__ = ["MISSING_MIN_LENGTH", "Agreement", "agreeing_group", "agreement", "missing_walls",
-           "place_all"]
+__all__ = ["GROUP_MIN_OVERLAP", "MISSING_MIN_LENGTH", "Agreement", "agreeing_group",
+           "agreement", "missing_walls", "place_all"]
 
 _E, _G, _EM, _GM, _EK, _GF = 1, 2, 4, 8, 16, 32
 
@@ -72,8 +72,9 @@ class Agreement:
         More than half of the maps have a support of at least ``min_support``.
     group : list of str
         The agreeing group (docs/spec.md section 9): the largest set of at least two maps
-        whose every pair has a consistency of at least ``min_support`` (of two such sets,
-        the one with the higher mean consistency), in the order given; empty when no two
+        whose every pair has a consistency of at least ``min_support``, each map of a pair
+        knowing at least :data:`GROUP_MIN_OVERLAP` of the other's known area (of two such
+        sets, the one with the higher mean consistency), in the order given; empty when no two
         maps agree. A map in it is confirmed by another even when most maps are broken;
         a map that agrees with nobody is evidence of nothing.
     min_support : float
@@ -594,7 +595,7 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     if not majority:
         notes.append(f"only {confirmed} of {n} maps agree with the others (support >= "
                      f"{min_support:g}): the maps disagree among themselves")
-    group = [names[i] for i in agreeing_group(cons, min_support)]
+    group = [names[i] for i in agreeing_group(_overlapping(cons, cov), min_support)]
     return Agreement(names=names, support=support, completeness=completeness,
                      consistency=cons, placed=placed, majority=majority,
                      min_support=float(min_support), notes=notes, missing=missing,
@@ -603,6 +604,31 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
 
 #: Above this many maps the agreeing group is grown greedily instead of searched exactly.
 EXACT_GROUP_MAPS = 16
+#: Two maps count as agreeing (for the group) only when each knows at least this share of
+#: the other's known area: a map of one scan agrees with any map of the place where it
+#: overlaps it, and would confirm a broken one (docs/validity.md, "A minimum overlap").
+GROUP_MIN_OVERLAP = 0.05
+
+
+def _overlapping(consistency: np.ndarray, covers: np.ndarray,
+                 least: float = GROUP_MIN_OVERLAP) -> np.ndarray:
+    """``consistency`` with NaN where either map of a pair knows less than ``least`` of
+    the other's known area (``covers[i, j]``: the share of j's known cells that i knows).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> c = np.array([[np.nan, 0.9], [0.9, np.nan]])
+    >>> float(_overlapping(c, np.array([[np.nan, 0.001], [1.0, np.nan]]))[0, 1])
+    nan
+    >>> float(_overlapping(c, np.array([[np.nan, 0.5], [1.0, np.nan]]))[0, 1])
+    0.9
+    """
+    c = np.array(consistency, dtype=float)
+    cov = np.asarray(covers, dtype=float)
+    tiny = (cov < least) | (cov.T < least)  # NaN compares False: not known, not tiny
+    c[tiny] = math.nan
+    return c
 
 
 def agreeing_group(consistency: np.ndarray, min_consistency: float) -> list[int]:
