@@ -13,7 +13,8 @@ columns of ``slamq run``'s results, or an earlier pipeline's ``relations.csv``);
 ``real OUTPUT OTHER...`` takes the runs of several outputs as one set (the GMapping study:
 ``examples/real2d-runs studies/real2d-gmapping-runs``) and writes into the last.
 
-Both write ``OUTPUT/scans-rows.csv`` (one row per run) and print Markdown.
+Both write ``OUTPUT/scans-rows.csv`` (one row per run) and print Markdown; ``--no-pairs``
+leaves out the two-map cases (the costly part on large real logs).
 """
 
 from __future__ import annotations
@@ -587,6 +588,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="one verdict per sequence and iteration (the real logs' 3 runs)")
     ap.add_argument("--rows", action="store_true",
                     help="reuse the scored rows of an earlier call (OUTPUT/scans-rows.csv)")
+    ap.add_argument("--no-pairs", action="store_true",
+                    help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
     outputs = a.output
     if len(outputs) > 1 and a.kind == "benchmark":
@@ -654,7 +657,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.locals:
         rows = pd.read_csv(a.output / "local-rows.csv")
         local = dict(zip(rows["map"].astype(str), rows["local_crossing"].astype(float)))
-    for pair in (False, True):
+    for pair in (False,) if a.no_pairs else (False, True):
         v = verdicts(df, truth, rules=rules, pair=pair, cache=cache, figure=a.figure,
                      by_run=a.by_run, values=values, local=local)
         store.write_bytes(pickle.dumps(cache))
