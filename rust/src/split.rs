@@ -14,8 +14,10 @@
 //! `occupied_share` of its visits, free when visited and not occupied, unknown when never
 //! visited.
 //!
-//! The two halves are drawn in parallel, each scan after scan (integer counts), and scored
-//! by [`crate::scans::consistency`]: the result is the same for any number of threads.
+//! The two halves are drawn in parallel (one after the other on a grid of more than
+//! [`PARALLEL_CELLS`] cells, to hold one half's counts at a time), each scan after scan
+//! (integer counts), and scored by [`crate::scans::consistency`]: the result is the same
+//! for any number of threads.
 //! `python/slamq/metrics/split.py`'s `scan_split_reference` is this module's numpy twin
 //! (the same floating-point operations in the same order).
 
