@@ -361,6 +361,34 @@ def test_maps_that_disagree_are_ordered_by_their_own_scans() -> None:
     assert v["best"] is None and "disagree among themselves" in v["confidence"]
 
 
+def test_where_corners_leave_no_clear_winner_the_scans_order_the_tied_maps(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    support = {"a": 0.9, "b": 0.9, "c": 0.9}
+    s = _summary(list("abc"), [100, 110, 200])  # a and b within 25%, c well behind
+    crossing = {"a": 0.015, "b": 0.010, "c": 0.005}
+    split = {"a": 0.015, "b": 0.008, "c": 0.004}
+    v = sequence_verdict(s, "s", _ev(support, crossing, split=split))
+    # b's path is the more consistent of the tied two; c has clearly more corners
+    assert v["best"] == "b" and v["ranking"] == ["b", "a", "c"]
+    assert v["confidence"].startswith("medium:")
+    assert "no clear winner by corners: b, a are within 25%" in v["confidence"]
+    assert "so their own scans order them: 0.8% of b's beams" in v["confidence"]
+    # a clear winner by corners: the scans do not reorder
+    v = sequence_verdict(_summary(list("abc"), [100, 130, 200]), "s",
+                         _ev(support, crossing, split=split))
+    assert v["best"] == "a" and "own scans order" not in v["confidence"]
+    # a split share against a crossing share is not compared: corners, as before
+    v = sequence_verdict(s, "s", _ev(support, crossing, split={"a": 0.015}))
+    assert v["best"] == "a" and "no clear winner: a and b" in v["confidence"]
+    # a tied map without scans: corners, as before
+    v = sequence_verdict(s, "s", _ev(support, {"a": 0.015, "c": 0.005}))
+    assert v["best"] == "a"
+    # the rule before it (SCANS_BREAK_TIES off): corners
+    monkeypatch.setattr(rule, "SCANS_BREAK_TIES", False)
+    v = sequence_verdict(s, "s", _ev(support, crossing, split=split))
+    assert v["best"] == "a" and "no clear winner: a and b" in v["confidence"]
+
+
 def test_of_two_maps_with_their_scans_a_partial_one_separates_them() -> None:
     s = _summary(["a", "b"], [10, 20])
     partial = {"a": 0.5, "b": 1.0}

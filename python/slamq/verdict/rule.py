@@ -21,7 +21,7 @@ from slamq.verdict.calibration import with_calibration
 
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "LOCAL_ANCHOR",
-    "LOCAL_KEY", "LOCAL_RATIO", "SCAN_FLOOR",
+    "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SCAN_FLOOR",
     "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL", "SPLIT_KEY",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit",
@@ -34,6 +34,11 @@ COMPLETE_SHARE = 0.8
 
 #: Corners: a runner-up within this relative margin of the best means no clear winner.
 CLEAR_MARGIN = 0.25
+#: Where corners leave no clear winner among the confirmed maps, the maps within
+#: :data:`CLEAR_MARGIN` of the best count are ordered by their own scans' figure (the split
+#: share where each has one, else the crossing share where each has one; lower first).
+#: docs/validity.md, "No clear winner by corners: the scans decide".
+SCANS_BREAK_TIES = True
 #: Without ground truth: a map whose support (median consistency with the other maps) is
 #: below this share of the sequence's best support disagrees with the others and is never
 #: named best; the maps at or above it are confirmed equally (corners break that tie).
@@ -506,6 +511,10 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     key, corners = _corner_key(block, candidates)
     if key is not None and len(candidates) > 1:
         candidates.sort(key=lambda a: (float(corners[a]), a))
+    # where corners leave no clear winner, the maps' own scans order the tied ones
+    tied = _scan_tie_order(candidates, corners, scans) if key is not None else []
+    if tied:
+        candidates = tied + [a for a in candidates if a not in tied]
     rest = sorted((a for a in support if a not in candidates),
                   key=lambda a: (a in flagged, -support[a], a))
     # maps that could not be placed (no support figure) are flagged: ranked last
@@ -582,12 +591,49 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     if key is not None and len(candidates) > 1:
         confidence += (f"; among the {len(candidates)} maps they confirm equally, {key} "
                        "decide")
-        first, second = float(corners[candidates[0]]), float(corners[candidates[1]])
-        if second <= first * (1 + CLEAR_MARGIN):
-            confidence += (f"; no clear winner: {candidates[0]} and {candidates[1]} are "
-                           f"within {int(CLEAR_MARGIN * 100)}% ({first:g} and {second:g})")
+        if tied:
+            x, y = tied[0], tied[1]
+            confidence += (f"; no clear winner by {key}: {', '.join(tied)} are within "
+                           f"{int(CLEAR_MARGIN * 100)}% of the fewest "
+                           f"({', '.join(f'{float(corners[a]):g}' for a in tied)}), so their "
+                           f"own scans order them: {scans.said(x, x + chr(39) + 's')}, "
+                           f"{scans.said(y, y + chr(39) + 's')}")
+        else:
+            first, second = float(corners[candidates[0]]), float(corners[candidates[1]])
+            if second <= first * (1 + CLEAR_MARGIN):
+                confidence += (f"; no clear winner: {candidates[0]} and {candidates[1]} "
+                               f"are within {int(CLEAR_MARGIN * 100)}% ({first:g} and "
+                               f"{second:g})")
     return {"sequence": str(sequence), "best": candidates[0], "ranking": ranking,
             "basis": basis, "confidence": confidence, "warnings": warnings}
+
+
+def _scan_tie_order(candidates: list[str], corners: pd.Series, scans: _Shares
+                    ) -> list[str]:
+    """The candidates within :data:`CLEAR_MARGIN` of the fewest corners (``candidates``
+    sorted by corners), ordered by their figure against their own scans, lower first
+    (ties by corners, then name), when there are two or more and each has the same kind
+    of figure (all a split share, or all a crossing share); else ``[]``. Off
+    (:data:`SCANS_BREAK_TIES` false): ``[]``.
+
+    Examples
+    --------
+    >>> c = pd.Series({"a": 100.0, "b": 110.0, "c": 200.0})
+    >>> _scan_tie_order(["a", "b", "c"], c, _Shares({"a": 0.02, "b": 0.01, "c": 0.0},
+    ...                                             {"a", "b", "c"}))
+    ['b', 'a']
+    >>> _scan_tie_order(["a", "b", "c"], c, _Shares({"a": 0.02, "b": 0.01}, {"b"}))
+    []
+    """
+    if not SCANS_BREAK_TIES or len(candidates) < 2:
+        return []
+    fewest = float(corners[candidates[0]])
+    tied = [a for a in candidates if float(corners[a]) <= fewest * (1 + CLEAR_MARGIN)]
+    if len(tied) < 2 or not all(a in scans and math.isfinite(scans[a]) for a in tied):
+        return []
+    if len({a in scans.split for a in tied}) > 1:  # a split share against a crossing one
+        return []
+    return sorted(tied, key=lambda a: (scans[a], float(corners[a]), a))
 
 
 def _short_path(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
