@@ -371,7 +371,8 @@ def test_where_corners_leave_no_clear_winner_the_scans_order_the_tied_maps(
     # b's path is the more consistent of the tied two; c has clearly more corners
     assert v["best"] == "b" and v["ranking"] == ["b", "a", "c"]
     assert v["confidence"].startswith("medium:")
-    assert "no clear winner by corners: b, a are within 25%" in v["confidence"]
+    assert "corners leave no clear winner (b, a within 25% of the fewest: 110, 100)" \
+        in v["confidence"] and "corners decide" not in v["confidence"]
     assert "so their own scans order them: 0.8% of b's beams" in v["confidence"]
     # a clear winner by corners: the scans do not reorder
     v = sequence_verdict(_summary(list("abc"), [100, 130, 200]), "s",

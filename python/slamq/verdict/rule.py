@@ -588,22 +588,21 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                        "resolution or orientation, so corners cannot compare them: their "
                        "support orders them"
                        + _turned_note(block.loc[[a for a in candidates if a in block.index]]))
-    if key is not None and len(candidates) > 1:
+    if key is not None and len(candidates) > 1 and tied:
+        x, y = tied[0], tied[1]
+        confidence += (f"; among the {len(candidates)} maps they confirm equally, {key} "
+                       f"leave no clear winner ({', '.join(tied)} within "
+                       f"{int(CLEAR_MARGIN * 100)}% of the fewest: "
+                       f"{', '.join(f'{float(corners[a]):g}' for a in tied)}), so their own "
+                       f"scans order them: {scans.said(x, x + chr(39) + 's')}, "
+                       f"{scans.said(y, y + chr(39) + 's')}")
+    elif key is not None and len(candidates) > 1:
         confidence += (f"; among the {len(candidates)} maps they confirm equally, {key} "
                        "decide")
-        if tied:
-            x, y = tied[0], tied[1]
-            confidence += (f"; no clear winner by {key}: {', '.join(tied)} are within "
-                           f"{int(CLEAR_MARGIN * 100)}% of the fewest "
-                           f"({', '.join(f'{float(corners[a]):g}' for a in tied)}), so their "
-                           f"own scans order them: {scans.said(x, x + chr(39) + 's')}, "
-                           f"{scans.said(y, y + chr(39) + 's')}")
-        else:
-            first, second = float(corners[candidates[0]]), float(corners[candidates[1]])
-            if second <= first * (1 + CLEAR_MARGIN):
-                confidence += (f"; no clear winner: {candidates[0]} and {candidates[1]} "
-                               f"are within {int(CLEAR_MARGIN * 100)}% ({first:g} and "
-                               f"{second:g})")
+        first, second = float(corners[candidates[0]]), float(corners[candidates[1]])
+        if second <= first * (1 + CLEAR_MARGIN):
+            confidence += (f"; no clear winner: {candidates[0]} and {candidates[1]} are "
+                           f"within {int(CLEAR_MARGIN * 100)}% ({first:g} and {second:g})")
     return {"sequence": str(sequence), "best": candidates[0], "ranking": ranking,
             "basis": basis, "confidence": confidence, "warnings": warnings}
 
