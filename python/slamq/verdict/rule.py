@@ -886,7 +886,8 @@ def rule_summary() -> str:
     flags, whose completeness is under 80% of the highest, whose own scans cross its walls
     more than max(2%, 1.5x the most consistent map's), or whose path's scans split in time
     cross each other's walls more than max(2%, 1.5x the lowest) is never named best;
-    corners order the maps confirmed equally on one grid; of two maps, one is named when
+    corners order the maps confirmed equally on one grid, and their own scans those
+    within 25% of the fewest corners; of two maps, one is named when
     the other is superposed, smeared or fragmented and it carries no flag; of two maps, or
     of maps that disagree, one is also named when another is wrong on its own and its own
     scans confirm it; where 2% or more of the recording's scans see walls in one direction
@@ -903,8 +904,10 @@ def rule_summary() -> str:
         f"cross its walls more than max({SCAN_FLOOR:.0%}, {SCAN_SHARE:g}x the most "
         "consistent map's), or whose path's scans split in time cross each other's walls "
         f"more than max({SCAN_FLOOR:.0%}, {SCAN_SHARE:g}x the lowest) is never named best; "
-        "corners order the maps confirmed equally on "
-        "one grid; of two maps, one is named when the other is "
+        "corners order the maps confirmed equally on one grid"
+        + (f", and their own scans those within {CLEAR_MARGIN:.0%} of the fewest corners"
+           if SCANS_BREAK_TIES else "")
+        + "; of two maps, one is named when the other is "
         f"{', '.join(SEVERE_DEFECTS[:-1])} or {SEVERE_DEFECTS[-1]} and it carries no flag; "
         "of two maps, or of maps that disagree, one is also named when another is "
         f"wrong on its own and its own scans confirm it; where {DEGENERATE_SHARE:.0%} or "
