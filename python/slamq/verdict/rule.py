@@ -589,13 +589,12 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                        "support orders them"
                        + _turned_note(block.loc[[a for a in candidates if a in block.index]]))
     if key is not None and len(candidates) > 1 and tied:
-        x, y = tied[0], tied[1]
+        first, second = (scans.said(a, f"{a}'s") for a in tied[:2])
         confidence += (f"; among the {len(candidates)} maps they confirm equally, {key} "
                        f"leave no clear winner ({', '.join(tied)} within "
                        f"{int(CLEAR_MARGIN * 100)}% of the fewest: "
                        f"{', '.join(f'{float(corners[a]):g}' for a in tied)}), so their own "
-                       f"scans order them: {scans.said(x, x + chr(39) + 's')}, "
-                       f"{scans.said(y, y + chr(39) + 's')}")
+                       f"scans order them: {first}, {second}")
     elif key is not None and len(candidates) > 1:
         confidence += (f"; among the {len(candidates)} maps they confirm equally, {key} "
                        "decide")
