@@ -105,6 +105,7 @@ def measure(label: str, scans: Any, traj: Any, a: argparse.Namespace) -> None:
         print(f"{label:26s} {what:34s} {sec:8.3f} {100 * fig:7.2f}% {ratio:7.1f}x")
     print(f"{label:26s} the twin's counts equal the core's: {same}")
 
+
 def _two_places(traj: Any, apart: float) -> Any:
     """The drive's poses at its own stamps, every other one moved ``apart`` metres."""
     import numpy as np

@@ -512,7 +512,8 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     if key is not None and len(candidates) > 1:
         candidates.sort(key=lambda a: (float(corners[a]), a))
     # where corners leave no clear winner, the maps' own scans order the tied ones
-    tied = _scan_tie_order(candidates, corners, scans) if key is not None else []
+    close = _within_margin(candidates, corners) if key is not None else []
+    tied = _scan_tie_order(close, scans)
     if tied:
         candidates = tied + [a for a in candidates if a not in tied]
     rest = sorted((a for a in support if a not in candidates),
@@ -598,40 +599,50 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     elif key is not None and len(candidates) > 1:
         confidence += (f"; among the {len(candidates)} maps they confirm equally, {key} "
                        "decide")
-        first, second = float(corners[candidates[0]]), float(corners[candidates[1]])
-        if second <= first * (1 + CLEAR_MARGIN):
-            confidence += (f"; no clear winner: {candidates[0]} and {candidates[1]} are "
-                           f"within {int(CLEAR_MARGIN * 100)}% ({first:g} and {second:g})")
+        if len(close) > 1:
+            first, second = float(corners[close[0]]), float(corners[close[1]])
+            confidence += (f"; no clear winner: {close[0]} and {close[1]} are within "
+                           f"{int(CLEAR_MARGIN * 100)}% ({first:g} and {second:g})")
     return {"sequence": str(sequence), "best": candidates[0], "ranking": ranking,
             "basis": basis, "confidence": confidence, "warnings": warnings}
 
 
-def _scan_tie_order(candidates: list[str], corners: pd.Series, scans: _Shares
-                    ) -> list[str]:
-    """The candidates within :data:`CLEAR_MARGIN` of the fewest corners (``candidates``
-    sorted by corners), ordered by their figure against their own scans, lower first
-    (ties by corners, then name), when there are two or more and each has the same kind
-    of figure (all a split share, or all a crossing share); else ``[]``. Off
+def _within_margin(names: list[str], counts: pd.Series) -> list[str]:
+    """Of ``names`` (fewest ``counts`` first), those within :data:`CLEAR_MARGIN` of the
+    first's count: two or more mean no clear winner.
+
+    Examples
+    --------
+    >>> _within_margin(["a", "b", "c"], pd.Series({"a": 100.0, "b": 110.0, "c": 200.0}))
+    ['a', 'b']
+    """
+    if not names:
+        return []
+    fewest = float(counts[names[0]])
+    return [a for a in names if float(counts[a]) <= fewest * (1 + CLEAR_MARGIN)]
+
+
+def _scan_tie_order(close: list[str], scans: _Shares) -> list[str]:
+    """The maps corners leave without a clear winner (``close``: :func:`_within_margin`
+    of the candidates, in corners order) ordered by their figure against their own scans,
+    lower first (ties keep the corners order), when there are two or more and each has the
+    same kind of figure (all a split share, or all a crossing share); else ``[]``. Off
     (:data:`SCANS_BREAK_TIES` false): ``[]``.
 
     Examples
     --------
-    >>> c = pd.Series({"a": 100.0, "b": 110.0, "c": 200.0})
-    >>> _scan_tie_order(["a", "b", "c"], c, _Shares({"a": 0.02, "b": 0.01, "c": 0.0},
-    ...                                             {"a", "b", "c"}))
+    >>> _scan_tie_order(["a", "b"], _Shares({"a": 0.02, "b": 0.01, "c": 0.0}, {"a", "b"}))
     ['b', 'a']
-    >>> _scan_tie_order(["a", "b", "c"], c, _Shares({"a": 0.02, "b": 0.01}, {"b"}))
+    >>> _scan_tie_order(["a", "b"], _Shares({"a": 0.02, "b": 0.01}, {"b"}))
     []
     """
-    if not SCANS_BREAK_TIES or len(candidates) < 2:
+    if not SCANS_BREAK_TIES or len(close) < 2:
         return []
-    fewest = float(corners[candidates[0]])
-    tied = [a for a in candidates if float(corners[a]) <= fewest * (1 + CLEAR_MARGIN)]
-    if len(tied) < 2 or not all(a in scans and math.isfinite(scans[a]) for a in tied):
+    if not all(a in scans and math.isfinite(scans[a]) for a in close):
         return []
-    if len({a in scans.split for a in tied}) > 1:  # a split share against a crossing one
+    if len({a in scans.split for a in close}) > 1:  # a split share against a crossing one
         return []
-    return sorted(tied, key=lambda a: (scans[a], float(corners[a]), a))
+    return sorted(close, key=lambda a: scans[a])  # stable: ties keep the corners order
 
 
 def _short_path(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
@@ -792,13 +803,12 @@ def sequence_verdict(summary: pd.DataFrame, sequence: str,
             warnings.append("no ground truth: occupied fraction, proportion and enclosed "
                             "areas do not decide (on slam_comparison_tools their rank "
                             "agreement with the trajectory error was at chance or inverted)")
-            complete = [a for a in ranking if a not in partial]
-            if len(complete) >= 2:
-                first, second = float(means[complete[0]]), float(means[complete[1]])
-                if second <= first * (1 + CLEAR_MARGIN):
-                    confidence += (f"; no clear winner: {complete[0]} and {complete[1]} are "
-                                   f"within {int(CLEAR_MARGIN * 100)}% ({first:g} and "
-                                   f"{second:g} corners)")
+            close = _within_margin([a for a in ranking if a not in partial], means)
+            if len(close) > 1:
+                first, second = float(means[close[0]]), float(means[close[1]])
+                confidence += (f"; no clear winner: {close[0]} and {close[1]} are within "
+                               f"{int(CLEAR_MARGIN * 100)}% ({first:g} and {second:g} "
+                               "corners)")
             if key == "corners" and (res_differ or turned):
                 warnings.append("the maps differ in resolution or orientation: corners are "
                                 "not comparable (evaluate with canonical_resolution=0.07 "
