@@ -312,9 +312,6 @@ def _scan_order(corner_key: Any, scans: dict[str, float]) -> Any:
 #: A rule's token: corners alone order the confirmed maps where they leave no clear winner
 #: (the rule before 2026-11-30's "No clear winner by corners: the scans decide").
 CORNERS_TIES = "ties=corners"
-#: the rule with every doubled_walls flag held (docs/validity.md, "Doubled walls yield to
-#: the most consistent path")
-DOUBLED_HELD = "doubled=held"
 
 
 def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series,
@@ -325,14 +322,12 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     from slamq.verdict.rule import SCAN_KEY, sequence_verdict
 
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
-             r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.DOUBLED_YIELDS)
+             r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES)
     try:
         if rule is not None:
             for x in rule:
                 if x == CORNERS_TIES:  # docs/validity.md, "No clear winner by corners"
                     r.SCANS_BREAK_TIES = False
-                if x == DOUBLED_HELD:
-                    r.DOUBLED_YIELDS = False
                 if isinstance(x, str) and x.startswith("shortfall="):
                     r.SHORTFALL = float(x.removeprefix("shortfall="))
                 if isinstance(x, str) and x.startswith("local="):
@@ -352,7 +347,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
         v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
     finally:
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
-         r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.DOUBLED_YIELDS) = saved
+         r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -603,9 +598,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ties", action="store_true",
                     help="also the rule with corners alone where they leave no clear winner "
                     "(docs/validity.md, 'No clear winner by corners: the scans decide')")
-    ap.add_argument("--doubled", action="store_true",
-                    help="also the rule with every doubled_walls flag held (docs/validity.md, "
-                    "'Doubled walls yield to the most consistent path')")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -643,8 +635,6 @@ def main(argv: list[str] | None = None) -> int:
         rules = (None, *((*vk, f"shortfall={t:g}") for t in SHORTFALLS))
     if a.ties:
         rules = (*rules, (*rules[-1][:2], CORNERS_TIES))
-    if a.doubled:
-        rules = (*rules, (*rules[-1][:2], DOUBLED_HELD))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

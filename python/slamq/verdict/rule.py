@@ -94,13 +94,6 @@ SHORTFALL = 0.03
 #: an unbroken benchmark map in docs/validity.md's defect study. ``doubled_walls`` is not
 #: one: it fires on some sound maps (walls drawn as outlines, doubled graph-SLAM walls).
 SEVERE_DEFECTS = ("superposed", "smeared", "fragmented")
-#: In a verdict of three or more maps, a ``doubled_walls`` flag is not held against the
-#: program whose path has the lowest split share of all (docs/spec.md 7e; each program with
-#: one, no tie) when it is the only defect kind held against it: a copy laid by a failed
-#: loop closure makes the scans of one half of the run cross the walls of the other, so
-#: the most self-consistent path has not laid one. A map so named is named at "low" at
-#: most. docs/validity.md, "Doubled walls yield to the most consistent path".
-DOUBLED_YIELDS = True
 
 _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
@@ -466,57 +459,17 @@ def _undecided_pair(info: dict[str, Any], partial: set[str], scans: bool) -> str
     return out
 
 
-def _doubled_yields(info: dict[str, Any], warnings: list[str]) -> str | None:
-    """The program whose ``doubled_walls`` flag is not held against it
-    (:data:`DOUBLED_YIELDS`), said in ``warnings``; None when there is none."""
-    if not DOUBLED_YIELDS or len(info) < 3:
-        return None
-    split = _finite(info, SPLIT_KEY)
-    if len(split) < len(info):
-        return None
-    order = sorted(split, key=lambda a: split[a])
-    first = order[0]
-    if split[order[1]] <= split[first] or _defects_held(info[first]) != ["doubled_walls"]:
-        return None
-    notes = [str(d.get("note", "")) for ds in info[first]["defects"].values() for d in ds
-             if d["kind"] == "doubled_walls"]
-    what = notes[0].split(" (")[0] if notes and notes[0] else "flagged"
-    warnings.append(f"{first}'s doubled walls ({what}) are not held against it: its path "
-                    f"is the most consistent with its own scans (split share "
-                    f"{_pct(split[first])}, the next {_pct(split[order[1]])}), which a copy "
-                    "laid by a failed loop closure would not leave it")
-    return first
-
-
 def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, Any],
                        warnings: list[str]) -> dict[str, Any]:
     """The verdict without ground truth, from the maps' agreement, defect flags and their
     own scans."""
-    v = _agreement_verdict_of(block, sequence, evidence, warnings)
-    named = v.get("best")
-    if named is not None and _doubled_yields(
-            {str(a): e for a, e in evidence["algorithms"].items() if a in block.index},
-            []) == named:
-        why = (f"{named}'s doubled walls were set aside: its path is the most consistent "
-               "with its own scans")
-        level, _, rest = v["confidence"].partition(":")
-        rest = rest.replace("has no defect flag", "has no defect flag held against it")
-        v["confidence"] = ("low:" if level == "medium" else f"{level}:") + rest + f"; {why}"
-    return v
-
-
-def _agreement_verdict_of(block: pd.DataFrame, sequence: str, evidence: dict[str, Any],
-                          warnings: list[str]) -> dict[str, Any]:
-    """:func:`_agreement_verdict` before a map whose doubled walls were set aside
-    (:func:`_doubled_yields`) has its confidence capped."""
     info = {str(a): e for a, e in evidence["algorithms"].items() if a in block.index}
     warnings.extend(evidence.get("notes", []))
     flagged: dict[str, str] = {}
-    yielded = _doubled_yields(info, warnings)
     for a, e in info.items():
         if not e["placed"]:
             flagged[a] = "could not be registered with the other maps"
-        elif (kinds := _defects_held(e)) and a != yielded:
+        elif kinds := _defects_held(e):
             flagged[a] = f"defects: {', '.join(kinds)}"
     scans, scan_flags = _scan_flags(info)
     for a, why in scan_flags.items():
