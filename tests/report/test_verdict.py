@@ -348,3 +348,44 @@ def test_without_a_majority_the_agreeing_group_decides() -> None:
     assert any("d is never named best: not in the group" in w for w in v["warnings"])
     none = sequence_verdict(summarize(df), "s", ev([]))
     assert none["best"] is None and "disagree among themselves" in none["confidence"]
+
+
+def test_a_programs_reruns_do_not_witness_its_own_walls(tmp_path, monkeypatch) -> None:
+    """docs/validity.md, "Witnesses from other programs only": with three programs or more,
+    a map's support counts the other programs' maps, not its own program's reruns."""
+    from slamq.metrics.agreement import finite_median
+    from slamq.synth import degrade, floor_plan
+    from slamq.synth.worldgen import save_world
+    from slamq.verdict import evidence as ev_mod
+
+    plan = floor_plan(3)
+    maps = {"a": [degrade(plan, "drift", 8.0, seed=1)] * 3,
+            "b": [degrade(plan, "specks", 0.001, seed=2)],
+            "c": [degrade(plan, "specks", 0.001, seed=3)]}
+    rows = []
+    for alg, runs in maps.items():
+        for run, m in enumerate(runs, 1):
+            path = save_world(m, tmp_path / f"{alg}{run}.yaml")
+            rows.append({"map": str(path), "algorithm": alg, "sequence": "s", "run": run})
+    ok = pd.DataFrame(rows)
+    got = {}
+    for mode in ("all", "others"):
+        monkeypatch.setattr(ev_mod, "WITNESSES", mode)
+        got[mode] = sequence_evidence(ok, "s", defects=False, scans=False)
+    pairs = got["others"]["consistency"]
+    assert pairs == got["all"]["consistency"]  # the pairs are the same: only who counts
+    mine = [p for p in pairs if "/a" in p]
+    # a's runs are one map three times: they agree with each other at 1
+    assert all(pairs[p][q] == pytest.approx(1.0) for p in mine for q in mine if q != p)
+    others_a = finite_median([finite_median([v for q, v in pairs[p].items() if q not in mine])
+                              for p in mine])
+    assert got["others"]["algorithms"]["a"]["support"] == pytest.approx(others_a)
+    assert got["all"]["algorithms"]["a"]["support"] > others_a + 0.1
+    # b's witnesses are a's three maps and c's, as before: a is another program
+    assert got["others"]["algorithms"]["b"]["support"] == pytest.approx(
+        got["all"]["algorithms"]["b"]["support"])
+    # counted with its reruns, the drifted map outvotes the two sound ones and is named
+    summary = summarize(ok.assign(corners=ok["algorithm"].map({"a": 300, "b": 200, "c": 210})))
+    assert sequence_verdict(summary, "s", got["all"])["best"] == "a"
+    v = sequence_verdict(summary, "s", got["others"])
+    assert v["best"] == "b" and not any("walls disagree" in w for w in v["warnings"])
