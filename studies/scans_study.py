@@ -312,40 +312,6 @@ def _scan_order(corner_key: Any, scans: dict[str, float]) -> Any:
 #: A rule's token: corners alone order the confirmed maps where they leave no clear winner
 #: (the rule before 2026-11-30's "No clear winner by corners: the scans decide").
 CORNERS_TIES = "ties=corners"
-#: each program's support recomputed from the evidence's pairs with these witnesses
-#: (docs/validity.md, "Witnesses from other programs only")
-WITNESS_ALL, WITNESS_OTHERS = "witnesses=all", "witnesses=others"
-
-
-def rewitness(ev: dict[str, Any], witnesses: str) -> dict[str, Any]:
-    """``ev`` with each placed program's ``support`` recomputed from its ``consistency``
-    pairs (:func:`slamq.verdict.evidence.witnessed_support`, ``witnesses`` "all" or
-    "others"); the rest as it is.
-
-    Examples
-    --------
-    >>> ev = {"consistency": {"a": {"b": 0.5, "c": 0.9}, "b": {"a": 0.5, "c": 0.4},
-    ...                       "c": {"a": 0.9, "b": 0.4}},
-    ...       "algorithms": {x: {"support": 0.0, "placed": True,
-    ...                          "defects": {x: [{"kind": "smeared"}] if x == "c" else []}}
-    ...                      for x in "abc"}}
-    >>> rewitness(ev, "all")["algorithms"]["a"]["support"]
-    0.7
-    >>> rewitness(ev, "others")["algorithms"]["a"]["support"]
-    0.5
-    """
-    from slamq.metrics.agreement import finite_median
-    from slamq.verdict.evidence import witnessed_support
-
-    owner = {p: a for a, e in ev["algorithms"].items() for p in e.get("defects", {})}
-    flagged = {p for e in ev["algorithms"].values()
-               for p, found in e.get("defects", {}).items() if found}
-    sup = witnessed_support(ev.get("consistency", {}), owner, flagged, witnesses)
-    algs = {}
-    for a, e in ev["algorithms"].items():
-        mine = [sup[p] for p in e.get("defects", {}) if p in sup]
-        algs[a] = {**e, "support": finite_median(mine)} if e.get("placed") and mine else e
-    return {**ev, "algorithms": algs}
 
 
 def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series,
@@ -358,9 +324,6 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
              r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES)
     try:
-        for mode in (WITNESS_ALL, WITNESS_OTHERS):
-            if rule is not None and mode in rule:
-                ev = rewitness(ev, mode.removeprefix("witnesses="))
         if rule is not None:
             for x in rule:
                 if x == CORNERS_TIES:  # docs/validity.md, "No clear winner by corners"
@@ -635,10 +598,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ties", action="store_true",
                     help="also the rule with corners alone where they leave no clear winner "
                     "(docs/validity.md, 'No clear winner by corners: the scans decide')")
-    ap.add_argument("--witnesses", action="store_true",
-                    help="also each program's support recomputed from the maps' pairs with "
-                    "every other map as a witness and with the other programs' unflagged "
-                    "maps only (docs/validity.md, 'Witnesses from other programs only')")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -676,9 +635,6 @@ def main(argv: list[str] | None = None) -> int:
         rules = (None, *((*vk, f"shortfall={t:g}") for t in SHORTFALLS))
     if a.ties:
         rules = (*rules, (*rules[-1][:2], CORNERS_TIES))
-    if a.witnesses:
-        vk = rules[-1][:2]
-        rules = (*rules, (*vk, WITNESS_ALL), (*vk, WITNESS_OTHERS))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

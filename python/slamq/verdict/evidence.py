@@ -40,68 +40,10 @@ from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
 from slamq.verdict.travel import shortfalls
 
-__all__ = ["MISSING_MIN_LENGTH", "RUNS_PER_ALGORITHM", "WITNESSES", "sequence_evidence",
-           "witnessed_support"]
+__all__ = ["MISSING_MIN_LENGTH", "RUNS_PER_ALGORITHM", "sequence_evidence"]
 
 #: At most this many runs of each algorithm take part in the agreement of a sequence.
 RUNS_PER_ALGORITHM = 3
-#: Whose maps a map's support counts (its consistency with each, the median; docs/validity.md,
-#: "Witnesses from other programs only"): ``"all"``, every other map, its own program's other
-#: runs included; ``"others"``, the other programs' maps that carry no defect flag (when
-#: there is none, the other programs' maps), where three or more programs take part (of
-#: two, the two supports would be the two directions of one consistency: every map's).
-WITNESSES = "all"
-
-
-def witnessed_support(consistency: Mapping[str, Mapping[str, float]],
-                      owner: Mapping[str, str], flagged: set[str] | frozenset[str] = frozenset(),
-                      witnesses: str | None = None) -> dict[str, float]:
-    """Each map's support: the median of its consistency with its witnesses.
-
-    Parameters
-    ----------
-    consistency : mapping
-        ``{map: {other map: consistency}}`` (the evidence's ``"consistency"``).
-    owner : mapping
-        Each map's program.
-    flagged : set of str
-        The maps that carry a defect flag.
-    witnesses : {"all", "others"}, optional
-        :data:`WITNESSES` by default. With fewer than three programs, "all".
-
-    Returns
-    -------
-    dict
-        ``{map: support}`` (NaN without a finite consistency).
-
-    Examples
-    --------
-    >>> c = {"a1": {"a2": 1.0, "b": 0.5, "c": 0.9}, "a2": {"a1": 1.0, "b": 0.5, "c": 0.9},
-    ...      "b": {"a1": 0.5, "a2": 0.5, "c": 0.4}, "c": {"a1": 0.9, "a2": 0.9, "b": 0.4}}
-    >>> owner = {"a1": "a", "a2": "a", "b": "b", "c": "c"}
-    >>> witnessed_support(c, owner, witnesses="all")["a1"]
-    0.9
-    >>> witnessed_support(c, owner, {"c"}, witnesses="others")["a1"]  # b alone
-    0.5
-    >>> witnessed_support(c, owner, {"b", "c"}, witnesses="others")["a1"]  # b and c
-    0.7
-    >>> witnessed_support(c, {"a1": "a", "a2": "a", "b": "b", "c": "b"}, {"c"},
-    ...                   witnesses="others")["a1"]  # two programs: every other map
-    0.9
-    """
-    mode = WITNESSES if witnesses is None else witnesses
-    if mode not in ("all", "others"):
-        raise ValueError(f"witnesses {mode!r}: 'all' or 'others'")
-    if len({owner.get(m) for m in consistency}) < 3:
-        mode = "all"
-    out = {}
-    for m, row in consistency.items():
-        pool = list(row)
-        if mode == "others":
-            others = [o for o in pool if owner.get(o) != owner.get(m)]
-            pool = [o for o in others if o not in flagged] or others or pool
-        out[m] = finite_median([row[o] for o in pool])
-    return out
 
 
 def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
@@ -300,10 +242,6 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         group_support = dict.fromkeys(maps, math.nan)
         group_maps = []
         pairs = {paths[k]: {} for k in maps}
-    if agree is not None and WITNESSES != "all":
-        sup = witnessed_support(pairs, {paths[k]: owner[k] for k in maps},
-                                {paths[k] for k in maps if found.get(k)})
-        support = {k: sup[paths[k]] if placed[k] else support[k] for k in maps}
     # each program's path against the others' (docs/spec.md 7d): weighed only where the
     # recording's scans see walls in one direction (section 9)
     short = shortfalls([r._asdict() for r in picked.itertuples()
