@@ -348,3 +348,24 @@ def test_without_a_majority_the_agreeing_group_decides() -> None:
     assert any("d is never named best: not in the group" in w for w in v["warnings"])
     none = sequence_verdict(summarize(df), "s", ev([]))
     assert none["best"] is None and "disagree among themselves" in none["confidence"]
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="known limitation: a program's reruns count as witnesses of its "
+                   "walls (docs/validity.md, 'Witnesses from other programs only': the "
+                   "remedy tried named a broken run on held-out data)")
+def test_a_programs_identical_reruns_do_not_outvote_two_sound_maps(tmp_path) -> None:
+    from slamq.synth import degrade, floor_plan
+    from slamq.synth.worldgen import save_world
+
+    plan = floor_plan(3)
+    maps = {"a": [degrade(plan, "drift", 8.0, seed=1)] * 3,  # bent: 8 deg per 10 m
+            "b": [degrade(plan, "specks", 0.001, seed=2)],
+            "c": [degrade(plan, "specks", 0.001, seed=3)]}
+    rows = [{"map": str(save_world(m, tmp_path / f"{alg}{run}.yaml")), "algorithm": alg,
+             "sequence": "s", "run": run, "corners": {"a": 300, "b": 200, "c": 210}[alg]}
+            for alg, runs in maps.items() for run, m in enumerate(runs, 1)]
+    ok = pd.DataFrame(rows)
+    ev = sequence_evidence(ok, "s", defects=False, scans=False)
+    # today a's three identical maps agree with each other at 1 and outvote b and c
+    assert sequence_verdict(summarize(ok), "s", ev)["best"] != "a"
