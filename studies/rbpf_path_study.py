@@ -20,17 +20,13 @@ from __future__ import annotations
 import argparse
 import math
 import pickle
-import sys
 import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from studies import scans_study as S  # noqa: E402
+import scans_study as S
 
 RULE = (0.02, 1.5)
 
