@@ -42,17 +42,17 @@ def most_likely_figures(df: pd.DataFrame, output: Path) -> pd.DataFrame:
     if store.exists():
         return pd.read_csv(store)
     rows = []
-    tmp = Path(tempfile.mkdtemp())
-    for r in df[df["algorithm"] == "rbpf-slam"].itertuples():
-        path = Path(str(r.map)).parent / "out" / "most_likely_path.txt"
-        if not path.exists():
-            continue
-        tum = tmp / f"{len(rows)}.tum"
-        read_mrpt_most_likely(path).write_tum(tum)
-        rec = {"scans": r.scans, "trajectory": str(tum), "map": r.map}
-        cross = record_consistency(rec, load_map(str(r.map))).to_dict()["crossing_share"]
-        split = record_split(rec).to_dict()["split_crossing"]
-        rows.append({"map": str(r.map), "crossing_ml": cross, "split_ml": split})
+    with tempfile.TemporaryDirectory() as tmp:
+        for r in df[df["algorithm"] == "rbpf-slam"].itertuples():
+            path = Path(str(r.map)).parent / "out" / "most_likely_path.txt"
+            if not path.exists():
+                continue
+            tum = Path(tmp) / f"{len(rows)}.tum"
+            read_mrpt_most_likely(path).write_tum(tum)
+            rec = {"scans": r.scans, "trajectory": str(tum), "map": r.map}
+            cross = record_consistency(rec, load_map(str(r.map))).to_dict()["crossing_share"]
+            split = record_split(rec).to_dict()["split_crossing"]
+            rows.append({"map": str(r.map), "crossing_ml": cross, "split_ml": split})
     out = pd.DataFrame(rows)
     out.to_csv(store, index=False)
     return out
@@ -85,6 +85,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("output", type=Path)
     ap.add_argument("--c2", action="store_true",
                     help="split shares from OUTPUT/split-v300-rows.csv (sets B-K)")
+    ap.add_argument("--no-pairs", action="store_true",
+                    help="the sequences only, not every pair of programs")
     a = ap.parse_args(argv)
     df = pd.read_csv(a.output / "scans-rows.csv")
     cache = pickle.loads((a.output / "scans-evidence.pkl").read_bytes())
@@ -95,19 +97,14 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{a.output.name}: rbpf-slam maps {len(ml)}, crossing share median "
           f"{df.loc[df['algorithm'] == 'rbpf-slam', 'crossing_share'].median():.4f} (mean "
           f"path) -> {ml['crossing_ml'].median():.4f} (most likely path)")
-    for pair in (False, True):
-        kind = "pairs" if pair else "sequences"
+    for pair in (False,) if a.no_pairs else (False, True):
         got: dict[str, Any] = {}
-        for name, c, v in (("mean", dict(cache), values), ("most likely", new_cache,
-                                                             new_values)):
+        for name, c, v in (("mean", cache, values), ("most likely", new_cache, new_values)):
             got[name] = S.verdicts(df, "ate_rmse", rules=(RULE,), pair=pair, cache=c,
                                    figure=figure, values=v)
+            print(f"\n{'Pairs' if pair else 'Sequences'}, rbpf-slam at its {name} path:\n")
+            print(S.verdict_table(got[name], (RULE,), pair=pair))
         col = S.rule_name(RULE)
-        for name, v in got.items():
-            top = v[f"rank@{col}"].isin([1.0, 2.0]).sum()
-            print(f"  {kind}, {name} path: {len(v)} cases, decided "
-                  f"{v[f'best@{col}'].notna().sum()}, top two / better {top}, broken "
-                  f"{int(v[f'broken_named@{col}'].sum())}")
         old, new = got["mean"], got["most likely"]
         changed = old[f"best@{col}"].fillna("-") != new[f"best@{col}"].fillna("-")
         for i in np.flatnonzero(changed.to_numpy()):
