@@ -9,10 +9,16 @@ share, spec 7b; split share, spec 7e), puts those figures into the set's cached 
 shipped rule on both, sequences and pairs, the truth hidden. The ATE (the truth) stays the
 mean path's, as the sets' tables have it.
 
-``python studies/rbpf_path_study.py studies/scans-benchmark-h-runs [--c2]``: ``--c2`` for
-the sets whose cached evidence predates the split share in the core (B-K: their split
-shares come from ``split-v300-rows.csv``). Figures at the most likely path are kept in
+``python studies/rbpf_path_study.py studies/scans-benchmark-h-runs [--c2] [--travel]``:
+``--c2`` for the sets whose cached evidence predates the split share in the core (B-K: their
+split shares come from ``split-v300-rows.csv``). Figures at the most likely path are kept in
 ``OUTPUT/rbpf-ml-rows.csv`` (computed once).
+
+``--travel`` (docs/validity.md, "rbpf-slam read wholly at its most likely path"): the
+shortfalls (spec 7d) too are measured with rbpf-slam's most likely path, and every case is
+judged twice, by the ATE of the mean path (the tables') and by the ATE of the path each map
+is drawn at (rbpf-slam's most likely path; ``OUTPUT/rbpf-ml-travel-rows.csv``, the paths in
+``OUTPUT/rbpf-ml/``, computed once).
 """
 
 from __future__ import annotations
@@ -58,6 +64,39 @@ def most_likely_figures(df: pd.DataFrame, output: Path) -> pd.DataFrame:
     return out
 
 
+def most_likely_paths(df: pd.DataFrame, output: Path) -> pd.DataFrame:
+    """``df`` with each rbpf-slam run's ``trajectory`` at its most likely path (a TUM file in
+    ``output/rbpf-ml/``) and ``ate_ml``: the ATE of the path each map is drawn at (that path
+    for rbpf-slam, the row's own ``ate_rmse`` for the others), scored as the batch scores
+    it (``slamq.batch.records``: SE(2) alignment, the default time gap)."""
+    from slamq.metrics.ate import ate
+    from slamq.sources.mrpt import read_mrpt_most_likely
+    from slamq.sources.trajectories import load_pair
+
+    store = output / "rbpf-ml-travel-rows.csv"
+    if not store.exists():
+        (output / "rbpf-ml").mkdir(exist_ok=True)
+        rows = []
+        for i, r in enumerate(df[df["algorithm"] == "rbpf-slam"].itertuples()):
+            path = Path(str(r.map)).parent / "out" / "most_likely_path.txt"
+            if not path.exists():
+                continue
+            tum = output / "rbpf-ml" / f"{i}.tum"
+            read_mrpt_most_likely(path).write_tum(tum)
+            est, gt = load_pair(tum, str(r.groundtruth), "sort")
+            rows.append({"map": str(r.map), "trajectory_ml": str(tum),
+                         "ate_ml": float(ate(gt, est, align="se2").rmse)})
+        pd.DataFrame(rows).to_csv(store, index=False)
+    ml = pd.read_csv(store)
+    out = df.copy()
+    out["ate_ml"] = out["ate_rmse"]
+    traj, err = dict(zip(ml["map"], ml["trajectory_ml"])), dict(zip(ml["map"], ml["ate_ml"]))
+    hit = out["map"].astype(str).isin(traj)
+    out.loc[hit, "trajectory"] = out.loc[hit, "map"].astype(str).map(traj)
+    out.loc[hit, "ate_ml"] = out.loc[hit, "map"].astype(str).map(err)
+    return out
+
+
 def patched(cache: dict, ml: pd.DataFrame, values: dict[str, float] | None
             ) -> tuple[dict, dict[str, float] | None]:
     """The cache and split values with rbpf-slam's figures at its most likely path."""
@@ -87,6 +126,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="split shares from OUTPUT/split-v300-rows.csv (sets B-K)")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences only, not every pair of programs")
+    ap.add_argument("--travel", action="store_true",
+                    help="the shortfalls too at the most likely path, judged by both ATEs")
     a = ap.parse_args(argv)
     df = pd.read_csv(a.output / "scans-rows.csv")
     cache = pickle.loads((a.output / "scans-evidence.pkl").read_bytes())
@@ -94,6 +135,9 @@ def main(argv: list[str] | None = None) -> int:
     values = S.split_values(df, a.output, "split-v300-rows.csv") if a.c2 else None
     ml = most_likely_figures(df, a.output)
     new_cache, new_values = patched(cache, ml, values)
+    if a.travel:
+        return travel(df, most_likely_paths(df, a.output), cache, new_cache, figure, values,
+                      new_values, not a.no_pairs)
     print(f"{a.output.name}: rbpf-slam maps {len(ml)}, crossing share median "
           f"{df.loc[df['algorithm'] == 'rbpf-slam', 'crossing_share'].median():.4f} (mean "
           f"path) -> {ml['crossing_ml'].median():.4f} (most likely path)")
@@ -113,6 +157,44 @@ def main(argv: list[str] | None = None) -> int:
                   f"(rank {o[f'rank@{col}']}) -> {n[f'best@{col}']} (rank "
                   f"{n[f'rank@{col}']}, {n[f'ratio@{col}']:.2f}x, broken "
                   f"{n[f'broken_named@{col}']})")
+    return 0
+
+
+def travel(df: pd.DataFrame, df_ml: pd.DataFrame, cache: dict, new_cache: dict, figure: str,
+           values: dict[str, float] | None, new_values: dict[str, float] | None,
+           pairs: bool) -> int:
+    """The shipped rule as the benchmark reads rbpf-slam (its mean path for every figure),
+    with its scan figures at the most likely path (the study before), and with every figure
+    there (the shortfalls too); each judged by the mean path's ATE and by the map's own
+    path's."""
+    import copy
+
+    rb = df_ml["algorithm"] == "rbpf-slam"
+    print(f"rbpf-slam ATE (median): mean path {df_ml.loc[rb, 'ate_rmse'].median():.3f} m, "
+          f"most likely path {df_ml.loc[rb, 'ate_ml'].median():.3f} m")
+    col = S.rule_name(RULE)
+    for pair in (False, True) if pairs else (False,):
+        got = {}
+        for name, d, c, v in (("mean path", df, cache, values),
+                              ("scans at most likely", df, new_cache, new_values),
+                              ("all at most likely", df_ml, new_cache, new_values)):
+            for truth in ("ate_rmse", "ate_ml"):
+                # each run fills the shortfalls into its cache: a copy keeps the runs apart
+                got[name, truth] = S.verdicts(d.assign(ate_ml=df_ml["ate_ml"]), truth,
+                                              rules=(RULE,), pair=pair,
+                                              cache=copy.deepcopy(c), figure=figure,
+                                              values=v)
+                judged = "the mean path" if truth == "ate_rmse" else "the map's path"
+                print(f"\n{'Pairs' if pair else 'Sequences'}, {name}, judged by {judged}:\n")
+                print(S.verdict_table(got[name, truth], (RULE,), pair=pair))
+        base, new = got["mean path", "ate_ml"], got["all at most likely", "ate_ml"]
+        for i in range(len(base)):
+            o, n = base.iloc[i], new.iloc[i]
+            if str(o[f"best@{col}"]) != str(n[f"best@{col}"]) or n[f"broken_named@{col}"]:
+                print(f"    {o['case']} {o['algorithms'] if pair else ''}: "
+                      f"{o[f'best@{col}']} -> {n[f'best@{col}']} (rank {n[f'rank@{col}']}, "
+                      f"broken {n[f'broken_named@{col}']}; by the map's path) "
+                      f"{str(n.get(f'reason@{col}', ''))[:160]}")
     return 0
 
 
