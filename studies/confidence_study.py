@@ -70,14 +70,18 @@ def level(confidence: object) -> str:
     return word if word in LEVELS else "none"
 
 
-def benchmark_rows(outputs: Sequence[Path], *, fill_scans: bool = False) -> list[dict]:
+def benchmark_rows(outputs: Sequence[Path], *, fill_scans: bool = False,
+                   most_likely: bool = False) -> list[dict]:
     """One row per generated sequence: set, level, named, right (``fill_scans``: records
-    without scans get their sequence's recording, ``verdict_study.with_scans``)."""
+    without scans get their sequence's recording, ``verdict_study.with_scans``;
+    ``most_likely``: rbpf-slam read at the path its map is drawn at, its ATE too)."""
     rows = []
     for out in outputs:
-        for r in benchmark_verdicts(Path(out), fill_scans=fill_scans).itertuples():
+        for r in benchmark_verdicts(Path(out), fill_scans=fill_scans,
+                                    most_likely=most_likely).itertuples():
             named = isinstance(r.best, str)
-            rows.append({"data": f"generated: {Path(out).name}", "item": r.sequence,
+            rows.append({"data": f"generated{' (map path)' if most_likely else ''}: "
+                                 f"{Path(out).name}", "item": r.sequence,
                          "level": level(r.reason) if named else "none", "named": named,
                          "right": bool(named and r.ate_rank <= 2 and not r.broken_named)})
     return rows
@@ -210,9 +214,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                     metavar="MAPS CLASSES_CSV",
                     help="the real maps' root folder, then CSVs of classes "
                     "(studies/two_map_study.py judges every pair of each folder)")
+    ap.add_argument("--most-likely", action="store_true",
+                    help="the generated sets with rbpf-slam read at the path its map is "
+                    "drawn at, its ATE too (docs/validity.md, \"rbpf-slam read wholly at "
+                    "its most likely path\")")
     ap.add_argument("--markdown", type=Path, help="write into this file's section")
     args = ap.parse_args(argv)
-    rows: list[dict] = benchmark_rows(args.benchmark, fill_scans=args.fill_scans)
+    rows: list[dict] = benchmark_rows(args.benchmark, fill_scans=args.fill_scans,
+                                      most_likely=args.most_likely)
     if args.real:
         rows += folder_rows(*args.real)
     if args.real2d:

@@ -68,7 +68,8 @@ def most_likely_paths(df: pd.DataFrame, output: Path) -> pd.DataFrame:
     """``df`` with each rbpf-slam run's ``trajectory`` at its most likely path (a TUM file in
     ``output/rbpf-ml/``) and ``ate_ml``: the ATE of the path each map is drawn at (that path
     for rbpf-slam, the row's own ``ate_rmse`` for the others), scored as the batch scores
-    it (``slamq.batch.records``: SE(2) alignment, the default time gap)."""
+    it (``slamq.batch.records``: SE(2) alignment, the default time gap). Rows are matched
+    by their map's resolved path, so ``df`` may name its files from any folder."""
     from slamq.metrics.ate import ate
     from slamq.sources.mrpt import read_mrpt_most_likely
     from slamq.sources.trajectories import load_pair
@@ -81,19 +82,20 @@ def most_likely_paths(df: pd.DataFrame, output: Path) -> pd.DataFrame:
             path = Path(str(r.map)).parent / "out" / "most_likely_path.txt"
             if not path.exists():
                 continue
-            tum = output / "rbpf-ml" / f"{i}.tum"
+            tum = (output / "rbpf-ml" / f"{i}.tum").resolve()
             read_mrpt_most_likely(path).write_tum(tum)
             est, gt = load_pair(tum, str(r.groundtruth), "sort")
-            rows.append({"map": str(r.map), "trajectory_ml": str(tum),
+            rows.append({"map": str(Path(str(r.map)).resolve()), "trajectory_ml": str(tum),
                          "ate_ml": float(ate(gt, est, align="se2").rmse)})
         pd.DataFrame(rows).to_csv(store, index=False)
     ml = pd.read_csv(store)
     out = df.copy()
     out["ate_ml"] = out["ate_rmse"]
     traj, err = dict(zip(ml["map"], ml["trajectory_ml"])), dict(zip(ml["map"], ml["ate_ml"]))
-    hit = out["map"].astype(str).isin(traj)
-    out.loc[hit, "trajectory"] = out.loc[hit, "map"].astype(str).map(traj)
-    out.loc[hit, "ate_ml"] = out.loc[hit, "map"].astype(str).map(err)
+    key = out["map"].map(lambda m: str(Path(str(m)).resolve()) if isinstance(m, str) else "")
+    hit = key.isin(traj)
+    out.loc[hit, "trajectory"] = key[hit].map(traj)
+    out.loc[hit, "ate_ml"] = key[hit].map(err)
     return out
 
 
@@ -137,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     new_cache, new_values = patched(cache, ml, values)
     if a.travel:
         return travel(df, most_likely_paths(df, a.output), cache, new_cache, figure, values,
-                      new_values, not a.no_pairs)
+                      new_values, not a.no_pairs, a.output)
     print(f"{a.output.name}: rbpf-slam maps {len(ml)}, crossing share median "
           f"{df.loc[df['algorithm'] == 'rbpf-slam', 'crossing_share'].median():.4f} (mean "
           f"path) -> {ml['crossing_ml'].median():.4f} (most likely path)")
@@ -162,11 +164,13 @@ def main(argv: list[str] | None = None) -> int:
 
 def travel(df: pd.DataFrame, df_ml: pd.DataFrame, cache: dict, new_cache: dict, figure: str,
            values: dict[str, float] | None, new_values: dict[str, float] | None,
-           pairs: bool) -> int:
+           pairs: bool, output: Path) -> int:
     """The shipped rule as the benchmark reads rbpf-slam (its mean path for every figure),
     with its scan figures at the most likely path (the study before), and with every figure
     there (the shortfalls too); each judged by the mean path's ATE and by the map's own
-    path's."""
+    path's. The last, the benchmark read at each map's own path, is written as
+    ``output/scans-verdicts[-pairs]-map-path.csv`` (``confidence_study.py --pairs`` reads
+    the pairs' file)."""
     import copy
 
     rb = df_ml["algorithm"] == "rbpf-slam"
@@ -188,6 +192,8 @@ def travel(df: pd.DataFrame, df_ml: pd.DataFrame, cache: dict, new_cache: dict, 
                 print(f"\n{'Pairs' if pair else 'Sequences'}, {name}, judged by {judged}:\n")
                 print(S.verdict_table(got[name, truth], (RULE,), pair=pair))
         base, new = got["mean path", "ate_ml"], got["all at most likely", "ate_ml"]
+        new.to_csv(output / f"scans-verdicts{'-pairs' if pair else ''}-map-path.csv",
+                   index=False)
         for i in range(len(base)):
             o, n = base.iloc[i], new.iloc[i]
             if str(o[f"best@{col}"]) != str(n[f"best@{col}"]) or n[f"broken_named@{col}"]:

@@ -93,7 +93,8 @@ def with_scans(df: pd.DataFrame, output: Path) -> pd.DataFrame:
 
 def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
                        align: str = SETTINGS.agreement_align.default,
-                       defects: bool = True, fill_scans: bool = False) -> pd.DataFrame:
+                       defects: bool = True, fill_scans: bool = False,
+                       most_likely: bool = False) -> pd.DataFrame:
     """The verdict of each benchmark sequence with the ground truth hidden.
 
     Parameters
@@ -106,6 +107,10 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
         How the maps are put in one frame (:func:`slamq.agreement`).
     defects : bool, default True
         Run the defect detectors (False: agreement alone).
+    most_likely : bool, default False
+        rbpf-slam read at the path its map is drawn at (``most_likely_path.txt``), its ATE
+        too, and ``broken`` measured again with it (docs/validity.md, "rbpf-slam read
+        wholly at its most likely path"; :func:`rbpf_path_study.most_likely_paths`).
 
     Returns
     -------
@@ -120,6 +125,15 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
 
     df = load_benchmark(Path(output))
     df = df[df["outcome"] == "ok"]
+    if most_likely:
+        from benchmark_study import BROKEN_ATE_FACTOR, BROKEN_ATE_FLOOR
+        from rbpf_path_study import most_likely_paths
+
+        df = most_likely_paths(df, Path(output))
+        df["ate_rmse"] = df.pop("ate_ml")
+        best = df.groupby("sequence")["ate_rmse"].transform("min")
+        df["broken"] = (df["ate_rmse"] > BROKEN_ATE_FACTOR * best) & \
+            (df["ate_rmse"] > BROKEN_ATE_FLOOR)
     if fill_scans:
         df = with_scans(df, Path(output))
     if sequences is not None:
