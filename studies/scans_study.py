@@ -312,9 +312,6 @@ def _scan_order(corner_key: Any, scans: dict[str, float]) -> Any:
 #: A rule's token: corners alone order the confirmed maps where they leave no clear winner
 #: (the rule before 2026-11-30's "No clear winner by corners: the scans decide").
 CORNERS_TIES = "ties=corners"
-#: A rule's token: a program's shortfall against every other program's path, as before
-#: 2026-11-30's "A shortfall measured only against paths their own scans do not contradict".
-AGAINST_ALL = "against=all"
 
 
 def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series,
@@ -347,9 +344,6 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                 scans = {a: float(e.get(SCAN_KEY, math.nan))
                          for a, e in ev["algorithms"].items()}
                 r._corner_key = _scan_order(saved[3], scans)
-        if rule is not None and AGAINST_ALL in rule:  # the figure of every pair, as before
-            ev = {**ev, "algorithms": {a: {k: x for k, x in e.items() if k != "shortfalls"}
-                                       for a, e in ev["algorithms"].items()}}
         v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
     finally:
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
@@ -421,12 +415,11 @@ def _degenerate_share(block: pd.DataFrame) -> float:
 def _fill_shortfalls(ev: dict[str, Any], block: pd.DataFrame) -> None:
     """Each program's ``shortfall`` (docs/spec.md 7d) set in ``ev`` from ``block``'s
     trajectories, as :func:`slamq.verdict.evidence.sequence_evidence` sets it."""
-    from slamq.verdict.travel import pairwise_shortfalls, worst_shortfall
+    from slamq.verdict.travel import shortfalls
 
-    short = pairwise_shortfalls(block.to_dict("records"))
+    short = shortfalls(block.to_dict("records"))
     for alg, e in ev["algorithms"].items():
-        e["shortfalls"] = short.get(alg, {})
-        e["shortfall"], e["shortfall_against"] = worst_shortfall(e["shortfalls"])
+        e["shortfall"], e["shortfall_against"] = short.get(alg, (math.nan, None))
 
 
 def refresh_defects(cache: dict) -> int:
@@ -536,7 +529,6 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
                  + (f", margin {margin:g}" if isinstance(margin, float) else "")
                  + (", scans order" if ORDER in rule else "")
                  + (", anchored on the median" if MEDIAN in rule else "")
-                 + (", shortfall against every path" if AGAINST_ALL in rule else "")
                  + "".join(f", travel veto {x.removeprefix('shortfall=')}" for x in rule
                            if isinstance(x, str) and x.startswith("shortfall="))
                  + "".join(f", local floor {x.removeprefix('local=')}" for x in rule
@@ -606,10 +598,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ties", action="store_true",
                     help="also the rule with corners alone where they leave no clear winner "
                     "(docs/validity.md, 'No clear winner by corners: the scans decide')")
-    ap.add_argument("--against-all", action="store_true",
-                    help="also the rule with each shortfall against every other path "
-                    "(docs/validity.md, 'A shortfall measured only against paths their own "
-                    "scans do not contradict')")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -647,8 +635,6 @@ def main(argv: list[str] | None = None) -> int:
         rules = (None, *((*vk, f"shortfall={t:g}") for t in SHORTFALLS))
     if a.ties:
         rules = (*rules, (*rules[-1][:2], CORNERS_TIES))
-    if a.against_all:
-        rules = (*rules, (*rules[-1][:2], AGAINST_ALL))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

@@ -38,7 +38,7 @@ from slamq.metrics.agreement import (
 from slamq.params import SETTINGS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
-from slamq.verdict.travel import pairwise_shortfalls, worst_shortfall
+from slamq.verdict.travel import shortfalls
 
 __all__ = ["MISSING_MIN_LENGTH", "RUNS_PER_ALGORITHM", "sequence_evidence"]
 
@@ -80,7 +80,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
         "defects", "in_group", "group_support", "scan_violation", "scan_crossing", "scan_hit",
         "scan_runs", "scan_split", "split_runs", "scan_local", "shortfall",
-        "shortfall_against", "shortfalls"}},
+        "shortfall_against"}},
         "majority": bool, "group": [alg], "group_maps": [dict],
         "consistency": {path: {path: float}}, "maps": int, "notes": [str],
         "missing_walls": {path: [dict]}, "scans": {path: dict}, "splits": {path: dict},
@@ -114,9 +114,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         ``degenerate_share`` is the highest of their shares (NaN: none). ``shortfall`` is
         how much shorter the program's path is than another program's at most, and
         ``shortfall_against`` that program (:func:`slamq.verdict.travel.shortfalls`; NaN
-        and None without trajectories); ``shortfalls`` maps each other program to the
-        program's shortfall against it (:func:`slamq.verdict.travel.pairwise_shortfalls`),
-        which the verdict reads against the programs its scans do not flag.
+        and None without trajectories).
 
     Examples
     --------
@@ -246,12 +244,12 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         pairs = {paths[k]: {} for k in maps}
     # each program's path against the others' (docs/spec.md 7d): weighed only where the
     # recording's scans see walls in one direction (section 9)
-    short = pairwise_shortfalls([r._asdict() for r in picked.itertuples()
-                                 if f"{r.algorithm}#{r.run}" in maps], notes)
+    short = shortfalls([r._asdict() for r in picked.itertuples()
+                        if f"{r.algorithm}#{r.run}" in maps], notes)
     algorithms: dict[str, dict[str, Any]] = {}
     for alg in sorted(set(owner.values())):
         keys = [k for k in maps if owner[k] == alg]
-        shortfall, against = worst_shortfall(short.get(alg, {}))
+        shortfall, against = short.get(alg, (math.nan, None))
         algorithms[alg] = {
             "support": finite_median([support[k] for k in keys]),
             "completeness": finite_median([complete[k] for k in keys]),
@@ -275,7 +273,6 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
                                          for k in keys if k in halves]),
             "shortfall": shortfall,
             "shortfall_against": against,
-            "shortfalls": short.get(alg, {}),
         }
     # the agreeing group, by program: those whose runs are mostly in it
     group = sorted(a for a, e in algorithms.items() if e["in_group"] > 0.5)

@@ -18,7 +18,6 @@ from slamq.models.quality import WALL_PERIODS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import Orientation, distinct_resolutions, orientation
 from slamq.verdict.calibration import with_calibration
-from slamq.verdict.travel import worst_shortfall
 
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "LOCAL_ANCHOR",
@@ -334,21 +333,15 @@ def one_direction_share(evidence: dict[str, Any]) -> float | None:
 def _shortened(info: dict[str, Any], evidence: dict[str, Any]) -> dict[str, str]:
     """The programs whose path is at least :data:`SHORTFALL` shorter than another's, with
     the reason, when the recording's scans see walls in one direction
-    (:func:`one_direction_share`); none otherwise. The other path is one that its own
-    scans do not contradict (:func:`_scan_flags`): a path its scans flag is no reference
-    for how far the robot went (evidence without ``shortfalls`` per program: the largest
-    over all of them)."""
+    (:func:`one_direction_share`); none otherwise."""
     share = one_direction_share(evidence)
     if share is None:
         return {}
-    _, wrong = _scan_flags(info)
     out = {}
     for a, e in info.items():
-        by = e.get("shortfalls")
-        short, against = ((float(e.get("shortfall", math.nan)), e.get("shortfall_against"))
-                          if by is None else worst_shortfall(by, wrong))
+        short = float(e.get("shortfall", math.nan))
         if math.isfinite(short) and short >= SHORTFALL:
-            out[a] = (f"its path is {_pct(short)} shorter than {against}'s "
+            out[a] = (f"its path is {_pct(short)} shorter than {e.get('shortfall_against')}'s "
                       f"where {_pct(share)} of the scans see walls in one direction only: a "
                       "corridor shortened by a scan matcher that could not see along it")
     return out

@@ -16,92 +16,7 @@ import numpy as np
 from slamq.errors import SlamqError
 from slamq.metrics.travel import WINDOW_S, travel_ratio
 
-__all__ = ["WINDOW_S", "pairwise_shortfalls", "shortfalls"]
-
-
-def pairwise_shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
-                        ) -> dict[str, dict[str, float]]:
-    """Per pair of programs, how much shorter the first's path is than the second's.
-
-    For programs a and b, ``1 -`` the median of :func:`~slamq.metrics.travel.travel_ratio`
-    over the pairs of their runs that have a trajectory (a's runs against b's). A pair
-    with no finite ratio is left out.
-
-    Parameters
-    ----------
-    records : list of dict
-        Result rows with ``algorithm`` and ``trajectory`` (a path, str or path-like;
-        missing, NaN or empty: none).
-    notes : list of str, optional
-        A trajectory that cannot be read is left out and said here.
-
-    Returns
-    -------
-    dict
-        ``{a: {b: shortfall of a against b}}``, every program of ``records`` a key.
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> import numpy as np
-    >>> from slamq import Trajectory
-    >>> d = pathlib.Path(tempfile.mkdtemp())
-    >>> t = np.arange(0.0, 30.0, 0.1)
-    >>> for name, scale in (("a", 1.0), ("b", 0.9), ("c", 0.95)):
-    ...     _ = Trajectory.from_xy_yaw(t, 0.5 * t * scale, 0 * t, 0 * t).write_tum(
-    ...         d / f"{name}.tum")
-    >>> s = pairwise_shortfalls([{"algorithm": n, "trajectory": d / f"{n}.tum"}
-    ...                          for n in "abc"])
-    >>> {b: round(v, 3) for b, v in s["b"].items()}
-    {'a': 0.1, 'c': 0.053}
-    """
-    from slamq.sources.trajectories import load_trajectory
-
-    paths: dict[str, list[Any]] = {}
-    for rec in records:
-        path = rec.get("trajectory")
-        path = os.fspath(path) if isinstance(path, os.PathLike) else path
-        alg = str(rec.get("algorithm"))
-        if not isinstance(path, str) or not path.strip():
-            paths.setdefault(alg, [])
-            continue
-        try:
-            paths.setdefault(alg, []).append(load_trajectory(path, unsorted="sort"))
-        except SlamqError as exc:
-            paths.setdefault(alg, [])
-            if notes is not None:
-                notes.append(f"{path}: its path not compared with the others' ({exc})")
-    out: dict[str, dict[str, float]] = {}
-    for a, runs in paths.items():
-        out[a] = {}
-        for b, others in paths.items():
-            if b == a:
-                continue
-            ratios = [travel_ratio(x, y) for x in runs for y in others]
-            ratios = [r for r in ratios if math.isfinite(r)]
-            if ratios:
-                out[a][b] = 1.0 - float(np.median(ratios))
-    return out
-
-
-def worst_shortfall(against: dict[str, float], exclude: Any = ()
-                    ) -> tuple[float, str | None]:
-    """The largest shortfall of ``against`` (:func:`pairwise_shortfalls`' row of one
-    program) over the programs not in ``exclude``, with that program; (NaN, None) when
-    none is left.
-
-    Examples
-    --------
-    >>> worst_shortfall({"a": 0.1, "c": 0.05}), worst_shortfall({"a": 0.1, "c": 0.05}, {"a"})
-    ((0.1, 'a'), (0.05, 'c'))
-    >>> worst_shortfall({"a": 0.1}, {"a"})
-    (nan, None)
-    """
-    left = {b: v for b, v in against.items() if b not in exclude}
-    if not left:
-        return math.nan, None
-    b = max(left, key=lambda k: left[k])
-    return left[b], b
+__all__ = ["WINDOW_S", "shortfalls"]
 
 
 def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
@@ -140,5 +55,34 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
     >>> round(s["b"][0], 3), s["b"][1], round(s["a"][0], 3)
     (0.1, 'a', -0.111)
     """
-    return {a: worst_shortfall(row)
-            for a, row in pairwise_shortfalls(records, notes).items()}
+    from slamq.sources.trajectories import load_trajectory
+
+    paths: dict[str, list[Any]] = {}
+    for rec in records:
+        path = rec.get("trajectory")
+        path = os.fspath(path) if isinstance(path, os.PathLike) else path
+        alg = str(rec.get("algorithm"))
+        if not isinstance(path, str) or not path.strip():
+            paths.setdefault(alg, [])
+            continue
+        try:
+            paths.setdefault(alg, []).append(load_trajectory(path, unsorted="sort"))
+        except SlamqError as exc:
+            paths.setdefault(alg, [])
+            if notes is not None:
+                notes.append(f"{path}: its path not compared with the others' ({exc})")
+    out: dict[str, tuple[float, str | None]] = {}
+    for a, runs in paths.items():
+        worst, against = math.nan, None
+        for b, others in paths.items():
+            if b == a:
+                continue
+            ratios = [travel_ratio(x, y) for x in runs for y in others]
+            ratios = [r for r in ratios if math.isfinite(r)]
+            if not ratios:
+                continue
+            short = 1.0 - float(np.median(ratios))
+            if not math.isfinite(worst) or short > worst:
+                worst, against = short, b
+        out[a] = (worst, against)
+    return out
