@@ -27,8 +27,8 @@ from slamq.results.formats import read_results
 from slamq.results.validity import METRICS, validate
 from slamq.synth.benchmark import world_label
 
-__all__ = ["BROKEN_ATE_FACTOR", "BROKEN_ATE_FLOOR", "load_benchmark", "markdown_benchmark",
-           "study_benchmark"]
+__all__ = ["BROKEN_ATE_FACTOR", "BROKEN_ATE_FLOOR", "load_benchmark", "mark_broken",
+           "markdown_benchmark", "study_benchmark"]
 
 #: A run is *broken* (decided before the benchmark was run, from the ground truth alone):
 #: its ATE RMSE is more than ``BROKEN_ATE_FACTOR`` times the best of its sequence and more
@@ -67,6 +67,19 @@ def load_benchmark(output: Path) -> pd.DataFrame:
                      "noise": r["noise"], "sim_seed": r["seed"]}
     extra = pd.DataFrame.from_dict(info, orient="index")
     df = df.merge(extra, left_on="sequence", right_index=True, how="left")
+    return mark_broken(df)
+
+
+def mark_broken(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with ``broken`` set from its ``ate_rmse``, sequence by sequence (the rule of
+    :data:`BROKEN_ATE_FACTOR` and :data:`BROKEN_ATE_FLOOR`).
+
+    Examples
+    --------
+    >>> d = pd.DataFrame({"sequence": "s", "ate_rmse": [0.05, 0.1, 0.3]})
+    >>> mark_broken(d)["broken"].tolist()
+    [False, False, True]
+    """
     best = df.groupby("sequence")["ate_rmse"].transform("min")
     df["broken"] = (df["ate_rmse"] > BROKEN_ATE_FACTOR * best) & \
         (df["ate_rmse"] > BROKEN_ATE_FLOOR)

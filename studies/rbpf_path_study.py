@@ -37,11 +37,24 @@ import scans_study as S
 RULE = (0.02, 1.5)
 
 
+def _most_likely_runs(df: pd.DataFrame, folder: Path) -> Any:
+    """Each rbpf-slam row of ``df`` whose run left a ``most_likely_path.txt``, with that
+    path written as a TUM file in ``folder`` (``i.tum``, ``i`` the row's place among
+    rbpf-slam's rows): yields ``(row, tum)``."""
+    from slamq.sources.mrpt import read_mrpt_most_likely
+
+    for i, r in enumerate(df[df["algorithm"] == "rbpf-slam"].itertuples()):
+        path = Path(str(r.map)).parent / "out" / "most_likely_path.txt"
+        if path.exists():
+            tum = (folder / f"{i}.tum").resolve()
+            read_mrpt_most_likely(path).write_tum(tum)
+            yield r, tum
+
+
 def most_likely_figures(df: pd.DataFrame, output: Path) -> pd.DataFrame:
     """Each rbpf-slam map's crossing share and split share at its most likely path
     (``output/rbpf-ml-rows.csv``, computed once)."""
     from slamq.sources import load_map
-    from slamq.sources.mrpt import read_mrpt_most_likely
     from slamq.verdict.scans import record_consistency, record_split
 
     store = output / "rbpf-ml-rows.csv"
@@ -49,12 +62,7 @@ def most_likely_figures(df: pd.DataFrame, output: Path) -> pd.DataFrame:
         return pd.read_csv(store)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for r in df[df["algorithm"] == "rbpf-slam"].itertuples():
-            path = Path(str(r.map)).parent / "out" / "most_likely_path.txt"
-            if not path.exists():
-                continue
-            tum = Path(tmp) / f"{len(rows)}.tum"
-            read_mrpt_most_likely(path).write_tum(tum)
+        for r, tum in _most_likely_runs(df, Path(tmp)):
             rec = {"scans": r.scans, "trajectory": str(tum), "map": r.map}
             cross = record_consistency(rec, load_map(str(r.map))).to_dict()["crossing_share"]
             split = record_split(rec).to_dict()["split_crossing"]
@@ -71,19 +79,13 @@ def most_likely_paths(df: pd.DataFrame, output: Path) -> pd.DataFrame:
     it (``slamq.batch.records``: SE(2) alignment, the default time gap). Rows are matched
     by their map's resolved path, so ``df`` may name its files from any folder."""
     from slamq.metrics.ate import ate
-    from slamq.sources.mrpt import read_mrpt_most_likely
     from slamq.sources.trajectories import load_pair
 
     store = output / "rbpf-ml-travel-rows.csv"
     if not store.exists():
         (output / "rbpf-ml").mkdir(exist_ok=True)
         rows = []
-        for i, r in enumerate(df[df["algorithm"] == "rbpf-slam"].itertuples()):
-            path = Path(str(r.map)).parent / "out" / "most_likely_path.txt"
-            if not path.exists():
-                continue
-            tum = (output / "rbpf-ml" / f"{i}.tum").resolve()
-            read_mrpt_most_likely(path).write_tum(tum)
+        for r, tum in _most_likely_runs(df, output / "rbpf-ml"):
             est, gt = load_pair(tum, str(r.groundtruth), "sort")
             rows.append({"map": str(Path(str(r.map)).resolve()), "trajectory_ml": str(tum),
                          "ate_ml": float(ate(gt, est, align="se2").rmse)})

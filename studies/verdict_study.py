@@ -126,14 +126,12 @@ def benchmark_verdicts(output: Path, *, sequences: Iterable[str] | None = None,
     df = load_benchmark(Path(output))
     df = df[df["outcome"] == "ok"]
     if most_likely:
-        from benchmark_study import BROKEN_ATE_FACTOR, BROKEN_ATE_FLOOR
+        from benchmark_study import mark_broken
         from rbpf_path_study import most_likely_paths
 
         df = most_likely_paths(df, Path(output))
         df["ate_rmse"] = df.pop("ate_ml")
-        best = df.groupby("sequence")["ate_rmse"].transform("min")
-        df["broken"] = (df["ate_rmse"] > BROKEN_ATE_FACTOR * best) & \
-            (df["ate_rmse"] > BROKEN_ATE_FLOOR)
+        df = mark_broken(df)
     if fill_scans:
         df = with_scans(df, Path(output))
     if sequences is not None:
