@@ -312,6 +312,41 @@ def _scan_order(corner_key: Any, scans: dict[str, float]) -> Any:
 #: A rule's token: corners alone order the confirmed maps where they leave no clear winner
 #: (the rule before 2026-11-30's "No clear winner by corners: the scans decide").
 CORNERS_TIES = "ties=corners"
+#: A rule's token: each program's support recomputed from the evidence's pairs with one
+#: witness a program (docs/validity.md, "One witness a program")
+ONE_WITNESS = "witness=program"
+
+
+def one_witness(ev: dict[str, Any]) -> dict[str, Any]:
+    """``ev`` with each placed program's ``support`` recomputed from its ``consistency``
+    pairs with one witness a program (:func:`slamq.verdict.evidence.program_support`);
+    the rest as it is (with fewer than three programs, all of it).
+
+    Examples
+    --------
+    >>> c = {"a1": {"a2": 1.0, "b": 0.5, "c": 0.6}, "a2": {"a1": 1.0, "b": 0.5, "c": 0.6},
+    ...      "b": {"a1": 0.5, "a2": 0.5, "c": 0.9}, "c": {"a1": 0.6, "a2": 0.6, "b": 0.9}}
+    >>> ev = {"consistency": c, "algorithms": {
+    ...     "a": {"support": 0.8, "placed": True, "defects": {"a1": [], "a2": []}},
+    ...     "b": {"support": 0.5, "placed": True, "defects": {"b": []}},
+    ...     "c": {"support": 0.6, "placed": True, "defects": {"c": []}}}}
+    >>> round(one_witness(ev)["algorithms"]["a"]["support"], 2)
+    0.55
+    """
+    from slamq.metrics.agreement import finite_median
+    from slamq.verdict.evidence import program_support
+
+    owner = {p: a for a, e in ev["algorithms"].items() for p in e.get("defects", {})}
+    pairs = {p: row for p, row in ev.get("consistency", {}).items() if p in owner}
+    sup = program_support({p: {o: v for o, v in row.items() if o in owner}
+                           for p, row in pairs.items()}, owner)
+    if sup is None:
+        return ev
+    algs = {}
+    for a, e in ev["algorithms"].items():
+        mine = [sup[p] for p in e.get("defects", {}) if p in sup]
+        algs[a] = {**e, "support": finite_median(mine)} if e.get("placed") and mine else e
+    return {**ev, "algorithms": algs}
 
 
 def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series,
@@ -324,6 +359,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
              r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES)
     try:
+        if rule is not None and ONE_WITNESS in rule:
+            ev = one_witness(ev)
         if rule is not None:
             for x in rule:
                 if x == CORNERS_TIES:  # docs/validity.md, "No clear winner by corners"
@@ -598,6 +635,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ties", action="store_true",
                     help="also the rule with corners alone where they leave no clear winner "
                     "(docs/validity.md, 'No clear winner by corners: the scans decide')")
+    ap.add_argument("--one-witness", action="store_true",
+                    help="also each program's support with one witness a program "
+                    "(docs/validity.md, 'One witness a program')")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -635,6 +675,8 @@ def main(argv: list[str] | None = None) -> int:
         rules = (None, *((*vk, f"shortfall={t:g}") for t in SHORTFALLS))
     if a.ties:
         rules = (*rules, (*rules[-1][:2], CORNERS_TIES))
+    if a.one_witness:
+        rules = (*rules, (*rules[-1][:2], ONE_WITNESS))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

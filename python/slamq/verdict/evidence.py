@@ -40,10 +40,61 @@ from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
 from slamq.verdict.travel import shortfalls
 
-__all__ = ["MISSING_MIN_LENGTH", "RUNS_PER_ALGORITHM", "sequence_evidence"]
+__all__ = ["MISSING_MIN_LENGTH", "ONE_WITNESS_A_PROGRAM", "RUNS_PER_ALGORITHM",
+           "program_support", "sequence_evidence"]
 
 #: At most this many runs of each algorithm take part in the agreement of a sequence.
 RUNS_PER_ALGORITHM = 3
+#: Where three or more programs take part, a map's support counts each other program once
+#: and its own program's reruns never (:func:`program_support`; docs/validity.md, "One
+#: witness a program"); False: the median over every other map, reruns included.
+ONE_WITNESS_A_PROGRAM = False
+
+
+def program_support(consistency: Mapping[str, Mapping[str, float]],
+                    owner: Mapping[str, str]) -> dict[str, float] | None:
+    """Each map's support with one witness a program: the median, over the other
+    programs, of its consistency with that program's maps (their median).
+
+    A program whose reruns draw the same map would otherwise vouch for its own walls
+    (docs/validity.md, "One witness a program"). With one map a program this is the
+    median over the other maps, :func:`slamq.agreement`'s support.
+
+    Parameters
+    ----------
+    consistency : mapping
+        ``{map: {other map: consistency}}`` (symmetric; NaN where a pair was not compared).
+    owner : mapping
+        Each map's program.
+
+    Returns
+    -------
+    dict or None
+        ``{map: support}`` (NaN without a finite consistency); None when fewer than three
+        programs take part (of two, each map would have one witness, and the two supports
+        of a pair of programs would be the two directions of one consistency).
+
+    Examples
+    --------
+    >>> c = {"a1": {"a2": 1.0, "b": 0.5, "c": 0.6}, "a2": {"a1": 1.0, "b": 0.5, "c": 0.6},
+    ...      "b": {"a1": 0.5, "a2": 0.5, "c": 0.9}, "c": {"a1": 0.6, "a2": 0.6, "b": 0.9}}
+    >>> owner = {"a1": "a", "a2": "a", "b": "b", "c": "c"}
+    >>> s = program_support(c, owner)
+    >>> round(s["a1"], 2), round(s["b"], 2)  # a's rerun is no witness of a
+    (0.55, 0.7)
+    >>> program_support({"a": {"b": 0.5}, "b": {"a": 0.5}}, {"a": "a", "b": "b"}) is None
+    True
+    """
+    if len(set(owner.values())) < 3:
+        return None
+    out = {}
+    for m, row in consistency.items():
+        by_program: dict[str, list[float]] = {}
+        for o, v in row.items():
+            if owner[o] != owner[m]:
+                by_program.setdefault(owner[o], []).append(v)
+        out[m] = finite_median([finite_median(v) for v in by_program.values()])
+    return out
 
 
 def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
@@ -234,6 +285,11 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
                       for k in agree.group]
         pairs = {paths[k]: {paths[o]: float(agree.consistency[index[k], index[o]])
                             for o in maps if o != k} for k in maps}
+        if ONE_WITNESS_A_PROGRAM:
+            by_key = program_support({k: {o: float(agree.consistency[index[k], index[o]])
+                                          for o in maps if o != k} for k in maps}, owner)
+            if by_key is not None:
+                support = by_key
     else:
         support = complete = dict.fromkeys(maps, math.nan)
         placed = dict.fromkeys(maps, False)
