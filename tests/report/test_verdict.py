@@ -350,13 +350,14 @@ def test_without_a_majority_the_agreeing_group_decides() -> None:
     assert none["best"] is None and "disagree among themselves" in none["confidence"]
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="known limitation: a program's reruns count as witnesses of its "
-                   "walls (docs/validity.md, 'Witnesses from other programs only': the "
-                   "remedy tried named a broken run on held-out data)")
-def test_a_programs_identical_reruns_do_not_outvote_two_sound_maps(tmp_path) -> None:
+def test_a_programs_identical_reruns_do_not_outvote_two_sound_maps(tmp_path,
+                                                                    monkeypatch) -> None:
+    """docs/validity.md, "One witness a program": of three programs, each other program is
+    one witness of a map and its own reruns none, so three identical reruns of a bent map
+    do not outvote two sound maps; with one run a program the support is as before."""
     from slamq.synth import degrade, floor_plan
     from slamq.synth.worldgen import save_world
+    from slamq.verdict import evidence as ev_mod
 
     plan = floor_plan(3)
     maps = {"a": [degrade(plan, "drift", 8.0, seed=1)] * 3,  # bent: 8 deg per 10 m
@@ -366,6 +367,20 @@ def test_a_programs_identical_reruns_do_not_outvote_two_sound_maps(tmp_path) -> 
              "sequence": "s", "run": run, "corners": {"a": 300, "b": 200, "c": 210}[alg]}
             for alg, runs in maps.items() for run, m in enumerate(runs, 1)]
     ok = pd.DataFrame(rows)
+    assert ev_mod.ONE_WITNESS_A_PROGRAM
     ev = sequence_evidence(ok, "s", defects=False, scans=False)
-    # today a's three identical maps agree with each other at 1 and outvote b and c
-    assert sequence_verdict(summarize(ok), "s", ev)["best"] != "a"
+    support = {a: e["support"] for a, e in ev["algorithms"].items()}
+    assert support["a"] < min(support["b"], support["c"]) - 0.1
+    assert sequence_verdict(summarize(ok), "s", ev)["best"] in ("b", "c")
+    # counted with its reruns (the rule before), the bent map outvotes the sound ones
+    monkeypatch.setattr(ev_mod, "ONE_WITNESS_A_PROGRAM", False)
+    before = sequence_evidence(ok, "s", defects=False, scans=False)
+    assert before["algorithms"]["a"]["support"] > support["a"] + 0.1
+    assert sequence_verdict(summarize(ok), "s", before)["best"] == "a"
+    # with one run a program, the support is the same either way
+    one = ok.drop_duplicates("algorithm")
+    old = sequence_evidence(one, "s", defects=False, scans=False)["algorithms"]
+    monkeypatch.setattr(ev_mod, "ONE_WITNESS_A_PROGRAM", True)
+    new = sequence_evidence(one, "s", defects=False, scans=False)["algorithms"]
+    assert {a: e["support"] for a, e in new.items()} == \
+        {a: e["support"] for a, e in old.items()}

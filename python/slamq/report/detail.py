@@ -236,7 +236,9 @@ def standing(rec: dict, ranking: Any, summary: Any = None,
                   default=math.nan)
         if math.isfinite(mine):
             out["support"] = (f"Support {mine:.2f}: the median over {alg}'s runs of how far "
-                              f"the other maps confirm its walls (best of {seq}: {top:.2f}).")
+                              "the other maps confirm its walls (of three programs or more, "
+                              "each other program once, never its own reruns; best of "
+                              f"{seq}: {top:.2f}).")
         else:
             out["support"] = f"No support figure: the other maps could not place {alg}'s."
     elif key is not None:

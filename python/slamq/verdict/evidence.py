@@ -47,8 +47,9 @@ __all__ = ["MISSING_MIN_LENGTH", "ONE_WITNESS_A_PROGRAM", "RUNS_PER_ALGORITHM",
 RUNS_PER_ALGORITHM = 3
 #: Where three or more programs take part, a map's support counts each other program once
 #: and its own program's reruns never (:func:`program_support`; docs/validity.md, "One
-#: witness a program"); False: the median over every other map, reruns included.
-ONE_WITNESS_A_PROGRAM = False
+#: witness a program"); False: the median over every other map, reruns included (the rule
+#: before 2026-11-30).
+ONE_WITNESS_A_PROGRAM = True
 
 
 def program_support(consistency: Mapping[str, Mapping[str, float]],
