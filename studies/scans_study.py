@@ -315,6 +315,10 @@ CORNERS_TIES = "ties=corners"
 #: A rule's token: each program's support recomputed from the evidence's pairs with one
 #: witness a program (docs/validity.md, "One witness a program")
 ONE_WITNESS = "witness=program"
+#: A rule's token: where corners cannot compare the confirmed maps, their own scans order
+#: them (docs/validity.md, "Maps corners cannot compare: the scans order them"), "on" or
+#: "off"
+UNCOMPARABLE_ON, UNCOMPARABLE_OFF = "uncomparable=scans", "uncomparable=support"
 
 
 def one_witness(ev: dict[str, Any]) -> dict[str, Any]:
@@ -357,7 +361,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     from slamq.verdict.rule import SCAN_KEY, sequence_verdict
 
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
-             r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES)
+             r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE)
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
@@ -365,6 +369,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
             for x in rule:
                 if x == CORNERS_TIES:  # docs/validity.md, "No clear winner by corners"
                     r.SCANS_BREAK_TIES = False
+                if x in (UNCOMPARABLE_ON, UNCOMPARABLE_OFF):
+                    r.SCANS_ORDER_UNCOMPARABLE = x == UNCOMPARABLE_ON
                 if isinstance(x, str) and x.startswith("shortfall="):
                     r.SHORTFALL = float(x.removeprefix("shortfall="))
                 if isinstance(x, str) and x.startswith("local="):
@@ -384,7 +390,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
         v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
     finally:
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
-         r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES) = saved
+         r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -638,6 +644,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--one-witness", action="store_true",
                     help="also each program's support with one witness a program "
                     "(docs/validity.md, 'One witness a program')")
+    ap.add_argument("--uncomparable", action="store_true",
+                    help="also the rule with the maps corners cannot compare ordered by "
+                    "their own scans, and with their support (docs/validity.md, 'Maps "
+                    "corners cannot compare: the scans order them')")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -677,6 +687,9 @@ def main(argv: list[str] | None = None) -> int:
         rules = (*rules, (*rules[-1][:2], CORNERS_TIES))
     if a.one_witness:
         rules = (*rules, (*rules[-1][:2], ONE_WITNESS))
+    if a.uncomparable:
+        vk = rules[-1][:2]
+        rules = (*rules, (*vk, UNCOMPARABLE_OFF), (*vk, UNCOMPARABLE_ON))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

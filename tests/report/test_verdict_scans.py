@@ -572,3 +572,29 @@ def test_the_evidence_measures_each_programs_path(drive: dict, tmp_path: Path) -
     ev = sequence_evidence(df, "s", align="origin", defects=False)
     assert math.isnan(ev["algorithms"]["c"]["shortfall"])
     assert any("missing.tum" in n and "path not compared" in n for n in ev["notes"])
+
+
+def test_maps_corners_cannot_compare_are_ordered_by_their_own_scans(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """docs/validity.md, "Maps corners cannot compare: the scans order them"."""
+    support = {"a": 0.9, "b": 0.85, "c": 0.88}
+    s = summarize(pd.DataFrame({"sequence": "s", "algorithm": list("abc"),
+                                "corners": [100, 300, 500], "known": 1000,
+                                "resolution": [0.07, 0.05, 0.05]}))
+    crossing = {"a": 0.012, "b": 0.008, "c": 0.011}  # none above the veto's 2%
+    monkeypatch.setattr(rule, "SCANS_ORDER_UNCOMPARABLE", True)
+    v = sequence_verdict(s, "s", _ev(support, crossing))
+    # a's grid differs: corners cannot compare them, and b's map crosses its scans least
+    assert v["best"] == "b" and v["ranking"] == ["b", "c", "a"]
+    assert ("corners cannot compare them: their own scans order them: 0.8% of b's beams "
+            "cross its walls, 1.1% of c's beams cross its walls") in v["confidence"]
+    # a split share against a crossing share is not compared: support, as before
+    v = sequence_verdict(s, "s", _ev(support, crossing, split={"a": 0.001}))
+    assert v["best"] == "a" and "their support orders them" in v["confidence"]
+    # a map without scans: support, as before
+    v = sequence_verdict(s, "s", _ev(support, {"b": 0.008, "c": 0.011}))
+    assert v["best"] == "a" and "their support orders them" in v["confidence"]
+    # the rule before it: support
+    monkeypatch.setattr(rule, "SCANS_ORDER_UNCOMPARABLE", False)
+    v = sequence_verdict(s, "s", _ev(support, crossing))
+    assert v["best"] == "a" and "their support orders them" in v["confidence"]

@@ -21,7 +21,7 @@ from slamq.verdict.calibration import with_calibration
 
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "LOCAL_ANCHOR",
-    "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SCAN_FLOOR",
+    "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SCANS_ORDER_UNCOMPARABLE", "SCAN_FLOOR",
     "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL", "SPLIT_KEY",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit",
@@ -39,6 +39,11 @@ CLEAR_MARGIN = 0.25
 #: share where each has one, else the crossing share where each has one; lower first).
 #: docs/validity.md, "No clear winner by corners: the scans decide".
 SCANS_BREAK_TIES = True
+#: Where corners cannot compare the confirmed maps (they differ in resolution or
+#: orientation), their own scans order them with the figure of :data:`SCANS_BREAK_TIES`
+#: (else their support does). docs/validity.md, "Maps corners cannot compare: the scans
+#: order them".
+SCANS_ORDER_UNCOMPARABLE = False
 #: Without ground truth: a map whose support (median consistency with the other maps) is
 #: below this share of the sequence's best support disagrees with the others and is never
 #: named best; the maps at or above it are confirmed equally (corners break that tie).
@@ -516,6 +521,11 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     tied = _scan_tie_order(close, scans)
     if tied:
         candidates = tied + [a for a in candidates if a not in tied]
+    # where corners cannot compare them, their own scans order them (support before)
+    by_scans = (_scan_tie_order(candidates, scans)
+                if SCANS_ORDER_UNCOMPARABLE and key is None else [])
+    if by_scans:
+        candidates = by_scans
     rest = sorted((a for a in support if a not in candidates),
                   key=lambda a: (a in flagged, -support[a], a))
     # maps that could not be placed (no support figure) are flagged: ranked last
@@ -585,9 +595,12 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                       f"{', '.join(others) or 'no other map'} do not agree with all of them; "
                       "the named map comes from that group and has no defect flag")
     if key is None and len(candidates) > 1:
+        order = ("their own scans order them: " + ", ".join(
+            scans.said(a, f"{a}'s") for a in by_scans[:2])) if by_scans else (
+            "their support orders them")
         confidence += (f"; the {len(candidates)} maps they confirm equally differ in "
-                       "resolution or orientation, so corners cannot compare them: their "
-                       "support orders them"
+                       "resolution or orientation, so corners cannot compare them: "
+                       + order
                        + _turned_note(block.loc[[a for a in candidates if a in block.index]]))
     if key is not None and len(candidates) > 1 and tied:
         first, second = (scans.said(a, f"{a}'s") for a in tied[:2])
