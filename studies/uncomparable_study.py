@@ -14,9 +14,9 @@ the broken runs named under both rules, and every verdict that changes.
 
 from __future__ import annotations
 
+import argparse
 import copy
 import pickle
-import sys
 from pathlib import Path
 
 import pandas as pd
@@ -59,8 +59,11 @@ def one_set(out: Path) -> list[dict]:
     return rows
 
 
-def main(argv: list[str]) -> int:
-    rows = [r for out in argv for r in one_set(Path(out))]
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    ap.add_argument("output", type=Path, nargs="+", help="slamq run outputs of generated sets")
+    a = ap.parse_args(argv)
+    rows = [r for out in a.output for r in one_set(out)]
     table = pd.DataFrame(rows)
     print(table.to_string(index=False))
     print(table.groupby("reading").sum(numeric_only=True).to_string())
@@ -68,4 +71,4 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))
+    raise SystemExit(main())
