@@ -27,9 +27,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description="Name the best of several maps of one place (different SLAM programs "
         "or settings), without ground truth: every map is laid over every other, maps the "
         "others do not confirm or that a defect detector flags are never named, corners "
-        "only order the maps the others confirm equally on one grid (with --scans, where "
-        "corners leave no clear winner, each map's own scans order the tied ones), and "
-        "the verdict "
+        "only order the maps the others confirm equally on one grid (with --scans, each "
+        "map's own scans order the maps corners cannot compare, on other grids or turned, "
+        "and the tied ones where corners leave no clear winner), and the verdict "
         "abstains, saying why, when the evidence is weak (docs/spec.md section 9; how far "
         "it can be trusted: docs/validity.md). Folders are searched recursively as slamq "
         "eval does.",
