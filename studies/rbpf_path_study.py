@@ -28,7 +28,7 @@ import math
 import pickle
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -123,6 +123,33 @@ def patched(cache: dict, ml: pd.DataFrame, values: dict[str, float] | None
     return out, vals
 
 
+class Set(NamedTuple):
+    """One set's rows and cached evidence, as the benchmark reads rbpf-slam (its mean
+    path) and with its scan figures at its most likely path (``new_cache``,
+    ``new_values``)."""
+
+    df: pd.DataFrame
+    cache: dict
+    figure: str
+    values: dict[str, float] | None
+    ml: pd.DataFrame
+    new_cache: dict
+    new_values: dict[str, float] | None
+
+
+def load_set(output: Path, c2: bool) -> Set:
+    """``output``'s scored rows and cached evidence (``scans_study.py``), with its split
+    shares from ``split-v300-rows.csv`` when ``c2`` (sets B-K), and rbpf-slam's figures at
+    its most likely path (:func:`most_likely_figures`, :func:`patched`)."""
+    df = pd.read_csv(output / "scans-rows.csv")
+    cache = pickle.loads((output / "scans-evidence.pkl").read_bytes())
+    values = S.split_values(df, output, "split-v300-rows.csv") if c2 else None
+    ml = most_likely_figures(df, output)
+    new_cache, new_values = patched(cache, ml, values)
+    return Set(df, cache, "c2" if c2 else "crossing_share", values, ml, new_cache,
+               new_values)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("output", type=Path)
@@ -133,12 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--travel", action="store_true",
                     help="the shortfalls too at the most likely path, judged by both ATEs")
     a = ap.parse_args(argv)
-    df = pd.read_csv(a.output / "scans-rows.csv")
-    cache = pickle.loads((a.output / "scans-evidence.pkl").read_bytes())
-    figure = "c2" if a.c2 else "crossing_share"
-    values = S.split_values(df, a.output, "split-v300-rows.csv") if a.c2 else None
-    ml = most_likely_figures(df, a.output)
-    new_cache, new_values = patched(cache, ml, values)
+    df, cache, figure, values, ml, new_cache, new_values = load_set(a.output, a.c2)
     if a.travel:
         return travel(df, most_likely_paths(df, a.output), cache, new_cache, figure, values,
                       new_values, not a.no_pairs, a.output)

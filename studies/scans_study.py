@@ -341,9 +341,9 @@ def one_witness(ev: dict[str, Any]) -> dict[str, Any]:
     from slamq.verdict.evidence import program_support
 
     owner = {p: a for a, e in ev["algorithms"].items() for p in e.get("defects", {})}
-    pairs = {p: row for p, row in ev.get("consistency", {}).items() if p in owner}
     sup = program_support({p: {o: v for o, v in row.items() if o in owner}
-                           for p, row in pairs.items()}, owner)
+                           for p, row in ev.get("consistency", {}).items() if p in owner},
+                          owner)
     if sup is None:
         return ev
     algs = {}

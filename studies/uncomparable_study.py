@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-import pickle
 from pathlib import Path
 
 import pandas as pd
@@ -31,13 +30,7 @@ C2 = {f"scans-benchmark-{x}-runs" for x in "bcdefghijk"}
 def one_set(out: Path) -> list[dict]:
     """The rows of one set: per reading and rule, top two and broken named; and the
     changed verdicts printed."""
-    df = pd.read_csv(out / "scans-rows.csv")
-    cache = pickle.loads((out / "scans-evidence.pkl").read_bytes())
-    c2 = out.name in C2
-    figure = "c2" if c2 else "crossing_share"
-    values = S.split_values(df, out, "split-v300-rows.csv") if c2 else None
-    ml = R.most_likely_figures(df, out)
-    new_cache, new_values = R.patched(cache, ml, values)
+    df, cache, figure, values, _, new_cache, new_values = R.load_set(out, out.name in C2)
     df_ml = R.most_likely_paths(df, out)
     rows = []
     for reading, d, c, v, truth in (("mean path", df, cache, values, "ate_rmse"),

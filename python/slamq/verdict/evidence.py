@@ -284,13 +284,11 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         gaps = {paths[k]: [d.to_dict() for d in missing[k]] for k in maps if placed[k]}
         group_maps = [{"map": paths[k], "algorithm": owner[k], "run": runs[k]}
                       for k in agree.group]
-        pairs = {paths[k]: {paths[o]: float(agree.consistency[index[k], index[o]])
-                            for o in maps if o != k} for k in maps}
-        if ONE_WITNESS_A_PROGRAM:
-            by_key = program_support({k: {o: float(agree.consistency[index[k], index[o]])
-                                          for o in maps if o != k} for k in maps}, owner)
-            if by_key is not None:
-                support = by_key
+        rows = {k: {o: float(agree.consistency[index[k], index[o]]) for o in maps if o != k}
+                for k in maps}
+        pairs = {paths[k]: {paths[o]: v for o, v in row.items()} for k, row in rows.items()}
+        if ONE_WITNESS_A_PROGRAM and (by_key := program_support(rows, owner)) is not None:
+            support = by_key
     else:
         support = complete = dict.fromkeys(maps, math.nan)
         placed = dict.fromkeys(maps, False)

@@ -638,7 +638,8 @@ def _within_margin(names: list[str], counts: pd.Series) -> list[str]:
 
 def _scan_tie_order(close: list[str], scans: _Shares) -> list[str]:
     """The maps corners leave without a clear winner (``close``: :func:`_within_margin`
-    of the candidates, in corners order) ordered by their figure against their own scans,
+    of the candidates, in corners order; or every confirmed map, in support order, where
+    corners cannot compare them) ordered by their figure against their own scans,
     lower first (ties keep the corners order), when there are two or more and each has the
     same kind of figure (all a split share, or all a crossing share); else ``[]``. Off
     (:data:`SCANS_BREAK_TIES` false): ``[]``.
