@@ -150,6 +150,39 @@ def load_set(output: Path, c2: bool) -> Set:
                new_values)
 
 
+def compare_rules(out: Path, rules: dict[str, tuple], c2: bool, *, pair: bool = False
+                  ) -> list[dict]:
+    """One set read both ways (rbpf-slam at its mean path, as the benchmark reads it, and
+    at the path its map is drawn at, judged by that path's ATE) under each of ``rules``
+    (name -> rule of ``scans_study``): per reading, the cases in the ATE top two (the
+    better of two, with ``pair``) and the broken runs named under each rule; every verdict
+    that differs between the first two rules is printed."""
+    import copy
+
+    df, cache, figure, values, _, new_cache, new_values = load_set(out, c2)
+    df_ml = most_likely_paths(df, out)
+    names = list(rules)
+    rows = []
+    for reading, d, c, v, truth in (("mean path", df, cache, values, "ate_rmse"),
+                                    ("map's path", df_ml, new_cache, new_values, "ate_ml")):
+        got = S.verdicts(d.assign(ate_ml=df_ml["ate_ml"]), truth, rules=tuple(rules.values()),
+                         pair=pair, cache=copy.deepcopy(c), figure=figure, values=v)
+        row = {"set": out.name, "reading": reading, "cases": len(got)}
+        for name, rule in rules.items():
+            col = S.rule_name(rule)
+            row[f"top {name}"] = int(((got[f"rank@{col}"] <= (1 if pair else 2))
+                                      & got[f"best@{col}"].notna()).sum())
+            row[f"broken {name}"] = int(got[f"broken_named@{col}"].sum())
+        a, b = S.rule_name(rules[names[0]]), S.rule_name(rules[names[1]])
+        for _, r in got[got[f"best@{a}"].fillna("-") != got[f"best@{b}"].fillna("-")].iterrows():
+            print(f"  {out.name} {reading}: {r['case']} {r['algorithms'] if pair else ''}: "
+                  f"{r[f'best@{a}']} (rank {r[f'rank@{a}']}, {r[f'ratio@{a}']:.2f}x) -> "
+                  f"{r[f'best@{b}']} (rank {r[f'rank@{b}']}, {r[f'ratio@{b}']:.2f}x, broken "
+                  f"{r[f'broken_named@{b}']})")
+        rows.append(row)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("output", type=Path)

@@ -319,6 +319,10 @@ ONE_WITNESS = "witness=program"
 #: them (docs/validity.md, "Maps corners cannot compare: the scans order them"), "on" or
 #: "off"
 UNCOMPARABLE_ON, UNCOMPARABLE_OFF = "uncomparable=scans", "uncomparable=support"
+#: A rule's token: the travel veto reads the shortfall along the corridors beyond the
+#: shortfall elsewhere (docs/validity.md, "Paths shortened along the corridors, not
+#: everywhere"; ``slamq.verdict.rule.CORRIDOR_TRAVEL``)
+CORRIDOR_TRAVEL = "travel=corridors"
 
 
 def one_witness(ev: dict[str, Any]) -> dict[str, Any]:
@@ -361,7 +365,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     from slamq.verdict.rule import SCAN_KEY, sequence_verdict
 
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
-             r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE)
+             r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
+             r.CORRIDOR_TRAVEL)
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
@@ -371,6 +376,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                     r.SCANS_BREAK_TIES = False
                 if x in (UNCOMPARABLE_ON, UNCOMPARABLE_OFF):
                     r.SCANS_ORDER_UNCOMPARABLE = x == UNCOMPARABLE_ON
+                if x == CORRIDOR_TRAVEL:
+                    r.CORRIDOR_TRAVEL = True
                 if isinstance(x, str) and x.startswith("shortfall="):
                     r.SHORTFALL = float(x.removeprefix("shortfall="))
                 if isinstance(x, str) and x.startswith("local="):
@@ -390,7 +397,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
         v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
     finally:
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
-         r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE) = saved
+         r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
+         r.CORRIDOR_TRAVEL) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -439,30 +447,43 @@ def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str,
     return out
 
 
-_DEGENERATE: dict[str, float] = {}
+_DEGENERATE: dict[str, Any] = {}
+
+
+def _directions(block: pd.DataFrame) -> dict[str, Any]:
+    """The recordings of ``block``'s rows, each with its scored scans
+    (:func:`slamq.metrics.degeneracy.scan_degeneracy`, measured once per process)."""
+    from slamq.metrics.degeneracy import scan_degeneracy
+    from slamq.verdict.scans import recording
+
+    paths = {str(p) for p in block["scans"].dropna()}
+    for path in paths - set(_DEGENERATE):
+        _DEGENERATE[path] = scan_degeneracy(recording(path))
+    return {p: _DEGENERATE[p] for p in paths}
 
 
 def _degenerate_share(block: pd.DataFrame) -> float:
-    """The highest degenerate share (docs/spec.md 7c) of the recordings of ``block``'s rows
-    (each measured once per process), as :func:`slamq.verdict.evidence.sequence_evidence`
-    gives it."""
-    from slamq.metrics.degeneracy import scan_degeneracy
+    """The highest degenerate share (docs/spec.md 7c) of the recordings of ``block``'s rows,
+    as :func:`slamq.verdict.evidence.sequence_evidence` gives it."""
     from slamq.verdict.evidence import _highest
-    from slamq.verdict.scans import recording
 
-    for path in {str(p) for p in block["scans"].dropna()} - set(_DEGENERATE):
-        _DEGENERATE[path] = scan_degeneracy(recording(path)).share
-    return _highest([_DEGENERATE[str(p)] for p in block["scans"].dropna()])
+    return _highest([d.share for d in _directions(block).values()])
 
 
 def _fill_shortfalls(ev: dict[str, Any], block: pd.DataFrame) -> None:
-    """Each program's ``shortfall`` (docs/spec.md 7d) set in ``ev`` from ``block``'s
-    trajectories, as :func:`slamq.verdict.evidence.sequence_evidence` sets it."""
+    """Each program's ``shortfall`` and ``corridor_shortfall`` (docs/spec.md 7d) set in
+    ``ev`` from ``block``'s trajectories, as :func:`slamq.verdict.evidence.
+    sequence_evidence` sets them."""
     from slamq.verdict.travel import shortfalls
 
-    short = shortfalls(block.to_dict("records"))
+    records = block.to_dict("records")
+    short = shortfalls(records)
+    along = shortfalls(records, directions=_directions(block)) \
+        if "scans" in block and block["scans"].notna().any() else short
     for alg, e in ev["algorithms"].items():
         e["shortfall"], e["shortfall_against"] = short.get(alg, (math.nan, None))
+        e["corridor_shortfall"], e["corridor_shortfall_against"] = along.get(
+            alg, (math.nan, None))
 
 
 def refresh_defects(cache: dict) -> int:

@@ -15,7 +15,6 @@ the broken runs named under both rules, and every verdict that changes.
 from __future__ import annotations
 
 import argparse
-import copy
 from pathlib import Path
 
 import pandas as pd
@@ -30,26 +29,9 @@ C2 = {f"scans-benchmark-{x}-runs" for x in "bcdefghijk"}
 def one_set(out: Path) -> list[dict]:
     """The rows of one set: per reading and rule, top two and broken named; and the
     changed verdicts printed."""
-    df, cache, figure, values, _, new_cache, new_values = R.load_set(out, out.name in C2)
-    df_ml = R.most_likely_paths(df, out)
-    rows = []
-    for reading, d, c, v, truth in (("mean path", df, cache, values, "ate_rmse"),
-                                    ("map's path", df_ml, new_cache, new_values, "ate_ml")):
-        got = S.verdicts(d.assign(ate_ml=df_ml["ate_ml"]), truth, rules=(OFF, ON),
-                         cache=copy.deepcopy(c), figure=figure, values=v)
-        row = {"set": out.name, "reading": reading, "sequences": len(got)}
-        for name, rule in (("support", OFF), ("scans", ON)):
-            col = S.rule_name(rule)
-            row[f"top2 {name}"] = int(((got[f"rank@{col}"] <= 2)
-                                       & got[f"best@{col}"].notna()).sum())
-            row[f"broken {name}"] = int(got[f"broken_named@{col}"].sum())
-        a, b = S.rule_name(OFF), S.rule_name(ON)
-        for _, r in got[got[f"best@{a}"].fillna("-") != got[f"best@{b}"].fillna("-")].iterrows():
-            print(f"  {out.name} {reading}: {r['case']}: {r[f'best@{a}']} (rank "
-                  f"{r[f'rank@{a}']}, {r[f'ratio@{a}']:.2f}x) -> {r[f'best@{b}']} (rank "
-                  f"{r[f'rank@{b}']}, {r[f'ratio@{b}']:.2f}x, broken {r[f'broken_named@{b}']})")
-        rows.append(row)
-    return rows
+    rows = R.compare_rules(out, {"support": OFF, "scans": ON}, out.name in C2)
+    return [{("sequences" if k == "cases" else k.replace("top ", "top2 ")): v
+             for k, v in r.items()} for r in rows]
 
 
 def main(argv: list[str] | None = None) -> int:

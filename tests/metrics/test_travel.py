@@ -73,3 +73,36 @@ def test_too_little_overlap_has_no_figure() -> None:
 def test_a_window_that_is_not_a_positive_time_is_an_error(window: object) -> None:
     with pytest.raises(TrajectoryError, match="travel window"):
         slamq.travel_ratio(_drive(T), _drive(T), window=window)  # type: ignore[arg-type]
+
+
+def _corridor_drive(t: np.ndarray, corridor_speed: float, scale: float = 1.0) -> Trajectory:
+    """Straight along x at 0.5 m/s, at ``corridor_speed`` from 40 s to 80 s, all times
+    ``scale``."""
+    speed = np.where((t >= 40) & (t < 80), corridor_speed, 0.5)
+    x = np.concatenate([[0.0], np.cumsum(speed[:-1] * np.diff(t))])
+    return Trajectory.from_xy_yaw(t, scale * x, np.zeros_like(t), np.zeros_like(t))
+
+
+STAMPS = np.arange(0.0, 120.0, 0.5)
+#: the scans from 40 s to 80 s see walls in one direction only (ratio 0.02 < 0.1)
+RATIOS = np.where((STAMPS >= 40) & (STAMPS < 80), 0.02, 0.7)
+
+
+def test_along_the_corridors_a_scale_cancels_and_a_slide_does_not() -> None:
+    """docs/spec.md 7d (candidate T2): a path that follows the odometry's scale error
+    travels 3% more everywhere, one that slid in the corridor 10% less there only."""
+    from slamq.metrics.travel import corridor_travel_ratio
+
+    truth = _corridor_drive(T, 0.5)
+    longer = _corridor_drive(T, 0.5, scale=1.03)
+    slid = _corridor_drive(T, 0.45)
+    assert slamq.travel_ratio(truth, longer) == pytest.approx(1 / 1.03, rel=1e-9)
+    assert corridor_travel_ratio(truth, longer, STAMPS, RATIOS) == pytest.approx(1.0, rel=1e-9)
+    assert corridor_travel_ratio(slid, truth, STAMPS, RATIOS) == pytest.approx(0.9, rel=1e-9)
+    assert corridor_travel_ratio(slid, longer, STAMPS, RATIOS) == pytest.approx(0.9, rel=1e-9)
+    # no corridor window, or no scored scan with a ratio: the whole path's ratio
+    for ratios in (np.full_like(STAMPS, 0.7), np.full_like(STAMPS, np.nan)):
+        assert corridor_travel_ratio(slid, truth, STAMPS, ratios) == pytest.approx(
+            slamq.travel_ratio(slid, truth), rel=1e-12)
+    with pytest.raises(TrajectoryError, match="stamps but"):
+        corridor_travel_ratio(slid, truth, STAMPS, RATIOS[:-1])

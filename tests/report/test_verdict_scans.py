@@ -554,6 +554,28 @@ def test_a_path_shortened_along_a_corridor_is_never_named() -> None:
         v["confidence"]
 
 
+def test_the_veto_can_read_the_shortfall_along_the_corridors(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """docs/validity.md, "Paths shortened along the corridors, not everywhere" (candidate,
+    off by default): with rule.CORRIDOR_TRAVEL the veto reads ``corridor_shortfall``."""
+    summary = _summary(list("abc"), [10, 20, 30])
+    ev = _ev({"a": 0.9, "b": 0.9, "c": 0.9}, {"a": 0.01, "b": 0.012, "c": 0.011})
+    ev["degenerate_share"] = 0.1
+    # a is 3.2% short over the whole path (a scale), 0.2% along the corridors
+    ev["algorithms"]["a"].update(shortfall=0.032, shortfall_against="b",
+                                 corridor_shortfall=0.002, corridor_shortfall_against="b")
+    assert sequence_verdict(summary, "s", ev)["best"] is None  # the shipped veto
+    monkeypatch.setattr(rule, "CORRIDOR_TRAVEL", True)
+    assert sequence_verdict(summary, "s", ev)["best"] == "a"
+    ev["algorithms"]["a"].update(corridor_shortfall=0.08, corridor_shortfall_against="c")
+    v = sequence_verdict(summary, "s", ev)
+    assert v["best"] is None and ("its path is 8.0% shorter than c's along the corridors, "
+                                  "beyond their difference elsewhere,") in v["confidence"]
+    # evidence without the figure: the whole path's
+    del ev["algorithms"]["a"]["corridor_shortfall"]
+    assert sequence_verdict(summary, "s", ev)["best"] is None
+
+
 def test_the_evidence_measures_each_programs_path(drive: dict, tmp_path: Path) -> None:
     """sequence_evidence gives each program the shortfall of its path against the others'
     (docs/spec.md 7d): a run that reports 8% less of the motion is 8% short."""
@@ -567,6 +589,8 @@ def test_the_evidence_measures_each_programs_path(drive: dict, tmp_path: Path) -
     c = ev["algorithms"]["c"]
     assert c["shortfall"] == pytest.approx(0.08, abs=1e-9) and c["shortfall_against"] in "ab"
     assert ev["algorithms"]["a"]["shortfall"] == pytest.approx(0.0, abs=1e-9)
+    # no scans were read: the figure along the corridors is the whole path's
+    assert c["corridor_shortfall"] == c["shortfall"]
     # a trajectory that cannot be read: no figure for its program, and a note that says so
     df.loc[df["algorithm"] == "c", "trajectory"] = str(tmp_path / "missing.tum")
     ev = sequence_evidence(df, "s", align="origin", defects=False)

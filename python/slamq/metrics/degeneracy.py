@@ -164,8 +164,9 @@ def scan_degeneracy(scans: Scans, *, max_scans: int = MAX_SCANS,
     Returns
     -------
     ScanDegeneracy
-        ``ratios`` per scored scan (:func:`scan_ratios`), ``share`` of the scans with a
-        ratio that are under :data:`DEGENERATE_RATIO` (NaN when none has a ratio).
+        ``ratios`` per scored scan (:func:`scan_ratios`) and ``stamps`` (their times),
+        ``share`` of the scans with a ratio that are under :data:`DEGENERATE_RATIO` (NaN
+        when none has a ratio).
 
     Raises
     ------
@@ -192,4 +193,4 @@ def scan_degeneracy(scans: Scans, *, max_scans: int = MAX_SCANS,
     has = np.isfinite(ratios)
     share = float((ratios[has] < DEGENERATE_RATIO).mean()) if has.any() else float("nan")
     return ScanDegeneracy(ratios=ratios, share=share, scored=int(index.size),
-                          source=scans.source)
+                          source=scans.source, stamps=scans.stamps[index].copy())

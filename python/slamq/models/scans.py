@@ -282,12 +282,16 @@ class ScanDegeneracy:
         Scans scored (evenly spread over the recording).
     source : str
         The recording.
+    stamps : numpy.ndarray, optional
+        ``(scored,)`` float64, the scored scans' times (the recording's clock), for
+        :func:`slamq.metrics.travel.corridor_travel_ratio`.
     """
 
     ratios: np.ndarray
     share: float
     scored: int
     source: str = "<array>"
+    stamps: np.ndarray | None = None
 
     def to_dict(self) -> dict[str, float | int]:
         """The recording-level figures (no arrays)."""

@@ -166,7 +166,9 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         ``degenerate_share`` is the highest of their shares (NaN: none). ``shortfall`` is
         how much shorter the program's path is than another program's at most, and
         ``shortfall_against`` that program (:func:`slamq.verdict.travel.shortfalls`; NaN
-        and None without trajectories).
+        and None without trajectories); ``corridor_shortfall`` and
+        ``corridor_shortfall_against`` the same along the recording's corridors beyond
+        elsewhere (its ``directions``; the whole path's where no recording was measured).
 
     Examples
     --------
@@ -271,6 +273,9 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         found = {key: [d.to_dict() for d in job.result()] for key, job in flagged.items()}
         seen = _figures([(path, path, job) for path, job in degenerate.items()],
                         "its scans' directions not measured", notes)
+        # the scored scans themselves, for the shortfall along the corridors (7d)
+        directions = {path: job.result() for path, job in degenerate.items()
+                      if path in seen}
     if agree is not None:
         support, complete, placed = agree.support, agree.completeness, agree.placed
         majority = agree.majority
@@ -299,12 +304,14 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         pairs = {paths[k]: {} for k in maps}
     # each program's path against the others' (docs/spec.md 7d): weighed only where the
     # recording's scans see walls in one direction (section 9)
-    short = shortfalls([r._asdict() for r in picked.itertuples()
-                        if f"{r.algorithm}#{r.run}" in maps], notes)
+    compared = [r._asdict() for r in picked.itertuples() if f"{r.algorithm}#{r.run}" in maps]
+    short = shortfalls(compared, notes)
+    along = shortfalls(compared, directions=directions) if directions else short
     algorithms: dict[str, dict[str, Any]] = {}
     for alg in sorted(set(owner.values())):
         keys = [k for k in maps if owner[k] == alg]
         shortfall, against = short.get(alg, (math.nan, None))
+        corridor, corridor_against = along.get(alg, (math.nan, None))
         algorithms[alg] = {
             "support": finite_median([support[k] for k in keys]),
             "completeness": finite_median([complete[k] for k in keys]),
@@ -328,6 +335,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
                                          for k in keys if k in halves]),
             "shortfall": shortfall,
             "shortfall_against": against,
+            "corridor_shortfall": corridor,
+            "corridor_shortfall_against": corridor_against,
         }
     # the agreeing group, by program: those whose runs are mostly in it
     group = sorted(a for a, e in algorithms.items() if e["in_group"] > 0.5)

@@ -20,7 +20,8 @@ from slamq.results.summary import Orientation, distinct_resolutions, orientation
 from slamq.verdict.calibration import with_calibration
 
 __all__ = [
-    "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "DEGENERATE_SHARE", "LOCAL_ANCHOR",
+    "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "CORRIDOR_TRAVEL",
+    "DEGENERATE_SHARE", "LOCAL_ANCHOR",
     "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SCANS_ORDER_UNCOMPARABLE", "SCAN_FLOOR",
     "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL", "SPLIT_KEY",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
@@ -94,6 +95,13 @@ DEGENERATE_SHARE = 0.02
 #: little of it, and its map still agrees with its own scans. Chosen on the pool of
 #: docs/validity.md ("Paths shortened along a corridor").
 SHORTFALL = 0.03
+#: Candidate (docs/validity.md, "Paths shortened along the corridors, not everywhere"):
+#: the veto reads each program's shortfall along the recording's corridors beyond its
+#: shortfall elsewhere (``evidence["algorithms"][a]["corridor_shortfall"]``,
+#: :func:`slamq.metrics.travel.corridor_travel_ratio`) instead of over the whole path, so
+#: that a difference of scale between programs (one follows the odometry's scale error,
+#: another corrects it) is not read as a corridor shortened. Off until measured.
+CORRIDOR_TRAVEL = False
 
 #: The defect kinds that the verdict of two maps takes as proof of a broken map (docs/spec.md
 #: section 9, "Two maps, one broken beyond doubt"): none of them flagged a clean real map or
@@ -344,10 +352,14 @@ def _shortened(info: dict[str, Any], evidence: dict[str, Any]) -> dict[str, str]
     if share is None:
         return {}
     out = {}
+    key = "corridor_shortfall" if CORRIDOR_TRAVEL else "shortfall"
     for a, e in info.items():
-        short = float(e.get("shortfall", math.nan))
+        short = float(e.get(key, e.get("shortfall", math.nan)))
+        against = e.get(f"{key}_against", e.get("shortfall_against"))
         if math.isfinite(short) and short >= SHORTFALL:
-            out[a] = (f"its path is {_pct(short)} shorter than {e.get('shortfall_against')}'s "
+            beyond = (" along the corridors, beyond their difference elsewhere,"
+                      if key != "shortfall" else "")
+            out[a] = (f"its path is {_pct(short)} shorter than {against}'s{beyond} "
                       f"where {_pct(share)} of the scans see walls in one direction only: a "
                       "corridor shortened by a scan matcher that could not see along it")
     return out

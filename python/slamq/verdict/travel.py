@@ -14,12 +14,13 @@ from typing import Any
 import numpy as np
 
 from slamq.errors import SlamqError
-from slamq.metrics.travel import WINDOW_S, travel_ratio
+from slamq.metrics.travel import WINDOW_S, corridor_travel_ratio, travel_ratio
 
 __all__ = ["WINDOW_S", "shortfalls"]
 
 
-def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
+def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None,
+               directions: dict[str, Any] | None = None
                ) -> dict[str, tuple[float, str | None]]:
     """Per program, how much shorter its path is than another program's at most.
 
@@ -27,6 +28,11 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
     the pairs of their runs that have a trajectory; a's *shortfall* is the largest
     ``1 - ratio`` over the other programs, with the program it is measured against. NaN
     (and None) for a program without a trajectory, or when no other program has one.
+    With ``directions``, the ratio of a pair is
+    :func:`~slamq.metrics.travel.corridor_travel_ratio` with the scored scans of a's
+    run's recording (its ``scans``), :func:`~slamq.metrics.travel.travel_ratio` where
+    that recording was not measured: the shortfall along the corridors beyond the
+    shortfall elsewhere.
 
     Parameters
     ----------
@@ -35,6 +41,10 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
         missing, NaN or empty: none).
     notes : list of str, optional
         A trajectory that cannot be read is left out and said here.
+    directions : dict, optional
+        Recording path (a record's ``scans``, as str) -> its
+        :class:`~slamq.models.ScanDegeneracy` with ``stamps``
+        (:func:`slamq.metrics.degeneracy.scan_degeneracy`).
 
     Returns
     -------
@@ -58,6 +68,7 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
     from slamq.sources.trajectories import load_trajectory
 
     paths: dict[str, list[Any]] = {}
+    seen: dict[str, list[Any]] = {}  # the scored scans of each run's recording, or None
     for rec in records:
         path = rec.get("trajectory")
         path = os.fspath(path) if isinstance(path, os.PathLike) else path
@@ -67,6 +78,9 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
             continue
         try:
             paths.setdefault(alg, []).append(load_trajectory(path, unsorted="sort"))
+            d = (directions or {}).get(str(rec.get("scans")))
+            seen.setdefault(alg, []).append(
+                d if d is not None and getattr(d, "stamps", None) is not None else None)
         except SlamqError as exc:
             paths.setdefault(alg, [])
             if notes is not None:
@@ -77,7 +91,9 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
         for b, others in paths.items():
             if b == a:
                 continue
-            ratios = [travel_ratio(x, y) for x in runs for y in others]
+            ratios = [travel_ratio(x, y) if d is None else
+                      corridor_travel_ratio(x, y, d.stamps, d.ratios)
+                      for x, d in zip(runs, seen.get(a, []), strict=True) for y in others]
             ratios = [r for r in ratios if math.isfinite(r)]
             if not ratios:
                 continue
