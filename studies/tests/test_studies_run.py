@@ -29,7 +29,8 @@ def _env() -> dict[str, str]:
 def test_the_studies_are_the_ones_the_readme_lists() -> None:
     readme = (STUDIES / "README.md").read_text(encoding="utf-8")
     assert SCRIPTS == ["bag_carmen", "benchmark_study", "canonical_sweep", "confidence_study",
-                       "damage_study", "defects_study", "gmapping_run", "rbpf_path_study",
+                       "corridor_travel_study", "damage_study", "defects_study",
+                       "gmapping_run", "rbpf_path_study",
                        "real2d", "real2d_validity", "scans_study", "split_scans",
                        "two_map_study", "uncomparable_study", "verdict_study",
                        "wall_symmetry"]
