@@ -1,6 +1,7 @@
 """Paths shortened along the corridors, not everywhere: the travel veto reading the
-shortfall along a recording's corridors beyond the shortfall elsewhere (candidate T2),
-beside the shipped veto, on the generated sets at both readings of rbpf-slam
+shortfall along a recording's corridors beyond the shortfall elsewhere (candidate T2), or
+vetoing only where both it and the whole path's are short (T2-and), beside the shipped
+veto, on the generated sets at both readings of rbpf-slam
 (docs/validity.md, "Paths shortened along the corridors, not everywhere").
 
 Usage (from the repository's root; each set's evidence cached by ``scans_study.py``)::
@@ -8,8 +9,8 @@ Usage (from the repository's root; each set's evidence cached by ``scans_study.p
     PYTHONPATH=studies python studies/corridor_travel_study.py studies/scans-benchmark-x-runs ...
 
 Prints, per set and reading, the sequences (and with ``--pairs`` the pairs) in the ATE
-top two (the better of two) and the broken runs named under both rules, and every
-verdict that changes. A set with ``split-v300-rows.csv`` is read with those split shares.
+top two (the better of two) and the broken runs named under each rule, and every
+verdict a candidate changes. A set with ``split-v300-rows.csv`` is read with those split shares.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import scans_study as S
 
 SHIPPED = R.RULE
 T2 = (*R.RULE, S.CORRIDOR_TRAVEL)
+T2_AND = (*R.RULE, S.CORRIDOR_AND_WHOLE)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -31,9 +33,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pairs", action="store_true", help="the two-map cases too")
     a = ap.parse_args(argv)
     for pair in (False, True) if a.pairs else (False,):
+        rules = {"shipped": SHIPPED, "T2": T2, "T2-and": T2_AND}
         rows = [r for out in a.output for r in R.compare_rules(
-            out, {"shipped": SHIPPED, "T2": T2}, (out / "split-v300-rows.csv").exists(),
-            pair=pair)]
+            out, rules, (out / "split-v300-rows.csv").exists(), pair=pair)]
         table = pd.DataFrame(rows)
         print(f"\n{'Pairs' if pair else 'Sequences'}:\n")
         print(table.to_string(index=False))

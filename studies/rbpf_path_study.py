@@ -156,7 +156,7 @@ def compare_rules(out: Path, rules: dict[str, tuple], c2: bool, *, pair: bool = 
     at the path its map is drawn at, judged by that path's ATE) under each of ``rules``
     (name -> rule of ``scans_study``): per reading, the cases in the ATE top two (the
     better of two, with ``pair``) and the broken runs named under each rule; every verdict
-    that differs between the first two rules is printed."""
+    of another rule that differs from the first rule's is printed."""
     import copy
 
     df, cache, figure, values, _, new_cache, new_values = load_set(out, c2)
@@ -173,12 +173,16 @@ def compare_rules(out: Path, rules: dict[str, tuple], c2: bool, *, pair: bool = 
             row[f"top {name}"] = int(((got[f"rank@{col}"] <= (1 if pair else 2))
                                       & got[f"best@{col}"].notna()).sum())
             row[f"broken {name}"] = int(got[f"broken_named@{col}"].sum())
-        a, b = S.rule_name(rules[names[0]]), S.rule_name(rules[names[1]])
-        for _, r in got[got[f"best@{a}"].fillna("-") != got[f"best@{b}"].fillna("-")].iterrows():
-            print(f"  {out.name} {reading}: {r['case']} {r['algorithms'] if pair else ''}: "
-                  f"{r[f'best@{a}']} (rank {r[f'rank@{a}']}, {r[f'ratio@{a}']:.2f}x) -> "
-                  f"{r[f'best@{b}']} (rank {r[f'rank@{b}']}, {r[f'ratio@{b}']:.2f}x, broken "
-                  f"{r[f'broken_named@{b}']})")
+        a = S.rule_name(rules[names[0]])
+        for other in names[1:]:
+            b = S.rule_name(rules[other])
+            for _, r in got[got[f"best@{a}"].fillna("-")
+                            != got[f"best@{b}"].fillna("-")].iterrows():
+                print(f"  {out.name} {reading} {other}: {r['case']} "
+                      f"{r['algorithms'] if pair else ''}: {r[f'best@{a}']} (rank "
+                      f"{r[f'rank@{a}']}, {r[f'ratio@{a}']:.2f}x) -> {r[f'best@{b}']} (rank "
+                      f"{r[f'rank@{b}']}, {r[f'ratio@{b}']:.2f}x, broken "
+                      f"{r[f'broken_named@{b}']})")
         rows.append(row)
     return rows
 

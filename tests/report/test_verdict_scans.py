@@ -565,15 +565,27 @@ def test_the_veto_can_read_the_shortfall_along_the_corridors(
     ev["algorithms"]["a"].update(shortfall=0.032, shortfall_against="b",
                                  corridor_shortfall=0.002, corridor_shortfall_against="b")
     assert sequence_verdict(summary, "s", ev)["best"] is None  # the shipped veto
-    monkeypatch.setattr(rule, "CORRIDOR_TRAVEL", True)
-    assert sequence_verdict(summary, "s", ev)["best"] == "a"
+    for how in ("corridors", "both"):
+        monkeypatch.setattr(rule, "CORRIDOR_TRAVEL", how)
+        assert sequence_verdict(summary, "s", ev)["best"] == "a"
     ev["algorithms"]["a"].update(corridor_shortfall=0.08, corridor_shortfall_against="c")
+    v = sequence_verdict(summary, "s", ev)
+    assert v["best"] is None and ("its path is 3.2% shorter than b's, and 8.0% shorter than "
+                                  "c's along the corridors, beyond their difference "
+                                  "elsewhere, where 10.0% of the scans") in v["confidence"]
+    monkeypatch.setattr(rule, "CORRIDOR_TRAVEL", "corridors")
     v = sequence_verdict(summary, "s", ev)
     assert v["best"] is None and ("its path is 8.0% shorter than c's along the corridors, "
                                   "beyond their difference elsewhere,") in v["confidence"]
+    monkeypatch.setattr(rule, "CORRIDOR_TRAVEL", "both")
+    # short along the corridors, not over the whole path: "both" names it
+    ev["algorithms"]["a"].update(shortfall=0.01)
+    assert sequence_verdict(summary, "s", ev)["best"] == "a"
+    monkeypatch.setattr(rule, "CORRIDOR_TRAVEL", "corridors")
+    assert sequence_verdict(summary, "s", ev)["best"] is None
     # evidence without the figure: the whole path's
     del ev["algorithms"]["a"]["corridor_shortfall"]
-    assert sequence_verdict(summary, "s", ev)["best"] is None
+    assert sequence_verdict(summary, "s", ev)["best"] == "a"
 
 
 def test_the_evidence_measures_each_programs_path(drive: dict, tmp_path: Path) -> None:

@@ -95,13 +95,15 @@ DEGENERATE_SHARE = 0.02
 #: little of it, and its map still agrees with its own scans. Chosen on the pool of
 #: docs/validity.md ("Paths shortened along a corridor").
 SHORTFALL = 0.03
-#: Candidate (docs/validity.md, "Paths shortened along the corridors, not everywhere"):
+#: Candidates (docs/validity.md, "Paths shortened along the corridors, not everywhere"):
 #: the veto reads each program's shortfall along the recording's corridors beyond its
 #: shortfall elsewhere (``evidence["algorithms"][a]["corridor_shortfall"]``,
-#: :func:`slamq.metrics.travel.corridor_travel_ratio`) instead of over the whole path, so
-#: that a difference of scale between programs (one follows the odometry's scale error,
-#: another corrects it) is not read as a corridor shortened. Off until measured.
-CORRIDOR_TRAVEL = False
+#: :func:`slamq.metrics.travel.corridor_travel_ratio`), so that a difference of scale
+#: between programs (one follows the odometry's scale error, another corrects it) is not
+#: read as a corridor shortened: ``"corridors"`` instead of the whole path's (T2),
+#: ``"both"`` where both are at least :data:`SHORTFALL` (T2-and). None (the whole path's
+#: alone) until measured.
+CORRIDOR_TRAVEL: str | None = None
 
 #: The defect kinds that the verdict of two maps takes as proof of a broken map (docs/spec.md
 #: section 9, "Two maps, one broken beyond doubt"): none of them flagged a clean real map or
@@ -352,16 +354,21 @@ def _shortened(info: dict[str, Any], evidence: dict[str, Any]) -> dict[str, str]
     if share is None:
         return {}
     out = {}
-    key = "corridor_shortfall" if CORRIDOR_TRAVEL else "shortfall"
     for a, e in info.items():
-        short = float(e.get(key, e.get("shortfall", math.nan)))
-        against = e.get(f"{key}_against", e.get("shortfall_against"))
-        if math.isfinite(short) and short >= SHORTFALL:
-            beyond = (" along the corridors, beyond their difference elsewhere,"
-                      if key != "shortfall" else "")
-            out[a] = (f"its path is {_pct(short)} shorter than {against}'s{beyond} "
-                      f"where {_pct(share)} of the scans see walls in one direction only: a "
-                      "corridor shortened by a scan matcher that could not see along it")
+        whole = float(e.get("shortfall", math.nan))
+        said = f"its path is {_pct(whole)} shorter than {e.get('shortfall_against')}'s"
+        if CORRIDOR_TRAVEL and "corridor_shortfall" in e:
+            along = float(e["corridor_shortfall"])
+            beyond = (f"{_pct(along)} shorter than {e.get('corridor_shortfall_against')}'s "
+                      "along the corridors, beyond their difference elsewhere,")
+            if CORRIDOR_TRAVEL == "both":
+                whole, said = min(whole, along), f"{said}, and {beyond}"
+            else:
+                whole, said = along, f"its path is {beyond}"
+        if math.isfinite(whole) and whole >= SHORTFALL:
+            out[a] = (f"{said} where {_pct(share)} of the scans see walls in one direction "
+                      "only: a corridor shortened by a scan matcher that could not see along "
+                      "it")
     return out
 
 
