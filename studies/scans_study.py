@@ -320,10 +320,11 @@ ONE_WITNESS = "witness=program"
 #: "off"
 UNCOMPARABLE_ON, UNCOMPARABLE_OFF = "uncomparable=scans", "uncomparable=support"
 #: A rule's tokens: the travel veto reads the shortfall along the corridors beyond the
-#: shortfall elsewhere (T2), or both it and the whole path's (T2-and) (docs/validity.md,
-#: "Paths shortened along the corridors, not everywhere"; ``slamq.verdict.rule.
-#: CORRIDOR_TRAVEL``)
-CORRIDOR_TRAVEL, CORRIDOR_AND_WHOLE = "travel=corridors", "travel=both"
+#: shortfall elsewhere (T2), both it and the whole path's (T2-and, shipped since
+#: 2026-11-30), or the whole path's alone (the rule before) (docs/validity.md, "Paths
+#: shortened along the corridors, not everywhere"; ``slamq.verdict.rule.CORRIDOR_TRAVEL``)
+CORRIDOR_TRAVEL, CORRIDOR_AND_WHOLE, WHOLE_PATH = "travel=corridors", "travel=both", \
+    "travel=whole"
 
 
 def one_witness(ev: dict[str, Any]) -> dict[str, Any]:
@@ -377,8 +378,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                     r.SCANS_BREAK_TIES = False
                 if x in (UNCOMPARABLE_ON, UNCOMPARABLE_OFF):
                     r.SCANS_ORDER_UNCOMPARABLE = x == UNCOMPARABLE_ON
-                if x in (CORRIDOR_TRAVEL, CORRIDOR_AND_WHOLE):
-                    r.CORRIDOR_TRAVEL = x.removeprefix("travel=")
+                if x in (CORRIDOR_TRAVEL, CORRIDOR_AND_WHOLE, WHOLE_PATH):
+                    r.CORRIDOR_TRAVEL = None if x == WHOLE_PATH else x.removeprefix("travel=")
                 if isinstance(x, str) and x.startswith("shortfall="):
                     r.SHORTFALL = float(x.removeprefix("shortfall="))
                 if isinstance(x, str) and x.startswith("local="):

@@ -556,15 +556,18 @@ def test_a_path_shortened_along_a_corridor_is_never_named() -> None:
 
 def test_the_veto_can_read_the_shortfall_along_the_corridors(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    """docs/validity.md, "Paths shortened along the corridors, not everywhere" (candidate,
-    off by default): with rule.CORRIDOR_TRAVEL the veto reads ``corridor_shortfall``."""
+    """docs/validity.md, "Paths shortened along the corridors: measured, T2-and adopted":
+    the veto reads ``corridor_shortfall`` too (rule.CORRIDOR_TRAVEL "both"), or alone
+    ("corridors", not adopted), or not (None, the rule before)."""
+    assert rule.CORRIDOR_TRAVEL == "both"
+    monkeypatch.setattr(rule, "CORRIDOR_TRAVEL", None)
     summary = _summary(list("abc"), [10, 20, 30])
     ev = _ev({"a": 0.9, "b": 0.9, "c": 0.9}, {"a": 0.01, "b": 0.012, "c": 0.011})
     ev["degenerate_share"] = 0.1
     # a is 3.2% short over the whole path (a scale), 0.2% along the corridors
     ev["algorithms"]["a"].update(shortfall=0.032, shortfall_against="b",
                                  corridor_shortfall=0.002, corridor_shortfall_against="b")
-    assert sequence_verdict(summary, "s", ev)["best"] is None  # the shipped veto
+    assert sequence_verdict(summary, "s", ev)["best"] is None  # the whole path's veto
     for how in ("corridors", "both"):
         monkeypatch.setattr(rule, "CORRIDOR_TRAVEL", how)
         assert sequence_verdict(summary, "s", ev)["best"] == "a"

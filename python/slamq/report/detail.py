@@ -405,9 +405,10 @@ def agreeing_group(rec: dict, evidence: dict[str, Any] | None,
 
 def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     """How far the path of the map's program travels against the other programs' paths
-    (docs/spec.md 7d: its shortfall, the median over pairs of runs), and whether the
-    verdict weighs it (only where the recording's scans see walls in one direction,
-    section 9), as the map's detail page says it; None without a figure.
+    (docs/spec.md 7d: its shortfall, the median over pairs of runs, and along the
+    corridors beyond elsewhere), and whether the verdict weighs it (only where the
+    recording's scans see walls in one direction, section 9), as the map's detail page
+    says it; None without a figure.
 
     Examples
     --------
@@ -423,10 +424,18 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     rbpf's path travels at least 2.0% more than every other program's (the nearest: icp's)
     over the same windows of 10 s (docs/spec.md 7d). The recording's scans see walls in
     more than one direction (0.0% see one only), so the verdict does not weigh it.
+    >>> ev["algorithms"]["icp"].update(corridor_shortfall=0.004,
+    ...                                corridor_shortfall_against="rbpf")
+    >>> print(path_sentence({"algorithm": "icp"}, ev))  # doctest: +NORMALIZE_WHITESPACE
+    icp's path travels 3.6% less than rbpf's over the same windows of 10 s (docs/spec.md
+    7d). Along the corridors, beyond their difference elsewhere, it travels 0.4% less than
+    rbpf's. 5.8% of the recording's scans see walls in one direction only, so the verdict
+    weighs both: it names no map whose path is 3% or more shorter than another program's
+    over the whole run and along the corridors.
     >>> path_sentence({"algorithm": "x"}, ev), path_sentence({"algorithm": "icp"}, None)
     (None, None)
     """
-    from slamq.verdict.rule import SHORTFALL, one_direction_share
+    from slamq.verdict.rule import CORRIDOR_TRAVEL, SHORTFALL, one_direction_share
     from slamq.verdict.travel import WINDOW_S
 
     if evidence is None:
@@ -450,6 +459,14 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     if one_direction_share(evidence) is None:
         return (said + " The recording's scans see walls in more than one direction "
                 f"({100 * share:.1f}% see one only), so the verdict does not weigh it.")
+    along = _num(e.get("corridor_shortfall"))
+    if CORRIDOR_TRAVEL == "both" and math.isfinite(along):
+        return (said + f" Along the corridors, beyond their difference elsewhere, it "
+                f"travels {100 * along:.1f}% less than {e.get('corridor_shortfall_against')}'s. "
+                f"{100 * share:.1f}% of the recording's scans see walls in one direction "
+                "only, so the verdict weighs both: it names no map whose path is "
+                f"{SHORTFALL:.0%} or more shorter than another program's over the whole "
+                "run and along the corridors.")
     return (said + f" {100 * share:.1f}% of the recording's scans see walls in one "
             "direction only, so the verdict weighs it: it names no map whose path is "
             f"{SHORTFALL:.0%} or more shorter than another program's.")

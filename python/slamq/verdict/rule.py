@@ -95,15 +95,15 @@ DEGENERATE_SHARE = 0.02
 #: little of it, and its map still agrees with its own scans. Chosen on the pool of
 #: docs/validity.md ("Paths shortened along a corridor").
 SHORTFALL = 0.03
-#: Candidates (docs/validity.md, "Paths shortened along the corridors, not everywhere"):
-#: the veto reads each program's shortfall along the recording's corridors beyond its
+#: How the veto reads a program's shortfall along the recording's corridors beyond its
 #: shortfall elsewhere (``evidence["algorithms"][a]["corridor_shortfall"]``,
 #: :func:`slamq.metrics.travel.corridor_travel_ratio`), so that a difference of scale
 #: between programs (one follows the odometry's scale error, another corrects it) is not
-#: read as a corridor shortened: ``"corridors"`` instead of the whole path's (T2),
-#: ``"both"`` where both are at least :data:`SHORTFALL` (T2-and). None (the whole path's
-#: alone) until measured.
-CORRIDOR_TRAVEL: str | None = None
+#: read as a corridor shortened: ``"both"`` (T2-and, the default) vetoes where it and the
+#: whole path's are at least :data:`SHORTFALL`; ``"corridors"`` (T2, not adopted) reads it
+#: alone; None the whole path's alone (the rule before 2026-11-30). docs/validity.md,
+#: "Paths shortened along the corridors: measured, T2-and adopted".
+CORRIDOR_TRAVEL: str | None = "both"
 
 #: The defect kinds that the verdict of two maps takes as proof of a broken map (docs/spec.md
 #: section 9, "Two maps, one broken beyond doubt"): none of them flagged a clean real map or
@@ -681,7 +681,8 @@ def _scan_tie_order(close: list[str], scans: _Shares) -> list[str]:
 
 def _short_path(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
     """``v`` as an abstention when the map it names has a path at least :data:`SHORTFALL`
-    shorter than another program's in a recording whose scans see walls in one direction
+    shorter than another program's (over the whole run and, as :data:`CORRIDOR_TRAVEL`
+    says, along the corridors) in a recording whose scans see walls in one direction
     (:func:`_shortened`): which of the two paths is right, the scans cannot tell. Nothing
     else is named in its place."""
     best = v["best"]
@@ -935,7 +936,8 @@ def rule_summary() -> str:
     of maps that disagree, one is also named when another is wrong on its own and its own
     scans confirm it; where 2% or more of the recording's scans see walls in one direction
     only, at most low confidence, and no verdict when the map it would name has a path 3% or more
-    shorter than another's); with figures alone, by corners (no clear winner within 25%)
+    shorter than another's over the whole run and along the corridors beyond elsewhere); with
+    figures alone, by corners (no clear winner within 25%)
     """
     return (
         f"by {basis_name(_BASES[0][0])} when the sequence has ground truth, else by "
@@ -956,5 +958,8 @@ def rule_summary() -> str:
         f"wrong on its own and its own scans confirm it; where {DEGENERATE_SHARE:.0%} or "
         "more of the recording's scans see walls in one direction only, at most low "
         f"confidence, and no verdict when the map it would name has a path {SHORTFALL:.0%} or "
-        "more shorter than another's); with figures alone, by corners (no "
+        "more shorter than another's"
+        + {"both": " over the whole run and along the corridors beyond elsewhere",
+           "corridors": " along the corridors beyond elsewhere"}.get(str(CORRIDOR_TRAVEL), "")
+        + "); with figures alone, by corners (no "
         f"clear winner within {CLEAR_MARGIN:.0%})")
