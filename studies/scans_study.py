@@ -671,6 +671,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="also the rule with the maps corners cannot compare ordered by "
                     "their own scans, and with their support (docs/validity.md, 'Maps "
                     "corners cannot compare: the scans order them')")
+    ap.add_argument("--whole-path", action="store_true",
+                    help="also the travel veto on the whole path alone, the rule before "
+                    "2026-11-30 (docs/validity.md, 'Paths shortened along the corridors: "
+                    "measured, T2-and adopted')")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -713,6 +717,8 @@ def main(argv: list[str] | None = None) -> int:
     if a.uncomparable:
         vk = rules[-1][:2]
         rules = (*rules, (*vk, UNCOMPARABLE_OFF), (*vk, UNCOMPARABLE_ON))
+    if a.whole_path:
+        rules = (*rules, (*rules[-1][:2], WHOLE_PATH))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))
