@@ -586,8 +586,12 @@ def test_the_veto_can_read_the_shortfall_along_the_corridors(
     assert sequence_verdict(summary, "s", ev)["best"] == "a"
     monkeypatch.setattr(rule, "CORRIDOR_TRAVEL", "corridors")
     assert sequence_verdict(summary, "s", ev)["best"] is None
-    # evidence without the figure: the whole path's
+    # evidence without the figure, or a NaN one: the whole path's
+    ev["algorithms"]["a"].update(shortfall=0.05, corridor_shortfall=math.nan)
+    assert sequence_verdict(summary, "s", ev)["best"] is None
     del ev["algorithms"]["a"]["corridor_shortfall"]
+    assert sequence_verdict(summary, "s", ev)["best"] is None
+    ev["algorithms"]["a"].update(shortfall=0.01)
     assert sequence_verdict(summary, "s", ev)["best"] == "a"
 
 

@@ -361,7 +361,9 @@ def _shortened(info: dict[str, Any], evidence: dict[str, Any]) -> dict[str, str]
             along = float(e["corridor_shortfall"])
             beyond = (f"{_pct(along)} shorter than {e.get('corridor_shortfall_against')}'s "
                       "along the corridors, beyond their difference elsewhere,")
-            if CORRIDOR_TRAVEL == "both":
+            if not math.isfinite(along):
+                pass  # no figure along the corridors: the whole path's
+            elif CORRIDOR_TRAVEL == "both":
                 whole, said = min(whole, along), f"{said}, and {beyond}"
             else:
                 whole, said = along, f"its path is {beyond}"
