@@ -449,7 +449,7 @@ def weigh(ev: dict[str, Any], block: pd.DataFrame, figure: str,
     return out
 
 
-_DEGENERATE: dict[str, Any] = {}
+_DIRECTIONS: dict[str, Any] = {}
 
 
 def _directions(block: pd.DataFrame) -> dict[str, Any]:
@@ -459,9 +459,9 @@ def _directions(block: pd.DataFrame) -> dict[str, Any]:
     from slamq.verdict.scans import recording
 
     paths = {str(p) for p in block["scans"].dropna()}
-    for path in paths - set(_DEGENERATE):
-        _DEGENERATE[path] = scan_degeneracy(recording(path))
-    return {p: _DEGENERATE[p] for p in paths}
+    for path in paths - set(_DIRECTIONS):
+        _DIRECTIONS[path] = scan_degeneracy(recording(path))
+    return {p: _DIRECTIONS[p] for p in paths}
 
 
 def _degenerate_share(block: pd.DataFrame) -> float:
@@ -476,12 +476,10 @@ def _fill_shortfalls(ev: dict[str, Any], block: pd.DataFrame) -> None:
     """Each program's ``shortfall`` and ``corridor_shortfall`` (docs/spec.md 7d) set in
     ``ev`` from ``block``'s trajectories, as :func:`slamq.verdict.evidence.
     sequence_evidence` sets them."""
-    from slamq.verdict.travel import shortfalls
+    from slamq.verdict.travel import path_shortfalls
 
-    records = block.to_dict("records")
-    short = shortfalls(records)
-    along = shortfalls(records, directions=_directions(block)) \
-        if "scans" in block and block["scans"].notna().any() else short
+    short, along = path_shortfalls(block.to_dict("records"), directions=_directions(block)
+                                   if "scans" in block else None)
     for alg, e in ev["algorithms"].items():
         e["shortfall"], e["shortfall_against"] = short.get(alg, (math.nan, None))
         e["corridor_shortfall"], e["corridor_shortfall_against"] = along.get(

@@ -38,7 +38,7 @@ from slamq.metrics.agreement import (
 from slamq.params import SETTINGS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.sources import load_map
-from slamq.verdict.travel import shortfalls
+from slamq.verdict.travel import path_shortfalls
 
 __all__ = ["MISSING_MIN_LENGTH", "ONE_WITNESS_A_PROGRAM", "RUNS_PER_ALGORITHM",
            "program_support", "sequence_evidence"]
@@ -165,7 +165,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         :meth:`~slamq.models.ScanDegeneracy.to_dict` (docs/spec.md 7c), and
         ``degenerate_share`` is the highest of their shares (NaN: none). ``shortfall`` is
         how much shorter the program's path is than another program's at most, and
-        ``shortfall_against`` that program (:func:`slamq.verdict.travel.shortfalls`; NaN
+        ``shortfall_against`` that program (:func:`slamq.verdict.travel.path_shortfalls`; NaN
         and None without trajectories); ``corridor_shortfall`` and
         ``corridor_shortfall_against`` the same along the recording's corridors beyond
         elsewhere (its ``directions``; the whole path's where no recording was measured).
@@ -305,8 +305,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     # each program's path against the others' (docs/spec.md 7d): weighed only where the
     # recording's scans see walls in one direction (section 9)
     compared = [r._asdict() for r in picked.itertuples() if f"{r.algorithm}#{r.run}" in maps]
-    short = shortfalls(compared, notes)
-    along = shortfalls(compared, directions=directions) if directions else short
+    short, along = path_shortfalls(compared, notes, directions)
     algorithms: dict[str, dict[str, Any]] = {}
     for alg in sorted(set(owner.values())):
         keys = [k for k in maps if owner[k] == alg]

@@ -16,11 +16,10 @@ import numpy as np
 from slamq.errors import SlamqError
 from slamq.metrics.travel import WINDOW_S, corridor_travel_ratio, travel_ratio
 
-__all__ = ["WINDOW_S", "shortfalls"]
+__all__ = ["WINDOW_S", "path_shortfalls", "shortfalls"]
 
 
-def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None,
-               directions: dict[str, Any] | None = None
+def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None
                ) -> dict[str, tuple[float, str | None]]:
     """Per program, how much shorter its path is than another program's at most.
 
@@ -28,11 +27,7 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None,
     the pairs of their runs that have a trajectory; a's *shortfall* is the largest
     ``1 - ratio`` over the other programs, with the program it is measured against. NaN
     (and None) for a program without a trajectory, or when no other program has one.
-    With ``directions``, the ratio of a pair is
-    :func:`~slamq.metrics.travel.corridor_travel_ratio` with the scored scans of a's
-    run's recording (its ``scans``), :func:`~slamq.metrics.travel.travel_ratio` where
-    that recording was not measured: the shortfall along the corridors beyond the
-    shortfall elsewhere.
+    :func:`path_shortfalls` gives it with the shortfall along the corridors.
 
     Parameters
     ----------
@@ -41,10 +36,6 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None,
         missing, NaN or empty: none).
     notes : list of str, optional
         A trajectory that cannot be read is left out and said here.
-    directions : dict, optional
-        Recording path (a record's ``scans``, as str) -> its
-        :class:`~slamq.models.ScanDegeneracy` with ``stamps``
-        (:func:`slamq.metrics.degeneracy.scan_degeneracy`).
 
     Returns
     -------
@@ -65,40 +56,74 @@ def shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None,
     >>> round(s["b"][0], 3), s["b"][1], round(s["a"][0], 3)
     (0.1, 'a', -0.111)
     """
+    return path_shortfalls(records, notes)[0]
+
+
+def path_shortfalls(records: list[dict[str, Any]], notes: list[str] | None = None,
+                    directions: dict[str, Any] | None = None
+                    ) -> tuple[dict[str, tuple[float, str | None]],
+                               dict[str, tuple[float, str | None]]]:
+    """:func:`shortfalls`, and the same along the recording's corridors beyond elsewhere,
+    each trajectory read once.
+
+    The second is built as the first with :func:`~slamq.metrics.travel.
+    corridor_travel_ratio` for the ratio of a pair, with the scored scans of a's run's
+    recording (its ``scans``); where that recording was not measured, the pair's
+    :func:`~slamq.metrics.travel.travel_ratio`.
+
+    Parameters
+    ----------
+    records, notes
+        As :func:`shortfalls`'s.
+    directions : dict, optional
+        Recording path (a record's ``scans``, as str) -> its
+        :class:`~slamq.models.ScanDegeneracy` with ``stamps``
+        (:func:`slamq.metrics.degeneracy.scan_degeneracy`).
+
+    Returns
+    -------
+    tuple of dict
+        ``({algorithm: (shortfall, against)}, {algorithm: (corridor shortfall,
+        against)})``; without ``directions`` the two are equal.
+    """
     from slamq.sources.trajectories import load_trajectory
 
-    paths: dict[str, list[Any]] = {}
-    seen: dict[str, list[Any]] = {}  # the scored scans of each run's recording, or None
+    runs: dict[str, list[tuple[Any, Any]]] = {}  # each run's path and scored scans
     for rec in records:
         path = rec.get("trajectory")
         path = os.fspath(path) if isinstance(path, os.PathLike) else path
         alg = str(rec.get("algorithm"))
+        runs.setdefault(alg, [])
         if not isinstance(path, str) or not path.strip():
-            paths.setdefault(alg, [])
             continue
         try:
-            paths.setdefault(alg, []).append(load_trajectory(path, unsorted="sort"))
-            d = (directions or {}).get(str(rec.get("scans")))
-            seen.setdefault(alg, []).append(
-                d if d is not None and getattr(d, "stamps", None) is not None else None)
+            traj = load_trajectory(path, unsorted="sort")
         except SlamqError as exc:
-            paths.setdefault(alg, [])
             if notes is not None:
                 notes.append(f"{path}: its path not compared with the others' ({exc})")
-    out: dict[str, tuple[float, str | None]] = {}
-    for a, runs in paths.items():
-        worst, against = math.nan, None
-        for b, others in paths.items():
+            continue
+        d = (directions or {}).get(str(rec.get("scans")))
+        runs[alg].append((traj, d if getattr(d, "stamps", None) is not None else None))
+    whole: dict[str, tuple[float, str | None]] = {}
+    along: dict[str, tuple[float, str | None]] = {}
+    for a, mine in runs.items():
+        worst = {"whole": (math.nan, None), "along": (math.nan, None)}
+        for b, others in runs.items():
             if b == a:
                 continue
-            ratios = [travel_ratio(x, y) if d is None else
-                      corridor_travel_ratio(x, y, d.stamps, d.ratios)
-                      for x, d in zip(runs, seen.get(a, []), strict=True) for y in others]
-            ratios = [r for r in ratios if math.isfinite(r)]
-            if not ratios:
-                continue
-            short = 1.0 - float(np.median(ratios))
-            if not math.isfinite(worst) or short > worst:
-                worst, against = short, b
-        out[a] = (worst, against)
-    return out
+            ratios: dict[str, list[float]] = {"whole": [], "along": []}
+            for x, d in mine:
+                for y, _ in others:
+                    r = travel_ratio(x, y)
+                    ratios["whole"].append(r)
+                    ratios["along"].append(
+                        r if d is None else corridor_travel_ratio(x, y, d.stamps, d.ratios))
+            for kind, values in ratios.items():
+                finite = [v for v in values if math.isfinite(v)]
+                if not finite:
+                    continue
+                short = 1.0 - float(np.median(finite))
+                if not math.isfinite(worst[kind][0]) or short > worst[kind][0]:
+                    worst[kind] = (short, b)
+        whole[a], along[a] = worst["whole"], worst["along"]
+    return whole, along
