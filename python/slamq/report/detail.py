@@ -424,14 +424,15 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     rbpf's path travels at least 2.0% more than every other program's (the nearest: icp's)
     over the same windows of 10 s (docs/spec.md 7d). The recording's scans see walls in
     more than one direction (0.0% see one only), so the verdict does not weigh it.
-    >>> ev["algorithms"]["icp"].update(corridor_shortfall=0.004,
+    >>> ev["algorithms"]["icp"].update(corridor_shortfall=-0.004,
     ...                                corridor_shortfall_against="rbpf")
     >>> print(path_sentence({"algorithm": "icp"}, ev))  # doctest: +NORMALIZE_WHITESPACE
     icp's path travels 3.6% less than rbpf's over the same windows of 10 s (docs/spec.md
-    7d). Along the corridors, beyond their difference elsewhere, it travels 0.4% less than
-    rbpf's. 5.8% of the recording's scans see walls in one direction only, so the verdict
-    weighs both: it names no map whose path is 3% or more shorter than another program's
-    over the whole run and along the corridors.
+    7d). Along the corridors, beyond their difference elsewhere, it travels at least 0.4%
+    more than every other program's (the nearest: rbpf's). 5.8% of the recording's scans
+    see walls in one direction only, so the verdict weighs both: it names no map whose path
+    is 3% or more shorter than another program's over the whole run and along the
+    corridors.
     >>> path_sentence({"algorithm": "x"}, ev), path_sentence({"algorithm": "icp"}, None)
     (None, None)
     """
@@ -445,14 +446,8 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     short, other = _num(e.get("shortfall")), e.get("shortfall_against")
     if not math.isfinite(short) or other is None:
         return None
-    windows = f"over the same windows of {WINDOW_S:g} s (docs/spec.md 7d)"
-    if abs(short) < 0.0005:
-        said = f"{alg}'s path travels as far as {other}'s (within 0.1%) {windows}."
-    elif short > 0:
-        said = f"{alg}'s path travels {100 * short:.1f}% less than {other}'s {windows}."
-    else:
-        said = (f"{alg}'s path travels at least {100 * abs(short):.1f}% more than every "
-                f"other program's (the nearest: {other}'s) {windows}.")
+    said = (f"{alg}'s path {_travels(short, other)} over the same windows of "
+            f"{WINDOW_S:g} s (docs/spec.md 7d).")
     share = _num(evidence.get("degenerate_share"))
     if not math.isfinite(share):
         return said + " No recording was measured, so the verdict does not weigh it."
@@ -461,8 +456,8 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
                 f"({100 * share:.1f}% see one only), so the verdict does not weigh it.")
     along = _num(e.get("corridor_shortfall"))
     if CORRIDOR_TRAVEL == "both" and math.isfinite(along):
-        return (said + f" Along the corridors, beyond their difference elsewhere, it "
-                f"travels {100 * along:.1f}% less than {e.get('corridor_shortfall_against')}'s. "
+        return (said + " Along the corridors, beyond their difference elsewhere, it "
+                f"{_travels(along, e.get('corridor_shortfall_against'))}. "
                 f"{100 * share:.1f}% of the recording's scans see walls in one direction "
                 "only, so the verdict weighs both: it names no map whose path is "
                 f"{SHORTFALL:.0%} or more shorter than another program's over the whole "
@@ -470,6 +465,25 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     return (said + f" {100 * share:.1f}% of the recording's scans see walls in one "
             "direction only, so the verdict weighs it: it names no map whose path is "
             f"{SHORTFALL:.0%} or more shorter than another program's.")
+
+
+def _travels(short: float, other: Any) -> str:
+    """How far a path travels against ``other``'s, from its shortfall (the largest over
+    the other programs, so a negative one is against the nearest of them).
+
+    Examples
+    --------
+    >>> _travels(0.036, "b"), _travels(0.0002, "b")
+    ("travels 3.6% less than b's", "travels as far as b's (within 0.1%)")
+    >>> _travels(-0.003, "b")
+    "travels at least 0.3% more than every other program's (the nearest: b's)"
+    """
+    if abs(short) < 0.0005:
+        return f"travels as far as {other}'s (within 0.1%)"
+    if short > 0:
+        return f"travels {100 * short:.1f}% less than {other}'s"
+    return (f"travels at least {100 * abs(short):.1f}% more than every other program's "
+            f"(the nearest: {other}'s)")
 
 
 def _path_block(sentence: str | None) -> str:
