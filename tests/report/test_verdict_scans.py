@@ -135,6 +135,11 @@ def test_a_map_drawn_at_drifting_poses_is_inconsistent_with_its_scans(drive: dic
     assert all(e["split_runs"] == 1 for e in ev["algorithms"].values())
     assert set(ev["splits"]) == set(ev["scans"])
     assert ev["splits"][drive["paths"]["drifted"]]["split_crossing"] == split["drifted"]
+    # how much each path's halves meet: the mean of their hit shares, a share of beams
+    hits = {a: e["split_hit"] for a, e in ev["algorithms"].items()}
+    assert all(0.0 < h < 1.0 for h in hits.values()), hits
+    figures = ev["splits"][drive["paths"]["a"]]
+    assert hits["a"] == pytest.approx((figures["hit_1"] + figures["hit_2"]) / 2)
     assert "scan_split" in v["basis"]
 
 
@@ -181,6 +186,49 @@ def test_a_path_its_scans_split_in_time_contradict_is_never_named() -> None:
                                            split={"a": 0.004, "b": 0.3, "c": 0.01}))
     assert v["best"] == "a" and v["ranking"] == ["a", "c", "b"]
     assert v["basis"] == ["scan_crossing", "scan_split"]
+
+
+def test_a_split_share_confirms_a_path_only_where_its_halves_meet() -> None:
+    """docs/spec.md section 9 (docs/validity.md, "A split share confirms a path only where
+    its halves meet"): a low split share whose halves barely meet tested little, so it
+    confirms nothing; the veto is unchanged."""
+    s = _summary(["a", "b"], [10, 20])
+    # Y's pair of gen-w496-loop-low: a's path vetoed (3.5% against 1.1%), b's low share
+    # from halves that meet on 2.7% of their beams against a's 5.5%
+    ev = _ev({"a": 0.7, "b": 0.7}, {"a": 0.037, "b": 0.031},
+             split={"a": 0.035, "b": 0.011}, hits={"a": 0.055, "b": 0.027})
+    v = sequence_verdict(s, "s", ev)
+    assert v["best"] is None
+    assert ("a is wrong on its own (its path is inconsistent with its own scans split in "
+            "time") in v["confidence"], v["confidence"]
+    assert ("but b's own scans do not confirm it (1.1% of its beams cross the walls its "
+            "scans draw in the other half of the run; its halves barely meet (2.7% of its "
+            "beams end on the walls the other half draws, against 5.5% for a's path))"
+            ) in v["confidence"], v["confidence"]
+    # at two thirds of the best-meeting path's hit share it meets: b is named
+    v = sequence_verdict(s, "s", {**ev, "algorithms": {
+        **ev["algorithms"], "b": {**ev["algorithms"]["b"], "split_hit": 0.055 / SCAN_SHARE}}})
+    assert v["best"] == "b", v["confidence"]
+    # without the hit shares (evidence cached before them) nothing changes
+    v = sequence_verdict(s, "s", _ev({"a": 0.7, "b": 0.7}, {"a": 0.037, "b": 0.031},
+                                     split={"a": 0.035, "b": 0.011}))
+    assert v["best"] == "b"
+    # the rule before 2026-12-01
+    saved, rule.SPLIT_MEET = rule.SPLIT_MEET, False
+    try:
+        assert sequence_verdict(s, "s", ev)["best"] == "b"
+    finally:
+        rule.SPLIT_MEET = saved
+    # maps that disagree, ordered by their split shares: the first's halves barely meet
+    three = _summary(list("abc"), [10, 20, 30])
+    v = sequence_verdict(three, "s", _ev({"a": 0.3, "b": 0.35, "c": 0.2},
+                                         {"a": 0.012, "b": 0.01, "c": 0.011}, majority=False,
+                                         split={"a": 0.004, "b": 0.3, "c": 0.01},
+                                         hits={"a": 0.02, "b": 0.3, "c": 0.25}))
+    assert v["best"] is None and v["ranking"] == ["a", "c", "b"]
+    assert "(the most consistent of the maps not wrong on their own, a: 0.4% of its beams" \
+        in v["confidence"] and "but its halves barely meet (2.0% of its beams" in \
+        v["confidence"], v["confidence"]
 
 
 @pytest.fixture()
@@ -286,8 +334,9 @@ def test_a_record_whose_scans_cannot_be_read_is_a_note(drive: dict, tmp_path: Pa
 def _ev(support: dict[str, float], scans: dict[str, float], *, majority: bool = True,
         defects: tuple[str, ...] = (), completeness: dict[str, float] | None = None,
         placed: bool = True, split: dict[str, float] | None = None,
-        local: dict[str, float] | None = None) -> dict:
-    split, local = split or {}, local or {}
+        local: dict[str, float] | None = None,
+        hits: dict[str, float] | None = None) -> dict:
+    split, local, hits = split or {}, local or {}, hits or {}
     return {"majority": majority, "notes": [], "group": [], "algorithms": {
         a: {"support": s, "completeness": (completeness or {}).get(a, 1.0), "placed": placed,
             "runs": 1, "flagged_runs": int(a in defects),
@@ -295,7 +344,7 @@ def _ev(support: dict[str, float], scans: dict[str, float], *, majority: bool = 
             "in_group": 0.0, "group_support": math.nan,
             "scan_crossing": scans.get(a, math.nan), "scan_runs": int(a in scans),
             "scan_split": split.get(a, math.nan), "split_runs": int(a in split),
-            "scan_local": local.get(a, math.nan)}
+            "scan_local": local.get(a, math.nan), "split_hit": hits.get(a, math.nan)}
         for a, s in support.items()}}
 
 

@@ -41,7 +41,7 @@ from slamq.sources import load_map
 from slamq.verdict.travel import path_shortfalls
 
 __all__ = ["MISSING_MIN_LENGTH", "ONE_WITNESS_A_PROGRAM", "RUNS_PER_ALGORITHM",
-           "program_support", "sequence_evidence"]
+           "program_support", "sequence_evidence", "split_hit"]
 
 #: At most this many runs of each algorithm take part in the agreement of a sequence.
 RUNS_PER_ALGORITHM = 3
@@ -131,7 +131,7 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
     dict
         ``{"algorithms": {alg: {"support", "completeness", "placed", "runs", "flagged_runs",
         "defects", "in_group", "group_support", "scan_violation", "scan_crossing", "scan_hit",
-        "scan_runs", "scan_split", "split_runs", "scan_local", "shortfall",
+        "scan_runs", "scan_split", "split_runs", "split_hit", "scan_local", "shortfall",
         "shortfall_against"}},
         "majority": bool, "group": [alg], "group_maps": [dict],
         "consistency": {path: {path: float}}, "maps": int, "notes": [str],
@@ -154,7 +154,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
         the crossing share); ``scans`` maps the path of each map scored so
         to its :meth:`~slamq.models.ScanConsistency.to_dict`. ``scan_split`` is the median
         over an algorithm's runs of their paths' split crossing share (docs/spec.md 7e; NaN,
-        and ``split_runs`` 0, when none has scans), and ``splits`` maps the path of each
+        and ``split_runs`` 0, when none has scans), ``split_hit`` the median of their
+        :func:`split_hit` (how much the halves meet), and ``splits`` maps the path of each
         map whose record was scored so to its :meth:`~slamq.models.ScanSplit.to_dict`, with
         ``local_crossing`` and ``windows`` (:func:`slamq.verdict.scans.record_local`,
         section 7f) when the rule reads them (``slamq.verdict.rule.LOCAL_RATIO`` set; off
@@ -330,6 +331,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "scan_split": finite_median([halves[k]["split_crossing"] for k in keys
                                          if k in halves]),
             "split_runs": sum(1 for k in keys if k in halves),
+            "split_hit": finite_median([split_hit(halves[k]) for k in keys
+                                        if k in halves]),
             "scan_local": finite_median([halves[k].get("local_crossing", math.nan)
                                          for k in keys if k in halves]),
             "shortfall": shortfall,
@@ -347,6 +350,22 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             "degeneracy": seen, "degenerate_share": _highest(
                 [d["degenerate_share"] for d in seen.values()]),
             "min_support": SETTINGS.min_support.default}
+
+
+def split_hit(figures: Mapping[str, Any]) -> float:
+    """How much a path's two halves meet: the mean of their hit shares (beams ending on the
+    walls the other half draws; :meth:`slamq.models.ScanSplit.to_dict`'s ``hit_1`` and
+    ``hit_2``), NaN without them.
+
+    Examples
+    --------
+    >>> split_hit({"hit_1": 0.2, "hit_2": 0.4}), split_hit({})
+    (0.30000000000000004, nan)
+    """
+    try:
+        return (float(figures["hit_1"]) + float(figures["hit_2"])) / 2
+    except (KeyError, TypeError, ValueError):
+        return math.nan
 
 
 def _split_figures(record: dict[str, Any], threads: int | None) -> dict[str, Any]:

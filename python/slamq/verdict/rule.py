@@ -22,7 +22,7 @@ from slamq.verdict.calibration import with_calibration
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "CORRIDOR_TRAVEL",
     "DEGENERATE_SHARE", "LOCAL_ANCHOR",
-    "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SCANS_ORDER_UNCOMPARABLE", "SCAN_FLOOR",
+    "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SPLIT_HIT_KEY", "SPLIT_MEET", "SCANS_ORDER_UNCOMPARABLE", "SCAN_FLOOR",
     "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL", "SPLIT_KEY",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit",
@@ -82,6 +82,17 @@ SPLIT_KEY = "scan_split"
 LOCAL_KEY = "scan_local"
 LOCAL_RATIO: float | None = None
 LOCAL_ANCHOR = "lowest"
+#: Its path's halves against each other (docs/spec.md 7e): the evidence's field of each
+#: algorithm's median split hit share (the mean of the two halves' hit shares: beams ending
+#: on the walls the other half draws).
+SPLIT_HIT_KEY = "split_hit"
+#: With ``SPLIT_MEET``, a split share confirms a path (:meth:`_Shares.confirms`) only when
+#: its program's split hit share is at least the highest of the sequence's programs so
+#: scored divided by :data:`SCAN_SHARE`: halves that barely meet (a wrong loop that never
+#: comes back over its start) test little, and their share is low for that (O1).
+#: docs/validity.md, "A split share confirms a path only where its halves meet": adopted
+#: (False: the rule before 2026-12-01).
+SPLIT_MEET = True
 #: A sequence whose recording has at least this share of scans that see walls in one
 #: direction only (docs/spec.md 7c: a corridor) gets a verdict of at most "low" without
 #: ground truth: an error along those walls is invisible to the maps' agreement and to
@@ -239,10 +250,12 @@ class _Shares(dict[str, float]):
     (7b); ``local``: the local shares (7f) of those in ``split`` that have one."""
 
     def __init__(self, values: dict[str, float], split: set[str],
-                 local: dict[str, float] | None = None) -> None:
+                 local: dict[str, float] | None = None,
+                 hits: dict[str, float] | None = None) -> None:
         super().__init__(values)
         self.split = frozenset(split) & set(values)
         self.local = {a: v for a, v in (local or {}).items() if a in self.split}
+        self.hits = {a: v for a, v in (hits or {}).items() if a in self.split}
 
     def floor(self, a: str) -> float:
         """The figure at most which ``a``'s scans confirm it: :data:`SCAN_FLOOR`, or, with
@@ -264,8 +277,40 @@ class _Shares(dict[str, float]):
         return self.local[a] if LOCAL_ANCHOR == "path" else min(self.local.values())
 
     def confirms(self, a: str) -> bool:
-        """Whether ``a``'s own scans confirm it (its figure at most :meth:`floor`)."""
-        return self[a] <= self.floor(a)
+        """Whether ``a``'s own scans confirm it: its figure at most :meth:`floor` and, with
+        :data:`SPLIT_MEET`, a split share's halves meeting (:meth:`unmet` empty)."""
+        return self[a] <= self.floor(a) and not self.unmet(a)
+
+    def unmet(self, a: str) -> str:
+        """Why ``a``'s split share cannot confirm it, "" when it can: with
+        :data:`SPLIT_MEET`, its split hit share is under the highest of those scored so
+        divided by :data:`SCAN_SHARE`.
+
+        Examples
+        --------
+        >>> s = _Shares({"a": 0.035, "b": 0.011}, {"a", "b"}, hits={"a": 0.055, "b": 0.027})
+        >>> print(s.unmet("b"))  # doctest: +NORMALIZE_WHITESPACE
+        its halves barely meet (2.7% of its beams end on the walls the other half draws,
+        against 5.5% for a's path)
+        >>> s.confirms("b"), s.unmet("a")
+        (False, '')
+        """
+        if not SPLIT_MEET or a not in self.hits or len(self.hits) < 2:
+            return ""
+        top = max(self.hits, key=lambda b: (self.hits[b], b))
+        if self.hits[a] * SCAN_SHARE >= self.hits[top]:
+            return ""
+        return (f"its halves barely meet ({_pct(self.hits[a])} of its beams end on the "
+                f"walls the other half draws, against {_pct(self.hits[top])} for {top}'s "
+                "path)")
+
+    def not_confirming(self, a: str, whose: str = "its") -> str:
+        """Why ``a``'s figure does not confirm it, as a sentence says it (``a`` not
+        confirmed)."""
+        unmet = self.unmet(a)
+        if unmet and self[a] <= self.floor(a):
+            return f"{self.said(a, whose)}, but {unmet}"
+        return f"{self.said(a, whose)}, more than {self.limit_said(a)}"
 
     def limit_said(self, a: str) -> str:
         """:meth:`floor` as a sentence says it.
@@ -329,7 +374,8 @@ def _scan_flags(info: dict[str, Any]) -> tuple[_Shares, dict[str, str]]:
                                 f"the other half of the run, the lowest "
                                 f"{_pct(min(split.values()))})")
     return _Shares({a: split.get(a, v) for a, v in crossing.items()},
-                   {a for a in crossing if a in split}, _finite(info, LOCAL_KEY)), flags
+                   {a for a in crossing if a in split}, _finite(info, LOCAL_KEY),
+                   _finite(info, SPLIT_HIT_KEY)), flags
 
 
 def one_direction_share(evidence: dict[str, Any]) -> float | None:
@@ -459,6 +505,9 @@ def _own_scans(x: str, y: str, scans: _Shares) -> str:
     same = y in scans and (y in scans.split) == (x in scans.split)
     theirs = f" ({y}'s {_pct(scans[y])})" if same else ""
     whose = f"{x}'s"
+    if scans[x] <= scans.floor(x):  # within the floor, its halves barely meet
+        return (f"; its own scans do not confirm it: {scans.said(x, whose)}{theirs}, but "
+                f"{scans.unmet(x)}")
     return (f"; its own scans do not confirm it: {scans.said(x, whose)}{theirs}, more than "
             f"the {scans.limit_said(x)} that would")
 
@@ -574,10 +623,12 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
             # (at most the other's: two runs on one path have the same split share)
             if scans.confirms(x) and scans[x] <= scans[y]:
                 return _two_maps(sequence, x, y, alone[y] or "", scans, basis, warnings)
+            unmet = scans.unmet(x) if scans[x] <= scans.floor(x) else ""
             why = (f"fewer than three maps take part: {y} is wrong on its own ({alone[y]}), "
-                   f"but {x}'s own scans do not confirm it ({scans.said(x)}; a map named "
-                   f"of two needs at most {scans.limit_said(x)} and no more than the "
-                   "other's)")
+                   f"but {x}'s own scans do not confirm it ({scans.said(x)}; "
+                   + (unmet if unmet else
+                      f"a map named of two needs at most {scans.limit_said(x)} and no "
+                      "more than the other's") + ")")
         elif named:
             why = ("fewer than three maps take part: two maps that differ cannot tell which "
                    "of them is right, and neither is wrong on its own (a defect flag, a "
@@ -738,7 +789,7 @@ def _by_scans(sequence: str, info: dict[str, Any], scans: _Shares,
                + ("(no map is inconsistent with its scans)" if not scan_flags else
                   "(every map is wrong on its own)" if alone[first] is not None else
                   f"(the most consistent of the maps not wrong on their own, {first}: "
-                  f"{scans.said(first)}, more than {scans.limit_said(first)})"))
+                  f"{scans.not_confirming(first)})"))
         return {"sequence": str(sequence), "best": None, "ranking": order, "basis": basis,
                 "confidence": f"none: {why}", "warnings": warnings}
     bad = sorted(scan_flags)
