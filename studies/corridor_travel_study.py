@@ -23,9 +23,11 @@ import pandas as pd
 import rbpf_path_study as R
 import scans_study as S
 
-WHOLE = (*R.RULE, S.WHOLE_PATH)  # the veto before 2026-11-30 ("shipped" in the tables)
-T2 = (*R.RULE, S.CORRIDOR_TRAVEL)
-T2_AND = (*R.RULE, S.CORRIDOR_AND_WHOLE)  # shipped since
+# each with the split share read as it was then (before "A split share confirms a path
+# only where its halves meet")
+WHOLE = (*R.RULE, S.WHOLE_PATH, S.SPLIT_ANYWHERE)  # the veto before 2026-11-30 ("shipped")
+T2 = (*R.RULE, S.CORRIDOR_TRAVEL, S.SPLIT_ANYWHERE)
+T2_AND = (*R.RULE, S.CORRIDOR_AND_WHOLE, S.SPLIT_ANYWHERE)  # shipped since
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -52,21 +52,28 @@ def _most_likely_runs(df: pd.DataFrame, folder: Path) -> Any:
 
 
 def most_likely_figures(df: pd.DataFrame, output: Path) -> pd.DataFrame:
-    """Each rbpf-slam map's crossing share and split share at its most likely path
-    (``output/rbpf-ml-rows.csv``, computed once)."""
+    """Each rbpf-slam map's crossing share, split share and split hit share at its most
+    likely path (``output/rbpf-ml-rows.csv``, computed once; again when it predates the
+    hit share)."""
     from slamq.sources import load_map
     from slamq.verdict.scans import record_consistency, record_split
 
+    from slamq.verdict.evidence import split_hit
+
     store = output / "rbpf-ml-rows.csv"
     if store.exists():
-        return pd.read_csv(store)
+        out = pd.read_csv(store)
+        if "split_hit_ml" in out:
+            return out
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for r, tum in _most_likely_runs(df, Path(tmp)):
             rec = {"scans": r.scans, "trajectory": str(tum), "map": r.map}
             cross = record_consistency(rec, load_map(str(r.map))).to_dict()["crossing_share"]
-            split = record_split(rec).to_dict()["split_crossing"]
-            rows.append({"map": str(r.map), "crossing_ml": cross, "split_ml": split})
+            split = record_split(rec).to_dict()
+            rows.append({"map": str(r.map), "crossing_ml": cross,
+                         "split_ml": split["split_crossing"],
+                         "split_hit_ml": split_hit(split)})
     out = pd.DataFrame(rows)
     out.to_csv(store, index=False)
     return out
@@ -106,15 +113,18 @@ def patched(cache: dict, ml: pd.DataFrame, values: dict[str, float] | None
     """The cache and split values with rbpf-slam's figures at its most likely path."""
     cross = dict(zip(ml["map"], ml["crossing_ml"]))
     split = dict(zip(ml["map"], ml["split_ml"]))
+    hits = dict(zip(ml["map"], ml["split_hit_ml"]))
     out = {}
     for key, ev in cache.items():
-        ev = dict(ev)
+        ev = S.with_split_hits(dict(ev))
         ev["scans"] = {m: ({**f, "crossing_share": cross[m]} if m in cross else f)
                        for m, f in ev.get("scans", {}).items()}
         algs = {}
         for a, e in ev["algorithms"].items():
             mine = [split[p] for p in e.get("defects", {}) if p in split]
-            algs[a] = ({**e, "scan_split": float(np.median(mine))}
+            met = [hits[p] for p in e.get("defects", {}) if p in hits]
+            algs[a] = ({**e, "scan_split": float(np.median(mine)),
+                        "split_hit": float(np.median(met))}
                        if mine and math.isfinite(e.get("scan_split", math.nan)) else e)
         ev["algorithms"] = algs
         out[key] = ev

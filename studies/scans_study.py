@@ -325,6 +325,32 @@ UNCOMPARABLE_ON, UNCOMPARABLE_OFF = "uncomparable=scans", "uncomparable=support"
 #: shortened along the corridors, not everywhere"; ``slamq.verdict.rule.CORRIDOR_TRAVEL``)
 CORRIDOR_TRAVEL, CORRIDOR_AND_WHOLE, WHOLE_PATH = "travel=corridors", "travel=both", \
     "travel=whole"
+#: A rule's tokens: a split share confirms a path only where its halves meet (O1, shipped
+#: since 2026-12-01), or wherever it is at most the floor (the rule before)
+#: (docs/validity.md, "A split share confirms a path only where its halves meet";
+#: ``slamq.verdict.rule.SPLIT_MEET``)
+SPLIT_MEET, SPLIT_ANYWHERE = "meet=split", "meet=none"
+
+
+def with_split_hits(ev: dict[str, Any]) -> dict[str, Any]:
+    """``ev`` with each program's ``split_hit`` (the median of its runs' split hit shares,
+    :func:`slamq.verdict.evidence.split_hit`) from its ``splits``, where evidence cached
+    before the field lacks it.
+
+    Examples
+    --------
+    >>> ev = {"splits": {"a1": {"hit_1": 0.1, "hit_2": 0.3}, "a2": {"hit_1": 0.3,
+    ...       "hit_2": 0.5}}, "algorithms": {"a": {"defects": {"a1": [], "a2": []}}}}
+    >>> round(with_split_hits(ev)["algorithms"]["a"]["split_hit"], 3)
+    0.3
+    """
+    from slamq.verdict.evidence import split_hit
+
+    splits = ev.get("splits", {})
+    algs = {a: e if "split_hit" in e else {**e, "split_hit": _median_of(
+        [split_hit(splits[p]) for p in e.get("defects", {}) if p in splits])}
+        for a, e in ev["algorithms"].items()}
+    return {**ev, "algorithms": algs}
 
 
 def one_witness(ev: dict[str, Any]) -> dict[str, Any]:
@@ -368,10 +394,14 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
 
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
              r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
-             r.CORRIDOR_TRAVEL)
+             r.CORRIDOR_TRAVEL, r.SPLIT_MEET)
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
+        if rule is not None:  # evidence cached before the split hit share lacks it
+            ev = with_split_hits(ev)
+            if SPLIT_MEET in rule or SPLIT_ANYWHERE in rule:
+                r.SPLIT_MEET = SPLIT_MEET in rule
         if rule is not None:
             for x in rule:
                 if x == CORNERS_TIES:  # docs/validity.md, "No clear winner by corners"
@@ -400,7 +430,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     finally:
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
          r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
-         r.CORRIDOR_TRAVEL) = saved
+         r.CORRIDOR_TRAVEL, r.SPLIT_MEET) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -596,7 +626,9 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
                  + "".join(f", travel veto {x.removeprefix('shortfall=')}" for x in rule
                            if isinstance(x, str) and x.startswith("shortfall="))
                  + "".join(f", local floor {x.removeprefix('local=')}" for x in rule
-                           if isinstance(x, str) and x.startswith("local=")))
+                           if isinstance(x, str) and x.startswith("local="))
+                 + (", split confirms without its halves meeting" if SPLIT_ANYWHERE in rule
+                    else ""))
         out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
                    f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
                    f" | {int((~named).sum())} |")
@@ -673,6 +705,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="also the travel veto on the whole path alone, the rule before "
                     "2026-11-30 (docs/validity.md, 'Paths shortened along the corridors: "
                     "measured, T2-and adopted')")
+    ap.add_argument("--split-meet", action="store_true",
+                    help="also the rule with a split share confirming a path wherever it is "
+                    "at most the floor, the rule before 2026-12-01 (docs/validity.md, 'A "
+                    "split share confirms a path only where its halves meet')")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -717,6 +753,8 @@ def main(argv: list[str] | None = None) -> int:
         rules = (*rules, (*vk, UNCOMPARABLE_OFF), (*vk, UNCOMPARABLE_ON))
     if a.whole_path:
         rules = (*rules, (*rules[-1][:2], WHOLE_PATH))
+    if a.split_meet:
+        rules = (*rules, (*rules[-1][:2], SPLIT_ANYWHERE))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

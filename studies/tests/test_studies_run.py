@@ -31,7 +31,8 @@ def test_the_studies_are_the_ones_the_readme_lists() -> None:
     assert SCRIPTS == ["bag_carmen", "benchmark_study", "canonical_sweep", "confidence_study",
                        "corridor_travel_study", "damage_study", "defects_study",
                        "gmapping_run", "rbpf_path_study",
-                       "real2d", "real2d_validity", "scans_study", "split_scans",
+                       "real2d", "real2d_validity", "scans_study", "split_meet_study",
+                       "split_scans",
                        "two_map_study", "uncomparable_study", "verdict_study",
                        "wall_symmetry"]
     assert all(f"python studies/{s}.py" in readme for s in SCRIPTS)
