@@ -202,8 +202,8 @@ def test_a_split_share_confirms_a_path_only_where_its_halves_meet() -> None:
     assert ("a is wrong on its own (its path is inconsistent with its own scans split in "
             "time") in v["confidence"], v["confidence"]
     assert ("but b's own scans do not confirm it (1.1% of its beams cross the walls its "
-            "scans draw in the other half of the run; its halves barely meet (2.7% of its "
-            "beams end on the walls the other half draws, against 5.5% for a's path))"
+            "scans draw in the other half of the run, but its halves barely meet: 2.7% of "
+            "its beams end on the walls the other half draws, against 5.5% for a's path)"
             ) in v["confidence"], v["confidence"]
     # at two thirds of the best-meeting path's hit share it meets: b is named
     v = sequence_verdict(s, "s", {**ev, "algorithms": {
@@ -227,7 +227,7 @@ def test_a_split_share_confirms_a_path_only_where_its_halves_meet() -> None:
                                          hits={"a": 0.02, "b": 0.3, "c": 0.25}))
     assert v["best"] is None and v["ranking"] == ["a", "c", "b"]
     assert "(the most consistent of the maps not wrong on their own, a: 0.4% of its beams" \
-        in v["confidence"] and "but its halves barely meet (2.0% of its beams" in \
+        in v["confidence"] and "but its halves barely meet: 2.0% of its beams" in \
         v["confidence"], v["confidence"]
 
 
@@ -509,6 +509,9 @@ def test_the_report_draws_where_a_map_contradicts_its_scans(drive: dict, tmp_pat
     split = re.search(r"<b>Its path, its scans split in time</b>: (\d+\.\d)% of the beams",
                       page)
     assert split is not None and float(split.group(1)) < 1.0, page[-3000:]
+    # and how much its halves meet, which a low split share needs to confirm the path
+    meet = re.search(r"The halves meet on (\d+\.\d)% of the beams", page)
+    assert meet is not None and 0.0 < float(meet.group(1)) < 100.0, page[-3000:]
     # the red cells lie on the ghost wall (the middle row of the map)
     (png,) = re.findall(r'<img class="layer layer-scans" src="\.\./([^"]+)"', page)
     alpha = np.asarray(Image.open(site / png).convert("RGBA"))[..., 3]

@@ -25,7 +25,7 @@ from slamq.report.formatting import format_value
 from slamq.report.markup import MapPage, page
 from slamq.report.markup import esc as _e
 from slamq.verdict.building import Timeline
-from slamq.verdict.evidence import MISSING_MIN_LENGTH
+from slamq.verdict.evidence import MISSING_MIN_LENGTH, split_hit
 from slamq.verdict.exhibits import MapExhibit, ScanExhibit
 from slamq.verdict.records import usable
 from slamq.verdict.trajectory import TrajectoryEvidence
@@ -735,6 +735,12 @@ def _split_legend(split: dict[str, Any] | None) -> str:
     if split is None or not math.isfinite(float(split.get("split_crossing", math.nan))):
         return ("<p class=\"legend split-legend\"><b>Its path, its scans split in time</b>: "
                 "could not be scored (fewer than two scans placed, or unreadable).</p>")
+    meet = ""
+    if math.isfinite(split_hit(split)):
+        meet = (f" The halves meet on {100 * split_hit(split):.1f}% of the beams (beams "
+                "ending on the walls the other half draws): a low share confirms a path only "
+                "where its halves meet at least two thirds as often as the best-meeting "
+                "path's, as a wrong loop that never comes back over its start tests little.")
     return (
         "<p class=\"legend split-legend\"><b>Its path, its scans split in time</b>: "
         f"{100 * split['split_crossing']:.1f}% of the beams cross the walls the other half "
@@ -743,7 +749,8 @@ def _split_legend(split: dict[str, Any] | None) -> str:
         f"{100 * split['crossing_2']:.1f}%; {split['tested']} scans scored; the map above "
         "is not read). A wrong path draws walls in one half that the other half's beams "
         "see through; the verdict never names a program whose path is much less "
-        "consistent than the sequence's most consistent one (docs/spec.md 7e and 9).</p>")
+        f"consistent than the sequence's most consistent one (docs/spec.md 7e and 9).{meet}"
+        "</p>")
 
 
 _MISSING_COLOUR = "#e00000"

@@ -290,8 +290,8 @@ class _Shares(dict[str, float]):
         --------
         >>> s = _Shares({"a": 0.035, "b": 0.011}, {"a", "b"}, hits={"a": 0.055, "b": 0.027})
         >>> print(s.unmet("b"))  # doctest: +NORMALIZE_WHITESPACE
-        its halves barely meet (2.7% of its beams end on the walls the other half draws,
-        against 5.5% for a's path)
+        its halves barely meet: 2.7% of its beams end on the walls the other half draws,
+        against 5.5% for a's path
         >>> s.confirms("b"), s.unmet("a")
         (False, '')
         """
@@ -300,9 +300,9 @@ class _Shares(dict[str, float]):
         top = max(self.hits, key=lambda b: (self.hits[b], b))
         if self.hits[a] * SCAN_SHARE >= self.hits[top]:
             return ""
-        return (f"its halves barely meet ({_pct(self.hits[a])} of its beams end on the "
+        return (f"its halves barely meet: {_pct(self.hits[a])} of its beams end on the "
                 f"walls the other half draws, against {_pct(self.hits[top])} for {top}'s "
-                "path)")
+                "path")
 
     def not_confirming(self, a: str, whose: str = "its") -> str:
         """Why ``a``'s figure does not confirm it, as a sentence says it (``a`` not
@@ -625,9 +625,9 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                 return _two_maps(sequence, x, y, alone[y] or "", scans, basis, warnings)
             unmet = scans.unmet(x) if scans[x] <= scans.floor(x) else ""
             why = (f"fewer than three maps take part: {y} is wrong on its own ({alone[y]}), "
-                   f"but {x}'s own scans do not confirm it ({scans.said(x)}; "
-                   + (unmet if unmet else
-                      f"a map named of two needs at most {scans.limit_said(x)} and no "
+                   f"but {x}'s own scans do not confirm it ({scans.said(x)}"
+                   + (f", but {unmet}" if unmet else
+                      f"; a map named of two needs at most {scans.limit_said(x)} and no "
                       "more than the other's") + ")")
         elif named:
             why = ("fewer than three maps take part: two maps that differ cannot tell which "
