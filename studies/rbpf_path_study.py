@@ -56,9 +56,8 @@ def most_likely_figures(df: pd.DataFrame, output: Path) -> pd.DataFrame:
     likely path (``output/rbpf-ml-rows.csv``, computed once; again when it predates the
     hit share)."""
     from slamq.sources import load_map
-    from slamq.verdict.scans import record_consistency, record_split
-
     from slamq.verdict.evidence import split_hit
+    from slamq.verdict.scans import record_consistency, record_split
 
     store = output / "rbpf-ml-rows.csv"
     if store.exists():

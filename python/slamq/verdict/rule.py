@@ -22,8 +22,9 @@ from slamq.verdict.calibration import with_calibration
 __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "CORRIDOR_TRAVEL",
     "DEGENERATE_SHARE", "LOCAL_ANCHOR",
-    "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SPLIT_HIT_KEY", "SPLIT_MEET", "SCANS_ORDER_UNCOMPARABLE", "SCAN_FLOOR",
-    "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL", "SPLIT_KEY",
+    "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SCANS_ORDER_UNCOMPARABLE", "SCAN_FLOOR",
+    "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL", "SPLIT_HIT_KEY", "SPLIT_KEY",
+    "SPLIT_MEET",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit",
     "sequence_verdict", "verdict_sentence",
