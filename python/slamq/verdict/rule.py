@@ -988,7 +988,8 @@ def rule_summary() -> str:
     within 25% of the fewest corners; of two maps, one is named when
     the other is superposed, smeared or fragmented and it carries no flag; of two maps, or
     of maps that disagree, one is also named when another is wrong on its own and its own
-    scans confirm it; where 2% or more of the recording's scans see walls in one direction
+    scans confirm it (a path's split share only where its halves meet); where 2% or more of
+    the recording's scans see walls in one direction
     only, at most low confidence, and no verdict when the map it would name has a path 3% or more
     shorter than another's over the whole run and along the corridors beyond elsewhere); with
     figures alone, by corners (no clear winner within 25%)
@@ -1009,7 +1010,9 @@ def rule_summary() -> str:
         + "; of two maps, one is named when the other is "
         f"{', '.join(SEVERE_DEFECTS[:-1])} or {SEVERE_DEFECTS[-1]} and it carries no flag; "
         "of two maps, or of maps that disagree, one is also named when another is "
-        f"wrong on its own and its own scans confirm it; where {DEGENERATE_SHARE:.0%} or "
+        "wrong on its own and its own scans confirm it"
+        + (" (a path's split share only where its halves meet)" if SPLIT_MEET else "")
+        + f"; where {DEGENERATE_SHARE:.0%} or "
         "more of the recording's scans see walls in one direction only, at most low "
         f"confidence, and no verdict when the map it would name has a path {SHORTFALL:.0%} or "
         "more shorter than another's"
