@@ -30,7 +30,10 @@ TWO_MAPS = "low (two maps)"
 #: Counted before the travel veto read the corridors (2026-11-30, docs/validity.md "Paths
 #: shortened along the corridors: measured, T2-and adopted"), which only turns vetoed
 #: verdicts into "low" ones or verdicts of two maps (3 and 3 on the sets measured with it,
-#: all right); the 22 sets it was counted on were not on hand to count again.
+#: all right); the 22 sets it was counted on were not on hand to count again. Nor was it
+#: counted again when a split share came to need its halves to meet (2026-12-01,
+#: docs/validity.md "A split share confirms a path only where its halves meet"), which only
+#: turns verdicts into abstentions (4 right and 1 broken on the 8 sets measured).
 CONFIDENCE_CALIBRATION: dict[str, tuple[int, int]] = {
     "medium": (335, 341),
     "low": (89, 91),
