@@ -284,6 +284,33 @@ def test_of_two_maps_one_flagged_on_its_own_the_other_is_named() -> None:
     assert "right; neither carries a defect flag; each map's own scans" in plain["confidence"]
 
 
+def test_doubled_walls_alone_decide_two_maps_only_with_scans_under_d1(monkeypatch) -> None:
+    """Candidate D1 of docs/validity.md ("Doubled walls alone do not decide two maps"; not
+    adopted, ``rule.MILD_DEFECTS_DECIDE`` True): with it, a flag found on sound maps too
+    names the other of two only when the other's own scans confirm it."""
+    from slamq.verdict import rule
+
+    assert rule.MILD_DEFECTS_DECIDE is True
+    monkeypatch.setattr(rule, "MILD_DEFECTS_DECIDE", False)
+    ev = _evidence({"a": 0.7, "b": 0.7}, defects=("a",), kind="doubled_walls")
+    v = agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])
+    assert v["best"] is None
+    assert ("a carries doubled_walls, which is found on sound maps too: it names b of two "
+            "only when b's own scans confirm it") in v["confidence"], v["confidence"]
+    # with their scans: b's confirm it, or do not
+    for crossing, best in ((0.01, "b"), (0.03, None)):
+        ev = _evidence({"a": 0.7, "b": 0.7}, defects=("a",), kind="doubled_walls")
+        for a, c in (("a", 0.05), ("b", crossing)):
+            ev["algorithms"][a] |= {"scan_crossing": c, "scan_runs": 1}
+        v = agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])
+        assert v["best"] == best, v["confidence"]
+        if best:
+            assert "a is wrong on its own (defects: doubled_walls" in v["confidence"]
+    # a severe kind still decides alone
+    ev = _evidence({"a": 0.7, "b": 0.7}, defects=("a",), kind="smeared")
+    assert agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])["best"] == "b"
+
+
 @pytest.mark.parametrize("kind", ["superposed", "smeared", "fragmented"])
 def test_of_two_maps_one_broken_beyond_doubt_the_other_is_named_placed_or_not(
         kind: str) -> None:

@@ -23,8 +23,8 @@ __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "CORRIDOR_TRAVEL",
     "DEGENERATE_SHARE", "LOCAL_ANCHOR",
     "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SCANS_ORDER_UNCOMPARABLE", "SCAN_FLOOR",
-    "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL", "SPLIT_HIT_KEY", "SPLIT_KEY",
-    "SPLIT_MEET",
+    "MILD_DEFECTS_DECIDE", "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL",
+    "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit",
     "sequence_verdict", "verdict_sentence",
@@ -122,6 +122,10 @@ CORRIDOR_TRAVEL: str | None = "both"
 #: an unbroken benchmark map in docs/validity.md's defect study. ``doubled_walls`` is not
 #: one: it fires on some sound maps (walls drawn as outlines, doubled graph-SLAM walls).
 SEVERE_DEFECTS = ("superposed", "smeared", "fragmented")
+#: Whether a defect flag of another kind (``doubled_walls``) on one of two placed maps names
+#: the other without its own scans confirming it. False: candidate D1 of docs/validity.md
+#: ("Doubled walls alone do not decide two maps").
+MILD_DEFECTS_DECIDE = True
 
 _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
@@ -439,6 +443,11 @@ def _defects_held(e: dict[str, Any]) -> list[str]:
     return sorted({d["kind"] for ds in e["defects"].values() for d in ds})
 
 
+def _severe(kinds: list[str]) -> bool:
+    """Whether ``kinds`` (held against a map) hold a :data:`SEVERE_DEFECTS` kind."""
+    return any(k in SEVERE_DEFECTS for k in kinds)
+
+
 def _severe_kinds(e: dict[str, Any]) -> list[str]:
     """The :data:`SEVERE_DEFECTS` found on at least half of an algorithm's runs, sorted."""
     runs = max(int(e.get("runs", 1)), 1)
@@ -526,9 +535,13 @@ def _undecided_pair(info: dict[str, Any], partial: set[str], scans: bool) -> str
         b = next(x for x in info if x != a)
         held = ([] if info[a]["placed"] and info[b]["placed"] else ["the two are not placed"]
                 ) + ([f"{b} is partial"] if b in partial else [])
-        out = (f"; {a} carries {', '.join(kinds[a])}, which decides two maps only when "
-               "both are placed and the other is not partial"
-               + (f", and {' and '.join(held)}" if held else ""))
+        if not MILD_DEFECTS_DECIDE and not _severe(kinds[a]):
+            out = (f"; {a} carries {', '.join(kinds[a])}, which is found on sound maps too: "
+                   f"it names {b} of two only when {b}'s own scans confirm it")
+        else:
+            out = (f"; {a} carries {', '.join(kinds[a])}, which decides two maps only when "
+                   "both are placed and the other is not partial"
+                   + (f", and {' and '.join(held)}" if held else ""))
     else:
         out = "; neither carries a defect flag"
     if not scans:
@@ -612,7 +625,8 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     alone = {a: _separating(a, flagged, scan_flags, partial) for a in info}
     why = None
     defect_decides = len(support) == 2 and len(candidates) == 1 and any(
-        flagged.get(a, "").startswith("defects") for a in support)
+        flagged.get(a, "").startswith("defects")
+        and (MILD_DEFECTS_DECIDE or _severe(_defects_held(info[a]))) for a in support)
     if len(support) < 3 and len(info) == 2 and len(scans) == 2 and not defect_decides:
         # two maps, each scored against its own scans (item 5 of issue 41): one is named
         # when the other is wrong on its own (vetoed by its scans, or partial) and it is
