@@ -330,6 +330,14 @@ CORRIDOR_TRAVEL, CORRIDOR_AND_WHOLE, WHOLE_PATH = "travel=corridors", "travel=bo
 #: (docs/validity.md, "A split share confirms a path only where its halves meet";
 #: ``slamq.verdict.rule.SPLIT_MEET``)
 SPLIT_MEET, SPLIT_ANYWHERE = "meet=split", "meet=none"
+#: A rule's tokens: of two placed maps, a ``doubled_walls`` flag alone on one names the
+#: other (the rule before), or only with the other's own scans confirming it (candidate D1,
+#: docs/validity.md, "Doubled walls alone do not decide two maps";
+#: ``slamq.verdict.rule.MILD_DEFECTS_DECIDE``)
+MILD_DECIDES, MILD_NEEDS_SCANS = "mild=decides", "mild=scans"
+#: A rule's token: the verdict without the scans (as rule None), with the rule's other
+#: tokens applied
+NO_SCANS = "scans=none"
 
 
 def with_split_hits(ev: dict[str, Any]) -> dict[str, Any]:
@@ -394,7 +402,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
 
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
              r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
-             r.CORRIDOR_TRAVEL, r.SPLIT_MEET)
+             r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE)
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
@@ -402,6 +410,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
             ev = with_split_hits(ev)
             if SPLIT_MEET in rule or SPLIT_ANYWHERE in rule:
                 r.SPLIT_MEET = SPLIT_MEET in rule
+            if MILD_DECIDES in rule or MILD_NEEDS_SCANS in rule:
+                r.MILD_DEFECTS_DECIDE = MILD_DECIDES in rule
         if rule is not None:
             for x in rule:
                 if x == CORNERS_TIES:  # docs/validity.md, "No clear winner by corners"
@@ -426,11 +436,12 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                 scans = {a: float(e.get(SCAN_KEY, math.nan))
                          for a, e in ev["algorithms"].items()}
                 r._corner_key = _scan_order(saved[3], scans)
-        v = sequence_verdict(summary, seq, ev if rule is not None else _without_scans(ev))
+        v = sequence_verdict(summary, seq, ev if rule is not None and NO_SCANS not in rule
+                             else _without_scans(ev))
     finally:
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
          r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
-         r.CORRIDOR_TRAVEL, r.SPLIT_MEET) = saved
+         r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
