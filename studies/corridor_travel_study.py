@@ -16,10 +16,6 @@ shares.
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
-
-import pandas as pd
 import rbpf_path_study as R
 import scans_study as S
 
@@ -31,19 +27,7 @@ T2_AND = (*R.RULE, S.CORRIDOR_AND_WHOLE, S.SPLIT_ANYWHERE)  # shipped since
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
-    ap.add_argument("output", type=Path, nargs="+", help="slamq run outputs of generated sets")
-    ap.add_argument("--pairs", action="store_true", help="the two-map cases too")
-    a = ap.parse_args(argv)
-    for pair in (False, True) if a.pairs else (False,):
-        rules = {"whole path": WHOLE, "T2": T2, "T2-and": T2_AND}
-        rows = [r for out in a.output for r in R.compare_rules(
-            out, rules, (out / "split-v300-rows.csv").exists(), pair=pair)]
-        table = pd.DataFrame(rows)
-        print(f"\n{'Pairs' if pair else 'Sequences'}:\n")
-        print(table.to_string(index=False))
-        print(table.groupby("reading").sum(numeric_only=True).to_string())
-    return 0
+    return R.comparison_main(argv, __doc__, {"whole path": WHOLE, "T2": T2, "T2-and": T2_AND})
 
 
 if __name__ == "__main__":

@@ -196,6 +196,31 @@ def compare_rules(out: Path, rules: dict[str, tuple], c2: bool, *, pair: bool = 
     return rows
 
 
+def compare_sets(outputs: list[Path], rules: dict[str, tuple], pairs: bool) -> None:
+    """:func:`compare_rules` on each of ``outputs`` (sets B-K read with their
+    ``split-v300-rows.csv``), the sequences and with ``pairs`` the pairs too: one table a
+    kind, per set and reading, and its sums per reading."""
+    for pair in (False, True) if pairs else (False,):
+        rows = [r for out in outputs for r in compare_rules(
+            out, rules, (out / "split-v300-rows.csv").exists(), pair=pair)]
+        table = pd.DataFrame(rows)
+        print(f"\n{'Pairs' if pair else 'Sequences'}:\n")
+        print(table.to_string(index=False))
+        print(table.groupby("reading").sum(numeric_only=True).to_string())
+
+
+def comparison_main(argv: list[str] | None, doc: str | None, rules: dict[str, tuple]
+                    ) -> int:
+    """A study's command line that compares ``rules`` on sets (:func:`compare_sets`): the
+    sets' outputs, and ``--pairs``."""
+    ap = argparse.ArgumentParser(description=(doc or "").split("\n\n")[0])
+    ap.add_argument("output", type=Path, nargs="+", help="slamq run outputs of generated sets")
+    ap.add_argument("--pairs", action="store_true", help="the two-map cases too")
+    a = ap.parse_args(argv)
+    compare_sets(a.output, rules, a.pairs)
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("output", type=Path)
