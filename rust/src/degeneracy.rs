@@ -45,10 +45,13 @@ impl fmt::Display for DegeneracyError {
 
 impl std::error::Error for DegeneracyError {}
 
-/// The larger and smaller eigenvalues of the symmetric matrix `[[a, c], [c, b]]`.
+/// The larger and smaller eigenvalues of the symmetric matrix `[[a, c], [c, b]]`:
+/// `h +- hypot((a - b) / 2, c)`, which does not cancel when the two are nearly equal (the
+/// form `sqrt(h^2 - (ab - c^2))` turned a last-bit difference in the sums into 1e-9 in a
+/// ratio near 1).
 fn eig(a: f64, b: f64, c: f64) -> (f64, f64) {
     let half = (a + b) / 2.0;
-    let disc = (half * half - (a * b - c * c)).max(0.0).sqrt();
+    let disc = ((a - b) / 2.0).hypot(c);
     (half + disc, half - disc)
 }
 

@@ -120,6 +120,31 @@ def test_rust_equals_the_numpy_twin(s: Scans) -> None:
     assert np.array_equal(rust[far] < DEGENERATE_RATIO, ref[far] < DEGENERATE_RATIO)
 
 
+def test_walls_facing_every_way_give_the_twin_s_ratio_to_the_last_bits() -> None:
+    """The case hypothesis found on 2026-12-01 (a wall bent round the laser, endpoints a
+    few 1e-8 m apart where the beams' angles are subnormal): the scan's two eigenvalues
+    nearly equal, where ``sqrt(h^2 - (ab - c^2))`` turned the sums' last bits into 2e-9 of
+    the ratio. ``h +- hypot((a - b) / 2, c)`` does not cancel there (docs/spec.md 7c)."""
+    angles = np.array([-3.0, -2.0, -1.96875, -1.9375, -1.875, -1.75, -1.5, -1.25, -1.0, 0.0,
+                       2.2250738585072034e-309, 1.1125369292536007e-308,
+                       2.2250738585072014e-308, 1.4492268043533640e-291,
+                       8.4121902048873266e-277, 3.0840633207843707e-275,
+                       1.0128204395817511e-203, 7.0739202478738254e-088,
+                       1.4012984643248171e-045, 0.125, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5,
+                       1.75, 2.0, 3.0])
+    ranges = np.array([[np.inf] * 6 + [
+        14.136832936675198, 3.1713577042995613, 1.8508157031747337, 0.999999963020381,
+        0.9999999470786485, 0.9999999404843926, 0.999999944402354, 0.9999999581405046,
+        0.9999999792722807, 1.0000000040651853, 1.0000000281400578, 1.0000000472445636,
+        1.0000000580042816, 1.0078637463990452, 1.03208507268142, 1.139493957598553,
+        1.366701131175915, 1.8508156992655553, 3.1713576536883736,
+        14.136832848301433] + [np.inf] * 3])
+    s = Scans(np.array([0.0]), angles, ranges, 30.0)
+    rust, ref = scan_ratios(s), scan_ratios_reference(s)
+    assert rust[0] > 0.99  # walls facing every way
+    assert abs(rust[0] - ref[0]) < 1e-12, (rust, ref)
+
+
 def test_the_twin_and_thread_counts_agree_on_a_simulated_drive() -> None:
     seq = simulate(world(5, kind="corridor"), seed=2, noise="low", laser=LaserSpec(beams=361),
                    length=30.0)

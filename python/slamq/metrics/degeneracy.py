@@ -43,9 +43,10 @@ _CHUNK = 256
 
 
 def _eig(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The larger and smaller eigenvalues of the symmetric 2 x 2 matrices [[a, c], [c, b]]."""
+    """The larger and smaller eigenvalues of the symmetric 2 x 2 matrices [[a, c], [c, b]]:
+    ``h +- hypot((a - b) / 2, c)``, which does not cancel when the two are nearly equal."""
     half = (a + b) / 2
-    disc = np.sqrt(np.maximum(half * half - (a * b - c * c), 0.0))
+    disc = np.hypot((a - b) / 2, c)
     return half + disc, half - disc
 
 
