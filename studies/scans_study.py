@@ -406,13 +406,12 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
-        if rule is not None:  # evidence cached before the split hit share lacks it
-            ev = with_split_hits(ev)
+        if rule is not None:
+            ev = with_split_hits(ev)  # evidence cached before the split hit share lacks it
             if SPLIT_MEET in rule or SPLIT_ANYWHERE in rule:
                 r.SPLIT_MEET = SPLIT_MEET in rule
             if MILD_DECIDES in rule or MILD_NEEDS_SCANS in rule:
                 r.MILD_DEFECTS_DECIDE = MILD_DECIDES in rule
-        if rule is not None:
             for x in rule:
                 if x == CORNERS_TIES:  # docs/validity.md, "No clear winner by corners"
                     r.SCANS_BREAK_TIES = False

@@ -735,9 +735,9 @@ def _split_legend(split: dict[str, Any] | None) -> str:
     if split is None or not math.isfinite(float(split.get("split_crossing", math.nan))):
         return ("<p class=\"legend split-legend\"><b>Its path, its scans split in time</b>: "
                 "could not be scored (fewer than two scans placed, or unreadable).</p>")
-    meet = ""
-    if math.isfinite(split_hit(split)):
-        meet = (f" The halves meet on {100 * split_hit(split):.1f}% of the beams (beams "
+    meet, hit = "", split_hit(split)
+    if math.isfinite(hit):
+        meet = (f" The halves meet on {100 * hit:.1f}% of the beams (beams "
                 "ending on the walls the other half draws): a low share confirms a path only "
                 "where its halves meet at least two thirds as often as the best-meeting "
                 "path's, as a wrong loop that never comes back over its start tests little.")

@@ -287,9 +287,10 @@ class _Shares(dict[str, float]):
         return self[a] <= self.floor(a) and not self.unmet(a)
 
     def unmet(self, a: str) -> str:
-        """Why ``a``'s split share cannot confirm it, "" when it can: with
-        :data:`SPLIT_MEET`, its split hit share is under the highest of those scored so
-        divided by :data:`SCAN_SHARE`.
+        """Why ``a``'s split share, at most :meth:`floor`, still cannot confirm it ("" when
+        it can, or when the figure is above the floor anyway): with :data:`SPLIT_MEET`, its
+        split hit share is under the highest of those scored so divided by
+        :data:`SCAN_SHARE`.
 
         Examples
         --------
@@ -300,7 +301,8 @@ class _Shares(dict[str, float]):
         >>> s.confirms("b"), s.unmet("a")
         (False, '')
         """
-        if not SPLIT_MEET or a not in self.hits or len(self.hits) < 2:
+        if (not SPLIT_MEET or a not in self.hits or len(self.hits) < 2
+                or self[a] > self.floor(a)):
             return ""
         top = max(self.hits, key=lambda b: (self.hits[b], b))
         if self.hits[a] * SCAN_SHARE >= self.hits[top]:
@@ -312,8 +314,7 @@ class _Shares(dict[str, float]):
     def not_confirming(self, a: str, whose: str = "its") -> str:
         """Why ``a``'s figure does not confirm it, as a sentence says it (``a`` not
         confirmed)."""
-        unmet = self.unmet(a)
-        if unmet and self[a] <= self.floor(a):
+        if unmet := self.unmet(a):
             return f"{self.said(a, whose)}, but {unmet}"
         return f"{self.said(a, whose)}, more than {self.limit_said(a)}"
 
@@ -515,9 +516,9 @@ def _own_scans(x: str, y: str, scans: _Shares) -> str:
     same = y in scans and (y in scans.split) == (x in scans.split)
     theirs = f" ({y}'s {_pct(scans[y])})" if same else ""
     whose = f"{x}'s"
-    if scans[x] <= scans.floor(x):  # within the floor, its halves barely meet
+    if unmet := scans.unmet(x):  # within the floor, its halves barely meet
         return (f"; its own scans do not confirm it: {scans.said(x, whose)}{theirs}, but "
-                f"{scans.unmet(x)}")
+                f"{unmet}")
     return (f"; its own scans do not confirm it: {scans.said(x, whose)}{theirs}, more than "
             f"the {scans.limit_said(x)} that would")
 
@@ -638,7 +639,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
             # (at most the other's: two runs on one path have the same split share)
             if scans.confirms(x) and scans[x] <= scans[y]:
                 return _two_maps(sequence, x, y, alone[y] or "", scans, basis, warnings)
-            unmet = scans.unmet(x) if scans[x] <= scans.floor(x) else ""
+            unmet = scans.unmet(x)
             why = (f"fewer than three maps take part: {y} is wrong on its own ({alone[y]}), "
                    f"but {x}'s own scans do not confirm it ({scans.said(x)}"
                    + (f", but {unmet}" if unmet else
