@@ -40,10 +40,13 @@ KINDS: dict[str, str] = {
     "mixed": "an office whose rooms are mixed with a hall, diagonal walls, pillars and glass",
     "hexagonal": "a hexagonal building: a hexagonal hall ringed by six rooms, every wall at "
                  "0, 60 or 120 degrees (not rectilinear; not in the default cycle)",
+    "wing": "an office block and a wing of rooms along a corridor turned 25-55 degrees "
+            "against it, joined by a lobby: two wall directions in different places, as in "
+            "buildings grown in parts (not in the default cycle)",
 }
 
 #: The kinds an integer ``worlds`` count cycles through: the six the verdict was tuned and
-#: tested on. Kinds added later (``hexagonal``) are chosen by name, so that a benchmark
+#: tested on. Kinds added later (``hexagonal``, ``wing``) are chosen by name, so that a benchmark
 #: written as ``worlds: 20`` keeps generating the same worlds.
 DEFAULT_KINDS: tuple[str, ...] = ("office", "loop", "corridor", "hall", "symmetric", "mixed")
 
@@ -444,13 +447,110 @@ def _hexagonal(p: _Plan, rng: np.random.Generator) -> None:
     p.features += ["hexagonal", "not rectilinear"] + (["loop"] if closed < 0 else [])
 
 
+def _wing(p: _Plan, rng: np.random.Generator) -> None:
+    """An office block (a corridor between two rows of rooms) whose corridor runs on,
+    through a lobby, into a wing turned 25-55 degrees against the block: a corridor with
+    rooms on both sides (the side that faces the block only where it is clear of it)."""
+    W, H = p.width, p.height
+    cw = _u(rng, 1.8, 2.2)
+    d1, d2 = _u(rng, 4.0, 5.0), _u(rng, 4.0, 5.0)
+    wm = _u(rng, 0.36, 0.44) * W
+    hm = min(d1 + cw + d2, 0.7 * H)
+    yc = d1 * (hm - cw) / (d1 + d2)
+    # the block: outer walls (open where the corridor leaves it east), two rows of rooms
+    p.add_floor(0, 0, wm, hm)
+    p.hwall(0, 0, wm)
+    p.hwall(hm, 0, wm)
+    p.vwall(0, 0, hm)
+    p.vwall(wm, 0, yc)
+    p.vwall(wm, yc + cw, hm)
+    p.hwall(yc, 0, wm)
+    p.hwall(yc + cw, 0, wm)
+    p.room("corridor", 0, yc, wm, yc + cw)
+    _rooms_along(p, rng, 0, wm, 0, yc, yc, "south", widths=(3.0, 5.0), furniture=2,
+                 links=0.3)
+    _rooms_along(p, rng, 0, wm, yc + cw, hm, yc + cw, "north", widths=(3.0, 5.0),
+                 furniture=2, links=0.3)
+    # the wing's frame: u along its corridor from (x0, y0), v across it
+    theta = math.radians(_u(rng, 25.0, 55.0))
+    cu, su = math.cos(theta), math.sin(theta)
+    gap = _u(rng, 1.2, 1.8)
+    x0, y0 = wm + gap, yc + cw / 2
+
+    def at(u: float, v: float) -> tuple[float, float]:
+        return x0 + u * cu - v * su, y0 + u * su + v * cu
+
+    def inside(u: float, v: float) -> bool:
+        x, y = at(u, v)
+        return 0.3 <= x <= W - 0.3 and 0.3 <= y <= H - 0.3
+
+    def fill(u0: float, v0: float, u1: float, v1: float) -> None:
+        X, Y = p.xs[None, :] - x0, p.ys[:, None] - y0
+        u, v = X * cu + Y * su, -X * su + Y * cu
+        p.floor |= (u >= u0) & (u <= u1) & (v >= v0) & (v <= v1)
+
+    half = cw / 2
+    depth, length = _u(rng, 3.5, 4.5), 0.0
+    for _ in range(8):
+        # the side facing the block starts where its rooms clear the block's east wall
+        start = max(0.0, ((half + depth) * su - gap + 0.3) / cu)
+        length = next((L for L in np.arange(16.0, 6.5, -0.5)
+                       if all(inside(L, v) for v in (-half - depth, half + depth))
+                       and inside(start, half + depth)), 0.0)
+        if length:
+            break
+        depth -= 0.25
+    if not length:
+        raise SlamqError(f"a wing world needs a larger building than {W} x {H} m")
+    # the lobby between the block's corridor and the wing's
+    (ax, ay), (bx, by) = (wm, yc), (wm, yc + cw)
+    (cx, cy), (dx, dy) = at(0, half), at(0, -half)
+    X, Y = p.xs[None, :], p.ys[:, None]
+    quad = [(ax, ay), (dx, dy), (cx, cy), (bx, by)]
+    lobby = np.ones(p.floor.shape, bool)
+    for (qx, qy), (rx, ry) in zip(quad, quad[1:] + quad[:1]):
+        lobby &= (rx - qx) * (Y - qy) - (ry - qy) * (X - qx) >= 0
+    p.floor |= lobby
+    p.segment((ax, ay), (dx, dy))
+    p.segment((bx, by), (cx, cy))
+    p.room("lobby", wm, yc, wm + gap, yc + cw)
+    # the wing's corridor and its rooms
+    fill(0, -half, length, half)
+    p.segment(at(length, -half - depth), at(length, half + depth))
+    for k, u in enumerate((0.25 * length, 0.85 * length)):
+        mx, my = at(u, 0)
+        p.room(f"wing corridor{k}", mx - 0.6, my - 0.6, mx + 0.6, my + 0.6)
+    for side, u_first in ((-1, 0.0), (1, start)):
+        v_wall, v_out = side * half, side * (half + depth)
+        fill(u_first, min(v_wall, v_out), length, max(v_wall, v_out))
+        if u_first > 0:
+            p.segment(at(0, v_wall), at(u_first, v_wall))
+        p.segment(at(u_first, v_out), at(length, v_out))
+        cuts = [u_first + c for c in _split(rng, length - u_first, 3.0, 5.0)]
+        for i, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
+            p.segment(at(a, v_wall), at(a, v_out))
+            p.segment(at(a, v_wall), at(b, v_wall))
+            p.segment_door(at(a, v_wall), at(b, v_wall), _u(rng, 0.35, 0.65))
+            mx, my = at((a + b) / 2, (v_wall + v_out) / 2)
+            p.room(f"wing{'sn'[side > 0]}{i}", mx - 0.8, my - 0.8, mx + 0.8, my + 0.8)
+    if rng.random() < 0.5:
+        # the same building seen from the other side: the wing turned the other way
+        for a in (p.floor, p.wall, p.glass):
+            a[:] = a[::-1].copy()
+        top = p.h * p.res - 2 * MARGIN
+        p.rooms = [dict(r, box=[r["box"][0], round(top - r["box"][3], 3), r["box"][2],
+                                round(top - r["box"][1], 3)]) for r in p.rooms]
+        p.doors = [(x, top - y) for x, y in p.doors]
+    p.features += ["wing", "not rectilinear", "corridor"]
+
+
 _MAKERS = {"office": _office, "loop": _loop, "corridor": _corridor, "hall": _hall,
            "symmetric": _symmetric, "mixed": lambda p, r: _office(p, r, mixed=True),
-           "hexagonal": _hexagonal}
+           "hexagonal": _hexagonal, "wing": _wing}
 #: Each kind's place in its worlds' seed (the six first kinds sorted, then later kinds in
 #: the order they were added), fixed so that adding a kind changes no existing world.
-_SEED_INDEX = {k: i for i, k in enumerate(sorted(DEFAULT_KINDS) + ["hexagonal"])}
-_SIZES = {"corridor": (30.0, 9.0)}
+_SEED_INDEX = {k: i for i, k in enumerate(sorted(DEFAULT_KINDS) + ["hexagonal", "wing"])}
+_SIZES = {"corridor": (30.0, 9.0), "wing": (26.0, 18.0)}
 
 
 def world(seed: int = 0, *, kind: str = "office", size: tuple[float, float] | None = None,
@@ -463,10 +563,10 @@ def world(seed: int = 0, *, kind: str = "office", size: tuple[float, float] | No
         The same seed, kind, size and resolution give the same world, cell for cell.
     kind : str
         One of :data:`KINDS` (``"office"``, ``"loop"``, ``"corridor"``, ``"hall"``,
-        ``"symmetric"``, ``"mixed"``, ``"hexagonal"``).
+        ``"symmetric"``, ``"mixed"``, ``"hexagonal"``, ``"wing"``).
     size : (float, float), optional
         The building's width and height, metres (default 20 x 15; 30 x 9 for
-        ``"corridor"``); at least 8 x 6.
+        ``"corridor"``, 26 x 18 for ``"wing"``); at least 8 x 6.
     resolution : float, default 0.05
         Metres per cell.
 
