@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import math
+import re
 import sys
 import time
 from pathlib import Path
@@ -338,6 +339,42 @@ MILD_DECIDES, MILD_NEEDS_SCANS = "mild=decides", "mild=scans"
 #: A rule's token: the verdict without the scans (as rule None), with the rule's other
 #: tokens applied
 NO_SCANS = "scans=none"
+#: A rule's tokens: a ``superposed`` flag another program's map shares (the same second
+#: wall direction) is lifted (candidate S1), or every flag held as found (the rule before)
+#: (docs/validity.md, "A second generator the rule was not tuned on: wing worlds";
+#: ``slamq.verdict.rule.SHARED_DIRECTION``)
+DIR_SHARED, DIR_OWN = "dir=shared", "dir=own"
+
+_SEPARATION = re.compile(r"second wall direction ([-\d.]+) deg beside ([-\d.]+) deg "
+                         r"\(mod (\d+)\)")
+
+
+def with_separations(ev: dict[str, Any]) -> dict[str, Any]:
+    """``ev`` with each ``superposed`` flag's ``separation`` (degrees between its two wall
+    directions, folded to at most half the period) read from its note, where evidence
+    cached before the field lacks it.
+
+    Examples
+    --------
+    >>> note = "second wall direction 59.2 deg beside 0.2 deg (mod 90): 0.99 of the main"
+    >>> ev = {"algorithms": {"a": {"defects": {"m": [{"kind": "superposed", "note": note}]}}}}
+    >>> with_separations(ev)["algorithms"]["a"]["defects"]["m"][0]["separation"]
+    31.0
+    """
+    def fill(d: dict[str, Any]) -> dict[str, Any]:
+        if d.get("kind") != "superposed" or "separation" in d:
+            return d
+        m = _SEPARATION.search(d.get("note", ""))
+        if m is None:
+            return d
+        a2, a1, period = float(m[1]), float(m[2]), float(m[3])
+        turn = abs(a2 - a1) % period
+        return {**d, "separation": round(min(turn, period - turn), 2)}
+
+    algs = {a: {**e, "defects": {p: [fill(d) for d in ds]
+                                 for p, ds in e.get("defects", {}).items()}}
+            for a, e in ev["algorithms"].items()}
+    return {**ev, "algorithms": algs}
 
 
 def with_split_hits(ev: dict[str, Any]) -> dict[str, Any]:
@@ -402,7 +439,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
 
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
              r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
-             r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE)
+             r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION)
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
@@ -412,6 +449,9 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                 r.SPLIT_MEET = SPLIT_MEET in rule
             if MILD_DECIDES in rule or MILD_NEEDS_SCANS in rule:
                 r.MILD_DEFECTS_DECIDE = MILD_DECIDES in rule
+            if DIR_SHARED in rule or DIR_OWN in rule:
+                r.SHARED_DIRECTION = DIR_SHARED in rule
+                ev = with_separations(ev)
             for x in rule:
                 if x == CORNERS_TIES:  # docs/validity.md, "No clear winner by corners"
                     r.SCANS_BREAK_TIES = False
@@ -440,7 +480,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     finally:
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
          r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
-         r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE) = saved
+         r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,

@@ -32,7 +32,8 @@ def test_the_studies_are_the_ones_the_readme_lists() -> None:
                        "corridor_travel_study", "damage_study", "defects_study",
                        "doubled_pairs_study",
                        "gmapping_run", "rbpf_path_study",
-                       "real2d", "real2d_validity", "scans_study", "split_meet_study",
+                       "real2d", "real2d_validity", "scans_study",
+                       "shared_direction_study", "split_meet_study",
                        "split_scans",
                        "two_map_study", "uncomparable_study", "verdict_study",
                        "wall_symmetry"]

@@ -311,6 +311,42 @@ def test_doubled_walls_alone_decide_two_maps_only_with_scans_under_d1(monkeypatc
     assert agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])["best"] == "b"
 
 
+def test_a_second_direction_two_programs_draw_is_the_buildings_under_s1(monkeypatch) -> None:
+    """Candidate S1 of docs/validity.md ("A second generator the rule was not tuned on:
+    wing worlds"; ``rule.SHARED_DIRECTION``): a ``superposed`` flag is lifted when another
+    program's map carries one at the same separation (within 3 degrees), kept otherwise."""
+    from slamq.verdict import rule
+
+    def wing(seps: dict) -> dict:
+        ev = _evidence({"a": 0.9, "b": 0.88, "c": 0.85}, defects=tuple(seps))
+        for a, sep in seps.items():
+            ev["algorithms"][a]["defects"][f"{a}.pgm"][0]["separation"] = sep
+        return ev
+
+    cols = {"algorithm": list("abc"), "corners": [100, 200, 300]}
+    # the rule as shipped: every map flagged, no name
+    ev = wing({"a": 31.0, "b": 32.5, "c": 31.5})
+    assert agreement_verdict(ev, **cols)["best"] is None
+    monkeypatch.setattr(rule, "SHARED_DIRECTION", True)
+    v = agreement_verdict(ev, **cols)
+    assert v["best"] == "a", v["confidence"]          # fewest corners, no flag held
+    assert any(w.startswith("a's second wall direction (31 deg from the first) is drawn by "
+                            "b's map too: the building's") for w in v["warnings"])
+    # one program's own direction (a jump by its own angle) stays held against it
+    v = agreement_verdict(wing({"a": 31.0, "b": 12.0}), **cols)
+    assert v["best"] == "c" and any("a is never named best: defects: superposed" in w
+                                    for w in v["warnings"]), v["warnings"]
+    v = agreement_verdict(wing({"a": 31.0, "b": 34.5}), **cols)   # 3.5 degrees apart
+    assert v["best"] == "c"
+    # a flag of another kind on the same map stays
+    ev = wing({"a": 31.0, "b": 31.0})
+    ev["algorithms"]["a"]["defects"]["a.pgm"].append({"kind": "smeared", "score": 1.0,
+                                                      "bbox": [0, 0, 1, 1], "note": ""})
+    v = agreement_verdict(ev, **cols)
+    assert v["best"] == "b" and any("a is never named best: defects: smeared" in w
+                                    for w in v["warnings"]), v["warnings"]
+
+
 @pytest.mark.parametrize("kind", ["superposed", "smeared", "fragmented"])
 def test_of_two_maps_one_broken_beyond_doubt_the_other_is_named_placed_or_not(
         kind: str) -> None:

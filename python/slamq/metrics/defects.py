@@ -83,12 +83,17 @@ class Defect:
         ``(x, y)`` of the box's centre in the map frame, metres.
     note : str
         One line for people: what was seen, with the numbers.
+    separation : float or None
+        ``superposed`` only: degrees between the second wall direction and the first,
+        folded to ``[0, period / 2]`` (0-45 degrees, 0-30 for a hexagonal map); the same
+        for any turn of the map, so two maps' flags can be compared. None for the other
+        kinds.
 
     Examples
     --------
     >>> d = Defect("fragmented", 0.4, (0, 0, 10, 20), (0.25, 0.5), "2 pieces")
-    >>> d.to_dict()["bbox"], d.to_dict()["kind"]
-    ([0, 0, 10, 20], 'fragmented')
+    >>> d.to_dict()["bbox"], d.to_dict()["kind"], "separation" in d.to_dict()
+    ([0, 0, 10, 20], 'fragmented', False)
     """
 
     kind: str
@@ -96,13 +101,19 @@ class Defect:
     bbox: tuple[int, int, int, int]
     where_m: tuple[float, float]
     note: str
+    separation: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """``{"kind", "score", "bbox", "where_m", "note"}`` with plain lists and floats."""
+        """``{"kind", "score", "bbox", "where_m", "note"}`` with plain lists and floats,
+        and ``"separation"`` when there is one."""
         d = asdict(self)
         d["bbox"] = [int(v) for v in self.bbox]
         d["where_m"] = [float(v) for v in self.where_m]
         d["score"] = float(self.score)
+        if self.separation is None:
+            del d["separation"]
+        else:
+            d["separation"] = float(self.separation)
         return d
 
 
@@ -373,7 +384,8 @@ def superposed(m: OccupancyMap, *,
     -------
     list of Defect
         At most one: score = the second direction's share of the first's peak, the box
-        around the tiles where both directions meet.
+        around the tiles where both directions meet, ``separation`` the degrees between
+        the two directions (folded to at most half the period).
 
     Examples
     --------
@@ -406,7 +418,9 @@ def superposed(m: OccupancyMap, *,
     note = (f"second wall direction {ev['a2']:.1f} deg beside {ev['a1']:.1f} deg "
             f"(mod {period:g}): "
             f"{ev['share']:.2f} of the main peak, {ev['length']:.1f} m of wall, {how}")
-    return [Defect("superposed", round(ev["share"], 4), bbox, _where(m, bbox), note)]
+    turn = abs(ev["a2"] - ev["a1"]) % period
+    return [Defect("superposed", round(ev["share"], 4), bbox, _where(m, bbox), note,
+                   separation=round(min(turn, period - turn), 2))]
 
 
 def _superposed_evidence(occ: np.ndarray, res: float, sep: float, period: float = 90.0

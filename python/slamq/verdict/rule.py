@@ -23,7 +23,8 @@ __all__ = [
     "AGREEMENT_SHARE", "COMPLETE_SHARE", "CLEAR_MARGIN", "CORRIDOR_TRAVEL",
     "DEGENERATE_SHARE", "LOCAL_ANCHOR",
     "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SCANS_ORDER_UNCOMPARABLE", "SCAN_FLOOR",
-    "MILD_DEFECTS_DECIDE", "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHORTFALL",
+    "MILD_DEFECTS_DECIDE", "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHARED_DIRECTION",
+    "SHARED_DIRECTION_DEG", "SHORTFALL",
     "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit",
@@ -126,6 +127,15 @@ SEVERE_DEFECTS = ("superposed", "smeared", "fragmented")
 #: the other without its own scans confirming it. False: candidate D1 of docs/validity.md
 #: ("Doubled walls alone do not decide two maps").
 MILD_DEFECTS_DECIDE = True
+#: Whether a ``superposed`` flag is lifted from a map when another program's map of the
+#: sequence carries one with the same second wall direction (separations within
+#: :data:`SHARED_DIRECTION_DEG`): a direction two programs draw at the same angle is the
+#: building's (a wing), not a scan-matching jump. Candidate S1 of docs/validity.md ("A
+#: second generator the rule was not tuned on: wing worlds").
+SHARED_DIRECTION = False
+#: Degrees within which two maps' second wall directions are the same: the superposed
+#: detector's own resolution (walls turned by less than about 5 degrees are not told apart).
+SHARED_DIRECTION_DEG = 3.0
 
 _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
@@ -436,6 +446,41 @@ def _separating(a: str, flagged: dict[str, str], scan_flags: dict[str, str],
     return "; ".join(reasons) or None
 
 
+def _separations(e: dict[str, Any]) -> list[float]:
+    """The second-direction separations (degrees) of an algorithm's ``superposed`` flags."""
+    return [float(d["separation"]) for ds in e.get("defects", {}).values() for d in ds
+            if d.get("kind") == "superposed" and d.get("separation") is not None]
+
+
+def _building_directions(info: dict[str, Any], warnings: list[str]) -> dict[str, Any]:
+    """``info`` with the ``superposed`` flags that another program's map shares lifted
+    (:data:`SHARED_DIRECTION`): a flag whose separation is within
+    :data:`SHARED_DIRECTION_DEG` of a ``superposed`` flag of another entry is dropped, and
+    the entry's ``flagged_runs`` counted again; a warning says which and why."""
+    if not SHARED_DIRECTION:
+        return info
+    seps = {a: _separations(e) for a, e in info.items()}
+    out = dict(info)
+    for a, mine in seps.items():
+        def shared(v: float, a: str = a) -> str | None:
+            return next((b for b in sorted(seps) if b != a and any(
+                abs(v - w) <= SHARED_DIRECTION_DEG for w in seps[b])), None)
+
+        lifted = {v: b for v in mine if (b := shared(v)) is not None}
+        if not lifted:
+            continue
+        e = info[a]
+        defects = {path: [d for d in ds if not (d.get("kind") == "superposed"
+                                                and d.get("separation") in lifted)]
+                   for path, ds in e.get("defects", {}).items()}
+        out[a] = dict(e, defects=defects,
+                      flagged_runs=sum(1 for ds in defects.values() if ds))
+        v, b = next(iter(lifted.items()))
+        warnings.append(f"{a}'s second wall direction ({v:.0f} deg from the first) is drawn "
+                        f"by {b}'s map too: the building's, not held against it")
+    return out
+
+
 def _defects_held(e: dict[str, Any]) -> list[str]:
     """The defect kinds held against an algorithm (``e``: its evidence entry): every kind
     found on its runs when at least half of them carry a flag; none otherwise."""
@@ -556,6 +601,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     own scans."""
     info = {str(a): e for a, e in evidence["algorithms"].items() if a in block.index}
     warnings.extend(evidence.get("notes", []))
+    info = _building_directions(info, warnings)
     flagged: dict[str, str] = {}
     for a, e in info.items():
         if not e["placed"]:

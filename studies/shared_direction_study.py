@@ -1,0 +1,42 @@
+"""A second wall direction another program's map draws too is the building's (candidate S1
+of docs/validity.md, "A second generator the rule was not tuned on: wing worlds";
+``slamq.verdict.rule.SHARED_DIRECTION``), beside the rule as shipped, on the generated sets
+at both readings of rbpf-slam (its particles' mean path, and the path its map is drawn
+at), with and without the maps' own scans.
+
+Usage (from the repository's root; each set's evidence cached by ``scans_study.py``, and
+``rbpf_path_study.py OUTPUT --travel`` run once for the map's path)::
+
+    PYTHONPATH=studies python studies/shared_direction_study.py studies/scans-benchmark-ac-runs ...
+
+Prints, per set and reading, the sequences (and with ``--pairs`` the pairs) in the ATE
+top two (the better of two) and the broken runs named under each rule, and every verdict
+S1 changes.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import rbpf_path_study as R
+import scans_study as S
+
+SHIPPED = (*R.RULE, S.CORRIDOR_AND_WHOLE, S.SPLIT_MEET)
+RULES = {"shipped": (*SHIPPED, S.DIR_OWN), "S1": (*SHIPPED, S.DIR_SHARED)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    ap.add_argument("output", type=Path, nargs="+", help="slamq run outputs of generated sets")
+    ap.add_argument("--pairs", action="store_true", help="the two-map cases too")
+    a = ap.parse_args(argv)
+    for scans in (True, False):
+        print(f"\n## {'With' if scans else 'Without'} the maps' own scans")
+        R.compare_sets(a.output, {n: r if scans else (*r, S.NO_SCANS)
+                                  for n, r in RULES.items()}, a.pairs)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
