@@ -678,6 +678,8 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
                  + "".join(f", local floor {x.removeprefix('local=')}" for x in rule
                            if isinstance(x, str) and x.startswith("local="))
                  + (", split confirms without its halves meeting" if SPLIT_ANYWHERE in rule
+                    else "")
+                 + (", a second direction another program draws lifted" if DIR_SHARED in rule
                     else ""))
         out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
                    f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
@@ -759,6 +761,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="also the rule with a split share confirming a path wherever it is "
                     "at most the floor, the rule before 2026-12-01 (docs/validity.md, 'A "
                     "split share confirms a path only where its halves meet')")
+    ap.add_argument("--shared-direction", action="store_true",
+                    help="also the rule with a superposed flag lifted where another "
+                    "program's map draws the same second direction (docs/validity.md, 'A "
+                    "second generator the rule was not tuned on: wing worlds')")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -805,6 +811,8 @@ def main(argv: list[str] | None = None) -> int:
         rules = (*rules, (*rules[-1][:2], WHOLE_PATH))
     if a.split_meet:
         rules = (*rules, (*rules[-1][:2], SPLIT_ANYWHERE))
+    if a.shared_direction:
+        rules = (*rules, (*rules[-1][:2], DIR_SHARED))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

@@ -59,3 +59,19 @@ def test_two_maps_are_not_enough_and_the_verdict_says_why(tmp_path: Path) -> Non
     v = json.loads(r.stdout)["verdict"]
     assert v["best"] is None and "fewer than three maps" in v["confidence"]
     assert "no algorithm is named best" in r.stderr
+
+
+def test_a_wing_two_maps_draw_is_the_buildings_in_the_table(tmp_path: Path) -> None:
+    """docs/spec.md section 9: a second wall direction another map draws too (a wing) is
+    not held against either map, and the table and a note say so."""
+    from slamq.synth import save_world, world
+
+    w = world(534, kind="wing", resolution=0.1)
+    paths = [str(save_world(w, tmp_path / f"{name}.yaml")) for name in ("a", "b")]
+    r = slamq("verdict", *paths)
+    assert r.returncode == 0, r.stderr
+    rows = [ln for ln in r.stdout.splitlines() if ln.split()[:1] in (["1"], ["2"], ["-"])]
+    assert len(rows) == 2 and all(ln.endswith("superposed (the building's)") for ln in rows), \
+        r.stdout
+    assert "second wall direction (31 deg from the first) is drawn by" in r.stdout
+    assert "never named best: defects: superposed" not in r.stdout

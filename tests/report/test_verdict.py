@@ -311,10 +311,11 @@ def test_doubled_walls_alone_decide_two_maps_only_with_scans_under_d1(monkeypatc
     assert agreement_verdict(ev, algorithm=["a", "b"], corners=[5, 50])["best"] == "b"
 
 
-def test_a_second_direction_two_programs_draw_is_the_buildings_under_s1(monkeypatch) -> None:
-    """Candidate S1 of docs/validity.md ("A second generator the rule was not tuned on:
-    wing worlds"; ``rule.SHARED_DIRECTION``): a ``superposed`` flag is lifted when another
-    program's map carries one at the same separation (within 3 degrees), kept otherwise."""
+def test_a_second_direction_two_programs_draw_is_the_buildings(monkeypatch) -> None:
+    """S1 of docs/validity.md ("A second generator the rule was not tuned on: wing
+    worlds"; adopted, ``rule.SHARED_DIRECTION``): a ``superposed`` flag is lifted when
+    another program's map carries one at the same separation (within 3 degrees), kept
+    otherwise."""
     from slamq.verdict import rule
 
     def wing(seps: dict) -> dict:
@@ -324,8 +325,10 @@ def test_a_second_direction_two_programs_draw_is_the_buildings_under_s1(monkeypa
         return ev
 
     cols = {"algorithm": list("abc"), "corners": [100, 200, 300]}
-    # the rule as shipped: every map flagged, no name
+    # the rule before: every map flagged, no name
+    assert rule.SHARED_DIRECTION is True
     ev = wing({"a": 31.0, "b": 32.5, "c": 31.5})
+    monkeypatch.setattr(rule, "SHARED_DIRECTION", False)
     assert agreement_verdict(ev, **cols)["best"] is None
     monkeypatch.setattr(rule, "SHARED_DIRECTION", True)
     v = agreement_verdict(ev, **cols)

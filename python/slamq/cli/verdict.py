@@ -109,15 +109,21 @@ def _fmt(x: Any, digits: int = 2) -> str:
 def _print(result: dict[str, Any], out: Any) -> None:
     """The maps in the verdict's order: rank, support, completeness, crossing share, the
     path's split crossing share (docs/spec.md 7e), how much shorter the map's path is than
-    another's at most (7d), corners, flags."""
+    another's at most (7d), corners, flags ("superposed (the building's)": lifted by
+    docs/spec.md section 9)."""
+    from slamq.verdict.rule import shared_directions, superposed_separations
+
     v, ev = result["verdict"], result["evidence"]
     info = ev["algorithms"] if ev else {}
+    building = shared_directions(info)
     rows = [("rank", "map", "support", "complete", "crossing", "split", "short", "corners",
              "canonical", "flags")]
     order = list(v["ranking"]) + sorted(set(result["maps"]) - set(v["ranking"]))
     for i, name in enumerate(order, 1):
         e = info.get(name, {})
         kinds = sorted({d["kind"] for ds in e.get("defects", {}).values() for d in ds})
+        if "superposed" in kinds and set(superposed_separations(e)) <= set(building.get(name, {})):
+            kinds[kinds.index("superposed")] = "superposed (the building's)"
         if e and not e.get("placed", True):
             kinds.insert(0, "not placed")
         rank = str(i) if name in v["ranking"] else "-"

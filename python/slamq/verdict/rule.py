@@ -27,7 +27,7 @@ __all__ = [
     "SHARED_DIRECTION_DEG", "SHORTFALL",
     "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
-    "scan_limit",
+    "scan_limit", "shared_directions", "superposed_separations",
     "sequence_verdict", "verdict_sentence",
 ]
 
@@ -130,9 +130,10 @@ MILD_DEFECTS_DECIDE = True
 #: Whether a ``superposed`` flag is lifted from a map when another program's map of the
 #: sequence carries one with the same second wall direction (separations within
 #: :data:`SHARED_DIRECTION_DEG`): a direction two programs draw at the same angle is the
-#: building's (a wing), not a scan-matching jump. Candidate S1 of docs/validity.md ("A
-#: second generator the rule was not tuned on: wing worlds").
-SHARED_DIRECTION = False
+#: building's (a wing), not a scan-matching jump. S1 of docs/validity.md ("A second
+#: generator the rule was not tuned on: wing worlds"), adopted 2026-12-01; False is the
+#: rule before.
+SHARED_DIRECTION = True
 #: Degrees within which two maps' second wall directions are the same: the superposed
 #: detector's own resolution (walls turned by less than about 5 degrees are not told apart).
 SHARED_DIRECTION_DEG = 3.0
@@ -446,29 +447,51 @@ def _separating(a: str, flagged: dict[str, str], scan_flags: dict[str, str],
     return "; ".join(reasons) or None
 
 
-def _separations(e: dict[str, Any]) -> list[float]:
-    """The second-direction separations (degrees) of an algorithm's ``superposed`` flags."""
+def superposed_separations(e: dict[str, Any]) -> list[float]:
+    """The second-direction separations (degrees) of an algorithm's ``superposed`` flags
+    (``e``: its evidence entry).
+
+    Examples
+    --------
+    >>> superposed_separations({"defects": {"m": [{"kind": "superposed", "separation": 31.0},
+    ...                                           {"kind": "smeared"}]}})
+    [31.0]
+    """
     return [float(d["separation"]) for ds in e.get("defects", {}).values() for d in ds
             if d.get("kind") == "superposed" and d.get("separation") is not None]
 
 
-def _building_directions(info: dict[str, Any], warnings: list[str]) -> dict[str, Any]:
-    """``info`` with the ``superposed`` flags that another program's map shares lifted
-    (:data:`SHARED_DIRECTION`): a flag whose separation is within
-    :data:`SHARED_DIRECTION_DEG` of a ``superposed`` flag of another entry is dropped, and
-    the entry's ``flagged_runs`` counted again; a warning says which and why."""
-    if not SHARED_DIRECTION:
-        return info
-    seps = {a: _separations(e) for a, e in info.items()}
-    out = dict(info)
-    for a, mine in seps.items():
-        def shared(v: float, a: str = a) -> str | None:
-            return next((b for b in sorted(seps) if b != a and any(
-                abs(v - w) <= SHARED_DIRECTION_DEG for w in seps[b])), None)
+def shared_directions(info: dict[str, Any]) -> dict[str, dict[float, str]]:
+    """Per algorithm (``info``: the evidence's ``algorithms``), the separations of its
+    ``superposed`` flags that another algorithm's flag shares (within
+    :data:`SHARED_DIRECTION_DEG`), each with the first such algorithm (by name): the flags
+    :data:`SHARED_DIRECTION` lifts (docs/spec.md section 9). Empty when it is False.
 
-        lifted = {v: b for v in mine if (b := shared(v)) is not None}
-        if not lifted:
-            continue
+    Examples
+    --------
+    >>> flag = lambda s: {"m": [{"kind": "superposed", "separation": s}]}
+    >>> shared_directions({"a": {"defects": flag(31.0)}, "b": {"defects": flag(32.5)},
+    ...                    "c": {"defects": flag(12.0)}})
+    {'a': {31.0: 'b'}, 'b': {32.5: 'a'}}
+    """
+    if not SHARED_DIRECTION:
+        return {}
+    seps = {a: superposed_separations(e) for a, e in info.items()}
+    out: dict[str, dict[float, str]] = {}
+    for a, mine in seps.items():
+        for v in mine:
+            b = next((b for b in sorted(seps) if b != a and any(
+                abs(v - w) <= SHARED_DIRECTION_DEG for w in seps[b])), None)
+            if b is not None:
+                out.setdefault(a, {})[v] = b
+    return out
+
+
+def _building_directions(info: dict[str, Any], warnings: list[str]) -> dict[str, Any]:
+    """``info`` with the ``superposed`` flags :func:`shared_directions` finds lifted, each
+    entry's ``flagged_runs`` counted again; a warning says which and why."""
+    out = dict(info)
+    for a, lifted in shared_directions(info).items():
         e = info[a]
         defects = {path: [d for d in ds if not (d.get("kind") == "superposed"
                                                 and d.get("separation") in lifted)]
@@ -1042,7 +1065,8 @@ def rule_summary() -> str:
     by ATE RMSE when the sequence has ground truth, else by relations error, else by GT F1
     against its ground-truth map; else by how far the other maps confirm each map (a map
     they cannot place, whose support is under 90% of the best, that a defect detector
-    flags, whose completeness is under 80% of the highest, whose own scans cross its walls
+    flags (a second wall direction another program's map draws too is the building's),
+    whose completeness is under 80% of the highest, whose own scans cross its walls
     more than max(2%, 1.5x the most consistent map's), or whose path's scans split in time
     cross each other's walls more than max(2%, 1.5x the lowest) is never named best;
     corners order the maps confirmed equally on one grid, and their own scans those
@@ -1060,7 +1084,9 @@ def rule_summary() -> str:
         f"{basis_name(_BASES[1][0])}, else by {basis_name(_BASES[2][0])} against its "
         "ground-truth map; else by how far the other "
         "maps confirm each map (a map they cannot place, whose support is under "
-        f"{AGREEMENT_SHARE:.0%} of the best, that a defect detector flags, whose "
+        f"{AGREEMENT_SHARE:.0%} of the best, that a defect detector flags"
+        + (" (a second wall direction another program's map draws too is the building's)"
+           if SHARED_DIRECTION else "") + ", whose "
         f"completeness is under {COMPLETE_SHARE:.0%} of the highest, whose own scans "
         f"cross its walls more than max({SCAN_FLOOR:.0%}, {SCAN_SHARE:g}x the most "
         "consistent map's), or whose path's scans split in time cross each other's walls "
