@@ -64,3 +64,21 @@ def test_wing_is_chosen_by_name_and_changes_no_existing_world() -> None:
     # hexagonal seed 2 as generated before the wing kind was added
     hexagon = hashlib.md5(world(2, kind="hexagonal").values.tobytes()).hexdigest()
     assert hexagon == "93b970718cbf82cca0923ddcbbe0143d"
+
+
+@pytest.mark.parametrize("seed", [508, 557])
+def test_a_steep_wing_from_a_short_lobby_leaves_the_building_closed(seed: int) -> None:
+    # the lobby between the block and the wing is concave there: filled as one convex
+    # quadrilateral it left a sliver of outside across the wing's entrance
+    w = world(seed, kind="wing")
+    free, outside = w.values == 254, w.unknown
+    assert not (free[1:, :] & outside[:-1, :]).any() and not (free[:, 1:] & outside[:, :-1]).any()
+    assert not (free[:-1, :] & outside[1:, :]).any() and not (free[:, :-1] & outside[:, 1:]).any()
+
+
+def test_a_wing_world_too_small_is_a_clear_error() -> None:
+    from slamq.errors import SlamqError
+
+    with pytest.raises(SlamqError, match="wing world needs a larger building"):
+        for seed in range(10):
+            world(seed, kind="wing", size=(8.0, 6.0))

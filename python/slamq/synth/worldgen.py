@@ -490,27 +490,35 @@ def _wing(p: _Plan, rng: np.random.Generator) -> None:
         p.floor |= (u >= u0) & (u <= u1) & (v >= v0) & (v <= v1)
 
     half = cw / 2
-    depth, length = _u(rng, 3.5, 4.5), 0.0
-    for _ in range(8):
-        # the side facing the block starts where its rooms clear the block's east wall
-        start = max(0.0, ((half + depth) * su - gap + 0.3) / cu)
-        length = next((L for L in np.arange(16.0, 6.5, -0.5)
-                       if all(inside(L, v) for v in (-half - depth, half + depth))
-                       and inside(start, half + depth)), 0.0)
+    depth, length, start = _u(rng, 3.5, 4.5), 0.0, 0.0
+    # the longest wing that fits, with rooms as deep as fit; a small building (below about
+    # 20 x 14 m) gets a short wing of shallow rooms
+    for depths, lengths in (([depth - 0.25 * k for k in range(8)], np.arange(16.0, 6.5, -0.5)),
+                            (np.arange(2.0, 0.9, -0.25), np.arange(10.0, 2.4, -0.5))):
+        for depth in depths:
+            # the side facing the block starts where its rooms clear the block's east wall
+            start = max(0.0, ((half + depth) * su - gap + 0.3) / cu)
+            length = next((float(L) for L in lengths
+                           if all(inside(L, v) for v in (-half - depth, half + depth))
+                           and inside(start, half + depth)), 0.0)
+            if length:
+                break
         if length:
             break
-        depth -= 0.25
     if not length:
-        raise SlamqError(f"a wing world needs a larger building than {W} x {H} m")
+        raise SlamqError(f"a wing world needs a larger building than {W:g} x {H:g} m "
+                         "(10 x 8 m always fits)")
     # the lobby between the block's corridor and the wing's
     (ax, ay), (bx, by) = (wm, yc), (wm, yc + cw)
     (cx, cy), (dx, dy) = at(0, half), at(0, -half)
     X, Y = p.xs[None, :], p.ys[:, None]
-    quad = [(ax, ay), (dx, dy), (cx, cy), (bx, by)]
-    lobby = np.ones(p.floor.shape, bool)
-    for (qx, qy), (rx, ry) in zip(quad, quad[1:] + quad[:1]):
-        lobby &= (rx - qx) * (Y - qy) - (ry - qy) * (X - qx) >= 0
-    p.floor |= lobby
+    # two triangles split at the diagonal A-C: the quadrilateral A, D, C, B is concave at
+    # C when the wing turns steeply from a short lobby
+    for tri in (((ax, ay), (dx, dy), (cx, cy)), ((ax, ay), (cx, cy), (bx, by))):
+        inside_tri = np.ones(p.floor.shape, bool)
+        for (qx, qy), (rx, ry) in zip(tri, tri[1:] + tri[:1]):
+            inside_tri &= (rx - qx) * (Y - qy) - (ry - qy) * (X - qx) >= 0
+        p.floor |= inside_tri
     p.segment((ax, ay), (dx, dy))
     p.segment((bx, by), (cx, cy))
     p.room("lobby", wm, yc, wm + gap, yc + cw)
@@ -522,6 +530,9 @@ def _wing(p: _Plan, rng: np.random.Generator) -> None:
         p.room(f"wing corridor{k}", mx - 0.6, my - 0.6, mx + 0.6, my + 0.6)
     for side, u_first in ((-1, 0.0), (1, start)):
         v_wall, v_out = side * half, side * (half + depth)
+        if u_first > length - 1.0:  # no room fits on the side facing the block
+            p.segment(at(0, v_wall), at(length, v_wall))
+            continue
         fill(u_first, min(v_wall, v_out), length, max(v_wall, v_out))
         if u_first > 0:
             p.segment(at(0, v_wall), at(u_first, v_wall))
@@ -533,6 +544,15 @@ def _wing(p: _Plan, rng: np.random.Generator) -> None:
             p.segment_door(at(a, v_wall), at(b, v_wall), _u(rng, 0.35, 0.65))
             mx, my = at((a + b) / 2, (v_wall + v_out) / 2)
             p.room(f"wing{'sn'[side > 0]}{i}", mx - 0.8, my - 0.8, mx + 0.8, my + 0.8)
+    # a turned wall's cells can leave a floor cell touching the outside where two walls
+    # meet at an angle: such a cell becomes wall, so the building stays closed
+    out = ~(p.floor | p.wall)
+    touch = np.zeros_like(out)
+    touch[1:, :] |= out[:-1, :]
+    touch[:-1, :] |= out[1:, :]
+    touch[:, 1:] |= out[:, :-1]
+    touch[:, :-1] |= out[:, 1:]
+    p.wall |= p.floor & touch
     if rng.random() < 0.5:
         # the same building seen from the other side: the wing turned the other way
         for a in (p.floor, p.wall, p.glass):
@@ -566,7 +586,7 @@ def world(seed: int = 0, *, kind: str = "office", size: tuple[float, float] | No
         ``"symmetric"``, ``"mixed"``, ``"hexagonal"``, ``"wing"``).
     size : (float, float), optional
         The building's width and height, metres (default 20 x 15; 30 x 9 for
-        ``"corridor"``, 26 x 18 for ``"wing"``); at least 8 x 6.
+        ``"corridor"``, 26 x 18 for ``"wing"``); at least 8 x 6 (10 x 8 for ``"wing"``).
     resolution : float, default 0.05
         Metres per cell.
 
