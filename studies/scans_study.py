@@ -342,7 +342,8 @@ NO_SCANS = "scans=none"
 #: A rule's tokens: a ``superposed`` flag another program's map shares (the same second
 #: wall direction) is lifted (candidate S1), or every flag held as found (the rule before)
 #: (docs/validity.md, "A second generator the rule was not tuned on: wing worlds";
-#: ``slamq.verdict.rule.SHARED_DIRECTION``)
+#: ``slamq.verdict.rule.SHARED_DIRECTION``); ``"dirdeg=N"`` sets its margin, degrees
+#: (``SHARED_DIRECTION_DEG``; "A 5-degree margin for S1")
 DIR_SHARED, DIR_OWN = "dir=shared", "dir=own"
 
 _SEPARATION = re.compile(r"second wall direction ([-\d.]+) deg beside ([-\d.]+) deg "
@@ -439,7 +440,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
 
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
              r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
-             r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION)
+             r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION,
+             r.SHARED_DIRECTION_DEG)
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
@@ -459,6 +461,9 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                     r.SCANS_ORDER_UNCOMPARABLE = x == UNCOMPARABLE_ON
                 if x in (CORRIDOR_TRAVEL, CORRIDOR_AND_WHOLE, WHOLE_PATH):
                     r.CORRIDOR_TRAVEL = None if x == WHOLE_PATH else x.removeprefix("travel=")
+                if isinstance(x, str) and x.startswith("dirdeg="):
+                    # docs/validity.md, "A 5-degree margin for S1"
+                    r.SHARED_DIRECTION_DEG = float(x.removeprefix("dirdeg="))
                 if isinstance(x, str) and x.startswith("shortfall="):
                     r.SHORTFALL = float(x.removeprefix("shortfall="))
                 if isinstance(x, str) and x.startswith("local="):
@@ -480,7 +485,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     finally:
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
          r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
-         r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION) = saved
+         r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION,
+         r.SHARED_DIRECTION_DEG) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
