@@ -122,7 +122,8 @@ def _print(result: dict[str, Any], out: Any) -> None:
     for i, name in enumerate(order, 1):
         e = info.get(name, {})
         kinds = sorted({d["kind"] for ds in e.get("defects", {}).values() for d in ds})
-        if "superposed" in kinds and set(superposed_separations(e)) <= set(building.get(name, {})):
+        if "superposed" in kinds and name in building \
+                and set(superposed_separations(e)) <= set(building[name]):
             kinds[kinds.index("superposed")] = "superposed (the building's)"
         if e and not e.get("placed", True):
             kinds.insert(0, "not placed")
