@@ -362,15 +362,16 @@ def with_separations(ev: dict[str, Any]) -> dict[str, Any]:
     >>> with_separations(ev)["algorithms"]["a"]["defects"]["m"][0]["separation"]
     31.0
     """
+    from slamq.metrics.defects import direction_separation
+
     def fill(d: dict[str, Any]) -> dict[str, Any]:
         if d.get("kind") != "superposed" or "separation" in d:
             return d
         m = _SEPARATION.search(d.get("note", ""))
         if m is None:
             return d
-        a2, a1, period = float(m[1]), float(m[2]), float(m[3])
-        turn = abs(a2 - a1) % period
-        return {**d, "separation": round(min(turn, period - turn), 2)}
+        return {**d, "separation": direction_separation(float(m[2]), float(m[1]),
+                                                        float(m[3]))}
 
     algs = {a: {**e, "defects": {p: [fill(d) for d in ds]
                                  for p, ds in e.get("defects", {}).items()}}

@@ -50,8 +50,8 @@ from slamq.models import OccupancyMap
 from slamq.models.quality import WALL_PERIODS, wall_symmetry
 from slamq.params import SETTINGS
 
-__all__ = ["DETECTORS", "LINK", "Defect", "detect_defects", "doubled_walls", "fragmented",
-           "smeared", "superposed", "wall_period"]
+__all__ = ["DETECTORS", "LINK", "Defect", "detect_defects", "direction_separation",
+           "doubled_walls", "fragmented", "smeared", "superposed", "wall_period"]
 
 #: Metres per cell assumed for a map without a resolution.
 DEFAULT_RESOLUTION = 0.05
@@ -420,9 +420,22 @@ def superposed(m: OccupancyMap, *,
     note = (f"second wall direction {ev['a2']:.1f} deg beside {ev['a1']:.1f} deg "
             f"(mod {period:g}): "
             f"{ev['share']:.2f} of the main peak, {ev['length']:.1f} m of wall, {how}")
-    turn = abs(ev["a2"] - ev["a1"]) % period
     return [Defect("superposed", round(ev["share"], 4), bbox, _where(m, bbox), note,
-                   separation=round(min(turn, period - turn), 2))]
+                   separation=direction_separation(ev["a1"], ev["a2"], period))]
+
+
+def direction_separation(a1: float, a2: float, period: float = 90.0) -> float:
+    """Degrees between two wall directions ``a1`` and ``a2`` (degrees, modulo ``period``),
+    folded to ``[0, period / 2]`` and rounded to 0.01: the ``separation`` of a
+    ``superposed`` flag, the same for any turn of the map.
+
+    Examples
+    --------
+    >>> direction_separation(0.2, 59.2), direction_separation(10.0, 25.0, 60.0)
+    (31.0, 15.0)
+    """
+    turn = abs(a2 - a1) % period
+    return round(min(turn, period - turn), 2)
 
 
 def _superposed_evidence(occ: np.ndarray, res: float, sep: float, period: float = 90.0

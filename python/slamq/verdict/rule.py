@@ -134,8 +134,9 @@ MILD_DEFECTS_DECIDE = True
 #: generator the rule was not tuned on: wing worlds"), adopted 2026-12-01; False is the
 #: rule before.
 SHARED_DIRECTION = True
-#: Degrees within which two maps' second wall directions are the same: the superposed
-#: detector's own resolution (walls turned by less than about 5 degrees are not told apart).
+#: Degrees within which two maps' second wall directions are the same: within the superposed
+#: detector's resolution (about 5 degrees); 5 itself was measured and not adopted
+#: (docs/validity.md, "A 5-degree margin for S1: measured, not adopted").
 SHARED_DIRECTION_DEG = 3.0
 
 _BASES = (
