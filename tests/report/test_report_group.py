@@ -136,3 +136,30 @@ def test_no_agreeing_group_when_no_two_maps_agree(tmp_path: Path) -> None:
         assert g["status"] == "none" and g["members"] == []
         assert g["sentence"].startswith("There is no agreeing group in mixed: no two of its "
                                         "maps agree")
+
+
+def test_a_wing_two_maps_draw_is_the_buildings_on_the_pages(tmp_path: Path) -> None:
+    """docs/spec.md section 9, "A second wall direction two programs draw": the detail page
+    keeps the detector's ``superposed`` row and says the verdict lifts it, and by which
+    program's map; the gallery badge says so too. A map alone keeps its flag as it is."""
+    from slamq.synth import save_world, world
+
+    w = world(534, kind="wing", resolution=0.1)
+    recs = [{"map": str(save_world(w, tmp_path / f"{a}.yaml")), "algorithm": a,
+             "sequence": "wing", "run": 1} for a in ("a", "b")]
+    site = _site(recs, tmp_path / "site")
+    for alg, other in (("a", "b"), ("b", "a")):
+        text = next((site / "maps").glob(f"*-{alg}-1.html")).read_text(encoding="utf-8")
+        rows = re.findall(r"<tr><td>\d+</td><td>superposed</td><td>.*?</td><td>(.*?)</td></tr>",
+                          text, re.S)
+        assert len(rows) == 1, text
+        note = " ".join(htmllib.unescape(re.sub(r"<[^>]+>", " ", rows[0])).split())
+        assert "second wall direction" in note
+        assert f"The building's, not held against this map: {other}'s map draws a second " \
+               "direction 31 deg from its first too" in note, note
+    index = (site / "index.html").read_text(encoding="utf-8")
+    assert index.count("superposed (the building&#x27;s)") == 2, index
+    # one map alone: nothing shares its direction, the flag is held as before
+    one = _site(recs[:1], tmp_path / "one")
+    text = next((one / "maps").glob("*-a-1.html")).read_text(encoding="utf-8")
+    assert "<td>superposed</td>" in text and "The building's" not in text

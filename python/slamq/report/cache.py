@@ -93,6 +93,7 @@ def page_digest(mp: MapPage, *, gifs: bool, trajectories: bool) -> str:
         {"record": rec, "slug": mp.slug, "page": mp.page, "gifs": gifs,
          "trajectories": trajectories, "version": __version__, "missing": mp.missing,
          "standing": mp.standing, "group": mp.group, "path": mp.path,
+         "building": mp.building,
          **source_digests(rec, gifs=gifs)},
         sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]

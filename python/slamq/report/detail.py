@@ -30,8 +30,8 @@ from slamq.verdict.exhibits import MapExhibit, ScanExhibit
 from slamq.verdict.records import usable
 from slamq.verdict.trajectory import TrajectoryEvidence
 
-__all__ = ["SCAN_LAYER_COLOURS", "agreeing_group", "detail_page", "path_sentence", "run_info",
-           "scan_layer", "standing", "with_unit"]
+__all__ = ["SCAN_LAYER_COLOURS", "agreeing_group", "building_directions", "detail_page",
+           "path_sentence", "run_info", "scan_layer", "standing", "with_unit"]
 
 
 def _crossing(figures: dict) -> float | None:
@@ -403,6 +403,48 @@ def agreeing_group(rec: dict, evidence: dict[str, Any] | None,
         f"every map of the group, so the group does not confirm it.")}
 
 
+def building_directions(rec: dict, evidence: dict[str, Any] | None) -> dict[float, str]:
+    """The ``superposed`` flags of the map that the verdict does not hold against it
+    because another program's map draws the same second wall direction (docs/spec.md
+    section 9, "A second wall direction two programs draw"): each flag's separation
+    (degrees, rounded to 0.01) with the program whose map shares it. Empty when none is
+    lifted or the sequence was not judged by its maps.
+
+    Examples
+    --------
+    >>> flag = lambda p, s: {p: [{"kind": "superposed", "separation": s}]}
+    >>> ev = {"algorithms": {"a": {"defects": flag("a.pgm", 31.0)},
+    ...                      "b": {"defects": flag("b.pgm", 32.5)}}}
+    >>> building_directions({"map": "a.pgm", "algorithm": "a"}, ev)
+    {31.0: 'b'}
+    >>> building_directions({"map": "a.pgm", "algorithm": "a"}, None)
+    {}
+    """
+    from slamq.verdict.rule import shared_directions
+
+    if evidence is None:
+        return {}
+    alg = str(rec.get("algorithm"))
+    info = evidence.get("algorithms", {})
+    lifted = shared_directions(info).get(alg, {})
+    mine = info.get(alg, {}).get("defects", {}).get(str(rec.get("map")), [])
+    seps = {d.get("separation") for d in mine if d.get("kind") == "superposed"}
+    return {round(float(v), 2): b for v, b in lifted.items() if v in seps}
+
+
+def _defect_note(d: dict, mp: MapPage) -> str:
+    """A defect's note on the detail page, with why a lifted ``superposed`` flag is not
+    held against the map."""
+    from slamq.verdict.rule import SHARED_DIRECTION_DEG
+
+    other = mp.lifted_by(d)
+    if other is None:
+        return _e(d["note"])
+    return (f"{_e(d['note'])}<br><b>The building's, not held against this map:</b> "
+            f"{_e(other)}'s map draws a second direction {float(d['separation']):.0f} deg "
+            f"from its first too (within {SHARED_DIRECTION_DEG:g} deg; docs/spec.md section 9).")
+
+
 def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     """How far the path of the map's program travels against the other programs' paths
     (docs/spec.md 7d: its shortfall, the median over pairs of runs, and along the
@@ -708,7 +750,8 @@ def _map_layers(mp: MapPage, out: Path, ov: Any, u: int, grid: Any,
                  "<th>cells [col0, row0, col1, row1]</th><th>note</th></tr>" + "".join(
                      f"<tr><td>{i + 1}</td><td>{_e(d['kind'])}</td><td>"
                      f"{_e(', '.join(format_value(v) for v in d['bbox']))}</td>"
-                     f"<td>{_e(d['note'])}</td></tr>" for i, d in enumerate(mp.defects))
+                     f"<td>{_defect_note(d, mp)}</td></tr>"
+                     for i, d in enumerate(mp.defects))
                  + "</table></div>")
     return (
         "<div class=\"mapcol\"><h2>The map</h2><p class=\"sub\">unknown cells grey, occupied "

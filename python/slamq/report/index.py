@@ -460,7 +460,9 @@ def _thumb(mp: MapPage | None, rec: pd.Series, which: str, key: str | None = Non
     if mp is None or not mp.thumb:
         why = "; ".join(mp.notes) if mp else "no detail page"
         return f"<figure><figcaption>{_e(label)}<br>{_e(nums)}<br>{_e(why)}</figcaption></figure>"
-    badge = (f"<span class=\"badge\" title=\"{_e('; '.join(d['kind'] for d in mp.defects))}\">"
+    kinds = "; ".join(d["kind"] + (" (the building's)" if mp.lifted_by(d) else "")
+                      for d in mp.defects)
+    badge = (f"<span class=\"badge\" title=\"{_e(kinds)}\">"
              f"{len(mp.defects)} defect{'s' if len(mp.defects) != 1 else ''}</span>"
              if mp.defects else "")
     return (f"<figure><a class=\"detail\" href=\"{mp.page}\"><span class=\"thumb\">"

@@ -108,4 +108,24 @@ class MapPage:
     #: How far the map's program's path travels against the other programs' (:func:`slamq.
     #: report.detail.path_sentence`; None: no figure).
     path: str | None = None
+    #: The map's ``superposed`` flags the verdict lifts (:func:`slamq.report.detail.
+    #: building_directions`): separation in degrees -> the program whose map shares it.
+    building: dict[float, str] = field(default_factory=dict)
+
+    def lifted_by(self, defect: dict) -> str | None:
+        """The program whose map draws ``defect``'s second wall direction too, when the
+        verdict lifts it (a ``superposed`` flag in :attr:`building`); None otherwise.
+
+        Examples
+        --------
+        >>> mp = MapPage(0, {}, "a", building={31.0: "b"})
+        >>> mp.lifted_by({"kind": "superposed", "separation": 31.0})
+        'b'
+        >>> mp.lifted_by({"kind": "superposed", "separation": 12.0}) is None
+        True
+        """
+        sep = defect.get("separation")
+        if defect.get("kind") != "superposed" or sep is None:
+            return None
+        return self.building.get(round(float(sep), 2))
 

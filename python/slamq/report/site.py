@@ -32,7 +32,13 @@ from slamq.report.cache import (
     read_page_cache,
     write_page_cache,
 )
-from slamq.report.detail import agreeing_group, detail_page, path_sentence, standing
+from slamq.report.detail import (
+    agreeing_group,
+    building_directions,
+    detail_page,
+    path_sentence,
+    standing,
+)
 from slamq.report.export import write_tables
 from slamq.report.index import best_worst, index_body, mixed_settings, plots
 from slamq.report.markup import MapPage, page
@@ -160,6 +166,7 @@ def build_report(
     for mp in pages.values():
         mp.group = agreeing_group(mp.record, evidence.get(mp.record["sequence"]), page_of)
         mp.path = path_sentence(mp.record, evidence.get(mp.record["sequence"]))
+        mp.building = building_directions(mp.record, evidence.get(mp.record["sequence"]))
     kept = read_page_cache(out) if reuse else {}
     fresh: dict[str, dict[str, Any]] = {}
     for done, mp in enumerate(pages.values(), 1):

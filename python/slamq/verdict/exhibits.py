@@ -362,8 +362,12 @@ def _defects(rec: dict, grid: Any, defects_for: DefectsFor | None,
             bbox = [float(v) for v in d["bbox"]]
             if len(bbox) != 4 or not all(map(math.isfinite, bbox)):
                 raise ValueError("bbox needs 4 finite numbers")
-            good.append({"kind": str(d.get("kind", "defect")), "bbox": bbox,
-                         "note": str(d.get("note", ""))})
+            kept = {"kind": str(d.get("kind", "defect")), "bbox": bbox,
+                    "note": str(d.get("note", ""))}
+            sep = d.get("separation")  # a superposed flag's: read by the verdict's S1
+            if isinstance(sep, (int, float)) and math.isfinite(sep):
+                kept["separation"] = float(sep)
+            good.append(kept)
         except (TypeError, KeyError, ValueError, AttributeError) as exc:
             notes.append(f"defect {i} ignored ({exc}): {str(d)[:80]}")
     return good
