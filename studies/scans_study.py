@@ -343,8 +343,10 @@ NO_SCANS = "scans=none"
 #: wall direction) is lifted (candidate S1), or every flag held as found (the rule before)
 #: (docs/validity.md, "A second generator the rule was not tuned on: wing worlds";
 #: ``slamq.verdict.rule.SHARED_DIRECTION``); ``"dirdeg=N"`` sets its margin, degrees
-#: (``SHARED_DIRECTION_DEG``; "A 5-degree margin for S1")
-DIR_SHARED, DIR_OWN = "dir=shared", "dir=own"
+#: (``SHARED_DIRECTION_DEG``; "A 5-degree margin for S1"); ``"dir=agree"`` lifts it only
+#: when the sharing map agrees with the flagged one (S1a, ``SHARED_DIRECTION_AGREE``; "S1a:
+#: a second direction lifted only by a map that agrees")
+DIR_SHARED, DIR_OWN, DIR_AGREE = "dir=shared", "dir=own", "dir=agree"
 
 _SEPARATION = re.compile(r"second wall direction ([-\d.]+) deg beside ([-\d.]+) deg "
                          r"\(mod (\d+)\)")
@@ -442,7 +444,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
              r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
              r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION,
-             r.SHARED_DIRECTION_DEG)
+             r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE)
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
@@ -452,8 +454,9 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                 r.SPLIT_MEET = SPLIT_MEET in rule
             if MILD_DECIDES in rule or MILD_NEEDS_SCANS in rule:
                 r.MILD_DEFECTS_DECIDE = MILD_DECIDES in rule
-            if DIR_SHARED in rule or DIR_OWN in rule:
-                r.SHARED_DIRECTION = DIR_SHARED in rule
+            if DIR_SHARED in rule or DIR_OWN in rule or DIR_AGREE in rule:
+                r.SHARED_DIRECTION = DIR_OWN not in rule
+                r.SHARED_DIRECTION_AGREE = DIR_AGREE in rule
                 ev = with_separations(ev)
             for x in rule:
                 if x == CORNERS_TIES:  # docs/validity.md, "No clear winner by corners"
@@ -487,7 +490,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
          r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
          r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION,
-         r.SHARED_DIRECTION_DEG) = saved
+         r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -687,7 +690,9 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
                  + (", split confirms without its halves meeting" if SPLIT_ANYWHERE in rule
                     else "")
                  + (", a second direction another program draws lifted" if DIR_SHARED in rule
-                    else ""))
+                    else "")
+                 + (", a second direction an agreeing program draws lifted"
+                    if DIR_AGREE in rule else ""))
         out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
                    f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
                    f" | {int((~named).sum())} |")
@@ -772,6 +777,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="also the rule with a superposed flag lifted where another "
                     "program's map draws the same second direction (docs/validity.md, 'A "
                     "second generator the rule was not tuned on: wing worlds')")
+    ap.add_argument("--shared-agree", action="store_true",
+                    help="also the rule with it lifted only where that map agrees with the "
+                    "flagged one (docs/validity.md, 'S1a: a second direction lifted only "
+                    "by a map that agrees')")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -820,6 +829,8 @@ def main(argv: list[str] | None = None) -> int:
         rules = (*rules, (*rules[-1][:2], SPLIT_ANYWHERE))
     if a.shared_direction:
         rules = (*rules, (*rules[-1][:2], DIR_SHARED))
+    if a.shared_agree:
+        rules = (*rules, (*rules[-1][:2], DIR_AGREE))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

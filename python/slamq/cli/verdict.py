@@ -115,7 +115,7 @@ def _print(result: dict[str, Any], out: Any) -> None:
 
     v, ev = result["verdict"], result["evidence"]
     info = ev["algorithms"] if ev else {}
-    building = shared_directions(info)
+    building = shared_directions(info, ev)
     rows = [("rank", "map", "support", "complete", "crossing", "split", "short", "corners",
              "canonical", "flags")]
     order = list(v["ranking"]) + sorted(set(result["maps"]) - set(v["ranking"]))

@@ -426,7 +426,7 @@ def building_directions(rec: dict, evidence: dict[str, Any] | None) -> dict[floa
         return {}
     alg = str(rec.get("algorithm"))
     info = evidence.get("algorithms", {})
-    lifted = shared_directions(info).get(alg, {})
+    lifted = shared_directions(info, evidence).get(alg, {})
     mine = info.get(alg, {}).get("defects", {}).get(str(rec.get("map")), [])
     seps = {d.get("separation") for d in mine if d.get("kind") == "superposed"}
     return {round(float(v), 2): b for v, b in lifted.items() if v in seps}

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from slamq.models.quality import WALL_PERIODS
+from slamq.params import SETTINGS
 from slamq.results.columns import GROUND_TRUTH_ALGORITHMS
 from slamq.results.summary import Orientation, distinct_resolutions, orientation
 from slamq.verdict.calibration import with_calibration
@@ -24,7 +25,7 @@ __all__ = [
     "DEGENERATE_SHARE", "LOCAL_ANCHOR",
     "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SCANS_ORDER_UNCOMPARABLE", "SCAN_FLOOR",
     "MILD_DEFECTS_DECIDE", "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHARED_DIRECTION",
-    "SHARED_DIRECTION_DEG", "SHORTFALL",
+    "SHARED_DIRECTION_AGREE", "SHARED_DIRECTION_DEG", "SHORTFALL",
     "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit", "shared_directions", "superposed_separations",
@@ -138,6 +139,11 @@ SHARED_DIRECTION = True
 #: detector's resolution (about 5 degrees); 5 itself was measured and not adopted
 #: (docs/validity.md, "A 5-degree margin for S1: measured, not adopted").
 SHARED_DIRECTION_DEG = 3.0
+#: Whether the map that shares a second wall direction must also agree with the lifted map
+#: (their consistency at least the evidence's ``min_support``) for :data:`SHARED_DIRECTION`
+#: to lift the flag. S1a of docs/validity.md ("S1a: a second direction lifted only by a
+#: map that agrees"), a candidate: False is S1 as adopted.
+SHARED_DIRECTION_AGREE = False
 
 _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
@@ -462,11 +468,14 @@ def superposed_separations(e: dict[str, Any]) -> list[float]:
             if d.get("kind") == "superposed" and d.get("separation") is not None]
 
 
-def shared_directions(info: dict[str, Any]) -> dict[str, dict[float, str]]:
+def shared_directions(info: dict[str, Any], evidence: dict[str, Any] | None = None
+                      ) -> dict[str, dict[float, str]]:
     """Per algorithm (``info``: the evidence's ``algorithms``), the separations of its
     ``superposed`` flags that another algorithm's flag shares (within
     :data:`SHARED_DIRECTION_DEG`), each with the first such algorithm (by name): the flags
-    :data:`SHARED_DIRECTION` lifts (docs/spec.md section 9). Empty when it is False.
+    :data:`SHARED_DIRECTION` lifts (docs/spec.md section 9). Empty when it is False. With
+    :data:`SHARED_DIRECTION_AGREE`, the sharing map must also agree with the flagged one
+    (``evidence``'s ``consistency`` at least its ``min_support``; no evidence, no lift).
 
     Examples
     --------
@@ -477,22 +486,39 @@ def shared_directions(info: dict[str, Any]) -> dict[str, dict[float, str]]:
     """
     if not SHARED_DIRECTION:
         return {}
-    seps = {a: superposed_separations(e) for a, e in info.items()}
+
+    def flags(e: dict[str, Any]) -> list[tuple[str, float]]:
+        return [(str(p), float(d["separation"])) for p, ds in e.get("defects", {}).items()
+                for d in ds if d.get("kind") == "superposed"
+                and d.get("separation") is not None]
+
+    cons = (evidence or {}).get("consistency", {})
+    floor = float((evidence or {}).get("min_support", SETTINGS.min_support.default))
+
+    def agree(p: str, q: str) -> bool:
+        if not SHARED_DIRECTION_AGREE:
+            return True
+        c = cons.get(p, {}).get(q)
+        return c is not None and math.isfinite(float(c)) and float(c) >= floor
+
+    seps = {a: flags(e) for a, e in info.items()}
     out: dict[str, dict[float, str]] = {}
     for a, mine in seps.items():
-        for v in mine:
+        for p, v in mine:
             b = next((b for b in sorted(seps) if b != a and any(
-                abs(v - w) <= SHARED_DIRECTION_DEG for w in seps[b])), None)
+                abs(v - w) <= SHARED_DIRECTION_DEG and agree(p, q) for q, w in seps[b])),
+                None)
             if b is not None:
                 out.setdefault(a, {})[v] = b
     return out
 
 
-def _building_directions(info: dict[str, Any], warnings: list[str]) -> dict[str, Any]:
+def _building_directions(info: dict[str, Any], warnings: list[str],
+                         evidence: dict[str, Any] | None = None) -> dict[str, Any]:
     """``info`` with the ``superposed`` flags :func:`shared_directions` finds lifted, each
     entry's ``flagged_runs`` counted again; a warning says which and why."""
     out = dict(info)
-    for a, lifted in shared_directions(info).items():
+    for a, lifted in shared_directions(info, evidence).items():
         e = info[a]
         defects = {path: [d for d in ds if not (d.get("kind") == "superposed"
                                                 and d.get("separation") in lifted)]
@@ -625,7 +651,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
     own scans."""
     info = {str(a): e for a, e in evidence["algorithms"].items() if a in block.index}
     warnings.extend(evidence.get("notes", []))
-    info = _building_directions(info, warnings)
+    info = _building_directions(info, warnings, evidence)
     flagged: dict[str, str] = {}
     for a, e in info.items():
         if not e["placed"]:
