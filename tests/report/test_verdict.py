@@ -350,6 +350,30 @@ def test_a_second_direction_two_programs_draw_is_the_buildings(monkeypatch) -> N
                                     for w in v["warnings"]), v["warnings"]
 
 
+def test_s1a_lifts_only_by_a_map_that_agrees(monkeypatch) -> None:
+    """S1a of docs/validity.md (``rule.SHARED_DIRECTION_AGREE``, a candidate): the map that
+    shares the second direction must also agree with the flagged one (consistency at least
+    the evidence's ``min_support``); a match by chance with a map it disagrees with is not
+    the building's."""
+    from slamq.verdict import rule
+
+    ev = _evidence({"a": 0.9, "b": 0.88, "c": 0.85}, defects=("a", "b"))
+    for a, sep in (("a", 31.0), ("b", 32.0)):
+        ev["algorithms"][a]["defects"][f"{a}.pgm"][0]["separation"] = sep
+    ev["min_support"] = 0.6
+    info = ev["algorithms"]
+    monkeypatch.setattr(rule, "SHARED_DIRECTION_AGREE", True)
+    for c, lifted in ((0.65, {"a": {31.0: "b"}, "b": {32.0: "a"}}), (0.45, {})):
+        ev["consistency"] = {"a.pgm": {"b.pgm": c}, "b.pgm": {"a.pgm": c}}
+        assert rule.shared_directions(info, ev) == lifted
+    assert rule.shared_directions(info) == {}          # no evidence of agreement, no lift
+    cols = {"algorithm": list("abc"), "corners": [100, 200, 300]}
+    assert agreement_verdict(ev, **cols)["best"] == "c"          # both flags held
+    monkeypatch.setattr(rule, "SHARED_DIRECTION_AGREE", False)   # S1: lifted by chance
+    assert rule.shared_directions(info, ev) == {"a": {31.0: "b"}, "b": {32.0: "a"}}
+    assert agreement_verdict(ev, **cols)["best"] == "a"
+
+
 @pytest.mark.parametrize("kind", ["superposed", "smeared", "fragmented"])
 def test_of_two_maps_one_broken_beyond_doubt_the_other_is_named_placed_or_not(
         kind: str) -> None:
