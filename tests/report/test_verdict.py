@@ -322,6 +322,10 @@ def test_a_second_direction_two_programs_draw_is_the_buildings(monkeypatch) -> N
         ev = _evidence({"a": 0.9, "b": 0.88, "c": 0.85}, defects=tuple(seps))
         for a, sep in seps.items():
             ev["algorithms"][a]["defects"][f"{a}.pgm"][0]["separation"] = sep
+        # the three maps agree (S1a: a lift needs the sharing map to agree)
+        ev["min_support"] = 0.6
+        ev["consistency"] = {f"{a}.pgm": {f"{b}.pgm": 0.9 for b in "abc" if b != a}
+                             for a in "abc"}
         return ev
 
     cols = {"algorithm": list("abc"), "corners": [100, 200, 300]}
@@ -334,7 +338,8 @@ def test_a_second_direction_two_programs_draw_is_the_buildings(monkeypatch) -> N
     v = agreement_verdict(ev, **cols)
     assert v["best"] == "a", v["confidence"]          # fewest corners, no flag held
     assert any(w.startswith("a's second wall direction (31 deg from the first) is drawn by "
-                            "b's map too: the building's") for w in v["warnings"])
+                            "b's map too, which agrees with it: the building's")
+               for w in v["warnings"])
     # one program's own direction (a jump by its own angle) stays held against it
     v = agreement_verdict(wing({"a": 31.0, "b": 12.0}), **cols)
     assert v["best"] == "c" and any("a is never named best: defects: superposed" in w
@@ -351,7 +356,7 @@ def test_a_second_direction_two_programs_draw_is_the_buildings(monkeypatch) -> N
 
 
 def test_s1a_lifts_only_by_a_map_that_agrees(monkeypatch) -> None:
-    """S1a of docs/validity.md (``rule.SHARED_DIRECTION_AGREE``, a candidate): the map that
+    """S1a of docs/validity.md (``rule.SHARED_DIRECTION_AGREE``, adopted): the map that
     shares the second direction must also agree with the flagged one (consistency at least
     the evidence's ``min_support``); a match by chance with a map it disagrees with is not
     the building's."""

@@ -414,7 +414,8 @@ def building_directions(rec: dict, evidence: dict[str, Any] | None) -> dict[floa
     --------
     >>> flag = lambda p, s: {p: [{"kind": "superposed", "separation": s}]}
     >>> ev = {"algorithms": {"a": {"defects": flag("a.pgm", 31.0)},
-    ...                      "b": {"defects": flag("b.pgm", 32.5)}}}
+    ...                      "b": {"defects": flag("b.pgm", 32.5)}},
+    ...       "min_support": 0.6, "consistency": {"a.pgm": {"b.pgm": 0.9}}}
     >>> building_directions({"map": "a.pgm", "algorithm": "a"}, ev)
     {31.0: 'b'}
     >>> building_directions({"map": "a.pgm", "algorithm": "a"}, None)
@@ -435,14 +436,16 @@ def building_directions(rec: dict, evidence: dict[str, Any] | None) -> dict[floa
 def _defect_note(d: dict, mp: MapPage) -> str:
     """A defect's note on the detail page, with why a lifted ``superposed`` flag is not
     held against the map."""
-    from slamq.verdict.rule import SHARED_DIRECTION_DEG
+    from slamq.verdict.rule import SHARED_DIRECTION_AGREE, SHARED_DIRECTION_DEG
 
     other = mp.lifted_by(d)
     if other is None:
         return _e(d["note"])
     return (f"{_e(d['note'])}<br><b>The building's, not held against this map:</b> "
             f"{_e(other)}'s map draws a second direction {float(d['separation']):.0f} deg "
-            f"from its first too (within {SHARED_DIRECTION_DEG:g} deg; docs/spec.md section 9).")
+            f"from its first too (within {SHARED_DIRECTION_DEG:g} deg)"
+            + (" and agrees with this map" if SHARED_DIRECTION_AGREE else "")
+            + " (docs/spec.md section 9).")
 
 
 def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:

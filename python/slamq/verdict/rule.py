@@ -141,9 +141,11 @@ SHARED_DIRECTION = True
 SHARED_DIRECTION_DEG = 3.0
 #: Whether the map that shares a second wall direction must also agree with the lifted map
 #: (their consistency at least the evidence's ``min_support``) for :data:`SHARED_DIRECTION`
-#: to lift the flag. S1a of docs/validity.md ("S1a: a second direction lifted only by a
-#: map that agrees"), a candidate: False is S1 as adopted.
-SHARED_DIRECTION_AGREE = False
+#: to lift the flag: two programs that draw the building draw the same walls. S1a of
+#: docs/validity.md ("S1a: a second direction lifted only by a map that agrees"), adopted
+#: 2026-12-01: without it, a broken map's artefact at the building's angle by chance
+#: lifted flags on the real logs. False is S1 as first adopted.
+SHARED_DIRECTION_AGREE = True
 
 _BASES = (
     # (column, higher is better, tie-breaker column, tie-breaker higher, confidence)
@@ -479,10 +481,15 @@ def shared_directions(info: dict[str, Any], evidence: dict[str, Any] | None = No
 
     Examples
     --------
-    >>> flag = lambda s: {"m": [{"kind": "superposed", "separation": s}]}
-    >>> shared_directions({"a": {"defects": flag(31.0)}, "b": {"defects": flag(32.5)},
-    ...                    "c": {"defects": flag(12.0)}})
+    >>> flag = lambda m, s: {m: [{"kind": "superposed", "separation": s}]}
+    >>> info = {"a": {"defects": flag("a.pgm", 31.0)}, "b": {"defects": flag("b.pgm", 32.5)},
+    ...         "c": {"defects": flag("c.pgm", 12.0)}}
+    >>> ev = {"min_support": 0.6, "consistency": {"a.pgm": {"b.pgm": 0.9}, "b.pgm": {"a.pgm": 0.9}}}
+    >>> shared_directions(info, ev)
     {'a': {31.0: 'b'}, 'b': {32.5: 'a'}}
+    >>> ev["consistency"] = {"a.pgm": {"b.pgm": 0.3}, "b.pgm": {"a.pgm": 0.3}}
+    >>> shared_directions(info, ev)   # the same angle by chance on maps that disagree
+    {}
     """
     if not SHARED_DIRECTION:
         return {}
@@ -527,7 +534,9 @@ def _building_directions(info: dict[str, Any], warnings: list[str],
                       flagged_runs=sum(1 for ds in defects.values() if ds))
         v, b = next(iter(lifted.items()))
         warnings.append(f"{a}'s second wall direction ({v:.0f} deg from the first) is drawn "
-                        f"by {b}'s map too: the building's, not held against it")
+                        f"by {b}'s map too"
+                        + (", which agrees with it" if SHARED_DIRECTION_AGREE else "")
+                        + ": the building's, not held against it")
     return out
 
 
@@ -1092,7 +1101,8 @@ def rule_summary() -> str:
     by ATE RMSE when the sequence has ground truth, else by relations error, else by GT F1
     against its ground-truth map; else by how far the other maps confirm each map (a map
     they cannot place, whose support is under 90% of the best, that a defect detector
-    flags (a second wall direction another program's map draws too is the building's),
+    flags (a second wall direction another program's map that agrees with it draws too is
+    the building's),
     whose completeness is under 80% of the highest, whose own scans cross its walls
     more than max(2%, 1.5x the most consistent map's), or whose path's scans split in time
     cross each other's walls more than max(2%, 1.5x the lowest) is never named best;
@@ -1112,8 +1122,9 @@ def rule_summary() -> str:
         "ground-truth map; else by how far the other "
         "maps confirm each map (a map they cannot place, whose support is under "
         f"{AGREEMENT_SHARE:.0%} of the best, that a defect detector flags"
-        + (" (a second wall direction another program's map draws too is the building's)"
-           if SHARED_DIRECTION else "") + ", whose "
+        + ((" (a second wall direction another program's map"
+            + (" that agrees with it" if SHARED_DIRECTION_AGREE else "")
+            + " draws too is the building's)") if SHARED_DIRECTION else "") + ", whose "
         f"completeness is under {COMPLETE_SHARE:.0%} of the highest, whose own scans "
         f"cross its walls more than max({SCAN_FLOOR:.0%}, {SCAN_SHARE:g}x the most "
         "consistent map's), or whose path's scans split in time cross each other's walls "
