@@ -421,15 +421,15 @@ def building_directions(rec: dict, evidence: dict[str, Any] | None) -> dict[floa
     >>> building_directions({"map": "a.pgm", "algorithm": "a"}, None)
     {}
     """
-    from slamq.verdict.rule import shared_directions
+    from slamq.verdict.rule import shared_directions, superposed_separations
 
     if evidence is None:
         return {}
-    alg = str(rec.get("algorithm"))
+    alg, path = str(rec.get("algorithm")), str(rec.get("map"))
     info = evidence.get("algorithms", {})
     lifted = shared_directions(info, evidence).get(alg, {})
-    mine = info.get(alg, {}).get("defects", {}).get(str(rec.get("map")), [])
-    seps = {d.get("separation") for d in mine if d.get("kind") == "superposed"}
+    mine = info.get(alg, {}).get("defects", {}).get(path, [])
+    seps = set(superposed_separations({"defects": {path: mine}}))
     return {round(float(v), 2): b for v, b in lifted.items() if v in seps}
 
 

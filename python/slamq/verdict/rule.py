@@ -466,8 +466,14 @@ def superposed_separations(e: dict[str, Any]) -> list[float]:
     ...                                           {"kind": "smeared"}]}})
     [31.0]
     """
-    return [float(d["separation"]) for ds in e.get("defects", {}).values() for d in ds
-            if d.get("kind") == "superposed" and d.get("separation") is not None]
+    return [v for _, v in _superposed_flags(e)]
+
+
+def _superposed_flags(e: dict[str, Any]) -> list[tuple[str, float]]:
+    """``(map path, separation)`` of each of an algorithm's ``superposed`` flags that
+    carries a separation (``e``: its evidence entry)."""
+    return [(str(p), float(d["separation"])) for p, ds in e.get("defects", {}).items()
+            for d in ds if d.get("kind") == "superposed" and d.get("separation") is not None]
 
 
 def shared_directions(info: dict[str, Any], evidence: dict[str, Any] | None = None
@@ -493,12 +499,6 @@ def shared_directions(info: dict[str, Any], evidence: dict[str, Any] | None = No
     """
     if not SHARED_DIRECTION:
         return {}
-
-    def flags(e: dict[str, Any]) -> list[tuple[str, float]]:
-        return [(str(p), float(d["separation"])) for p, ds in e.get("defects", {}).items()
-                for d in ds if d.get("kind") == "superposed"
-                and d.get("separation") is not None]
-
     cons = (evidence or {}).get("consistency", {})
     floor = float((evidence or {}).get("min_support", SETTINGS.min_support.default))
 
@@ -508,7 +508,7 @@ def shared_directions(info: dict[str, Any], evidence: dict[str, Any] | None = No
         c = cons.get(p, {}).get(q)
         return c is not None and math.isfinite(float(c)) and float(c) >= floor
 
-    seps = {a: flags(e) for a, e in info.items()}
+    seps = {a: _superposed_flags(e) for a, e in info.items()}
     out: dict[str, dict[float, str]] = {}
     for a, mine in seps.items():
         for p, v in mine:
