@@ -314,7 +314,7 @@ def test_doubled_walls_alone_decide_two_maps_only_with_scans_under_d1(monkeypatc
 def test_a_second_direction_two_programs_draw_is_the_buildings(monkeypatch) -> None:
     """S1 of docs/validity.md ("A second generator the rule was not tuned on: wing
     worlds"; adopted, ``rule.SHARED_DIRECTION``): a ``superposed`` flag is lifted when
-    another program's map carries one at the same separation (within 3 degrees), kept
+    another program's map carries one at the same separation (within 5 degrees), kept
     otherwise."""
     from slamq.verdict import rule
 
@@ -344,8 +344,14 @@ def test_a_second_direction_two_programs_draw_is_the_buildings(monkeypatch) -> N
     v = agreement_verdict(wing({"a": 31.0, "b": 12.0}), **cols)
     assert v["best"] == "c" and any("a is never named best: defects: superposed" in w
                                     for w in v["warnings"]), v["warnings"]
-    v = agreement_verdict(wing({"a": 31.0, "b": 34.5}), **cols)   # 3.5 degrees apart
+    v = agreement_verdict(wing({"a": 31.0, "b": 36.5}), **cols)   # 5.5 degrees apart
     assert v["best"] == "c"
+    # 4.5 degrees apart: lifted at 5 (S1a-5, adopted), not at 3 (the rule before)
+    assert rule.SHARED_DIRECTION_DEG == 5.0
+    assert agreement_verdict(wing({"a": 31.0, "b": 35.5}), **cols)["best"] == "a"
+    monkeypatch.setattr(rule, "SHARED_DIRECTION_DEG", 3.0)
+    assert agreement_verdict(wing({"a": 31.0, "b": 35.5}), **cols)["best"] == "c"
+    monkeypatch.setattr(rule, "SHARED_DIRECTION_DEG", 5.0)
     # a flag of another kind on the same map stays
     ev = wing({"a": 31.0, "b": 31.0})
     ev["algorithms"]["a"]["defects"]["a.pgm"].append({"kind": "smeared", "score": 1.0,
