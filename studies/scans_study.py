@@ -343,7 +343,8 @@ NO_SCANS = "scans=none"
 #: wall direction) is lifted (candidate S1), or every flag held as found (the rule before)
 #: (docs/validity.md, "A second generator the rule was not tuned on: wing worlds";
 #: ``slamq.verdict.rule.SHARED_DIRECTION``); ``"dirdeg=N"`` sets its margin, degrees
-#: (``SHARED_DIRECTION_DEG``; "A 5-degree margin for S1"); ``"dir=agree"`` lifts it only
+#: where both maps have their scans (``SHARED_DIRECTION_DEG``; "A 5-degree margin for S1"),
+#: ``"dirdeg0=N"`` where not (``SHARED_DIRECTION_DEG_NO_SCANS``); ``"dir=agree"`` lifts it only
 #: when the sharing map agrees with the flagged one (S1a, ``SHARED_DIRECTION_AGREE``; "S1a:
 #: a second direction lifted only by a map that agrees")
 DIR_SHARED, DIR_OWN, DIR_AGREE = "dir=shared", "dir=own", "dir=agree"
@@ -444,7 +445,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
              r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
              r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION,
-             r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE)
+             r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE, r.SHARED_DIRECTION_DEG_NO_SCANS)
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
@@ -468,6 +469,9 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
                 if isinstance(x, str) and x.startswith("dirdeg="):
                     # docs/validity.md, "A 5-degree margin for S1"
                     r.SHARED_DIRECTION_DEG = float(x.removeprefix("dirdeg="))
+                if isinstance(x, str) and x.startswith("dirdeg0="):
+                    # without both maps' scans ("S1a-5 only where both maps have their scans")
+                    r.SHARED_DIRECTION_DEG_NO_SCANS = float(x.removeprefix("dirdeg0="))
                 if isinstance(x, str) and x.startswith("shortfall="):
                     r.SHORTFALL = float(x.removeprefix("shortfall="))
                 if isinstance(x, str) and x.startswith("local="):
@@ -490,7 +494,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
          r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
          r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION,
-         r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE) = saved
+         r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE, r.SHARED_DIRECTION_DEG_NO_SCANS) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,

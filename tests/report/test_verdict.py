@@ -314,7 +314,8 @@ def test_doubled_walls_alone_decide_two_maps_only_with_scans_under_d1(monkeypatc
 def test_a_second_direction_two_programs_draw_is_the_buildings(monkeypatch) -> None:
     """S1 of docs/validity.md ("A second generator the rule was not tuned on: wing
     worlds"; adopted, ``rule.SHARED_DIRECTION``): a ``superposed`` flag is lifted when
-    another program's map carries one at the same separation (within 5 degrees), kept
+    another program's map carries one at the same separation (within 5 degrees where both
+    maps have their scans, 3 without), kept
     otherwise."""
     from slamq.verdict import rule
 
@@ -346,11 +347,20 @@ def test_a_second_direction_two_programs_draw_is_the_buildings(monkeypatch) -> N
                                     for w in v["warnings"]), v["warnings"]
     v = agreement_verdict(wing({"a": 31.0, "b": 36.5}), **cols)   # 5.5 degrees apart
     assert v["best"] == "c"
-    # 4.5 degrees apart: lifted at 5 (S1a-5, adopted), not at 3 (the rule before)
-    assert rule.SHARED_DIRECTION_DEG == 5.0
-    assert agreement_verdict(wing({"a": 31.0, "b": 35.5}), **cols)["best"] == "a"
+    # 4.5 degrees apart (S1a-5s): lifted within 5 where both maps have their scans, not
+    # within the 3 of maps alone, nor with the rule before (3 everywhere)
+    assert (rule.SHARED_DIRECTION_DEG, rule.SHARED_DIRECTION_DEG_NO_SCANS) == (5.0, 3.0)
+    ev = wing({"a": 31.0, "b": 35.5})
+    assert agreement_verdict(ev, **cols)["best"] == "c"
+    for a in "abc":
+        ev["algorithms"][a] |= {"scan_crossing": 0.01, "scan_runs": 1}
+    v = agreement_verdict(ev, **cols)
+    assert v["best"] == "a", v["confidence"]
+    ev["algorithms"]["b"]["scan_crossing"] = math.nan      # b's scans not scored: 3 degrees
+    assert agreement_verdict(ev, **cols)["best"] == "c"
+    ev["algorithms"]["b"]["scan_crossing"] = 0.01
     monkeypatch.setattr(rule, "SHARED_DIRECTION_DEG", 3.0)
-    assert agreement_verdict(wing({"a": 31.0, "b": 35.5}), **cols)["best"] == "c"
+    assert agreement_verdict(ev, **cols)["best"] == "c"
     monkeypatch.setattr(rule, "SHARED_DIRECTION_DEG", 5.0)
     # a flag of another kind on the same map stays
     ev = wing({"a": 31.0, "b": 31.0})

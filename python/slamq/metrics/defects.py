@@ -377,7 +377,8 @@ def superposed(m: OccupancyMap, *,
     each other: scan matching that jumped). The second rule also flags a real building
     with a strong second direction (a wing at an angle holding a fifth of the main
     direction's walls); the verdict lifts such a flag where another program's map draws
-    the same direction (``separation`` within 5 degrees, docs/spec.md section 9). Walls
+    the same direction (``separation`` within 5 degrees where both maps' scans were
+    scored, 3 without; docs/spec.md section 9). Walls
     turned by less than about 5 degrees are not told apart (a local direction is measured
     over about ten cells); :func:`doubled_walls` sees such copies as wedge-shaped wall
     pairs.

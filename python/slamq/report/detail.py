@@ -436,14 +436,19 @@ def building_directions(rec: dict, evidence: dict[str, Any] | None) -> dict[floa
 def _defect_note(d: dict, mp: MapPage) -> str:
     """A defect's note on the detail page, with why a lifted ``superposed`` flag is not
     held against the map."""
-    from slamq.verdict.rule import SHARED_DIRECTION_AGREE, SHARED_DIRECTION_DEG
+    from slamq.verdict.rule import (
+        SHARED_DIRECTION_AGREE,
+        SHARED_DIRECTION_DEG,
+        SHARED_DIRECTION_DEG_NO_SCANS,
+    )
 
     other = mp.lifted_by(d)
     if other is None:
         return _e(d["note"])
     return (f"{_e(d['note'])}<br><b>The building's, not held against this map:</b> "
             f"{_e(other)}'s map draws a second direction {float(d['separation']):.0f} deg "
-            f"from its first too (within {SHARED_DIRECTION_DEG:g} deg)"
+            f"from its first too (within {SHARED_DIRECTION_DEG:g} deg where both maps' "
+            f"scans were scored, {SHARED_DIRECTION_DEG_NO_SCANS:g} without)"
             + (" and agrees with this map" if SHARED_DIRECTION_AGREE else "")
             + " (docs/spec.md section 9).")
 

@@ -25,10 +25,11 @@ __all__ = [
     "DEGENERATE_SHARE", "LOCAL_ANCHOR",
     "LOCAL_KEY", "LOCAL_RATIO", "SCANS_BREAK_TIES", "SCANS_ORDER_UNCOMPARABLE", "SCAN_FLOOR",
     "MILD_DEFECTS_DECIDE", "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHARED_DIRECTION",
-    "SHARED_DIRECTION_AGREE", "SHARED_DIRECTION_DEG", "SHORTFALL",
+    "SHARED_DIRECTION_AGREE", "SHARED_DIRECTION_DEG",
+    "SHARED_DIRECTION_DEG_NO_SCANS", "SHORTFALL",
     "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
-    "scan_limit", "shared_directions", "superposed_separations",
+    "scan_limit", "shared_direction_margin", "shared_directions", "superposed_separations",
     "sequence_verdict", "verdict_sentence",
 ]
 
@@ -130,16 +131,20 @@ SEVERE_DEFECTS = ("superposed", "smeared", "fragmented")
 MILD_DEFECTS_DECIDE = True
 #: Whether a ``superposed`` flag is lifted from a map when another program's map of the
 #: sequence carries one with the same second wall direction (separations within
-#: :data:`SHARED_DIRECTION_DEG`): a direction two programs draw at the same angle is the
+#: :func:`shared_direction_margin`): a direction two programs draw at the same angle is the
 #: building's (a wing), not a scan-matching jump. S1 of docs/validity.md ("A second
 #: generator the rule was not tuned on: wing worlds"), adopted 2026-12-01; False is the
 #: rule before.
 SHARED_DIRECTION = True
-#: Degrees within which two maps' second wall directions are the same: the superposed
-#: detector's resolution (about 5 degrees). S1a-5 of docs/validity.md ("S1a with a 5-degree
-#: margin on a third held-out set"), adopted 2026-12-01; 3 is the rule before (5 under S1,
-#: without the agreement, named one more broken run: "A 5-degree margin for S1").
+#: Degrees within which two maps' second wall directions are the same where both maps'
+#: programs carry their own scans' crossing share (:data:`SCAN_KEY`): the superposed
+#: detector's resolution (about 5 degrees). A lifted map is still judged by its scans.
+#: S1a-5s of docs/validity.md ("S1a-5 only where both maps have their scans"); 3 is the
+#: rule before.
 SHARED_DIRECTION_DEG = 5.0
+#: The same without the scans of both (maps alone): 3 degrees, as before. 5 named a broken
+#: run there that 3 does not (docs/validity.md, "S1a-5 on the wing sets made once more").
+SHARED_DIRECTION_DEG_NO_SCANS = 3.0
 #: Whether the map that shares a second wall direction must also agree with the lifted map
 #: (their consistency at least the evidence's ``min_support``) for :data:`SHARED_DIRECTION`
 #: to lift the flag: two programs that draw the building draw the same walls. S1a of
@@ -477,11 +482,31 @@ def _superposed_flags(e: dict[str, Any]) -> list[tuple[str, float]]:
             for d in ds if d.get("kind") == "superposed" and d.get("separation") is not None]
 
 
+def shared_direction_margin(a: dict[str, Any], b: dict[str, Any]) -> float:
+    """Degrees within which two algorithms' second wall directions are the same (``a``,
+    ``b``: their evidence entries): :data:`SHARED_DIRECTION_DEG` when both carry their own
+    scans' crossing share, else :data:`SHARED_DIRECTION_DEG_NO_SCANS` (docs/spec.md
+    section 9).
+
+    Examples
+    --------
+    >>> shared_direction_margin({"scan_crossing": 0.01}, {"scan_crossing": 0.02})
+    5.0
+    >>> shared_direction_margin({"scan_crossing": 0.01}, {"scan_crossing": float("nan")})
+    3.0
+    """
+    def scanned(e: dict[str, Any]) -> bool:
+        c = e.get(SCAN_KEY)
+        return isinstance(c, (int, float)) and math.isfinite(float(c))
+
+    return SHARED_DIRECTION_DEG if scanned(a) and scanned(b) else SHARED_DIRECTION_DEG_NO_SCANS
+
+
 def shared_directions(info: dict[str, Any], evidence: dict[str, Any] | None = None
                       ) -> dict[str, dict[float, str]]:
     """Per algorithm (``info``: the evidence's ``algorithms``), the separations of its
     ``superposed`` flags that another algorithm's flag shares (within
-    :data:`SHARED_DIRECTION_DEG`), each with the first such algorithm (by name): the flags
+    :func:`shared_direction_margin`), each with the first such algorithm (by name): the flags
     :data:`SHARED_DIRECTION` lifts (docs/spec.md section 9). Empty when it is False. With
     :data:`SHARED_DIRECTION_AGREE`, the sharing map must also agree with the flagged one
     (``evidence``'s ``consistency`` at least its ``min_support``; no evidence, no lift).
@@ -514,8 +539,8 @@ def shared_directions(info: dict[str, Any], evidence: dict[str, Any] | None = No
     for a, mine in seps.items():
         for p, v in mine:
             b = next((b for b in sorted(seps) if b != a and any(
-                abs(v - w) <= SHARED_DIRECTION_DEG and agree(p, q) for q, w in seps[b])),
-                None)
+                abs(v - w) <= shared_direction_margin(info[a], info[b]) and agree(p, q)
+                for q, w in seps[b])), None)
             if b is not None:
                 out.setdefault(a, {})[v] = b
     return out
