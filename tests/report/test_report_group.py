@@ -155,8 +155,8 @@ def test_a_wing_two_maps_draw_is_the_buildings_on_the_pages(tmp_path: Path) -> N
         assert len(rows) == 1, text
         note = " ".join(htmllib.unescape(re.sub(r"<[^>]+>", " ", rows[0])).split())
         assert "second wall direction" in note
-        assert f"The building's, not held against this map: {other}'s map draws a second " \
-               "direction 31 deg from its first too" in note, note
+        assert f"The building's, not held against this map: {other}'s map draws this " \
+               "map's second direction (31 deg from the first) too, within 5 deg" in note, note
     index = (site / "index.html").read_text(encoding="utf-8")
     assert index.count("superposed (the building&#x27;s)") == 2, index
     # one map alone: nothing shares its direction, the flag is held as before

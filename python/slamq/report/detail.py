@@ -446,9 +446,10 @@ def _defect_note(d: dict, mp: MapPage) -> str:
     if other is None:
         return _e(d["note"])
     return (f"{_e(d['note'])}<br><b>The building's, not held against this map:</b> "
-            f"{_e(other)}'s map draws a second direction {float(d['separation']):.0f} deg "
-            f"from its first too (within {SHARED_DIRECTION_DEG:g} deg where both maps' "
-            f"scans were scored, {SHARED_DIRECTION_DEG_NO_SCANS:g} without)"
+            f"{_e(other)}'s map draws this map's second direction "
+            f"({float(d['separation']):.0f} deg from the first) too, within "
+            f"{SHARED_DIRECTION_DEG:g} deg where both maps' scans were scored, "
+            f"{SHARED_DIRECTION_DEG_NO_SCANS:g} without,"
             + (" and agrees with this map" if SHARED_DIRECTION_AGREE else "")
             + " (docs/spec.md section 9).")
 
