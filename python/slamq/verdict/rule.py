@@ -29,7 +29,7 @@ __all__ = [
     "SHARED_DIRECTION_DEG_NO_SCANS", "SHORTFALL",
     "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
-    "scan_limit", "shared_direction_margin", "shared_directions", "superposed_separations",
+    "scan_limit", "shared_directions", "superposed_separations",
     "sequence_verdict", "verdict_sentence",
 ]
 
@@ -131,10 +131,10 @@ SEVERE_DEFECTS = ("superposed", "smeared", "fragmented")
 MILD_DEFECTS_DECIDE = True
 #: Whether a ``superposed`` flag is lifted from a map when another program's map of the
 #: sequence carries one with the same second wall direction (separations within
-#: :func:`shared_direction_margin`): a direction two programs draw at the same angle is the
-#: building's (a wing), not a scan-matching jump. S1 of docs/validity.md ("A second
-#: generator the rule was not tuned on: wing worlds"), adopted 2026-12-01; False is the
-#: rule before.
+#: :data:`SHARED_DIRECTION_DEG`, or :data:`SHARED_DIRECTION_DEG_NO_SCANS`): a direction two
+#: programs draw at the same angle is the building's (a wing), not a scan-matching jump.
+#: S1 of docs/validity.md ("A second generator the rule was not tuned on: wing worlds"),
+#: adopted 2026-12-01; False is the rule before.
 SHARED_DIRECTION = True
 #: Degrees within which two maps' second wall directions are the same where both maps'
 #: programs carry their own scans' crossing share (:data:`SCAN_KEY`): the superposed
@@ -482,32 +482,13 @@ def _superposed_flags(e: dict[str, Any]) -> list[tuple[str, float]]:
             for d in ds if d.get("kind") == "superposed" and d.get("separation") is not None]
 
 
-def shared_direction_margin(a: dict[str, Any], b: dict[str, Any]) -> float:
-    """Degrees within which two algorithms' second wall directions are the same (``a``,
-    ``b``: their evidence entries): :data:`SHARED_DIRECTION_DEG` when both carry their own
-    scans' crossing share, else :data:`SHARED_DIRECTION_DEG_NO_SCANS` (docs/spec.md
-    section 9).
-
-    Examples
-    --------
-    >>> shared_direction_margin({"scan_crossing": 0.01}, {"scan_crossing": 0.02})
-    5.0
-    >>> shared_direction_margin({"scan_crossing": 0.01}, {"scan_crossing": float("nan")})
-    3.0
-    """
-    def scanned(e: dict[str, Any]) -> bool:
-        c = e.get(SCAN_KEY)
-        return isinstance(c, (int, float)) and math.isfinite(float(c))
-
-    return SHARED_DIRECTION_DEG if scanned(a) and scanned(b) else SHARED_DIRECTION_DEG_NO_SCANS
-
-
 def shared_directions(info: dict[str, Any], evidence: dict[str, Any] | None = None
                       ) -> dict[str, dict[float, str]]:
     """Per algorithm (``info``: the evidence's ``algorithms``), the separations of its
     ``superposed`` flags that another algorithm's flag shares (within
-    :func:`shared_direction_margin`), each with the first such algorithm (by name): the flags
-    :data:`SHARED_DIRECTION` lifts (docs/spec.md section 9). Empty when it is False. With
+    :data:`SHARED_DIRECTION_DEG` where both carry their own scans' crossing share, else
+    :data:`SHARED_DIRECTION_DEG_NO_SCANS`), each with the first such algorithm (by name): the
+    flags :data:`SHARED_DIRECTION` lifts (docs/spec.md section 9). Empty when it is False. With
     :data:`SHARED_DIRECTION_AGREE`, the sharing map must also agree with the flagged one
     (``evidence``'s ``consistency`` at least its ``min_support``; no evidence, no lift).
 
@@ -522,6 +503,14 @@ def shared_directions(info: dict[str, Any], evidence: dict[str, Any] | None = No
     >>> ev["consistency"] = {"a.pgm": {"b.pgm": 0.3}, "b.pgm": {"a.pgm": 0.3}}
     >>> shared_directions(info, ev)   # the same angle by chance on maps that disagree
     {}
+    >>> ev["consistency"] = {"a.pgm": {"b.pgm": 0.9}, "b.pgm": {"a.pgm": 0.9}}
+    >>> info["b"]["defects"] = flag("b.pgm", 35.5)          # 4.5 degrees apart
+    >>> shared_directions(info, ev)                          # maps alone: within 3
+    {}
+    >>> for e in info.values():
+    ...     e["scan_crossing"] = 0.01
+    >>> shared_directions(info, ev)                          # both with their scans: within 5
+    {'a': {31.0: 'b'}, 'b': {35.5: 'a'}}
     """
     if not SHARED_DIRECTION:
         return {}
@@ -534,13 +523,18 @@ def shared_directions(info: dict[str, Any], evidence: dict[str, Any] | None = No
         c = cons.get(p, {}).get(q)
         return c is not None and math.isfinite(float(c)) and float(c) >= floor
 
+    scanned = _finite(info, SCAN_KEY)
+
+    def margin(a: str, b: str) -> float:
+        both = a in scanned and b in scanned
+        return SHARED_DIRECTION_DEG if both else SHARED_DIRECTION_DEG_NO_SCANS
+
     seps = {a: _superposed_flags(e) for a, e in info.items()}
     out: dict[str, dict[float, str]] = {}
     for a, mine in seps.items():
         for p, v in mine:
             b = next((b for b in sorted(seps) if b != a and any(
-                abs(v - w) <= shared_direction_margin(info[a], info[b]) and agree(p, q)
-                for q, w in seps[b])), None)
+                abs(v - w) <= margin(a, b) and agree(p, q) for q, w in seps[b])), None)
             if b is not None:
                 out.setdefault(a, {})[v] = b
     return out
