@@ -43,11 +43,15 @@ KINDS: dict[str, str] = {
     "wing": "an office block and a wing of rooms along a corridor turned 25-55 degrees "
             "against it, joined by a lobby: two wall directions in different places, as in "
             "buildings grown in parts (not in the default cycle)",
+    "warehouse": "a storage hall of parallel racks with aisles between them and cross "
+                 "aisles at their ends, some bays empty (the laser sees through into the "
+                 "next aisle), offices along one wall: aisles that look alike (not in the "
+                 "default cycle)",
 }
 
 #: The kinds an integer ``worlds`` count cycles through: the six the verdict was tuned and
-#: tested on. Kinds added later (``hexagonal``, ``wing``) are chosen by name, so that a benchmark
-#: written as ``worlds: 20`` keeps generating the same worlds.
+#: tested on. Kinds added later (``hexagonal``, ``wing``, ``warehouse``) are chosen by
+#: name, so that a benchmark written as ``worlds: 20`` keeps generating the same worlds.
 DEFAULT_KINDS: tuple[str, ...] = ("office", "loop", "corridor", "hall", "symmetric", "mixed")
 
 WALL = 0.1       # wall thickness, metres (two cells at 0.05: a wall centred on a
@@ -564,13 +568,72 @@ def _wing(p: _Plan, rng: np.random.Generator) -> None:
     p.features += ["wing", "not rectilinear", "corridor"]
 
 
+def _warehouse(p: _Plan, rng: np.random.Generator) -> None:
+    """A storage hall: racks (double-sided shelving 0.9-1.2 m deep, in bays of 2.4-3.0 m)
+    in parallel rows along the building's length, aisles of 2.4-3.2 m between them and
+    along the hall's walls, cross aisles at both ends and, in a long hall, one through the
+    middle; some bays empty (only the posts of their frames stand, so the laser sees into
+    the next aisle); a row of offices along one long wall behind a partition with doors
+    into the hall. Every aisle holds two rooms near its ends (the drive goes down each)."""
+    W, H = p.width, p.height
+    p.outline()
+    depth = _u(rng, 3.5, 4.5) if H >= 12 else 0.3 * H
+    offices_low = rng.random() < 0.5
+    y_part = depth if offices_low else H - depth
+    p.hwall(y_part, 0, W)
+    if offices_low:
+        _rooms_along(p, rng, 0, W, 0, y_part, y_part, "office", widths=(3.5, 5.5),
+                     furniture=2, links=0.3)
+        hy0, hy1 = y_part, H
+    else:
+        _rooms_along(p, rng, 0, W, y_part, H, y_part, "office", widths=(3.5, 5.5),
+                     furniture=2, links=0.3)
+        hy0, hy1 = 0.0, y_part
+    # the racks' rows: an aisle along each wall of the hall and between every two rows
+    rack, aisle = _u(rng, 0.9, 1.2), _u(rng, 2.4, 3.2)
+    rows = max(1, int((hy1 - hy0 - aisle) // (rack + aisle)))
+    spare = (hy1 - hy0) - rows * rack - (rows + 1) * aisle
+    x0, x1 = _u(rng, 2.4, 3.4), W - _u(rng, 2.4, 3.4)
+    spans = [(x0, x1)]
+    if x1 - x0 > 14.0 or (x1 - x0 > 10.0 and rng.random() < 0.6):
+        mid, cw = x0 + _u(rng, 0.35, 0.65) * (x1 - x0), _u(rng, 2.0, 2.8)
+        spans = [(x0, mid - cw / 2), (mid + cw / 2, x1)]
+        p.features.append("cross aisle")
+    post = 0.12
+    y = hy0 + spare / 2 + aisle
+    for _ in range(rows):
+        for a, b in spans:
+            cuts = [a + c for c in _split(rng, b - a, 2.4, 3.0)]
+            for u, v in zip(cuts[:-1], cuts[1:]):
+                if rng.random() < 0.15:
+                    for px in (u, v):
+                        for py in (y, y + rack):
+                            p.add_wall(px - post / 2, py - post / 2, px + post / 2,
+                                       py + post / 2)
+                    p.features.append("empty bays")
+                else:
+                    p.add_wall(u, y, v, y + rack)
+        y += rack + aisle
+    # two places in each aisle, near its ends, so that the drive goes down its length
+    y = hy0 + spare / 2
+    for k in range(rows + 1):
+        for j, f in enumerate((0.15, 0.85)):
+            mx, my = x0 + f * (x1 - x0), y + aisle / 2
+            p.room(f"aisle{k}-{j}", mx - 0.6, my - 0.6, mx + 0.6, my + 0.6)
+        y += aisle + rack
+    p.room("end0", 0.0, hy0, x0, hy1)
+    p.room("end1", x1, hy0, W, hy1)
+    p.features += ["warehouse", "aisles", "repetitive", "open space"]
+
+
 _MAKERS = {"office": _office, "loop": _loop, "corridor": _corridor, "hall": _hall,
            "symmetric": _symmetric, "mixed": lambda p, r: _office(p, r, mixed=True),
-           "hexagonal": _hexagonal, "wing": _wing}
+           "hexagonal": _hexagonal, "wing": _wing, "warehouse": _warehouse}
 #: Each kind's place in its worlds' seed (the six first kinds sorted, then later kinds in
 #: the order they were added), fixed so that adding a kind changes no existing world.
-_SEED_INDEX = {k: i for i, k in enumerate(sorted(DEFAULT_KINDS) + ["hexagonal", "wing"])}
-_SIZES = {"corridor": (30.0, 9.0), "wing": (26.0, 18.0)}
+_SEED_INDEX = {k: i for i, k in
+               enumerate(sorted(DEFAULT_KINDS) + ["hexagonal", "wing", "warehouse"])}
+_SIZES = {"corridor": (30.0, 9.0), "wing": (26.0, 18.0), "warehouse": (28.0, 18.0)}
 
 
 def world(seed: int = 0, *, kind: str = "office", size: tuple[float, float] | None = None,
