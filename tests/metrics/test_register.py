@@ -158,9 +158,13 @@ def test_register_many_gives_every_ordered_pair_consistently() -> None:
     # b onto c through a agrees with b onto c directly
     via = regs["a", "c"].matrix() @ regs["b", "a"].matrix()
     assert np.allclose(via, regs["b", "c"].matrix(), atol=0.05)
-    # the same pair alone gives the same registration; any thread count too
-    alone = slamq.register(b, a, threads=2)
-    assert alone.transform == regs["b", "a"].transform
+    # the same pair alone gives the same registration, in the direction the maps choose
+    # (the later of canonical_order moved onto the earlier); any thread count too
+    from slamq.metrics.register import canonical_order
+
+    fixed, moving = canonical_order({"a": a, "b": b})
+    alone = slamq.register({"a": a, "b": b}[moving], {"a": a, "b": b}[fixed], threads=2)
+    assert alone.transform == regs[moving, fixed].transform
     assert slamq.register_many({"a": a, "b": b, "c": c}, threads=3) == regs
     d = regs["b", "a"].to_dict()
     assert d["ok"] is True and math.isclose(d["dyaw"], math.degrees(d["theta"]))
@@ -409,3 +413,36 @@ def test_real_maps_at_002_and_005_m_from_two_start_poses(shared_data, tmp_path) 
                            / "intel_lab" / "intel.yaml")
     other = slamq.register(moving, intel, threads=1)
     assert not other.ok, other
+
+
+def _office_maps(test_data: Path) -> dict[str, OccupancyMap]:
+    folder = test_data / "slam_comparison_tools" / "test_results" / "office"
+    return {p.stem.removesuffix("_map"): slamq.load_map(p)
+            for p in sorted(folder.glob("*_map.yaml"))}
+
+
+def test_register_many_does_not_depend_on_the_order_or_names(test_data: Path) -> None:
+    # which map of a pair is moved onto the other is chosen by the maps, not their order:
+    # registered in the order given, the office's five maps gave thetas 0.005 rad apart
+    maps = _office_maps(test_data)
+    first = slamq.register_many(maps, threads=1)
+    backwards = slamq.register_many(dict(reversed(list(maps.items()))), threads=1)
+    renamed = slamq.register_many({f"z{k}" if k < "m" else f"a{k}": m
+                                   for k, m in maps.items()}, threads=1)
+    for (a, b), r in first.items():
+        again, other = backwards[a, b], renamed[
+            f"z{a}" if a < "m" else f"a{a}", f"z{b}" if b < "m" else f"a{b}"]
+        for s in (again, other):
+            assert (s.ok, s.theta, s.tx, s.ty, s.confidence) == \
+                (r.ok, r.theta, r.tx, r.ty, r.confidence), (a, b)
+
+
+def test_agreement_does_not_depend_on_the_order_of_the_maps(test_data: Path) -> None:
+    maps = _office_maps(test_data)
+    first = slamq.agreement(maps, threads=1)
+    shuffled = dict(sorted(maps.items(), key=lambda kv: kv[0][::-1]))
+    assert list(shuffled) != list(maps)
+    again = slamq.agreement(shuffled, threads=1)
+    assert first.support == again.support and first.completeness == again.completeness
+    assert first.group == [n for n in maps if n in again.group]
+    assert first.placed == again.placed and first.majority == again.majority

@@ -350,7 +350,8 @@ def place_all(maps: Mapping[str, OccupancyMap], *, threads: int | None = None
     """Put several maps of one place in one frame by :func:`slamq.register_many`.
 
     The base is the map with the most trusted registrations (ties: the highest summed
-    confidence, then the order given); every other map is moved into the base's frame by its
+    confidence, then :func:`slamq.metrics.register.canonical_order`, which depends on the
+    maps alone, not their names or order); every other map is moved into the base's frame by its
     own registration onto the base, or, when that one is refused, through one other map
     that both registrations trust. Maps without a resolution take the first resolution
     given (else 1 m).
@@ -380,15 +381,16 @@ def place_all(maps: Mapping[str, OccupancyMap], *, threads: int | None = None
     >>> placed, [round(v, 3) + 0.0 for v in moved["b"].origin]
     ({'a': True, 'b': True}, [0.0, 0.0, 0.0])
     """
-    from slamq.metrics.register import register_many
+    from slamq.metrics.register import canonical_order, register_many
 
     names = list(maps)
     maps = _resolved(maps)
     regs = register_many(maps, threads=threads)
+    rank = {n: k for k, n in enumerate(canonical_order(maps))}
 
     def trusted(n: str) -> tuple[int, float, int]:
         ok = [regs[m, n] for m in names if m != n and regs[m, n].ok]
-        return (len(ok), sum(r.confidence for r in ok), -names.index(n))
+        return (len(ok), math.fsum(r.confidence for r in ok), -rank[n])
 
     base = max(names, key=trusted)
     moved = {base: maps[base]}
