@@ -34,7 +34,7 @@ def test_the_studies_are_the_ones_the_readme_lists() -> None:
                        "gmapping_run", "rbpf_path_study",
                        "real2d", "real2d_validity", "scans_study",
                        "shared_direction_study", "split_meet_study",
-                       "split_scans",
+                       "split_scans", "support_grid_study",
                        "two_map_study", "uncomparable_study", "verdict_study",
                        "wall_symmetry"]
     assert all(f"python studies/{s}.py" in readme for s in SCRIPTS)
