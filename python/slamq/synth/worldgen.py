@@ -581,14 +581,11 @@ def _warehouse(p: _Plan, rng: np.random.Generator) -> None:
     offices_low = rng.random() < 0.5
     y_part = depth if offices_low else H - depth
     p.hwall(y_part, 0, W)
-    if offices_low:
-        _rooms_along(p, rng, 0, W, 0, y_part, y_part, "office", widths=(3.5, 5.5),
-                     furniture=2, links=0.3)
-        hy0, hy1 = y_part, H
-    else:
-        _rooms_along(p, rng, 0, W, y_part, H, y_part, "office", widths=(3.5, 5.5),
-                     furniture=2, links=0.3)
-        hy0, hy1 = 0.0, y_part
+    # the offices on one side of the partition, the hall on the other
+    (oy0, oy1), (hy0, hy1) = ((0.0, y_part), (y_part, H)) if offices_low else \
+        ((y_part, H), (0.0, y_part))
+    _rooms_along(p, rng, 0, W, oy0, oy1, y_part, "office", widths=(3.5, 5.5), furniture=2,
+                 links=0.3)
     # the racks' rows: an aisle along each wall of the hall and between every two rows
     rack, aisle = _u(rng, 0.9, 1.2), _u(rng, 2.4, 3.2)
     rows = max(1, int((hy1 - hy0 - aisle) // (rack + aisle)))
