@@ -244,8 +244,12 @@ def run_local(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, Any]]
 
     Each finished run's row goes to ``rows[i]``, to its ``run.json`` and to ``progress``
     (when given); a run ending ``infrastructure`` is tried again up to ``config.retries``
-    times. Ctrl-C (KeyboardInterrupt in the calling thread) stops every running group
-    (SIGINT, SIGTERM, SIGKILL) and is raised again; interrupted runs leave no ``run.json``.
+    times. Ctrl-C stops every running group (SIGINT, SIGTERM, SIGKILL), then raises
+    ``KeyboardInterrupt``; interrupted runs leave no ``run.json``. Called in the main
+    thread, a SIGINT or SIGTERM handled in Python (``KeyboardInterrupt``, the ``slamq``
+    command's SIGTERM) only asks the runs to stop while they run
+    (:func:`slamq.runner.process.interrupts_caught`), so it cannot land half-way through
+    starting or stopping them.
     The signature is that of the ``backend`` argument of
     :func:`slamq.runner.runner.execute`.
     """
@@ -255,6 +259,8 @@ def run_local(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, Any]]
         slots.put(n)
 
     def work(i: int) -> None:
+        if stop.is_set():
+            return
         spec, key, pieces = keyed[i]
         slot = slots.get()
         try:
@@ -275,20 +281,24 @@ def run_local(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, Any]]
         finally:
             slots.put(slot)
 
-    pool = ThreadPoolExecutor(max_workers=config.parallel, thread_name_prefix="slamq-run")
-    futures = []
-    try:
-        # submitted inside the try: a run may start while the pool is still starting its
-        # threads, and a Ctrl-C then must stop it too (it escaped the handler before)
+    # a Ctrl-C (or SIGTERM) is noted, and seen here, instead of raising wherever the main
+    # thread is: raised inside the pool starting a worker, it left that worker's run
+    # unstopped and unwaited for; raised twice, it ended the stopping half-way
+    with process.interrupts_caught() as interrupted:
+        pool = ThreadPoolExecutor(max_workers=config.parallel,
+                                  thread_name_prefix="slamq-run")
+        futures = []
         for i in todo:
+            if interrupted:
+                break
             futures.append(pool.submit(work, i))
         for f in futures:
-            while not f.done():
+            while not (f.done() or interrupted):
                 time.sleep(0.05)
-            f.result()
-    except KeyboardInterrupt:
-        stop.set()
-        with process.held_interrupts():  # a second Ctrl-C must not abandon the stopping
-            pool.shutdown(wait=True, cancel_futures=True)  # also one submitted as it came
-        raise
-    pool.shutdown(wait=True)
+        if interrupted:
+            stop.set()
+        pool.shutdown(wait=True, cancel_futures=stop.is_set())
+    if interrupted:
+        raise KeyboardInterrupt
+    for f in futures:
+        f.result()
