@@ -146,7 +146,11 @@ def test_slots_per_worker(tmp_path: Path, cluster: Cluster) -> None:
     assert peak == 3
 
 
-def test_ctrl_c_of_the_client_stops_the_workers_groups(tmp_path: Path, cluster: Cluster) -> None:
+@pytest.mark.parametrize("signals", [("INT",), ("INT", "INT", "TERM", "INT")])
+def test_ctrl_c_of_the_client_stops_the_workers_groups(tmp_path: Path, cluster: Cluster,
+                                                       signals: tuple[str, ...]) -> None:
+    # also a burst: a second Ctrl-C (or a scheduler's SIGTERM after it) used to be able to
+    # land before the first one's stopping had begun and abandon it
     cfg = _config(tmp_path)
     cfg["algorithms"] = {name: {"command": "sleep 60 & echo $! > {out}/child.pid; wait"}
                          for name in ("a", "b")}
@@ -163,7 +167,8 @@ def test_ctrl_c_of_the_client_stops_the_workers_groups(tmp_path: Path, cluster: 
                 break
             assert time.monotonic() < end and proc.poll() is None, _dump(proc, tmp_path)
             time.sleep(0.05)
-        proc.send_signal(signal.SIGINT)
+        for name in signals:
+            proc.send_signal(getattr(signal, f"SIG{name}"))
         _, err = proc.communicate(timeout=30)
     finally:
         if proc.poll() is None:

@@ -456,50 +456,65 @@ def execute_dask(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, An
         threading.Thread(target=_keep_unstuck, args=(client, stop), daemon=True,
                          name="slamq-dask-unstick").start()
         batch = token[:8]
-        try:
-            # submitted inside the try: the first runs start while later ones are being
-            # submitted, and a Ctrl-C then must stop them too (it escaped the handler before)
-            for i in todo:
+
+        def take(fut: Any) -> None:
+            """A finished task's row into ``rows`` (and its files, when returned)."""
+            i = futures.pop(fut)
+            try:
+                result = fut.result()
+                fut.release()  # the worker may forget the result (a tar can be large)
+            except Exception as exc:  # noqa: BLE001 - a lost task is said below
+                if _gone(client):
+                    raise _gone_error(config, keyed, rows, todo, address) from exc
                 spec, key, pieces = keyed[i]
-                futures[client.submit(
-                    run_task, spec, key, pieces["command"], config, (str(probe_path), token),
-                    outputs, resources={RESOURCE: 1}, pure=False,
-                    key=f"slamq-run-{batch}-{i}-{key[:12]}")] = i
-            for fut in as_completed(list(futures)):
-                i = futures.pop(fut)
-                try:
-                    result = fut.result()
-                    fut.release()  # the worker may forget the result (a tar can be large)
-                except Exception as exc:  # noqa: BLE001 - a lost task is said below
-                    if _gone(client):
-                        raise _gone_error(config, keyed, rows, todo, address) from exc
+                row = execution.run_row(spec, key, {"outcome": "infrastructure",
+                                                   "reason": f"dask: {exc!r}"[:500]}, 1)
+                row["command"] = pieces["command"]  # no run.json: a resume runs it
+                result = {"row": row}
+            row = result.get("row")
+            if row is None:
+                return
+            if "tar" in result:
+                _unpack(result["tar"], keyed[i][0].folder)
+                execution.write_atomic(keyed[i][0].folder / "run.json",
+                                       json.dumps(row, indent=1, default=str))
+            rows[i] = row
+            if progress is not None:
+                progress(row)
+
+        # a Ctrl-C (or SIGTERM) is noted and seen here, between tasks, instead of raising
+        # wherever the main thread is (process.interrupts_caught): the stopping below then
+        # always runs whole
+        with process.interrupts_caught() as interrupted:
+            try:
+                for i in todo:
+                    if interrupted:
+                        break
                     spec, key, pieces = keyed[i]
-                    row = execution.run_row(spec, key, {"outcome": "infrastructure",
-                                                       "reason": f"dask: {exc!r}"[:500]}, 1)
-                    row["command"] = pieces["command"]  # no run.json: a resume runs it
-                    result = {"row": row}
-                row = result.get("row")
-                if row is None:
-                    continue
-                if "tar" in result:
-                    _unpack(result["tar"], keyed[i][0].folder)
-                    execution.write_atomic(keyed[i][0].folder / "run.json",
-                                           json.dumps(row, indent=1, default=str))
-                rows[i] = row
-                if progress is not None:
-                    progress(row)
-            for i in todo:  # what attempts on dead workers left beside finished runs
-                folder = keyed[i][0].folder
-                if (folder / "run.json").is_file():
-                    for stale in folder.parent.glob(f".{folder.name}.attempt-*"):
-                        shutil.rmtree(stale, ignore_errors=True)
-        except KeyboardInterrupt:
-            with process.held_interrupts():  # a second Ctrl-C must not abandon the stopping
+                    futures[client.submit(
+                        run_task, spec, key, pieces["command"], config,
+                        (str(probe_path), token), outputs, resources={RESOURCE: 1},
+                        pure=False, key=f"slamq-run-{batch}-{i}-{key[:12]}")] = i
+                finished = as_completed(list(futures))
+                while not (interrupted or finished.is_empty()):
+                    ready = finished.next_batch(block=False)
+                    if not ready:
+                        time.sleep(0.05)
+                    for fut in ready:
+                        take(fut)
+                if not interrupted:
+                    for i in todo:  # what attempts on dead workers left beside finished runs
+                        folder = keyed[i][0].folder
+                        if (folder / "run.json").is_file():
+                            for stale in folder.parent.glob(f".{folder.name}.attempt-*"):
+                                shutil.rmtree(stale, ignore_errors=True)
+            except (OSError, TimeoutError) as exc:
+                raise _gone_error(config, keyed, rows, todo, address) from exc
+            if interrupted:
                 client.cancel(list(futures), force=True)
                 _wait_stopped(client, sum(config.grace) + 10)
-            raise
-        except (OSError, TimeoutError) as exc:
-            raise _gone_error(config, keyed, rows, todo, address) from exc
+        if interrupted:
+            raise KeyboardInterrupt
     finally:
         stop.set()
         probe_path.unlink(missing_ok=True)

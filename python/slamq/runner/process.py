@@ -25,8 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["Child", "Exit", "adopt_orphans", "group_alive", "held_interrupts",
-           "interrupts_caught", "start", "stop_group", "wait"]
+__all__ = ["Child", "Exit", "adopt_orphans", "group_alive", "interrupts_caught", "start",
+           "stop_group", "wait"]
 
 #: Poll interval while waiting (seconds).
 POLL = 0.02
@@ -248,35 +248,6 @@ def _signal_group(pgid: int, sig: int) -> None:
         os.killpg(pgid, sig)
     except (ProcessLookupError, PermissionError):
         pass
-
-
-@contextmanager
-def held_interrupts() -> Iterator[None]:
-    """Ignore SIGINT and SIGTERM while the runs are being stopped after a first one.
-
-    Stopping is bounded (the grace periods, then SIGKILL), and a second Ctrl-C (or the
-    SIGTERM of a scheduler that follows its SIGINT) used to abandon it half-way, leaving
-    the runs' programs running. Outside the main thread, where Python cannot set a
-    handler, nothing changes. SIGKILL still ends everything at once.
-
-    Examples
-    --------
-    >>> import signal
-    >>> with held_interrupts():
-    ...     signal.getsignal(signal.SIGINT) is signal.SIG_IGN
-    True
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    sigs = (signal.SIGINT, signal.SIGTERM)
-    old = [signal.signal(s, signal.SIG_IGN) for s in sigs]
-    try:
-        yield
-    finally:
-        for s, handler in zip(sigs, old):
-            if handler is not None:  # None: set outside Python, cannot be put back
-                signal.signal(s, handler)
 
 
 @contextmanager
