@@ -237,6 +237,23 @@ def run_row(spec: RunSpec, key: str, result: dict[str, Any], attempts: int) -> d
     }
 
 
+class _Stop(threading.Event):
+    """The runs' stop request: set by the caller, and set as soon as a SIGINT or SIGTERM
+    is noted in ``caught`` (:func:`slamq.runner.process.interrupts_caught`).
+
+    The runs read it themselves: a run whose program was killed by the same signal (a
+    batch scheduler signals every process of the job) must see the stop before it sees
+    its program's end, or it is recorded as a crash and never run again; the main thread,
+    which sets the event, can be 50 ms late (its poll's sleep resumes after the handler)."""
+
+    def __init__(self, caught: list[int]) -> None:
+        super().__init__()
+        self._caught = caught
+
+    def is_set(self) -> bool:
+        return bool(self._caught) or super().is_set()
+
+
 def run_local(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, Any]]],
               rows: list[dict[str, Any] | None], todo: list[int], progress: Any = None
               ) -> None:
@@ -253,7 +270,6 @@ def run_local(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, Any]]
     The signature is that of the ``backend`` argument of
     :func:`slamq.runner.runner.execute`.
     """
-    stop = threading.Event()
     slots: queue.Queue[int] = queue.Queue()
     for n in range(config.parallel):
         slots.put(n)
@@ -285,6 +301,7 @@ def run_local(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, Any]]
     # thread is: raised inside the pool starting a worker, it left that worker's run
     # unstopped and unwaited for; raised twice, it ended the stopping half-way
     with process.interrupts_caught() as interrupted:
+        stop = _Stop(interrupted)
         pool = ThreadPoolExecutor(max_workers=config.parallel,
                                   thread_name_prefix="slamq-run")
         futures = []
