@@ -488,7 +488,7 @@ def execute_dask(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, An
         with process.interrupts_caught() as interrupted:
             try:
                 for i in todo:
-                    if interrupted:
+                    if interrupted.is_set():
                         break
                     spec, key, pieces = keyed[i]
                     futures[client.submit(
@@ -496,13 +496,13 @@ def execute_dask(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, An
                         (str(probe_path), token), outputs, resources={RESOURCE: 1},
                         pure=False, key=f"slamq-run-{batch}-{i}-{key[:12]}")] = i
                 finished = as_completed(list(futures))
-                while not (interrupted or finished.is_empty()):
+                while not (interrupted.is_set() or finished.is_empty()):
                     ready = finished.next_batch(block=False)
                     if not ready:
                         time.sleep(0.05)
                     for fut in ready:
                         take(fut)
-                if not interrupted:
+                if not interrupted.is_set():
                     for i in todo:  # what attempts on dead workers left beside finished runs
                         folder = keyed[i][0].folder
                         if (folder / "run.json").is_file():
@@ -510,10 +510,10 @@ def execute_dask(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, An
                                 shutil.rmtree(stale, ignore_errors=True)
             except (OSError, TimeoutError) as exc:
                 raise _gone_error(config, keyed, rows, todo, address) from exc
-            if interrupted:
+            if interrupted.is_set():
                 client.cancel(list(futures), force=True)
                 _wait_stopped(client, sum(config.grace) + 10)
-        if interrupted:
+        if interrupted.is_set():
             raise KeyboardInterrupt
     finally:
         stop.set()

@@ -237,23 +237,6 @@ def run_row(spec: RunSpec, key: str, result: dict[str, Any], attempts: int) -> d
     }
 
 
-class _Stop(threading.Event):
-    """The runs' stop request: set by the caller, and set as soon as a SIGINT or SIGTERM
-    is noted in ``caught`` (:func:`slamq.runner.process.interrupts_caught`).
-
-    The runs read it themselves: a run whose program was killed by the same signal (a
-    batch scheduler signals every process of the job) must see the stop before it sees
-    its program's end, or it is recorded as a crash and never run again; the main thread,
-    which sets the event, can be 50 ms late (its poll's sleep resumes after the handler)."""
-
-    def __init__(self, caught: list[int]) -> None:
-        super().__init__()
-        self._caught = caught
-
-    def is_set(self) -> bool:
-        return bool(self._caught) or super().is_set()
-
-
 def run_local(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, Any]]],
               rows: list[dict[str, Any] | None], todo: list[int], progress: Any = None
               ) -> None:
@@ -297,25 +280,22 @@ def run_local(config: RunConfig, keyed: list[tuple[RunSpec, str, dict[str, Any]]
         finally:
             slots.put(slot)
 
-    # a Ctrl-C (or SIGTERM) is noted, and seen here, instead of raising wherever the main
-    # thread is: raised inside the pool starting a worker, it left that worker's run
-    # unstopped and unwaited for; raised twice, it ended the stopping half-way
-    with process.interrupts_caught() as interrupted:
-        stop = _Stop(interrupted)
+    # a Ctrl-C (or SIGTERM) sets stop, seen by the runs and here, instead of raising
+    # wherever the main thread is: raised inside the pool starting a worker, it left that
+    # worker's run unstopped and unwaited for; raised twice, it ended the stopping half-way
+    with process.interrupts_caught() as stop:
         pool = ThreadPoolExecutor(max_workers=config.parallel,
                                   thread_name_prefix="slamq-run")
         futures = []
         for i in todo:
-            if interrupted:
+            if stop.is_set():
                 break
             futures.append(pool.submit(work, i))
         for f in futures:
-            while not (f.done() or interrupted):
+            while not (f.done() or stop.is_set()):
                 time.sleep(0.05)
-        if interrupted:
-            stop.set()
         pool.shutdown(wait=True, cancel_futures=stop.is_set())
-    if interrupted:
+    if stop.is_set():
         raise KeyboardInterrupt
     for f in futures:
         f.result()

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["Child", "Exit", "adopt_orphans", "group_alive", "interrupts_caught", "start",
-           "stop_group", "wait"]
+__all__ = ["Child", "Exit", "Interrupts", "adopt_orphans", "group_alive", "interrupts_caught",
+           "start", "stop_group", "wait"]
 
 #: Poll interval while waiting (seconds).
 POLL = 0.02
@@ -250,19 +250,37 @@ def _signal_group(pgid: int, sig: int) -> None:
         pass
 
 
+class Interrupts(threading.Event):
+    """A stop request that a SIGINT or SIGTERM sets (:func:`interrupts_caught`).
+
+    ``signals`` lists the signals that came; :meth:`is_set` is true once one came (or
+    :meth:`set` was called). The handler only appends to ``signals``: it takes no lock (an
+    ``Event.set`` there deadlocked when a second signal came while the first handler held
+    the event's lock), and whoever reads :meth:`is_set`, in any thread, sees the signal at
+    once: a run whose program died of the same signal (a batch scheduler signals every
+    process of a job) must see the stop before it sees its program's end, or it is recorded
+    as a crash and never run again."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.signals: list[int] = []
+
+    def is_set(self) -> bool:
+        return bool(self.signals) or super().is_set()
+
+
 @contextmanager
-def interrupts_caught() -> Iterator[list[int]]:
-    """While inside, a SIGINT or SIGTERM is noted in the list yielded instead of raising.
+def interrupts_caught() -> Iterator[Interrupts]:
+    """While inside, a SIGINT or SIGTERM sets the :class:`Interrupts` yielded instead of
+    raising.
 
     A Ctrl-C used to be a ``KeyboardInterrupt`` raised wherever the main thread was: in the
     middle of the thread pool starting a worker (that worker, untracked, was never waited
     for), or in the handler before it ignored the next one (the runs' own stopping then
     ended half-way). Noted, it is seen where the caller looks for it; the caller raises
-    ``KeyboardInterrupt`` itself once its runs are stopped. The handler only appends the
-    signal's number: it takes no lock (an ``Event.set`` there deadlocked when a second
-    signal came while the first handler held the event's lock). Only handlers set in
-    Python are replaced (a signal ignored, or left to its default, stays so); outside the
-    main thread, where Python cannot set a handler, nothing changes.
+    ``KeyboardInterrupt`` itself once its runs are stopped. Only handlers set in Python are
+    replaced (a signal ignored, or left to its default, stays so); outside the main thread,
+    where Python cannot set a handler, nothing changes.
 
     Examples
     --------
@@ -270,16 +288,16 @@ def interrupts_caught() -> Iterator[list[int]]:
     >>> with interrupts_caught() as caught:
     ...     os.kill(os.getpid(), signal.SIGINT)
     ...     os.kill(os.getpid(), signal.SIGINT)
-    >>> caught
-    [2, 2]
+    >>> caught.signals, caught.is_set()
+    ([2, 2], True)
     """
-    caught: list[int] = []
+    caught = Interrupts()
     if threading.current_thread() is not threading.main_thread():
         yield caught
         return
 
     def handler(signum: int, frame: object) -> None:
-        caught.append(signum)
+        caught.signals.append(signum)
 
     old = {}
     for s in (signal.SIGINT, signal.SIGTERM):
