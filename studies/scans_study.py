@@ -331,6 +331,13 @@ CORRIDOR_TRAVEL, CORRIDOR_AND_WHOLE, WHOLE_PATH = "travel=corridors", "travel=bo
 #: (docs/validity.md, "A split share confirms a path only where its halves meet";
 #: ``slamq.verdict.rule.SPLIT_MEET``)
 SPLIT_MEET, SPLIT_ANYWHERE = "meet=split", "meet=none"
+#: A rule's token: where the maps disagree (or every map is flagged or partial), the path
+#: whose halves cross the least where they meet names its program (candidate P1,
+#: docs/validity.md, "The halves' precision where the maps disagree";
+#: ``slamq.verdict.rule.SPLIT_PRECISION``)
+HALVES = "halves=precision"
+#: A rule's token: P1 without the travel veto after it (P1b)
+HALVES_ALONE = "halves=alone"
 #: A rule's tokens: of two placed maps, a ``doubled_walls`` flag alone on one names the
 #: other (the rule before), or only with the other's own scans confirming it (candidate D1,
 #: docs/validity.md, "Doubled walls alone do not decide two maps";
@@ -445,12 +452,15 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
     saved = (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
              r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
              r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION,
-             r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE, r.SHARED_DIRECTION_DEG_NO_SCANS)
+             r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE, r.SHARED_DIRECTION_DEG_NO_SCANS,
+             r.SPLIT_PRECISION, r.SPLIT_PRECISION_TRAVEL)
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
         if rule is not None:
             ev = with_split_hits(ev)  # evidence cached before the split hit share lacks it
+            r.SPLIT_PRECISION = r.SPLIT_PRECISION or HALVES in rule or HALVES_ALONE in rule
+            r.SPLIT_PRECISION_TRAVEL = r.SPLIT_PRECISION_TRAVEL and HALVES_ALONE not in rule
             if SPLIT_MEET in rule or SPLIT_ANYWHERE in rule:
                 r.SPLIT_MEET = SPLIT_MEET in rule
             if MILD_DECIDES in rule or MILD_NEEDS_SCANS in rule:
@@ -494,7 +504,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
         (r.SCAN_FLOOR, r.SCAN_SHARE, r.scan_limit, r._corner_key, r.SHORTFALL,
          r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
          r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION,
-         r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE, r.SHARED_DIRECTION_DEG_NO_SCANS) = saved
+         r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE, r.SHARED_DIRECTION_DEG_NO_SCANS,
+         r.SPLIT_PRECISION, r.SPLIT_PRECISION_TRAVEL) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -696,7 +707,11 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
                  + (", a second direction another program draws lifted" if DIR_SHARED in rule
                     else "")
                  + (", a second direction an agreeing program draws lifted"
-                    if DIR_AGREE in rule else ""))
+                    if DIR_AGREE in rule else "")
+                 + (", the halves' precision where the maps disagree (P1)" if HALVES in rule
+                    else "")
+                 + (", the halves' precision, no travel veto after it (P1b)"
+                    if HALVES_ALONE in rule else ""))
         out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
                    f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
                    f" | {int((~named).sum())} |")
@@ -785,6 +800,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="also the rule with it lifted only where that map agrees with the "
                     "flagged one (docs/validity.md, 'S1a: a second direction lifted only "
                     "by a map that agrees')")
+    ap.add_argument("--halves", action="store_true",
+                    help="also the rule with the halves' precision where the maps disagree "
+                    "(candidate P1, docs/validity.md, 'The halves' precision where the maps "
+                    "disagree')")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -835,6 +854,8 @@ def main(argv: list[str] | None = None) -> int:
         rules = (*rules, (*rules[-1][:2], DIR_SHARED))
     if a.shared_agree:
         rules = (*rules, (*rules[-1][:2], DIR_AGREE))
+    if a.halves:
+        rules = (*rules, (*rules[-1][:2], HALVES), (*rules[-1][:2], HALVES_ALONE))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

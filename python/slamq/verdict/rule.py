@@ -27,7 +27,8 @@ __all__ = [
     "MILD_DEFECTS_DECIDE", "SCAN_KEY", "SCAN_SHARE", "SEVERE_DEFECTS", "SHARED_DIRECTION",
     "SHARED_DIRECTION_AGREE", "SHARED_DIRECTION_DEG",
     "SHARED_DIRECTION_DEG_NO_SCANS", "SHORTFALL",
-    "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET",
+    "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET", "SPLIT_PRECISION",
+    "SPLIT_PRECISION_TRAVEL",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit", "shared_directions", "superposed_separations",
     "sequence_verdict", "verdict_sentence",
@@ -97,6 +98,19 @@ SPLIT_HIT_KEY = "split_hit"
 #: docs/validity.md, "A split share confirms a path only where its halves meet": adopted
 #: (False: the rule before 2026-12-01).
 SPLIT_MEET = True
+#: Where the verdict would abstain because the maps disagree among themselves (or because
+#: every map is flagged or partial), with at least three programs each with a split share
+#: and a split hit share: the program whose halves cross each other's walls the least where
+#: they meet them (:func:`halves_miss`) is named when its share is at most every other's
+#: divided by :data:`SCAN_SHARE`, its maps are placed and carry no defect flag, and its
+#: halves meet (:data:`SPLIT_MEET`'s condition); "partial" and the split share's veto, which
+#: that share replaces there, are not applied to it. Candidate P1 of docs/validity.md ("The
+#: halves' precision where the maps disagree"); False: off.
+SPLIT_PRECISION = False
+#: Whether the map :data:`SPLIT_PRECISION` names is then put to the travel veto
+#: (:func:`_short_path`): True (P1), or False (P1b: every path its shortfall would be
+#: measured against crosses its own halves at least :data:`SCAN_SHARE` x as often).
+SPLIT_PRECISION_TRAVEL = True
 #: A sequence whose recording has at least this share of scans that see walls in one
 #: direction only (docs/spec.md 7c: a corridor) gets a verdict of at most "low" without
 #: ground truth: an error along those walls is invisible to the maps' agreement and to
@@ -785,12 +799,16 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
             why = None  # one map is flagged on its own: the other is named
     elif not evidence["majority"] and not by_group:
         if len(scans) == len(info):
-            return _by_scans(sequence, info, scans, scan_flags, alone, warnings)
+            return _by_scans(sequence, info, scans, scan_flags, alone, warnings, flagged)
         why = ("the maps disagree among themselves (most of them are not confirmed by the "
                "others, and no two programs' maps agree with each other): the evidence does "
                "not say which is right")
     if why is None and not candidates:
         why = "every map is flagged or partial"
+        halves = _by_halves(sequence, info, scans, flagged, warnings,
+                            "no map is both confirmed and complete")
+        if halves is not None:
+            return halves
     if why is not None:
         return {"sequence": str(sequence), "best": None, "ranking": ranking,
                 "basis": basis, "confidence": f"none: {why}", "warnings": warnings}
@@ -880,6 +898,8 @@ def _short_path(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
     (:func:`_shortened`): which of the two paths is right, the scans cannot tell. Nothing
     else is named in its place."""
     best = v["best"]
+    if not SPLIT_PRECISION_TRAVEL and SPLIT_HIT_KEY in v["basis"]:
+        return v  # named on its halves (P1b): every other path is torn by that figure
     why = _shortened(evidence["algorithms"], evidence).get(str(best))
     if best is None or why is None:
         return v
@@ -904,6 +924,55 @@ def _one_direction(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any
     return v
 
 
+def halves_miss(split: float, hit: float) -> float:
+    """Of the beams with which a path's two halves meet each other's walls (ending on them,
+    the split hit share ``hit``, or crossing them, the split share ``split``), the share
+    that cross: ``split / (split + hit)`` (NaN when neither).
+
+    Examples
+    --------
+    >>> halves_miss(0.05, 0.35), halves_miss(0.0, 0.0)
+    (0.125, nan)
+    """
+    total = split + hit
+    return split / total if total > 0 else math.nan
+
+
+def _by_halves(sequence: str, info: dict[str, Any], scans: _Shares,
+               flagged: dict[str, str], warnings: list[str], why: str
+               ) -> dict[str, Any] | None:
+    """With :data:`SPLIT_PRECISION`, the verdict that names the program whose halves cross
+    each other's walls the least where they meet them (:func:`halves_miss`), at most every
+    other's divided by :data:`SCAN_SHARE`; None when it names none (``why``: what the
+    verdict would abstain for, as its sentence begins)."""
+    if (not SPLIT_PRECISION or len(info) < 3
+            or any(a not in scans.split or a not in scans.hits for a in info)):
+        return None
+    miss = {a: halves_miss(scans[a], scans.hits[a]) for a in info}
+    if not all(math.isfinite(v) for v in miss.values()):
+        return None
+    order = sorted(info, key=lambda a: (miss[a], a))
+    x, y = order[0], order[1]
+    if (miss[x] * SCAN_SHARE > miss[y] or not info[x]["placed"]
+            or flagged.get(x, "").startswith("defects")
+            or (SPLIT_MEET and scans.hits[x] * SCAN_SHARE < max(scans.hits.values()))):
+        return None
+    lifted = [w for w in warnings if w.startswith((f"{x}'s map knows", f"{x} is never named"))]
+    out = [w for w in warnings if w not in lifted]
+    if lifted:
+        out.append(f"{x} is named on its halves all the same (" + "; ".join(lifted)
+                   + "): where the maps disagree, the area they agree exists and the share "
+                   "of beams crossing walls do not tell a right path from a torn one")
+    confidence = (f"low: no ground truth and {why}; where each path's two halves meet each "
+                  f"other's walls, {x}'s cross them the least ({_pct(miss[x])} of those "
+                  f"beams cross rather than end on them; {scans.hits[x]:.1%} end on them), "
+                  f"at least {SCAN_SHARE:g}x fewer than any other path's (next {y}, "
+                  f"{_pct(miss[y])})")
+    return {"sequence": str(sequence), "best": x, "ranking": order,
+            "basis": scans.basis() + [SPLIT_HIT_KEY], "confidence": confidence,
+            "warnings": out}
+
+
 def _two_maps(sequence: str, named: str, other: str, why: str, scans: _Shares,
               basis: list[str], warnings: list[str]) -> dict[str, Any]:
     """The verdict on two maps when one of them is wrong on its own and the other is not."""
@@ -915,16 +984,20 @@ def _two_maps(sequence: str, named: str, other: str, why: str, scans: _Shares,
 
 def _by_scans(sequence: str, info: dict[str, Any], scans: _Shares,
               scan_flags: dict[str, str], alone: dict[str, str | None],
-              warnings: list[str]) -> dict[str, Any]:
+              warnings: list[str], flagged: dict[str, str]) -> dict[str, Any]:
     """Maps that disagree among themselves, each with its own scans: ordered by their
     figure (:class:`_Shares`); the first named when another map is inconsistent with its
     own scans, the first is not wrong on its own and its own scans confirm it (a figure of
-    at most :data:`SCAN_FLOOR`)."""
+    at most :data:`SCAN_FLOOR`); else, with :data:`SPLIT_PRECISION`, as
+    :func:`_by_halves` says."""
     order = sorted(info, key=lambda a: (alone[a] is not None, scans[a], a))
     first = order[0]
     best = first if (scan_flags and alone[first] is None
                      and scans.confirms(first)) else None
     basis = scans.basis()
+    if best is None and (halves := _by_halves(sequence, info, scans, flagged, warnings,
+                                              "the maps disagree among themselves")):
+        return halves
     if best is None:
         why = ("the maps disagree among themselves and their own scans do not separate them "
                + ("(no map is inconsistent with its scans)" if not scan_flags else
@@ -1059,6 +1132,7 @@ _BASIS_NAMES = {"ate_rmse": "ATE RMSE", "gt_f1": "GT F1", "corners": "corners",
                 "scan_violation": "consistency with its own scans",
                 "scan_crossing": "consistency with its own scans",
                 "scan_split": "its path against its own scans split in time",
+                "split_hit": "its path's halves meeting each other's walls",
                 "corners_canonical": "canonical corners"}
 
 
