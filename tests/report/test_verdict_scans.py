@@ -693,3 +693,76 @@ def test_maps_corners_cannot_compare_are_ordered_by_their_own_scans(
     monkeypatch.setattr(rule, "SCANS_ORDER_UNCOMPARABLE", False)
     v = sequence_verdict(s, "s", _ev(support, crossing))
     assert v["best"] == "a" and "their support orders them" in v["confidence"]
+
+
+def _torn(**changes: dict[str, float]) -> tuple[pd.DataFrame, dict]:
+    """Three maps that disagree, each with its path split in time; a's halves cross each
+    other's walls on 14% of the beams with which they meet them, b's and c's on about half
+    (MIT CSAIL's iteration 1, docs/validity.md "The halves' precision where the maps
+    disagree"); a knows 77% of the most complete map's area."""
+    ev = _ev({"a": 0.28, "b": 0.23, "c": 0.25}, {"a": 0.09, "b": 0.15, "c": 0.26},
+             majority=False, completeness={"a": 0.45, "b": 0.47, "c": 0.58},
+             split={"a": 0.057, "b": 0.13, "c": 0.094},
+             hits={"a": 0.35, "b": 0.14, "c": 0.031})
+    for a, fields in changes.items():
+        ev["algorithms"][a].update(fields)
+    return _summary(list("abc"), [10, 20, 30]), ev
+
+
+@pytest.fixture()
+def halves(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The halves' precision on (candidate P1 of docs/validity.md; off by default)."""
+    monkeypatch.setattr(rule, "SPLIT_PRECISION", True)
+
+
+def test_the_halves_precision_is_off_by_default() -> None:
+    assert rule.SPLIT_PRECISION is False
+    s, ev = _torn()
+    v = sequence_verdict(s, "s", ev)
+    assert v["best"] is None and "(every map is wrong on its own)" in v["confidence"]
+
+
+def test_where_maps_disagree_the_path_whose_halves_meet_best_is_named(halves: None) -> None:
+    """With SPLIT_PRECISION: the path whose halves cross the least where they meet, at
+    most every other's / SCAN_SHARE, is named although partial and over the split floor."""
+    s, ev = _torn()
+    v = sequence_verdict(s, "s", ev)
+    assert v["best"] == "a" and v["ranking"] == ["a", "b", "c"], v["confidence"]
+    assert v["basis"] == ["scan_crossing", "scan_split", "split_hit"]
+    assert v["confidence"].startswith("low: right in ")
+    assert ("a's cross them the least (14.0% of those beams cross rather than end on them; "
+            "35.0% end on them), at least 1.5x fewer than any other path's (next b, 48.1%)"
+            ) in v["confidence"], v["confidence"]
+    assert not any(w.startswith("a's map knows") for w in v["warnings"])
+    assert any(w.startswith("a is named on its halves all the same (a's map knows 78%")
+               for w in v["warnings"]), v["warnings"]
+    # b's halves cross at under 1.5x a's share: no clear separation, no verdict
+    s, ev = _torn(b={"scan_split": 0.057, "split_hit": 0.25})  # 18.6% against 14.0%
+    assert sequence_verdict(s, "s", ev)["best"] is None
+    # a defect flag on a's map, or a's map not placed: no verdict
+    s, ev = _torn(a={"defects": {"a": [{"kind": "superposed"}]}, "flagged_runs": 1})
+    assert sequence_verdict(s, "s", ev)["best"] is None
+    s, ev = _torn()
+    for e in ev["algorithms"].values():
+        e["placed"] = False
+    assert sequence_verdict(s, "s", ev)["best"] is None
+    # a's halves barely meet: few beams end on the other half's walls, few cross them
+    s, ev = _torn(a={"scan_split": 0.002, "split_hit": 0.05})
+    assert sequence_verdict(s, "s", ev)["best"] is None
+    # a program without the figure: the halves cannot order them all
+    s, ev = _torn(c={"split_hit": math.nan})
+    assert sequence_verdict(s, "s", ev)["best"] is None
+
+
+def test_a_path_named_on_its_halves_meets_the_travel_veto_unless_told_not_to(
+        halves: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    """P1 keeps the travel veto after it; P1b (SPLIT_PRECISION_TRAVEL False) does not."""
+    s, ev = _torn(a={"shortfall": 0.06, "shortfall_against": "c"})
+    ev["degenerate_share"] = 0.1
+    v = sequence_verdict(s, "s", ev)
+    assert v["best"] is None and v["confidence"].startswith(
+        "none: a would be named, but its path is 6.0% shorter than c's"), v["confidence"]
+    monkeypatch.setattr(rule, "SPLIT_PRECISION_TRAVEL", False)
+    v = sequence_verdict(s, "s", ev)
+    assert v["best"] == "a" and v["confidence"].startswith("low: ")
+    assert any("one direction only" in w for w in v["warnings"])
