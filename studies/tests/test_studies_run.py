@@ -31,7 +31,7 @@ def test_the_studies_are_the_ones_the_readme_lists() -> None:
     assert SCRIPTS == ["bag_carmen", "benchmark_study", "canonical_sweep", "confidence_study",
                        "corridor_travel_study", "damage_study", "defects_study",
                        "doubled_pairs_study",
-                       "gmapping_run", "rbpf_path_study",
+                       "gmapping_run", "halves_study", "rbpf_path_study",
                        "real2d", "real2d_validity", "scans_study",
                        "shared_direction_study", "split_meet_study",
                        "split_scans", "support_grid_study",
