@@ -1,7 +1,9 @@
 """The halves' precision where the maps disagree: the path whose halves cross each other's
 walls the least where they meet named (candidate P1, the travel veto after it; P1b,
-without), beside the rule as shipped, on generated sets at rbpf-slam's mean path and at
-its most likely one (docs/validity.md, "The halves' precision where the maps disagree").
+without; P1c, no travel veto for any named map the halves separate so), beside the rule as
+shipped, on generated sets at rbpf-slam's mean path and at its most likely one
+(docs/validity.md, "The halves' precision where the maps disagree" and "Exempt from the
+travel veto where the halves separate the paths").
 
 Usage (from the repository's root; each set's evidence cached by ``scans_study.py`` and
 ``rbpf_path_study.py --travel``)::
@@ -21,10 +23,12 @@ import scans_study as S
 SHIPPED = R.RULE
 P1 = (*R.RULE, S.HALVES)
 P1B = (*R.RULE, S.HALVES_ALONE)
+P1C = (*R.RULE, S.HALVES_ANY)
 
 
 def main(argv: list[str] | None = None) -> int:
-    return R.comparison_main(argv, __doc__, {"shipped": SHIPPED, "P1": P1, "P1b": P1B})
+    return R.comparison_main(argv, __doc__, {"shipped": SHIPPED, "P1": P1, "P1b": P1B,
+                                                "P1c": P1C})
 
 
 if __name__ == "__main__":

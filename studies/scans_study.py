@@ -338,6 +338,10 @@ SPLIT_MEET, SPLIT_ANYWHERE = "meet=split", "meet=none"
 HALVES = "halves=precision"
 #: A rule's token: P1 without the travel veto after it (P1b)
 HALVES_ALONE = "halves=alone"
+#: A rule's token: P1, and no travel veto for any named map the halves separate from every
+#: other path (P1c, docs/validity.md, "Exempt from the travel veto where the halves
+#: separate the paths")
+HALVES_ANY = "halves=any"
 #: A rule's tokens: of two placed maps, a ``doubled_walls`` flag alone on one names the
 #: other (the rule before), or only with the other's own scans confirming it (candidate D1,
 #: docs/validity.md, "Doubled walls alone do not decide two maps";
@@ -459,8 +463,10 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
             ev = one_witness(ev)
         if rule is not None:
             ev = with_split_hits(ev)  # evidence cached before the split hit share lacks it
-            r.SPLIT_PRECISION = r.SPLIT_PRECISION or HALVES in rule or HALVES_ALONE in rule
-            r.SPLIT_PRECISION_TRAVEL = r.SPLIT_PRECISION_TRAVEL and HALVES_ALONE not in rule
+            r.SPLIT_PRECISION = r.SPLIT_PRECISION or bool(
+                {HALVES, HALVES_ALONE, HALVES_ANY} & set(rule))
+            if HALVES_ALONE in rule or HALVES_ANY in rule:
+                r.SPLIT_PRECISION_TRAVEL = "halves" if HALVES_ALONE in rule else "any"
             if SPLIT_MEET in rule or SPLIT_ANYWHERE in rule:
                 r.SPLIT_MEET = SPLIT_MEET in rule
             if MILD_DECIDES in rule or MILD_NEEDS_SCANS in rule:
@@ -711,7 +717,9 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
                  + (", the halves' precision where the maps disagree (P1)" if HALVES in rule
                     else "")
                  + (", the halves' precision, no travel veto after it (P1b)"
-                    if HALVES_ALONE in rule else ""))
+                    if HALVES_ALONE in rule else "")
+                 + (", the halves' precision, no travel veto where they separate the paths "
+                    "(P1c)" if HALVES_ANY in rule else ""))
         out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
                    f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
                    f" | {int((~named).sum())} |")
@@ -855,7 +863,8 @@ def main(argv: list[str] | None = None) -> int:
     if a.shared_agree:
         rules = (*rules, (*rules[-1][:2], DIR_AGREE))
     if a.halves:
-        rules = (*rules, (*rules[-1][:2], HALVES), (*rules[-1][:2], HALVES_ALONE))
+        rules = (*rules, (*rules[-1][:2], HALVES), (*rules[-1][:2], HALVES_ALONE),
+                 (*rules[-1][:2], HALVES_ANY))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

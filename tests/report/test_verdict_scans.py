@@ -756,13 +756,27 @@ def test_where_maps_disagree_the_path_whose_halves_meet_best_is_named(halves: No
 
 def test_a_path_named_on_its_halves_meets_the_travel_veto_unless_told_not_to(
         halves: None, monkeypatch: pytest.MonkeyPatch) -> None:
-    """P1 keeps the travel veto after it; P1b (SPLIT_PRECISION_TRAVEL False) does not."""
+    """P1 keeps the travel veto after it; P1b (SPLIT_PRECISION_TRAVEL "halves") spares the
+    map it names, P1c ("any") any named map the halves separate from every other path."""
     s, ev = _torn(a={"shortfall": 0.06, "shortfall_against": "c"})
     ev["degenerate_share"] = 0.1
     v = sequence_verdict(s, "s", ev)
     assert v["best"] is None and v["confidence"].startswith(
         "none: a would be named, but its path is 6.0% shorter than c's"), v["confidence"]
-    monkeypatch.setattr(rule, "SPLIT_PRECISION_TRAVEL", False)
-    v = sequence_verdict(s, "s", ev)
-    assert v["best"] == "a" and v["confidence"].startswith("low: ")
-    assert any("one direction only" in w for w in v["warnings"])
+    for how in ("halves", "any"):
+        monkeypatch.setattr(rule, "SPLIT_PRECISION_TRAVEL", how)
+        v = sequence_verdict(s, "s", ev)
+        assert v["best"] == "a" and v["confidence"].startswith("low: ")
+        assert any("one direction only" in w for w in v["warnings"])
+    # maps that confirm each other name a by corners: only P1c spares it the veto
+    ev = _ev({"a": 0.9, "b": 0.9, "c": 0.9}, {"a": 0.01, "b": 0.012, "c": 0.011},
+             split={"a": 0.057, "b": 0.13, "c": 0.094}, hits={"a": 0.35, "b": 0.14, "c": 0.2})
+    ev["algorithms"]["a"].update(shortfall=0.06, shortfall_against="c")
+    ev["degenerate_share"] = 0.1
+    monkeypatch.setattr(rule, "SPLIT_PRECISION_TRAVEL", "halves")
+    assert sequence_verdict(s, "s", ev)["best"] is None
+    monkeypatch.setattr(rule, "SPLIT_PRECISION_TRAVEL", "any")
+    assert sequence_verdict(s, "s", ev)["best"] == "a"
+    # c's halves within 1.5x of a's: c is a reference for the travel, the veto stands
+    ev["algorithms"]["c"]["split_hit"] = 0.5  # 15.8% against 14.0%
+    assert sequence_verdict(s, "s", ev)["best"] is None

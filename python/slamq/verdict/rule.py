@@ -107,10 +107,13 @@ SPLIT_MEET = True
 #: that share replaces there, are not applied to it. Candidate P1 of docs/validity.md ("The
 #: halves' precision where the maps disagree"); False: off.
 SPLIT_PRECISION = False
-#: Whether the map :data:`SPLIT_PRECISION` names is then put to the travel veto
-#: (:func:`_short_path`): True (P1), or False (P1b: every path its shortfall would be
-#: measured against crosses its own halves at least :data:`SCAN_SHARE` x as often).
-SPLIT_PRECISION_TRAVEL = True
+#: Which named maps the travel veto (:func:`_short_path`) spares: ``None``, none (P1);
+#: ``"halves"``, the map :data:`SPLIT_PRECISION` names (P1b: every path its shortfall
+#: would be measured against crosses its own halves at least :data:`SCAN_SHARE` x as
+#: often); ``"any"``, any named map whose halves separate it so from every other program's
+#: path (P1c, :func:`halves_apart`). docs/validity.md, "The halves' precision where the
+#: maps disagree" and "Exempt from the travel veto where the halves separate the paths".
+SPLIT_PRECISION_TRAVEL: str | None = None
 #: A sequence whose recording has at least this share of scans that see walls in one
 #: direction only (docs/spec.md 7c: a corridor) gets a verdict of at most "low" without
 #: ground truth: an error along those walls is invisible to the maps' agreement and to
@@ -898,8 +901,11 @@ def _short_path(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
     (:func:`_shortened`): which of the two paths is right, the scans cannot tell. Nothing
     else is named in its place."""
     best = v["best"]
-    if not SPLIT_PRECISION_TRAVEL and SPLIT_HIT_KEY in v["basis"]:
-        return v  # named on its halves (P1b): every other path is torn by that figure
+    if best is not None and (
+            (SPLIT_PRECISION_TRAVEL == "halves" and SPLIT_HIT_KEY in v["basis"])
+            or (SPLIT_PRECISION_TRAVEL == "any"
+                and halves_apart(evidence["algorithms"]) == str(best))):
+        return v  # every other path is torn by its halves: no reference for the travel
     why = _shortened(evidence["algorithms"], evidence).get(str(best))
     if best is None or why is None:
         return v
@@ -931,11 +937,35 @@ def halves_miss(split: float, hit: float) -> float:
 
     Examples
     --------
-    >>> halves_miss(0.05, 0.35), halves_miss(0.0, 0.0)
+    >>> round(halves_miss(0.05, 0.35), 3), halves_miss(0.0, 0.0)
     (0.125, nan)
     """
     total = split + hit
     return split / total if total > 0 else math.nan
+
+
+def halves_apart(info: dict[str, Any]) -> str | None:
+    """The program whose path's halves cross each other's walls the least where they meet
+    (:func:`halves_miss` of its split share and split hit share), when that share is at
+    most every other program's divided by :data:`SCAN_SHARE`; None when fewer than three
+    programs take part, any lacks the figure, or none is so far apart.
+
+    Examples
+    --------
+    >>> info = {a: {"scan_split": s, "split_hit": h} for a, s, h in
+    ...         [("a", 0.06, 0.35), ("b", 0.13, 0.14), ("c", 0.09, 0.03)]}
+    >>> halves_apart(info)
+    'a'
+    >>> info["b"]["split_hit"] = 0.6
+    >>> print(halves_apart(info))
+    None
+    """
+    miss = {a: halves_miss(float(e.get(SPLIT_KEY, math.nan)),
+                           float(e.get(SPLIT_HIT_KEY, math.nan))) for a, e in info.items()}
+    if len(miss) < 3 or not all(math.isfinite(v) for v in miss.values()):
+        return None
+    x, y = sorted(miss, key=lambda a: (miss[a], a))[:2]
+    return x if miss[x] * SCAN_SHARE <= miss[y] else None
 
 
 def _by_halves(sequence: str, info: dict[str, Any], scans: _Shares,
