@@ -559,6 +559,7 @@ def test_slamq_verdict_with_the_recording_and_the_trajectories(drive: dict) -> N
     assert data["evidence"]["algorithms"]["ghost.yaml"]["scan_crossing"] > 0.05
     header = r.stderr.splitlines()[0].split()  # the table's columns
     assert "crossing" in header and "split" in header and "short" in header
+    assert "halves" in header
     assert data["evidence"]["algorithms"]["a.yaml"]["shortfall"] == pytest.approx(0, abs=1e-9)
     # without them: two maps that differ, nothing separates them
     r = slamq("verdict", a, ghost, "--json", "-", "--no-defects")
