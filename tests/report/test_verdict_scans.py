@@ -221,14 +221,21 @@ def test_a_split_share_confirms_a_path_only_where_its_halves_meet() -> None:
         rule.SPLIT_MEET = saved
     # maps that disagree, ordered by their split shares: the first's halves barely meet
     three = _summary(list("abc"), [10, 20, 30])
-    v = sequence_verdict(three, "s", _ev({"a": 0.3, "b": 0.35, "c": 0.2},
-                                         {"a": 0.012, "b": 0.01, "c": 0.011}, majority=False,
-                                         split={"a": 0.004, "b": 0.3, "c": 0.01},
-                                         hits={"a": 0.02, "b": 0.3, "c": 0.25}))
+    ev = _ev({"a": 0.3, "b": 0.35, "c": 0.2}, {"a": 0.012, "b": 0.01, "c": 0.011},
+             majority=False, split={"a": 0.004, "b": 0.3, "c": 0.01},
+             hits={"a": 0.02, "b": 0.3, "c": 0.25})
+    saved, rule.SPLIT_PRECISION = rule.SPLIT_PRECISION, False  # the rule before 2026-12-02
+    try:
+        v = sequence_verdict(three, "s", ev)
+    finally:
+        rule.SPLIT_PRECISION = saved
     assert v["best"] is None and v["ranking"] == ["a", "c", "b"]
     assert "(the most consistent of the maps not wrong on their own, a: 0.4% of its beams" \
         in v["confidence"] and "but its halves barely meet: 2.0% of its beams" in \
         v["confidence"], v["confidence"]
+    # as shipped, c's halves cross the least where they meet (3.8% against a's 16.7%)
+    v = sequence_verdict(three, "s", ev)
+    assert v["best"] == "c" and "c's cross them the least (3.8%" in v["confidence"]
 
 
 @pytest.fixture()
@@ -712,13 +719,18 @@ def _torn(**changes: dict[str, float]) -> tuple[pd.DataFrame, dict]:
 
 @pytest.fixture()
 def halves(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The halves' precision on (candidate P1 of docs/validity.md; off by default)."""
+    """The halves' precision as P1 had it: on, the travel veto after it."""
     monkeypatch.setattr(rule, "SPLIT_PRECISION", True)
+    monkeypatch.setattr(rule, "SPLIT_PRECISION_TRAVEL", None)
 
 
-def test_the_halves_precision_is_off_by_default() -> None:
-    assert rule.SPLIT_PRECISION is False
+def test_the_halves_precision_is_on_and_can_be_turned_off(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Adopted 2026-12-02 as P1c (docs/validity.md, "P1c: measured, adopted")."""
+    assert rule.SPLIT_PRECISION is True and rule.SPLIT_PRECISION_TRAVEL == "any"
     s, ev = _torn()
+    assert sequence_verdict(s, "s", ev)["best"] == "a"
+    monkeypatch.setattr(rule, "SPLIT_PRECISION", False)  # the rule before
     v = sequence_verdict(s, "s", ev)
     assert v["best"] is None and "(every map is wrong on its own)" in v["confidence"]
 

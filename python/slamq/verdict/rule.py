@@ -104,16 +104,18 @@ SPLIT_MEET = True
 #: they meet them (:func:`halves_miss`) is named when its share is at most every other's
 #: divided by :data:`SCAN_SHARE`, its maps are placed and carry no defect flag, and its
 #: halves meet (:data:`SPLIT_MEET`'s condition); "partial" and the split share's veto, which
-#: that share replaces there, are not applied to it. Candidate P1 of docs/validity.md ("The
-#: halves' precision where the maps disagree"); False: off.
-SPLIT_PRECISION = False
+#: that share replaces there, are not applied to it. Adopted 2026-12-02 with
+#: :data:`SPLIT_PRECISION_TRAVEL` ``"any"`` (P1c of docs/validity.md, "Exempt from the
+#: travel veto where the halves separate the paths: measured, adopted"); False: the rule
+#: before.
+SPLIT_PRECISION = True
 #: Which named maps the travel veto (:func:`_short_path`) spares: ``None``, none (P1);
 #: ``"halves"``, the map :data:`SPLIT_PRECISION` names (P1b: every path its shortfall
 #: would be measured against crosses its own halves at least :data:`SCAN_SHARE` x as
 #: often); ``"any"``, any named map whose halves separate it so from every other program's
-#: path (P1c, :func:`halves_apart`). docs/validity.md, "The halves' precision where the
-#: maps disagree" and "Exempt from the travel veto where the halves separate the paths".
-SPLIT_PRECISION_TRAVEL: str | None = None
+#: path (P1c, :func:`halves_apart`; adopted). docs/validity.md, "The halves' precision
+#: where the maps disagree" and "P1c: measured, adopted".
+SPLIT_PRECISION_TRAVEL: str | None = "any"
 #: A sequence whose recording has at least this share of scans that see walls in one
 #: direction only (docs/spec.md 7c: a corridor) gets a verdict of at most "low" without
 #: ground truth: an error along those walls is invisible to the maps' agreement and to
