@@ -519,6 +519,9 @@ def test_the_report_draws_where_a_map_contradicts_its_scans(drive: dict, tmp_pat
     # and how much its halves meet, which a low split share needs to confirm the path
     meet = re.search(r"The halves meet on (\d+\.\d)% of the beams", page)
     assert meet is not None and 0.0 < float(meet.group(1)) < 100.0, page[-3000:]
+    # and of the beams with which they meet, how many cross: the exact path, few
+    cross = re.search(r"each other's walls, (\d+\.\d)% cross them rather than end", page)
+    assert cross is not None and float(cross.group(1)) < 20.0, page[-3000:]
     # the red cells lie on the ghost wall (the middle row of the map)
     (png,) = re.findall(r'<img class="layer layer-scans" src="\.\./([^"]+)"', page)
     alpha = np.asarray(Image.open(site / png).convert("RGBA"))[..., 3]

@@ -28,6 +28,7 @@ from slamq.verdict.building import Timeline
 from slamq.verdict.evidence import MISSING_MIN_LENGTH, split_hit
 from slamq.verdict.exhibits import MapExhibit, ScanExhibit
 from slamq.verdict.records import usable
+from slamq.verdict.rule import halves_miss
 from slamq.verdict.trajectory import TrajectoryEvidence
 
 __all__ = ["SCAN_LAYER_COLOURS", "agreeing_group", "building_directions", "detail_page",
@@ -789,10 +790,14 @@ def _split_legend(split: dict[str, Any] | None) -> str:
                 "could not be scored (fewer than two scans placed, or unreadable).</p>")
     meet, hit = "", split_hit(split)
     if math.isfinite(hit):
+        cross = halves_miss(float(split["split_crossing"]), hit)
         meet = (f" The halves meet on {100 * hit:.1f}% of the beams (beams "
                 "ending on the walls the other half draws): a low share confirms a path only "
                 "where its halves meet at least two thirds as often as the best-meeting "
-                "path's, as a wrong loop that never comes back over its start tests little.")
+                "path's, as a wrong loop that never comes back over its start tests little. "
+                f"Of the beams with which the halves meet each other's walls, {100 * cross:.1f}%"
+                " cross them rather than end on them: where the maps disagree, a path 1.5x "
+                "below every other's on this share names its program.")
     return (
         "<p class=\"legend split-legend\"><b>Its path, its scans split in time</b>: "
         f"{100 * split['split_crossing']:.1f}% of the beams cross the walls the other half "
