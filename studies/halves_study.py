@@ -20,14 +20,14 @@ from __future__ import annotations
 import rbpf_path_study as R
 import scans_study as S
 
-SHIPPED = R.RULE
+BEFORE = (*R.RULE, S.HALVES_OFF)  # "shipped" in the tables: the rule before 2026-12-02
 P1 = (*R.RULE, S.HALVES)
 P1B = (*R.RULE, S.HALVES_ALONE)
-P1C = (*R.RULE, S.HALVES_ANY)
+P1C = (*R.RULE, S.HALVES_ANY)  # shipped since
 
 
 def main(argv: list[str] | None = None) -> int:
-    return R.comparison_main(argv, __doc__, {"shipped": SHIPPED, "P1": P1, "P1b": P1B,
+    return R.comparison_main(argv, __doc__, {"shipped": BEFORE, "P1": P1, "P1b": P1B,
                                                 "P1c": P1C})
 
 

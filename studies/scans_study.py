@@ -331,17 +331,17 @@ CORRIDOR_TRAVEL, CORRIDOR_AND_WHOLE, WHOLE_PATH = "travel=corridors", "travel=bo
 #: (docs/validity.md, "A split share confirms a path only where its halves meet";
 #: ``slamq.verdict.rule.SPLIT_MEET``)
 SPLIT_MEET, SPLIT_ANYWHERE = "meet=split", "meet=none"
-#: A rule's token: where the maps disagree (or every map is flagged or partial), the path
-#: whose halves cross the least where they meet names its program (candidate P1,
-#: docs/validity.md, "The halves' precision where the maps disagree";
-#: ``slamq.verdict.rule.SPLIT_PRECISION``)
-HALVES = "halves=precision"
-#: A rule's token: P1 without the travel veto after it (P1b)
-HALVES_ALONE = "halves=alone"
-#: A rule's token: P1, and no travel veto for any named map the halves separate from every
-#: other path (P1c, docs/validity.md, "Exempt from the travel veto where the halves
-#: separate the paths")
-HALVES_ANY = "halves=any"
+#: A rule's tokens: where the maps disagree (or every map is flagged or partial), the path
+#: whose halves cross the least where they meet names its program (P1, the travel veto
+#: after it; P1b, not for that pick; P1c, shipped since 2026-12-02, not for any pick the
+#: halves set apart), or not (the rule before) (docs/validity.md, "The halves' precision
+#: where the maps disagree", "P1c: measured, adopted"; ``slamq.verdict.rule.
+#: SPLIT_PRECISION`` and ``SPLIT_PRECISION_TRAVEL``)
+HALVES_OFF, HALVES, HALVES_ALONE, HALVES_ANY = ("halves=none", "halves=precision",
+                                                "halves=alone", "halves=any")
+#: Each token's (SPLIT_PRECISION, SPLIT_PRECISION_TRAVEL)
+_HALVES_RULES = {HALVES_OFF: (False, None), HALVES: (True, None),
+                 HALVES_ALONE: (True, "halves"), HALVES_ANY: (True, "any")}
 #: A rule's tokens: of two placed maps, a ``doubled_walls`` flag alone on one names the
 #: other (the rule before), or only with the other's own scans confirming it (candidate D1,
 #: docs/validity.md, "Doubled walls alone do not decide two maps";
@@ -463,10 +463,8 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
             ev = one_witness(ev)
         if rule is not None:
             ev = with_split_hits(ev)  # evidence cached before the split hit share lacks it
-            r.SPLIT_PRECISION = r.SPLIT_PRECISION or bool(
-                {HALVES, HALVES_ALONE, HALVES_ANY} & set(rule))
-            if HALVES_ALONE in rule or HALVES_ANY in rule:
-                r.SPLIT_PRECISION_TRAVEL = "halves" if HALVES_ALONE in rule else "any"
+            for x in set(rule) & set(_HALVES_RULES):
+                r.SPLIT_PRECISION, r.SPLIT_PRECISION_TRAVEL = _HALVES_RULES[x]
             if SPLIT_MEET in rule or SPLIT_ANYWHERE in rule:
                 r.SPLIT_MEET = SPLIT_MEET in rule
             if MILD_DECIDES in rule or MILD_NEEDS_SCANS in rule:
@@ -714,6 +712,8 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
                     else "")
                  + (", a second direction an agreeing program draws lifted"
                     if DIR_AGREE in rule else "")
+                 + (", without the halves' precision (the rule before 2026-12-02)"
+                    if HALVES_OFF in rule else "")
                  + (", the halves' precision where the maps disagree (P1)" if HALVES in rule
                     else "")
                  + (", the halves' precision, no travel veto after it (P1b)"
@@ -809,9 +809,9 @@ def main(argv: list[str] | None = None) -> int:
                     "flagged one (docs/validity.md, 'S1a: a second direction lifted only "
                     "by a map that agrees')")
     ap.add_argument("--halves", action="store_true",
-                    help="also the rule with the halves' precision where the maps disagree "
-                    "(candidate P1, docs/validity.md, 'The halves' precision where the maps "
-                    "disagree')")
+                    help="also the rule without the halves' precision (the rule before "
+                    "2026-12-02), with it as P1 and as P1b (docs/validity.md, 'The halves' "
+                    "precision where the maps disagree'); the rule as shipped is P1c")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -863,8 +863,8 @@ def main(argv: list[str] | None = None) -> int:
     if a.shared_agree:
         rules = (*rules, (*rules[-1][:2], DIR_AGREE))
     if a.halves:
-        rules = (*rules, (*rules[-1][:2], HALVES), (*rules[-1][:2], HALVES_ALONE),
-                 (*rules[-1][:2], HALVES_ANY))
+        vk = rules[-1][:2]
+        rules = (*rules, *((*vk, x) for x in (HALVES_OFF, HALVES, HALVES_ALONE)))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

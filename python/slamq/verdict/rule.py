@@ -810,7 +810,7 @@ def _agreement_verdict(block: pd.DataFrame, sequence: str, evidence: dict[str, A
                "not say which is right")
     if why is None and not candidates:
         why = "every map is flagged or partial"
-        halves = _by_halves(sequence, info, scans, flagged, warnings,
+        halves = _by_halves(sequence, info, flagged, warnings,
                             "no map is both confirmed and complete")
         if halves is not None:
             return halves
@@ -962,33 +962,35 @@ def halves_apart(info: dict[str, Any]) -> str | None:
     >>> print(halves_apart(info))
     None
     """
-    miss = {a: halves_miss(float(e.get(SPLIT_KEY, math.nan)),
-                           float(e.get(SPLIT_HIT_KEY, math.nan))) for a, e in info.items()}
+    miss = _halves_misses(info)
     if len(miss) < 3 or not all(math.isfinite(v) for v in miss.values()):
         return None
     x, y = sorted(miss, key=lambda a: (miss[a], a))[:2]
     return x if miss[x] * SCAN_SHARE <= miss[y] else None
 
 
-def _by_halves(sequence: str, info: dict[str, Any], scans: _Shares,
-               flagged: dict[str, str], warnings: list[str], why: str
-               ) -> dict[str, Any] | None:
-    """With :data:`SPLIT_PRECISION`, the verdict that names the program whose halves cross
-    each other's walls the least where they meet them (:func:`halves_miss`), at most every
-    other's divided by :data:`SCAN_SHARE`; None when it names none (``why``: what the
-    verdict would abstain for, as its sentence begins)."""
-    if (not SPLIT_PRECISION or len(info) < 3
-            or any(a not in scans.split or a not in scans.hits for a in info)):
+def _halves_misses(info: dict[str, Any]) -> dict[str, float]:
+    """Each program's :func:`halves_miss` (NaN without the figures)."""
+    return {a: halves_miss(float(e.get(SPLIT_KEY, math.nan)),
+                           float(e.get(SPLIT_HIT_KEY, math.nan))) for a, e in info.items()}
+
+
+def _by_halves(sequence: str, info: dict[str, Any], flagged: dict[str, str],
+               warnings: list[str], why: str) -> dict[str, Any] | None:
+    """With :data:`SPLIT_PRECISION`, the verdict that names the program the halves set
+    apart (:func:`halves_apart`) when its maps are placed, carry no defect flag and its
+    halves meet (:data:`SPLIT_MEET`); None when it names none (``why``: what the verdict
+    would abstain for, as its sentence begins)."""
+    x = halves_apart(info) if SPLIT_PRECISION else None
+    if x is None:
         return None
-    miss = {a: halves_miss(scans[a], scans.hits[a]) for a in info}
-    if not all(math.isfinite(v) for v in miss.values()):
+    hits = {a: float(e[SPLIT_HIT_KEY]) for a, e in info.items()}
+    if (not info[x]["placed"] or flagged.get(x, "").startswith("defects")
+            or (SPLIT_MEET and hits[x] * SCAN_SHARE < max(hits.values()))):
         return None
+    miss = _halves_misses(info)
     order = sorted(info, key=lambda a: (miss[a], a))
-    x, y = order[0], order[1]
-    if (miss[x] * SCAN_SHARE > miss[y] or not info[x]["placed"]
-            or flagged.get(x, "").startswith("defects")
-            or (SPLIT_MEET and scans.hits[x] * SCAN_SHARE < max(scans.hits.values()))):
-        return None
+    y = order[1]
     lifted = [w for w in warnings if w.startswith((f"{x}'s map knows", f"{x} is never named"))]
     out = [w for w in warnings if w not in lifted]
     if lifted:
@@ -997,11 +999,11 @@ def _by_halves(sequence: str, info: dict[str, Any], scans: _Shares,
                    "of beams crossing walls do not tell a right path from a torn one")
     confidence = (f"low: no ground truth and {why}; where each path's two halves meet each "
                   f"other's walls, {x}'s cross them the least ({_pct(miss[x])} of those "
-                  f"beams cross rather than end on them; {scans.hits[x]:.1%} end on them), "
+                  f"beams cross rather than end on them; {hits[x]:.1%} end on them), "
                   f"at least {SCAN_SHARE:g}x fewer than any other path's (next {y}, "
                   f"{_pct(miss[y])})")
     return {"sequence": str(sequence), "best": x, "ranking": order,
-            "basis": scans.basis() + [SPLIT_HIT_KEY], "confidence": confidence,
+            "basis": [SCAN_KEY, SPLIT_KEY, SPLIT_HIT_KEY], "confidence": confidence,
             "warnings": out}
 
 
@@ -1027,7 +1029,7 @@ def _by_scans(sequence: str, info: dict[str, Any], scans: _Shares,
     best = first if (scan_flags and alone[first] is None
                      and scans.confirms(first)) else None
     basis = scans.basis()
-    if best is None and (halves := _by_halves(sequence, info, scans, flagged, warnings,
+    if best is None and (halves := _by_halves(sequence, info, flagged, warnings,
                                               "the maps disagree among themselves")):
         return halves
     if best is None:
