@@ -1238,11 +1238,13 @@ def rule_summary() -> str:
     within 25% of the fewest corners; of two maps, one is named when
     the other is superposed, smeared or fragmented and it carries no flag; of two maps, or
     of maps that disagree, one is also named when another is wrong on its own and its own
-    scans confirm it (a path's split share only where its halves meet); where 2% or more of
-    the recording's scans see walls in one direction
-    only, at most low confidence, and no verdict when the map it would name has a path 3% or more
-    shorter than another's over the whole run and along the corridors beyond elsewhere); with
-    figures alone, by corners (no clear winner within 25%)
+    scans confirm it (a path's split share only where its halves meet); where the maps
+    disagree, the path whose halves cross each other's walls 1.5x less than any other where
+    they meet names its program; where 2% or more of the recording's scans see walls in one
+    direction only, at most low confidence, and no verdict when the map it would name has a
+    path 3% or more shorter than another's over the whole run and along the corridors beyond
+    elsewhere, unless its halves set it apart so); with figures alone, by corners (no clear
+    winner within 25%)
     """
     return (
         f"by {basis_name(_BASES[0][0])} when the sequence has ground truth, else by "
@@ -1265,11 +1267,15 @@ def rule_summary() -> str:
         "of two maps, or of maps that disagree, one is also named when another is "
         "wrong on its own and its own scans confirm it"
         + (" (a path's split share only where its halves meet)" if SPLIT_MEET else "")
+        + ((f"; where the maps disagree, the path whose halves cross each other's walls "
+            f"{SCAN_SHARE:g}x less than any other where they meet names its program")
+           if SPLIT_PRECISION else "")
         + f"; where {DEGENERATE_SHARE:.0%} or "
         "more of the recording's scans see walls in one direction only, at most low "
         f"confidence, and no verdict when the map it would name has a path {SHORTFALL:.0%} or "
         "more shorter than another's"
         + {"both": " over the whole run and along the corridors beyond elsewhere",
            "corridors": " along the corridors beyond elsewhere"}.get(str(CORRIDOR_TRAVEL), "")
+        + (", unless its halves set it apart so" if SPLIT_PRECISION_TRAVEL == "any" else "")
         + "); with figures alone, by corners (no "
         f"clear winner within {CLEAR_MARGIN:.0%})")
