@@ -112,11 +112,12 @@ def _print(result: dict[str, Any], out: Any) -> None:
     each other's walls the share that cross them (``halves``, docs/spec.md section 9), how
     much shorter the map's path is than another's at most (7d), corners, flags
     ("superposed (the building's)": lifted by docs/spec.md section 9)."""
-    from slamq.verdict.rule import halves_miss, shared_directions, superposed_separations
+    from slamq.verdict.rule import halves_misses, shared_directions, superposed_separations
 
     v, ev = result["verdict"], result["evidence"]
     info = ev["algorithms"] if ev else {}
     building = shared_directions(info, ev)
+    halves = halves_misses(info)
     rows = [("rank", "map", "support", "complete", "crossing", "split", "halves", "short",
              "corners", "canonical", "flags")]
     order = list(v["ranking"]) + sorted(set(result["maps"]) - set(v["ranking"]))
@@ -131,8 +132,7 @@ def _print(result: dict[str, Any], out: Any) -> None:
         rank = str(i) if name in v["ranking"] else "-"
         rows.append((rank, name, _fmt(e.get("support")), _fmt(e.get("completeness")),
                      _fmt(e.get("scan_crossing"), 3), _fmt(e.get("scan_split"), 3),
-                     _fmt(halves_miss(float(e.get("scan_split", math.nan)),
-                                      float(e.get("split_hit", math.nan))), 3),
+                     _fmt(halves.get(name), 3),
                      _fmt(e.get("shortfall"), 3),
                      _fmt(result["maps"][name].get("corners"), 0),
                      _fmt(result["maps"][name].get("corners_canonical"), 0),

@@ -28,7 +28,7 @@ __all__ = [
     "SHARED_DIRECTION_AGREE", "SHARED_DIRECTION_DEG",
     "SHARED_DIRECTION_DEG_NO_SCANS", "SHORTFALL",
     "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET", "SPLIT_PRECISION",
-    "SPLIT_PRECISION_TRAVEL",
+    "SPLIT_PRECISION_TRAVEL", "halves_apart", "halves_miss", "halves_misses",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit", "shared_directions", "superposed_separations",
     "sequence_verdict", "verdict_sentence",
@@ -962,15 +962,21 @@ def halves_apart(info: dict[str, Any]) -> str | None:
     >>> print(halves_apart(info))
     None
     """
-    miss = _halves_misses(info)
+    miss = halves_misses(info)
     if len(miss) < 3 or not all(math.isfinite(v) for v in miss.values()):
         return None
     x, y = sorted(miss, key=lambda a: (miss[a], a))[:2]
     return x if miss[x] * SCAN_SHARE <= miss[y] else None
 
 
-def _halves_misses(info: dict[str, Any]) -> dict[str, float]:
-    """Each program's :func:`halves_miss` (NaN without the figures)."""
+def halves_misses(info: dict[str, Any]) -> dict[str, float]:
+    """Each program's :func:`halves_miss` from its evidence entry (NaN without the figures).
+
+    Examples
+    --------
+    >>> halves_misses({"a": {"scan_split": 0.1, "split_hit": 0.3}, "b": {}})
+    {'a': 0.25, 'b': nan}
+    """
     return {a: halves_miss(float(e.get(SPLIT_KEY, math.nan)),
                            float(e.get(SPLIT_HIT_KEY, math.nan))) for a, e in info.items()}
 
@@ -988,7 +994,7 @@ def _by_halves(sequence: str, info: dict[str, Any], flagged: dict[str, str],
     if (not info[x]["placed"] or flagged.get(x, "").startswith("defects")
             or (SPLIT_MEET and hits[x] * SCAN_SHARE < max(hits.values()))):
         return None
-    miss = _halves_misses(info)
+    miss = halves_misses(info)
     order = sorted(info, key=lambda a: (miss[a], a))
     y = order[1]
     lifted = [w for w in warnings if w.startswith((f"{x}'s map knows", f"{x} is never named"))]
