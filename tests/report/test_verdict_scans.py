@@ -784,6 +784,8 @@ def test_a_path_named_on_its_halves_meets_the_travel_veto_unless_told_not_to(
         v = sequence_verdict(s, "s", ev)
         assert v["best"] == "a" and v["confidence"].startswith("low: ")
         assert any("one direction only" in w for w in v["warnings"])
+        assert any(w.startswith("a is named although its path is 6.0% shorter than c's: "
+                                "every other path's halves cross") for w in v["warnings"])
     # maps that confirm each other name a by corners: only P1c spares it the veto
     ev = _ev({"a": 0.9, "b": 0.9, "c": 0.9}, {"a": 0.01, "b": 0.012, "c": 0.011},
              split={"a": 0.057, "b": 0.13, "c": 0.094}, hits={"a": 0.35, "b": 0.14, "c": 0.2})

@@ -903,13 +903,17 @@ def _short_path(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
     (:func:`_shortened`): which of the two paths is right, the scans cannot tell. Nothing
     else is named in its place."""
     best = v["best"]
-    if best is not None and (
-            (SPLIT_PRECISION_TRAVEL == "halves" and SPLIT_HIT_KEY in v["basis"])
-            or (SPLIT_PRECISION_TRAVEL == "any"
-                and halves_apart(evidence["algorithms"]) == str(best))):
-        return v  # every other path is torn by its halves: no reference for the travel
     why = _shortened(evidence["algorithms"], evidence).get(str(best))
     if best is None or why is None:
+        return v
+    if ((SPLIT_PRECISION_TRAVEL == "halves" and SPLIT_HIT_KEY in v["basis"])
+            or (SPLIT_PRECISION_TRAVEL == "any"
+                and halves_apart(evidence["algorithms"]) == str(best))):
+        # every other path is torn by its halves: none is a reference for the travel
+        v["warnings"].append(
+            f"{best} is named although {why.split(' where ')[0].rstrip(',')}: every other path's "
+            f"halves cross each other's walls at least {SCAN_SHARE:g}x as often where they "
+            "meet, so none of them says how far the robot went")
         return v
     return {**v, "best": None, "confidence": f"none: {best} would be named, but {why}"}
 
