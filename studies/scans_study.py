@@ -339,9 +339,15 @@ SPLIT_MEET, SPLIT_ANYWHERE = "meet=split", "meet=none"
 #: SPLIT_PRECISION`` and ``SPLIT_PRECISION_TRAVEL``)
 HALVES_OFF, HALVES, HALVES_ALONE, HALVES_ANY = ("halves=none", "halves=precision",
                                                 "halves=alone", "halves=any")
-#: Each token's (SPLIT_PRECISION, SPLIT_PRECISION_TRAVEL)
-_HALVES_RULES = {HALVES_OFF: (False, None), HALVES: (True, None),
-                 HALVES_ALONE: (True, "halves"), HALVES_ANY: (True, "any")}
+#: A rule's token: P1c, and the pick may carry the flags of a place drawn twice (P1d,
+#: docs/validity.md, "The halves against the flags of a place drawn twice";
+#: ``slamq.verdict.rule.SPLIT_PRECISION_FLAGS``)
+HALVES_FLAGS = "halves=flags"
+TWICE = ("doubled_walls", "superposed")
+#: Each token's (SPLIT_PRECISION, SPLIT_PRECISION_TRAVEL, SPLIT_PRECISION_FLAGS)
+_HALVES_RULES = {HALVES_OFF: (False, None, ()), HALVES: (True, None, ()),
+                 HALVES_ALONE: (True, "halves", ()), HALVES_ANY: (True, "any", ()),
+                 HALVES_FLAGS: (True, "any", TWICE)}
 #: A rule's tokens: of two placed maps, a ``doubled_walls`` flag alone on one names the
 #: other (the rule before), or only with the other's own scans confirming it (candidate D1,
 #: docs/validity.md, "Doubled walls alone do not decide two maps";
@@ -457,14 +463,15 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
              r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
              r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION,
              r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE, r.SHARED_DIRECTION_DEG_NO_SCANS,
-             r.SPLIT_PRECISION, r.SPLIT_PRECISION_TRAVEL)
+             r.SPLIT_PRECISION, r.SPLIT_PRECISION_TRAVEL, r.SPLIT_PRECISION_FLAGS)
     try:
         if rule is not None and ONE_WITNESS in rule:
             ev = one_witness(ev)
         if rule is not None:
             ev = with_split_hits(ev)  # evidence cached before the split hit share lacks it
             for x in set(rule) & set(_HALVES_RULES):
-                r.SPLIT_PRECISION, r.SPLIT_PRECISION_TRAVEL = _HALVES_RULES[x]
+                (r.SPLIT_PRECISION, r.SPLIT_PRECISION_TRAVEL,
+                 r.SPLIT_PRECISION_FLAGS) = _HALVES_RULES[x]
             if SPLIT_MEET in rule or SPLIT_ANYWHERE in rule:
                 r.SPLIT_MEET = SPLIT_MEET in rule
             if MILD_DECIDES in rule or MILD_NEEDS_SCANS in rule:
@@ -509,7 +516,7 @@ def _judge(summary: pd.DataFrame, seq: str, ev: dict[str, Any], truth: pd.Series
          r.LOCAL_RATIO, r.LOCAL_ANCHOR, r.SCANS_BREAK_TIES, r.SCANS_ORDER_UNCOMPARABLE,
          r.CORRIDOR_TRAVEL, r.SPLIT_MEET, r.MILD_DEFECTS_DECIDE, r.SHARED_DIRECTION,
          r.SHARED_DIRECTION_DEG, r.SHARED_DIRECTION_AGREE, r.SHARED_DIRECTION_DEG_NO_SCANS,
-         r.SPLIT_PRECISION, r.SPLIT_PRECISION_TRAVEL) = saved
+         r.SPLIT_PRECISION, r.SPLIT_PRECISION_TRAVEL, r.SPLIT_PRECISION_FLAGS) = saved
     best = v["best"]
     return {"best": best, "rank": float(truth.rank()[best]) if best in truth.index
             else math.nan,
@@ -719,7 +726,9 @@ def verdict_table(v: pd.DataFrame, rules: tuple, *, pair: bool = False) -> str:
                  + (", the halves' precision, no travel veto after it (P1b)"
                     if HALVES_ALONE in rule else "")
                  + (", the halves' precision, no travel veto where they separate the paths "
-                    "(P1c)" if HALVES_ANY in rule else ""))
+                    "(P1c)" if HALVES_ANY in rule else "")
+                 + (", P1c with the flags of a place drawn twice set aside (P1d)"
+                    if HALVES_FLAGS in rule else ""))
         out.append(f"| {label} | {len(v)} | {int(named.sum())} | {int(good.sum())} of "
                    f"{len(v)} ({100 * good.mean():.0f}%) | {int(v[f'broken_named@{name}'].sum())}"
                    f" | {int((~named).sum())} |")
@@ -811,7 +820,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--halves", action="store_true",
                     help="also the rule without the halves' precision (the rule before "
                     "2026-12-02), with it as P1 and as P1b (docs/validity.md, 'The halves' "
-                    "precision where the maps disagree'); the rule as shipped is P1c")
+                    "precision where the maps disagree'), and P1d ('The halves against the flags "
+                    "of a place drawn twice'); the rule as shipped is P1c")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])
@@ -864,7 +874,8 @@ def main(argv: list[str] | None = None) -> int:
         rules = (*rules, (*rules[-1][:2], DIR_AGREE))
     if a.halves:
         vk = rules[-1][:2]
-        rules = (*rules, *((*vk, x) for x in (HALVES_OFF, HALVES, HALVES_ALONE)))
+        rules = (*rules, *((*vk, x) for x in (HALVES_OFF, HALVES, HALVES_ALONE,
+                                              HALVES_FLAGS)))
     if a.locals:
         vk = rules[-1][:2]
         rules = (None, *((*vk, f"local={x}") for x in ("none", "path", "lowest")))

@@ -28,7 +28,7 @@ __all__ = [
     "SHARED_DIRECTION_AGREE", "SHARED_DIRECTION_DEG",
     "SHARED_DIRECTION_DEG_NO_SCANS", "SHORTFALL",
     "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET", "SPLIT_PRECISION",
-    "SPLIT_PRECISION_TRAVEL", "halves_apart", "halves_miss", "halves_misses",
+    "SPLIT_PRECISION_FLAGS", "SPLIT_PRECISION_TRAVEL", "halves_apart", "halves_miss", "halves_misses",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit", "shared_directions", "superposed_separations",
     "sequence_verdict", "verdict_sentence",
@@ -116,6 +116,12 @@ SPLIT_PRECISION = True
 #: path (P1c, :func:`halves_apart`; adopted). docs/validity.md, "The halves' precision
 #: where the maps disagree" and "P1c: measured, adopted".
 SPLIT_PRECISION_TRAVEL: str | None = "any"
+#: The defect kinds the program :data:`SPLIT_PRECISION` names may carry all the same: the
+#: flags that read from the map's image that the path drew a place twice (``doubled_walls``,
+#: a parallel copy; ``superposed``, a turned one), which the halves test against the
+#: path's own scans. Candidate P1d of docs/validity.md ("The halves against the flags of a
+#: place drawn twice"); ``()``: every defect flag stops the pick (P1c).
+SPLIT_PRECISION_FLAGS: tuple[str, ...] = ()
 #: A sequence whose recording has at least this share of scans that see walls in one
 #: direction only (docs/spec.md 7c: a corridor) gets a verdict of at most "low" without
 #: ground truth: an error along those walls is invisible to the maps' agreement and to
@@ -988,14 +994,16 @@ def halves_misses(info: dict[str, Any]) -> dict[str, float]:
 def _by_halves(sequence: str, info: dict[str, Any], flagged: dict[str, str],
                warnings: list[str], why: str) -> dict[str, Any] | None:
     """With :data:`SPLIT_PRECISION`, the verdict that names the program the halves set
-    apart (:func:`halves_apart`) when its maps are placed, carry no defect flag and its
-    halves meet (:data:`SPLIT_MEET`); None when it names none (``why``: what the verdict
+    apart (:func:`halves_apart`) when its maps are placed, carry no defect flag (but those
+    of :data:`SPLIT_PRECISION_FLAGS`) and its halves meet (:data:`SPLIT_MEET`); None when
+    it names none (``why``: what the verdict
     would abstain for, as its sentence begins)."""
     x = halves_apart(info) if SPLIT_PRECISION else None
     if x is None:
         return None
     hits = {a: float(e[SPLIT_HIT_KEY]) for a, e in info.items()}
-    if (not info[x]["placed"] or flagged.get(x, "").startswith("defects")
+    held = set(_defects_held(info[x])) if flagged.get(x, "").startswith("defects") else set()
+    if (not info[x]["placed"] or held - set(SPLIT_PRECISION_FLAGS)
             or (SPLIT_MEET and hits[x] * SCAN_SHARE < max(hits.values()))):
         return None
     miss = halves_misses(info)
@@ -1006,7 +1014,10 @@ def _by_halves(sequence: str, info: dict[str, Any], flagged: dict[str, str],
     if lifted:
         out.append(f"{x} is named on its halves all the same (" + "; ".join(lifted)
                    + "): where the maps disagree, the area they agree exists and the share "
-                   "of beams crossing walls do not tell a right path from a torn one")
+                   "of beams crossing walls do not tell a right path from a torn one"
+                   + ("; and a place its map seems to draw twice is not one its path "
+                      "visited twice apart, as its halves agree where they meet"
+                      if held else ""))
     confidence = (f"low: no ground truth and {why}; where each path's two halves meet each "
                   f"other's walls, {x}'s cross them the least ({_pct(miss[x])} of those "
                   f"beams cross rather than end on them; {hits[x]:.1%} end on them), "
