@@ -770,6 +770,30 @@ def test_where_maps_disagree_the_path_whose_halves_meet_best_is_named(halves: No
     assert sequence_verdict(s, "s", ev)["best"] is None
 
 
+def test_the_halves_may_set_aside_the_flags_of_a_place_drawn_twice(
+        halves: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    """P1d (SPLIT_PRECISION_FLAGS): the pick the halves set apart may carry doubled_walls
+    and superposed flags, not the other kinds; with () every flag stops it (P1c)."""
+    twice = [{"kind": "doubled_walls"}, {"kind": "superposed", "separation": 31.0}]
+    s, ev = _torn(a={"defects": {"a": twice}, "flagged_runs": 1})
+    monkeypatch.setattr(rule, "SPLIT_PRECISION_FLAGS", ())
+    assert sequence_verdict(s, "s", ev)["best"] is None
+    monkeypatch.setattr(rule, "SPLIT_PRECISION_FLAGS", ("doubled_walls", "superposed"))
+    v = sequence_verdict(s, "s", ev)
+    assert v["best"] == "a" and v["confidence"].startswith("low: "), v["confidence"]
+    lifted = [w for w in v["warnings"] if w.startswith("a is named on its halves all the same")]
+    assert len(lifted) == 1 and "defects: doubled_walls, superposed" in lifted[0]
+    assert "a place its map seems to draw twice" in lifted[0], lifted
+    assert not any(w.startswith("a is never named best") for w in v["warnings"])
+    # a smeared map is not a place drawn twice: the flag still stops the pick
+    s, ev = _torn(a={"defects": {"a": [*twice, {"kind": "smeared"}]}, "flagged_runs": 1})
+    assert sequence_verdict(s, "s", ev)["best"] is None
+    # flags on fewer than half the runs are not held against it in any case
+    s, ev = _torn(a={"defects": {"a": [{"kind": "smeared"}], "a2": []}, "flagged_runs": 1,
+                     "runs": 3})
+    assert sequence_verdict(s, "s", ev)["best"] == "a"
+
+
 def test_a_path_named_on_its_halves_meets_the_travel_veto_unless_told_not_to(
         halves: None, monkeypatch: pytest.MonkeyPatch) -> None:
     """P1 keeps the travel veto after it; P1b (SPLIT_PRECISION_TRAVEL "halves") spares the
