@@ -29,8 +29,8 @@ import scans_study as S
 BEFORE = (*R.RULE, S.HALVES_OFF)  # "shipped" in the tables: the rule before 2026-12-02
 P1 = (*R.RULE, S.HALVES)
 P1B = (*R.RULE, S.HALVES_ALONE)
-P1C = (*R.RULE, S.HALVES_ANY)  # shipped since
-P1D = (*R.RULE, S.HALVES_FLAGS)
+P1C = (*R.RULE, S.HALVES_ANY)
+P1D = (*R.RULE, S.HALVES_FLAGS)  # shipped since
 
 
 RULES = {"shipped": BEFORE, "P1": P1, "P1b": P1B, "P1c": P1C, "P1d": P1D}

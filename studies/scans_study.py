@@ -333,14 +333,14 @@ CORRIDOR_TRAVEL, CORRIDOR_AND_WHOLE, WHOLE_PATH = "travel=corridors", "travel=bo
 SPLIT_MEET, SPLIT_ANYWHERE = "meet=split", "meet=none"
 #: A rule's tokens: where the maps disagree (or every map is flagged or partial), the path
 #: whose halves cross the least where they meet names its program (P1, the travel veto
-#: after it; P1b, not for that pick; P1c, shipped since 2026-12-02, not for any pick the
+#: after it; P1b, not for that pick; P1c, not for any pick the
 #: halves set apart), or not (the rule before) (docs/validity.md, "The halves' precision
 #: where the maps disagree", "P1c: measured, adopted"; ``slamq.verdict.rule.
 #: SPLIT_PRECISION`` and ``SPLIT_PRECISION_TRAVEL``)
 HALVES_OFF, HALVES, HALVES_ALONE, HALVES_ANY = ("halves=none", "halves=precision",
                                                 "halves=alone", "halves=any")
 #: A rule's token: P1c, and the pick may carry the flags of a place drawn twice (P1d,
-#: docs/validity.md, "The halves against the flags of a place drawn twice";
+#: shipped since 2026-12-02; docs/validity.md, "P1d: measured on eight generated sets";
 #: ``slamq.verdict.rule.SPLIT_PRECISION_FLAGS``)
 HALVES_FLAGS = "halves=flags"
 TWICE = ("doubled_walls", "superposed")
@@ -821,7 +821,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="also the rule without the halves' precision (the rule before "
                     "2026-12-02), with it as P1 and as P1b (docs/validity.md, 'The halves' "
                     "precision where the maps disagree'), and P1d ('The halves against the flags "
-                    "of a place drawn twice'); the rule as shipped is P1c")
+                    "of a place drawn twice'); the rule as shipped is P1d")
     ap.add_argument("--no-pairs", action="store_true",
                     help="the sequences (or runs) only, not every pair of programs")
     a = ap.parse_args(argv if argv is not None else sys.argv[1:])

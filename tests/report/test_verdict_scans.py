@@ -722,15 +722,20 @@ def _torn(**changes: dict[str, float]) -> tuple[pd.DataFrame, dict]:
 
 @pytest.fixture()
 def halves(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The halves' precision as P1 had it: on, the travel veto after it."""
+    """The halves' precision as P1 had it: on, the travel veto after it, every defect flag
+    stopping its pick."""
     monkeypatch.setattr(rule, "SPLIT_PRECISION", True)
     monkeypatch.setattr(rule, "SPLIT_PRECISION_TRAVEL", None)
+    monkeypatch.setattr(rule, "SPLIT_PRECISION_FLAGS", ())
 
 
 def test_the_halves_precision_is_on_and_can_be_turned_off(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    """Adopted 2026-12-02 as P1c (docs/validity.md, "P1c: measured, adopted")."""
+    """Adopted 2026-12-02 as P1c (docs/validity.md, "P1c: measured, adopted"), with P1d's
+    flags set aside ("P1d: measured on eight generated sets")."""
     assert rule.SPLIT_PRECISION is True and rule.SPLIT_PRECISION_TRAVEL == "any"
+    assert rule.SPLIT_PRECISION_FLAGS == ("doubled_walls", "superposed")
+    assert "(whatever its doubled_walls or superposed flags)" in rule.rule_summary()
     s, ev = _torn()
     assert sequence_verdict(s, "s", ev)["best"] == "a"
     monkeypatch.setattr(rule, "SPLIT_PRECISION", False)  # the rule before

@@ -103,9 +103,10 @@ SPLIT_MEET = True
 #: every map is flagged or partial), with at least three programs each with a split share
 #: and a split hit share: the program whose halves cross each other's walls the least where
 #: they meet them (:func:`halves_miss`) is named when its share is at most every other's
-#: divided by :data:`SCAN_SHARE`, its maps are placed and carry no defect flag, and its
-#: halves meet (:data:`SPLIT_MEET`'s condition); "partial" and the split share's veto, which
-#: that share replaces there, are not applied to it. Adopted 2026-12-02 with
+#: divided by :data:`SCAN_SHARE`, its maps are placed and carry no defect flag (but those
+#: of :data:`SPLIT_PRECISION_FLAGS`), and its halves meet (:data:`SPLIT_MEET`'s
+#: condition); "partial" and the split share's veto, which that share replaces there, are
+#: not applied to it. Adopted 2026-12-02 with
 #: :data:`SPLIT_PRECISION_TRAVEL` ``"any"`` (P1c of docs/validity.md, "Exempt from the
 #: travel veto where the halves separate the paths: measured, adopted"); False: the rule
 #: before.
@@ -120,9 +121,10 @@ SPLIT_PRECISION_TRAVEL: str | None = "any"
 #: The defect kinds the program :data:`SPLIT_PRECISION` names may carry all the same: the
 #: flags that read from the map's image that the path drew a place twice (``doubled_walls``,
 #: a parallel copy; ``superposed``, a turned one), which the halves test against the
-#: path's own scans. Candidate P1d of docs/validity.md ("The halves against the flags of a
-#: place drawn twice"); ``()``: every defect flag stops the pick (P1c).
-SPLIT_PRECISION_FLAGS: tuple[str, ...] = ()
+#: path's own scans. P1d of docs/validity.md ("The halves against the flags of a place
+#: drawn twice", adopted 2026-12-02 on eight generated sets); ``()``: every defect flag
+#: stops the pick (P1c, the rule before).
+SPLIT_PRECISION_FLAGS: tuple[str, ...] = ("doubled_walls", "superposed")
 #: A sequence whose recording has at least this share of scans that see walls in one
 #: direction only (docs/spec.md 7c: a corridor) gets a verdict of at most "low" without
 #: ground truth: an error along those walls is invisible to the maps' agreement and to
@@ -1262,7 +1264,8 @@ def rule_summary() -> str:
     of maps that disagree, one is also named when another is wrong on its own and its own
     scans confirm it (a path's split share only where its halves meet); where the maps
     disagree, the path whose halves cross each other's walls 1.5x less than any other where
-    they meet names its program; where 2% or more of the recording's scans see walls in one
+    they meet names its program (whatever its doubled_walls or superposed flags); where 2%
+    or more of the recording's scans see walls in one
     direction only, at most low confidence, and no verdict when the map it would name has a
     path 3% or more shorter than another's over the whole run and along the corridors beyond
     elsewhere, unless its halves set it apart so); with figures alone, by corners (no clear
@@ -1290,7 +1293,9 @@ def rule_summary() -> str:
         "wrong on its own and its own scans confirm it"
         + (" (a path's split share only where its halves meet)" if SPLIT_MEET else "")
         + ((f"; where the maps disagree, the path whose halves cross each other's walls "
-            f"{SCAN_SHARE:g}x less than any other where they meet names its program")
+            f"{SCAN_SHARE:g}x less than any other where they meet names its program"
+            + (f" (whatever its {' or '.join(SPLIT_PRECISION_FLAGS)} flags)"
+               if SPLIT_PRECISION_FLAGS else ""))
            if SPLIT_PRECISION else "")
         + f"; where {DEGENERATE_SHARE:.0%} or "
         "more of the recording's scans see walls in one direction only, at most low "
