@@ -109,6 +109,31 @@ def test_a_map_that_agrees_with_part_of_the_group_is_outside_it() -> None:
         [("a, run 1", "maps/a.html", 0.3), ("b, run 1", "maps/b.html", 0.64)]
 
 
+def test_runs_of_one_program_are_named_by_program_and_run(shared_data: Path,
+                                                          tmp_path: Path) -> None:
+    """Every run of a `slamq run` writes `map.yaml`: the page names the maps a map agrees
+    with outside the group by program and run, not by that file name."""
+    import shutil
+
+    folder = shared_data / "maps" / "slam_comparison_tools" / "test_results" / "abstract"
+    recs = []
+    for alg, runs in (("gmapping", 2), ("slam_toolbox", 1), ("cartographer", 2)):
+        for run in range(1, runs + 1):
+            d = tmp_path / "runs" / alg / str(run)
+            d.mkdir(parents=True)
+            shutil.copy(folder / f"{alg}_map.pgm", d)
+            (d / "map.yaml").write_text((folder / f"{alg}_map.yaml").read_text())
+            recs.append({"map": str(d / "map.yaml"), "algorithm": alg, "sequence": "abstract",
+                         "run": run})
+    g = _group(_site(recs, tmp_path / "site"), "cartographer")
+    assert g["status"] == "outside"
+    assert g["sentence"] == ("cartographer (run 1) is not in the agreeing group of abstract: "
+                             "it agrees with cartographer, run 2 (1.00) but not with every "
+                             "map of the group, so the group does not confirm it.")
+    assert [m[0] for m in g["members"]] == ["gmapping, run 1", "gmapping, run 2",
+                                            "slam_toolbox, run 1"]
+
+
 def test_the_verdict_quotes_its_measured_record(abstract_site: Path) -> None:
     v = json.loads((abstract_site / "verdict.json").read_text())[0]
     right, n = CONFIDENCE_CALIBRATION["low"]

@@ -305,7 +305,8 @@ def _standing_block(st: dict[str, str] | None) -> str:
 
 
 def agreeing_group(rec: dict, evidence: dict[str, Any] | None,
-                   pages: dict[str, str] | None = None) -> dict[str, Any] | None:
+                   pages: dict[str, str] | None = None,
+                   labels: dict[str, str] | None = None) -> dict[str, Any] | None:
     """A map's place in the agreeing group of its sequence (docs/spec.md section 9: the
     largest set of maps whose every pair has a consistency of at least ``min_support``),
     as its detail page says it: whether the map is in the group, the group's members with
@@ -321,6 +322,10 @@ def agreeing_group(rec: dict, evidence: dict[str, Any] | None,
     pages : dict, optional
         The detail page (path from the site root) of each map that has one, by map path:
         the members link to theirs.
+    labels : dict, optional
+        How to name each map of the sequence, by map path (``"program, run N"``): the maps
+        outside the group this map agrees with are named so (by file name otherwise,
+        which says little where every run writes ``map.yaml``).
 
     Returns
     -------
@@ -350,6 +355,12 @@ def agreeing_group(rec: dict, evidence: dict[str, Any] | None,
     ... # doctest: +NORMALIZE_WHITESPACE
     c (run 1) is not in the agreeing group of s: it agrees with no other map (no
     consistency reaches 0.6): evidence of nothing.
+    >>> ev["consistency"]["c.pgm"]["d.pgm"] = 1.0
+    >>> print(agreeing_group(dict(rec, map="c.pgm", algorithm="c"), ev, None,
+    ...                      {"d.pgm": "c, run 2"})["sentence"])
+    ... # doctest: +NORMALIZE_WHITESPACE
+    c (run 1) is not in the agreeing group of s: it agrees with c, run 2 (1.00) but not
+    with every map of the group, so the group does not confirm it.
     """
     if evidence is None:
         return None
@@ -397,7 +408,7 @@ def agreeing_group(rec: dict, evidence: dict[str, Any] | None,
         return {"status": "alone", "members": members, "sentence": (
             f"{who} is not in the agreeing group of {seq}: it agrees with no other map (no "
             f"consistency reaches {least:g}): evidence of nothing.")}
-    label = {str(m["map"]): m["label"] for m in members}
+    label = {**(labels or {}), **{str(m["map"]): m["label"] for m in members}}
     shown = ", ".join(f"{label.get(o, Path(o).name)} ({v:.2f})" for v, o in agrees)
     return {"status": "outside", "members": members, "sentence": (
         f"{who} is not in the agreeing group of {seq}: it agrees with {shown} but not with "
@@ -470,7 +481,9 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     >>> print(path_sentence({"algorithm": "icp"}, ev))  # doctest: +NORMALIZE_WHITESPACE
     icp's path travels 3.6% less than rbpf's over the same windows of 10 s (docs/spec.md
     7d). 5.8% of the recording's scans see walls in one direction only, so the verdict
-    weighs it: it names no map whose path is 3% or more shorter than another program's.
+    weighs it: it names no map whose path is 3% or more shorter than another program's,
+    unless that path's halves set it apart from every other path (docs/spec.md section
+    9).
     >>> print(path_sentence({"algorithm": "rbpf"}, {**ev, "degenerate_share": 0.0}))
     ... # doctest: +NORMALIZE_WHITESPACE
     rbpf's path travels at least 2.0% more than every other program's (the nearest: icp's)
@@ -484,10 +497,22 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     more than every other program's (the nearest: rbpf's). 5.8% of the recording's scans
     see walls in one direction only, so the verdict weighs both: it names no map whose path
     is 3% or more shorter than another program's over the whole run and along the
-    corridors.
+    corridors, unless that path's halves set it apart from every other path (docs/spec.md
+    section 9).
+    >>> for a, split, hit in [("icp", 0.02, 0.3), ("rbpf", 0.1, 0.1), ("gs", 0.2, 0.1)]:
+    ...     ev["algorithms"].setdefault(a, {}).update(scan_split=split, split_hit=hit)
+    >>> print(path_sentence({"algorithm": "icp"}, ev).split(". ")[-1])
+    ... # doctest: +NORMALIZE_WHITESPACE
+    5.8% of the recording's scans see walls in one direction only, so the verdict weighs
+    both: it names no map whose path is 3% or more shorter than another program's over the
+    whole run and along the corridors, unless that path's halves set it apart from every
+    other path (docs/spec.md section 9), as icp's do: every other path's halves cross each
+    other's walls at least 1.5x as often where they meet, so none of them says how far the
+    robot went.
     >>> path_sentence({"algorithm": "x"}, ev), path_sentence({"algorithm": "icp"}, None)
     (None, None)
     """
+    from slamq.verdict import rule
     from slamq.verdict.rule import CORRIDOR_TRAVEL, SHORTFALL, one_direction_share
     from slamq.verdict.travel import WINDOW_S
 
@@ -506,6 +531,15 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     if one_direction_share(evidence) is None:
         return (said + " The recording's scans see walls in more than one direction "
                 f"({100 * share:.1f}% see one only), so the verdict does not weigh it.")
+    # the exemption of section 9 (P1c): a path whose halves set it apart is not held back
+    unless = ""
+    if rule.SPLIT_PRECISION and rule.SPLIT_PRECISION_TRAVEL is not None:
+        unless = (", unless that path's halves set it apart from every other path "
+                  "(docs/spec.md section 9)")
+        if rule.halves_apart(evidence.get("algorithms", {})) == alg:
+            unless += (f", as {alg}'s do: every other path's halves cross each other's walls "
+                       f"at least {rule.SCAN_SHARE:g}x as often where they meet, so none of "
+                       "them says how far the robot went")
     along = _num(e.get("corridor_shortfall"))
     if CORRIDOR_TRAVEL == "both" and math.isfinite(along):
         return (said + " Along the corridors, beyond their difference elsewhere, it "
@@ -513,10 +547,10 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
                 f"{100 * share:.1f}% of the recording's scans see walls in one direction "
                 "only, so the verdict weighs both: it names no map whose path is "
                 f"{SHORTFALL:.0%} or more shorter than another program's over the whole "
-                "run and along the corridors.")
+                f"run and along the corridors{unless}.")
     return (said + f" {100 * share:.1f}% of the recording's scans see walls in one "
             "direction only, so the verdict weighs it: it names no map whose path is "
-            f"{SHORTFALL:.0%} or more shorter than another program's.")
+            f"{SHORTFALL:.0%} or more shorter than another program's{unless}.")
 
 
 def _travels(short: float, other: Any) -> str:

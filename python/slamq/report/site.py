@@ -163,8 +163,11 @@ def build_report(
             pages[i].missing = ev.get("missing_walls", {}).get(str(rec["map"]))
     page_of = {str(mp.record["map"]): mp.page for mp in pages.values()
                if usable(mp.record.get("map"))}
+    named = {str(r["map"]): f"{r['algorithm']}, run {r['run']}"
+             for r in ok.to_dict("records") if usable(r.get("map"))}
     for mp in pages.values():
-        mp.group = agreeing_group(mp.record, evidence.get(mp.record["sequence"]), page_of)
+        mp.group = agreeing_group(mp.record, evidence.get(mp.record["sequence"]), page_of,
+                                  named)
         mp.path = path_sentence(mp.record, evidence.get(mp.record["sequence"]))
         mp.building = building_directions(mp.record, evidence.get(mp.record["sequence"]))
     kept = read_page_cache(out) if reuse else {}
