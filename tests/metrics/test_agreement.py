@@ -155,6 +155,29 @@ def test_two_good_maps_among_broken_ones_form_the_group() -> None:
     assert not a.majority
 
 
+def test_one_programs_reruns_are_no_group_two_programs_that_agree_are() -> None:
+    """A deterministic program run three times draws one broken map three times: by maps
+    alone those copies are the largest agreeing set, but they are one program's; with
+    ``owners`` the group is the two programs whose maps agree (docs/validity.md, "An
+    agreeing group of one program's runs")."""
+    from slamq.metrics.agreement import agreeing_group
+
+    plan = floor_plan(3)
+    kinked = degrade(plan, "kinks", 30.0, seed=0)
+    maps = {"a": plan, "b": degrade(plan, "drift", 0.5, seed=1),
+            "c#1": kinked, "c#2": kinked, "c#3": kinked}
+    owners = {"a": "a", "b": "b", "c#1": "c", "c#2": "c", "c#3": "c"}
+    a = slamq.agreement(maps, align="origin", owners=owners)
+    assert a.consistency[0, 1] >= 0.6 and a.consistency[2, 3] == pytest.approx(1.0)
+    assert a.group == ["a", "b"]
+    # by maps alone (no owners) the three copies win, as the group was chosen before
+    assert [a.names[i] for i in agreeing_group(a.consistency, 0.6)] == ["c#1", "c#2", "c#3"]
+    # and one program's copies alone are no group at all
+    alone = slamq.agreement({k: maps[k] for k in ("c#1", "c#2", "c#3")}, align="origin",
+                            owners=owners)
+    assert alone.group == []
+
+
 def test_a_map_of_one_room_confirms_no_broken_map() -> None:
     """A map that knows one room (under 2% of the building) agrees with any map there; it
     forms no group with a broken map (docs/validity.md, "A minimum overlap")."""

@@ -71,12 +71,14 @@ class Agreement:
     majority : bool
         More than half of the maps have a support of at least ``min_support``.
     group : list of str
-        The agreeing group (docs/spec.md section 9): the largest set of at least two maps
-        whose every pair has a consistency of at least ``min_support``, each map of a pair
-        knowing at least :data:`GROUP_MIN_OVERLAP` of the other's known area (of two such
-        sets, the one with the higher mean consistency), in the order given; empty when no two
-        maps agree. A map in it is confirmed by another even when most maps are broken;
-        a map that agrees with nobody is evidence of nothing.
+        The agreeing group (docs/spec.md section 9): of the sets of maps whose every pair
+        has a consistency of at least ``min_support``, each map of a pair knowing at least
+        :data:`GROUP_MIN_OVERLAP` of the other's known area, the one with the most programs
+        (``owners``; every map its own program without them), then the most maps, then the
+        highest mean consistency, in the order given; empty when no two programs' maps
+        agree. A map in it is confirmed by another program's even when most maps are
+        broken; a map that agrees with nobody, or only with reruns of its own program, is
+        evidence of nothing.
     min_support : float
         The support a map needs to count as confirmed.
     notes : list of str
@@ -501,7 +503,8 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
               align: str = SETTINGS.agreement_align.default,
               min_support: float = SETTINGS.min_support.default,
               tolerance: float | None = None, threads: int | None = None,
-              pool: Executor | None = None) -> Agreement:
+              pool: Executor | None = None,
+              owners: Mapping[str, str] | None = None) -> Agreement:
     """Score each of several maps of one place by how far the others confirm it.
 
     Parameters
@@ -526,6 +529,11 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     pool : concurrent.futures.Executor, optional
         Lay the pairs on this executor's workers instead (one Rust thread each), e.g. one
         shared with other work.
+    owners : mapping of name to str, optional
+        The program (or setting) that made each map, by name: the agreeing group counts
+        programs before maps, so runs of one program that agree with each other (a
+        deterministic program run three times draws one map three times) are no group.
+        Default: every map its own program.
 
     Returns
     -------
@@ -597,7 +605,9 @@ def agreement(maps: Mapping[str, OccupancyMap] | Sequence[OccupancyMap], *,
     if not majority:
         notes.append(f"only {confirmed} of {n} maps agree with the others (support >= "
                      f"{min_support:g}): the maps disagree among themselves")
-    group = [names[i] for i in agreeing_group(_overlapping(cons, cov), min_support)]
+    mine = owners or {}
+    group = [names[i] for i in agreeing_group(_overlapping(cons, cov), min_support,
+                                              [str(mine.get(a, a)) for a in names])]
     return Agreement(names=names, support=support, completeness=completeness,
                      consistency=cons, placed=placed, majority=majority,
                      min_support=float(min_support), notes=notes, missing=missing,
@@ -633,13 +643,15 @@ def _overlapping(consistency: np.ndarray, covers: np.ndarray,
     return c
 
 
-def agreeing_group(consistency: np.ndarray, min_consistency: float) -> list[int]:
-    """The indices of the largest set of at least two maps whose every pair has a
-    consistency of at least ``min_consistency`` (a maximum clique); among sets of that size
-    the one with the highest mean consistency, then the first in index order. Empty when
-    no pair agrees. Exact up to :data:`EXACT_GROUP_MAPS` maps, greedy beyond (from each
-    pair in order of consistency, add the map that keeps the set agreeing with the highest
-    mean consistency).
+def agreeing_group(consistency: np.ndarray, min_consistency: float,
+                   owners: Sequence[str] | None = None) -> list[int]:
+    """The indices of the set of maps whose every pair has a consistency of at least
+    ``min_consistency`` (a clique) with the most distinct ``owners`` (the program of each
+    map; default: every map its own), at least two; of those the largest, then the one
+    with the highest mean consistency, then the first in index order. Empty when no two
+    owners' maps agree. Exact up to :data:`EXACT_GROUP_MAPS` maps, greedy beyond (from
+    each pair of two owners in order of consistency, add the map that keeps the set
+    agreeing with the most owners, then the highest mean consistency).
 
     Examples
     --------
@@ -652,43 +664,49 @@ def agreeing_group(consistency: np.ndarray, min_consistency: float) -> list[int]
     [0, 1, 3]
     >>> agreeing_group(c, 0.8), agreeing_group(c, 0.995)
     ([0, 1], [])
+    >>> agreeing_group(c, 0.6, ["a", "a", "b", "a"])  # one program's runs: no group
+    []
+    >>> agreeing_group(c, 0.6, ["a", "b", "c", "b"])
+    [0, 1, 3]
     """
     c = np.asarray(consistency, dtype=float)
     n = c.shape[0]
+    who = list(owners) if owners is not None else list(range(n))
     ok = np.nan_to_num(c, nan=-1.0) >= min_consistency
     np.fill_diagonal(ok, False)
 
     def mean(members: tuple[int, ...]) -> float:
         return float(np.mean([c[i, j] for i in members for j in members if i < j]))
 
+    def score(members: tuple[int, ...]) -> tuple[int, int, float]:
+        return (len({who[i] for i in members}), len(members), mean(members))
+
     best: tuple[int, ...] = ()
-    best_score = (0, -math.inf)
+    best_score: tuple[int, int, float] = (0, 0, -math.inf)
     if n <= EXACT_GROUP_MAPS:
         def grow(members: tuple[int, ...], rest: list[int]) -> None:
             nonlocal best, best_score
-            if len(members) >= 2:
-                score = (len(members), mean(members))
-                if score > best_score:
-                    best, best_score = members, score
+            if len({who[i] for i in members}) >= 2 and (sc := score(members)) > best_score:
+                best, best_score = members, sc  # two owners at least
             for k, j in enumerate(rest):
-                if len(members) + len(rest) - k < best_score[0]:
-                    return  # cannot beat the best size any more
+                reach = {who[i] for i in members} | {who[i] for i in rest[k:]}
+                if (len(reach), len(members) + len(rest) - k) < best_score[:2]:
+                    return  # cannot beat the best owners and size any more
                 if all(ok[i, j] for i in members):
                     grow(members + (j,), rest[k + 1:])
 
         grow((), list(range(n)))
         return list(best)
-    pairs = sorted(((c[i, j], i, j) for i in range(n) for j in range(i + 1, n) if ok[i, j]),
-                   key=lambda t: (-t[0], t[1], t[2]))
+    pairs = sorted(((c[i, j], i, j) for i in range(n) for j in range(i + 1, n)
+                    if ok[i, j] and who[i] != who[j]), key=lambda t: (-t[0], t[1], t[2]))
     for _, i, j in pairs:
         members = (i, j)
         while True:
             add = [k for k in range(n) if k not in members and all(ok[m, k] for m in members)]
             if not add:
                 break
-            members = tuple(sorted(members + (max(add, key=lambda k: (mean(
-                tuple(sorted(members + (k,)))), -k)),)))
-        score = (len(members), mean(members))
-        if score > best_score:
-            best, best_score = members, score
+            members = tuple(sorted(members + (max(add, key=lambda k: (
+                score(tuple(sorted(members + (k,)))), -k)),)))
+        if (sc := score(members)) > best_score:
+            best, best_score = members, sc
     return list(best)

@@ -307,8 +307,9 @@ def _standing_block(st: dict[str, str] | None) -> str:
 def agreeing_group(rec: dict, evidence: dict[str, Any] | None,
                    pages: dict[str, str] | None = None,
                    labels: dict[str, str] | None = None) -> dict[str, Any] | None:
-    """A map's place in the agreeing group of its sequence (docs/spec.md section 9: the
-    largest set of maps whose every pair has a consistency of at least ``min_support``),
+    """A map's place in the agreeing group of its sequence (docs/spec.md section 9: of the
+    sets of maps whose every pair has a consistency of at least ``min_support``, the one of
+    the most programs, then maps),
     as its detail page says it: whether the map is in the group, the group's members with
     this map's consistency against each, and what that means.
 

@@ -251,7 +251,8 @@ def sequence_evidence(ok: pd.DataFrame, sequence: str, *,
             from slamq.metrics.defects import detect_defects  # on first use
 
             flagged = {key: pool.submit(detect_defects, m) for key, m in maps.items()}
-        agree = agreement(maps, align=align, threads=threads, pool=pool) \
+        # the group counts programs first: one program's reruns agreeing is no group
+        agree = agreement(maps, align=align, threads=threads, pool=pool, owners=owner) \
             if len(maps) >= 2 else None
         checked = _figures(scored, "not scored against its scans", notes)
         halves = _figures(split, "its path not scored against its scans split in time", notes)
