@@ -132,6 +132,15 @@ def test_runs_of_one_program_are_named_by_program_and_run(shared_data: Path,
                              "map of the group, so the group does not confirm it.")
     assert [m[0] for m in g["members"]] == ["gmapping, run 1", "gmapping, run 2",
                                             "slam_toolbox, run 1"]
+    # one program's runs agreeing with each other are no group (docs/validity.md, "An
+    # agreeing group of one program's runs"): without slam_toolbox there is none
+    alone = [r for r in recs if r["algorithm"] != "slam_toolbox"]
+    g = _group(_site(alone, tmp_path / "alone"), "gmapping")
+    assert g["status"] == "none" and g["members"] == []
+    assert g["sentence"] == (
+        "There is no agreeing group in abstract: no maps of two programs agree (consistency "
+        "at least 0.6; a program's runs agreeing with each other confirm nothing), so no map "
+        "is confirmed by another program's.")
 
 
 def test_the_verdict_quotes_its_measured_record(abstract_site: Path) -> None:
@@ -177,8 +186,8 @@ def test_no_agreeing_group_when_no_two_maps_agree(tmp_path: Path) -> None:
     for alg in ("whill", "intel", "office"):
         g = _group(site, alg)
         assert g["status"] == "none" and g["members"] == []
-        assert g["sentence"].startswith("There is no agreeing group in mixed: no two of its "
-                                        "maps agree")
+        assert g["sentence"].startswith("There is no agreeing group in mixed: no maps of "
+                                        "two programs agree")
 
 
 def test_a_wing_two_maps_draw_is_the_buildings_on_the_pages(tmp_path: Path) -> None:

@@ -384,8 +384,9 @@ def agreeing_group(rec: dict, evidence: dict[str, Any] | None,
             "out): the agreeing group says nothing of it.")}
     if not group:
         return {"status": "none", "members": [], "sentence": (
-            f"There is no agreeing group in {seq}: no two of its maps agree (consistency at "
-            f"least {least:g}), so no map confirms another.")}
+            f"There is no agreeing group in {seq}: no maps of two programs agree "
+            f"(consistency at least {least:g}; a program's runs agreeing with each other "
+            "confirm nothing), so no map is confirmed by another program's.")}
     role = (f" Most maps of {seq} confirm each other: the verdict weighs each map's support, "
             "and the group changes nothing." if evidence.get("majority") else
             f" No majority of the maps of {seq} confirm each other: the verdict names its "
