@@ -686,10 +686,11 @@ def agreeing_group(consistency: np.ndarray, min_consistency: float,
     if n <= EXACT_GROUP_MAPS:
         def grow(members: tuple[int, ...], rest: list[int]) -> None:
             nonlocal best, best_score
-            if len({who[i] for i in members}) >= 2 and (sc := score(members)) > best_score:
+            mine = {who[i] for i in members}
+            if len(mine) >= 2 and (sc := score(members)) > best_score:
                 best, best_score = members, sc  # two owners at least
             for k, j in enumerate(rest):
-                reach = {who[i] for i in members} | {who[i] for i in rest[k:]}
+                reach = mine.union(who[i] for i in rest[k:])
                 if (len(reach), len(members) + len(rest) - k) < best_score[:2]:
                     return  # cannot beat the best owners and size any more
                 if all(ok[i, j] for i in members):

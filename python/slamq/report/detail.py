@@ -514,8 +514,13 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
     >>> path_sentence({"algorithm": "x"}, ev), path_sentence({"algorithm": "icp"}, None)
     (None, None)
     """
-    from slamq.verdict import rule
-    from slamq.verdict.rule import CORRIDOR_TRAVEL, SHORTFALL, one_direction_share
+    from slamq.verdict.rule import (
+        CORRIDOR_TRAVEL,
+        SHORTFALL,
+        SPLIT_PRECISION_TRAVEL,
+        one_direction_share,
+        travel_spared,
+    )
     from slamq.verdict.travel import WINDOW_S
 
     if evidence is None:
@@ -535,13 +540,11 @@ def path_sentence(rec: dict, evidence: dict[str, Any] | None) -> str | None:
                 f"({100 * share:.1f}% see one only), so the verdict does not weigh it.")
     # the exemption of section 9 (P1c): a path whose halves set it apart is not held back
     unless = ""
-    if rule.SPLIT_PRECISION and rule.SPLIT_PRECISION_TRAVEL is not None:
+    if SPLIT_PRECISION_TRAVEL is not None:
         unless = (", unless that path's halves set it apart from every other path "
                   "(docs/spec.md section 9)")
-        if rule.halves_apart(evidence.get("algorithms", {})) == alg:
-            unless += (f", as {alg}'s do: every other path's halves cross each other's walls "
-                       f"at least {rule.SCAN_SHARE:g}x as often where they meet, so none of "
-                       "them says how far the robot went")
+        if (spared := travel_spared(evidence.get("algorithms", {}), alg)) is not None:
+            unless += f", as {alg}'s do: {spared}"
     along = _num(e.get("corridor_shortfall"))
     if CORRIDOR_TRAVEL == "both" and math.isfinite(along):
         return (said + " Along the corridors, beyond their difference elsewhere, it "

@@ -29,7 +29,7 @@ __all__ = [
     "SHARED_DIRECTION_DEG_NO_SCANS", "SHORTFALL",
     "SPLIT_HIT_KEY", "SPLIT_KEY", "SPLIT_MEET", "SPLIT_PRECISION",
     "SPLIT_PRECISION_FLAGS", "SPLIT_PRECISION_TRAVEL", "halves_apart", "halves_miss",
-    "halves_misses",
+    "halves_misses", "travel_spared",
     "basis_name", "known_share", "needs_evidence", "one_direction_share", "rule_summary",
     "scan_limit", "shared_directions", "superposed_separations",
     "sequence_verdict", "verdict_sentence",
@@ -915,14 +915,12 @@ def _short_path(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
     why = _shortened(evidence["algorithms"], evidence).get(str(best))
     if best is None or why is None:
         return v
-    if ((SPLIT_PRECISION_TRAVEL == "halves" and SPLIT_HIT_KEY in v["basis"])
-            or (SPLIT_PRECISION_TRAVEL == "any"
-                and halves_apart(evidence["algorithms"]) == str(best))):
-        # every other path is torn by its halves: none is a reference for the travel
+    spared = (_TORN_OTHERS.format(SCAN_SHARE)
+              if SPLIT_PRECISION_TRAVEL == "halves" and SPLIT_HIT_KEY in v["basis"]
+              else travel_spared(evidence["algorithms"], str(best)))
+    if spared is not None:
         v["warnings"].append(
-            f"{best} is named although {why.split(' where ')[0].rstrip(',')}: every other path's "
-            f"halves cross each other's walls at least {SCAN_SHARE:g}x as often where they "
-            "meet, so none of them says how far the robot went")
+            f"{best} is named although {why.split(' where ')[0].rstrip(',')}: {spared}")
         return v
     return {**v, "best": None, "confidence": f"none: {best} would be named, but {why}"}
 
@@ -957,6 +955,32 @@ def halves_miss(split: float, hit: float) -> float:
     """
     total = split + hit
     return split / total if total > 0 else math.nan
+
+
+#: Why a path the halves set apart is spared the travel veto (:func:`travel_spared`).
+_TORN_OTHERS = ("every other path's halves cross each other's walls at least {:g}x as often "
+                "where they meet, so none of them says how far the robot went")
+
+
+def travel_spared(info: dict[str, Any], alg: str) -> str | None:
+    """Why the travel veto does not hold ``alg``'s shorter path against it (P1c,
+    :data:`SPLIT_PRECISION_TRAVEL` ``"any"``): its halves set it apart
+    (:func:`halves_apart`), so every other path is torn and none is a reference for how far
+    the robot went; None when the veto holds.
+
+    Examples
+    --------
+    >>> info = {a: {"scan_split": s, "split_hit": h} for a, s, h in
+    ...         [("a", 0.06, 0.35), ("b", 0.13, 0.14), ("c", 0.09, 0.03)]}
+    >>> print(travel_spared(info, "a"))  # doctest: +NORMALIZE_WHITESPACE
+    every other path's halves cross each other's walls at least 1.5x as often where they
+    meet, so none of them says how far the robot went
+    >>> print(travel_spared(info, "b"))
+    None
+    """
+    if SPLIT_PRECISION_TRAVEL != "any" or halves_apart(info) != alg:
+        return None
+    return _TORN_OTHERS.format(SCAN_SHARE)
 
 
 def halves_apart(info: dict[str, Any]) -> str | None:
