@@ -9,6 +9,7 @@ truth can be trusted: docs/validity.md, "The verdict without ground truth".
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -915,10 +916,7 @@ def _short_path(v: dict[str, Any], evidence: dict[str, Any]) -> dict[str, Any]:
     why = _shortened(evidence["algorithms"], evidence).get(str(best))
     if best is None or why is None:
         return v
-    spared = (_TORN_OTHERS.format(SCAN_SHARE)
-              if SPLIT_PRECISION_TRAVEL == "halves" and SPLIT_HIT_KEY in v["basis"]
-              else travel_spared(evidence["algorithms"], str(best)))
-    if spared is not None:
+    if (spared := travel_spared(evidence["algorithms"], str(best), v["basis"])) is not None:
         v["warnings"].append(
             f"{best} is named although {why.split(' where ')[0].rstrip(',')}: {spared}")
         return v
@@ -957,16 +955,12 @@ def halves_miss(split: float, hit: float) -> float:
     return split / total if total > 0 else math.nan
 
 
-#: Why a path the halves set apart is spared the travel veto (:func:`travel_spared`).
-_TORN_OTHERS = ("every other path's halves cross each other's walls at least {:g}x as often "
-                "where they meet, so none of them says how far the robot went")
-
-
-def travel_spared(info: dict[str, Any], alg: str) -> str | None:
-    """Why the travel veto does not hold ``alg``'s shorter path against it (P1c,
-    :data:`SPLIT_PRECISION_TRAVEL` ``"any"``): its halves set it apart
-    (:func:`halves_apart`), so every other path is torn and none is a reference for how far
-    the robot went; None when the veto holds.
+def travel_spared(info: dict[str, Any], alg: str, basis: Sequence[str] = ()) -> str | None:
+    """Why the travel veto does not hold ``alg``'s shorter path against it, as
+    :data:`SPLIT_PRECISION_TRAVEL` says: ``"any"`` (P1c), its halves set it apart
+    (:func:`halves_apart`); ``"halves"`` (P1b), the verdict naming it read the halves
+    (:data:`SPLIT_HIT_KEY` in its ``basis``). Every other path is then torn and none is a
+    reference for how far the robot went. None when the veto holds.
 
     Examples
     --------
@@ -978,9 +972,11 @@ def travel_spared(info: dict[str, Any], alg: str) -> str | None:
     >>> print(travel_spared(info, "b"))
     None
     """
-    if SPLIT_PRECISION_TRAVEL != "any" or halves_apart(info) != alg:
+    if not ((SPLIT_PRECISION_TRAVEL == "any" and halves_apart(info) == alg)
+            or (SPLIT_PRECISION_TRAVEL == "halves" and SPLIT_HIT_KEY in basis)):
         return None
-    return _TORN_OTHERS.format(SCAN_SHARE)
+    return (f"every other path's halves cross each other's walls at least {SCAN_SHARE:g}x "
+            "as often where they meet, so none of them says how far the robot went")
 
 
 def halves_apart(info: dict[str, Any]) -> str | None:
