@@ -332,7 +332,7 @@ SETTINGS = _Rows((s.name, s) for s in (
     Setting("synth", "world_kind", "office",
             "kind of generated building (slamq.synth.KINDS says what each is)", type=str,
             choices=("office", "loop", "corridor", "hall", "symmetric", "mixed",
-                     "hexagonal", "wing", "warehouse")),
+                     "hexagonal", "wing", "warehouse", "house")),
     Setting("synth", "noise", "low", "odometry noise preset (slamq.synth.NOISE)", type=str,
             choices=("none", "low", "high")),
     Setting("consensus", "quorum", 0.5,

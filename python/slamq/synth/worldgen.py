@@ -47,10 +47,14 @@ KINDS: dict[str, str] = {
                  "aisles at their ends, some bays empty (the laser sees through into the "
                  "next aisle), offices along one wall: aisles that look alike (not in the "
                  "default cycle)",
+    "house": "a dwelling on an L-shaped footprint: an open-plan living room and kitchen "
+             "with free-standing furniture (an island, a sofa, a round table) and one "
+             "curved wall, a short hallway to bedrooms and a bathroom of unequal sizes; "
+             "no long corridor, much clutter (not in the default cycle)",
 }
 
 #: The kinds an integer ``worlds`` count cycles through: the six the verdict was tuned and
-#: tested on. Kinds added later (``hexagonal``, ``wing``, ``warehouse``) are chosen by
+#: tested on. Kinds added later (``hexagonal``, ``wing``, ``warehouse``, ``house``) are chosen by
 #: name, so that a benchmark written as ``worlds: 20`` keeps generating the same worlds.
 DEFAULT_KINDS: tuple[str, ...] = ("office", "loop", "corridor", "hall", "symmetric", "mixed")
 
@@ -623,14 +627,80 @@ def _warehouse(p: _Plan, rng: np.random.Generator) -> None:
     p.features += ["warehouse", "aisles", "repetitive", "open space"]
 
 
+def _house(p: _Plan, rng: np.random.Generator) -> None:
+    """A dwelling on an L-shaped footprint. The south part, the whole width, is an
+    open-plan living room and kitchen, split only by a stub wall, with a kitchen island,
+    a sofa and a round table standing free, and its south-west corner rounded (a curved
+    wall of 2-3.5 m radius). North of it a hallway 1.2-1.5 m wide runs west from the east
+    wall of the north part, which is narrower than the south (the L's notch at its
+    north-east is outside the building); the bedrooms and a bathroom, 2.4-4.5 m wide, open
+    off the hallway. The living room opens onto the hallway through a wide arch and a
+    door; each room has up to four pieces of furniture."""
+    W, H = p.width, p.height
+    ys = _u(rng, 0.45, 0.55) * H                   # the south part's north wall
+    hw = _u(rng, 1.2, 1.5)                         # the hallway's width
+    yn = ys + hw
+    wn = W - _u(rng, 0.25, 0.4) * W                # the north part's width (the L's notch)
+    R = min(_u(rng, 2.0, 3.5), 0.45 * ys)          # the curved corner's radius
+    # floor: the south part whole, the hallway and north part up to ``wn``
+    p.add_floor(0, 0, W, ys)
+    p.add_floor(0, ys, wn, H)
+    X, Y = p.xs[None, :], p.ys[:, None]
+    corner = (X < R) & (Y < R)
+    d = np.hypot(X - R, Y - R)
+    p.floor &= ~(corner & (d > R))                 # outside the curved wall
+    p.wall |= corner & (np.abs(d - R) <= WALL / 2)
+    # outer walls (the straight ones stop where the curve takes over)
+    p.hwall(0, R, W)
+    p.vwall(0, R, H)
+    p.vwall(W, 0, ys)
+    p.hwall(ys, wn, W)
+    p.vwall(wn, ys, H)
+    p.hwall(H, 0, wn)
+    # the hallway's south wall (the living room's north wall), with an arch and a door
+    p.hwall(ys, 0, wn)
+    arch = _u(rng, 1.8, 2.4)
+    ax = _u(rng, 0.25, 0.45) * wn
+    p.hdoor(ys, ax, arch)
+    p.hdoor(ys, _u(rng, 0.65, 0.85) * wn, DOOR)
+    p.room("hallway", 0, ys, wn, yn)
+    # the hallway's north wall and the rooms off it: a bathroom (2.4-2.8 m) among bedrooms
+    p.hwall(yn, 0, wn)
+    bath = _u(rng, 2.4, 2.8)
+    rest = _split(rng, wn - bath, 3.2, 4.5)
+    at = int(rng.integers(len(rest)))              # where the bathroom goes in the row
+    widths = list(np.diff(rest))
+    widths.insert(at, bath)
+    cuts = [0.0] + list(np.cumsum(widths))
+    cuts[-1] = wn
+    _rooms_along(p, rng, 0, wn, yn, H, yn, "bedroom", widths=(2.4, 4.5), furniture=4,
+                 links=0.0, cuts=cuts)
+    # the open-plan south part: a stub wall from the south wall between living and kitchen
+    xk = _u(rng, 0.5, 0.65) * W
+    stub = _u(rng, 0.3, 0.5) * ys
+    p.vwall(xk, 0, stub)
+    p.room("living", 0, 0, xk, ys)
+    p.room("kitchen", xk, 0, W, ys)
+    # a kitchen island, a sofa and a round table, standing free (1.2 m clear around them)
+    ix, iy = _u(rng, xk + 1.8, W - 3.0), _u(rng, 1.6, ys - 2.6)
+    p.add_wall(ix, iy, ix + _u(rng, 1.4, 2.0), iy + _u(rng, 0.8, 1.0))
+    sx, sy = _u(rng, R + 0.5, xk - 3.6), _u(rng, 1.8, ys - 2.2)
+    p.add_wall(sx, sy, sx + _u(rng, 1.8, 2.2), sy + _u(rng, 0.7, 0.9))
+    p.pillar(_u(rng, R + 1.2, xk - 1.8), ys - _u(rng, 1.6, 1.9), _u(rng, 0.4, 0.55))
+    p.furnish(rng, xk, 0, W, ys, p.doors + [(xk, stub)], int(rng.integers(1, 4)))
+    p.features += ["house", "clutter", "curved wall", "not rectilinear", "open plan"]
+
+
 _MAKERS = {"office": _office, "loop": _loop, "corridor": _corridor, "hall": _hall,
            "symmetric": _symmetric, "mixed": lambda p, r: _office(p, r, mixed=True),
-           "hexagonal": _hexagonal, "wing": _wing, "warehouse": _warehouse}
+           "hexagonal": _hexagonal, "wing": _wing, "warehouse": _warehouse,
+           "house": _house}
 #: Each kind's place in its worlds' seed (the six first kinds sorted, then later kinds in
 #: the order they were added), fixed so that adding a kind changes no existing world.
 _SEED_INDEX = {k: i for i, k in
-               enumerate(sorted(DEFAULT_KINDS) + ["hexagonal", "wing", "warehouse"])}
-_SIZES = {"corridor": (30.0, 9.0), "wing": (26.0, 18.0), "warehouse": (28.0, 18.0)}
+               enumerate(sorted(DEFAULT_KINDS) + ["hexagonal", "wing", "warehouse", "house"])}
+_SIZES = {"corridor": (30.0, 9.0), "wing": (26.0, 18.0), "warehouse": (28.0, 18.0),
+          "house": (16.0, 12.0)}
 
 
 def world(seed: int = 0, *, kind: str = "office", size: tuple[float, float] | None = None,
@@ -643,10 +713,12 @@ def world(seed: int = 0, *, kind: str = "office", size: tuple[float, float] | No
         The same seed, kind, size and resolution give the same world, cell for cell.
     kind : str
         One of :data:`KINDS` (``"office"``, ``"loop"``, ``"corridor"``, ``"hall"``,
-        ``"symmetric"``, ``"mixed"``, ``"hexagonal"``, ``"wing"``).
+        ``"symmetric"``, ``"mixed"``, ``"hexagonal"``, ``"wing"``, ``"warehouse"``,
+        ``"house"``).
     size : (float, float), optional
         The building's width and height, metres (default 20 x 15; 30 x 9 for
-        ``"corridor"``, 26 x 18 for ``"wing"``); at least 8 x 6 (10 x 8 for ``"wing"``).
+        ``"corridor"``, 26 x 18 for ``"wing"``, 28 x 18 for ``"warehouse"``, 16 x 12 for
+        ``"house"``); at least 8 x 6 (10 x 8 for ``"wing"``).
     resolution : float, default 0.05
         Metres per cell.
 
