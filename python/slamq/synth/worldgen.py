@@ -681,7 +681,7 @@ def _house(p: _Plan, rng: np.random.Generator) -> None:
     p.vwall(xk, 0, stub)
     p.room("living", 0, 0, xk, ys)
     p.room("kitchen", xk, 0, W, ys)
-    # a kitchen island, a sofa and a round table, standing free (1.2 m clear around them)
+    # a kitchen island, a sofa and a round table, standing free (the table may touch the sofa)
     ix, iy = _u(rng, xk + 1.8, W - 3.0), _u(rng, 1.6, ys - 2.6)
     p.add_wall(ix, iy, ix + _u(rng, 1.4, 2.0), iy + _u(rng, 0.8, 1.0))
     sx, sy = _u(rng, R + 0.5, xk - 3.6), _u(rng, 1.8, ys - 2.2)
