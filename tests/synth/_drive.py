@@ -4,10 +4,13 @@ the package."""
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 
 from slamq.models import OccupancyMap
 from slamq.synth.planner import drive
+from slamq.synth.worldgen import DEFAULT_KINDS, KINDS, world
 
 
 def drive_on_floor(w: OccupancyMap, seed: int = 0) -> np.ndarray:
@@ -32,10 +35,6 @@ EARLIER_WORLDS = {("office", 3): "80bcf22a2a197472d7a5b94ea4a7e45e",
 def check_added_kind(kind: str) -> None:
     """``kind`` is chosen by name only (not in the default cycle), the same seed draws the
     same world and another seed another, and no world of :data:`EARLIER_WORLDS` changed."""
-    import hashlib
-
-    from slamq.synth.worldgen import DEFAULT_KINDS, KINDS, world
-
     assert kind in KINDS and kind not in DEFAULT_KINDS
     a, b = world(5, kind=kind), world(5, kind=kind)
     assert a.values.tobytes() == b.values.tobytes()

@@ -667,12 +667,9 @@ def _house(p: _Plan, rng: np.random.Generator) -> None:
     # the hallway's north wall and the rooms off it: a bathroom (2.4-2.8 m) among bedrooms
     p.hwall(yn, 0, wn)
     bath = _u(rng, 2.4, 2.8)
-    rest = _split(rng, wn - bath, 3.2, 4.5)
-    at = int(rng.integers(len(rest)))              # where the bathroom goes in the row
-    widths = list(np.diff(rest))
-    widths.insert(at, bath)
-    cuts = [0.0] + list(np.cumsum(widths))
-    cuts[-1] = wn
+    rest = _split(rng, wn - bath, 3.2, 4.5)        # the bedrooms' cuts
+    at = int(rng.integers(len(rest)))              # the bathroom goes in at cut ``at``
+    cuts = rest[:at + 1] + [c + bath for c in rest[at:]]
     _rooms_along(p, rng, 0, wn, yn, H, yn, "bedroom", widths=(2.4, 4.5), furniture=4,
                  links=0.0, cuts=cuts)
     # the open-plan south part: a stub wall from the south wall between living and kitchen
